@@ -1,0 +1,2 @@
+"""MonkeyBot gait studies."""
+__version__ = "0.1.0"

@@ -1,0 +1,288 @@
+"""Controllers as data: each one compiles to a program table the hybrid kernel runs.
+
+* :class:`HorizontalSearch` - the study's state-based search controller (MODEL.md section 4):
+  swap when the free end rises to the attached end's height, motor on with torque ``tau``
+  until the gait-start energy is restored, stop when link 1 passes the vertical.
+* :class:`OpenLoop` - the time-based controller that replays recorded times (swap at ``t_switch``,
+  motor for ``t_motor``), the clock restarting at each vertical crossing or running on with a
+  period.
+* :class:`PhaseSequence` - any sequence of :class:`Segment` rows (multi-swing, flight, climbing
+  gaits) without new kernel code.
+
+Every controller has a ``tick`` [s]: 0 acts exactly at events; ``0.001`` is the study's loop.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from .kernel import layout as L
+
+GUARD_KINDS = {
+    "none": L.G_NONE, "time": L.G_TIME, "free_end_height": L.G_FREE_END_HEIGHT,
+    "energy_restored": L.G_ENERGY_RESTORED, "coord": L.G_COORD, "energy": L.G_ENERGY,
+    "free_end_y": L.G_FREE_END_Y,
+}
+COORD_INDEX = {"x": 0, "y": 1, "theta1": 2, "theta2": 3, "dx": 4, "dy": 5, "dtheta1": 6,
+               "dtheta2": 7}
+DIRECTIONS = {"rising": 1.0, "falling": -1.0, "either": 0.0}
+
+
+@dataclass(frozen=True)
+class Segment:
+    """One row of a phase-sequence program.
+
+    Parameters
+    ----------
+    until : str
+        Guard ending the segment: ``time`` (``value`` on the controller clock [s]),
+        ``free_end_height`` (the free end at the attached end's height), ``energy_restored``
+        (energy back to the latched reference), ``coord`` (``coord`` crosses ``value``),
+        ``energy`` (total energy crosses ``value`` [J]), ``free_end_y`` (the free end's world
+        height crosses ``value`` [m]), or ``none`` (only the horizon ends it).
+    magnets : str
+        Entry action: ``keep``, ``swap``, ``A``, ``B``, ``both`` or ``none`` (which ends are on).
+    torque : float
+        Motor torque from entry on [N m], on theta2 of the frame after the entry action.
+    """
+
+    until: str
+    value: float = 0.0
+    coord: str = "theta1"
+    direction: str = "rising"
+    magnets: str = "keep"
+    torque: float = 0.0
+    latch_energy: bool = False
+    ticked: bool = True
+    clock: str = "keep"          # keep | reset (origin = exit time) | advance (origin += value)
+    cycle_end: bool = False
+    next: int | None = None      # default: the following row; -1 stops
+    fail_status: int = L.ST_HORIZON
+
+    def row(self, index: int, n_rows: int) -> np.ndarray:
+        r = np.zeros(L.N_SEG_COLS)
+        mags = {"keep": (-1, -1, 0), "swap": (-1, -1, 1), "A": (1, 0, 0), "B": (0, 1, 0),
+                "both": (1, 1, 0), "none": (0, 0, 0)}
+        if self.magnets not in mags:
+            raise ValueError(f"segment {index}: magnets must be one of {sorted(mags)}, "
+                             f"got {self.magnets!r}")
+        if self.until not in GUARD_KINDS:
+            raise ValueError(f"segment {index}: until must be one of {sorted(GUARD_KINDS)}, "
+                             f"got {self.until!r}")
+        if self.direction not in DIRECTIONS:
+            raise ValueError(f"segment {index}: direction must be one of {sorted(DIRECTIONS)}")
+        if self.coord not in COORD_INDEX:
+            raise ValueError(f"segment {index}: coord must be one of {sorted(COORD_INDEX)}")
+        if not (math.isfinite(self.value) and math.isfinite(self.torque)):
+            raise ValueError(f"segment {index}: value and torque must be finite")
+        r[L.S_MAG_A], r[L.S_MAG_B], r[L.S_SWAP] = mags[self.magnets]
+        r[L.S_TORQUE] = self.torque
+        r[L.S_SET_EREF] = 1.0 if self.latch_energy else 0.0
+        r[L.S_GUARD] = GUARD_KINDS[self.until]
+        r[L.S_GINDEX] = COORD_INDEX[self.coord]
+        r[L.S_GVALUE] = self.value
+        r[L.S_GDIR] = DIRECTIONS[self.direction]
+        r[L.S_TICKED] = 1.0 if self.ticked else 0.0
+        nxt = index + 1 if self.next is None else self.next
+        r[L.S_NEXT] = nxt if nxt < n_rows else -1
+        r[L.S_CLOCK] = {"keep": 0, "reset": 1, "advance": 2}[self.clock]
+        r[L.S_FAIL] = self.fail_status
+        r[L.S_CYCLE] = 1.0 if self.cycle_end else 0.0
+        return r
+
+
+@dataclass(frozen=True)
+class Observer:
+    """A guard whose crossings are logged without changing the run (e.g. the vertical)."""
+
+    until: str = "coord"
+    coord: str = "theta1"
+    value: float = 0.0
+    direction: str = "either"
+
+    def row(self) -> np.ndarray:
+        r = np.zeros(L.N_OBS_COLS)
+        r[L.O_GUARD] = GUARD_KINDS[self.until]
+        r[L.O_GINDEX] = COORD_INDEX[self.coord]
+        r[L.O_GVALUE] = self.value
+        r[L.O_GDIR] = DIRECTIONS[self.direction]
+        return r
+
+
+VERTICAL = Observer("coord", "theta1", 0.0, "either")
+
+
+@dataclass(frozen=True)
+class PhaseSequence:
+    """A controller given directly as its segments (and observers)."""
+
+    segments: Sequence[Segment]
+    observers: Sequence[Observer] = (VERTICAL,)
+    tick: float = 0.0
+    tick_phase: float = 0.0
+
+    def program(self) -> tuple[np.ndarray, np.ndarray]:
+        n = len(self.segments)
+        if n == 0:
+            raise ValueError("a phase sequence needs at least one segment")
+        prog = np.stack([s.row(i, n) for i, s in enumerate(self.segments)])
+        obs = (np.stack([o.row() for o in self.observers]) if self.observers
+               else np.zeros((0, L.N_OBS_COLS)))
+        return prog, obs
+
+
+def _check_tick(tick: float) -> float:
+    tick = float(tick)
+    if not math.isfinite(tick) or tick < 0.0:
+        raise ValueError(f"tick must be finite and >= 0, got {tick!r}")
+    return tick
+
+
+@dataclass(frozen=True)
+class HorizontalSearch:
+    """The study's state-based search controller (MODEL.md section 4, steps 1-4).
+
+    ``torque`` [N m] is signed, on theta2 of the new attachment frame. With ``cycles`` > 1 the
+    program loops (each cycle latches its own start energy).
+    """
+
+    torque: float
+    tick: float = 0.0
+    tick_phase: float = 0.0
+    loop: bool = False
+
+    def __post_init__(self):
+        _check_tick(self.tick)
+        if not math.isfinite(self.torque):
+            raise ValueError(f"torque must be finite, got {self.torque!r}")
+
+    def segments(self) -> list[Segment]:
+        return [
+            Segment("free_end_height", direction="rising", latch_energy=True,
+                    fail_status=L.ST_NO_SWITCH),
+            Segment("energy_restored", direction="rising", magnets="swap", torque=self.torque,
+                    fail_status=L.ST_ENERGY_NOT_RESTORED),
+            # the end of the gait is an observation, not an actuation: exact, never ticked
+            Segment("coord", coord="theta1", value=0.0, direction="either", ticked=False,
+                    cycle_end=True, next=0 if self.loop else -1,
+                    fail_status=L.ST_NO_RETURN),
+        ]
+
+    def program(self):
+        return PhaseSequence(self.segments(), (VERTICAL,) if self.loop else (),
+                             self.tick, self.tick_phase).program()
+
+
+#: Clock modes of :class:`OpenLoop`.
+CLOCK_MODES = ("reset_at_vertical", "run_on")
+
+
+@dataclass(frozen=True)
+class OpenLoop:
+    """Time-based open-loop controller replaying a gait's recorded times (MODEL.md sec. 4).
+
+    Each cycle: swap at ``t_switch`` on the controller clock with motor torque ``torque``,
+    motor off at ``t_switch + t_motor``. With ``clock="reset_at_vertical"`` the clock restarts
+    when link 1 passes the vertical (on a tick, when ticked); with ``"run_on"`` it advances by
+    ``period`` [s] each cycle and never looks at the state.
+    """
+
+    t_switch: float
+    t_motor: float
+    torque: float
+    tick: float = 0.0
+    tick_phase: float = 0.0
+    clock: str = "reset_at_vertical"
+    period: float = math.nan
+
+    def __post_init__(self):
+        _check_tick(self.tick)
+        for name in ("t_switch", "t_motor"):
+            v = getattr(self, name)
+            if not math.isfinite(v) or v < 0:
+                raise ValueError(f"{name} must be finite and >= 0, got {v!r}")
+        if self.clock not in CLOCK_MODES:
+            raise ValueError(f"clock must be one of {CLOCK_MODES}, got {self.clock!r}")
+        if self.clock == "run_on" and not (math.isfinite(self.period) and
+                                           self.period > self.t_switch + self.t_motor):
+            raise ValueError("period must be finite and longer than t_switch + t_motor "
+                             f"for clock='run_on', got {self.period!r}")
+
+    def segments(self) -> list[Segment]:
+        segs = [
+            Segment("time", value=self.t_switch, fail_status=L.ST_NO_SWITCH),
+            Segment("time", value=self.t_switch + self.t_motor, magnets="swap",
+                    torque=self.torque, fail_status=L.ST_ENERGY_NOT_RESTORED),
+        ]
+        if self.clock == "reset_at_vertical":
+            segs.append(Segment("coord", coord="theta1", value=0.0, direction="either",
+                                clock="reset", cycle_end=True, next=0,
+                                fail_status=L.ST_NO_RETURN))
+        else:
+            segs.append(Segment("time", value=self.period, clock="advance", cycle_end=True,
+                                next=0))
+        return segs
+
+    def program(self):
+        return PhaseSequence(self.segments(), (VERTICAL,), self.tick,
+                             self.tick_phase).program()
+
+
+@dataclass(frozen=True)
+class Integrator:
+    """Integrator settings with scipy ``solve_ivp`` semantics for ``rtol``/``atol``.
+
+    ``max_time`` [s] is the horizon of one controller segment (a phase that has not ended by
+    then fails with that segment's status).
+    """
+
+    method: str = "dop853"
+    rtol: float = 1e-10
+    atol: float = 1e-12
+    max_time: float = 3.0
+    max_step: float = math.inf
+    max_steps: int = 10_000_000
+
+    def __post_init__(self):
+        if self.method not in METHODS:
+            raise ValueError(f"method must be one of {sorted(METHODS)}, got {self.method!r}")
+        for name in ("rtol", "atol", "max_time", "max_step"):
+            v = float(getattr(self, name))
+            if math.isnan(v) or v <= 0:
+                raise ValueError(f"{name} must be > 0, got {v!r}")
+        if not math.isfinite(self.rtol) or not math.isfinite(self.atol):
+            raise ValueError("rtol and atol must be finite")
+        if self.rtol < 100 * np.finfo(float).eps:
+            raise ValueError(f"rtol must be >= 100 eps ({100 * np.finfo(float).eps:.3g}), "
+                             f"got {self.rtol!r}")
+
+
+#: Registered integrators: name -> (kernel id, order, description).
+METHODS = {
+    "rk45": (L.METHOD_RK45, 5, "Dormand-Prince 5(4), 4th-order free interpolant"),
+    "dop853": (L.METHOD_DOP853, 8, "Dormand-Prince 8(5,3), 7th-order dense output"),
+}
+
+
+def settings_vector(integrator: Integrator, *, tick: float = 0.0, tick_phase: float = 0.0,
+                    t_end: float = math.inf, max_cycles: int = 0, sample_dt: float = 0.0,
+                    max_drop: float = math.inf, zero_band: float = 1e-12) -> np.ndarray:
+    """The kernel's settings vector (layout ``C_*``)."""
+    s = np.zeros(L.N_SETTINGS)
+    s[L.C_METHOD] = METHODS[integrator.method][0]
+    s[L.C_RTOL] = integrator.rtol
+    s[L.C_ATOL] = integrator.atol
+    s[L.C_MAX_SEGMENT_TIME] = integrator.max_time
+    s[L.C_T_END] = t_end
+    s[L.C_MAX_CYCLES] = max_cycles
+    s[L.C_TICK] = tick
+    s[L.C_TICK_PHASE] = tick_phase
+    s[L.C_SAMPLE_DT] = sample_dt
+    s[L.C_MAX_STEPS] = integrator.max_steps
+    s[L.C_MAX_STEP] = integrator.max_step
+    s[L.C_MAX_DROP] = max_drop
+    s[L.C_ZERO_BAND] = zero_band
+    return s

@@ -1,0 +1,361 @@
+"""Equations of motion, energy, kinematics, impact and flip of the MonkeyBot (compiled).
+
+Pure ``@njit(cache=True)`` functions on float64 arrays; parameter rows follow
+:mod:`monkeystudy.kernel.layout`. Equation references are to ``shared/MODEL.md``.
+
+Integration vectors are packed per phase:
+
+* swing  (2-DOF): ``[theta1, theta2, dtheta1, dtheta2]``, the attached end fixed at a pivot
+  carried beside the vector;
+* flight (4-DOF): ``[x, y, theta1, theta2, dx, dy, dtheta1, dtheta2]``.
+
+Friction (MODEL.md section 2, "Generalized forces") is viscous ``-b w`` plus Coulomb
+``-c sgn(w)``. The Coulomb sign is *not* evaluated from the state: it is the slip direction
+``fmode[k]`` held constant by the hybrid loop between located zero-speed events, so the vector
+field is smooth inside every integration step. ``fmode[k] == 0`` means the DOF is stuck
+(locked: its acceleration is zero and the friction supplies the holding torque).
+``fmode[0]`` is the pivot (theta1, swing only), ``fmode[1]`` the joint (theta2).
+"""
+import math
+
+import numpy as np
+from numba import njit
+
+from .layout import (
+    P_A, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_H, P_I1, P_I2, P_K11, P_K22,
+    P_L1, P_L2, P_M1, P_M2, P_M2R2, P_MTOT, P_R1, P_R2, N_PARAMS, PHASE_SWING, PHASE_FLIGHT,
+)
+
+TWO_PI = 2.0 * math.pi
+
+
+# ----------------------------------------------------------------------------------------------
+# parameters
+# ----------------------------------------------------------------------------------------------
+@njit(cache=True)
+def derive_params(p):
+    """Fill the derived slots of a parameter row in place (MODEL.md section 2 shorthand)."""
+    m1, m2, L1, r1, r2 = p[P_M1], p[P_M2], p[P_L1], p[P_R1], p[P_R2]
+    p[P_A] = m1 * r1 + m2 * L1
+    p[P_H] = m2 * r2 * L1
+    p[P_M2R2] = m2 * r2
+    p[P_K11] = p[P_I1] + p[P_I2] + m1 * r1 * r1 + m2 * L1 * L1 + m2 * r2 * r2
+    p[P_K22] = p[P_I2] + m2 * r2 * r2
+    p[P_MTOT] = m1 + m2
+
+
+@njit(cache=True)
+def flipped_params(p):
+    """Parameters of the same robot described from the other end (MODEL.md section 3).
+
+    Links swap roles; CG distances are re-measured from the new proximal ends
+    (``r1' = L2 - r2``, ``r2' = L1 - r1``). Friction belongs to the pivot and the joint,
+    not to a link, so it is unchanged.
+    """
+    q = np.empty(N_PARAMS)
+    q[:] = p
+    q[P_M1], q[P_M2] = p[P_M2], p[P_M1]
+    q[P_L1], q[P_L2] = p[P_L2], p[P_L1]
+    q[P_I1], q[P_I2] = p[P_I2], p[P_I1]
+    q[P_R1] = p[P_L2] - p[P_R2]
+    q[P_R2] = p[P_L1] - p[P_R1]
+    derive_params(q)
+    return q
+
+
+# ----------------------------------------------------------------------------------------------
+# equations of motion
+# ----------------------------------------------------------------------------------------------
+@njit(cache=True, inline="always")
+def _swing_terms(p, tau, fmode, th1, th2, w1, w2):
+    """Swing mass matrix entries and right-hand side ``F - C qdot - G`` (MODEL.md sec. 2)."""
+    s1 = math.sin(th1)
+    s2 = math.sin(th2)
+    c2 = math.cos(th2)
+    s12 = math.sin(th1 + th2)
+    h = p[P_H]
+    gm2r2s12 = p[P_G] * p[P_M2R2] * s12
+    m11 = p[P_K11] + 2.0 * h * c2
+    m12 = p[P_K22] + h * c2
+    m22 = p[P_K22]
+    r1 = (h * s2 * (2.0 * w1 * w2 + w2 * w2) - p[P_G] * p[P_A] * s1 - gm2r2s12
+          - p[P_B_PIVOT] * w1 - p[P_C_PIVOT] * fmode[0])
+    r2 = -h * s2 * w1 * w1 - gm2r2s12 + tau - p[P_B_JOINT] * w2 - p[P_C_JOINT] * fmode[1]
+    return m11, m12, m22, r1, r2
+
+
+@njit(cache=True, inline="always")
+def _solve2(m11, m12, m22, r1, r2, lock1, lock2):
+    """Solve the symmetric 2x2 system, with locked DOFs held at zero acceleration."""
+    if lock1 and lock2:
+        return 0.0, 0.0
+    if lock1:
+        return 0.0, r2 / m22
+    if lock2:
+        return r1 / m11, 0.0
+    det = m11 * m22 - m12 * m12
+    return (m22 * r1 - m12 * r2) / det, (m11 * r2 - m12 * r1) / det
+
+
+@njit(cache=True, inline="always")
+def _flight_coupling(p, th1, th2):
+    """Off-diagonal block of the flight mass matrix, rows (x, y), columns (theta1, theta2)."""
+    c1 = math.cos(th1)
+    s1 = math.sin(th1)
+    c12 = math.cos(th1 + th2)
+    s12 = math.sin(th1 + th2)
+    a = p[P_A]
+    m2r2 = p[P_M2R2]
+    return (a * c1 + m2r2 * c12, m2r2 * c12, a * s1 + m2r2 * s12, m2r2 * s12,
+            c1, s1, c12, s12)
+
+
+@njit(cache=True)
+def rhs_swing(p, tau, fmode, y, dy):
+    """Swing (2-DOF) vector field, MODEL.md section 2. ``y`` packed swing state."""
+    th1, th2, w1, w2 = y[0], y[1], y[2], y[3]
+    m11, m12, m22, r1, r2 = _swing_terms(p, tau, fmode, th1, th2, w1, w2)
+    a1, a2 = _solve2(m11, m12, m22, r1, r2, fmode[0] == 0.0, fmode[1] == 0.0)
+    dy[0] = w1
+    dy[1] = w2
+    dy[2] = a1
+    dy[3] = a2
+
+
+@njit(cache=True)
+def rhs_flight(p, tau, fmode, y, dy):
+    """Free-flight (4-DOF) vector field, MODEL.md section 2.
+
+    Solved by a Schur complement on the (x, y) block, whose mass block is ``(m1+m2) I``:
+    exact, and cheaper than a general 4x4 factorisation.
+    """
+    th1, th2, vx, vy, w1, w2 = y[2], y[3], y[4], y[5], y[6], y[7]
+    b02, b03, b12, b13, c1, s1, c12, s12 = _flight_coupling(p, th1, th2)
+    mt = p[P_MTOT]
+    a = p[P_A]
+    m2r2 = p[P_M2R2]
+    w12 = w1 + w2
+    # right-hand side F - C qdot - G; no pivot friction in flight (nothing is pinned)
+    rx = a * s1 * w1 * w1 + m2r2 * s12 * w12 * w12
+    ry = -(a * c1 * w1 * w1 + m2r2 * c12 * w12 * w12) - p[P_G] * mt
+    s2 = math.sin(th2)
+    c2 = math.cos(th2)
+    h = p[P_H]
+    gm2r2s12 = p[P_G] * m2r2 * s12
+    r1 = h * s2 * (2.0 * w1 * w2 + w2 * w2) - p[P_G] * a * s1 - gm2r2s12
+    r2 = -h * s2 * w1 * w1 - gm2r2s12 + tau - p[P_B_JOINT] * w2 - p[P_C_JOINT] * fmode[1]
+    m11 = p[P_K11] + 2.0 * h * c2
+    m12 = p[P_K22] + h * c2
+    m22 = p[P_K22]
+    # Schur complement S = Ms - B^T B / mt, reduced rhs = r_th - B^T r_xy / mt
+    inv_mt = 1.0 / mt
+    s11 = m11 - (b02 * b02 + b12 * b12) * inv_mt
+    s12_ = m12 - (b02 * b03 + b12 * b13) * inv_mt
+    s22 = m22 - (b03 * b03 + b13 * b13) * inv_mt
+    q1 = r1 - (b02 * rx + b12 * ry) * inv_mt
+    q2 = r2 - (b03 * rx + b13 * ry) * inv_mt
+    a1, a2 = _solve2(s11, s12_, s22, q1, q2, False, fmode[1] == 0.0)
+    dy[0] = vx
+    dy[1] = vy
+    dy[2] = w1
+    dy[3] = w2
+    dy[4] = (rx - b02 * a1 - b03 * a2) * inv_mt
+    dy[5] = (ry - b12 * a1 - b13 * a2) * inv_mt
+    dy[6] = a1
+    dy[7] = a2
+
+
+@njit(cache=True)
+def rhs(phase, p, tau, fmode, y, dy):
+    """Vector field of the current phase (the fixed phase has none: ``dy = 0``)."""
+    if phase == PHASE_SWING:
+        rhs_swing(p, tau, fmode, y, dy)
+    elif phase == PHASE_FLIGHT:
+        rhs_flight(p, tau, fmode, y, dy)
+    else:
+        dy[:] = 0.0
+
+
+@njit(cache=True)
+def holding_torque(phase, p, tau, fmode, y, k):
+    """Friction torque that would hold DOF ``k`` (0 pivot, 1 joint) at zero speed [N m].
+
+    DOF ``k`` is locked, its own Coulomb term removed, the other DOF keeps its mode
+    (slipping or stuck). Row ``k`` of ``M qddot - (F - C qdot - G)`` is then the torque the
+    friction must supply. The hybrid loop sticks when ``|torque| <= c_k`` and otherwise slips
+    with sign ``-sgn(torque)``, the direction the unheld DOF starts to move.
+    """
+    fm = np.empty(2)
+    fm[0] = fmode[0]
+    fm[1] = fmode[1]
+    fm[k] = 0.0
+    if phase == PHASE_SWING:
+        m11, m12, m22, r1, r2 = _swing_terms(p, tau, fm, y[0], y[1], y[2], y[3])
+        a1, a2 = _solve2(m11, m12, m22, r1, r2, fm[0] == 0.0, fm[1] == 0.0)
+        if k == 0:
+            return m11 * a1 + m12 * a2 - r1
+        return m12 * a1 + m22 * a2 - r2
+    if phase == PHASE_FLIGHT and k == 1:
+        dy = np.empty(8)
+        rhs_flight(p, tau, fm, y, dy)
+        th1, th2, w1, w2 = y[2], y[3], y[6], y[7]
+        b02, b03, b12, b13, c1, s1, c12, s12 = _flight_coupling(p, th1, th2)
+        h = p[P_H]
+        r2 = (-h * math.sin(th2) * w1 * w1 - p[P_G] * p[P_M2R2] * s12 + tau
+              - p[P_B_JOINT] * w2)
+        return (b03 * dy[4] + b13 * dy[5] + (p[P_K22] + h * math.cos(th2)) * dy[6]
+                + p[P_K22] * dy[7] - r2)
+    return 0.0
+
+
+# ----------------------------------------------------------------------------------------------
+# energy and kinematics (world frame, MODEL.md section 1)
+# ----------------------------------------------------------------------------------------------
+@njit(cache=True)
+def kinetic_energy(p, th1, th2, vx, vy, w1, w2):
+    """Kinetic energy K [J], MODEL.md section 1 (``vx = vy = 0`` while swinging)."""
+    h = p[P_H]
+    c2 = math.cos(th2)
+    m11 = p[P_K11] + 2.0 * h * c2
+    m12 = p[P_K22] + h * c2
+    k = 0.5 * (m11 * w1 * w1 + 2.0 * m12 * w1 * w2 + p[P_K22] * w2 * w2)
+    if vx != 0.0 or vy != 0.0:
+        b02, b03, b12, b13, c1, s1, c12, s12 = _flight_coupling(p, th1, th2)
+        k += 0.5 * p[P_MTOT] * (vx * vx + vy * vy) + vx * (b02 * w1 + b03 * w2) \
+            + vy * (b12 * w1 + b13 * w2)
+    return k
+
+
+@njit(cache=True)
+def potential_energy(p, y_end, th1, th2):
+    """Potential energy V [J] with the (x, y) end at world height ``y_end`` (MODEL.md sec. 1)."""
+    return p[P_G] * (p[P_MTOT] * y_end - p[P_A] * math.cos(th1)
+                     - p[P_M2R2] * math.cos(th1 + th2))
+
+
+@njit(cache=True)
+def total_energy8(p, s):
+    """Total energy of a full 8-state ``[x, y, th1, th2, dx, dy, dth1, dth2]`` [J]."""
+    return kinetic_energy(p, s[2], s[3], s[4], s[5], s[6], s[7]) + \
+        potential_energy(p, s[1], s[2], s[3])
+
+
+@njit(cache=True)
+def free_end_offset(p, th1, th2):
+    """Position of the free end relative to the (x, y) end [m] (MODEL.md section 1, B)."""
+    return (p[P_L1] * math.sin(th1) + p[P_L2] * math.sin(th1 + th2),
+            -p[P_L1] * math.cos(th1) - p[P_L2] * math.cos(th1 + th2))
+
+
+@njit(cache=True)
+def points8(p, s, out):
+    """World positions of the (x, y) end, CG1, joint, CG2 and the free end: ``out[5, 2]``."""
+    x, y, th1, th2 = s[0], s[1], s[2], s[3]
+    s1, c1 = math.sin(th1), math.cos(th1)
+    s12, c12 = math.sin(th1 + th2), math.cos(th1 + th2)
+    L1, L2, r1, r2 = p[P_L1], p[P_L2], p[P_R1], p[P_R2]
+    out[0, 0], out[0, 1] = x, y
+    out[1, 0], out[1, 1] = x + r1 * s1, y - r1 * c1
+    out[2, 0], out[2, 1] = x + L1 * s1, y - L1 * c1
+    out[3, 0], out[3, 1] = x + L1 * s1 + r2 * s12, y - L1 * c1 - r2 * c12
+    out[4, 0], out[4, 1] = x + L1 * s1 + L2 * s12, y - L1 * c1 - L2 * c12
+
+
+# ----------------------------------------------------------------------------------------------
+# matrices (for tests, Floquet work and documentation; the vector fields inline them)
+# ----------------------------------------------------------------------------------------------
+@njit(cache=True)
+def flight_matrices(p, s):
+    """Flight ``M`` (4x4), ``C qdot`` (4) and ``G`` (4) at a full 8-state, MODEL.md sec. 2."""
+    th1, th2, w1, w2 = s[2], s[3], s[6], s[7]
+    b02, b03, b12, b13, c1, s1, c12, s12 = _flight_coupling(p, th1, th2)
+    h = p[P_H]
+    c2 = math.cos(th2)
+    s2 = math.sin(th2)
+    M = np.zeros((4, 4))
+    M[0, 0] = M[1, 1] = p[P_MTOT]
+    M[0, 2] = M[2, 0] = b02
+    M[0, 3] = M[3, 0] = b03
+    M[1, 2] = M[2, 1] = b12
+    M[1, 3] = M[3, 1] = b13
+    M[2, 2] = p[P_K11] + 2.0 * h * c2
+    M[2, 3] = M[3, 2] = p[P_K22] + h * c2
+    M[3, 3] = p[P_K22]
+    w12 = w1 + w2
+    Cq = np.empty(4)
+    Cq[0] = -(p[P_A] * s1 * w1 * w1 + p[P_M2R2] * s12 * w12 * w12)
+    Cq[1] = p[P_A] * c1 * w1 * w1 + p[P_M2R2] * c12 * w12 * w12
+    Cq[2] = -h * s2 * (2.0 * w1 * w2 + w2 * w2)
+    Cq[3] = h * s2 * w1 * w1
+    G = np.empty(4)
+    G[0] = 0.0
+    G[1] = p[P_G] * p[P_MTOT]
+    G[2] = p[P_G] * (p[P_A] * s1 + p[P_M2R2] * s12)
+    G[3] = p[P_G] * p[P_M2R2] * s12
+    return M, Cq, G
+
+
+@njit(cache=True)
+def impact_projection(p, s):
+    """The plastic-impact projection ``P = I - M^-1 J^T (J M^-1 J^T)^-1 J`` (MODEL.md sec. 3)."""
+    M, Cq, G = flight_matrices(p, s)
+    Minv = np.linalg.inv(M)
+    J = np.zeros((2, 4))
+    J[0, 0] = 1.0
+    J[1, 1] = 1.0
+    A = J @ Minv @ J.T
+    return np.eye(4) - Minv @ J.T @ np.linalg.solve(A, J)
+
+
+# ----------------------------------------------------------------------------------------------
+# impact and flip (MODEL.md section 3)
+# ----------------------------------------------------------------------------------------------
+@njit(cache=True)
+def attach_xy_end(p, s):
+    """Plastic impact that pins the (x, y) end: ``qdot+ = P qdot-`` (MODEL.md eq. for P).
+
+    The impulse acts only on the (x, y) rows, so the (theta1, theta2) rows of ``M qdot`` are
+    conserved; with ``dx+ = dy+ = 0`` that gives ``Ms dth+ = Ms dth- + B^T v-``, which is
+    exactly ``P qdot-`` (tests check the equality with the explicit projection).
+    """
+    th1, th2, vx, vy, w1, w2 = s[2], s[3], s[4], s[5], s[6], s[7]
+    b02, b03, b12, b13, c1, s1, c12, s12 = _flight_coupling(p, th1, th2)
+    h = p[P_H]
+    c2 = math.cos(th2)
+    m11 = p[P_K11] + 2.0 * h * c2
+    m12 = p[P_K22] + h * c2
+    m22 = p[P_K22]
+    r1 = m11 * w1 + m12 * w2 + b02 * vx + b12 * vy
+    r2 = m12 * w1 + m22 * w2 + b03 * vx + b13 * vy
+    det = m11 * m22 - m12 * m12
+    s[4] = 0.0
+    s[5] = 0.0
+    s[6] = (m22 * r1 - m12 * r2) / det
+    s[7] = (m11 * r2 - m12 * r1) / det
+
+
+@njit(cache=True)
+def wrap_angle(a):
+    """Angle in [-pi, pi)."""
+    return a - TWO_PI * math.floor((a + math.pi) / TWO_PI)
+
+
+@njit(cache=True)
+def flip_state(p, s):
+    """Re-express a full 8-state about the free end, in place (MODEL.md section 3, "flip").
+
+    ``p`` are the parameters of the frame *before* the flip. Angles are wrapped to [-pi, pi)
+    so that "theta1 crosses 0" keeps meaning "link 1 passes the downward vertical".
+    """
+    x, y, th1, th2, vx, vy, w1, w2 = s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7]
+    L1, L2 = p[P_L1], p[P_L2]
+    s1, c1 = math.sin(th1), math.cos(th1)
+    s12, c12 = math.sin(th1 + th2), math.cos(th1 + th2)
+    s[0] = x + L1 * s1 + L2 * s12
+    s[1] = y - L1 * c1 - L2 * c12
+    s[2] = wrap_angle(math.pi + th1 + th2)
+    s[3] = wrap_angle(-th2)
+    s[4] = vx + L1 * c1 * w1 + L2 * c12 * (w1 + w2)
+    s[5] = vy + L1 * s1 * w1 + L2 * s12 * (w1 + w2)
+    s[6] = w1 + w2
+    s[7] = -w2

@@ -1,0 +1,315 @@
+"""Guard functions and their location on the dense output (compiled).
+
+A guard ``g`` is a scalar function of the packed state; an event is a crossing of zero in a
+given direction. Crossings are detected on each accepted step from the exact end-point values
+*and* rates ``dg/dt`` (a cubic Hermite model flags an excursion that leaves and re-enters
+inside one step), confirmed by sign checks on the dense output, and located by Brent's method
+on the interpolant to ``4 eps`` in time (scipy's ``solve_event_equation`` tolerance).
+
+Sign convention (half open): a rising crossing between samples ``a < b`` needs ``g(a) < 0 <=
+g(b)``; falling ``g(a) > 0 >= g(b)``; "either" one of the two. A guard exactly zero at the start
+of a segment therefore does not fire there; the hybrid loop clamps a start value inside a tiny
+band to exactly zero so that round-off cannot re-trigger it either.
+"""
+import math
+
+import numpy as np
+from numba import njit
+
+from .dynamics import kinetic_energy, potential_energy, rhs
+from .integrate import dense_eval
+from .layout import (
+    G_COORD, G_ENERGY, G_ENERGY_RESTORED, G_FREE_END_HEIGHT, G_FREE_END_Y, G_SLIP_STOP,
+    G_STICK_BREAK, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_L1, P_L2, PHASE_FLIGHT,
+    PHASE_SWING,
+)
+
+EPS = 2.220446049250313e-16
+N_SCAN = 8  # dense-output sub-intervals checked when a step is flagged
+
+
+@njit(cache=True, inline="always")
+def unpack(phase, y, pivot):
+    """Full 8-state ``(x, y, th1, th2, dx, dy, dth1, dth2)`` from a packed vector."""
+    if phase == PHASE_FLIGHT:
+        return y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7]
+    return pivot[0], pivot[1], y[0], y[1], 0.0, 0.0, y[2], y[3]
+
+
+@njit(cache=True)
+def pack(phase, s8, y):
+    """Packed integration vector of a phase from a full 8-state; returns its length."""
+    if phase == PHASE_FLIGHT:
+        for i in range(8):
+            y[i] = s8[i]
+        return 8
+    y[0] = s8[2]
+    y[1] = s8[3]
+    y[2] = s8[6]
+    y[3] = s8[7]
+    return 4
+
+
+@njit(cache=True)
+def unpack_into(phase, y, pivot, s8):
+    x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
+    s8[0] = x
+    s8[1] = yy
+    s8[2] = th1
+    s8[3] = th2
+    s8[4] = vx
+    s8[5] = vy
+    s8[6] = w1
+    s8[7] = w2
+
+
+@njit(cache=True)
+def energy(phase, p, y, pivot):
+    """Total energy K + V of a packed state [J]."""
+    x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
+    return kinetic_energy(p, th1, th2, vx, vy, w1, w2) + potential_energy(p, yy, th1, th2)
+
+
+@njit(cache=True)
+def power(phase, p, tau, fmode, y, pivot):
+    """dE/dt [W]: motor work ``tau dth2`` less viscous and Coulomb dissipation."""
+    x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
+    pw = tau * w2 - p[P_B_JOINT] * w2 * w2 - p[P_C_JOINT] * fmode[1] * w2
+    if phase == PHASE_SWING:
+        pw -= p[P_B_PIVOT] * w1 * w1 + p[P_C_PIVOT] * fmode[0] * w1
+    return pw
+
+
+@njit(cache=True)
+def guard(kind, index, value, phase, p, tau, fmode, y, pivot, eref):
+    """Value of a state guard (layout ``G_*``; time guards are handled as step bounds)."""
+    x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
+    if kind == G_FREE_END_HEIGHT:
+        return -p[P_L1] * math.cos(th1) - p[P_L2] * math.cos(th1 + th2)
+    if kind == G_ENERGY_RESTORED:
+        return energy(phase, p, y, pivot) - eref
+    if kind == G_ENERGY:
+        return energy(phase, p, y, pivot) - value
+    if kind == G_FREE_END_Y:
+        return yy - p[P_L1] * math.cos(th1) - p[P_L2] * math.cos(th1 + th2) - value
+    if kind == G_COORD:
+        if index == 0:
+            return x - value
+        if index == 1:
+            return yy - value
+        if index == 2:
+            return th1 - value
+        if index == 3:
+            return th2 - value
+        if index == 4:
+            return vx - value
+        if index == 5:
+            return vy - value
+        if index == 6:
+            return w1 - value
+        return w2 - value
+    if kind == G_SLIP_STOP:
+        # zero speed of the slipping DOF, signed so that it falls to zero
+        w = w1 if index == 0 else w2
+        return w * fmode[index]
+    if kind == G_STICK_BREAK:
+        return 0.0  # evaluated by the hybrid loop (needs the holding torque)
+    return 0.0
+
+
+@njit(cache=True)
+def guard_rate(kind, index, phase, p, tau, fmode, y, pivot, work):
+    """Time derivative of a guard along the flow [guard units / s]; ``work`` is an 8-vector."""
+    x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
+    if kind == G_FREE_END_HEIGHT:
+        return p[P_L1] * math.sin(th1) * w1 + p[P_L2] * math.sin(th1 + th2) * (w1 + w2)
+    if kind == G_FREE_END_Y:
+        return vy + p[P_L1] * math.sin(th1) * w1 + p[P_L2] * math.sin(th1 + th2) * (w1 + w2)
+    if kind == G_ENERGY_RESTORED or kind == G_ENERGY:
+        return power(phase, p, tau, fmode, y, pivot)
+    if kind == G_COORD:
+        if index == 0:
+            return vx
+        if index == 1:
+            return vy
+        if index == 2:
+            return w1
+        if index == 3:
+            return w2
+        rhs(phase, p, tau, fmode, y, work)
+        if phase == PHASE_FLIGHT:
+            return work[index]
+        if index == 6:
+            return work[2]
+        if index == 7:
+            return work[3]
+        return 0.0
+    if kind == G_SLIP_STOP:
+        rhs(phase, p, tau, fmode, y, work)
+        if phase == PHASE_FLIGHT:
+            return work[6 + index] * fmode[index]
+        return work[2 + index] * fmode[index]
+    return 0.0
+
+
+@njit(cache=True, inline="always")
+def crosses(ga, gb, direction):
+    """Half-open sign rule for a crossing from ``ga`` to ``gb`` (see module docstring)."""
+    if direction > 0:
+        return ga < 0.0 <= gb
+    if direction < 0:
+        return ga > 0.0 >= gb
+    return (ga < 0.0 <= gb) or (ga > 0.0 >= gb)
+
+
+@njit(cache=True)
+def hermite_flags(ga, ra, gb, rb, h, direction):
+    """True when the cubic Hermite model of ``g`` on the step may cross zero inside it.
+
+    Catches an excursion that leaves and re-enters between two same-signed end values
+    (the grazing swap), including the case of two interior extrema that end-point rates
+    alone cannot reveal.
+    """
+    if ra * rb < 0.0:
+        return True
+    # g(s) = h00 ga + h10 h ra + h01 gb + h11 h rb, s in [0, 1]; extrema where g'(s) = 0
+    da = h * ra
+    db = h * rb
+    # g'(s) = 6 s (1 - s)(gb - ga) + (1 - 4 s + 3 s^2) da + (3 s^2 - 2 s) db
+    c2 = -6.0 * (gb - ga) + 3.0 * da + 3.0 * db
+    c1 = 6.0 * (gb - ga) - 4.0 * da - 2.0 * db
+    c0 = da
+    disc = c1 * c1 - 4.0 * c2 * c0
+    if c2 == 0.0 or disc < 0.0:
+        return False
+    sq = math.sqrt(disc)
+    for root in ((-c1 - sq) / (2.0 * c2), (-c1 + sq) / (2.0 * c2)):
+        if 0.0 < root < 1.0:
+            s = root
+            gs = ((2 * s ** 3 - 3 * s ** 2 + 1) * ga + (s ** 3 - 2 * s ** 2 + s) * da
+                  + (-2 * s ** 3 + 3 * s ** 2) * gb + (s ** 3 - s ** 2) * db)
+            if crosses(ga, gs, direction) or crosses(gs, gb, direction):
+                return True
+    return False
+
+
+@njit(cache=True)
+def guard_at(kind, index, value, method, Fd, y_old, t_old, h, t, n, phase, p, tau, fmode,
+             pivot, eref, ybuf):
+    """Guard on the dense output at time ``t`` (state left in ``ybuf``)."""
+    dense_eval(method, Fd, y_old, h, (t - t_old) / h, n, ybuf)
+    return guard(kind, index, value, phase, p, tau, fmode, ybuf, pivot, eref)
+
+
+@njit(cache=True)
+def rate_at(kind, index, method, Fd, y_old, t_old, h, t, n, phase, p, tau, fmode, pivot,
+            ybuf, work):
+    dense_eval(method, Fd, y_old, h, (t - t_old) / h, n, ybuf)
+    return guard_rate(kind, index, phase, p, tau, fmode, ybuf, pivot, work)
+
+
+@njit(cache=True)
+def brent(which, kind, index, value, a, b, fa, fb, method, Fd, y_old, t_old, h, n, phase, p,
+          tau, fmode, pivot, eref, ybuf, work):
+    """Brent's root of the guard (``which == 0``) or of its rate (``which == 1``) on [a, b].
+
+    Requires a sign change. Terminates when the bracket is below ``4 eps (1 + |t|)``.
+    """
+    if fa == 0.0:
+        return a
+    if fb == 0.0:
+        return b
+    c = a
+    fc = fa
+    d = b - a
+    e = d
+    for _ in range(200):
+        if fb * fc > 0.0:
+            c = a
+            fc = fa
+            d = b - a
+            e = d
+        if abs(fc) < abs(fb):
+            a, b, c = b, c, b
+            fa, fb, fc = fb, fc, fb
+        tol = 2.0 * EPS * abs(b) + 2.0 * EPS
+        m = 0.5 * (c - b)
+        if abs(m) <= tol or fb == 0.0:
+            return b
+        if abs(e) < tol or abs(fa) <= abs(fb):
+            d = m
+            e = m
+        else:
+            s = fb / fa
+            if a == c:
+                pp = 2.0 * m * s
+                q = 1.0 - s
+            else:
+                q = fa / fc
+                r = fb / fc
+                pp = s * (2.0 * m * q * (q - r) - (b - a) * (r - 1.0))
+                q = (q - 1.0) * (r - 1.0) * (s - 1.0)
+            if pp > 0.0:
+                q = -q
+            else:
+                pp = -pp
+            if 2.0 * pp < min(3.0 * m * q - abs(tol * q), abs(e * q)):
+                e = d
+                d = pp / q
+            else:
+                d = m
+                e = m
+        a = b
+        fa = fb
+        if abs(d) > tol:
+            b += d
+        else:
+            b += tol if m > 0 else -tol
+        if which == 0:
+            fb = guard_at(kind, index, value, method, Fd, y_old, t_old, h, b, n, phase, p,
+                          tau, fmode, pivot, eref, ybuf)
+        else:
+            fb = rate_at(kind, index, method, Fd, y_old, t_old, h, b, n, phase, p, tau,
+                         fmode, pivot, ybuf, work)
+    return b
+
+
+@njit(cache=True)
+def locate_first(kind, index, value, direction, t_a, t_b, g_a, g_b, method, Fd, y_old, t_old,
+                 h, n, phase, p, tau, fmode, pivot, eref, ybuf, work):
+    """Earliest crossing of the guard in ``(t_a, t_b]`` on the dense output, or ``inf``.
+
+    ``[t_a, t_b]`` lies inside the step ``[t_old, t_old + h]`` whose coefficients are ``Fd``;
+    ``g_a``, ``g_b`` are the guard at its ends. Scans ``N_SCAN`` sub-intervals; inside each,
+    a sign change is located directly, and a rate sign change without one is checked at the
+    extremum (a grazing touch that re-enters within the sub-interval).
+    """
+    ta = t_a
+    ga = g_a
+    ra = rate_at(kind, index, method, Fd, y_old, t_old, h, ta, n, phase, p, tau, fmode,
+                 pivot, ybuf, work)
+    for k in range(1, N_SCAN + 1):
+        if k == N_SCAN:
+            tb = t_b
+            gb = g_b
+        else:
+            tb = t_a + (t_b - t_a) * k / N_SCAN
+            gb = guard_at(kind, index, value, method, Fd, y_old, t_old, h, tb, n, phase, p,
+                          tau, fmode, pivot, eref, ybuf)
+        rb = rate_at(kind, index, method, Fd, y_old, t_old, h, tb, n, phase, p, tau, fmode,
+                     pivot, ybuf, work)
+        if crosses(ga, gb, direction):
+            return brent(0, kind, index, value, ta, tb, ga, gb, method, Fd, y_old, t_old, h,
+                         n, phase, p, tau, fmode, pivot, eref, ybuf, work)
+        if ra * rb < 0.0:
+            te = brent(1, kind, index, value, ta, tb, ra, rb, method, Fd, y_old, t_old, h, n,
+                       phase, p, tau, fmode, pivot, eref, ybuf, work)
+            ge = guard_at(kind, index, value, method, Fd, y_old, t_old, h, te, n, phase, p,
+                          tau, fmode, pivot, eref, ybuf)
+            if crosses(ga, ge, direction):
+                return brent(0, kind, index, value, ta, te, ga, ge, method, Fd, y_old, t_old,
+                             h, n, phase, p, tau, fmode, pivot, eref, ybuf, work)
+        ta = tb
+        ga = gb
+        ra = rb
+    return np.inf

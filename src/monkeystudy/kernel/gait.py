@@ -1,0 +1,91 @@
+"""Compiled gait evaluations: the horizontal gait of MODEL.md section 4, one point or a batch.
+
+Both call :func:`monkeystudy.kernel.hybrid.simulate` with no log and no trajectory, so a search
+evaluation integrates, locates its three events and nothing else.
+"""
+import numpy as np
+from numba import njit
+
+from .dynamics import total_energy8
+from .hybrid import simulate
+from .layout import (
+    H_FLIPPED, H_PHASE, H_SEG, H_T, H_Y_REF, K_NFEV, K_REJECTED, K_STEPS, N_COUNTS,
+    N_HYB, N_LOG_COLS, N_MODE_COLS, PHASE_SWING, ST_OK, ST_UNREACHABLE, H_FMODE0, H_FMODE1,
+    H_EREF, H_CLOCK,
+)
+
+# result columns of one gait evaluation
+R_ERROR, R_STATUS, R_T_SWITCH, R_T_MOTOR, R_T_END = 0, 1, 2, 3, 4
+R_STEPS, R_NFEV, R_REJECTED = 5, 6, 7
+R_FINAL = 8  # final 8-state (frame after the swap)
+N_RESULT = 16
+
+
+@njit(cache=True)
+def start_state(dtheta1, dtheta2, hyb):
+    """Hybrid state of a gait start: hanging from A at theta = 0, A at the origin."""
+    hyb[:] = 0.0
+    hyb[6] = dtheta1
+    hyb[7] = dtheta2
+    hyb[H_T] = 0.0
+    hyb[H_PHASE] = PHASE_SWING
+    hyb[H_FLIPPED] = 0
+    hyb[H_SEG] = 0
+    hyb[H_EREF] = np.nan
+    hyb[H_CLOCK] = 0.0
+    hyb[H_FMODE0] = 1.0
+    hyb[H_FMODE1] = 1.0
+    hyb[H_Y_REF] = np.nan
+
+
+@njit(cache=True)
+def horizontal_gait(par, prog, settings, dtheta1, dtheta2, energy_floor, skip_unreachable,
+                    out):
+    """Evaluate the horizontal gait at ``(dtheta1, dtheta2)`` [rad s-1] into ``out``.
+
+    The error (MODEL.md section 4) is ``theta2_f^2 + (dtheta1 - dtheta1_f)^2 +
+    (dtheta2 - dtheta2_f)^2`` at the vertical crossing ending the gait; NaN unless the status
+    is ``ST_OK``. With ``skip_unreachable``, a start whose total energy is below
+    ``energy_floor`` (the least potential energy on the swap surface, :meth:`Robot.
+    swap_energy_floor`) is marked ``ST_UNREACHABLE`` without integrating: with the motor off,
+    energy cannot grow before the swap.
+    """
+    hyb = np.empty(N_HYB)
+    start_state(dtheta1, dtheta2, hyb)
+    out[:] = np.nan
+    out[R_STEPS] = 0.0
+    out[R_NFEV] = 0.0
+    out[R_REJECTED] = 0.0
+    if skip_unreachable:
+        e0 = total_energy8(par[0], hyb[:8])
+        if e0 < energy_floor - 1e-12 * (1.0 + abs(energy_floor)):
+            out[R_STATUS] = ST_UNREACHABLE
+            return
+    counts = np.zeros(N_COUNTS, dtype=np.int64)
+    seg_times = np.empty(prog.shape[0])
+    log = np.empty((0, N_LOG_COLS))
+    st = np.empty(0)
+    sy = np.empty((0, 8))
+    sm = np.empty((0, N_MODE_COLS))
+    status = simulate(par, prog, np.empty((0, 4)), settings, hyb, counts, seg_times, log, st,
+                      sy, sm)
+    out[R_STATUS] = status
+    out[R_T_SWITCH] = seg_times[0]
+    out[R_T_MOTOR] = seg_times[1] - seg_times[0]
+    out[R_T_END] = seg_times[2]
+    out[R_STEPS] = counts[K_STEPS]
+    out[R_NFEV] = counts[K_NFEV]
+    out[R_REJECTED] = counts[K_REJECTED]
+    for i in range(8):
+        out[R_FINAL + i] = hyb[i]
+    if status == ST_OK:
+        th2 = hyb[3]
+        out[R_ERROR] = th2 * th2 + (dtheta1 - hyb[6]) ** 2 + (dtheta2 - hyb[7]) ** 2
+
+
+@njit(cache=True)
+def horizontal_gait_batch(par, prog, settings, points, energy_floor, skip_unreachable, out):
+    """:func:`horizontal_gait` over ``points[N, 2]`` into ``out[N, N_RESULT]`` (serial)."""
+    for i in range(points.shape[0]):
+        horizontal_gait(par, prog, settings, points[i, 0], points[i, 1], energy_floor,
+                        skip_unreachable, out[i])

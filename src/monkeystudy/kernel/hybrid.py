@@ -1,0 +1,717 @@
+"""The hybrid simulation loop (compiled): integrate, locate the earliest event, reset, go on.
+
+One function, :func:`simulate`, serves every study. The controller is a *program*: a table of
+segments (layout ``S_*``), each saying what to do on entry (magnets, motor torque, latch the
+reference energy) and which guard ends it (time on the controller clock, free end at the
+attached end's height, energy restored, a coordinate or the energy crossing a value). Observers
+(layout ``O_*``) are guards whose crossings are only logged. Everything that evolves (state,
+phase, which end the frame hangs from, segment, torque, clock, latched energy, friction modes)
+is a float vector (layout ``H_*``) that goes in and comes out, so a run can be continued.
+
+Semantics worth knowing (MODEL.md section 4, issue #2):
+
+* A segment guard with ``S_TICKED`` on a tick ``h > 0`` is located exactly, then acted on at
+  the first tick ``phase + k h`` at or after the crossing *if its condition still holds there*
+  (the study's controller samples its conditions on a 1 ms loop). Time guards on a tick fire
+  at the first tick at or after their time.
+* Time guards are integration bounds: steps end exactly on them (no interpolation).
+* ``G_ENERGY_RESTORED`` is a level condition: already restored at entry (a collisionless
+  swap) fires at once, with zero motor time. Other guards are crossings; one exactly zero at a
+  segment start (within the relative band ``C_ZERO_BAND``) does not fire there.
+* A terminal event restarts the integrator at the event (new initial step, as chained
+  ``solve_ivp`` calls do); observers and trajectory samples never alter the step sequence.
+* Coulomb friction: a slipping DOF keeps its sign until its speed reaches zero (an event);
+  there it sticks if the holding torque is within the Coulomb limit, else slips the other way;
+  a stuck DOF breaks away when the holding torque reaches the limit (an event located on sign
+  changes at step ends and the dense output; its rate is not used).
+"""
+import math
+
+import numpy as np
+from numba import njit
+
+from .dynamics import attach_xy_end, flip_state, holding_torque, rhs, total_energy8
+from .events import (
+    crosses, energy, guard, guard_rate, hermite_flags, locate_first, pack, unpack_into,
+)
+from .integrate import (
+    MAX_FACTOR, MIN_FACTOR, SAFETY, dense_eval, dense_prepare, error_exponent, error_norm,
+    rk_step, select_initial_step,
+)
+from .layout import (
+    C_ATOL, C_MAX_CYCLES, C_MAX_DROP, C_MAX_SEGMENT_TIME, C_MAX_STEP, C_MAX_STEPS, C_METHOD,
+    C_RTOL, C_SAMPLE_DT, C_T_END, C_TICK, C_TICK_PHASE, C_ZERO_BAND, G_ENERGY,
+    G_ENERGY_RESTORED, G_NONE, G_SLIP_STOP, G_STICK_BREAK, G_TIME, H_CLOCK, H_CYCLES, H_EREF,
+    H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG, H_T, H_TORQUE, H_Y_REF, K_CYCLES, K_EVENTS,
+    K_LOG, K_NFEV, K_REJECTED, K_SAMPLES, K_STEPS, L_CYCLE, L_E_AFTER, L_E_BEFORE, L_FLIPPED,
+    L_ID, L_KIND, L_PHASE, L_STATE, L_T, LOG_FRICTION, LOG_OBSERVER, LOG_SEGMENT, M_FLIPPED,
+    M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, O_GDIR, O_GINDEX, O_GUARD, O_GVALUE,
+    P_C_JOINT, P_C_PIVOT, PHASE_FIXED, PHASE_FLIGHT, PHASE_SWING, S_CLOCK, S_CYCLE, S_FAIL,
+    S_GDIR, S_GINDEX, S_GUARD, S_GVALUE, S_MAG_A, S_MAG_B, S_NEXT, S_SET_EREF, S_SWAP,
+    S_TICKED, S_TORQUE, ST_BUFFER_FULL, ST_END_TIME, ST_FELL, ST_HORIZON, ST_NONFINITE, ST_OK,
+    ST_STEP_FAILURE,
+)
+
+TICK_SNAP = 1e-9  # a time within this fraction of a tick of a tick is on it (round-off)
+
+
+@njit(cache=True)
+def next_tick(t, tick, tick_phase):
+    """First controller tick at or after ``t`` [s]."""
+    k = math.ceil((t - tick_phase) / tick - TICK_SNAP)
+    return tick_phase + k * tick
+
+
+@njit(cache=True)
+def apply_magnets(par, s8, phase, flipped, mag_a, mag_b, swap):
+    """Entry magnet actions; returns the new ``(phase, flipped)``; ``s8`` changed in place.
+
+    Attaching an end that was free is a plastic impact (MODEL.md section 3): the frame is first
+    flipped if that end is not the frame's (x, y) end, then projected. Both magnets on stops all
+    motion; releasing every magnet starts a flight with the current velocities.
+    """
+    xy_is_a = flipped == 0
+    att_xy = phase == PHASE_SWING or phase == PHASE_FIXED
+    att_other = phase == PHASE_FIXED
+    att_a = att_xy if xy_is_a else att_other
+    att_b = att_other if xy_is_a else att_xy
+    if swap:
+        if phase != PHASE_SWING:
+            return phase, flipped  # nothing to swap: the program asks the impossible, ignore
+        new_a = not att_a
+        new_b = not att_b
+    else:
+        new_a = att_a if mag_a < 0 else mag_a > 0
+        new_b = att_b if mag_b < 0 else mag_b > 0
+    if new_a and new_b:
+        if not (att_a and att_b):
+            s8[4] = s8[5] = s8[6] = s8[7] = 0.0
+        return PHASE_FIXED, flipped
+    if new_a or new_b:
+        want_xy_is_a = new_a
+        if want_xy_is_a != xy_is_a:
+            flip_state(par[flipped], s8)
+            flipped = 1 - flipped
+        was_attached = att_a if new_a else att_b
+        if not was_attached:
+            attach_xy_end(par[flipped], s8)
+        else:
+            s8[4] = 0.0
+            s8[5] = 0.0
+        return PHASE_SWING, flipped
+    if phase == PHASE_FIXED:
+        s8[4] = s8[5] = s8[6] = s8[7] = 0.0
+    return PHASE_FLIGHT, flipped
+
+
+@njit(cache=True)
+def init_friction(phase, p, tau, s8, fmode, y, pivot):
+    """Friction modes at a phase start: slip with the speed's sign, or stick test at rest."""
+    for k in range(2):
+        c = p[P_C_PIVOT] if k == 0 else p[P_C_JOINT]
+        if c <= 0.0 or (k == 0 and phase != PHASE_SWING):
+            fmode[k] = 1.0
+            continue
+        w = s8[6 + k]
+        if w != 0.0:
+            fmode[k] = 1.0 if w > 0.0 else -1.0
+    for k in range(2):
+        c = p[P_C_PIVOT] if k == 0 else p[P_C_JOINT]
+        if c <= 0.0 or (k == 0 and phase != PHASE_SWING):
+            continue
+        if s8[6 + k] == 0.0:
+            pack(phase, s8, y)
+            hold = holding_torque(phase, p, tau, fmode, y, k)
+            if abs(hold) <= c:
+                fmode[k] = 0.0
+            else:
+                fmode[k] = -1.0 if hold > 0.0 else 1.0
+
+
+@njit(cache=True)
+def friction_guard(k, phase, p, tau, fmode, y, pivot):
+    """Guard of friction DOF ``k`` in its current mode: speed x slip sign, or |hold| - c."""
+    if fmode[k] == 0.0:
+        c = p[P_C_PIVOT] if k == 0 else p[P_C_JOINT]
+        return abs(holding_torque(phase, p, tau, fmode, y, k)) - c
+    return guard(G_SLIP_STOP, k, 0.0, phase, p, tau, fmode, y, pivot, 0.0)
+
+
+@njit(cache=True)
+def friction_active(k, phase, p):
+    if phase == PHASE_FIXED:
+        return False
+    if k == 0:
+        return phase == PHASE_SWING and p[P_C_PIVOT] > 0.0
+    return p[P_C_JOINT] > 0.0
+
+
+@njit(cache=True)
+def write_log(log, row, t, kind, ident, cycle, phase, flipped, e_before, e_after, s8):
+    log[row, L_T] = t
+    log[row, L_KIND] = kind
+    log[row, L_ID] = ident
+    log[row, L_CYCLE] = cycle
+    log[row, L_PHASE] = phase
+    log[row, L_FLIPPED] = flipped
+    log[row, L_E_BEFORE] = e_before
+    log[row, L_E_AFTER] = e_after
+    for i in range(8):
+        log[row, L_STATE + i] = s8[i]
+
+
+@njit(cache=True)
+def write_sample(samp_t, samp_y, samp_mode, row, t, s8, phase, flipped, tau, seg):
+    samp_t[row] = t
+    for i in range(8):
+        samp_y[row, i] = s8[i]
+    samp_mode[row, M_PHASE] = phase
+    samp_mode[row, M_FLIPPED] = flipped
+    samp_mode[row, M_TORQUE] = tau
+    samp_mode[row, M_SEGMENT] = seg
+
+
+@njit(cache=True)
+def _finite(y, n):
+    for i in range(n):
+        if not math.isfinite(y[i]):
+            return False
+    return True
+
+
+@njit(cache=True)
+def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp_y, samp_mode):
+    """Run a controller program from the hybrid state ``hyb``; returns a status ``ST_*``.
+
+    Parameters
+    ----------
+    par : float64[2, N_PARAMS]
+        Robot parameters, row 0 as given, row 1 flipped (MODEL.md section 3).
+    prog : float64[n_seg, N_SEG_COLS]
+        Controller program (layout ``S_*``).
+    obs : float64[n_obs, N_OBS_COLS]
+        Observers: guards whose crossings are logged (layout ``O_*``).
+    settings : float64[N_SETTINGS]
+        Integrator and run settings (layout ``C_*``).
+    hyb : float64[N_HYB]
+        Hybrid state (layout ``H_*``), updated in place to the final state. On input,
+        ``hyb[H_SEG]`` is the segment to enter at ``hyb[H_T]``.
+    counts : int64[N_COUNTS]
+        Accumulated counters (steps, rejected steps, RHS evaluations, events, ...).
+    seg_times : float64[n_seg]
+        Time of the latest exit from each segment [s] (NaN if never left).
+    log : float64[cap, N_LOG_COLS]
+        Event log: segment exits, observer crossings, friction changes (capacity 0: none).
+    samp_t, samp_y, samp_mode : float64 arrays
+        Trajectory samples every ``C_SAMPLE_DT`` from the dense output, plus the states just
+        before and after each segment transition (capacity 0: none).
+    """
+    method = int(settings[C_METHOD])
+    rtol = settings[C_RTOL]
+    atol = settings[C_ATOL]
+    max_seg_time = settings[C_MAX_SEGMENT_TIME]
+    t_end = settings[C_T_END]
+    max_cycles = int(settings[C_MAX_CYCLES])
+    tick = settings[C_TICK]
+    tick_phase = settings[C_TICK_PHASE]
+    sample_dt = settings[C_SAMPLE_DT]
+    max_steps = settings[C_MAX_STEPS]
+    max_step = settings[C_MAX_STEP]
+    max_drop = settings[C_MAX_DROP]
+    band = settings[C_ZERO_BAND]
+    err_exp = error_exponent(method)
+    err_order = 7 if method == METHOD_DOP853 else 4
+
+    n_obs = obs.shape[0]
+    log_cap = log.shape[0]
+    samp_cap = samp_t.shape[0]
+    sampling = sample_dt > 0.0 and samp_cap > 0
+
+    K = np.zeros((16, 8))
+    Fd = np.zeros((7, 8))
+    y = np.zeros(8)
+    f = np.zeros(8)
+    y_new = np.zeros(8)
+    f_new = np.zeros(8)
+    ytmp = np.zeros(8)
+    ybuf = np.zeros(8)
+    work = np.zeros(8)
+    s8 = np.zeros(8)
+    pivot = np.zeros(2)
+    fmode = np.zeros(2)
+    g_obs = np.zeros(max(n_obs, 1))
+    g_fric = np.zeros(2)
+
+    for i in range(8):
+        s8[i] = hyb[i]
+    t = hyb[H_T]
+    phase = int(hyb[H_PHASE])
+    flipped = int(hyb[H_FLIPPED])
+    seg = int(hyb[H_SEG])
+    tau = hyb[H_TORQUE]
+    eref = hyb[H_EREF]
+    clock0 = hyb[H_CLOCK]
+    fmode[0] = hyb[H_FMODE0]
+    fmode[1] = hyb[H_FMODE1]
+    cycles = int(hyb[H_CYCLES])
+    y_ref = hyb[H_Y_REF]
+    if not math.isfinite(y_ref):
+        y_ref = s8[1]
+    for i in range(seg_times.shape[0]):
+        seg_times[i] = np.nan
+
+    n_log = int(counts[K_LOG])
+    n_samp = int(counts[K_SAMPLES])
+    next_k = 0
+    if sampling:
+        next_k = int(math.floor(t / sample_dt)) + 1  # the entry sample covers t itself
+
+    status = -1
+    entering = True
+    magnets_done = False  # entry magnet actions already applied (to log the impact)
+    seg_start = t
+    pending = np.inf      # tick at which a located ticked guard will be acted on
+    pending_sign = 0.0    # guard sign before that crossing ("either" direction)
+    n = 4
+
+    while status < 0:
+        p = par[flipped]
+        if entering:
+            if not magnets_done:
+                phase, flipped = apply_magnets(par, s8, phase, flipped, prog[seg, S_MAG_A],
+                                               prog[seg, S_MAG_B], prog[seg, S_SWAP] > 0)
+            magnets_done = False
+            p = par[flipped]
+            tau = prog[seg, S_TORQUE]
+            if prog[seg, S_SET_EREF] > 0:
+                eref = total_energy8(p, s8)
+            n = pack(phase, s8, y)
+            pivot[0] = s8[0]
+            pivot[1] = s8[1]
+            init_friction(phase, p, tau, s8, fmode, y, pivot)
+            seg_start = t
+            pending = np.inf
+            if sampling:
+                if n_samp >= samp_cap:
+                    status = ST_BUFFER_FULL
+                    break
+                write_sample(samp_t, samp_y, samp_mode, n_samp, t, s8, phase, flipped, tau,
+                             seg)
+                n_samp += 1
+            if phase == PHASE_SWING and s8[1] < y_ref - max_drop:
+                status = ST_FELL
+                break
+        # ------------------------------------------------------------------ one leg
+        gkind = int(prog[seg, S_GUARD])
+        gindex = int(prog[seg, S_GINDEX])
+        gvalue = prog[seg, S_GVALUE]
+        gdir = prog[seg, S_GDIR]
+        ticked = prog[seg, S_TICKED] > 0 and tick > 0.0
+        state_guard = gkind != G_NONE and gkind != G_TIME
+        horizon = seg_start + max_seg_time
+        t_limit = min(horizon, t_end)
+        t_target = np.inf
+        if gkind == G_TIME:
+            t_target = clock0 + gvalue
+            if ticked:
+                t_target = next_tick(t_target, tick, tick_phase)
+            if t_target < t:
+                t_target = t
+        t_stop = min(t_limit, t_target)
+        n = pack(phase, s8, y)
+        pivot[0] = s8[0]
+        pivot[1] = s8[1]
+
+        fired = False       # the segment's guard fired at time t (state at t in y/s8)
+        fric_k = -1         # a friction mode change at time t
+        level_fire = False
+        if state_guard:
+            g_seg = guard(gkind, gindex, gvalue, phase, p, tau, fmode, y, pivot, eref)
+            scale = 1.0 + abs(gvalue)
+            if gkind == G_ENERGY_RESTORED:
+                scale = 1.0 + abs(eref)
+            if entering and abs(g_seg) <= band * scale:
+                g_seg = 0.0
+            if gkind == G_ENERGY_RESTORED and entering and g_seg >= 0.0:
+                level_fire = True
+        else:
+            g_seg = 0.0
+        for k in range(n_obs):
+            g_obs[k] = guard(int(obs[k, O_GUARD]), int(obs[k, O_GINDEX]), obs[k, O_GVALUE],
+                             phase, p, tau, fmode, y, pivot, eref)
+            if abs(g_obs[k]) <= band * (1.0 + abs(obs[k, O_GVALUE])):
+                g_obs[k] = 0.0
+        for k in range(2):
+            if friction_active(k, phase, p):
+                g_fric[k] = friction_guard(k, phase, p, tau, fmode, y, pivot)
+        entering = False
+
+        if level_fire or (gkind == G_TIME and t_target <= t):
+            fired = True
+        elif phase == PHASE_FIXED:
+            # nothing moves: only time passes (samples stay put)
+            t_new = t_stop
+            if sampling:
+                while next_k * sample_dt <= t_new:
+                    if n_samp >= samp_cap:
+                        status = ST_BUFFER_FULL
+                        break
+                    write_sample(samp_t, samp_y, samp_mode, n_samp, next_k * sample_dt, s8,
+                                 phase, flipped, tau, seg)
+                    n_samp += 1
+                    next_k += 1
+            t = t_new
+            if t == t_target:
+                fired = True
+        else:
+            rhs(phase, p, tau, fmode, y, f)
+            h_abs = select_initial_step(phase, p, tau, fmode, t, y, f, n, t_stop, max_step,
+                                        err_order, rtol, atol, ytmp, f_new)
+            counts[K_NFEV] += 2
+            r_seg = 0.0
+            if state_guard:
+                r_seg = guard_rate(gkind, gindex, phase, p, tau, fmode, y, pivot, work)
+            while True:
+                bound = min(t_stop, pending)
+                if t >= bound:
+                    break
+                # ---- one adaptive step (scipy's RungeKutta._step_impl) ----
+                min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
+                if h_abs > max_step:
+                    h_abs = max_step
+                elif h_abs < min_step:
+                    h_abs = min_step
+                rejected = False
+                ok = True
+                while True:
+                    if h_abs < min_step:
+                        ok = False
+                        break
+                    t_new = t + h_abs
+                    if t_new > bound:
+                        t_new = bound
+                    h = t_new - t
+                    h_abs = abs(h)
+                    counts[K_NFEV] += rk_step(method, phase, p, tau, fmode, y, f, h, n, K,
+                                              ytmp, y_new, f_new)
+                    en = error_norm(method, K, h, y, y_new, n, rtol, atol)
+                    if en < 1.0:
+                        if en == 0.0:
+                            factor = MAX_FACTOR
+                        else:
+                            factor = min(MAX_FACTOR, SAFETY * en ** err_exp)
+                        if rejected:
+                            factor = min(1.0, factor)
+                        h_abs *= factor
+                        break
+                    h_abs *= max(MIN_FACTOR, SAFETY * en ** err_exp)
+                    rejected = True
+                    counts[K_REJECTED] += 1
+                if not ok:
+                    status = ST_STEP_FAILURE
+                    break
+                counts[K_STEPS] += 1
+                if counts[K_STEPS] > max_steps:
+                    status = ST_STEP_FAILURE
+                    break
+                if not _finite(y_new, n):
+                    status = ST_NONFINITE
+                    break
+                dense = False
+                t_ev = np.inf
+                # ---- segment guard ----
+                if state_guard and pending == np.inf:
+                    gb = guard(gkind, gindex, gvalue, phase, p, tau, fmode, y_new, pivot, eref)
+                    rb = guard_rate(gkind, gindex, phase, p, tau, fmode, y_new, pivot, work)
+                    if crosses(g_seg, gb, gdir) or hermite_flags(g_seg, r_seg, gb, rb, h, gdir):
+                        if not dense:
+                            counts[K_NFEV] += dense_prepare(method, phase, p, tau, fmode, t, h,
+                                                            y, y_new, f_new, n, K, Fd, ytmp)
+                            dense = True
+                        ta = t
+                        ga = g_seg
+                        while True:
+                            tc = locate_first(gkind, gindex, gvalue, gdir, ta, t_new, ga, gb,
+                                              method, Fd, y, t, h, n, phase, p, tau, fmode,
+                                              pivot, eref, ybuf, work)
+                            if tc == np.inf:
+                                break
+                            sign_before = 1.0 if ga > 0.0 else -1.0
+                            if not ticked:
+                                t_ev = tc
+                                break
+                            tk = next_tick(tc, tick, tick_phase)
+                            if tk > t_new:
+                                pending = tk
+                                pending_sign = sign_before
+                                break
+                            if tk == t_new:
+                                gk = gb
+                            else:
+                                dense_eval(method, Fd, y, h, (tk - t) / h, n, ybuf)
+                                gk = guard(gkind, gindex, gvalue, phase, p, tau, fmode, ybuf,
+                                           pivot, eref)
+                            if (gdir > 0 and gk >= 0.0) or (gdir < 0 and gk <= 0.0) or \
+                                    (gdir == 0 and gk * sign_before <= 0.0):
+                                t_ev = tk
+                                break
+                            if tk >= t_new:
+                                break
+                            ta = tk
+                            ga = gk
+                    g_seg = gb
+                    r_seg = rb
+                elif state_guard and t_new == pending:
+                    gb = guard(gkind, gindex, gvalue, phase, p, tau, fmode, y_new, pivot, eref)
+                    if (gdir > 0 and gb >= 0.0) or (gdir < 0 and gb <= 0.0) or \
+                            (gdir == 0 and gb * pending_sign <= 0.0):
+                        t_ev = t_new
+                    pending = np.inf
+                    g_seg = gb
+                    r_seg = guard_rate(gkind, gindex, phase, p, tau, fmode, y_new, pivot, work)
+                if t_new == t_target and t_target < t_ev:
+                    t_ev = t_new
+                seg_event = t_ev < np.inf
+                # ---- friction events (earliest, strictly before any segment event) ----
+                fric_k = -1
+                for k in range(2):
+                    if not friction_active(k, phase, p):
+                        continue
+                    gb = friction_guard(k, phase, p, tau, fmode, y_new, pivot)
+                    fkind = G_STICK_BREAK if fmode[k] == 0.0 else G_SLIP_STOP
+                    fdir = 1.0 if fkind == G_STICK_BREAK else -1.0
+                    if crosses(g_fric[k], gb, fdir):
+                        if not dense:
+                            counts[K_NFEV] += dense_prepare(method, phase, p, tau, fmode, t, h,
+                                                            y, y_new, f_new, n, K, Fd, ytmp)
+                            dense = True
+                        tc = _locate_friction(k, fkind, t, t_new, g_fric[k], gb, method, Fd,
+                                              y, h, n, phase, p, tau, fmode, pivot, ybuf)
+                        if tc < t_ev:
+                            t_ev = tc
+                            fric_k = k
+                            seg_event = False
+                    g_fric[k] = gb
+                # ---- observers (non-terminal, up to the event) ----
+                t_cut = min(t_ev, t_new)
+                for k in range(n_obs):
+                    okind = int(obs[k, O_GUARD])
+                    oidx = int(obs[k, O_GINDEX])
+                    oval = obs[k, O_GVALUE]
+                    odir = obs[k, O_GDIR]
+                    gb = guard(okind, oidx, oval, phase, p, tau, fmode, y_new, pivot, eref)
+                    ga = g_obs[k]
+                    ra = 0.0
+                    rb = 0.0
+                    flagged = crosses(ga, gb, odir)
+                    if not flagged:
+                        ra = guard_rate(okind, oidx, phase, p, tau, fmode, y, pivot, work)
+                        rb = guard_rate(okind, oidx, phase, p, tau, fmode, y_new, pivot, work)
+                        flagged = hermite_flags(ga, ra, gb, rb, h, odir)
+                    if flagged:
+                        if not dense:
+                            counts[K_NFEV] += dense_prepare(method, phase, p, tau, fmode, t, h,
+                                                            y, y_new, f_new, n, K, Fd, ytmp)
+                            dense = True
+                        ta = t
+                        for _rep in range(4):
+                            if ta >= t_cut:
+                                break
+                            gcut = gb
+                            if t_cut < t_new:
+                                dense_eval(method, Fd, y, h, (t_cut - t) / h, n, ybuf)
+                                gcut = guard(okind, oidx, oval, phase, p, tau, fmode, ybuf,
+                                             pivot, eref)
+                            tc = locate_first(okind, oidx, oval, odir, ta, t_cut, ga, gcut,
+                                              method, Fd, y, t, h, n, phase, p, tau, fmode,
+                                              pivot, eref, ybuf, work)
+                            if tc == np.inf:
+                                break
+                            if n_log >= log_cap:
+                                if log_cap > 0:
+                                    status = ST_BUFFER_FULL
+                                break
+                            dense_eval(method, Fd, y, h, (tc - t) / h, n, ybuf)
+                            unpack_into(phase, ybuf, pivot, work)
+                            e = total_energy8(p, work)
+                            write_log(log, n_log, tc, LOG_OBSERVER, k, cycles, phase, flipped,
+                                      e, e, work)
+                            n_log += 1
+                            counts[K_EVENTS] += 1
+                            ta = tc
+                            ga = 0.0
+                    g_obs[k] = gb
+                if status >= 0:
+                    break
+                # ---- samples on the grid, up to the event ----
+                if sampling:
+                    while next_k * sample_dt <= t_cut:
+                        ts = next_k * sample_dt
+                        if not dense:
+                            counts[K_NFEV] += dense_prepare(method, phase, p, tau, fmode, t, h,
+                                                            y, y_new, f_new, n, K, Fd, ytmp)
+                            dense = True
+                        if n_samp >= samp_cap:
+                            status = ST_BUFFER_FULL
+                            break
+                        dense_eval(method, Fd, y, h, (ts - t) / h, n, ybuf)
+                        unpack_into(phase, ybuf, pivot, work)
+                        write_sample(samp_t, samp_y, samp_mode, n_samp, ts, work, phase,
+                                     flipped, tau, seg)
+                        n_samp += 1
+                        next_k += 1
+                    if status >= 0:
+                        break
+                # ---- advance ----
+                if t_ev < np.inf:
+                    if t_ev == t_new:
+                        for i in range(n):
+                            y[i] = y_new[i]
+                    else:
+                        dense_eval(method, Fd, y, h, (t_ev - t) / h, n, ybuf)
+                        for i in range(n):
+                            y[i] = ybuf[i]
+                    t = t_ev
+                    if seg_event:
+                        fired = True
+                    break
+                t = t_new
+                for i in range(n):
+                    y[i] = y_new[i]
+                    f[i] = f_new[i]
+            unpack_into(phase, y, pivot, s8)
+            if status >= 0:
+                break
+
+        # ------------------------------------------------------------------ leg outcome
+        if fric_k >= 0:
+            k = fric_k
+            s8[6 + k] = 0.0  # zero speed exactly at the event
+            n = pack(phase, s8, y)
+            c = p[P_C_PIVOT] if k == 0 else p[P_C_JOINT]
+            if fmode[k] == 0.0:
+                hold = holding_torque(phase, p, tau, fmode, y, k)
+                fmode[k] = -1.0 if hold > 0.0 else 1.0
+                s8[6 + k] = 0.0
+            else:
+                hold = holding_torque(phase, p, tau, fmode, y, k)
+                if abs(hold) <= c:
+                    fmode[k] = 0.0
+                else:
+                    fmode[k] = -1.0 if hold > 0.0 else 1.0
+            counts[K_EVENTS] += 1
+            if n_log < log_cap:
+                e = total_energy8(p, s8)
+                write_log(log, n_log, t, LOG_FRICTION, k, cycles, phase, flipped, e, e, s8)
+                n_log += 1
+            elif log_cap > 0:
+                status = ST_BUFFER_FULL
+            continue
+        if fired:
+            counts[K_EVENTS] += 1
+            seg_times[seg] = t
+            e_before = total_energy8(par[flipped], s8)
+            if sampling:
+                if n_samp >= samp_cap:
+                    status = ST_BUFFER_FULL
+                    break
+                write_sample(samp_t, samp_y, samp_mode, n_samp, t, s8, phase, flipped, tau,
+                             seg)
+                n_samp += 1
+            clock_mode = int(prog[seg, S_CLOCK])
+            if clock_mode == 1:
+                clock0 = t
+            elif clock_mode == 2:
+                clock0 += gvalue
+            if prog[seg, S_CYCLE] > 0:
+                cycles += 1
+            nxt = int(prog[seg, S_NEXT])
+            last = seg
+            if nxt < 0 or (max_cycles > 0 and cycles >= max_cycles):
+                status = ST_OK
+                if n_log < log_cap:
+                    write_log(log, n_log, t, LOG_SEGMENT, last, cycles, phase, flipped,
+                              e_before, e_before, s8)
+                    n_log += 1
+                elif log_cap > 0:
+                    status = ST_BUFFER_FULL
+                break
+            seg = nxt
+            entering = True
+            # the log row shows the state after the next segment's entry actions (the impact)
+            ph2, fl2 = apply_magnets(par, s8, phase, flipped, prog[seg, S_MAG_A],
+                                     prog[seg, S_MAG_B], prog[seg, S_SWAP] > 0)
+            phase = ph2
+            flipped = fl2
+            magnets_done = True
+            if n_log < log_cap:
+                write_log(log, n_log, t, LOG_SEGMENT, last, cycles, phase, flipped, e_before,
+                          total_energy8(par[flipped], s8), s8)
+                n_log += 1
+            elif log_cap > 0:
+                status = ST_BUFFER_FULL
+                break
+            continue
+        # no event: the leg ended on a bound
+        if t >= t_end:
+            status = ST_END_TIME
+        elif t >= horizon:
+            fail = int(prog[seg, S_FAIL])
+            status = fail if fail > 0 else ST_HORIZON
+
+    # ---------------------------------------------------------------------- write back
+    for i in range(8):
+        hyb[i] = s8[i]
+    hyb[H_T] = t
+    hyb[H_PHASE] = phase
+    hyb[H_FLIPPED] = flipped
+    hyb[H_SEG] = seg
+    hyb[H_TORQUE] = tau
+    hyb[H_EREF] = eref
+    hyb[H_CLOCK] = clock0
+    hyb[H_FMODE0] = fmode[0]
+    hyb[H_FMODE1] = fmode[1]
+    hyb[H_CYCLES] = cycles
+    hyb[H_Y_REF] = y_ref
+    counts[K_CYCLES] = cycles
+    counts[K_LOG] = n_log
+    counts[K_SAMPLES] = n_samp
+    return status
+
+
+@njit(cache=True)
+def _locate_friction(k, fkind, t0, t1, ga, gb, method, Fd, y_old, h, n, phase, p, tau, fmode,
+                     pivot, ybuf):
+    """Bisection-secant (Illinois) root of a friction guard bracketed on [t0, t1]."""
+    a = t0
+    b = t1
+    fa = ga
+    fb = gb
+    side = 0
+    for _ in range(200):
+        if abs(b - a) <= 4e-16 * (1.0 + abs(b)):
+            break
+        c = (a * fb - b * fa) / (fb - fa)
+        if not (a < c < b):
+            c = 0.5 * (a + b)
+        dense_eval(method, Fd, y_old, h, (c - t0) / h, n, ybuf)
+        if fmode[k] == 0.0:
+            cc = p[P_C_PIVOT] if k == 0 else p[P_C_JOINT]
+            fc = abs(holding_torque(phase, p, tau, fmode, ybuf, k)) - cc
+        else:
+            fc = guard(G_SLIP_STOP, k, 0.0, phase, p, tau, fmode, ybuf, pivot, 0.0)
+        if fc == 0.0:
+            return c
+        if (fc > 0.0) == (fb > 0.0):
+            b = c
+            fb = fc
+            if side == 1:
+                fa *= 0.5
+            side = 1
+        else:
+            a = c
+            fa = fc
+            if side == -1:
+                fb *= 0.5
+            side = -1
+    return b

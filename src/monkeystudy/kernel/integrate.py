@@ -1,0 +1,209 @@
+"""Embedded explicit Runge-Kutta steps with dense output (compiled).
+
+The step-size controller, error norms and initial-step selection follow
+``scipy.integrate._ivp.rk`` line for line (SAFETY 0.9, factors in [0.2, 10], the
+``atol + rtol * max(|y|, |y_new|)`` scale, DOP853's combined 5th/3rd-order estimate), so that
+for the same vector field our accepted steps coincide with ``solve_ivp``'s: the tests compare
+them one by one. Work arrays are preallocated by the caller; nothing here allocates.
+
+Arrays: ``K`` is ``(16, 8)`` (DOP853 with its three extra dense-output stages), ``F`` the
+``(7, 8)`` dense-output coefficients; only the first ``n`` columns are used (4 swing, 8 flight).
+"""
+import math
+
+import numpy as np
+from numba import njit
+
+from .dynamics import rhs
+from .layout import METHOD_DOP853
+from .tableaux import (
+    DOP853_A, DOP853_B, DOP853_C, DOP853_D, DOP853_E3, DOP853_E5, DOP853_N_STAGES,
+    DOP853_N_STAGES_EXTENDED, RK45_A, RK45_B, RK45_C, RK45_E, RK45_N_STAGES, RK45_P,
+)
+
+SAFETY = 0.9
+MIN_FACTOR = 0.2
+MAX_FACTOR = 10.0
+
+
+@njit(cache=True, inline="always")
+def n_stages(method):
+    return DOP853_N_STAGES if method == METHOD_DOP853 else RK45_N_STAGES
+
+
+@njit(cache=True, inline="always")
+def error_exponent(method):
+    """-1 / (error estimator order + 1): DOP853 7, RK45 4."""
+    return -1.0 / 8.0 if method == METHOD_DOP853 else -1.0 / 5.0
+
+
+@njit(cache=True)
+def rms_norm(v, n):
+    acc = 0.0
+    for i in range(n):
+        acc += v[i] * v[i]
+    return math.sqrt(acc / n)
+
+
+@njit(cache=True)
+def select_initial_step(phase, p, tau, fmode, t0, y0, f0, n, t_bound, max_step, order,
+                        rtol, atol, ytmp, ftmp):
+    """Hairer's empirical first step, as ``scipy.integrate._ivp.common.select_initial_step``.
+
+    Costs one right-hand-side evaluation. ``order`` is the error estimator's order.
+    """
+    interval = abs(t_bound - t0)
+    if interval == 0.0:
+        return 0.0
+    d0 = 0.0
+    d1 = 0.0
+    for i in range(n):
+        sc = atol + abs(y0[i]) * rtol
+        d0 += (y0[i] / sc) ** 2
+        d1 += (f0[i] / sc) ** 2
+    d0 = math.sqrt(d0 / n)
+    d1 = math.sqrt(d1 / n)
+    if d0 < 1e-5 or d1 < 1e-5:
+        h0 = 1e-6
+    else:
+        h0 = 0.01 * d0 / d1
+    h0 = min(h0, interval)
+    for i in range(n):
+        ytmp[i] = y0[i] + h0 * f0[i]
+    rhs(phase, p, tau, fmode, ytmp, ftmp)
+    d2 = 0.0
+    for i in range(n):
+        sc = atol + abs(y0[i]) * rtol
+        d2 += ((ftmp[i] - f0[i]) / sc) ** 2
+    d2 = math.sqrt(d2 / n) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / (order + 1))
+    return min(100.0 * h0, h1, interval, max_step)
+
+
+@njit(cache=True)
+def rk_step(method, phase, p, tau, fmode, y, f, h, n, K, ytmp, y_new, f_new):
+    """One embedded RK step from ``(y, f)`` over ``h``; fills ``K``, ``y_new``, ``f_new``.
+
+    Returns the number of right-hand-side evaluations (stages, FSAL reused).
+    """
+    if method == METHOD_DOP853:
+        A, B, C = DOP853_A, DOP853_B, DOP853_C
+        ns = DOP853_N_STAGES
+    else:
+        A, B, C = RK45_A, RK45_B, RK45_C
+        ns = RK45_N_STAGES
+    for i in range(n):
+        K[0, i] = f[i]
+    for s in range(1, ns):
+        for i in range(n):
+            acc = 0.0
+            for j in range(s):
+                acc += K[j, i] * A[s, j]
+            ytmp[i] = y[i] + acc * h
+        rhs(phase, p, tau, fmode, ytmp, K[s])
+    for i in range(n):
+        acc = 0.0
+        for j in range(ns):
+            acc += K[j, i] * B[j]
+        y_new[i] = y[i] + h * acc
+    rhs(phase, p, tau, fmode, y_new, f_new)
+    for i in range(n):
+        K[ns, i] = f_new[i]
+    return ns
+
+
+@njit(cache=True)
+def error_norm(method, K, h, y, y_new, n, rtol, atol):
+    """Scaled RMS norm of the local error estimate (scipy's ``_estimate_error_norm``)."""
+    if method == METHOD_DOP853:
+        e5 = 0.0
+        e3 = 0.0
+        for i in range(n):
+            sc = atol + max(abs(y[i]), abs(y_new[i])) * rtol
+            a5 = 0.0
+            a3 = 0.0
+            for j in range(DOP853_N_STAGES + 1):
+                a5 += K[j, i] * DOP853_E5[j]
+                a3 += K[j, i] * DOP853_E3[j]
+            e5 += (a5 / sc) ** 2
+            e3 += (a3 / sc) ** 2
+        if e5 == 0.0 and e3 == 0.0:
+            return 0.0
+        denom = e5 + 0.01 * e3
+        return abs(h) * e5 / math.sqrt(denom * n)
+    acc = 0.0
+    for i in range(n):
+        sc = atol + max(abs(y[i]), abs(y_new[i])) * rtol
+        a = 0.0
+        for j in range(RK45_N_STAGES + 1):
+            a += K[j, i] * RK45_E[j]
+        acc += (a * h / sc) ** 2
+    return math.sqrt(acc / n)
+
+
+@njit(cache=True)
+def dense_prepare(method, phase, p, tau, fmode, t_old, h, y_old, y_new, f_new, n, K, Fd, ytmp):
+    """Dense-output coefficients of the last step into ``Fd``; returns extra RHS evaluations.
+
+    DOP853: the 7th-order interpolant (three extra stages); RK45: the 4th-order free
+    interpolant ``Q = K^T P``.
+    """
+    if method == METHOD_DOP853:
+        ns = DOP853_N_STAGES
+        for s in range(ns + 1, DOP853_N_STAGES_EXTENDED):
+            for i in range(n):
+                acc = 0.0
+                for j in range(s):
+                    acc += K[j, i] * DOP853_A[s, j]
+                ytmp[i] = y_old[i] + acc * h
+            rhs(phase, p, tau, fmode, ytmp, K[s])
+        for i in range(n):
+            dy = y_new[i] - y_old[i]
+            Fd[0, i] = dy
+            Fd[1, i] = h * K[0, i] - dy
+            Fd[2, i] = 2.0 * dy - h * (f_new[i] + K[0, i])
+            for r in range(4):
+                acc = 0.0
+                for j in range(DOP853_N_STAGES_EXTENDED):
+                    acc += DOP853_D[r, j] * K[j, i]
+                Fd[3 + r, i] = h * acc
+        return DOP853_N_STAGES_EXTENDED - ns - 1
+    for i in range(n):
+        for r in range(4):
+            acc = 0.0
+            for j in range(RK45_N_STAGES + 1):
+                acc += K[j, i] * RK45_P[j, r]
+            Fd[r, i] = acc
+    return 0
+
+
+@njit(cache=True)
+def dense_eval(method, Fd, y_old, h, x, n, out):
+    """Interpolated state at ``t_old + x h`` (``0 <= x <= 1``) into ``out``."""
+    if method == METHOD_DOP853:
+        for i in range(n):
+            acc = 0.0
+            for k in range(7):
+                acc += Fd[6 - k, i]
+                if k % 2 == 0:
+                    acc *= x
+                else:
+                    acc *= 1.0 - x
+            out[i] = acc + y_old[i]
+        return
+    for i in range(n):
+        acc = 0.0
+        xp = 1.0
+        for r in range(4):
+            xp *= x
+            acc += Fd[r, i] * xp
+        out[i] = y_old[i] + h * acc
+
+
+def work_arrays():
+    """Fresh work arrays for one integration (K, Fd and five 8-vectors)."""
+    return (np.zeros((DOP853_N_STAGES_EXTENDED, 8)), np.zeros((7, 8)),
+            np.zeros(8), np.zeros(8), np.zeros(8), np.zeros(8), np.zeros(8))

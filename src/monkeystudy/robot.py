@@ -1,0 +1,154 @@
+"""Robot parameters: named presets, validation, and the parameter rows the kernels read."""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field, replace
+
+import numpy as np
+
+from .kernel.dynamics import derive_params, flipped_params
+from .kernel.layout import (
+    N_PARAMS, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_I1, P_I2, P_L1, P_L2, P_M1,
+    P_M2, P_R1, P_R2,
+)
+
+
+def _check_positive(name: str, value: float) -> float:
+    value = float(value)
+    if not math.isfinite(value):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    if value <= 0.0:
+        raise ValueError(f"{name} must be > 0, got {value!r}")
+    return value
+
+
+def _check_nonnegative(name: str, value: float) -> float:
+    value = float(value)
+    if not math.isfinite(value):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    if value < 0.0:
+        raise ValueError(f"{name} must be >= 0, got {value!r}")
+    return value
+
+
+@dataclass(frozen=True)
+class Link:
+    """One link: mass [kg], length [m], CG distance from its proximal end [m], inertia about
+    the CG [kg m^2] (MODEL.md section 1). Link 1 carries end A (proximal end = A), link 2
+    carries end B (proximal end = the joint)."""
+
+    mass: float
+    length: float
+    com: float
+    inertia: float
+
+    def validate(self, where: str) -> None:
+        _check_positive(f"{where}.mass", self.mass)
+        _check_positive(f"{where}.length", self.length)
+        _check_positive(f"{where}.inertia", self.inertia)
+        com = float(self.com)
+        if not math.isfinite(com):
+            raise ValueError(f"{where}.com must be finite, got {com!r}")
+        if not 0.0 <= com <= self.length:
+            raise ValueError(f"{where}.com must lie on the link, 0 <= com <= length "
+                             f"({self.length}), got {com!r}")
+
+
+@dataclass(frozen=True)
+class Friction:
+    """Viscous [N m s] and Coulomb [N m] friction of one joint (both zero by default)."""
+
+    viscous: float = 0.0
+    coulomb: float = 0.0
+
+    def validate(self, where: str) -> None:
+        _check_nonnegative(f"{where}.viscous", self.viscous)
+        _check_nonnegative(f"{where}.coulomb", self.coulomb)
+
+
+@dataclass(frozen=True)
+class Robot:
+    """The MonkeyBot: two links, gravity [m s-2], friction at the pivot and the joint.
+
+    Build one from a preset (``Robot.preset("seed2009")``) or explicitly; every value is
+    checked (``ValueError`` names the parameter).
+    """
+
+    link1: Link
+    link2: Link
+    gravity: float = 9.81
+    pivot_friction: Friction = field(default_factory=Friction)
+    joint_friction: Friction = field(default_factory=Friction)
+    name: str = "custom"
+
+    def __post_init__(self):
+        self.link1.validate("link1")
+        self.link2.validate("link2")
+        _check_positive("gravity", self.gravity)
+        self.pivot_friction.validate("friction.pivot")
+        self.joint_friction.validate("friction.joint")
+
+    # -- presets ---------------------------------------------------------------------------
+    @classmethod
+    def preset(cls, name: str) -> "Robot":
+        try:
+            return PRESETS[name]()
+        except KeyError:
+            raise ValueError(f"unknown robot preset {name!r}; known: {sorted(PRESETS)}") from None
+
+    def with_friction(self, pivot: Friction | None = None, joint: Friction | None = None):
+        return replace(self, pivot_friction=pivot or self.pivot_friction,
+                       joint_friction=joint or self.joint_friction)
+
+    # -- kernel view -------------------------------------------------------------------------
+    def params(self) -> np.ndarray:
+        """Parameter rows for the kernels: ``float64[2, N_PARAMS]`` (normal, flipped)."""
+        p = np.zeros(N_PARAMS)
+        p[P_M1], p[P_M2] = self.link1.mass, self.link2.mass
+        p[P_L1], p[P_L2] = self.link1.length, self.link2.length
+        p[P_R1], p[P_R2] = self.link1.com, self.link2.com
+        p[P_I1], p[P_I2] = self.link1.inertia, self.link2.inertia
+        p[P_G] = self.gravity
+        p[P_B_PIVOT], p[P_C_PIVOT] = self.pivot_friction.viscous, self.pivot_friction.coulomb
+        p[P_B_JOINT], p[P_C_JOINT] = self.joint_friction.viscous, self.joint_friction.coulomb
+        derive_params(p)
+        par = np.empty((2, N_PARAMS))
+        par[0] = p
+        par[1] = flipped_params(p)
+        return par
+
+    def swap_energy_floor(self) -> float:
+        """Least potential energy [J] with the free end at the attached end's height.
+
+        On the surface ``L1 cos th1 + L2 cos(th1+th2) = 0`` the potential (attached end at
+        y = 0) reduces to ``V = -g cos(th1) (a - m2 r2 L1 / L2)``, with ``|cos th1| <=
+        min(1, L2/L1)``, so the minimum is ``-g |a - m2 r2 L1/L2| min(1, L2/L1)``. A swing that
+        starts with less total energy and no motor can never reach a swap (energy is conserved
+        or dissipated): such grid points are marked unreachable without integrating.
+        """
+        l1, l2 = self.link1, self.link2
+        a = l1.mass * l1.com + l2.mass * l1.length
+        k = a - l2.mass * l2.com * l1.length / l2.length
+        return -self.gravity * abs(k) * min(1.0, l2.length / l1.length)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def _seed2009() -> Robot:
+    """The 2009 study's robot as fitted in MODEL.md section 4 (two identical links)."""
+    return Robot(Link(1.0, 0.61, 0.543754, 0.01808704), Link(1.0, 0.61, 0.066246, 0.01808704),
+                 gravity=9.81, name="seed2009")
+
+
+def _uniform_rod() -> Robot:
+    """Two uniform 1 kg, 0.61 m rods (CG mid-link, I = m L^2 / 12)."""
+    L = 0.61
+    return Robot(Link(1.0, L, L / 2, L * L / 12), Link(1.0, L, L / 2, L * L / 12),
+                 gravity=9.81, name="uniform_rod")
+
+
+PRESETS = {"seed2009": _seed2009, "uniform_rod": _uniform_rod}
+
+#: The study's motor torque for ``seed2009`` [N m] (MODEL.md section 4).
+SEED2009_TORQUE = 0.6354

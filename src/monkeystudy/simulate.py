@@ -1,0 +1,296 @@
+"""The hybrid-simulation API: evaluate gaits and simulate controllers.
+
+Thin wrappers that validate arguments, build the kernel's arrays, call the one compiled
+:func:`~monkeystudy.kernel.hybrid.simulate`, and label what comes back. Drivers (grid, refine,
+stability, ...) use :func:`evaluate_gaits` and :func:`run_controller`, which return plain numpy;
+:func:`simulate` builds an :class:`xarray.Dataset` for people.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import IntEnum
+from typing import Union
+
+import numpy as np
+
+from .controllers import HorizontalSearch, Integrator, OpenLoop, PhaseSequence, settings_vector
+from .kernel import layout as L
+from .kernel.dynamics import points8, total_energy8, kinetic_energy, potential_energy
+from .kernel.gait import (
+    N_RESULT, R_ERROR, R_FINAL, R_NFEV, R_REJECTED, R_STATUS, R_STEPS, R_T_END, R_T_MOTOR,
+    R_T_SWITCH, horizontal_gait_batch, start_state,
+)
+from .kernel.hybrid import simulate as _simulate
+from .robot import SEED2009_TORQUE, Robot
+
+
+class Status(IntEnum):
+    """Outcome of a run (stored in datasets as CF ``flag_values``/``flag_meanings``)."""
+
+    OK = L.ST_OK
+    NO_SWITCH = L.ST_NO_SWITCH
+    ENERGY_NOT_RESTORED = L.ST_ENERGY_NOT_RESTORED
+    NO_RETURN_TO_VERTICAL = L.ST_NO_RETURN
+    NON_FINITE = L.ST_NONFINITE
+    UNREACHABLE = L.ST_UNREACHABLE
+    STEP_FAILURE = L.ST_STEP_FAILURE
+    BUFFER_FULL = L.ST_BUFFER_FULL
+    END_TIME = L.ST_END_TIME
+    HORIZON = L.ST_HORIZON
+    FELL = L.ST_FELL
+
+
+RobotLike = Union[Robot, str]
+Controller = Union[HorizontalSearch, OpenLoop, PhaseSequence]
+
+
+def as_robot(robot: RobotLike) -> Robot:
+    return Robot.preset(robot) if isinstance(robot, str) else robot
+
+
+def _finite(name: str, value: float) -> float:
+    value = float(value)
+    if not math.isfinite(value):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return value
+
+
+@dataclass(frozen=True)
+class GaitResult:
+    """One horizontal-gait evaluation (MODEL.md section 4).
+
+    ``error`` is NaN unless ``status`` is OK. Times [s]: ``t_switch`` the swap after the gait
+    start, ``t_motor`` the motor-on duration, ``t_end`` the vertical crossing ending the gait.
+    ``final_state`` is ``[x, y, th1, th2, dx, dy, dth1, dth2]`` in the frame after the swap.
+    """
+
+    dtheta1: float
+    dtheta2: float
+    error: float
+    status: Status
+    t_switch: float
+    t_motor: float
+    t_end: float
+    steps: int
+    nfev: int
+    rejected: int
+    final_state: np.ndarray
+
+
+def evaluate_gaits(points, *, robot: RobotLike = "seed2009", torque: float | None = None,
+                   tick: float = 0.0, tick_phase: float = 0.0,
+                   integrator: Integrator = Integrator(),
+                   skip_unreachable: bool = True) -> dict[str, np.ndarray]:
+    """Evaluate the horizontal gait at many ``(dtheta1, dtheta2)`` [rad s-1] points.
+
+    Returns plain arrays (``error``, ``status``, ``t_switch``, ``t_motor``, ``t_end``,
+    ``steps``, ``nfev``, ``rejected``, ``final_state``), one entry per point. Serial and
+    compiled: parallelism belongs to the caller (blocks of points on workers).
+    """
+    robot = as_robot(robot)
+    torque = SEED2009_TORQUE if torque is None else _finite("torque", torque)
+    pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
+    if not np.all(np.isfinite(pts)):
+        raise ValueError("points must be finite (dtheta1, dtheta2) pairs")
+    prog, _ = HorizontalSearch(torque, tick=tick, tick_phase=tick_phase).program()
+    settings = settings_vector(integrator, tick=tick, tick_phase=tick_phase)
+    out = np.empty((pts.shape[0], N_RESULT))
+    horizontal_gait_batch(robot.params(), prog, settings, pts, robot.swap_energy_floor(),
+                          skip_unreachable, out)
+    return {
+        "error": out[:, R_ERROR].copy(),
+        "status": out[:, R_STATUS].astype(np.int8),
+        "t_switch": out[:, R_T_SWITCH].copy(),
+        "t_motor": out[:, R_T_MOTOR].copy(),
+        "t_end": out[:, R_T_END].copy(),
+        "steps": out[:, R_STEPS].astype(np.int64),
+        "nfev": out[:, R_NFEV].astype(np.int64),
+        "rejected": out[:, R_REJECTED].astype(np.int64),
+        "final_state": out[:, R_FINAL:R_FINAL + 8].copy(),
+    }
+
+
+def evaluate_horizontal_gait(dtheta1: float, dtheta2: float, **kwargs) -> GaitResult:
+    """Evaluate the horizontal gait at one point; keywords as :func:`evaluate_gaits`."""
+    d1 = _finite("dtheta1", dtheta1)
+    d2 = _finite("dtheta2", dtheta2)
+    r = evaluate_gaits([[d1, d2]], **kwargs)
+    return GaitResult(d1, d2, float(r["error"][0]), Status(int(r["status"][0])),
+                      float(r["t_switch"][0]), float(r["t_motor"][0]), float(r["t_end"][0]),
+                      int(r["steps"][0]), int(r["nfev"][0]), int(r["rejected"][0]),
+                      r["final_state"][0])
+
+
+@dataclass
+class RunResult:
+    """Raw outcome of :func:`run_controller` (numpy only)."""
+
+    status: Status
+    state: np.ndarray        # final hybrid state (layout H_*), feed back to continue
+    counts: np.ndarray       # layout K_*
+    segment_times: np.ndarray
+    log: np.ndarray          # (n_events, N_LOG_COLS)
+    sample_t: np.ndarray
+    sample_state: np.ndarray
+    sample_mode: np.ndarray
+    params: np.ndarray       # (2, N_PARAMS) rows used
+
+
+def initial_state(dtheta1: float = 0.0, dtheta2: float = 0.0, *, theta1: float = 0.0,
+                  theta2: float = 0.0, x: float = 0.0, y: float = 0.0) -> np.ndarray:
+    """Hybrid state hanging from end A at ``(x, y)`` [m] with the given angles and rates."""
+    hyb = np.empty(L.N_HYB)
+    start_state(_finite("dtheta1", dtheta1), _finite("dtheta2", dtheta2), hyb)
+    hyb[L.X], hyb[L.Y] = _finite("x", x), _finite("y", y)
+    hyb[L.TH1], hyb[L.TH2] = _finite("theta1", theta1), _finite("theta2", theta2)
+    return hyb
+
+
+def run_controller(controller: Controller, state: np.ndarray, *,
+                   robot: RobotLike = "seed2009", integrator: Integrator = Integrator(),
+                   t_end: float = math.inf, cycles: int = 0, sample_dt: float = 0.0,
+                   max_drop: float = math.inf, log_capacity: int = 4096) -> RunResult:
+    """Run a controller from a hybrid state until it stops, ``t_end`` [s] or ``cycles``.
+
+    ``sample_dt`` [s] > 0 records a trajectory from the dense output (it never changes the
+    steps taken). Buffers grow and the run is repeated if they were too small.
+    """
+    robot = as_robot(robot)
+    if sample_dt < 0 or not math.isfinite(sample_dt):
+        raise ValueError(f"sample_dt must be finite and >= 0, got {sample_dt!r}")
+    prog, obs = controller.program()
+    if not (math.isfinite(t_end) or cycles > 0 or np.any(prog[:, L.S_NEXT] < 0)):
+        raise ValueError("give t_end or cycles: this controller never stops by itself")
+    settings = settings_vector(integrator, tick=controller.tick,
+                               tick_phase=controller.tick_phase, t_end=t_end,
+                               max_cycles=cycles, sample_dt=sample_dt, max_drop=max_drop)
+    par = robot.params()
+    state = np.asarray(state, dtype=np.float64)
+    if state.shape != (L.N_HYB,):
+        raise ValueError(f"state must be a hybrid state vector of length {L.N_HYB}")
+    n_samp = 0
+    if sample_dt > 0:
+        horizon = t_end if math.isfinite(t_end) else max(cycles, 1) * 2.0 * integrator.max_time
+        n_samp = int((horizon - state[L.H_T]) / sample_dt) + 64 + 8 * max(cycles, 1)
+    while True:
+        hyb = state.copy()
+        counts = np.zeros(L.N_COUNTS, dtype=np.int64)
+        seg_times = np.empty(prog.shape[0])
+        log = np.empty((log_capacity, L.N_LOG_COLS))
+        st = np.empty(n_samp)
+        sy = np.empty((n_samp, 8))
+        sm = np.empty((n_samp, L.N_MODE_COLS))
+        status = _simulate(par, prog, obs, settings, hyb, counts, seg_times, log, st, sy, sm)
+        if status != L.ST_BUFFER_FULL:
+            break
+        if counts[L.K_LOG] >= log_capacity:
+            log_capacity *= 4
+        if sample_dt > 0 and counts[L.K_SAMPLES] >= n_samp:
+            n_samp *= 2
+    n_log = int(counts[L.K_LOG])
+    ns = int(counts[L.K_SAMPLES])
+    return RunResult(Status(status), hyb, counts, seg_times, log[:n_log].copy(), st[:ns].copy(),
+                     sy[:ns].copy(), sm[:ns].copy(), par)
+
+
+def physical_points(params: np.ndarray, states: np.ndarray, flipped: np.ndarray) -> dict:
+    """World positions [m] of end A, the joint, end B and both CGs for frame states."""
+    n = states.shape[0]
+    pts = np.empty((n, 5, 2))
+    buf = np.empty((5, 2))
+    for i in range(n):
+        points8(params[int(flipped[i])], states[i], buf)
+        pts[i] = buf
+    fl = flipped.astype(bool)
+    a = np.where(fl[:, None], pts[:, 4], pts[:, 0])
+    b = np.where(fl[:, None], pts[:, 0], pts[:, 4])
+    cg1 = np.where(fl[:, None], pts[:, 3], pts[:, 1])   # CG of physical link 1 (carries A)
+    cg2 = np.where(fl[:, None], pts[:, 1], pts[:, 3])
+    return {"A": a, "joint": pts[:, 2], "B": b, "cg1": cg1, "cg2": cg2}
+
+
+def energies(params: np.ndarray, states: np.ndarray, flipped: np.ndarray):
+    """Kinetic and potential energy [J] of frame states (world frame)."""
+    k = np.empty(states.shape[0])
+    v = np.empty(states.shape[0])
+    for i, s in enumerate(states):
+        p = params[int(flipped[i])]
+        k[i] = kinetic_energy(p, s[2], s[3], s[4], s[5], s[6], s[7])
+        v[i] = potential_energy(p, s[1], s[2], s[3])
+    return k, v
+
+
+def simulate(controller: Controller, *, robot: RobotLike = "seed2009",
+             dtheta1: float = 0.0, dtheta2: float = 0.0, state: np.ndarray | None = None,
+             t_end: float = math.inf, cycles: int = 0, sample_dt: float = 1e-3,
+             integrator: Integrator = Integrator(), max_drop: float = math.inf):
+    """Simulate a controller and return its trajectory as an :class:`xarray.Dataset`.
+
+    Samples every ``sample_dt`` [s] on the dense output plus the states just before and after
+    every controller transition (so ``time`` may repeat at an impact: it is a coordinate on
+    dim ``sample``, not an index). Variables: frame coordinates ``q``/``dq`` (dim ``coord``:
+    x, y, theta1, theta2), ``phase``, ``flipped``, ``motor_torque``, ``kinetic_energy``,
+    ``potential_energy``, ``total_energy``, world positions of ``A``, ``joint``, ``B``, and the
+    event log on dim ``event``.
+    """
+    import xarray as xr  # xarray at the edge only
+
+    robot = as_robot(robot)
+    if not sample_dt > 0:
+        raise ValueError(f"sample_dt must be > 0, got {sample_dt!r}")
+    hyb0 = initial_state(dtheta1, dtheta2) if state is None else np.asarray(state, float)
+    res = run_controller(controller, hyb0, robot=robot, integrator=integrator, t_end=t_end,
+                         cycles=cycles, sample_dt=sample_dt, max_drop=max_drop)
+    flipped = res.sample_mode[:, L.M_FLIPPED]
+    pts = physical_points(res.params, res.sample_state, flipped)
+    ke, pe = energies(res.params, res.sample_state, flipped)
+    log = res.log
+    coords = ["x", "y", "theta1", "theta2"]
+    ds = xr.Dataset(
+        {
+            "q": (("sample", "coord"), res.sample_state[:, :4],
+                  {"long_name": "frame coordinates (x, y of the attached end; angles)",
+                   "units": "m or rad"}),
+            "dq": (("sample", "coord"), res.sample_state[:, 4:],
+                   {"long_name": "frame velocities", "units": "m s-1 or rad s-1"}),
+            "phase": ("sample", res.sample_mode[:, L.M_PHASE].astype(np.int8),
+                      {"long_name": "phase of motion", "flag_values": np.array([0, 1, 2], np.int8),
+                       "flag_meanings": "swing flight fixed"}),
+            "flipped": ("sample", flipped.astype(np.int8),
+                        {"long_name": "frame hangs from end B (1) or end A (0)"}),
+            "segment": ("sample", res.sample_mode[:, L.M_SEGMENT].astype(np.int16),
+                        {"long_name": "controller program row"}),
+            "motor_torque": ("sample", res.sample_mode[:, L.M_TORQUE],
+                             {"long_name": "motor torque on theta2 of the frame", "units": "N m"}),
+            "kinetic_energy": ("sample", ke, {"long_name": "kinetic energy", "units": "J"}),
+            "potential_energy": ("sample", pe, {"long_name": "potential energy", "units": "J"}),
+            "total_energy": ("sample", ke + pe, {"long_name": "total energy", "units": "J"}),
+            "A": (("sample", "xy"), pts["A"], {"long_name": "position of end A", "units": "m"}),
+            "joint": (("sample", "xy"), pts["joint"], {"long_name": "position of the joint",
+                                                       "units": "m"}),
+            "B": (("sample", "xy"), pts["B"], {"long_name": "position of end B", "units": "m"}),
+            "event_time": ("event", log[:, L.L_T], {"long_name": "event time", "units": "s"}),
+            "event_kind": ("event", log[:, L.L_KIND].astype(np.int8),
+                           {"long_name": "event kind", "flag_values": np.array([0, 1, 2], np.int8),
+                            "flag_meanings": "segment_exit observer friction"}),
+            "event_id": ("event", log[:, L.L_ID].astype(np.int16),
+                         {"long_name": "segment row, observer or friction DOF"}),
+            "event_state": (("event", "state"), log[:, L.L_STATE:L.L_STATE + 8],
+                            {"long_name": "frame state after the event"}),
+            "event_flipped": ("event", log[:, L.L_FLIPPED].astype(np.int8)),
+            "event_energy_before": ("event", log[:, L.L_E_BEFORE], {"units": "J"}),
+            "event_energy_after": ("event", log[:, L.L_E_AFTER], {"units": "J"}),
+        },
+        coords={
+            "time": ("sample", res.sample_t, {"long_name": "time", "units": "s"}),
+            "coord": coords, "xy": ["x", "y"],
+            "state": coords + ["dx", "dy", "dtheta1", "dtheta2"],
+        },
+        attrs={"robot": robot.name, "controller": type(controller).__name__,
+               "status": Status(res.status).name.lower(), "steps": int(res.counts[L.K_STEPS]),
+               "nfev": int(res.counts[L.K_NFEV]), "rejected": int(res.counts[L.K_REJECTED]),
+               "method": integrator.method, "rtol": integrator.rtol, "atol": integrator.atol,
+               "tick": controller.tick, "cycles": int(res.counts[L.K_CYCLES])},
+    )
+    return ds
