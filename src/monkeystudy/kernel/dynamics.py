@@ -110,26 +110,21 @@ def _flight_coupling(p, th1, th2):
             c1, s1, c12, s12)
 
 
-@njit(cache=True)
-def rhs_swing(p, tau, fmode, y, dy):
-    """Swing (2-DOF) vector field, MODEL.md section 2. ``y`` packed swing state."""
-    th1, th2, w1, w2 = y[0], y[1], y[2], y[3]
+@njit(cache=True, inline="always")
+def swing_accel(p, tau, fmode, th1, th2, w1, w2):
+    """Swing (2-DOF) accelerations ``(ddtheta1, ddtheta2)`` [rad s-2], MODEL.md section 2."""
     m11, m12, m22, r1, r2 = _swing_terms(p, tau, fmode, th1, th2, w1, w2)
-    a1, a2 = _solve2(m11, m12, m22, r1, r2, fmode[0] == 0.0, fmode[1] == 0.0)
-    dy[0] = w1
-    dy[1] = w2
-    dy[2] = a1
-    dy[3] = a2
+    return _solve2(m11, m12, m22, r1, r2, fmode[0] == 0.0, fmode[1] == 0.0)
 
 
-@njit(cache=True)
-def rhs_flight(p, tau, fmode, y, dy):
-    """Free-flight (4-DOF) vector field, MODEL.md section 2.
+@njit(cache=True, inline="always")
+def flight_accel(p, tau, fmode, th1, th2, w1, w2):
+    """Free-flight (4-DOF) accelerations ``(ddx, ddy, ddtheta1, ddtheta2)``, MODEL.md sec. 2.
 
     Solved by a Schur complement on the (x, y) block, whose mass block is ``(m1+m2) I``:
-    exact, and cheaper than a general 4x4 factorisation.
+    exact, and cheaper than a general 4x4 factorisation. The position of the (x, y) end and
+    its velocity do not enter (translation invariance).
     """
-    th1, th2, vx, vy, w1, w2 = y[2], y[3], y[4], y[5], y[6], y[7]
     b02, b03, b12, b13, c1, s1, c12, s12 = _flight_coupling(p, th1, th2)
     mt = p[P_MTOT]
     a = p[P_A]
@@ -155,12 +150,29 @@ def rhs_flight(p, tau, fmode, y, dy):
     q1 = r1 - (b02 * rx + b12 * ry) * inv_mt
     q2 = r2 - (b03 * rx + b13 * ry) * inv_mt
     a1, a2 = _solve2(s11, s12_, s22, q1, q2, False, fmode[1] == 0.0)
-    dy[0] = vx
-    dy[1] = vy
-    dy[2] = w1
-    dy[3] = w2
-    dy[4] = (rx - b02 * a1 - b03 * a2) * inv_mt
-    dy[5] = (ry - b12 * a1 - b13 * a2) * inv_mt
+    return (rx - b02 * a1 - b03 * a2) * inv_mt, (ry - b12 * a1 - b13 * a2) * inv_mt, a1, a2
+
+
+@njit(cache=True)
+def rhs_swing(p, tau, fmode, y, dy):
+    """Swing (2-DOF) vector field, MODEL.md section 2. ``y`` packed swing state."""
+    a1, a2 = swing_accel(p, tau, fmode, y[0], y[1], y[2], y[3])
+    dy[0] = y[2]
+    dy[1] = y[3]
+    dy[2] = a1
+    dy[3] = a2
+
+
+@njit(cache=True)
+def rhs_flight(p, tau, fmode, y, dy):
+    """Free-flight (4-DOF) vector field, MODEL.md section 2. ``y`` packed flight state."""
+    ax, ay, a1, a2 = flight_accel(p, tau, fmode, y[2], y[3], y[6], y[7])
+    dy[0] = y[4]
+    dy[1] = y[5]
+    dy[2] = y[6]
+    dy[3] = y[7]
+    dy[4] = ax
+    dy[5] = ay
     dy[6] = a1
     dy[7] = a2
 

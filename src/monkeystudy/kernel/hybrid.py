@@ -32,7 +32,7 @@ from numba import njit
 
 from .dynamics import attach_xy_end, flip_state, holding_torque, rhs, total_energy8
 from .events import (
-    crosses, energy, guard, guard_rate, hermite_flags, locate_first, pack, unpack_into,
+    crosses, guard, guard_rate, guard_rate_at, hermite_flags, locate_first, pack, unpack_into,
 )
 from .integrate import (
     MAX_FACTOR, MIN_FACTOR, SAFETY, dense_eval, dense_prepare, error_exponent, error_norm,
@@ -430,10 +430,11 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                             dense = True
                         ta = t
                         ga = g_seg
+                        ra_seg = r_seg
                         while True:
                             tc = locate_first(gkind, gindex, gvalue, gdir, ta, t_new, ga, gb,
-                                              method, Fd, y, t, h, n, phase, p, tau, fmode,
-                                              pivot, eref, ybuf, work)
+                                              ra_seg, rb, method, Fd, y, t, h, n, phase, p,
+                                              tau, fmode, pivot, eref, ybuf, work)
                             if tc == np.inf:
                                 break
                             sign_before = 1.0 if ga > 0.0 else -1.0
@@ -459,6 +460,8 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                                 break
                             ta = tk
                             ga = gk
+                            ra_seg = guard_rate(gkind, gindex, phase, p, tau, fmode, ybuf, pivot,
+                                                work) if tk < t_new else rb
                     g_seg = gb
                     r_seg = rb
                 elif state_guard and t_new == pending:
@@ -501,30 +504,27 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                     odir = obs[k, O_GDIR]
                     gb = guard(okind, oidx, oval, phase, p, tau, fmode, y_new, pivot, eref)
                     ga = g_obs[k]
-                    ra = 0.0
-                    rb = 0.0
-                    flagged = crosses(ga, gb, odir)
-                    if not flagged:
-                        ra = guard_rate(okind, oidx, phase, p, tau, fmode, y, pivot, work)
-                        rb = guard_rate(okind, oidx, phase, p, tau, fmode, y_new, pivot, work)
-                        flagged = hermite_flags(ga, ra, gb, rb, h, odir)
+                    ra = guard_rate(okind, oidx, phase, p, tau, fmode, y, pivot, work)
+                    rb = guard_rate(okind, oidx, phase, p, tau, fmode, y_new, pivot, work)
+                    flagged = crosses(ga, gb, odir) or hermite_flags(ga, ra, gb, rb, h, odir)
                     if flagged:
                         if not dense:
                             counts[K_NFEV] += dense_prepare(method, phase, p, tau, fmode, t, h,
                                                             y, y_new, f_new, n, K, Fd, ytmp)
                             dense = True
                         ta = t
+                        gcut = gb
+                        rcut = rb
+                        if t_cut < t_new:
+                            gcut, rcut = guard_rate_at(okind, oidx, oval, method, Fd, y, t, h,
+                                                       t_cut, n, phase, p, tau, fmode, pivot,
+                                                       eref, ybuf, work)
                         for _rep in range(4):
                             if ta >= t_cut:
                                 break
-                            gcut = gb
-                            if t_cut < t_new:
-                                dense_eval(method, Fd, y, h, (t_cut - t) / h, n, ybuf)
-                                gcut = guard(okind, oidx, oval, phase, p, tau, fmode, ybuf,
-                                             pivot, eref)
                             tc = locate_first(okind, oidx, oval, odir, ta, t_cut, ga, gcut,
-                                              method, Fd, y, t, h, n, phase, p, tau, fmode,
-                                              pivot, eref, ybuf, work)
+                                              ra, rcut, method, Fd, y, t, h, n, phase, p, tau,
+                                              fmode, pivot, eref, ybuf, work)
                             if tc == np.inf:
                                 break
                             if n_log >= log_cap:
@@ -540,6 +540,7 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                             counts[K_EVENTS] += 1
                             ta = tc
                             ga = 0.0
+                            ra = guard_rate(okind, oidx, phase, p, tau, fmode, ybuf, pivot, work)
                     g_obs[k] = gb
                 if status >= 0:
                     break

@@ -16,9 +16,9 @@ from numba import njit
 
 from .dynamics import rhs
 from .layout import METHOD_DOP853
+from .rk_explicit import dop853_error_norm, dop853_step, rk45_error_norm, rk45_step
 from .tableaux import (
-    DOP853_A, DOP853_B, DOP853_C, DOP853_D, DOP853_E3, DOP853_E5, DOP853_N_STAGES,
-    DOP853_N_STAGES_EXTENDED, RK45_A, RK45_B, RK45_C, RK45_E, RK45_N_STAGES, RK45_P,
+    DOP853_A, DOP853_D, DOP853_N_STAGES, DOP853_N_STAGES_EXTENDED, RK45_N_STAGES, RK45_P,
 )
 
 SAFETY = 0.9
@@ -87,61 +87,21 @@ def select_initial_step(phase, p, tau, fmode, t0, y0, f0, n, t_bound, max_step, 
 def rk_step(method, phase, p, tau, fmode, y, f, h, n, K, ytmp, y_new, f_new):
     """One embedded RK step from ``(y, f)`` over ``h``; fills ``K``, ``y_new``, ``f_new``.
 
-    Returns the number of right-hand-side evaluations (stages, FSAL reused).
+    Dispatches to the straight-line steps of :mod:`.rk_explicit` (generated from the
+    tableaux; ``n`` 4 means swing, 8 flight). Returns the number of right-hand-side
+    evaluations (stages, first-same-as-last reused).
     """
     if method == METHOD_DOP853:
-        A, B, C = DOP853_A, DOP853_B, DOP853_C
-        ns = DOP853_N_STAGES
-    else:
-        A, B, C = RK45_A, RK45_B, RK45_C
-        ns = RK45_N_STAGES
-    for i in range(n):
-        K[0, i] = f[i]
-    for s in range(1, ns):
-        for i in range(n):
-            acc = 0.0
-            for j in range(s):
-                acc += K[j, i] * A[s, j]
-            ytmp[i] = y[i] + acc * h
-        rhs(phase, p, tau, fmode, ytmp, K[s])
-    for i in range(n):
-        acc = 0.0
-        for j in range(ns):
-            acc += K[j, i] * B[j]
-        y_new[i] = y[i] + h * acc
-    rhs(phase, p, tau, fmode, y_new, f_new)
-    for i in range(n):
-        K[ns, i] = f_new[i]
-    return ns
+        return dop853_step(phase, p, tau, fmode, y, f, h, n, K, ytmp, y_new, f_new)
+    return rk45_step(phase, p, tau, fmode, y, f, h, n, K, ytmp, y_new, f_new)
 
 
 @njit(cache=True)
 def error_norm(method, K, h, y, y_new, n, rtol, atol):
     """Scaled RMS norm of the local error estimate (scipy's ``_estimate_error_norm``)."""
     if method == METHOD_DOP853:
-        e5 = 0.0
-        e3 = 0.0
-        for i in range(n):
-            sc = atol + max(abs(y[i]), abs(y_new[i])) * rtol
-            a5 = 0.0
-            a3 = 0.0
-            for j in range(DOP853_N_STAGES + 1):
-                a5 += K[j, i] * DOP853_E5[j]
-                a3 += K[j, i] * DOP853_E3[j]
-            e5 += (a5 / sc) ** 2
-            e3 += (a3 / sc) ** 2
-        if e5 == 0.0 and e3 == 0.0:
-            return 0.0
-        denom = e5 + 0.01 * e3
-        return abs(h) * e5 / math.sqrt(denom * n)
-    acc = 0.0
-    for i in range(n):
-        sc = atol + max(abs(y[i]), abs(y_new[i])) * rtol
-        a = 0.0
-        for j in range(RK45_N_STAGES + 1):
-            a += K[j, i] * RK45_E[j]
-        acc += (a * h / sc) ** 2
-    return math.sqrt(acc / n)
+        return dop853_error_norm(K, h, y, y_new, n, rtol, atol)
+    return rk45_error_norm(K, h, y, y_new, n, rtol, atol)
 
 
 @njit(cache=True)
@@ -201,9 +161,3 @@ def dense_eval(method, Fd, y_old, h, x, n, out):
             xp *= x
             acc += Fd[r, i] * xp
         out[i] = y_old[i] + h * acc
-
-
-def work_arrays():
-    """Fresh work arrays for one integration (K, Fd and five 8-vectors)."""
-    return (np.zeros((DOP853_N_STAGES_EXTENDED, 8)), np.zeros((7, 8)),
-            np.zeros(8), np.zeros(8), np.zeros(8), np.zeros(8), np.zeros(8))
