@@ -1,0 +1,377 @@
+"""``monkeystudy bench``: speed of the simulator, as ratios to baselines measured in the same run.
+
+Machines are shared and noisy, so every figure printed is paired with a baseline timed in the
+same process moments before or after: the bare right-hand side (as a dependent chain, the way
+an integrator calls it, and as independent calls), and scipy ``solve_ivp`` running the same
+gait with a hand-written scalar right-hand side and with a numpy one. Errors are measured
+against a reference gait at rtol 1e-13 computed by scipy (a different implementation), so the
+ratios are stated at (at least) equal error.
+
+Run ``python -m monkeystudy.bench`` (or ``monkeystudy bench``); ``--quick`` for a fast pass,
+``--startup`` adds cold/cached start-up times (the cold one compiles the kernel: ~40 s).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+from numba import njit
+
+from .controllers import HorizontalSearch, Integrator, settings_vector
+from .kernel.dynamics import rhs_swing
+from .kernel.gait import N_RESULT, R_ERROR, R_NFEV, R_T_END, R_T_MOTOR, R_T_SWITCH, \
+    horizontal_gait_batch
+from .robot import SEED2009_TORQUE, Robot
+
+# ------------------------------------------------------------------------------------------
+# scipy baseline: the same gait with solve_ivp and terminal events (MODEL.md sections 2-4)
+# ------------------------------------------------------------------------------------------
+
+
+class ScipyGait:
+    """The horizontal gait with ``scipy.integrate.solve_ivp``; ``rhs`` 'scalar' or 'numpy'."""
+
+    def __init__(self, robot: Robot, torque: float, rhs: str = "scalar"):
+        l1, l2 = robot.link1, robot.link2
+        self.m1, self.m2, self.L1, self.L2 = l1.mass, l2.mass, l1.length, l2.length
+        self.r1, self.r2, self.I1, self.I2 = l1.com, l2.com, l1.inertia, l2.inertia
+        self.g = robot.gravity
+        self.torque = torque
+        self.rhs_kind = rhs
+
+    def params(self, flipped: bool):
+        if not flipped:
+            return (self.m1, self.m2, self.L1, self.L2, self.r1, self.r2, self.I1, self.I2)
+        return (self.m2, self.m1, self.L2, self.L1, self.L2 - self.r2, self.L1 - self.r1,
+                self.I2, self.I1)
+
+    def make_rhs(self, prm, tau):
+        m1, m2, L1, L2, r1, r2, I1, I2 = prm
+        g = self.g
+        a = m1 * r1 + m2 * L1
+        h = m2 * r2 * L1
+        k11 = I1 + I2 + m1 * r1 ** 2 + m2 * L1 ** 2 + m2 * r2 ** 2
+        k22 = I2 + m2 * r2 ** 2
+        sin, cos = math.sin, math.cos
+        if self.rhs_kind == "scalar":
+            def f(t, y):
+                th1, th2, w1, w2 = y
+                s2 = sin(th2)
+                c2 = cos(th2)
+                s12 = sin(th1 + th2)
+                m11 = k11 + 2 * h * c2
+                m12 = k22 + h * c2
+                q1 = h * s2 * (2 * w1 * w2 + w2 * w2) - g * (a * sin(th1) + m2 * r2 * s12)
+                q2 = -h * s2 * w1 * w1 - g * m2 * r2 * s12 + tau
+                det = m11 * k22 - m12 * m12
+                return [w1, w2, (k22 * q1 - m12 * q2) / det, (m11 * q2 - m12 * q1) / det]
+        else:
+            def f(t, y):
+                th1, th2, w1, w2 = y
+                c2 = np.cos(th2)
+                s2 = np.sin(th2)
+                s12 = np.sin(th1 + th2)
+                M = np.array([[k11 + 2 * h * c2, k22 + h * c2], [k22 + h * c2, k22]])
+                Cq = np.array([-h * s2 * (2 * w1 * w2 + w2 ** 2), h * s2 * w1 ** 2])
+                G = np.array([g * (a * np.sin(th1) + m2 * r2 * s12), g * m2 * r2 * s12])
+                acc = np.linalg.solve(M, np.array([0.0, tau]) - Cq - G)
+                return np.concatenate(([w1, w2], acc))
+        return f
+
+    def energy(self, prm, y_end, th1, th2, w1, w2):
+        m1, m2, L1, L2, r1, r2, I1, I2 = prm
+        c2 = math.cos(th2)
+        h = m2 * r2 * L1
+        k11 = I1 + I2 + m1 * r1 ** 2 + m2 * L1 ** 2 + m2 * r2 ** 2
+        k22 = I2 + m2 * r2 ** 2
+        kin = 0.5 * ((k11 + 2 * h * c2) * w1 ** 2 + 2 * (k22 + h * c2) * w1 * w2 + k22 * w2 ** 2)
+        pot = self.g * ((m1 + m2) * y_end - (m1 * r1 + m2 * L1) * math.cos(th1)
+                        - m2 * r2 * math.cos(th1 + th2))
+        return kin + pot
+
+    def swap(self, prm, y_end, th1, th2, w1, w2):
+        """Flip about the free end and project (MODEL.md section 3); returns the new state."""
+        m1, m2, L1, L2, r1, r2, I1, I2 = prm
+        s1, c1 = math.sin(th1), math.cos(th1)
+        s12, c12 = math.sin(th1 + th2), math.cos(th1 + th2)
+        vx = L1 * c1 * w1 + L2 * c12 * (w1 + w2)
+        vy = L1 * s1 * w1 + L2 * s12 * (w1 + w2)
+        y_new = y_end - L1 * c1 - L2 * c12
+        t1 = math.atan2(math.sin(math.pi + th1 + th2), math.cos(math.pi + th1 + th2))
+        t2 = math.atan2(math.sin(-th2), math.cos(-th2))
+        q = np.array([0.0, y_new, t1, t2])
+        dq = np.array([vx, vy, w1 + w2, -w2])
+        M = self.flight_mass(self.params(True), t1, t2)
+        Minv = np.linalg.inv(M)
+        J = np.array([[1.0, 0, 0, 0], [0, 1.0, 0, 0]])
+        P = np.eye(4) - Minv @ J.T @ np.linalg.solve(J @ Minv @ J.T, J)
+        dq = P @ dq
+        return q, dq
+
+    def flight_mass(self, prm, th1, th2):
+        m1, m2, L1, L2, r1, r2, I1, I2 = prm
+        a = m1 * r1 + m2 * L1
+        h = m2 * r2 * L1
+        c1, s1, c12, s12, c2 = (math.cos(th1), math.sin(th1), math.cos(th1 + th2),
+                                math.sin(th1 + th2), math.cos(th2))
+        k22 = I2 + m2 * r2 ** 2
+        M = np.zeros((4, 4))
+        M[0, 0] = M[1, 1] = m1 + m2
+        M[0, 2] = M[2, 0] = a * c1 + m2 * r2 * c12
+        M[0, 3] = M[3, 0] = m2 * r2 * c12
+        M[1, 2] = M[2, 1] = a * s1 + m2 * r2 * s12
+        M[1, 3] = M[3, 1] = m2 * r2 * s12
+        M[2, 2] = I1 + I2 + m1 * r1 ** 2 + m2 * L1 ** 2 + m2 * r2 ** 2 + 2 * h * c2
+        M[2, 3] = M[3, 2] = k22 + h * c2
+        M[3, 3] = k22
+        return M
+
+    def gait(self, d1, d2, rtol, atol, method="DOP853", max_time=3.0):
+        """(error, t_switch, t_motor, t_end, nfev) of the gait; NaNs when it fails."""
+        from scipy.integrate import solve_ivp
+        nan = (math.nan,) * 4
+        prm = self.params(False)
+        L1, L2 = prm[2], prm[3]
+        e0 = self.energy(prm, 0.0, 0.0, 0.0, d1, d2)
+
+        def b_height(t, y):
+            return -(L1 * math.cos(y[0]) + L2 * math.cos(y[0] + y[1]))
+        b_height.terminal, b_height.direction = True, 1
+        s1 = solve_ivp(self.make_rhs(prm, 0.0), (0.0, max_time), [0.0, 0.0, d1, d2],
+                       method=method, rtol=rtol, atol=atol, events=b_height)
+        nfev = s1.nfev
+        if not s1.t_events[0].size:
+            return nan + (nfev,)
+        ts = s1.t_events[0][0]
+        th1, th2, w1, w2 = s1.y_events[0][0]
+        q, dq = self.swap(prm, 0.0, th1, th2, w1, w2)
+        prm2 = self.params(True)
+        y_piv = q[1]
+
+        def restored(t, y):
+            return self.energy(prm2, y_piv, *y) - e0
+        restored.terminal, restored.direction = True, 1
+        s2 = solve_ivp(self.make_rhs(prm2, self.torque), (ts, ts + max_time),
+                       [q[2], q[3], dq[2], dq[3]], method=method, rtol=rtol, atol=atol,
+                       events=restored)
+        nfev += s2.nfev
+        if not s2.t_events[0].size:
+            return nan + (nfev,)
+        tm = s2.t_events[0][0]
+
+        def vertical(t, y):
+            return y[0]
+        vertical.terminal, vertical.direction = True, 0
+        s3 = solve_ivp(self.make_rhs(prm2, 0.0), (tm, tm + max_time), s2.y_events[0][0],
+                       method=method, rtol=rtol, atol=atol, events=vertical)
+        nfev += s3.nfev
+        if not s3.t_events[0].size:
+            return nan + (nfev,)
+        te = s3.t_events[0][0]
+        th1, th2, w1, w2 = s3.y_events[0][0]
+        err = th2 ** 2 + (d1 - w1) ** 2 + (d2 - w2) ** 2
+        return err, ts, tm - ts, te, nfev
+
+
+# ------------------------------------------------------------------------------------------
+# kernel timings
+# ------------------------------------------------------------------------------------------
+
+
+@njit(cache=True)
+def _rhs_chain(p, reps, y0):
+    """``reps`` RHS evaluations, each input depending on the last output (latency-bound)."""
+    y = y0.copy()
+    dy = np.zeros(4)
+    fm = np.ones(2)
+    for _ in range(reps):
+        rhs_swing(p, 0.6354, fm, y, dy)
+        for i in range(4):
+            y[i] += 1e-9 * dy[i]
+    return y[0]
+
+
+@njit(cache=True)
+def _rhs_independent(p, ys, reps):
+    """``reps * len(ys)`` RHS evaluations on independent inputs (throughput-bound)."""
+    dy = np.zeros(4)
+    fm = np.ones(2)
+    acc = 0.0
+    for _ in range(reps):
+        for i in range(ys.shape[0]):
+            rhs_swing(p, 0.6354, fm, ys[i], dy)
+            acc += dy[2]
+    return acc
+
+
+def best_of(fn, repeat=5):
+    """Smallest wall time of ``repeat`` calls [s] (the least disturbed one)."""
+    best = math.inf
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def rhs_cost_ns(par) -> tuple[float, float]:
+    """ns per swing RHS evaluation: (dependent chain, independent calls)."""
+    y0 = np.array([0.3, 0.5, 1.0, 10.0])
+    rng = np.random.default_rng(1)
+    ys = np.column_stack([rng.uniform(-1, 1, 256), rng.uniform(-1, 1, 256),
+                          rng.uniform(-5, 5, 256), rng.uniform(-12, 12, 256)])
+    _rhs_chain(par[0], 10, y0)
+    _rhs_independent(par[0], ys, 1)
+    n = 200_000
+    chain = best_of(lambda: _rhs_chain(par[0], n, y0)) / n * 1e9
+    indep = best_of(lambda: _rhs_independent(par[0], ys, n // 256)) / (256 * (n // 256)) * 1e9
+    return chain, indep
+
+
+def gait_points(n: int, seed: int = 0) -> np.ndarray:
+    """Gait starts that swap, spread over the study's valley (dtheta1 0.5-1.6, dtheta2 10-12)."""
+    rng = np.random.default_rng(seed)
+    return np.column_stack([rng.uniform(0.5, 1.6, n), rng.uniform(10.0, 12.0, n)])
+
+
+def kernel_gaits(par, prog, settings, pts, floor):
+    out = np.empty((pts.shape[0], N_RESULT))
+    horizontal_gait_batch(par, prog, settings, pts, floor, True, out)
+    return out
+
+
+def _grid_block(args):
+    """Process-pool task: evaluate a block of gait points (importable, no lambdas)."""
+    pts, rtol = args
+    robot = Robot.preset("seed2009")
+    prog, _ = HorizontalSearch(SEED2009_TORQUE).program()
+    settings = settings_vector(Integrator(rtol=rtol, atol=rtol * 1e-2))
+    return kernel_gaits(robot.params(), prog, settings, pts, robot.swap_energy_floor())[:, 0]
+
+
+def workers_throughput(n_points: int, workers: int, rtol: float) -> float:
+    """Gaits per second of a grid evaluated in blocks on a process pool."""
+    pts = np.column_stack([np.repeat(np.linspace(0, 3, int(math.sqrt(n_points))),
+                                     int(math.sqrt(n_points))),
+                           np.tile(np.linspace(9, 14, int(math.sqrt(n_points))),
+                                   int(math.sqrt(n_points)))])
+    blocks = [(b, rtol) for b in np.array_split(pts, 8 * workers)]
+    with ProcessPoolExecutor(workers) as ex:
+        list(ex.map(_grid_block, blocks[:workers]))  # warm the cache in every worker
+        t0 = time.perf_counter()
+        list(ex.map(_grid_block, blocks))
+        dt = time.perf_counter() - t0
+    return pts.shape[0] / dt
+
+
+def startup_seconds(cold: bool) -> float:
+    """Seconds from interpreter start to the first simulated gait, in a fresh process."""
+    code = ("import time; t=time.perf_counter(); "
+            "from monkeystudy import evaluate_horizontal_gait as e; e(0.9, 10.9); "
+            "print(time.perf_counter()-t)")
+    env = dict(os.environ)
+    if cold:
+        env["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(prefix="monkeystudy-cold-")
+    t0 = time.perf_counter()
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         check=True)
+    total = time.perf_counter() - t0
+    return total if out.stdout else total
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="monkeystudy bench", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="fewer points and repetitions")
+    ap.add_argument("--startup", action="store_true", help="also time cold/cached start-up")
+    ap.add_argument("--workers", action="store_true", help="also time 1 vs all workers")
+    args = ap.parse_args(argv)
+
+    robot = Robot.preset("seed2009")
+    par = robot.params()
+    floor = robot.swap_energy_floor()
+    npts = 8 if args.quick else 24
+    pts = gait_points(npts)
+    print(f"monkeystudy bench: seed2009 horizontal gait, {npts} points, "
+          f"{os.cpu_count()} cores; all ratios use baselines timed in this run")
+
+    chain_ns, indep_ns = rhs_cost_ns(par)
+    print(f"\nRHS (swing, compiled): {chain_ns:.1f} ns per evaluation as a dependent chain, "
+          f"{indep_ns:.1f} ns independent")
+
+    # reference: scipy DOP853 at rtol 1e-13 (a different implementation)
+    ref = np.array([ScipyGait(robot, SEED2009_TORQUE).gait(a, b, 1e-13, 1e-13)[:4]
+                    for a, b in pts])
+    print("\nkernel, per gait (errors: max |difference| of gait error and event times "
+          "vs scipy DOP853 rtol 1e-13):")
+    print(f"  {'method':7} {'rtol':>7} {'us/gait':>9} {'RHS/gait':>9} {'ns/RHS':>7} "
+          f"{'x chain':>8} {'x indep':>8} {'err(error)':>11} {'err(times)':>11}")
+    kernel_rows = {}
+    for method in ("dop853", "rk45"):
+        for rtol in ((1e-6, 1e-10) if args.quick else (1e-6, 1e-8, 1e-10, 1e-12)):
+            if method == "rk45" and rtol < 1e-10:
+                continue
+            integ = Integrator(method=method, rtol=rtol, atol=rtol * 1e-2)
+            prog, _ = HorizontalSearch(SEED2009_TORQUE).program()
+            st = settings_vector(integ)
+            out = kernel_gaits(par, prog, st, pts, floor)
+            reps = 3 if args.quick else 10
+            dt = best_of(lambda: kernel_gaits(par, prog, st, pts, floor), reps) / npts
+            nfev = out[:, R_NFEV].mean()
+            e_err = np.nanmax(np.abs(out[:, R_ERROR] - ref[:, 0]))
+            e_t = np.nanmax(np.abs(out[:, [R_T_SWITCH, R_T_MOTOR, R_T_END]] - ref[:, 1:4]))
+            kernel_rows[(method, rtol)] = (dt, e_err, e_t)
+            print(f"  {method:7} {rtol:7.0e} {dt * 1e6:9.1f} {nfev:9.0f} {dt / nfev * 1e9:7.1f} "
+                  f"{dt / (nfev * chain_ns * 1e-9):8.2f} {dt / (nfev * indep_ns * 1e-9):8.2f} "
+                  f"{e_err:11.2e} {e_t:11.2e}")
+
+    print("\nscipy solve_ivp, same gait (events, terminal), per gait:")
+    nsub = min(npts, 4 if args.quick else 8)
+    for rhs_kind in ("scalar", "numpy"):
+        sg = ScipyGait(robot, SEED2009_TORQUE, rhs_kind)
+        for method, rtol in (("DOP853", 1e-10), ("RK45", 1e-10), ("LSODA", 1e-10)):
+            if rhs_kind == "numpy" and method != "DOP853":
+                continue
+            t0 = time.perf_counter()
+            res = [sg.gait(a, b, rtol, rtol * 1e-2, method=method) for a, b in pts[:nsub]]
+            dt = (time.perf_counter() - t0) / nsub
+            res = np.array([r[:4] for r in res])
+            e_err = np.nanmax(np.abs(res[:, 0] - ref[:nsub, 0]))
+            e_t = np.nanmax(np.abs(res[:, 1:4] - ref[:nsub, 1:4]))
+            # the kernel on the very same points, for an honest comparison of errors
+            integ = Integrator(method="dop853", rtol=1e-10, atol=1e-12)
+            prog, _ = HorizontalSearch(SEED2009_TORQUE).program()
+            st = settings_vector(integ)
+            kt = best_of(lambda: kernel_gaits(par, prog, st, pts[:nsub], floor), 5) / nsub
+            ko = kernel_gaits(par, prog, st, pts[:nsub], floor)
+            mine = (kt, np.nanmax(np.abs(ko[:, R_ERROR] - ref[:nsub, 0])),
+                    np.nanmax(np.abs(ko[:, [R_T_SWITCH, R_T_MOTOR, R_T_END]] - ref[:nsub, 1:4])))
+            print(f"  {method:6} {rhs_kind:6} rtol {rtol:.0e}: {dt * 1e3:8.2f} ms/gait, "
+                  f"err(error) {e_err:.2e}, err(times) {e_t:.2e}  ->  kernel DOP853 rtol 1e-10 "
+                  f"on the same points is {dt / mine[0]:.0f}x faster (its errors "
+                  f"{mine[1]:.1e}, {mine[2]:.1e})")
+
+    if args.workers:
+        n = 2500 if args.quick else 20000
+        w1 = workers_throughput(n, 1, 1e-8)
+        wn = workers_throughput(n, os.cpu_count() or 1, 1e-8)
+        print(f"\nprocess pool, {n}-point grid (seed2009 map, rtol 1e-8): "
+              f"1 worker {w1:.0f} gaits/s, {os.cpu_count()} workers {wn:.0f} gaits/s, "
+              f"speed-up {wn / w1:.2f}x")
+    if args.startup:
+        cached = startup_seconds(cold=False)
+        cold = startup_seconds(cold=True)
+        print(f"\nstart-up to first gait (fresh process): cached {cached:.2f} s, "
+              f"cold (compiles the kernel) {cold:.1f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
