@@ -1,0 +1,246 @@
+"""Per-cycle figures of an open-loop repetition (``stability`` dataset; study figs. 5-8).
+
+* :func:`plot_error_per_cycle` - error at each vertical crossing, log scale (figs. 5 and 8);
+  :func:`plot_error_comparison` overlays several runs;
+* :func:`plot_kinetic_energy` - kinetic energy at each vertical crossing (fig. 6);
+* :func:`plot_pivot_height` - height of the attached end after each swap, with the link
+  length for scale, and the horizontal advance per cycle (fig. 7).
+"""
+from __future__ import annotations
+
+import json
+import math
+from typing import Sequence
+
+import numpy as np
+from matplotlib.ticker import MaxNLocator
+
+from ._common import (
+    BLUE, GREEN, VERMILLION, link_lengths, new_figure, robot_object, run_label, status_name,
+    style,
+)
+from ..kernel import layout as L
+
+#: Statuses that mean "the run went as long as asked" (not worth a warning on the plot).
+NORMAL_END = (L.ST_OK, L.ST_END_TIME)
+
+
+def gait_point(stab, refines: Sequence = ()) -> tuple[float, float] | None:
+    """The initial rates ``(dtheta1, dtheta2)`` [rad s-1] a stability run repeats.
+
+    Looked for in the dataset (scalar variables or attributes ``dtheta1``/``dtheta2``, or a
+    JSON ``start``/``gait_start`` attribute), else in the ``refine`` dataset whose recorded
+    times equal the run's ``t_switch``/``t_motor``.
+    """
+    for src in (stab.variables, stab.attrs):
+        if "dtheta1" in src and "dtheta2" in src:
+            try:
+                v1 = src["dtheta1"]
+                v2 = src["dtheta2"]
+                v1 = float(getattr(v1, "values", v1))
+                v2 = float(getattr(v2, "values", v2))
+                return v1, v2
+            except (TypeError, ValueError):
+                pass
+    for key in ("gait_start", "start"):
+        raw = stab.attrs.get(key)
+        try:
+            v = json.loads(raw) if isinstance(raw, str) else raw
+            if isinstance(v, dict):
+                v = (v["dtheta1"], v["dtheta2"])
+            if v is not None and len(v) == 2:
+                return float(v[0]), float(v[1])
+        except (TypeError, ValueError, KeyError):
+            pass
+    match = matching_refine(stab, refines)
+    if match is not None:
+        return float(match["dtheta1"]), float(match["dtheta2"])
+    return None
+
+
+def matching_refine(stab, refines: Sequence):
+    """The refine dataset whose ``t_switch``/``t_motor`` the stability run replays, or None."""
+    try:
+        ts, tm = float(stab.attrs["t_switch"]), float(stab.attrs["t_motor"])
+    except (KeyError, TypeError, ValueError):
+        return None
+    for r in refines:
+        try:
+            if (math.isclose(float(r["t_switch"]), ts, rel_tol=0, abs_tol=1e-9)
+                    and math.isclose(float(r["t_motor"]), tm, rel_tol=0, abs_tol=1e-9)):
+                return r
+        except (KeyError, TypeError, ValueError):
+            continue
+    return None
+
+
+def _gait_text(stab, gait) -> str:
+    times = ""
+    if "t_switch" in stab.attrs and "t_motor" in stab.attrs:
+        times = (f"swap at {float(stab.attrs['t_switch']):.3f} s, "
+                 f"motor {float(stab.attrs['t_motor']):.3f} s")
+    if gait is not None:
+        g = f"gait ({gait[0]:.3f}, {gait[1]:.3f})"
+        return f"{g}: {times}" if times else g
+    return times or "open-loop gait"
+
+
+def _stop_note(stab) -> str | None:
+    if "status" not in stab:
+        return None
+    code = int(stab["status"])
+    if code in NORMAL_END:
+        return None
+    return f"run stopped after cycle {stab.sizes.get('cycle', 0)}: {status_name(code).replace('_', ' ')}"
+
+
+def _finish(fig, ax, stab, title, subtitle=""):
+    fig.suptitle(title, x=0.02, ha="left", fontweight="bold")
+    sub = f"{subtitle}\n{run_label(stab)}" if subtitle else run_label(stab)
+    ax.set_title(sub, fontsize=8.5, fontweight="normal", loc="left")
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax.set_xlabel("gait cycle")
+
+
+def _annotate_stop(ax, stab, x, y):
+    note = _stop_note(stab)
+    if note and len(x):
+        ax.annotate(note, (x[-1], y[-1]), xytext=(-8, 12), textcoords="offset points",
+                    ha="right", fontsize=8, color=VERMILLION,
+                    arrowprops=dict(arrowstyle="->", color=VERMILLION, lw=0.8),
+                    gid="stop_note")
+
+
+def _cycle(stab) -> np.ndarray:
+    return np.asarray(stab["cycle"].values if "cycle" in stab.coords
+                      else np.arange(1, stab.sizes["cycle"] + 1), float)
+
+
+# ----------------------------------------------------------------------------------------------
+def plot_error_per_cycle(stab, *, gait=None, label: str | None = None):
+    """Error against the initial state at each vertical crossing, per cycle, log scale.
+
+    The line has ``gid`` ``error``; its ydata are the dataset's ``error`` (non-positive values
+    cannot be drawn on a log axis and are masked).
+    """
+    return plot_error_comparison([stab], gaits=[gait], labels=[label], _single=True)
+
+
+def plot_error_comparison(stabs: Sequence, *, gaits: Sequence = (), labels: Sequence = (),
+                          _single: bool = False):
+    """Errors per cycle of several open-loop runs on one log axis (figs. 5 and 8 together).
+
+    Lines have ``gid`` ``error`` (one run) or ``error_<step name>``.
+    """
+    gaits = list(gaits) + [None] * (len(stabs) - len(gaits))
+    labels = list(labels) + [None] * (len(stabs) - len(labels))
+    colours = [BLUE, VERMILLION, GREEN, "#CC79A7", "#E69F00", "#56B4E9"]
+    with style():
+        fig = new_figure(figsize=(7.0, 4.6))
+        ax = fig.add_subplot()
+        for k, (s, gait, lab) in enumerate(zip(stabs, gaits, labels)):
+            x = _cycle(s)
+            y = np.asarray(s["error"].values, float)
+            yplot = np.ma.masked_less_equal(y, 0.0)
+            step = s.attrs.get("step_name", f"run {k + 1}")
+            ax.plot(x, yplot, marker="o", color=colours[k % len(colours)],
+                    gid="error" if _single else f"error_{step}",
+                    label=lab or f"{step}: {_gait_text(s, gait)}")
+            _annotate_stop(ax, s, x, y)
+        ax.set_yscale("log")
+        ax.set_ylabel("error e at the vertical crossing  [1]")
+        if _single:
+            title = "Error per cycle of the open-loop repetition"
+            sub = f"Repeating {_gait_text(stabs[0], gaits[0])}"
+        else:
+            title = "Error per cycle of the open-loop runs"
+            sub = ""
+            ax.legend(loc="upper left")
+        _finish(fig, ax, stabs[0], title, sub)
+    return fig
+
+
+def plot_kinetic_energy(stab, *, gait=None):
+    """Kinetic energy [J] at each vertical crossing, per cycle (study fig. 6).
+
+    With the gait's start point known, a dashed line marks the kinetic energy of the start
+    state (what every crossing would have for a perfectly repeated gait). The data line has
+    ``gid`` ``kinetic_energy``; the reference ``ke_start``.
+    """
+    x = _cycle(stab)
+    y = np.asarray(stab["kinetic_energy"].values, float)
+    with style():
+        fig = new_figure(figsize=(7.0, 4.6))
+        ax = fig.add_subplot()
+        ax.plot(x, y, marker="o", color=BLUE, gid="kinetic_energy",
+                label="kinetic energy at the vertical crossing")
+        k0 = _start_kinetic_energy(stab, gait)
+        if k0 is not None:
+            ax.axhline(k0, ls="--", color="0.35", lw=1.0, gid="ke_start",
+                       label=f"at the gait start: {k0:.4g} J")
+        _annotate_stop(ax, stab, x, y)
+        ax.set_ylabel("kinetic energy  [J]")
+        ax.legend(loc="best")
+        _finish(fig, ax, stab, "Kinetic energy at the vertical crossing, per cycle",
+                f"Repeating {_gait_text(stab, gait)}")
+    return fig
+
+
+def _start_kinetic_energy(stab, gait) -> float | None:
+    if gait is None:
+        return None
+    robot = robot_object(stab)
+    if robot is None:
+        return None
+    from ..kernel.dynamics import kinetic_energy
+    p = robot.params()[0]
+    return float(kinetic_energy(p, 0.0, 0.0, 0.0, 0.0, float(gait[0]), float(gait[1])))
+
+
+def plot_pivot_height(stab, *, gait=None):
+    """Height [m] of the attached end after each swap, per cycle (study fig. 7).
+
+    Reference lines: the start height (0) and one link length below it, so the drop reads
+    against the robot's size; a second panel shows the horizontal advance per cycle
+    (``x_advance``) when the dataset has it. Lines: ``gid`` ``pivot_height``, ``x_advance``,
+    ``start_height``, ``link_length``.
+    """
+    x = _cycle(stab)
+    y = np.asarray(stab["pivot_height"].values, float)
+    has_adv = "x_advance" in stab
+    lengths = link_lengths(stab)
+    with style():
+        fig = new_figure(figsize=(7.0, 6.2 if has_adv else 4.6))
+        if has_adv:
+            ax, ax2 = fig.subplots(2, 1, sharex=True, height_ratios=[2.2, 1])
+        else:
+            ax, ax2 = fig.add_subplot(), None
+        ax.plot(x, y, marker="o", color=BLUE, gid="pivot_height",
+                label="attached end after the swap")
+        ax.axhline(0.0, ls="--", color="0.35", lw=1.0, gid="start_height",
+                   label="start height (attached end at the gait start)")
+        if lengths is not None:
+            L1 = lengths[0]
+            ax.axhline(-L1, ls=":", color=VERMILLION, lw=1.2, gid="link_length",
+                       label=f"one link length ({L1:g} m) below the start")
+        _annotate_stop(ax, stab, x, y)
+        ax.set_ylabel("height of the attached end  [m]")
+        ax.legend(loc="lower left")
+        if ax2 is not None:
+            adv = np.asarray(stab["x_advance"].values, float)
+            ax2.plot(x, adv, marker="o", color=GREEN, gid="x_advance",
+                     label="horizontal advance of the attached end")
+            if lengths is not None:
+                ax2.axhline(0.0, color="0.6", lw=0.8)
+            ax2.set_ylabel("advance per cycle  [m]")
+            ax2.legend(loc="lower left")
+            ax.tick_params(labelbottom=False)
+            _finish(fig, ax, stab, "Height of the attached end per cycle",
+                    f"Repeating {_gait_text(stab, gait)}")
+            ax.set_xlabel("")
+            ax2.set_xlabel("gait cycle")
+            ax2.xaxis.set_major_locator(MaxNLocator(integer=True))
+        else:
+            _finish(fig, ax, stab, "Height of the attached end per cycle",
+                    f"Repeating {_gait_text(stab, gait)}")
+    return fig

@@ -1,0 +1,421 @@
+"""The robot itself, drawn from a stability dataset's trajectory (dim ``sample``).
+
+* :func:`plot_filmstrip` - one gait cycle as a strip of frames: links as lines coloured by the
+  controller stage (hanging from A, swap, motor on, hanging from B, ...), end A a filled
+  circle, end B an open square, the attached end ringed; a timeline of the stages and the
+  motor torque below.
+* :func:`write_animation` - the whole multi-cycle run as a GIF (matplotlib ``PillowWriter``),
+  and as MP4 when ffmpeg is available; made offline from the dataset, no simulation.
+
+Which end is attached is read from a ``flipped`` variable when the dataset has one, otherwise
+from the trajectory itself: while swinging, the attached end is the one that does not move.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import matplotlib
+import numpy as np
+from matplotlib.animation import FFMpegWriter, PillowWriter
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
+
+from ._common import (
+    BLUE, GREEN, PURPLE, VERMILLION, atomic_path, link_lengths, new_figure, run_label, style,
+)
+
+PHASE_SWING, PHASE_FLIGHT, PHASE_FIXED = 0, 1, 2
+
+#: Controller stages as drawn: key -> (colour, legend text).
+STAGES = {
+    "A": (BLUE, "hanging from A, motor off"),
+    "B": (GREEN, "hanging from B, motor off"),
+    "A+motor": (VERMILLION, "hanging from A, motor on"),
+    "B+motor": (VERMILLION, "hanging from B, motor on"),
+    "flight": (PURPLE, "free flight"),
+    "fixed": ("0.45", "both ends attached"),
+}
+SWAP_COLOUR = "black"
+END_A = dict(marker="o", ms=7, mfc="black", mec="black", ls="none")
+END_B = dict(marker="s", ms=7, mfc="white", mec="black", mew=1.4, ls="none")
+MAGNET = dict(marker="o", ms=14, mfc="none", mec="#B8860B", mew=2.0, ls="none")
+
+
+@dataclass
+class Trajectory:
+    """The ``sample`` part of a stability dataset as numpy arrays."""
+
+    t: np.ndarray        # [s]
+    A: np.ndarray        # (n, 2) [m]
+    joint: np.ndarray
+    B: np.ndarray
+    phase: np.ndarray    # int
+    torque: np.ndarray   # [N m]
+    attached: np.ndarray  # "A", "B", "none", "both"
+
+    @property
+    def stage(self) -> np.ndarray:
+        """Stage key per sample (see :data:`STAGES`)."""
+        names = {"none": "flight", "both": "fixed"}
+        return np.array([names.get(a, a + "+motor" if m != 0 else a)
+                         for a, m in zip(self.attached, self.torque)], dtype=object)
+
+    def swaps(self) -> np.ndarray:
+        """Sample indices right after the attached end changed from one end to the other."""
+        a = self.attached
+        return np.flatnonzero((a[1:] != a[:-1]) & np.isin(a[1:], ["A", "B"])
+                              & np.isin(a[:-1], ["A", "B"])) + 1
+
+
+def has_trajectory(ds) -> bool:
+    return all(v in ds for v in ("A", "joint", "B")) and ds.sizes.get("sample", 0) > 1
+
+
+def trajectory(ds) -> Trajectory:
+    """Read the trajectory of a stability dataset."""
+    def xy(name):
+        return np.asarray(ds[name].transpose("sample", "xy").values, float)
+
+    t = np.asarray(ds["time"].values, float)
+    A, joint, B = xy("A"), xy("joint"), xy("B")
+    n = t.size
+    phase = (np.asarray(ds["phase"].values, int) if "phase" in ds
+             else np.full(n, PHASE_SWING))
+    torque = (np.asarray(ds["motor_torque"].values, float) if "motor_torque" in ds
+              else np.zeros(n))
+    if "flipped" in ds and ds["flipped"].dims == ("sample",):
+        swing_end = np.where(np.asarray(ds["flipped"].values) != 0, "B", "A")
+    else:
+        swing_end = _stationary_end(t, A, B)
+    attached = np.where(phase == PHASE_FLIGHT, "none",
+                        np.where(phase == PHASE_FIXED, "both", swing_end))
+    return Trajectory(t, A, joint, B, phase, torque, attached.astype(object))
+
+
+def _stationary_end(t, A, B) -> np.ndarray:
+    """Per sample, the end ("A"/"B") that does not move over the neighbouring interval.
+
+    Intervals of zero length (a sample repeated at an impact) carry no information: a sample
+    takes the interval after it if that has positive length, else the nearest one before it
+    (else the nearest one after it).
+    """
+    n = t.size
+    if n < 2:
+        return np.array(["A"] * n, dtype=object)
+    valid = np.diff(t) > 0
+    dA = np.hypot(*np.diff(A, axis=0).T)
+    dB = np.hypot(*np.diff(B, axis=0).T)
+    cls = np.where(dA <= dB, "A", "B")
+    k = np.arange(n - 1)
+    before = np.maximum.accumulate(np.where(valid, k, -1))             # last valid <= k
+    after = np.minimum.accumulate(np.where(valid, k, n)[::-1])[::-1]   # first valid >= k
+    out = np.empty(n, dtype=object)
+    for i in range(n):
+        if i < n - 1 and valid[i]:
+            j = i
+        elif i > 0 and before[i - 1] >= 0:
+            j = before[i - 1]
+        else:
+            j = after[min(i, n - 2)]
+        out[i] = cls[j] if 0 <= j < n - 1 else "A"
+    return out
+
+
+def _cycle_bounds(ds, traj: Trajectory, cycle: int) -> tuple[int, int]:
+    """Sample index range ``[i0, i1)`` of gait cycle ``cycle`` (1-based)."""
+    t = traj.t
+    if "t_cross" in ds and ds.sizes.get("cycle", 0) >= cycle:
+        tc = np.asarray(ds["t_cross"].values, float)
+        t0 = tc[cycle - 2] if cycle >= 2 else t[0]
+        t1 = tc[cycle - 1]
+        i0 = int(np.searchsorted(t, t0, side="left"))
+        i1 = int(np.searchsorted(t, t1, side="right"))
+        return i0, max(i1, i0 + 2)
+    return 0, t.size
+
+
+def _world_limits(traj: Trajectory, sl: slice, pad: float = 0.12):
+    pts = np.concatenate([traj.A[sl], traj.joint[sl], traj.B[sl]])
+    lo, hi = np.nanmin(pts, axis=0) - pad, np.nanmax(pts, axis=0) + pad
+    return (lo[0], hi[0]), (lo[1], hi[1])
+
+
+def _draw_pose(ax, traj: Trajectory, i: int, colour, *, labels: bool = False,
+               gid: str = "pose", lw: float = 3.0):
+    xs = [traj.A[i, 0], traj.joint[i, 0], traj.B[i, 0]]
+    ys = [traj.A[i, 1], traj.joint[i, 1], traj.B[i, 1]]
+    line, = ax.plot(xs, ys, "-", color=colour, lw=lw, solid_capstyle="round", gid=gid,
+                    zorder=4)
+    ax.plot(*traj.joint[i], marker="o", ms=4, color="0.25", ls="none", zorder=5)
+    a, = ax.plot(*traj.A[i], zorder=6, **END_A)
+    b, = ax.plot(*traj.B[i], zorder=6, **END_B)
+    att = traj.attached[i]
+    for end, pos in (("A", traj.A[i]), ("B", traj.B[i])):
+        if att in (end, "both"):
+            ax.plot(*pos, zorder=3, **MAGNET)
+    if labels:
+        for name, pos in (("A", traj.A[i]), ("B", traj.B[i])):
+            ax.annotate(name, pos, xytext=(6, -12), textcoords="offset points", fontsize=9,
+                        fontweight="bold", zorder=7)
+    return line, a, b
+
+
+def _pick_frames(traj: Trajectory, i0: int, i1: int, n_frames: int) -> list[int]:
+    """``n_frames`` sample indices in ``[i0, i1)``: the first sample of every stage (start,
+    swap, motor off, ...) and the last sample, the rest evenly spaced in time in between."""
+    t = traj.t[i0:i1]
+    st = traj.stage[i0:i1]
+    keys = {i0, i1 - 1} | {i0 + int(c) for c in np.flatnonzero(st[1:] != st[:-1]) + 1}
+    n_even = max(n_frames - len(keys), 0)
+    if n_even == 0:
+        return sorted(keys)
+    # spread the remaining frames over the gaps between key frames, by gap duration
+    ks = sorted(keys)
+    gaps = np.diff(traj.t[ks])
+    share = np.floor(n_even * gaps / max(gaps.sum(), 1e-12)).astype(int)
+    for k in np.argsort(-(n_even * gaps / max(gaps.sum(), 1e-12) - share))[:n_even - share.sum()]:
+        share[k] += 1
+    idx = set(ks)
+    for (a, b), m in zip(zip(ks[:-1], ks[1:]), share):
+        for x in np.linspace(traj.t[a], traj.t[b], m + 2)[1:-1]:
+            j = i0 + int(np.argmin(np.abs(t - x)))
+            if j not in idx:
+                idx.add(j)
+    return sorted(idx)
+
+
+def _change_tag(stage, i: int, swap: bool) -> str:
+    """"swap", "motor on", "motor off" when sample ``i`` starts a new stage, else ""."""
+    if swap:
+        return "  swap" + (", motor on" if stage[i].endswith("+motor") else "")
+    if i == 0 or stage[i] == stage[i - 1]:
+        return ""
+    if stage[i].endswith("+motor") and not stage[i - 1].endswith("+motor"):
+        return "  motor on"
+    if stage[i - 1].endswith("+motor") and not stage[i].endswith("+motor"):
+        return "  motor off"
+    return ""
+
+
+# ----------------------------------------------------------------------------------------------
+def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6,
+                   gait=None):
+    """One gait cycle of a stability run as a strip of frames (study fig. 2, from data).
+
+    Each frame draws the robot at one sample: the links as a line coloured by the stage, end A
+    a filled circle, end B an open square, the attached end ringed (magnet on). Frames are
+    evenly spaced in time plus one at every stage change (swap, motor on/off). A timeline
+    below shows the stages and the motor torque.
+
+    Pose lines have ``gid`` ``pose``; their data are ``[A, joint, B]`` of a sample.
+    """
+    traj = trajectory(stab)
+    i0, i1 = _cycle_bounds(stab, traj, cycle)
+    frames = _pick_frames(traj, i0, i1, n_frames)
+    stage = traj.stage
+    xlim, ylim = _world_limits(traj, slice(i0, i1))
+    n = len(frames)
+    ncols = min(columns, n)
+    nrows = int(np.ceil(n / ncols))
+    span = max(xlim[1] - xlim[0], 1e-6)
+    height = max(ylim[1] - ylim[0], 1e-6)
+    panel_w = 11.5 / ncols
+    with style():
+        fig = new_figure(figsize=(12.0, nrows * panel_w * height / span + 2.8))
+        gs = fig.add_gridspec(nrows + 1, ncols, height_ratios=[1.0] * nrows + [0.55])
+        swaps = set(traj.swaps())
+        axes = []
+        for k, i in enumerate(frames):
+            ax = fig.add_subplot(gs[k // ncols, k % ncols],
+                                 sharex=axes[0] if axes else None,
+                                 sharey=axes[0] if axes else None)
+            axes.append(ax)
+            colour = STAGES.get(stage[i], ("0.3", ""))[0]
+            # whole-cycle paths of the ends, faint, for orientation
+            ax.plot(traj.A[i0:i1, 0], traj.A[i0:i1, 1], color="0.8", lw=0.8, zorder=1)
+            ax.plot(traj.B[i0:i1, 0], traj.B[i0:i1, 1], color="0.8", lw=0.8, ls="--", zorder=1)
+            ax.axhline(0.0, color="0.6", lw=0.6, ls=":", zorder=0)
+            _draw_pose(ax, traj, i, colour, labels=(k == 0))
+            tag = _change_tag(stage, i, i in swaps)
+            ax.set_title(f"{k + 1}: t = {traj.t[i]:.3f} s{tag}", fontsize=8.5,
+                         fontweight="bold" if tag else "normal", color=colour, loc="center")
+            ax.set_aspect("equal", adjustable="box")
+            ax.tick_params(labelsize=7)
+            if k % ncols != 0:
+                ax.tick_params(labelleft=False)
+            if k // ncols != nrows - 1 and k + ncols < n:
+                ax.tick_params(labelbottom=False)
+        axes[0].set_xlim(*xlim)
+        axes[0].set_ylim(*ylim)
+        axes[0].set_ylabel("y  [m]")
+        if nrows > 1:
+            axes[ncols].set_ylabel("y  [m]")
+        for ax in axes[(nrows - 1) * ncols:]:
+            ax.set_xlabel("x  [m]")
+        # timeline: stages as coloured bands, torque as a step line, frame times as ticks
+        tl = fig.add_subplot(gs[nrows, :])
+        t = traj.t[i0:i1]
+        st = stage[i0:i1]
+        bounds = np.flatnonzero(st[1:] != st[:-1]) + 1
+        starts = np.concatenate([[0], bounds])
+        stops = np.concatenate([bounds, [len(t) - 1]])
+        seen = []
+        for a, b in zip(starts, stops):
+            key = st[a]
+            tl.axvspan(t[a], t[b], color=STAGES.get(key, ("0.3",))[0], alpha=0.25, lw=0)
+            if key not in seen:
+                seen.append(key)
+        tl.plot(t, traj.torque[i0:i1], color="black", lw=1.2, drawstyle="steps-post",
+                gid="torque")
+        for s in sorted(swaps):
+            if i0 <= s < i1:
+                tl.axvline(traj.t[s], color=SWAP_COLOUR, lw=1.5, ls="--")
+        for k, i in enumerate(frames):
+            tl.annotate(str(k + 1), (traj.t[i], 0.97), xycoords=("data", "axes fraction"),
+                        ha="center", va="top", fontsize=7,
+                        bbox=dict(boxstyle="round,pad=0.12", fc="white", ec="none", alpha=0.8))
+            tl.axvline(traj.t[i], ymin=0.8, ymax=0.86, color="0.3", lw=0.8)
+        tl.set_xlim(t[0], t[-1])
+        tmax = float(np.nanmax(np.abs(traj.torque[i0:i1]))) if i1 > i0 else 0.0
+        tl.set_ylim(-0.1 * max(tmax, 1e-3), 1.45 * max(tmax, 1e-3))
+        tl.set_xlabel("time  [s]")
+        tl.set_ylabel("motor torque\n[N m]")
+        handles = [Patch(color=STAGES[k][0], alpha=0.5, label=STAGES[k][1]) for k in seen]
+        handles += [Line2D([], [], color=SWAP_COLOUR, ls="--", label="magnet swap"),
+                    Line2D([], [], label="end A", **END_A),
+                    Line2D([], [], label="end B", **END_B),
+                    Line2D([], [], label="attached end (magnet on)", **MAGNET)]
+        fig.legend(handles=handles, loc="outside lower center", ncols=4, frameon=False)
+        from .cycles import _gait_text
+        fig.suptitle(f"Gait cycle {cycle} of the open-loop run, "
+                     f"{_gait_text(stab, gait)}", x=0.01, ha="left", fontweight="bold")
+        tl.set_title(run_label(stab), fontsize=8.5, fontweight="normal", loc="left")
+    return fig
+
+
+# ----------------------------------------------------------------------------------------------
+class _PillowWriterWithComment(PillowWriter):
+    """matplotlib's PillowWriter, storing a provenance comment in the GIF."""
+
+    def __init__(self, *args, comment: str = "", **kwargs):
+        super().__init__(*args, **kwargs)
+        self._comment = comment
+
+    def finish(self):
+        self._frames[0].save(self.outfile, save_all=True, append_images=self._frames[1:],
+                             duration=int(1000 / self.fps), loop=0,
+                             comment=self._comment.encode("utf-8", "replace"))
+
+
+def animation_frames(traj: Trajectory, fps: float, max_frames: int) -> tuple[np.ndarray, float]:
+    """Sample indices of the frames and the playback speed-up (1 = real time)."""
+    duration = float(traj.t[-1] - traj.t[0])
+    n_real = int(duration * fps) + 1
+    speed = max(1.0, n_real / max_frames)
+    n = max(2, min(n_real, max_frames))
+    times = traj.t[0] + np.linspace(0.0, duration, n)
+    idx = np.searchsorted(traj.t, times, side="right") - 1
+    return np.clip(idx, 0, traj.t.size - 1), speed
+
+
+def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_frames: int = 300,
+                    dpi: float = 80.0, window: float = 3.2, gait=None,
+                    mp4: bool | None = None) -> list[Path]:
+    """Animate the whole run of a stability dataset; write ``base.gif`` (and ``base.mp4``).
+
+    Real time at ``fps`` frames per second unless that needs more than ``max_frames`` frames,
+    then sped up (the speed-up is shown). The view (``window`` metres wide) follows the robot;
+    the start height and the points where a magnet attached are drawn fixed in the world.
+    ``mp4`` None: write MP4 only when ffmpeg is available. Returns the written paths.
+    """
+    traj = trajectory(stab)
+    frames, speed = animation_frames(traj, fps, max_frames)
+    stage = traj.stage
+    lengths = link_lengths(stab) or (0.61, 0.61)
+    reach = lengths[0] + lengths[1]
+    swaps = traj.swaps()
+    feet = np.array([traj.A[0]] + [traj.B[s] if traj.attached[s] == "B" else traj.A[s]
+                                   for s in swaps]).reshape(-1, 2)
+    foot_t = np.concatenate([[traj.t[0]], traj.t[swaps]])
+    tc = np.asarray(stab["t_cross"].values, float) if "t_cross" in stab else np.zeros(0)
+    comment = "; ".join(f"{k}={v}" for k, v in prov.items())
+    base = Path(base)
+    written = []
+    # fixed layout: savefig resets a figure without a layout engine to the rcParam default
+    # (constrained), which would re-run the layout on every frame
+    with style(), matplotlib.rc_context({"figure.constrained_layout.use": False}):
+        fig = new_figure(figsize=(6.4, 4.0), dpi=dpi, layout="none")
+        fig.subplots_adjust(left=0.1, right=0.98, bottom=0.12, top=0.86)
+        ax = fig.add_subplot()
+        ax.set_aspect("equal", adjustable="box")
+        ax.axhline(0.0, color="0.5", lw=0.8, ls="--")
+        ax.text(0.01, 0.02, "dashed: start height; grey: path of the joint; "
+                "▼: where a magnet attached", transform=ax.transAxes, fontsize=6.5,
+                color="0.35")
+        trail, = ax.plot([], [], color="0.75", lw=0.8)
+        foot, = ax.plot([], [], "v", color="#B8860B", ms=5, ls="none")
+        line, = ax.plot([], [], "-", lw=4, solid_capstyle="round", zorder=4)
+        jnt, = ax.plot([], [], "o", ms=4, color="0.25", zorder=5)
+        a_m, = ax.plot([], [], zorder=6, **END_A)
+        b_m, = ax.plot([], [], zorder=6, **END_B)
+        mag, = ax.plot([], [], zorder=3, **MAGNET)
+        info = ax.text(0.01, 0.98, "", transform=ax.transAxes, va="top", fontsize=8)
+        ax.set_xlabel("x  [m]")
+        ax.set_ylabel("y  [m]")
+        from .cycles import _gait_text
+        fig.suptitle(f"Open-loop run, {_gait_text(stab, gait)}", fontsize=9, x=0.02,
+                     ha="left", fontweight="bold")
+        ax.set_title(run_label(stab) + (f"; playback ×{speed:.1f}" if speed > 1 else ""),
+                     fontsize=6.5, fontweight="normal", loc="left")
+        ax.legend(handles=[Line2D([], [], label="end A", **END_A),
+                           Line2D([], [], label="end B", **END_B),
+                           Line2D([], [], label="magnet on", **MAGNET)] +
+                  [Line2D([], [], color=STAGES["A"][0], lw=3, label="hanging from A"),
+                   Line2D([], [], color=STAGES["B"][0], lw=3, label="hanging from B"),
+                   Line2D([], [], color=STAGES["A+motor"][0], lw=3, label="motor on")],
+                  loc="upper right", fontsize=6, ncols=2)
+        half_h = 0.5 * window * (fig.subplotpars.top - fig.subplotpars.bottom) * 4.0 / \
+            ((fig.subplotpars.right - fig.subplotpars.left) * 6.4)
+
+        def update(i):
+            colour = STAGES.get(stage[i], ("0.3", ""))[0]
+            line.set_data([traj.A[i, 0], traj.joint[i, 0], traj.B[i, 0]],
+                          [traj.A[i, 1], traj.joint[i, 1], traj.B[i, 1]])
+            line.set_color(colour)
+            jnt.set_data([traj.joint[i, 0]], [traj.joint[i, 1]])
+            a_m.set_data([traj.A[i, 0]], [traj.A[i, 1]])
+            b_m.set_data([traj.B[i, 0]], [traj.B[i, 1]])
+            att = traj.attached[i]
+            pts = [p for e, p in (("A", traj.A[i]), ("B", traj.B[i])) if att in (e, "both")]
+            mag.set_data([p[0] for p in pts], [p[1] for p in pts])
+            k = np.searchsorted(foot_t, traj.t[i], side="right")
+            foot.set_data(feet[:k, 0], feet[:k, 1])
+            j0 = max(0, i - 400)
+            trail.set_data(traj.joint[j0:i + 1, 0], traj.joint[j0:i + 1, 1])
+            pivot = traj.B[i] if att == "B" else traj.A[i]
+            cx = 0.5 * (traj.A[i, 0] + traj.B[i, 0])
+            cy = pivot[1] - 0.35 * reach
+            ax.set_xlim(cx - window / 2, cx + window / 2)
+            ax.set_ylim(cy - half_h, cy + half_h)
+            cyc = (min(int(np.searchsorted(tc, traj.t[i], side="left")) + 1, tc.size)
+                   if tc.size else None)
+            info.set_text(f"t = {traj.t[i]:6.2f} s" + (f"   cycle {cyc}" if cyc else "")
+                          + f"\n{STAGES.get(stage[i], ('', stage[i]))[1]}")
+            info.set_color(colour)
+
+        targets = [("gif", _PillowWriterWithComment(fps=fps, comment=comment))]
+        want_mp4 = FFMpegWriter.isAvailable() if mp4 is None else mp4
+        if want_mp4:
+            targets.append(("mp4", FFMpegWriter(fps=fps, metadata={"comment": comment,
+                                                                   "title": base.name})))
+        for ext, writer in targets:
+            path = base.with_name(f"{base.name}.{ext}")
+            with atomic_path(path) as tmp:
+                with writer.saving(fig, str(tmp), dpi):
+                    for i in frames:
+                        update(int(i))
+                        writer.grab_frame()
+            written.append(path)
+    return written

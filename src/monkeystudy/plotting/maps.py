@@ -1,0 +1,328 @@
+"""Error maps of a grid dataset: the 3-D surface (study fig. 3) and the intensity map (figs. 4,
+9 and 10).
+
+Grid points without a gait (``status != 0``, the study's "not enough energy" region and other
+failures) have no error value; they are drawn as their own categories, never as numbers:
+hatched patches of distinct colours on the map, a flat floor of the same colours under the
+surface.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch, PathPatch
+from matplotlib.path import Path as MplPath
+
+from ._common import MINIMUM_COLOUR, new_figure, run_label, status_name, style
+from ..kernel import layout as L
+
+D1_LABEL = r"initial $\dot\theta_1$  [rad s$^{-1}$]"
+D2_LABEL = r"initial $\dot\theta_2$  [rad s$^{-1}$]"
+
+#: No-gait categories: (key, status codes or None for "every other failure", colour, hatch,
+#: legend text). The first two are the study's flat "not enough energy" region.
+NO_GAIT = (
+    ("unreachable", (L.ST_UNREACHABLE,), "#7f98bd", "///",
+     "no gait: B cannot reach A's height (energy bound, not integrated)"),
+    ("no_switch", (L.ST_NO_SWITCH,), "#b3d1ee", "\\\\\\",
+     "no gait: B never reached A's height"),
+    ("other", None, "#33b5a5", "xx", "no gait: {names}"),
+)
+MISSING = -1   # a cell of the plotting grid without a dataset point
+
+
+@dataclass
+class GridData:
+    """A grid dataset as 2-D numpy arrays indexed ``[i_dtheta1, i_dtheta2]``."""
+
+    dtheta1: np.ndarray
+    dtheta2: np.ndarray
+    error: np.ndarray    # NaN where there is no gait
+    status: np.ndarray   # int, MISSING where the dataset has no point
+
+    @property
+    def ok(self) -> np.ndarray:
+        return (self.status == L.ST_OK) & np.isfinite(self.error)
+
+    def category_masks(self) -> list[tuple[str, np.ndarray, str, str, str]]:
+        """``(key, mask, colour, hatch, label)`` for each no-gait category present."""
+        failed = (self.status != L.ST_OK) & (self.status != MISSING)
+        out, claimed = [], np.zeros_like(failed)
+        for key, codes, colour, hatch, label in NO_GAIT:
+            if codes is None:
+                mask = failed & ~claimed
+                names = sorted({status_name(c) for c in np.unique(self.status[mask])})
+                label = label.format(names=", ".join(n.replace("_", " ") for n in names))
+            else:
+                mask = np.isin(self.status, codes)
+            claimed |= mask
+            if mask.any():
+                out.append((key, mask, colour, hatch, f"{label} ({int(mask.sum())} points)"))
+        return out
+
+
+def grid_arrays(ds) -> GridData:
+    """Read a ``grid`` dataset (2-D dims, or explicit points on dim ``point``)."""
+    if "point" in ds.dims:
+        p1 = np.asarray(ds["dtheta1"].values, float)
+        p2 = np.asarray(ds["dtheta2"].values, float)
+        d1, i1 = np.unique(p1, return_inverse=True)
+        d2, i2 = np.unique(p2, return_inverse=True)
+        err = np.full((d1.size, d2.size), np.nan)
+        st = np.full((d1.size, d2.size), MISSING, dtype=int)
+        err[i1, i2] = np.asarray(ds["error"].values, float)
+        st[i1, i2] = np.asarray(ds["status"].values, int)
+    else:
+        d1 = np.asarray(ds["dtheta1"].values, float)
+        d2 = np.asarray(ds["dtheta2"].values, float)
+        err = np.asarray(ds["error"].transpose("dtheta1", "dtheta2").values, float)
+        st = np.asarray(ds["status"].transpose("dtheta1", "dtheta2").values, int)
+    err = np.where(st == L.ST_OK, err, np.nan)    # a no-gait point never shows a number
+    return GridData(d1, d2, err, st)
+
+
+def cell_edges(v: np.ndarray) -> np.ndarray:
+    """Edges of cells centred on the (sorted) values ``v``."""
+    v = np.asarray(v, float)
+    if v.size == 1:
+        return np.array([v[0] - 0.5, v[0] + 0.5])
+    mid = 0.5 * (v[1:] + v[:-1])
+    return np.concatenate([[v[0] - (mid[0] - v[0])], mid, [v[-1] + (v[-1] - mid[-1])]])
+
+
+def mask_path(mask: np.ndarray, e1: np.ndarray, e2: np.ndarray) -> MplPath:
+    """One compound path of the cells where ``mask[i1, i2]`` (x = dtheta1, y = dtheta2),
+    consecutive cells along dtheta2 merged into one rectangle."""
+    verts, codes = [], []
+    for i in range(mask.shape[0]):
+        col = np.concatenate([[False], mask[i], [False]])
+        starts = np.flatnonzero(~col[:-1] & col[1:])
+        stops = np.flatnonzero(col[:-1] & ~col[1:])
+        for a, b in zip(starts, stops):
+            x0, x1, y0, y1 = e1[i], e1[i + 1], e2[a], e2[b]
+            verts += [(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)]
+            codes += [MplPath.MOVETO, MplPath.LINETO, MplPath.LINETO, MplPath.LINETO,
+                      MplPath.CLOSEPOLY]
+    return MplPath(np.array(verts, float).reshape(-1, 2), codes)
+
+
+def _hatch_patch(path, colour, hatch, gid):
+    kw = dict(facecolor=colour, edgecolor="#42526e", hatch=hatch, linewidth=0.0, gid=gid,
+              zorder=2)
+    try:
+        return PathPatch(path, hatchcolor="#42526e", **kw)
+    except (AttributeError, TypeError):   # matplotlib < 3.10: hatches take the edge colour
+        return PathPatch(path, **kw)
+
+
+def _legend_patch(colour, hatch, label):
+    kw = dict(facecolor=colour, edgecolor="#42526e", hatch=hatch, linewidth=0.5, label=label)
+    try:
+        return Patch(hatchcolor="#42526e", **kw)
+    except (AttributeError, TypeError):
+        return Patch(**kw)
+
+
+@dataclass
+class Minimum:
+    """A located minimum (from a ``refine`` dataset) to mark on a map."""
+
+    label: str
+    dtheta1: float
+    dtheta2: float
+    error: float
+    ok: bool
+    path1: np.ndarray
+    path2: np.ndarray
+    start: tuple[float, float] | None
+
+
+def minima_from(refines: Sequence) -> list[Minimum]:
+    import json
+    out = []
+    for r in refines:
+        start = None
+        try:
+            s = json.loads(r.attrs.get("start", "null"))
+            if s is not None and len(s) == 2:
+                start = (float(s[0]), float(s[1]))
+        except (TypeError, ValueError):
+            pass
+        p1 = np.asarray(r["iterate_dtheta1"].values, float) if "iterate_dtheta1" in r else \
+            np.zeros(0)
+        p2 = np.asarray(r["iterate_dtheta2"].values, float) if "iterate_dtheta2" in r else \
+            np.zeros(0)
+        out.append(Minimum(str(r.attrs.get("step_name", "minimum")),
+                           float(r["dtheta1"]), float(r["dtheta2"]), float(r["error"]),
+                           int(r["status"]) == L.ST_OK if "status" in r else True,
+                           p1, p2, start))
+    return out
+
+
+def _grid_title(g: GridData, what: str) -> str:
+    return (f"{what} over a {g.dtheta1.size}×{g.dtheta2.size} grid of initial rates")
+
+
+# ----------------------------------------------------------------------------------------------
+# intensity map (figs. 4, 9, 10)
+# ----------------------------------------------------------------------------------------------
+def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str = "magma",
+                   show_paths: bool = True, title: str | None = None):
+    """Intensity map of the gait error, truncated at ``vmax``, dark = small (study fig. 4).
+
+    Parameters
+    ----------
+    grid : xarray.Dataset
+        A ``grid`` dataset (docs/datasets.md).
+    refines : sequence of xarray.Dataset
+        ``refine`` datasets of the same study: their minima are marked with green squares and
+        labelled with their position and error; their Nelder-Mead paths drawn dotted. Minima
+        outside the grid's range are left out.
+    vmax : float
+        Errors above this are shown at the top colour (the study truncates at 5).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Artists with ``gid``: ``error`` (the QuadMesh; its array is the clipped error,
+        ``[i_dtheta2, i_dtheta1]``, masked where there is no gait), ``nogait_<category>``
+        patches, ``minimum_<step>`` markers, ``path_<step>`` lines.
+    """
+    g = grid_arrays(grid)
+    e1, e2 = cell_edges(g.dtheta1), cell_edges(g.dtheta2)
+    clipped = np.ma.masked_invalid(np.minimum(g.error, vmax)).T
+    with style():
+        fig = new_figure(figsize=(7.4, 6.4))
+        ax = fig.add_subplot()
+        ax.grid(False)
+        mesh = ax.pcolormesh(e1, e2, clipped, cmap=cmap, vmin=0.0, vmax=vmax, shading="flat",
+                             gid="error", rasterized=True, zorder=1)
+        cb = fig.colorbar(mesh, ax=ax, extend="max", pad=0.02, shrink=0.9)
+        cb.set_label(f"gait error e  [1]  (values above {vmax:g} shown as {vmax:g})")
+        handles = []
+        for key, mask, colour, hatch, label in g.category_masks():
+            ax.add_patch(_hatch_patch(mask_path(mask, e1, e2), colour, hatch, f"nogait_{key}"))
+            handles.append(_legend_patch(colour, hatch, label))
+        ax.set_xlim(e1[0], e1[-1])
+        ax.set_ylim(e2[0], e2[-1])
+        ax.set_xlabel(D1_LABEL)
+        ax.set_ylabel(D2_LABEL)
+
+        # located minima (green squares, as in the study) with their values
+        lo1, hi1, lo2, hi2 = e1[0], e1[-1], e2[0], e2[-1]
+        shown = [m for m in minima_from(refines)
+                 if lo1 <= m.dtheta1 <= hi1 and lo2 <= m.dtheta2 <= hi2]
+        shown.sort(key=lambda m: (-m.dtheta2, m.dtheta1))   # upper minimum, upper label
+        offsets = [(14, 16), (14, -40), (-120, 16), (-120, -40)]
+        for k, m in enumerate(shown):
+            if show_paths and m.path1.size:
+                ax.plot(m.path1, m.path2, ls=":", lw=1.2, color=MINIMUM_COLOUR, alpha=0.9,
+                        gid=f"path_{m.label}", zorder=3)
+            if show_paths and m.start is not None:
+                ax.plot(*m.start, marker="o", ms=6, mfc="none", mec=MINIMUM_COLOUR, mew=1.5,
+                        ls="none", zorder=4, gid=f"start_{m.label}")
+            ax.plot(m.dtheta1, m.dtheta2, marker="s", ms=8, mfc=MINIMUM_COLOUR, mec="black",
+                    mew=1.0, ls="none", zorder=5, gid=f"minimum_{m.label}")
+            txt = (f"{m.label}: e = {m.error:.2g}\n"
+                   f"({m.dtheta1:.3f}, {m.dtheta2:.3f})" + ("" if m.ok else "\n(no gait)"))
+            dx, dy = offsets[k % len(offsets)]
+            ax.annotate(txt, (m.dtheta1, m.dtheta2), xytext=(dx, dy),
+                        textcoords="offset points", fontsize=8, zorder=6,
+                        bbox=dict(boxstyle="round,pad=0.25", fc="white", ec="0.3", alpha=0.9),
+                        arrowprops=dict(arrowstyle="-", color="white", lw=1.0),
+                        gid=f"label_{m.label}")
+        if shown:
+            handles.append(Line2D([], [], marker="s", ms=8, mfc=MINIMUM_COLOUR, mec="black",
+                                  ls="none", label="located minimum (refine), value e"))
+            if show_paths:
+                handles.append(Line2D([], [], marker="o", mfc="none", mec=MINIMUM_COLOUR,
+                                      ls=":", color=MINIMUM_COLOUR,
+                                      label="Nelder–Mead start (○) and best-vertex path"))
+        if handles:
+            fig.legend(handles=handles, loc="outside lower center", ncols=1, frameon=False)
+        fig.suptitle(title or _grid_title(g, "Horizontal-gait error e"), x=0.02,
+                     ha="left", fontweight="bold")
+        ax.set_title(run_label(grid), fontsize=8.5, fontweight="normal", loc="left")
+    return fig
+
+
+# ----------------------------------------------------------------------------------------------
+# 3-D surface (fig. 3)
+# ----------------------------------------------------------------------------------------------
+def plot_error_surface(grid, *, max_cells: int = 120, cmap: str = "magma",
+                       elev: float = 28.0, azim: float = -130.0, title: str | None = None):
+    """3-D surface of sqrt(error) over (dtheta1, dtheta2) (study fig. 3).
+
+    Points without a gait form a flat floor at 0 in their category colours (the study's flat
+    "not enough energy" region), with a legend; the surface itself is only drawn where there is
+    a gait. Grids larger than ``max_cells`` per axis are drawn at that resolution (matplotlib's
+    ``rcount``/``ccount``: every n-th point, no averaging).
+
+    Returns a Figure whose surface has ``gid`` ``sqrt_error`` and floors ``floor_<category>``.
+    """
+    g = grid_arrays(grid)
+    X, Y = np.meshgrid(g.dtheta1, g.dtheta2, indexing="ij")
+    Z = np.sqrt(g.error)
+    zmax = float(np.nanmax(Z)) if np.isfinite(Z).any() else 1.0
+    rc, cc = min(g.dtheta1.size, max_cells), min(g.dtheta2.size, max_cells)
+    with style():
+        fig = new_figure(figsize=(7.6, 6.2))
+        ax = fig.add_subplot(projection="3d", computed_zorder=False)
+        handles = []
+        for key, mask, colour, hatch, label in g.category_masks():
+            Zf = np.where(mask, 0.0, np.nan)
+            ax.plot_surface(X, Y, Zf, color=colour, rcount=rc, ccount=cc, linewidth=0,
+                            antialiased=False, shade=False, gid=f"floor_{key}", zorder=1)
+            handles.append(Patch(facecolor=colour, edgecolor="#42526e", label=label))
+        surf = ax.plot_surface(X, Y, Z, cmap=cmap, vmin=0.0, vmax=zmax, rcount=rc, ccount=cc,
+                               linewidth=0.15, edgecolor=(0, 0, 0, 0.15), antialiased=True,
+                               gid="sqrt_error", zorder=2)
+        cb = fig.colorbar(surf, ax=ax, shrink=0.6, pad=0.08)
+        cb.set_label(r"$\sqrt{e}$  [1]")
+        ax.set_xlabel(D1_LABEL, labelpad=8)
+        ax.set_ylabel(D2_LABEL, labelpad=8)
+        ax.set_zlabel(r"$\sqrt{e}$  [1]", labelpad=6)
+        ax.set_xlim(g.dtheta1[0], g.dtheta1[-1])
+        ax.set_ylim(g.dtheta2[0], g.dtheta2[-1])
+        ax.set_zlim(0.0, zmax)
+        ax.view_init(elev=elev, azim=azim)
+        if handles:
+            fig.legend(handles=handles, loc="outside lower center", ncols=1, frameon=False)
+        fig.suptitle(title or _grid_title(g, "Square root of the gait error"), x=0.02,
+                     ha="left", fontweight="bold")
+        ax.set_title(run_label(grid), fontsize=8.5, fontweight="normal", loc="left")
+    return fig
+
+
+# ----------------------------------------------------------------------------------------------
+# Nelder-Mead convergence of a refine step
+# ----------------------------------------------------------------------------------------------
+def plot_refine_convergence(refine):
+    """Best-vertex error per Nelder-Mead iteration of a ``refine`` dataset (log scale).
+
+    Shows where the search stalls (the study's tick-quantised error surface stops the simplex
+    above zero). The line has ``gid`` ``iterate_error``.
+    """
+    it = np.asarray(refine["iteration"].values if "iteration" in refine.coords
+                    else np.arange(1, refine.sizes["iteration"] + 1), float)
+    err = np.asarray(refine["iterate_error"].values, float)
+    m = minima_from([refine])[0]
+    with style():
+        fig = new_figure(figsize=(7.0, 4.4))
+        ax = fig.add_subplot()
+        ax.plot(it, np.ma.masked_less_equal(err, 0.0), marker=".", gid="iterate_error",
+                label="best vertex")
+        ax.set_yscale("log")
+        ax.set_xlabel("Nelder–Mead iteration")
+        ax.set_ylabel("gait error e of the best vertex  [1]")
+        start = f" from {m.start[0]:g}, {m.start[1]:g}" if m.start else ""
+        conv = {0: "not converged", 1: "converged"}.get(int(refine.attrs.get("converged", -1)),
+                                                        "")
+        fig.suptitle(f"Nelder–Mead search{start}", x=0.02, ha="left", fontweight="bold")
+        ax.set_title(f"minimum e = {m.error:.3g} at ({m.dtheta1:.4f}, {m.dtheta2:.4f}) rad/s"
+                     f"{', ' + conv if conv else ''}\n{run_label(refine)}", fontsize=8.5,
+                     fontweight="normal", loc="left")
+    return fig

@@ -1,0 +1,312 @@
+"""Draw every figure a study folder's datasets support, redrawing only what changed.
+
+``report_study(DIR)`` reads the study's ``*.nc`` datasets (docs/datasets.md; classified by
+their ``step_kind`` attribute), plans the figures they support and writes each as PNG and PDF
+(the animation as GIF, and MP4 when ffmpeg exists) into ``DIR/figures/``. It never simulates.
+
+A manifest, ``DIR/figures/manifest.json``, records per figure the SHA-256 of each input
+dataset, a hash of the plotting code and style file, and the drawing options. A figure is
+redrawn only when one of those changed or one of its files is missing, so a second call on
+unchanged datasets writes nothing.
+
+=====================================  ======================================  ==============
+file (``figures/``)                    what                                    study figure
+=====================================  ======================================  ==============
+``<grid>_surface``                     sqrt(error) surface, no-gait floor      3
+``<grid>_map``                         error map truncated at 5, minima        4, 9, 10
+``<refine>_convergence``               best-vertex error per iteration         (text 4.2)
+``<stability>_error``                  error per cycle, log scale              5, 8
+``<stability>_kinetic_energy``         kinetic energy per cycle                6
+``<stability>_height``                 attached-end height per cycle           7
+``<stability>_filmstrip``              one gait cycle, frame by frame          2 (from data)
+``<stability>_animation``              the whole run (GIF / MP4)               -
+``stability_error_comparison``         all open-loop runs' errors              5 + 8
+=====================================  ======================================  ==============
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import traceback
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Sequence
+
+import xarray as xr
+
+from . import cycles, gait, maps
+from ._common import STYLE_FILE, atomic_path, provenance, save_figure
+
+MANIFEST = "manifest.json"
+MANIFEST_VERSION = 1
+FIGURES_DIR = "figures"
+
+Progress = Callable[[str], None]
+
+
+class ReportError(RuntimeError):
+    """Some figures could not be drawn; ``written`` lists the files that were."""
+
+    def __init__(self, failures: dict[str, str], written: list[Path]):
+        self.failures = failures
+        self.written = written
+        lines = "\n".join(f"  {k}: {v.strip().splitlines()[-1]}" for k, v in failures.items())
+        super().__init__(f"{len(failures)} figure(s) failed:\n{lines}")
+
+
+@dataclass
+class Job:
+    """One figure (or animation) to draw from some datasets."""
+
+    name: str                      # file name stem in figures/
+    inputs: list[Path]             # dataset files it reads
+    draw: Callable                 # (loaded datasets in ``inputs`` order) -> Figure
+    title: str
+    animation: bool = False
+    outputs: list[str] = field(default_factory=list)   # filled once drawn
+
+
+# ----------------------------------------------------------------------------------------------
+def file_sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def code_hash() -> str:
+    """Hash of the plotting package's source and the style file (a change redraws all)."""
+    h = hashlib.sha256()
+    files = sorted(Path(__file__).parent.glob("*.py")) + [STYLE_FILE]
+    for p in files:
+        h.update(p.name.encode())
+        h.update(p.read_bytes())
+    return h.hexdigest()
+
+
+def _kind(ds) -> str | None:
+    kind = ds.attrs.get("step_kind")
+    if kind in ("grid", "refine", "stability"):
+        return kind
+    if "cycle" in ds.dims:
+        return "stability"
+    if "iteration" in ds.dims:
+        return "refine"
+    if "error" in ds and ({"dtheta1", "dtheta2"} <= set(ds.dims) or "point" in ds.dims):
+        return "grid"
+    return None
+
+
+def _datasets(study_dir: Path) -> dict[str, list[Path]]:
+    """Dataset files of the study folder by step kind (temporary and hidden files skipped)."""
+    out: dict[str, list[Path]] = {"grid": [], "refine": [], "stability": []}
+    for p in sorted(study_dir.glob("*.nc")):
+        if p.name.startswith("."):
+            continue
+        try:
+            with xr.open_dataset(p) as ds:
+                kind = _kind(ds)
+        except (OSError, ValueError):
+            continue
+        if kind:
+            out[kind].append(p)
+    return out
+
+
+def _load(path: Path) -> xr.Dataset:
+    with xr.open_dataset(path) as ds:
+        return ds.load()
+
+
+def plan(study_dir: Path, *, animation: bool = True, fps: float = 15.0,
+         max_frames: int = 240) -> list[Job]:
+    """The figures the datasets in ``study_dir`` support (nothing is drawn)."""
+    study_dir = Path(study_dir)
+    files = _datasets(study_dir)
+    refines = {p: _load(p) for p in files["refine"]}
+    jobs: list[Job] = []
+
+    for g in files["grid"]:
+        s = g.stem
+        jobs.append(Job(f"{s}_surface", [g], lambda d: maps.plot_error_surface(d[0]),
+                        f"{s}: sqrt(error) surface"))
+        jobs.append(Job(f"{s}_map", [g] + files["refine"],
+                        lambda d: maps.plot_error_map(d[0], d[1:]),
+                        f"{s}: error map with minima"))
+    for r, rds in refines.items():
+        if rds.sizes.get("iteration", 0) > 0 and "iterate_error" in rds:
+            jobs.append(Job(f"{r.stem}_convergence", [r],
+                            lambda d: maps.plot_refine_convergence(d[0]),
+                            f"{r.stem}: Nelder-Mead convergence"))
+
+    stab_inputs = []
+    for st in files["stability"]:
+        s = st.stem
+        with xr.open_dataset(st) as sds:
+            match = cycles.matching_refine(sds, list(refines.values()))
+            has_traj = gait.has_trajectory(sds)
+        ref = [p for p, rds in refines.items() if rds is match]
+        inputs = [st] + ref
+        stab_inputs.append(inputs)
+
+        def gp(d):
+            return cycles.gait_point(d[0], d[1:])
+
+        jobs.append(Job(f"{s}_error", inputs,
+                        lambda d: cycles.plot_error_per_cycle(d[0], gait=gp(d)),
+                        f"{s}: error per cycle"))
+        jobs.append(Job(f"{s}_kinetic_energy", inputs,
+                        lambda d: cycles.plot_kinetic_energy(d[0], gait=gp(d)),
+                        f"{s}: kinetic energy per cycle"))
+        jobs.append(Job(f"{s}_height", inputs,
+                        lambda d: cycles.plot_pivot_height(d[0], gait=gp(d)),
+                        f"{s}: attached-end height per cycle"))
+        if has_traj:
+            jobs.append(Job(f"{s}_filmstrip", inputs,
+                            lambda d: gait.plot_filmstrip(d[0], gait=gp(d)),
+                            f"{s}: one gait cycle"))
+            if animation:
+                def anim(d, base, prov):
+                    return gait.write_animation(d[0], base, prov, gait=gp(d), fps=fps,
+                                                max_frames=max_frames)
+                jobs.append(Job(f"{s}_animation", inputs, anim, f"{s}: animation",
+                                animation=True))
+    if len(stab_inputs) > 1:
+        n = [len(i) for i in stab_inputs]
+        flat = [p for i in stab_inputs for p in i]
+
+        def comparison(d, n=n):
+            stabs, gaits, k = [], [], 0
+            for m in n:
+                stabs.append(d[k])
+                gaits.append(cycles.gait_point(d[k], d[k + 1:k + m]))
+                k += m
+            return cycles.plot_error_comparison(stabs, gaits=gaits)
+
+        jobs.append(Job("stability_error_comparison", flat, comparison,
+                        "error per cycle of all open-loop runs"))
+    return jobs
+
+
+# ----------------------------------------------------------------------------------------------
+def _read_manifest(path: Path) -> dict:
+    try:
+        m = json.loads(path.read_text())
+        if m.get("version") == MANIFEST_VERSION and isinstance(m.get("figures"), dict):
+            return m
+    except (OSError, ValueError):
+        pass
+    return {"version": MANIFEST_VERSION, "figures": {}}
+
+
+def _write_manifest(path: Path, manifest: dict) -> None:
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+
+
+def report_study(study_dir: Path, *, force: bool = False,
+                 formats: Sequence[str] = ("png", "pdf"), animation: bool = True,
+                 fps: float = 15.0, max_frames: int = 240,
+                 progress: Progress | None = None) -> list[Path]:
+    """Draw every figure the datasets in ``study_dir`` support into ``study_dir/figures``.
+
+    Parameters
+    ----------
+    study_dir : Path
+        A study's output folder (``outputs/<study name>``) holding its ``*.nc`` datasets.
+    force : bool
+        Redraw every figure even when its inputs are unchanged.
+    formats : sequence of str
+        Still-figure formats (PNG and PDF by default).
+    animation : bool
+        Also write each stability run's animation (GIF; MP4 too when ffmpeg exists).
+    fps, max_frames : float, int
+        Animation frame rate and frame budget (longer runs play faster than real time).
+    progress : callable, optional
+        Called with one line of text per figure (drawn or up to date).
+
+    Returns
+    -------
+    list of Path
+        The files written by this call (empty when every figure was up to date).
+
+    Raises
+    ------
+    ReportError
+        When some figures failed; the others are written (and listed in ``.written``).
+    """
+    study_dir = Path(study_dir)
+    if not study_dir.is_dir():
+        raise FileNotFoundError(f"no study folder {study_dir}")
+    fig_dir = study_dir / FIGURES_DIR
+    jobs = plan(study_dir, animation=animation, fps=fps, max_frames=max_frames)
+    if not jobs:
+        if progress:
+            progress(f"{study_dir}: no datasets to draw from")
+        return []
+    fig_dir.mkdir(parents=True, exist_ok=True)
+    manifest_path = fig_dir / MANIFEST
+    manifest = _read_manifest(manifest_path)
+    code = code_hash()
+    hashes: dict[Path, str] = {}
+    loaded: dict[Path, xr.Dataset] = {}
+    written: list[Path] = []
+    failures: dict[str, str] = {}
+    options = {"formats": list(formats), "fps": fps, "max_frames": max_frames}
+
+    for k, job in enumerate(jobs, 1):
+        for p in job.inputs:
+            if p not in hashes:
+                hashes[p] = file_sha256(p)
+        entry = {"inputs": {p.name: hashes[p] for p in job.inputs}, "code": code,
+                 "options": options if job.animation else {"formats": list(formats)}}
+        old = manifest["figures"].get(job.name, {})
+        outputs_ok = bool(old.get("outputs")) and all((fig_dir / o).exists()
+                                                      for o in old["outputs"])
+        if not force and outputs_ok and all(old.get(key) == entry[key] for key in entry):
+            if progress:
+                progress(f"[{k}/{len(jobs)}] {job.name}: up to date")
+            continue
+        if progress:
+            progress(f"[{k}/{len(jobs)}] {job.name}: drawing ({job.title})")
+        try:
+            for p in job.inputs:
+                if p not in loaded:
+                    loaded[p] = _load(p)
+            data = [loaded[p] for p in job.inputs]
+            prov = provenance(data, job.inputs)
+            base = fig_dir / job.name
+            if job.animation:
+                paths = job.draw(data, base, prov)
+            else:
+                fig = job.draw(data)
+                paths = save_figure(fig, base, prov, formats=formats, title=job.title)
+                fig.clear()
+        except Exception:  # one broken figure must not stop the others
+            failures[job.name] = traceback.format_exc()
+            if progress:
+                progress(f"    failed: {failures[job.name].strip().splitlines()[-1]}")
+            continue
+        written += paths
+        entry["outputs"] = [p.name for p in paths]
+        manifest["figures"][job.name] = entry
+        _write_manifest(manifest_path, manifest)
+    if failures:
+        raise ReportError(failures, written)
+    return written
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m monkeystudy.plotting DIR [--force]``: draw the figures of study folders."""
+    import argparse
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("study_dir", type=Path, nargs="+")
+    ap.add_argument("--force", action="store_true", help="redraw every figure")
+    ap.add_argument("--no-animation", action="store_true")
+    a = ap.parse_args(argv)
+    for d in a.study_dir:
+        written = report_study(d, force=a.force, animation=not a.no_animation, progress=print)
+        print(f"{d}: wrote {len(written)} file(s)")
+    return 0
