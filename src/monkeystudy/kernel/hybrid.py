@@ -52,6 +52,7 @@ from .layout import (
     ST_STEP_FAILURE,
 )
 
+EPS = 2.220446049250313e-16
 TICK_SNAP = 1e-9  # a time within this fraction of a tick of a tick is on it (round-off)
 
 
@@ -512,21 +513,21 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                             counts[K_NFEV] += dense_prepare(method, phase, p, tau, fmode, t, h,
                                                             y, y_new, f_new, n, K, Fd, ytmp)
                             dense = True
+                        # searched over the whole step, so that an observer watching the
+                        # same guard as the segment event finds the same root; crossings up
+                        # to the event (plus round-off) are logged, later ones belong to the
+                        # next leg
+                        slack = 8.0 * EPS * (1.0 + abs(t_cut))
                         ta = t
-                        gcut = gb
-                        rcut = rb
-                        if t_cut < t_new:
-                            gcut, rcut = guard_rate_at(okind, oidx, oval, method, Fd, y, t, h,
-                                                       t_cut, n, phase, p, tau, fmode, pivot,
-                                                       eref, ybuf, work)
                         for _rep in range(4):
                             if ta >= t_cut:
                                 break
-                            tc = locate_first(okind, oidx, oval, odir, ta, t_cut, ga, gcut,
-                                              ra, rcut, method, Fd, y, t, h, n, phase, p, tau,
+                            tc = locate_first(okind, oidx, oval, odir, ta, t_new, ga, gb,
+                                              ra, rb, method, Fd, y, t, h, n, phase, p, tau,
                                               fmode, pivot, eref, ybuf, work)
-                            if tc == np.inf:
+                            if tc == np.inf or tc > t_cut + slack:
                                 break
+                            tc = min(tc, t_cut)
                             if n_log >= log_cap:
                                 if log_cap > 0:
                                     status = ST_BUFFER_FULL

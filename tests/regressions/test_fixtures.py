@@ -1,0 +1,32 @@
+"""Named regression fixtures: every state that ever broke the simulator stays here.
+
+Each test names the defect, when it was found, and what it looked like.
+"""
+import numpy as np
+
+from monkeystudy import OpenLoop, Status, initial_state, run_controller
+from monkeystudy.kernel import layout as L
+
+#: collisionless horizontal gait of seed2009 (analysis.shoot_grazing from (1.44, 10.31))
+GRAZING = dict(dtheta1=1.4952437542556796, dtheta2=10.246845402521146,
+               t_switch=0.43344770344868333)
+
+
+def test_observer_on_the_same_guard_as_the_segment_event_is_never_lost():
+    """2026-11-21: with exact timing and the clock reset at the vertical, the cycle-ending
+    segment guard and the vertical observer are the same guard; the observer's root could land
+    one ulp after the segment event, be cut off, and the next leg's zero band swallowed it.
+    Symptom: per-cycle error jumping by lambda^2..lambda^7 (cycles silently missing)."""
+    ctrl = OpenLoop(GRAZING["t_switch"], 0.0, 0.0, clock="reset_at_vertical")
+    res = run_controller(ctrl, initial_state(GRAZING["dtheta1"], GRAZING["dtheta2"]),
+                         cycles=40)
+    assert res.status == Status.OK
+    log = res.log
+    n_obs = int(np.sum(log[:, L.L_KIND] == L.LOG_OBSERVER))
+    n_cycle_ends = int(np.sum((log[:, L.L_KIND] == L.LOG_SEGMENT) & (log[:, L.L_ID] == 2)))
+    assert n_cycle_ends == 40
+    assert n_obs == 40
+    # each observation coincides with its cycle end
+    t_obs = log[log[:, L.L_KIND] == L.LOG_OBSERVER, L.L_T]
+    t_end = log[(log[:, L.L_KIND] == L.LOG_SEGMENT) & (log[:, L.L_ID] == 2), L.L_T]
+    np.testing.assert_allclose(t_obs, t_end, rtol=0, atol=1e-14)
