@@ -1,0 +1,123 @@
+"""Study files: every mistake rejected before any work, located as ``file:line: key``."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from monkeystudy.study import StudyError, load_study, parse_study
+from monkeystudy.study.schema import BestOfGrid, GridStep, RefineStep, StabilityStep, json_schema
+
+HERE = Path(__file__).parent
+ROOT = HERE.parents[1]
+BAD = sorted((HERE / "bad_studies").glob("*.yaml"))
+
+
+def expected(path: Path) -> str:
+    first = path.read_text().splitlines()[0]
+    assert first.startswith("# expect: "), path
+    return first[len("# expect: "):]
+
+
+def test_corpus_is_large_enough():
+    assert len(BAD) >= 12
+
+
+@pytest.mark.parametrize("path", BAD, ids=[p.stem for p in BAD])
+def test_bad_study_is_rejected_with_file_line_key(path):
+    with pytest.raises(StudyError) as info:
+        load_study(path)
+    lines = str(info.value).splitlines()
+    want = f"{path}:{expected(path)}"
+    assert any(line.startswith(want) for line in lines), (want, lines)
+    for issue in info.value.issues:
+        assert issue.file == str(path)
+
+
+def test_every_problem_is_reported_sorted_by_line():
+    text = """\
+schema_version: 1
+name: two
+robot: {links: [{mass: -1.0, length: 0.61, com: 0.3, inertia: 0.01},
+                {mass: 1.0, length: 0.61, com: 0.3, inertia: 0.01}]}
+gait: {kind: horizontal, motor_torque: 0.6354, tikc: 0.001}
+steps:
+  - {name: g, kind: refine, start: [0.9, 10.9], xatol: 0}
+"""
+    with pytest.raises(StudyError) as info:
+        parse_study(text, "x.yaml")
+    msg = str(info.value).splitlines()
+    assert msg == [
+        "x.yaml:3: robot.links[0].mass: must be > 0, got -1.0",
+        "x.yaml:5: gait.tikc: unknown key; did you mean 'tick'? (allowed: kind, motor_torque, "
+        "tick)",
+        "x.yaml:7: steps[0].xatol: must be > 0, got 0",
+    ]
+
+
+def test_yaml12_numbers_and_words():
+    """``1e-3`` is a number (YAML 1.2), ``no`` is not a boolean: the YAML 1.1 traps."""
+    text = """\
+schema_version: 1
+name: y12
+robot: seed2009
+gait: {kind: horizontal, motor_torque: 6354e-4, tick: 1e-3}
+integrator: {rtol: 1e-8, atol: 1E-10}
+steps:
+  - {name: no, kind: refine, start: [9e-1, 1.09e+1]}
+"""
+    st = parse_study(text).study
+    assert st.gait.tick == 0.001 and st.gait.motor_torque == 0.6354
+    assert st.integrator.rtol == 1e-8 and st.integrator.atol == 1e-10
+    assert st.steps[0].name == "no"
+    assert st.steps[0].start == [0.9, 10.9]
+
+
+def test_models_are_frozen_and_defaults_documented():
+    st = load_study(ROOT / "studies" / "horizontal.yaml").study
+    with pytest.raises(Exception):
+        st.name = "other"  # frozen
+    refine = st.step("gait1")
+    assert isinstance(refine, RefineStep)
+    assert refine.xatol == refine.fatol == 1e-4          # fminsearch defaults
+    assert st.integrator.method == "dop853"
+
+
+def test_shipped_studies_are_valid():
+    h = load_study(ROOT / "studies" / "horizontal.yaml").study
+    grid = h.step("error_map")
+    assert isinstance(grid, GridStep)
+    assert (grid.dtheta1.num, grid.dtheta2.num) == (121, 201)
+    assert (grid.dtheta1.start, grid.dtheta1.stop) == (0.0, 3.0)
+    assert (grid.dtheta2.start, grid.dtheta2.stop) == (9.0, 14.0)
+    assert h.step("gait1").start == [1.0, 12.0]
+    assert h.step("gait2").start == [0.5, 11.75]
+    for name, src in (("gait1_cycles", "gait1"), ("gait2_cycles", "gait2")):
+        s = h.step(name)
+        assert isinstance(s, StabilityStep) and s.from_ == src and s.cycles == 30
+    smoke = load_study(ROOT / "studies" / "smoke.yaml").study
+    kinds = {s.kind for s in smoke.steps}
+    assert kinds == {"grid", "refine", "stability"}
+    assert any(isinstance(s, RefineStep) and isinstance(s.start, BestOfGrid)
+               for s in smoke.steps)
+
+
+def test_missing_file_is_an_issue(tmp_path):
+    with pytest.raises(StudyError, match="no such file"):
+        load_study(tmp_path / "nope.yaml")
+
+
+def test_shipped_json_schema_is_up_to_date():
+    shipped = ROOT / "src" / "monkeystudy" / "schema" / "study.schema.json"
+    assert json.loads(shipped.read_text()) == json_schema(), \
+        "regenerate: monkeystudy schema > src/monkeystudy/schema/study.schema.json"
+
+
+def test_json_schema_states_units_and_forbids_unknown_keys():
+    s = json_schema()
+    link = s["$defs"]["LinkParams"]
+    assert link["additionalProperties"] is False
+    assert "[kg]" in link["properties"]["mass"]["description"]
+    assert "[rad s-1]" in s["$defs"]["Axis"]["properties"]["start"]["description"]
+    assert s["properties"]["schema_version"]["const"] == 1

@@ -1,0 +1,309 @@
+"""The runner: identical datasets for 1 or 2 workers, local or Dask, clean or resumed after a
+kill; unchanged studies do no work; stale shards are never reused; files appear atomically."""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from monkeystudy.study import load_study, plan_study, run_study
+from monkeystudy.study import datasets as D
+from monkeystudy.study import runner as R
+
+from studyhelpers import TINY, TINY_FILES, assert_same_datasets, write_study
+
+
+def test_one_worker_equals_two(tiny_reference, tmp_path):
+    study, ref = tiny_reference
+    run_study(load_study(study), tmp_path / "one", workers=1)
+    assert_same_datasets(ref, tmp_path / "one", TINY_FILES)
+
+
+def test_dask_cluster_equals_local(tiny_reference, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    study, ref = tiny_reference
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  host="127.0.0.1", dashboard_address=None) as cluster:
+        summary = run_study(load_study(study), tmp_path / "dask",
+                            scheduler=cluster.scheduler_address)
+    assert len(summary.written) == len(TINY_FILES)
+    assert_same_datasets(ref, tmp_path / "dask", TINY_FILES)
+
+
+def test_datasets_follow_the_contract(tiny_reference):
+    study, ref = tiny_reference
+    text = study.read_text()
+    for name in TINY_FILES:
+        with xr.open_dataset(ref / name) as ds:
+            for attr in ("study_name", "step_name", "step_kind", "study_text", "study_sha256",
+                         "robot", "gait", "integrator", "monkeystudy_version", "git_revision",
+                         "library_versions", "history", "Conventions"):
+                assert attr in ds.attrs, (name, attr)
+            assert ds.attrs["study_text"] == text
+            assert ds.attrs["Conventions"] == "CF-1.10"
+            for v in ds.variables:
+                assert "units" in ds[v].attrs and "long_name" in ds[v].attrs, (name, v)
+            assert ds["status"].attrs["flag_meanings"].split()[0] == "ok"
+    with xr.open_dataset(ref / "map.nc") as ds:
+        assert ds["error"].dims == ("dtheta1", "dtheta2") and ds["error"].shape == (7, 9)
+        assert 0.0 < ds.attrs["skipped_fraction"] < 1.0
+        assert np.all(np.isnan(ds["error"].values[ds["status"].values != 0]))
+        for v in ("t_switch", "t_motor", "t_end"):
+            assert ds[v].attrs["units"] == "s"
+        for v in ("steps", "nfev", "rejected"):
+            assert ds[v].dtype == np.int32
+    with xr.open_dataset(ref / "pts.nc") as ds:
+        assert ds["error"].dims == ("point",)
+        assert set(ds.coords) >= {"dtheta1", "dtheta2"}
+        np.testing.assert_array_equal(ds["dtheta1"].values, [0.9, 1.0, 0.1])
+    with xr.open_dataset(ref / "best.nc") as ds:
+        assert ds.sizes["start"] == 2
+        assert ds["iterate_error"].dims == ("start", "iteration")
+        for a in ("method", "xatol", "fatol", "start", "converged", "message"):
+            assert a in ds.attrs
+    with xr.open_dataset(ref / "cycles.nc") as ds:
+        assert ds.sizes["cycle"] == 3 and list(ds["cycle"].values) == [1, 2, 3]
+        for v in ("error", "kinetic_energy", "pivot_height", "x_advance", "t_cross"):
+            assert ds[v].dims == ("cycle",)
+        assert ds["A"].dims == ("sample", "xy") and "time" in ds.coords
+        assert ds["status"].ndim == 0
+        for a in ("t_switch", "t_motor", "controller", "sample_dt"):
+            assert a in ds.attrs
+
+
+def test_unchanged_study_does_no_work(tiny_reference):
+    study, ref = tiny_reference
+    before = {p.name: (p.stat().st_ino, p.stat().st_mtime_ns) for p in ref.glob("*.nc")}
+    summary = run_study(load_study(study), ref, workers=2)
+    assert summary.written == [] and summary.blocks_computed == 0
+    assert len(summary.up_to_date) == len(TINY_FILES)
+    after = {p.name: (p.stat().st_ino, p.stat().st_mtime_ns) for p in ref.glob("*.nc")}
+    assert before == after
+
+
+def test_dry_run_plan_touches_nothing(tmp_path):
+    study = write_study(tmp_path)
+    out = tmp_path / "out"
+    plan = plan_study(load_study(study), out)
+    text = plan.describe()
+    assert "map [grid] -> map.nc: 7 of 7 blocks to do" in text
+    assert "b000000..b000006" in text
+    assert "pts [grid] -> pts.nc: 2 of 2 blocks" in text
+    assert not out.exists()
+
+
+def test_changed_study_reruns_and_stale_shards_are_never_used(tiny_reference, tmp_path):
+    study, ref = tiny_reference
+    out = tmp_path / "out"
+    # shards of some other study text / code: garbage under another key must be dropped
+    stale = out / ".map.parts" / "0123456789abcdef"
+    stale.mkdir(parents=True)
+    np.savez(stale / "b000000.npz", lo=0, hi=10, error=np.zeros(10))
+    edited = write_study(tmp_path, TINY.replace("small study", "small study, edited"),
+                         "edited.yaml")
+    loaded = load_study(edited)
+    plan = plan_study(loaded, out)
+    assert all(not s.up_to_date for s in plan.steps)
+    assert all(not s.saved for s in plan.steps)
+    run_study(loaded, out, workers=2)
+    assert not stale.exists() and not (out / ".map.parts").exists()
+    with xr.open_dataset(out / "map.nc") as a, xr.open_dataset(ref / "map.nc") as b:
+        assert a["error"].values.tobytes() == b["error"].values.tobytes()
+        assert a.attrs["study_sha256"] != b.attrs["study_sha256"]
+    # a rerun of the original text replaces the files (new inodes), never rewrites them
+    ino = (out / "map.nc").stat().st_ino
+    run_study(load_study(study), out, workers=2)
+    assert (out / "map.nc").stat().st_ino != ino
+    assert_same_datasets(ref, out, TINY_FILES)
+
+
+# --- atomic writes ------------------------------------------------------------------------------
+def test_shard_write_is_atomic(tmp_path, monkeypatch):
+    b = R.Block(3, 30, 40)
+    arrays = {"error": np.arange(10.0)}
+
+    def boom(fh, **kw):
+        fh.write(b"partial")
+        raise OSError("disk full")
+
+    monkeypatch.setattr(R.np, "savez", boom)
+    with pytest.raises(OSError):
+        R.write_shard(tmp_path, b, arrays)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_netcdf_write_is_atomic_and_keeps_the_old_file(tmp_path):
+    path = tmp_path / "x.nc"
+    with D.atomic_netcdf(path) as nc:
+        nc.setncattr("version", 1)
+    old = path.read_bytes()
+    with pytest.raises(RuntimeError):
+        with D.atomic_netcdf(path) as nc:
+            nc.setncattr("version", 2)
+            raise RuntimeError("interrupted while writing")
+    assert path.read_bytes() == old
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.nc"]
+
+
+def test_grid_consolidation_refuses_missing_blocks(tmp_path):
+    a1, a2 = np.linspace(0, 1, 2), np.linspace(0, 1, 3)
+    blk = {k: np.zeros(3, dt) for k, dt in R.drivers.GRID_VARIABLES.items()}
+    with pytest.raises(RuntimeError, match="3 of 6 points"):
+        D.write_grid(tmp_path / "g.nc", {}, axes=(a1, a2), blocks=[(0, blk)])
+    assert list(tmp_path.iterdir()) == []
+
+
+# --- kill and resume -------------------------------------------------------------------------------
+KILL_STUDY = """\
+schema_version: 1
+name: killme
+robot: seed2009
+gait: {kind: horizontal, motor_torque: 0.6354, tick: 0.001}
+integrator: {rtol: 1.0e-8, atol: 1.0e-10}
+steps:
+  - {name: map, kind: grid, block_size: 150,
+     dtheta1: {start: 0.0, stop: 3.0, num: 121}, dtheta2: {start: 9.0, stop: 14.0, num: 151}}
+  - {name: best, kind: refine, start: {from: map, best: 1}, maxiter: 10}
+"""
+
+
+def _shards(out: Path) -> list[Path]:
+    return list(out.glob(".map.parts/*/b*.npz"))
+
+
+def _start(study: Path, out: Path) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "monkeystudy.cli", "run", str(study),
+                             "--out", str(out), "--workers", "1"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+
+
+def _wait_for_shards(proc: subprocess.Popen, out: Path, n: int, timeout: float = 180):
+    t0 = time.monotonic()
+    while len(_shards(out)) < n:
+        if proc.poll() is not None:
+            pytest.fail(f"run ended before {n} shards: rc {proc.returncode}\n"
+                        f"{proc.stderr.read()}")
+        if time.monotonic() - t0 > timeout:
+            pytest.fail("no shards appeared in time")
+        time.sleep(0.02)
+
+
+def _kill_group(proc: subprocess.Popen) -> None:
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    proc.wait(timeout=30)
+
+
+@pytest.mark.slow
+def test_resume_after_sigterm_and_kill9_is_bit_identical(tmp_path):
+    study = write_study(tmp_path, KILL_STUDY, "kill.yaml")
+    out = tmp_path / "resumed"
+    n_blocks = -(-121 * 151 // 150)
+
+    # 1. SIGTERM (like Ctrl-C): exit code 3, finished blocks kept
+    proc = _start(study, out)
+    try:
+        _wait_for_shards(proc, out, 8)
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        _kill_group(proc)
+    assert proc.returncode == 3, err
+    assert "rerun to resume" in err
+    first = len(_shards(out))
+    assert 8 <= first < n_blocks
+    assert not (out / "map.nc").exists()
+
+    # 2. kill -9 of the driver and its workers: nothing to clean up but temp files
+    proc = _start(study, out)
+    try:
+        _wait_for_shards(proc, out, first + 8)
+    finally:
+        _kill_group(proc)
+    second = len(_shards(out))
+    assert first + 8 <= second < n_blocks
+    assert not (out / "map.nc").exists()
+
+    # 3. the rerun resumes: only the missing blocks are computed
+    summary = run_study(load_study(study), out, workers=2)
+    assert summary.blocks_reused >= second
+    assert summary.blocks_computed == n_blocks - summary.blocks_reused
+    assert not list(out.glob(".*.parts"))
+
+    # 4. identical, bit for bit, to a clean uninterrupted run
+    clean = tmp_path / "clean"
+    run_study(load_study(study), clean, workers=2)
+    assert_same_datasets(clean, out, ["map.nc", "best.nc"])
+
+
+# --- failures and lost workers -------------------------------------------------------------------
+class _FakeExecutor:
+    """Every task ends with the given exception (a lost worker or a bug)."""
+
+    def __init__(self, exc: BaseException):
+        self.exc = exc
+
+    def submit(self, fn, *args, **kwargs):
+        from concurrent.futures import Future
+        f = Future()
+        f.set_exception(self.exc)
+        return f
+
+    def shutdown(self, wait=True, **kw):
+        pass
+
+
+def _fake_pool(exc):
+    from contextlib import contextmanager
+
+    @contextmanager
+    def fake(workers=None, scheduler=None):
+        yield R.Pool(_FakeExecutor(exc), 2, "fake", lambda: None)
+    return fake
+
+
+def test_lost_worker_is_an_interruption(tmp_path, monkeypatch):
+    from concurrent.futures.process import BrokenProcessPool
+    monkeypatch.setattr(R, "open_pool", _fake_pool(BrokenProcessPool("worker died")))
+    with pytest.raises(R.RunInterrupted, match="rerun to resume"):
+        run_study(load_study(write_study(tmp_path)), tmp_path / "out")
+    assert not list((tmp_path / "out").glob("*.nc"))
+
+
+def test_task_error_fails_the_run(tmp_path, monkeypatch):
+    monkeypatch.setattr(R, "open_pool", _fake_pool(ValueError("a bug")))
+    with pytest.raises(R.RunFailed, match="ValueError: a bug"):
+        run_study(load_study(write_study(tmp_path)), tmp_path / "out")
+
+
+def test_progress_is_rich_on_a_terminal_and_plain_otherwise():
+    import io
+    from monkeystudy.study.progress import PlainReporter, RichReporter, make_reporter
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    plain = io.StringIO()
+    rep = make_reporter(plain)
+    assert isinstance(rep, PlainReporter)
+    rep.start("map", 4)
+    for _ in range(4):
+        rep.advance("map")
+    rep.finish("map", "ok")
+    assert "map: 4/4 blocks (100%)" in plain.getvalue() and "map: done" in plain.getvalue()
+    rich = make_reporter(Tty())
+    assert isinstance(rich, RichReporter)
+    rich.start("map", 4)
+    rich.advance("map")
+    rich.close()
