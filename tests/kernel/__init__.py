@@ -1,0 +1,1 @@
+"""Physics tests of the compiled kernel (``monkeystudy.kernel``), mirroring its modules."""

@@ -1,0 +1,43 @@
+"""Robots, random physical parameters and states shared by the kernel tests."""
+from __future__ import annotations
+
+import numpy as np
+
+from monkeystudy import Friction, Link, Robot
+
+#: An asymmetric robot (unequal masses, lengths, CG positions and inertias).
+ASYMMETRIC = Robot(Link(1.2, 0.7, 0.42, 0.035), Link(0.8, 0.55, 0.15, 0.02), gravity=9.81,
+                   name="asymmetric")
+
+ROBOTS = {
+    "seed2009": Robot.preset("seed2009"),
+    "uniform_rod": Robot.preset("uniform_rod"),
+    "asymmetric": ASYMMETRIC,
+}
+
+
+def random_link(rng) -> Link:
+    m = rng.uniform(0.2, 3.0)
+    L = rng.uniform(0.2, 1.5)
+    com = rng.uniform(0.0, L)
+    inertia = rng.uniform(0.005, 0.3) * m * L * L
+    return Link(m, L, com, inertia)
+
+
+def random_robot(rng, friction: bool = False) -> Robot:
+    """A physically valid robot with independent random links (generally asymmetric)."""
+    fr = {}
+    if friction:
+        fr = dict(pivot_friction=Friction(rng.uniform(0, 0.8), rng.uniform(0, 0.8)),
+                  joint_friction=Friction(rng.uniform(0, 0.8), rng.uniform(0, 0.8)))
+    return Robot(random_link(rng), random_link(rng), gravity=rng.uniform(1.0, 25.0), **fr)
+
+
+def random_state8(rng, vmax: float = 10.0) -> np.ndarray:
+    """``[x, y, th1, th2, dx, dy, dth1, dth2]`` with angles over several turns."""
+    s = np.empty(8)
+    s[0:2] = rng.uniform(-2.0, 2.0, 2)
+    s[2:4] = rng.uniform(-2.5 * np.pi, 2.5 * np.pi, 2)
+    s[4:6] = rng.uniform(-3.0, 3.0, 2)
+    s[6:8] = rng.uniform(-vmax, vmax, 2)
+    return s
