@@ -102,6 +102,7 @@ class Observer:
     coord: str = "theta1"
     value: float = 0.0
     direction: str = "either"
+    segment: int = -1   # watch only in this program row (-1: always)
 
     def row(self) -> np.ndarray:
         r = np.zeros(L.N_OBS_COLS)
@@ -109,10 +110,16 @@ class Observer:
         r[L.O_GINDEX] = COORD_INDEX[self.coord]
         r[L.O_GVALUE] = self.value
         r[L.O_GDIR] = DIRECTIONS[self.direction]
+        r[L.O_SEGMENT] = self.segment
         return r
 
 
+#: Link 1 passing the vertical, in either direction, at any time.
 VERTICAL = Observer("coord", "theta1", 0.0, "either")
+#: The vertical crossing that ends a gait cycle: watched only in the gaits' last segment (after
+#: the motor phase), so a mid-swing pass of link 1 back through the vertical is not mistaken
+#: for the end of a cycle.
+CYCLE_VERTICAL = Observer("coord", "theta1", 0.0, "either", segment=2)
 
 
 @dataclass(frozen=True)
@@ -172,7 +179,7 @@ class HorizontalSearch:
         ]
 
     def program(self):
-        return PhaseSequence(self.segments(), (VERTICAL,) if self.loop else (),
+        return PhaseSequence(self.segments(), (CYCLE_VERTICAL,) if self.loop else (),
                              self.tick, self.tick_phase).program()
 
 
@@ -227,7 +234,7 @@ class OpenLoop:
         return segs
 
     def program(self):
-        return PhaseSequence(self.segments(), (VERTICAL,), self.tick,
+        return PhaseSequence(self.segments(), (CYCLE_VERTICAL,), self.tick,
                              self.tick_phase).program()
 
 

@@ -10,7 +10,7 @@ from .dynamics import total_energy8
 from .hybrid import simulate
 from .layout import (
     H_FLIPPED, H_PHASE, H_SEG, H_T, H_Y_REF, K_NFEV, K_REJECTED, K_STEPS, N_COUNTS,
-    N_HYB, N_LOG_COLS, N_MODE_COLS, PHASE_SWING, ST_OK, ST_UNREACHABLE, H_FMODE0, H_FMODE1,
+    N_HYB, N_LOG_COLS, N_MODE_COLS, N_OBS_COLS, PHASE_SWING, ST_OK, ST_UNREACHABLE, H_FMODE0, H_FMODE1,
     H_EREF, H_CLOCK,
 )
 
@@ -67,7 +67,7 @@ def horizontal_gait(par, prog, settings, dtheta1, dtheta2, energy_floor, skip_un
     st = np.empty(0)
     sy = np.empty((0, 8))
     sm = np.empty((0, N_MODE_COLS))
-    status = simulate(par, prog, np.empty((0, 4)), settings, hyb, counts, seg_times, log, st,
+    status = simulate(par, prog, np.empty((0, N_OBS_COLS)), settings, hyb, counts, seg_times, log, st,
                       sy, sm)
     out[R_STATUS] = status
     out[R_T_SWITCH] = seg_times[0]

@@ -46,6 +46,7 @@ from .layout import (
     K_LOG, K_NFEV, K_REJECTED, K_SAMPLES, K_STEPS, L_CYCLE, L_E_AFTER, L_E_BEFORE, L_FLIPPED,
     L_ID, L_KIND, L_PHASE, L_STATE, L_T, LOG_FRICTION, LOG_OBSERVER, LOG_SEGMENT, M_FLIPPED,
     M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, O_GDIR, O_GINDEX, O_GUARD, O_GVALUE,
+    O_SEGMENT,
     P_C_JOINT, P_C_PIVOT, PHASE_FIXED, PHASE_FLIGHT, PHASE_SWING, S_CLOCK, S_CYCLE, S_FAIL,
     S_GDIR, S_GINDEX, S_GUARD, S_GVALUE, S_MAG_A, S_MAG_B, S_NEXT, S_SET_EREF, S_SWAP,
     S_TICKED, S_TORQUE, ST_BUFFER_FULL, ST_END_TIME, ST_FELL, ST_HORIZON, ST_NONFINITE, ST_OK,
@@ -338,6 +339,8 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
         else:
             g_seg = 0.0
         for k in range(n_obs):
+            if obs[k, O_SEGMENT] >= 0 and int(obs[k, O_SEGMENT]) != seg:
+                continue
             g_obs[k] = guard(int(obs[k, O_GUARD]), int(obs[k, O_GINDEX]), obs[k, O_GVALUE],
                              phase, p, tau, fmode, y, pivot, eref)
             if abs(g_obs[k]) <= band * (1.0 + abs(obs[k, O_GVALUE])):
@@ -499,6 +502,8 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                 # ---- observers (non-terminal, up to the event) ----
                 t_cut = min(t_ev, t_new)
                 for k in range(n_obs):
+                    if obs[k, O_SEGMENT] >= 0 and int(obs[k, O_SEGMENT]) != seg:
+                        continue
                     okind = int(obs[k, O_GUARD])
                     oidx = int(obs[k, O_GINDEX])
                     oval = obs[k, O_GVALUE]

@@ -60,7 +60,8 @@ N_SEG_COLS = 14
 
 # --- observer table: non-terminal guards whose crossings are logged -----------------------------
 O_GUARD, O_GINDEX, O_GVALUE, O_GDIR = 0, 1, 2, 3
-N_OBS_COLS = 4
+O_SEGMENT = 4      # watch only while in this program row (-1: always)
+N_OBS_COLS = 5
 
 # --- settings vector -----------------------------------------------------------------------------
 C_METHOD = 0       # METHOD_*
