@@ -27,7 +27,9 @@ import threading
 import traceback
 import uuid
 from collections import deque
-from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
+from concurrent.futures import (
+    FIRST_COMPLETED, CancelledError, Executor, Future, ProcessPoolExecutor, wait,
+)
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
@@ -599,7 +601,10 @@ class _Run:
             finished, _ = wait(list(self.inflight), timeout=0.5, return_when=FIRST_COMPLETED)
             for f in finished:
                 t = self.inflight.pop(f)
-                exc = f.exception()
+                try:
+                    exc = f.exception()
+                except CancelledError as e:  # e.g. a Dask cluster cancelled it
+                    exc = e
                 if exc is None:
                     if failure is None:
                         try:
@@ -657,13 +662,15 @@ def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
                      f"{plan.out}")
         return RunSummary(plan.out, [], current, 0, 0)
     plan.out.mkdir(parents=True, exist_ok=True)
-    history = P.history_line(command)
+    history = P.history_line(command if command is not None else
+                             f"python: monkeystudy.study.run_study({str(loaded.path)!r})")
     todo = [s for s in plan.steps if not s.up_to_date]
     spec = study_spec(loaded.study)
-    reporter.log("compiling kernels (cached on disk after the first run)")
-    drivers.warm_up(spec, stability=any(isinstance(s.step, StabilityStep) for s in todo))
     run = None
     try:
+        reporter.log("loading the compiled kernels (the first run after a change compiles "
+                     "them, ~20 s)")
+        drivers.warm_up(spec, stability=any(isinstance(s.step, StabilityStep) for s in todo))
         with open_pool(workers, scheduler) as pool:
             reporter.log(f"{loaded.study.name}: {len(todo)} step(s) to run on {pool.kind} "
                          f"-> {plan.out}")
