@@ -82,8 +82,10 @@ def derivation() -> SimpleNamespace:
     v2 = cg2.jacobian(sp.Matrix(qf)) * sp.Matrix(qdf)
     lin = m1 * v1 + m2 * v2
     cross = lambda r, v: r[0] * v[1] - r[1] * v[0]  # noqa: E731
-    ang = (m1 * cross(cg1 - sp.Matrix([px, py]), v1) + m2 * cross(cg2 - sp.Matrix([px, py]), v2)
-           + I1 * w1 + I2 * (w1 + w2))
+    ang_terms = sp.Matrix([m1 * cross(cg1 - sp.Matrix([px, py]), v1),
+                           m2 * cross(cg2 - sp.Matrix([px, py]), v2),
+                           I1 * w1, I2 * (w1 + w2)])
+    ang = sum(ang_terms)
     cg = (m1 * cg1 + m2 * cg2) / (m1 + m2)
 
     args_f = (qf, qdf, prm)
@@ -101,6 +103,9 @@ def derivation() -> SimpleNamespace:
                                         [b[0], b[1]]])),
         f_lin_momentum=lam(args_f, lin),
         f_ang_momentum=sp.lambdify((qf, qdf, prm, (px, py)), ang, modules="numpy", cse=True),
+        # its four terms (links' orbital and spin parts): their magnitudes give a scale
+        f_ang_momentum_terms=sp.lambdify((qf, qdf, prm, (px, py)), ang_terms, modules="numpy",
+                                         cse=True),
         f_cg=lam(args_f, cg),
     )
     return ns
