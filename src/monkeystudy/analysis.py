@@ -213,6 +213,13 @@ def section_state(z) -> np.ndarray:
     return initial_state(w1, w2, theta2=th2)
 
 
+def _section_of(hyb) -> np.ndarray:
+    """Section coordinates of a hybrid state; theta2 modulo 2 pi, in [-pi, pi) (a gait may
+    turn link 2 a full revolution per cycle)."""
+    th2 = (hyb[L.TH2] + math.pi) % (2 * math.pi) - math.pi
+    return np.array([th2, hyb[L.DTH1], hyb[L.DTH2]])
+
+
 def open_loop_return_map(z, *, t_switch: float, t_motor: float,
                          torque: float = SEED2009_TORQUE, robot: RobotLike = "seed2009",
                          integrator: Integrator = TIGHT, tick: float = 0.0,
@@ -226,8 +233,7 @@ def open_loop_return_map(z, *, t_switch: float, t_motor: float,
                     clock="reset_at_vertical")
     res = run_controller(ctrl, section_state(z), robot=robot, integrator=integrator, cycles=1,
                          log_capacity=0)
-    s = res.state
-    return np.array([s[L.TH2], s[L.DTH1], s[L.DTH2]]), res.status
+    return _section_of(res.state), res.status
 
 
 def search_return_map(z, *, torque: float = SEED2009_TORQUE, robot: RobotLike = "seed2009",
@@ -236,8 +242,7 @@ def search_return_map(z, *, torque: float = SEED2009_TORQUE, robot: RobotLike = 
     cycle-start energy is restored, stop at the vertical) from section state ``z``."""
     res = run_controller(HorizontalSearch(torque), section_state(z), robot=robot,
                          integrator=integrator, log_capacity=0)
-    s = res.state
-    return np.array([s[L.TH2], s[L.DTH1], s[L.DTH2]]), res.status
+    return _section_of(res.state), res.status
 
 
 def jacobian_fd(fmap, z, step: float = 1e-5) -> np.ndarray:
@@ -336,3 +341,156 @@ def open_loop_cycles(dtheta1: float, dtheta2: float, *, t_switch: float, t_motor
     piv = swaps[:, L.L_STATE:L.L_STATE + 8]
     x_prev = np.concatenate([[0.0], piv[:-1, L.X]])
     return CycleRun(err, ke, piv[:, L.Y], piv[:, L.X] - x_prev, obs[:, L.L_T], res.status)
+
+
+# ------------------------------------------------------------------------------------------
+# Floquet multipliers from the variational equations (saltation matrices at the events)
+# ------------------------------------------------------------------------------------------
+def _check_mirror_links(robot):
+    par = robot.params()
+    if not np.allclose(par[0], par[1], rtol=0, atol=1e-14):
+        raise ValueError("one-cycle return maps need mirror-image links (the frame flips at "
+                         "every swap); compose two cycles for this robot")
+
+
+def _integrate_variational(p, tau, y0, Phi0, t0, t1, rtol):
+    """State and transition matrix of the swing phase from ``t0`` to ``t1``."""
+    from scipy.integrate import solve_ivp
+
+    from .kernel.variational import swing_variational_rhs
+
+    fm = np.ones(2)
+    dY = np.empty(20)
+
+    def fun(t, Y):
+        swing_variational_rhs(p, tau, fm, Y, dY)
+        return dY.copy()
+
+    Y0 = np.concatenate([y0, Phi0.ravel()])
+    if t1 <= t0:
+        return y0.copy(), Phi0.copy()
+    sol = solve_ivp(fun, (t0, t1), Y0, method="DOP853", rtol=rtol, atol=rtol * 1e-2)
+    Y = sol.y[:, -1]
+    return Y[:4].copy(), Y[4:].reshape(4, 4).copy()
+
+
+def variational_jacobian(controller: str, z, *, t_switch: float = math.nan,
+                         t_motor: float = math.nan, torque: float = SEED2009_TORQUE,
+                         robot: RobotLike = "seed2009", integrator: Integrator = TIGHT,
+                         rtol: float = 1e-12) -> np.ndarray:
+    """Jacobian of the return map on ``theta1 = 0`` by variational equations.
+
+    ``controller`` is ``"open_loop"`` (exact times ``t_switch``, ``t_motor``, clock reset at
+    the vertical) or ``"search"`` (the state-based controller). Event times come from one
+    kernel run; the state and its transition matrix ``Phi`` are then integrated through each
+    phase (``dPhi/dt = A Phi``, ``A`` by complex step), and at each event
+
+    * a time-triggered swap maps ``Phi -> DR Phi`` (``DR`` the flip-and-impact Jacobian);
+    * a state-triggered swap (guard ``g``) uses the saltation matrix
+      ``S = DR + (f+ - DR f-) grad(g)^T / (grad(g) . f-)``;
+    * motor off when the energy is restored (``g = E(x) - E(x0)``, whose reference depends on
+      the start): ``Phi -> Phi + (f+ - f-)(grad E^T Phi - grad E0^T) / (grad E . f-)``;
+    * the section itself (``theta1 = 0``, free end time): ``(I - f e1^T / f_1) Phi``.
+    """
+    from .kernel.variational import (
+        swap_jacobian, swap_state, swing_energy_gradient, swing_field,
+    )
+
+    robot = as_robot(robot)
+    _check_mirror_links(robot)
+    par = robot.params()
+    z = np.asarray(z, float)
+    if controller == "open_loop":
+        ctrl = OpenLoop(t_switch, t_motor, torque, clock="reset_at_vertical")
+        res = run_controller(ctrl, section_state(z), robot=robot, integrator=integrator,
+                             cycles=1, log_capacity=16)
+    elif controller == "search":
+        res = run_controller(HorizontalSearch(torque), section_state(z), robot=robot,
+                             integrator=integrator, log_capacity=16)
+    else:
+        raise ValueError(f"controller must be 'open_loop' or 'search', got {controller!r}")
+    if res.status != Status.OK:
+        raise RuntimeError(f"no cycle from z (status {res.status.name})")
+    t_sw, t_off, t_end = res.segment_times[:3]
+    L1, L2 = par[0][L.P_L1], par[0][L.P_L2]
+    y0 = np.array([0.0, z[0], z[1], z[2]])
+    fa, fb = np.empty(4), np.empty(4)
+    # swing about A until the swap
+    y, Phi = _integrate_variational(par[0], 0.0, y0, np.eye(4), 0.0, t_sw, rtol)
+    DR = np.empty((4, 4))
+    swap_jacobian(par[0], par[1], y, DR)
+    y_plus = swap_state(par[0], par[1], y)
+    if controller == "search":
+        swing_field(par[0], 0.0, np.ones(2), y, fa)
+        swing_field(par[1], torque, np.ones(2), y_plus, fb)
+        s1, s12 = math.sin(y[0]), math.sin(y[0] + y[1])
+        grad = np.array([L1 * s1 + L2 * s12, L2 * s12, 0.0, 0.0])
+        Phi = (DR + np.outer(fb - DR @ fa, grad) / (grad @ fa)) @ Phi
+    else:
+        Phi = DR @ Phi
+    y = y_plus
+    # motor on until it stops
+    y, Phi = _integrate_variational(par[1], torque, y, Phi, t_sw, t_off, rtol)
+    if controller == "search" and t_off > t_sw:
+        swing_field(par[1], torque, np.ones(2), y, fa)
+        swing_field(par[1], 0.0, np.ones(2), y, fb)
+        gE, gE0 = np.empty(4), np.empty(4)
+        swing_energy_gradient(par[1], 0.0, y, gE)
+        swing_energy_gradient(par[0], 0.0, y0, gE0)
+        Phi = Phi + np.outer(fb - fa, gE @ Phi - gE0) / (gE @ fa)
+    # to the vertical; the section's crossing time is free
+    y, Phi = _integrate_variational(par[1], 0.0, y, Phi, t_off, t_end, rtol)
+    swing_field(par[1], 0.0, np.ones(2), y, fa)
+    e1 = np.array([1.0, 0.0, 0.0, 0.0])
+    M = (np.eye(4) - np.outer(fa, e1) / fa[0]) @ Phi
+    return M[1:, 1:]
+
+
+@dataclass
+class FixedPointResult:
+    """Fixed point of a return map by Newton's method (residual history per iteration)."""
+
+    z: np.ndarray
+    defect: float
+    converged: bool
+    history: list
+    jacobian: np.ndarray
+
+
+def solve_fixed_point(fmap, z0, *, jacobian=None, tol: float = 1e-13,
+                      max_iter: int = 30) -> FixedPointResult:
+    """Newton on ``P(z) - z = 0`` with a least-squares step.
+
+    A neutral multiplier (the energy level of the state-based controller, which restores
+    every cycle's start energy) makes ``DP - I`` singular: fixed points come in a family.
+    The minimum-norm step moves across the family, not along it, and still converges
+    quadratically to one of its members. ``jacobian(z)`` defaults to finite differences.
+    """
+    jac = jacobian or (lambda q: jacobian_fd(fmap, q))
+    z = np.asarray(z0, float).copy()
+    zn, st = fmap(z)
+    if st != Status.OK:
+        raise RuntimeError(f"no cycle from the start (status {Status(st).name})")
+    F = zn - z
+    history = [float(np.linalg.norm(F))]
+    J = np.full((z.size, z.size), np.nan)
+    converged = False
+    for _ in range(max_iter):
+        J = jac(z)
+        step, *_ = np.linalg.lstsq(J - np.eye(z.size), -F, rcond=1e-10)
+        lam = 1.0
+        for _ in range(20):
+            zt = z + lam * step
+            zn, st = fmap(zt)
+            if st == Status.OK and np.linalg.norm(zn - zt) < history[-1]:
+                break
+            lam *= 0.5
+        else:
+            break
+        z = zt
+        F = zn - z
+        history.append(float(np.linalg.norm(F)))
+        if history[-1] <= tol:
+            converged = True
+            break
+    return FixedPointResult(z, history[-1], converged, history, J)

@@ -81,3 +81,38 @@ def test_the_1ms_tick_only_seeds_the_instability(grazing):
         assert run.status == Status.FELL
         fails[tick] = int(np.argmax(run.error > 1e-2)) + 1
     assert fails[1e-3] < fails[1e-5] < fails[0.0] < 80
+
+
+def test_variational_and_finite_difference_jacobians_agree(grazing):
+    """Open-loop map at the exact gait: var-eq (saltation/impact Jacobians) vs central FD."""
+    from monkeystudy.analysis import variational_jacobian
+    z = np.array([0.0, grazing.dtheta1, grazing.dtheta2])
+    Jv = variational_jacobian("open_loop", z, t_switch=grazing.t_switch, t_motor=0.0,
+                              torque=0.0)
+    Jf = jacobian_fd(lambda q: open_loop_return_map(q, t_switch=grazing.t_switch,
+                                                    t_motor=0.0, torque=0.0), z)
+    assert np.abs(Jv - Jf).max() / np.abs(Jv).max() < 1e-8
+
+
+#: the state-based controller's attracting gait (found by the 1000-cycle run, polished by
+#: Newton): link 1 passes the vertical backwards while link 2 turns a full revolution
+CLOSED_LOOP_START = np.array([0.0248, -1.0869, 16.0168])
+
+
+@pytest.mark.slow
+def test_state_based_controller_gait_multipliers():
+    """Energy restoration makes one multiplier exactly 1; the others are inside the circle."""
+    from monkeystudy.analysis import search_return_map, solve_fixed_point, variational_jacobian
+    fp = solve_fixed_point(search_return_map, CLOSED_LOOP_START,
+                           jacobian=lambda q: variational_jacobian("search", q))
+    assert fp.converged and fp.defect < 1e-12
+    h = np.array(fp.history)
+    assert h[2] < h[1] ** 1.5 * 10  # superlinear (quadratic) convergence
+    Jv = variational_jacobian("search", fp.z)
+    Jf = jacobian_fd(search_return_map, fp.z)
+    assert np.abs(Jv - Jf).max() / np.abs(Jv).max() < 1e-7
+    lam = np.linalg.eigvals(Jv)
+    lam = lam[np.argsort(-np.abs(lam))]
+    assert np.min(np.abs(lam - 1.0)) < 1e-7        # the neutral energy direction
+    others = lam[np.abs(lam - 1.0) > 1e-6]
+    assert len(others) == 2 and np.all(np.abs(others) < 1.0)

@@ -36,6 +36,8 @@ except OSError:  # read-only home: fall back to numba's own choice (in-tree __py
 try:
     # every kernel module is decorated now, while the cache directory is ours; then the
     # global setting goes back to what it was, so other numba users are unaffected
-    from . import dynamics, events, gait, hybrid, integrate, layout, rk_explicit, tableaux  # noqa
+    from . import (  # noqa: F401
+        dynamics, events, gait, hybrid, integrate, layout, rk_explicit, tableaux, variational,
+    )
 finally:
     _numba_config.CACHE_DIR = _saved_cache_dir

@@ -1,5 +1,9 @@
 """Equations of motion, energy, kinematics, impact and flip of the MonkeyBot (compiled).
 
+The accelerations, energies, flip and impact use ``np.sin``/``np.cos`` (as fast as ``math`` on
+floats) so that they also accept complex arguments: :mod:`.variational` differentiates them by
+complex step, exactly to round-off.
+
 Pure ``@njit(cache=True)`` functions on float64 arrays; parameter rows follow
 :mod:`monkeystudy.kernel.layout`. Equation references are to ``shared/MODEL.md``.
 
@@ -69,10 +73,10 @@ def flipped_params(p):
 @njit(cache=True, inline="always")
 def _swing_terms(p, tau, fmode, th1, th2, w1, w2):
     """Swing mass matrix entries and right-hand side ``F - C qdot - G`` (MODEL.md sec. 2)."""
-    s1 = math.sin(th1)
-    s2 = math.sin(th2)
-    c2 = math.cos(th2)
-    s12 = math.sin(th1 + th2)
+    s1 = np.sin(th1)
+    s2 = np.sin(th2)
+    c2 = np.cos(th2)
+    s12 = np.sin(th1 + th2)
     h = p[P_H]
     gm2r2s12 = p[P_G] * p[P_M2R2] * s12
     m11 = p[P_K11] + 2.0 * h * c2
@@ -100,10 +104,10 @@ def _solve2(m11, m12, m22, r1, r2, lock1, lock2):
 @njit(cache=True, inline="always")
 def _flight_coupling(p, th1, th2):
     """Off-diagonal block of the flight mass matrix, rows (x, y), columns (theta1, theta2)."""
-    c1 = math.cos(th1)
-    s1 = math.sin(th1)
-    c12 = math.cos(th1 + th2)
-    s12 = math.sin(th1 + th2)
+    c1 = np.cos(th1)
+    s1 = np.sin(th1)
+    c12 = np.cos(th1 + th2)
+    s12 = np.sin(th1 + th2)
     a = p[P_A]
     m2r2 = p[P_M2R2]
     return (a * c1 + m2r2 * c12, m2r2 * c12, a * s1 + m2r2 * s12, m2r2 * s12,
@@ -133,8 +137,8 @@ def flight_accel(p, tau, fmode, th1, th2, w1, w2):
     # right-hand side F - C qdot - G; no pivot friction in flight (nothing is pinned)
     rx = a * s1 * w1 * w1 + m2r2 * s12 * w12 * w12
     ry = -(a * c1 * w1 * w1 + m2r2 * c12 * w12 * w12) - p[P_G] * mt
-    s2 = math.sin(th2)
-    c2 = math.cos(th2)
+    s2 = np.sin(th2)
+    c2 = np.cos(th2)
     h = p[P_H]
     gm2r2s12 = p[P_G] * m2r2 * s12
     r1 = h * s2 * (2.0 * w1 * w2 + w2 * w2) - p[P_G] * a * s1 - gm2r2s12
@@ -227,7 +231,7 @@ def holding_torque(phase, p, tau, fmode, y, k):
 def kinetic_energy(p, th1, th2, vx, vy, w1, w2):
     """Kinetic energy K [J], MODEL.md section 1 (``vx = vy = 0`` while swinging)."""
     h = p[P_H]
-    c2 = math.cos(th2)
+    c2 = np.cos(th2)
     m11 = p[P_K11] + 2.0 * h * c2
     m12 = p[P_K22] + h * c2
     k = 0.5 * (m11 * w1 * w1 + 2.0 * m12 * w1 * w2 + p[P_K22] * w2 * w2)
@@ -241,8 +245,8 @@ def kinetic_energy(p, th1, th2, vx, vy, w1, w2):
 @njit(cache=True)
 def potential_energy(p, y_end, th1, th2):
     """Potential energy V [J] with the (x, y) end at world height ``y_end`` (MODEL.md sec. 1)."""
-    return p[P_G] * (p[P_MTOT] * y_end - p[P_A] * math.cos(th1)
-                     - p[P_M2R2] * math.cos(th1 + th2))
+    return p[P_G] * (p[P_MTOT] * y_end - p[P_A] * np.cos(th1)
+                     - p[P_M2R2] * np.cos(th1 + th2))
 
 
 @njit(cache=True)
@@ -333,7 +337,7 @@ def attach_xy_end(p, s):
     th1, th2, vx, vy, w1, w2 = s[2], s[3], s[4], s[5], s[6], s[7]
     b02, b03, b12, b13, c1, s1, c12, s12 = _flight_coupling(p, th1, th2)
     h = p[P_H]
-    c2 = math.cos(th2)
+    c2 = np.cos(th2)
     m11 = p[P_K11] + 2.0 * h * c2
     m12 = p[P_K22] + h * c2
     m22 = p[P_K22]
@@ -348,8 +352,8 @@ def attach_xy_end(p, s):
 
 @njit(cache=True)
 def wrap_angle(a):
-    """Angle in [-pi, pi)."""
-    return a - TWO_PI * math.floor((a + math.pi) / TWO_PI)
+    """Angle in [-pi, pi) (the shift uses the real part, so complex steps pass through)."""
+    return a - TWO_PI * math.floor((a.real + math.pi) / TWO_PI)
 
 
 @njit(cache=True)
@@ -361,8 +365,8 @@ def flip_state(p, s):
     """
     x, y, th1, th2, vx, vy, w1, w2 = s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7]
     L1, L2 = p[P_L1], p[P_L2]
-    s1, c1 = math.sin(th1), math.cos(th1)
-    s12, c12 = math.sin(th1 + th2), math.cos(th1 + th2)
+    s1, c1 = np.sin(th1), np.cos(th1)
+    s12, c12 = np.sin(th1 + th2), np.cos(th1 + th2)
     s[0] = x + L1 * s1 + L2 * s12
     s[1] = y - L1 * c1 - L2 * c12
     s[2] = wrap_angle(math.pi + th1 + th2)

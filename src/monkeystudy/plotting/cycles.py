@@ -59,18 +59,22 @@ def gait_point(stab, refines: Sequence = ()) -> tuple[float, float] | None:
 
 
 def matching_refine(stab, refines: Sequence):
-    """The refine dataset whose ``t_switch``/``t_motor`` the stability run replays, or None."""
+    """The refine dataset (one start of it) whose ``t_switch``/``t_motor`` the stability run
+    replays, or None."""
     try:
         ts, tm = float(stab.attrs["t_switch"]), float(stab.attrs["t_motor"])
     except (KeyError, TypeError, ValueError):
         return None
     for r in refines:
-        try:
-            if (math.isclose(float(r["t_switch"]), ts, rel_tol=0, abs_tol=1e-9)
-                    and math.isclose(float(r["t_motor"]), tm, rel_tol=0, abs_tol=1e-9)):
-                return r
-        except (KeyError, TypeError, ValueError):
-            continue
+        starts = ([r.isel(start=i) for i in range(r.sizes["start"])] if "start" in r.dims
+                  else [r])
+        for s in starts:
+            try:
+                if (math.isclose(float(s["t_switch"]), ts, rel_tol=0, abs_tol=1e-9)
+                        and math.isclose(float(s["t_motor"]), tm, rel_tol=0, abs_tol=1e-9)):
+                    return s
+            except (KeyError, TypeError, ValueError):
+                continue
     return None
 
 

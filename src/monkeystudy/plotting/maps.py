@@ -140,25 +140,43 @@ class Minimum:
     start: tuple[float, float] | None
 
 
-def minima_from(refines: Sequence) -> list[Minimum]:
+def _split_starts(refine) -> list[tuple[str, object]]:
+    """``(label, dataset)`` per start of a refine dataset (a multi-start dataset has a leading
+    dim ``start``: one minimum each)."""
+    step = str(refine.attrs.get("step_name", "minimum"))
+    if "start" in refine.dims:
+        n = refine.sizes["start"]
+        return [(f"{step} #{i + 1}", refine.isel(start=i)) for i in range(n)]
+    return [(step, refine)]
+
+
+def _start_point(r, attrs) -> tuple[float, float] | None:
     import json
+    if "start_dtheta1" in r and "start_dtheta2" in r:
+        return float(r["start_dtheta1"]), float(r["start_dtheta2"])
+    try:
+        s = json.loads(attrs.get("start", "null"))
+        if isinstance(s, (list, tuple)) and len(s) == 2:
+            return float(s[0]), float(s[1])
+    except (TypeError, ValueError):
+        pass
+    return None
+
+
+def minima_from(refines: Sequence) -> list[Minimum]:
+    """The located minima of ``refine`` datasets (one per start), with their search paths."""
     out = []
-    for r in refines:
-        start = None
-        try:
-            s = json.loads(r.attrs.get("start", "null"))
-            if s is not None and len(s) == 2:
-                start = (float(s[0]), float(s[1]))
-        except (TypeError, ValueError):
-            pass
-        p1 = np.asarray(r["iterate_dtheta1"].values, float) if "iterate_dtheta1" in r else \
-            np.zeros(0)
-        p2 = np.asarray(r["iterate_dtheta2"].values, float) if "iterate_dtheta2" in r else \
-            np.zeros(0)
-        out.append(Minimum(str(r.attrs.get("step_name", "minimum")),
-                           float(r["dtheta1"]), float(r["dtheta2"]), float(r["error"]),
-                           int(r["status"]) == L.ST_OK if "status" in r else True,
-                           p1, p2, start))
+    for refine in refines:
+        for label, r in _split_starts(refine):
+            p1 = np.asarray(r["iterate_dtheta1"].values, float) if "iterate_dtheta1" in r \
+                else np.zeros(0)
+            p2 = np.asarray(r["iterate_dtheta2"].values, float) if "iterate_dtheta2" in r \
+                else np.zeros(0)
+            keep = np.isfinite(p1) & np.isfinite(p2)          # multi-start padding is NaN
+            out.append(Minimum(label, float(r["dtheta1"]), float(r["dtheta2"]),
+                               float(r["error"]),
+                               int(r["status"]) == L.ST_OK if "status" in r else True,
+                               p1[keep], p2[keep], _start_point(r, refine.attrs)))
     return out
 
 
@@ -301,28 +319,43 @@ def plot_error_surface(grid, *, max_cells: int = 120, cmap: str = "magma",
 # Nelder-Mead convergence of a refine step
 # ----------------------------------------------------------------------------------------------
 def plot_refine_convergence(refine):
-    """Best-vertex error per Nelder-Mead iteration of a ``refine`` dataset (log scale).
+    """Best-vertex error per Nelder-Mead iteration of a ``refine`` dataset (log scale), one
+    line per start.
 
-    Shows where the search stalls (the study's tick-quantised error surface stops the simplex
-    above zero). The line has ``gid`` ``iterate_error``.
+    Shows where the search stalls (the tick-quantised error surface stops the simplex above
+    zero). Lines have ``gid`` ``iterate_error`` (one start) or ``iterate_error_<i>``.
     """
-    it = np.asarray(refine["iteration"].values if "iteration" in refine.coords
-                    else np.arange(1, refine.sizes["iteration"] + 1), float)
-    err = np.asarray(refine["iterate_error"].values, float)
-    m = minima_from([refine])[0]
+    starts = _split_starts(refine)
+    mins = minima_from([refine])
     with style():
-        fig = new_figure(figsize=(7.0, 4.4))
+        fig = new_figure(figsize=(7.0, 4.6))
         ax = fig.add_subplot()
-        ax.plot(it, np.ma.masked_less_equal(err, 0.0), marker=".", gid="iterate_error",
-                label="best vertex")
+        lines = []
+        for k, ((label, r), m) in enumerate(zip(starts, mins)):
+            err = np.asarray(r["iterate_error"].values, float)
+            it = np.asarray(r["iteration"].values if "iteration" in r.coords
+                            else np.arange(err.size), float)
+            keep = np.isfinite(err) & (err > 0)
+            if "iterate_nfev" in r:                     # multi-start padding is -1
+                keep &= np.asarray(r["iterate_nfev"].values) >= 0
+            start = f"start ({m.start[0]:.3f}, {m.start[1]:.3f}) → " if m.start else ""
+            ax.plot(it[keep], err[keep], marker=".",
+                    gid="iterate_error" if len(starts) == 1 else f"iterate_error_{k}",
+                    label=f"{label}: {start}e = {m.error:.3g} at "
+                          f"({m.dtheta1:.4f}, {m.dtheta2:.4f})")
+            lines.append(m)
         ax.set_yscale("log")
         ax.set_xlabel("Nelder–Mead iteration")
         ax.set_ylabel("gait error e of the best vertex  [1]")
-        start = f" from {m.start[0]:g}, {m.start[1]:g}" if m.start else ""
-        conv = {0: "not converged", 1: "converged"}.get(int(refine.attrs.get("converged", -1)),
-                                                        "")
-        fig.suptitle(f"Nelder–Mead search{start}", x=0.02, ha="left", fontweight="bold")
-        ax.set_title(f"minimum e = {m.error:.3g} at ({m.dtheta1:.4f}, {m.dtheta2:.4f}) rad/s"
-                     f"{', ' + conv if conv else ''}\n{run_label(refine)}", fontsize=8.5,
+        ax.legend(loc="upper right", fontsize=8)
+        conv = refine["converged"] if "converged" in refine else refine.attrs.get("converged")
+        conv = np.atleast_1d(np.asarray(getattr(conv, "values", conv) if conv is not None
+                                        else [], dtype=float))
+        note = ("" if conv.size == 0 else "converged (xatol, fatol met)" if np.all(conv == 1)
+                else "stopped at the iteration limit" if np.all(conv == 0)
+                else f"{int(np.sum(conv == 1))} of {conv.size} starts converged")
+        fig.suptitle(f"Nelder–Mead refinement {refine.attrs.get('step_name', '')}", x=0.02,
+                     ha="left", fontweight="bold")
+        ax.set_title((note + "\n" if note else "") + run_label(refine), fontsize=8.5,
                      fontweight="normal", loc="left")
     return fig

@@ -145,9 +145,16 @@ def plan(study_dir: Path, *, animation: bool = True, fps: float = 15.0,
     for st in files["stability"]:
         s = st.stem
         with xr.open_dataset(st) as sds:
-            match = cycles.matching_refine(sds, list(refines.values()))
             has_traj = gait.has_trajectory(sds)
-        ref = [p for p, rds in refines.items() if rds is match]
+            own_rates = "dtheta1" in sds and "dtheta2" in sds
+            named = study_dir / f"{sds.attrs.get('refine_step', '')}.nc"
+            if own_rates:                       # the run names its gait: needs no refine
+                ref = []
+            elif named in refines:
+                ref = [named]
+            else:
+                ref = [p for p, rds in refines.items()
+                       if cycles.matching_refine(sds, [rds]) is not None][:1]
         inputs = [st] + ref
         stab_inputs.append(inputs)
 
@@ -208,7 +215,7 @@ def _write_manifest(path: Path, manifest: dict) -> None:
 
 def report_study(study_dir: Path, *, force: bool = False,
                  formats: Sequence[str] = ("png", "pdf"), animation: bool = True,
-                 fps: float = 15.0, max_frames: int = 240,
+                 fps: float = 15.0, max_frames: int = 240, dry_run: bool = False,
                  progress: Progress | None = None) -> list[Path]:
     """Draw every figure the datasets in ``study_dir`` support into ``study_dir/figures``.
 
@@ -224,13 +231,16 @@ def report_study(study_dir: Path, *, force: bool = False,
         Also write each stability run's animation (GIF; MP4 too when ffmpeg exists).
     fps, max_frames : float, int
         Animation frame rate and frame budget (longer runs play faster than real time).
+    dry_run : bool
+        Draw nothing; return the files that would be written.
     progress : callable, optional
         Called with one line of text per figure (drawn or up to date).
 
     Returns
     -------
     list of Path
-        The files written by this call (empty when every figure was up to date).
+        The files written by this call (empty when every figure was up to date); with
+        ``dry_run``, the files that would be written.
 
     Raises
     ------
@@ -246,7 +256,8 @@ def report_study(study_dir: Path, *, force: bool = False,
         if progress:
             progress(f"{study_dir}: no datasets to draw from")
         return []
-    fig_dir.mkdir(parents=True, exist_ok=True)
+    if not dry_run:
+        fig_dir.mkdir(parents=True, exist_ok=True)
     manifest_path = fig_dir / MANIFEST
     manifest = _read_manifest(manifest_path)
     code = code_hash()
@@ -268,6 +279,13 @@ def report_study(study_dir: Path, *, force: bool = False,
         if not force and outputs_ok and all(old.get(key) == entry[key] for key in entry):
             if progress:
                 progress(f"[{k}/{len(jobs)}] {job.name}: up to date")
+            continue
+        if dry_run:
+            exts = (["gif"] + (["mp4"] if gait.FFMpegWriter.isAvailable() else [])
+                    if job.animation else list(formats))
+            written += [fig_dir / f"{job.name}.{e}" for e in exts]
+            if progress:
+                progress(f"[{k}/{len(jobs)}] {job.name}: would draw ({job.title})")
             continue
         if progress:
             progress(f"[{k}/{len(jobs)}] {job.name}: drawing ({job.title})")
