@@ -1,0 +1,112 @@
+"""Work-precision measurements: run time against error for every integrator (issue #5).
+
+For each method and relative tolerance, the horizontal gait is evaluated at a set of points;
+the wall time per gait (best of ``repeat`` runs, so that a noisy machine inflates nothing) and
+the error of the results (the gait error value and the three event times) are recorded against
+a reference computed at a much tighter tolerance by a *different* method (the kernel's RK45 at
+rtol 1e-13, itself checked against scipy's DOP853). scipy ``solve_ivp`` (RK45, DOP853, LSODA,
+with events, hand-written scalar right-hand side) runs the same gaits on a subset of points,
+timed in the same process, so ratios between the two are measured side by side.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from .bench import ScipyGait, best_of, kernel_gaits
+from .controllers import METHODS, HorizontalSearch, Integrator, settings_vector
+from .kernel.gait import R_ERROR, R_NFEV, R_STATUS, R_T_END, R_T_MOTOR, R_T_SWITCH
+from .robot import SEED2009_TORQUE
+from .simulate import RobotLike, as_robot
+
+#: the study's tolerance ladder
+RTOLS = (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13)
+#: reference: a different method at a much tighter tolerance
+REFERENCE = ("rk45", 1e-13)
+
+
+def _errors(out, ref):
+    """Max |difference| over points of the gait error and of the event times."""
+    ok = (out[:, R_STATUS] == 0) & (ref[:, R_STATUS] == 0)
+    if not np.any(ok):
+        return math.nan, math.nan
+    de = np.abs(out[ok, R_ERROR] - ref[ok, R_ERROR]).max()
+    cols = [R_T_SWITCH, R_T_MOTOR, R_T_END]
+    dt = np.abs(out[ok][:, cols] - ref[ok][:, cols]).max()
+    return float(de), float(dt)
+
+
+def work_precision(points, *, robot: RobotLike = "seed2009", torque: float = SEED2009_TORQUE,
+                   methods=tuple(METHODS), rtols=RTOLS, atol_ratio: float = 1e-2,
+                   repeat: int = 3, scipy_methods=("RK45", "DOP853", "LSODA"),
+                   scipy_rtols=(1e-6, 1e-8, 1e-10), scipy_points: int = 4,
+                   first_swing_only: bool = True) -> dict:
+    """Measure time per gait [s] and errors for each (method, rtol); plain arrays out.
+
+    Returns ``{"methods", "rtols", "time", "nfev", "error_value", "error_times",
+    "status_mismatch", "scipy_methods", "scipy_rtols", "scipy_time", "scipy_error_value",
+    "scipy_error_times", "kernel_time_same_points"}``. Errors are NaN where no point had a
+    gait in both runs.
+    """
+    robot = as_robot(robot)
+    par = robot.params()
+    floor = robot.swap_energy_floor()
+    pts = np.ascontiguousarray(points, dtype=float).reshape(-1, 2)
+    prog, _ = HorizontalSearch(torque).program()
+
+    def settings(method, rtol):
+        return settings_vector(Integrator(method=method, rtol=rtol, atol=rtol * atol_ratio,
+                                          max_steps=5_000_000))
+
+    ref = kernel_gaits(par, prog, settings(*REFERENCE), pts, floor)
+    if first_swing_only:
+        # a swap on a later swing follows a chaotic double-pendulum phase: its results are
+        # ill-conditioned (errors amplified ~1e3 and more), which measures the problem, not
+        # the integrator; keep gaits that swap on the first swing and end before 1.2 s
+        keep = (ref[:, R_STATUS] == 0) & (ref[:, R_T_END] < 1.2)
+        pts, ref = pts[keep], ref[keep]
+        if len(pts) == 0:
+            raise ValueError("no well-conditioned gait among the points")
+    n_m, n_r = len(methods), len(rtols)
+    t = np.full((n_m, n_r), np.nan)
+    nfev = np.full((n_m, n_r), np.nan)
+    e_val = np.full((n_m, n_r), np.nan)
+    e_t = np.full((n_m, n_r), np.nan)
+    mismatch = np.zeros((n_m, n_r), np.int32)
+    for i, m in enumerate(methods):
+        for j, rtol in enumerate(rtols):
+            st = settings(m, rtol)
+            out = kernel_gaits(par, prog, st, pts, floor)       # compiles once, warms caches
+            t[i, j] = best_of(lambda: kernel_gaits(par, prog, st, pts, floor), repeat) / len(pts)
+            nfev[i, j] = out[:, R_NFEV].mean()
+            e_val[i, j], e_t[i, j] = _errors(out, ref)
+            mismatch[i, j] = int(np.sum(out[:, R_STATUS] != ref[:, R_STATUS]))
+
+    sub = pts[:scipy_points]
+    ref_sub = ref[:scipy_points]
+    sg = ScipyGait(robot, torque, "scalar")
+    s_t = np.full((len(scipy_methods), len(scipy_rtols)), np.nan)
+    s_ev = np.full_like(s_t, np.nan)
+    s_et = np.full_like(s_t, np.nan)
+    k_t = np.full(len(scipy_rtols), np.nan)
+    for j, rtol in enumerate(scipy_rtols):
+        st = settings("dop853", rtol)
+        k_t[j] = best_of(lambda: kernel_gaits(par, prog, st, sub, floor), repeat) / len(sub)
+        for i, m in enumerate(scipy_methods):
+            t0 = time.perf_counter()
+            res = [sg.gait(a, b, rtol, rtol * atol_ratio, method=m) for a, b in sub]
+            s_t[i, j] = (time.perf_counter() - t0) / len(sub)
+            arr = np.full((len(sub), ref.shape[1]), np.nan)
+            for k, r in enumerate(res):
+                arr[k, R_ERROR], arr[k, R_T_SWITCH], arr[k, R_T_MOTOR], arr[k, R_T_END] = r[:4]
+                arr[k, R_STATUS] = 0 if math.isfinite(r[0]) else 1
+            s_ev[i, j], s_et[i, j] = _errors(arr, ref_sub)
+    return {"methods": list(methods), "rtols": np.asarray(rtols, float), "time": t,
+            "nfev": nfev, "error_value": e_val, "error_times": e_t,
+            "status_mismatch": mismatch, "scipy_methods": list(scipy_methods),
+            "scipy_rtols": np.asarray(scipy_rtols, float), "scipy_time": s_t,
+            "scipy_error_value": s_ev, "scipy_error_times": s_et,
+            "kernel_time_same_points": k_t, "n_points": len(pts),
+            "reference": f"{REFERENCE[0]} rtol {REFERENCE[1]:g}"}
