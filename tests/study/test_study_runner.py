@@ -196,6 +196,31 @@ def _wait_for_shards(proc: subprocess.Popen, out: Path, n: int, timeout: float =
         time.sleep(0.02)
 
 
+def _children(pid: int) -> list[int]:
+    out = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            out.append(int(stat.parent.name))
+    return out
+
+
+def _pool_workers(driver: int) -> list[int]:
+    """The local pool's worker processes (children of the driver's forkserver)."""
+    workers = []
+    for child in _children(driver):
+        try:
+            cmd = (Path("/proc") / str(child) / "cmdline").read_bytes()
+        except OSError:
+            continue
+        if b"forkserver" in cmd:
+            workers += _children(child)
+    return workers
+
+
 def _kill_group(proc: subprocess.Popen) -> None:
     try:
         os.killpg(proc.pid, signal.SIGKILL)
@@ -205,23 +230,30 @@ def _kill_group(proc: subprocess.Popen) -> None:
 
 
 @pytest.mark.slow
-def test_resume_after_sigterm_and_kill9_is_bit_identical(tmp_path):
+def test_resume_after_ctrl_c_sigterm_kill9_and_dead_worker_is_bit_identical(tmp_path):
     study = write_study(tmp_path, KILL_STUDY, "kill.yaml")
     out = tmp_path / "resumed"
     n_blocks = -(-121 * 151 // 150)
 
-    # 1. SIGTERM (like Ctrl-C): exit code 3, finished blocks kept
-    proc = _start(study, out)
-    try:
-        _wait_for_shards(proc, out, 8)
-        proc.send_signal(signal.SIGTERM)
-        _, err = proc.communicate(timeout=60)
-    finally:
-        _kill_group(proc)
-    assert proc.returncode == 3, err
-    assert "rerun to resume" in err
-    first = len(_shards(out))
-    assert 8 <= first < n_blocks
+    # 1. Ctrl-C (SIGINT to the whole process group), then SIGTERM to the driver: exit code 3,
+    #    finished blocks kept
+    first = 0
+    for sig, group in ((signal.SIGINT, True), (signal.SIGTERM, False)):
+        proc = _start(study, out)
+        try:
+            _wait_for_shards(proc, out, first + 4)
+            if group:
+                os.killpg(proc.pid, sig)
+            else:
+                proc.send_signal(sig)
+            _, err = proc.communicate(timeout=60)
+        finally:
+            _kill_group(proc)
+        assert proc.returncode == 3, err
+        assert "rerun to resume" in err
+        assert len(_shards(out)) >= first + 4
+        first = len(_shards(out))
+    assert first < n_blocks
     assert not (out / "map.nc").exists()
 
     # 2. kill -9 of the driver and its workers: nothing to clean up but temp files
@@ -234,13 +266,28 @@ def test_resume_after_sigterm_and_kill9_is_bit_identical(tmp_path):
     assert first + 8 <= second < n_blocks
     assert not (out / "map.nc").exists()
 
-    # 3. the rerun resumes: only the missing blocks are computed
+    # 3. a pool worker dies (the OOM killer, say): exit code 3, finished blocks kept
+    if sys.platform.startswith("linux"):
+        proc = _start(study, out)
+        try:
+            _wait_for_shards(proc, out, second + 4)
+            workers = _pool_workers(proc.pid)
+            assert workers, "no pool worker found"
+            os.kill(workers[0], signal.SIGKILL)
+            _, err = proc.communicate(timeout=60)
+        finally:
+            _kill_group(proc)
+        assert proc.returncode == 3, err
+        assert "a worker died" in err
+        second = len(_shards(out))
+
+    # 4. the rerun resumes: only the missing blocks are computed
     summary = run_study(load_study(study), out, workers=2)
     assert summary.blocks_reused >= second
     assert summary.blocks_computed == n_blocks - summary.blocks_reused
     assert not list(out.glob(".*.parts"))
 
-    # 4. identical, bit for bit, to a clean uninterrupted run
+    # 5. identical, bit for bit, to a clean uninterrupted run
     clean = tmp_path / "clean"
     run_study(load_study(study), clean, workers=2)
     assert_same_datasets(clean, out, ["map.nc", "best.nc"])
