@@ -135,3 +135,26 @@ def test_run_grid_serial_and_pool_agree():
     flat = run_grid(pts, tick=0.001, integrator=INTEG, workers=0)
     assert flat["error"].shape == (35,)
     assert flat["error"].tobytes() == serial["error"].ravel().tobytes()
+
+
+def test_grid_consolidation_memory_is_flat(tmp_path):
+    """Streaming 100 blocks of 1000 points holds about one block in memory, not the grid."""
+    import tracemalloc
+
+    a1, a2 = np.linspace(0, 1, 100), np.linspace(0, 1, 1000)
+
+    def blocks():
+        for i in range(100):
+            yield i * 1000, {k: np.full(1000, i % 100, dt)
+                             for k, dt in drivers.GRID_VARIABLES.items()}
+
+    tracemalloc.start()
+    try:
+        D.write_grid(tmp_path / "big.nc", {}, axes=(a1, a2), blocks=blocks())
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    full = 100 * 1000 * sum(np.dtype(dt).itemsize for dt in drivers.GRID_VARIABLES.values())
+    assert peak < full / 5, (peak, full)
+    with xr.open_dataset(tmp_path / "big.nc") as ds:
+        assert int(ds["steps"][99, 999]) == 99
