@@ -1,4 +1,4 @@
-"""Synthetic-but-real study datasets for the plotting tests.
+"""Synthetic-but-real study datasets for the plotting tests (fixtures: conftest.py).
 
 Until the study runner (``monkeystudy.study``) lands, these builders call the simulator
 directly (:func:`monkeystudy.evaluate_gaits`, :func:`monkeystudy.run_controller`) and label the
@@ -6,17 +6,15 @@ results exactly as ``docs/datasets.md`` prescribes (grid / refine / stability fi
 global attributes, units, long names and CF status flags). The numbers are real simulation
 output on small grids and short runs, so the figures are drawn from genuine data.
 
-``build_study(folder, ...)`` writes a whole study folder; the ``study_dir`` fixture gives each
-test its own copy of one built once per session.
+``build_study(folder, ...)`` writes a whole study folder; :func:`run_runner_study` runs a tiny
+study with the project's runner for the real file layout.
 """
 from __future__ import annotations
 
 import datetime as _dt
 import hashlib
 import json
-import math
 import os
-import shutil
 import tempfile
 from pathlib import Path
 
@@ -25,7 +23,9 @@ import pytest
 import xarray as xr
 
 import monkeystudy
-from monkeystudy import Integrator, OpenLoop, Robot, evaluate_gaits, initial_state, run_controller
+from monkeystudy import (
+    Integrator, OpenLoop, Robot, evaluate_gaits, initial_state, run_controller,
+)
 from monkeystudy.kernel import layout as L
 from monkeystudy.kernel.dynamics import kinetic_energy
 from monkeystudy.simulate import physical_points
@@ -262,24 +262,38 @@ def build_study(folder: Path, *, name: str = "plot_test", d1=(0.0, 2.0, 13),
     return folder
 
 
-@pytest.fixture(scope="session")
-def built_study(tmp_path_factory) -> Path:
-    return build_study(tmp_path_factory.mktemp("studies") / "plot_test")
+#: A tiny study for the real runner (monkeystudy.study): every step kind, multi-start refine,
+#: both open-loop clock modes.
+RUNNER_STUDY = """\
+schema_version: 1
+name: plot_runner
+description: plotting tests through the real study runner
+robot: seed2009
+gait: {kind: horizontal, motor_torque: 0.6354, tick: 0.001}
+integrator: {method: dop853, rtol: 1.0e-8, atol: 1.0e-10, max_time: 3.0}
+steps:
+  - {name: coarse_map, kind: grid, dtheta1: {start: 0.0, stop: 1.5, num: 7},
+     dtheta2: {start: 9.5, stop: 12.0, num: 9}, block_size: 32}
+  - {name: gait1, kind: refine, start: [1.0, 11.0], maxiter: 25}
+  - {name: minima, kind: refine, start: {from: coarse_map, best: 2}, maxiter: 15}
+  - {name: gait1_cycles, kind: stability, from: gait1, cycles: 3}
+  - {name: minima_cycles, kind: stability, from: minima, cycles: 2,
+     controller: {clock: run_on}, sample_dt: 0.01}
+"""
 
 
-@pytest.fixture
-def study_dir(built_study, tmp_path) -> Path:
-    """A private copy of the built study folder (datasets only, no figures)."""
-    dst = tmp_path / built_study.name
-    shutil.copytree(built_study, dst, ignore=shutil.ignore_patterns("figures"))
-    return dst
+def run_runner_study(folder: Path, text: str = RUNNER_STUDY) -> Path:
+    """Run ``text`` with the project's study runner into ``folder`` (skips if unavailable)."""
+    runner = pytest.importorskip("monkeystudy.study.runner")
+    loader = pytest.importorskip("monkeystudy.study.loader")
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    study_file = folder.parent / "plot_runner.yaml"
+    study_file.write_text(text)
+    loaded = loader.load_study(study_file)
+    runner.run_study(loaded, folder, workers=1)
+    return folder
 
 
-@pytest.fixture
-def datasets(built_study):
-    """The built study's datasets opened with xarray, by step name."""
-    out = {}
-    for p in sorted(built_study.glob("*.nc")):
-        with xr.open_dataset(p) as ds:
-            out[p.stem] = ds.load()
-    return out
+#: Animation settings for tests: a few frames keep them quick.
+FAST = dict(fps=5.0, max_frames=6)

@@ -95,7 +95,8 @@ def _stop_note(stab) -> str | None:
     code = int(stab["status"])
     if code in NORMAL_END:
         return None
-    return f"run stopped after cycle {stab.sizes.get('cycle', 0)}: {status_name(code).replace('_', ' ')}"
+    why = status_name(code).replace("_", " ")
+    return f"run stopped after cycle {stab.sizes.get('cycle', 0)}: {why}"
 
 
 def _finish(fig, ax, stab, title, subtitle=""):

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import traceback
 from dataclasses import dataclass, field
 from pathlib import Path

@@ -1,0 +1,210 @@
+"""Each figure function draws the dataset's numbers: checked on the artists' data, not pixels."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from matplotlib.figure import Figure
+from PIL import Image
+
+from monkeystudy import OpenLoop, evaluate_horizontal_gait, simulate
+from monkeystudy.kernel import layout as L
+from monkeystudy.plotting import (
+    gait_point, plot_error_comparison, plot_error_map, plot_error_per_cycle, plot_error_surface,
+    plot_filmstrip, plot_kinetic_energy, plot_pivot_height, plot_refine_convergence,
+    trajectory, write_animation,
+)
+from monkeystudy.plotting.maps import cell_edges, grid_arrays
+
+
+def by_gid(fig: Figure, gid: str):
+    found = [a for a in fig.findobj() if a.get_gid() == gid]
+    assert found, f"no artist with gid {gid!r}"
+    return found[0]
+
+
+def gids(fig: Figure) -> set[str]:
+    return {a.get_gid() for a in fig.findobj() if a.get_gid()}
+
+
+# --- error map (fig. 4) ---------------------------------------------------------------------
+def test_error_map_image_is_the_clipped_error(datasets):
+    grid = datasets["error_map"]
+    fig = plot_error_map(grid, [datasets["refine_1"], datasets["refine_2"]])
+    arr = by_gid(fig, "error").get_array()           # [i_dtheta2, i_dtheta1]
+    err = grid["error"].transpose("dtheta1", "dtheta2").values
+    st = grid["status"].transpose("dtheta1", "dtheta2").values
+    expected = np.minimum(err, 5.0).T
+    nogait = (st != 0).T
+    assert arr.shape == expected.shape
+    np.testing.assert_array_equal(np.ma.getmaskarray(arr), nogait)
+    np.testing.assert_array_equal(arr.filled(np.nan)[~nogait], expected[~nogait])
+    assert arr.max() == pytest.approx(min(5.0, np.nanmax(err)))
+    assert nogait.any() and (~nogait).any(), "test grid should have both regions"
+
+
+def test_error_map_no_gait_region_is_drawn_as_its_own_category(datasets):
+    grid = datasets["error_map"]
+    g = grid_arrays(grid)
+    fig = plot_error_map(grid)
+    X, Y = np.meshgrid(g.dtheta1, g.dtheta2, indexing="ij")
+    centres = np.column_stack([X.ravel(), Y.ravel()])
+    for key, codes in (("unreachable", [L.ST_UNREACHABLE]), ("no_switch", [L.ST_NO_SWITCH])):
+        mask = np.isin(g.status, codes).ravel()
+        assert mask.any(), f"test grid has no {key} points"
+        patch = by_gid(fig, f"nogait_{key}")
+        inside = patch.get_path().contains_points(centres)
+        np.testing.assert_array_equal(inside, mask)
+        assert patch.get_hatch()                    # hatched: distinct from "large error"
+    # the legend names the categories
+    texts = [t.get_text() for leg in fig.legends for t in leg.get_texts()]
+    assert any("cannot reach" in t for t in texts)
+    assert any("never reached" in t for t in texts)
+
+
+def test_error_map_marks_and_labels_the_minima(datasets):
+    refines = [datasets["refine_1"], datasets["refine_2"]]
+    fig = plot_error_map(datasets["error_map"], refines)
+    for r in refines:
+        step = r.attrs["step_name"]
+        marker = by_gid(fig, f"minimum_{step}")
+        assert marker.get_xdata()[0] == pytest.approx(float(r["dtheta1"]))
+        assert marker.get_ydata()[0] == pytest.approx(float(r["dtheta2"]))
+        label = by_gid(fig, f"label_{step}")
+        assert f"{float(r['error']):.2g}" in label.get_text()
+        assert f"{float(r['dtheta1']):.3f}" in label.get_text()
+        path = by_gid(fig, f"path_{step}")
+        np.testing.assert_allclose(path.get_xdata(), r["iterate_dtheta1"].values)
+
+
+def test_error_map_accepts_explicit_points(datasets):
+    grid = datasets["error_map"].stack(point=("dtheta1", "dtheta2")).reset_index("point")
+    fig = plot_error_map(grid)
+    ref = plot_error_map(datasets["error_map"])
+    np.testing.assert_array_equal(by_gid(fig, "error").get_array().filled(-1),
+                                  by_gid(ref, "error").get_array().filled(-1))
+
+
+def test_cell_edges_centre_the_cells():
+    e = cell_edges(np.array([0.0, 1.0, 3.0]))
+    np.testing.assert_allclose(e, [-0.5, 0.5, 2.0, 4.0])
+
+
+# --- surface (fig. 3) -----------------------------------------------------------------------
+def drawn_z(coll) -> np.ndarray:
+    """Vertex heights of a Poly3DCollection (private attributes: mplot3d has no public
+    accessor for the 3-D vertices; padding vertices of partial faces are masked)."""
+    z = coll._faces[..., 2]
+    invalid = getattr(coll, "_invalid_vertices", False)
+    return np.ma.masked_array(z, mask=np.broadcast_to(invalid, z.shape)).compressed()
+
+
+def test_surface_heights_are_sqrt_error_and_floor_is_flat(datasets):
+    grid = datasets["error_map"]
+    fig = plot_error_surface(grid)
+    err = grid["error"].values
+    surf = by_gid(fig, "sqrt_error")
+    z = drawn_z(surf)
+    allowed = np.sqrt(err[np.isfinite(err)])
+    assert z.size and np.all(np.min(np.abs(z[:, None] - allowed[None, :]), axis=1) < 1e-9)
+    assert z.max() == pytest.approx(np.sqrt(np.nanmax(err)))
+    for key in ("floor_unreachable", "floor_no_switch"):
+        fz = drawn_z(by_gid(fig, key))
+        assert fz.size and np.all(fz == 0.0)
+    assert "√" in fig.axes[0].get_zlabel() or "sqrt" in fig.axes[0].get_zlabel()
+
+
+# --- per-cycle figures (figs. 5-8) ----------------------------------------------------------
+def test_error_per_cycle_is_the_dataset_on_a_log_axis(datasets):
+    s = datasets["stability_1"]
+    fig = plot_error_per_cycle(s, gait=(0.9, 10.9))
+    line = by_gid(fig, "error")
+    np.testing.assert_array_equal(line.get_xdata(), s["cycle"].values)
+    np.testing.assert_array_equal(np.asarray(line.get_ydata()), s["error"].values)
+    assert line.axes.get_yscale() == "log"
+    assert "[1]" in line.axes.get_ylabel() and "cycle" in line.axes.get_xlabel()
+
+
+def test_error_comparison_draws_every_run(datasets):
+    ss = [datasets["stability_1"], datasets["stability_2"]]
+    fig = plot_error_comparison(ss)
+    for s in ss:
+        line = by_gid(fig, f"error_{s.attrs['step_name']}")
+        np.testing.assert_array_equal(np.asarray(line.get_ydata()), s["error"].values)
+
+
+def test_kinetic_energy_per_cycle(datasets):
+    s = datasets["stability_1"]
+    g = gait_point(s, [datasets["refine_1"], datasets["refine_2"]])
+    assert g == pytest.approx((float(datasets["refine_1"]["dtheta1"]),
+                               float(datasets["refine_1"]["dtheta2"])))
+    fig = plot_kinetic_energy(s, gait=g)
+    line = by_gid(fig, "kinetic_energy")
+    np.testing.assert_array_equal(line.get_ydata(), s["kinetic_energy"].values)
+    assert "[J]" in line.axes.get_ylabel()
+    # the first crossing's kinetic energy is close to the repeated gait's start value
+    k0 = by_gid(fig, "ke_start").get_ydata()[0]
+    assert s["kinetic_energy"].values[0] == pytest.approx(k0, rel=0.02)
+
+
+def test_pivot_height_with_link_length_for_scale(datasets):
+    s = datasets["stability_1"]
+    fig = plot_pivot_height(s)
+    line = by_gid(fig, "pivot_height")
+    np.testing.assert_array_equal(line.get_ydata(), s["pivot_height"].values)
+    assert "[m]" in line.axes.get_ylabel()
+    assert by_gid(fig, "start_height").get_ydata()[0] == 0.0
+    assert by_gid(fig, "link_length").get_ydata()[0] == pytest.approx(-0.61)
+    np.testing.assert_array_equal(by_gid(fig, "x_advance").get_ydata(), s["x_advance"].values)
+
+
+def test_refine_convergence(datasets):
+    r = datasets["refine_1"]
+    fig = plot_refine_convergence(r)
+    line = by_gid(fig, "iterate_error")
+    np.testing.assert_array_equal(line.get_ydata(), r["iterate_error"].values)
+
+
+# --- the robot: filmstrip and animation -------------------------------------------------------
+def test_filmstrip_poses_are_dataset_samples_and_include_the_swap(datasets):
+    s = datasets["stability_1"]
+    fig = plot_filmstrip(s)
+    traj = trajectory(s)
+    rows = np.concatenate([traj.A, traj.joint, traj.B], axis=1)    # (n, 6)
+    poses = [a for a in fig.findobj() if a.get_gid() == "pose"]
+    assert len(poses) >= 8
+    times = []
+    for p in poses:
+        xs, ys = p.get_xdata(), p.get_ydata()
+        row = np.array([xs[0], ys[0], xs[1], ys[1], xs[2], ys[2]])
+        hit = np.flatnonzero(np.all(np.isclose(rows, row, atol=1e-12), axis=1))
+        assert hit.size, "a drawn pose is not a sample of the dataset"
+        times.append(traj.t[hit[0]])
+    t_swap = traj.t[traj.swaps()[0]]
+    assert any(abs(t - t_swap) < 1e-12 for t in times), "the swap frame is missing"
+    assert max(times) <= float(s["t_cross"][0]) + 1e-9      # one gait cycle
+    colours = {tuple(p.get_color()) if not isinstance(p.get_color(), str) else p.get_color()
+               for p in poses}
+    assert len(colours) >= 3                                # A, motor on, B stages
+
+
+def test_attached_end_inferred_from_the_trajectory_matches_the_simulator():
+    g = evaluate_horizontal_gait(0.902, 10.935, tick=0.001)
+    ds = simulate(OpenLoop(g.t_switch, g.t_motor, 0.6354, tick=0.001),
+                  dtheta1=0.902, dtheta2=10.935, cycles=3, sample_dt=0.01)
+    truth = np.where(ds["flipped"].values != 0, "B", "A")
+    inferred = trajectory(ds.drop_vars("flipped")).attached
+    assert np.mean(inferred == truth) > 0.995
+    # every swap is found at the right sample
+    traj = trajectory(ds)
+    np.testing.assert_array_equal(trajectory(ds.drop_vars("flipped")).swaps(), traj.swaps())
+    assert len(traj.swaps()) == 3
+
+
+def test_animation_is_a_gif_of_the_run(datasets, tmp_path):
+    s = datasets["stability_1"]
+    paths = write_animation(s, tmp_path / "anim", {"study_sha256": "abc123"}, max_frames=6,
+                            mp4=False)
+    assert paths == [tmp_path / "anim.gif"]
+    with Image.open(paths[0]) as im:
+        assert im.format == "GIF" and im.n_frames == 6
+        assert b"study_sha256=abc123" in im.info.get("comment", b"")

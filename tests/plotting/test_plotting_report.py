@@ -1,0 +1,203 @@
+"""report_study: every figure the datasets support, valid files with provenance, incremental."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import xarray as xr
+from PIL import Image
+
+from monkeystudy.plotting.report import MANIFEST, ReportError, report_study
+
+from plotdata import FAST, write_nc
+
+REPO = Path(__file__).resolve().parents[2]
+
+STILLS = ["error_map_surface", "error_map_map", "refine_1_convergence", "refine_2_convergence",
+          "stability_error_comparison"] + [
+    f"stability_{i}_{what}" for i in (1, 2)
+    for what in ("error", "kinetic_energy", "height", "filmstrip")]
+ANIMATIONS = ["stability_1_animation", "stability_2_animation"]
+
+
+def mtimes(folder: Path) -> dict[str, int]:
+    return {p.name: p.stat().st_mtime_ns for p in folder.iterdir()}
+
+
+def assert_png(path: Path, sha: str):
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    with Image.open(path) as im:
+        im.verify()
+    with Image.open(path) as im:
+        assert im.size[0] > 300 and im.size[1] > 200
+        assert im.text.get("study_sha256") == sha
+        assert im.text.get("monkeystudy_version")
+        assert "git_revision" in im.text
+
+
+def assert_pdf(path: Path, sha: str):
+    data = path.read_bytes()
+    assert data[:5] == b"%PDF-" and b"%%EOF" in data[-64:]
+    assert f"study_sha256={sha}".encode() in data        # Keywords / Subject of the info dict
+
+
+def test_report_writes_every_figure_with_provenance(reported_study):
+    figs = reported_study / "figures"
+    expected = {f"{n}.{e}" for n in STILLS for e in ("png", "pdf")}
+    expected |= {f"{n}.gif" for n in ANIMATIONS}
+    assert expected <= set(os.listdir(figs))
+    sha = xr.open_dataset(reported_study / "error_map.nc").attrs["study_sha256"]
+    for name in expected:
+        p = figs / name
+        assert p.stat().st_size > 1000, p
+        if p.suffix == ".png":
+            assert_png(p, sha)
+        elif p.suffix == ".pdf":
+            assert_pdf(p, sha)
+        else:
+            with Image.open(p) as im:
+                assert im.format == "GIF" and im.n_frames == FAST["max_frames"]
+    assert (figs / MANIFEST).exists()
+
+
+def test_report_returns_the_written_paths(reported_study, study_dir):
+    would = report_study(study_dir, dry_run=True, **FAST)
+    assert not (study_dir / "figures").exists()          # a dry run writes nothing
+    figs = reported_study / "figures"
+    on_disk = {p.name for p in figs.iterdir()} - {MANIFEST}
+    assert {p.name for p in would} == on_disk
+    assert all(p.parent == study_dir / "figures" for p in would)
+
+
+def test_second_report_changes_nothing(reported_copy):
+    before = mtimes(reported_copy / "figures")
+    assert report_study(reported_copy, **FAST) == []
+    assert mtimes(reported_copy / "figures") == before
+
+
+def test_only_figures_of_a_changed_dataset_are_redrawn(reported_copy):
+    figs = reported_copy / "figures"
+    before = mtimes(figs)
+    with xr.open_dataset(reported_copy / "error_map.nc") as ds:
+        changed = ds.load()
+    changed["error"] = changed["error"] * 2.0
+    write_nc(changed, reported_copy / "error_map.nc")
+    written = {p.name for p in report_study(reported_copy, **FAST)}
+    assert written == {f"error_map_{w}.{e}" for w in ("surface", "map") for e in ("png", "pdf")}
+    after = mtimes(figs)
+    untouched = [n for n in before if n not in written and n != MANIFEST]
+    assert len(untouched) > 20 and all(after[n] == before[n] for n in untouched)
+
+
+def test_stability_figures_depend_on_their_run_only(reported_copy):
+    from monkeystudy.plotting.report import plan
+    jobs = {j.name: [p.name for p in j.inputs] for j in plan(reported_copy)}
+    assert jobs["stability_2_error"] == ["stability_2.nc", "refine_2.nc"]  # refine: the gait
+    assert jobs["error_map_surface"] == ["error_map.nc"]
+    assert set(jobs["stability_error_comparison"]) >= {"stability_1.nc", "stability_2.nc"}
+
+
+def test_a_missing_figure_file_is_redrawn_alone(reported_copy):
+    (reported_copy / "figures" / "error_map_map.pdf").unlink()
+    written = report_study(reported_copy, **FAST)
+    assert {p.name for p in written} == {"error_map_map.png", "error_map_map.pdf"}
+
+
+def test_force_redraws_everything(reported_copy):
+    would = report_study(reported_copy, force=True, dry_run=True, **FAST)
+    assert len(would) == 2 * len(STILLS) + len(ANIMATIONS) + sum(
+        1 for p in (reported_copy / "figures").glob("*.mp4"))
+
+
+def test_a_broken_dataset_fails_alone(reported_copy):
+    with xr.open_dataset(reported_copy / "stability_1.nc") as ds:
+        broken = ds.load().drop_vars("kinetic_energy")
+    write_nc(broken, reported_copy / "stability_1.nc")
+    with pytest.raises(ReportError) as exc:
+        report_study(reported_copy, animation=False, **FAST)
+    assert set(exc.value.failures) == {"stability_1_kinetic_energy"}
+    assert {p.name.rsplit(".", 1)[0] for p in exc.value.written} == {
+        "stability_1_error", "stability_1_height", "stability_1_filmstrip",
+        "stability_error_comparison"}
+    # the failed figure is retried next time, the others are now current
+    with pytest.raises(ReportError) as again:
+        report_study(reported_copy, animation=False, **FAST)
+    assert again.value.written == []
+
+
+def test_empty_folder_draws_nothing(tmp_path):
+    assert report_study(tmp_path) == []
+
+
+# --- datasets written by the real study runner ---------------------------------------------
+def test_report_on_runner_datasets(runner_study_dir):
+    written = report_study(runner_study_dir, formats=("png",), **FAST)
+    names = {p.name for p in written}
+    for stem in ("coarse_map_surface", "coarse_map_map", "gait1_convergence",
+                 "minima_convergence", "gait1_cycles_error", "gait1_cycles_height",
+                 "gait1_cycles_kinetic_energy", "gait1_cycles_filmstrip",
+                 "minima_cycles_error", "minima_cycles_filmstrip", "stability_error_comparison"):
+        assert f"{stem}.png" in names, stem
+    assert {"gait1_cycles_animation.gif", "minima_cycles_animation.gif"} <= names
+    assert report_study(runner_study_dir, formats=("png",), **FAST) == []
+
+
+def test_runner_multi_start_minima_are_all_marked(runner_study_dir):
+    from monkeystudy.plotting import plot_error_map
+    d = {p.stem: xr.open_dataset(p).load() for p in runner_study_dir.glob("*.nc")}
+    fig = plot_error_map(d["coarse_map"], [d["gait1"], d["minima"]])
+    marked = {a.get_gid(): a for a in fig.findobj() if str(a.get_gid()).startswith("minimum_")}
+    lo1, hi1 = d["coarse_map"]["dtheta1"].values[[0, -1]]
+    lo2, hi2 = d["coarse_map"]["dtheta2"].values[[0, -1]]
+    for i in range(d["minima"].sizes["start"]):
+        m = d["minima"].isel(start=i)
+        x, y = float(m["dtheta1"]), float(m["dtheta2"])
+        if lo1 <= x <= hi1 and lo2 <= y <= hi2:
+            line = marked[f"minimum_minima #{i + 1}"]
+            assert (line.get_xdata()[0], line.get_ydata()[0]) == pytest.approx((x, y))
+
+
+# --- the pipeline ------------------------------------------------------------------------------
+TINY = """\
+schema_version: 1
+name: tiny
+robot: seed2009
+gait: {kind: horizontal, motor_torque: 0.6354, tick: 0.001}
+integrator: {method: dop853, rtol: 1.0e-8, atol: 1.0e-10, max_time: 3.0}
+steps:
+  - {name: m, kind: grid, dtheta1: {start: 0.5, stop: 1.5, num: 4},
+     dtheta2: {start: 10.0, stop: 12.0, num: 5}}
+  - {name: g, kind: refine, start: [0.9, 11.0], maxiter: 10}
+  - {name: c, kind: stability, from: g, cycles: 2}
+"""
+
+
+def build(*args) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, str(REPO / "pipeline" / "build.py"), *args],
+                          capture_output=True, text=True, cwd=REPO, timeout=600)
+
+
+def test_pipeline_builds_then_has_nothing_to_do(tmp_path):
+    pytest.importorskip("monkeystudy.study.runner")
+    study = tmp_path / "tiny.yaml"
+    study.write_text(TINY)
+    out = tmp_path / "out"
+    dry = build("--studies", str(study), "--out", str(out), "--dry-run")
+    assert dry.returncode == 0, dry.stdout + dry.stderr
+    assert "missing or stale" in dry.stdout and not out.exists()
+    first = build("--studies", str(study), "--out", str(out), "--no-animation",
+                  "--formats", "png")
+    assert first.returncode == 0, first.stdout + first.stderr
+    figs = out / "tiny" / "figures"
+    assert {"m_map.png", "m_surface.png", "c_error.png", "c_filmstrip.png"} <= set(
+        os.listdir(figs))
+    before = mtimes(figs) | {p.name: p.stat().st_mtime_ns for p in (out / "tiny").glob("*.nc")}
+    second = build("--studies", str(study), "--out", str(out), "--no-animation",
+                   "--formats", "png")
+    assert second.returncode == 0, second.stdout + second.stderr
+    assert "all 3 up to date" in second.stdout and "wrote 0 file(s)" in second.stdout
+    after = mtimes(figs) | {p.name: p.stat().st_mtime_ns for p in (out / "tiny").glob("*.nc")}
+    assert after == before
