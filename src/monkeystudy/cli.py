@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import signal
+import traceback
 from pathlib import Path
 from typing import Optional
 
@@ -16,6 +17,7 @@ EXIT_OK, EXIT_FAILED, EXIT_INVALID, EXIT_INTERRUPTED = 0, 1, 2, 3
 
 app = typer.Typer(
     name="monkeystudy", add_completion=False, no_args_is_help=True,
+    pretty_exceptions_enable=False,
     help="Batch gait studies of the MonkeyBot: YAML studies in, netCDF datasets out.\n\n"
          "Exit codes: 0 done, 1 run failed, 2 invalid input, 3 interrupted/partial "
          "(rerun resumes).",
@@ -87,6 +89,12 @@ def run(
     except RunFailed as exc:
         reporter.close()
         _err(f"monkeystudy: run failed: {exc}")
+        raise typer.Exit(EXIT_FAILED) from None
+    except Exception as exc:  # a bug or an environment problem: say so, keep the traceback
+        reporter.close()
+        _err("".join(traceback.format_exception(exc)))
+        _err(f"monkeystudy: run failed: {type(exc).__name__}: {exc} (finished blocks are "
+             "saved)")
         raise typer.Exit(EXIT_FAILED) from None
     finally:
         if previous is not None:

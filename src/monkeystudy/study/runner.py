@@ -595,10 +595,16 @@ class _Run:
             if failure is None and broken is None:
                 self._start_ready()
                 while self.queue and len(self.inflight) < limit:
-                    self._submit(self.queue.popleft())
-            if not self.inflight:
+                    t = self.queue.popleft()
+                    try:
+                        self._submit(t)
+                    except BrokenProcessPool as exc:  # a worker died since the last wait
+                        broken = exc
+                        break
+            if not self.inflight and broken is None:
                 break
-            finished, _ = wait(list(self.inflight), timeout=0.5, return_when=FIRST_COMPLETED)
+            finished, _ = wait(list(self.inflight), timeout=0.5, return_when=FIRST_COMPLETED) \
+                if self.inflight else (set(), set())
             for f in finished:
                 t = self.inflight.pop(f)
                 try:
