@@ -311,6 +311,12 @@ class CycleRun:
     x_advance: np.ndarray        # [m] attached-end displacement per swap
     t_cross: np.ndarray          # [s]
     status: Status
+    crossing_state: np.ndarray = field(default_factory=lambda: np.zeros((0, 8)))
+
+    def error_vs(self, dtheta1: float, dtheta2: float) -> np.ndarray:
+        """Per-cycle error (MODEL.md section 4) against the rates of another gait."""
+        s = self.crossing_state
+        return s[:, L.TH2] ** 2 + (dtheta1 - s[:, L.DTH1]) ** 2 + (dtheta2 - s[:, L.DTH2]) ** 2
 
 
 def open_loop_cycles(dtheta1: float, dtheta2: float, *, t_switch: float, t_motor: float,
@@ -340,7 +346,8 @@ def open_loop_cycles(dtheta1: float, dtheta2: float, *, t_switch: float, t_motor
     swaps = log[(log[:, L.L_KIND] == L.LOG_SEGMENT) & (log[:, L.L_ID] == 0)]
     piv = swaps[:, L.L_STATE:L.L_STATE + 8]
     x_prev = np.concatenate([[0.0], piv[:-1, L.X]])
-    return CycleRun(err, ke, piv[:, L.Y], piv[:, L.X] - x_prev, obs[:, L.L_T], res.status)
+    return CycleRun(err, ke, piv[:, L.Y], piv[:, L.X] - x_prev, obs[:, L.L_T], res.status,
+                    states.copy())
 
 
 # ------------------------------------------------------------------------------------------
@@ -497,3 +504,146 @@ def solve_fixed_point(fmap, z0, *, jacobian=None, rtol: float = 1e-12,
             converged = True
             break
     return FixedPointResult(z, history[-1], converged, history, J)
+
+
+# ------------------------------------------------------------------------------------------
+# basins: cycles to failure around a gait
+# ------------------------------------------------------------------------------------------
+def basin(dtheta1: float, dtheta2: float, *, t_switch: float, t_motor: float, torque: float,
+          offsets1, offsets2, max_cycles: int = 60, error_bound: float = 1e-2,
+          robot: RobotLike = "seed2009", integrator: Integrator = TIGHT,
+          tick: float = 0.0) -> np.ndarray:
+    """Cycles an open-loop replay survives from perturbed starts (a basin map).
+
+    Start ``(dtheta1 + a, dtheta2 + b)`` for ``a`` in ``offsets1``, ``b`` in ``offsets2``
+    [rad s-1]; the run fails at the first vertical crossing whose error against the
+    *unperturbed* gait exceeds ``error_bound``, or when it falls or stops. Returns an int array
+    ``[len(offsets1), len(offsets2)]``; ``max_cycles`` means it never failed.
+    """
+    out = np.zeros((len(offsets1), len(offsets2)), np.int32)
+    for i, a in enumerate(offsets1):
+        for j, b in enumerate(offsets2):
+            run = open_loop_cycles(dtheta1 + a, dtheta2 + b, t_switch=t_switch,
+                                   t_motor=t_motor, cycles=max_cycles, torque=torque,
+                                   robot=robot, integrator=integrator, tick=tick)
+            err = run.error_vs(dtheta1, dtheta2)
+            bad = np.flatnonzero(~(err <= error_bound))
+            out[i, j] = int(bad[0]) if bad.size else len(err)
+    return out
+
+
+# ------------------------------------------------------------------------------------------
+# continuation of the collisionless gait family
+# ------------------------------------------------------------------------------------------
+def mirror_robot(base: RobotLike, parameter: str, value: float):
+    """The ``base`` robot with one mirror-symmetric parameter set to ``value``.
+
+    ``com``: link 1's CG at ``value`` from A, link 2's at ``L - value`` from the joint (both
+    links' CGs the same distance from the motor); ``inertia``: both inertias; ``gravity``.
+    Mirror images keep the one-cycle return map meaningful.
+    """
+    from dataclasses import replace
+
+    from .robot import Link
+
+    r = as_robot(base)
+    l1, l2 = r.link1, r.link2
+    if parameter == "com":
+        return replace(r, link1=replace(l1, com=value), link2=replace(l2, com=l2.length - value),
+                       name=f"{r.name}:com={value:.6g}")
+    if parameter == "inertia":
+        return replace(r, link1=replace(l1, inertia=value), link2=replace(l2, inertia=value),
+                       name=f"{r.name}:inertia={value:.6g}")
+    if parameter == "gravity":
+        return replace(r, gravity=value, name=f"{r.name}:g={value:.6g}")
+    raise ValueError(f"parameter must be 'com', 'inertia' or 'gravity', got {parameter!r}")
+
+
+@dataclass
+class Branch:
+    """A continued family of collisionless gaits: one row per point on the branch."""
+
+    parameter: str
+    value: np.ndarray          # the parameter along the branch
+    dtheta1: np.ndarray        # [rad s-1]
+    dtheta2: np.ndarray
+    t_switch: np.ndarray       # [s]
+    multipliers: np.ndarray    # (n, 3) complex, sorted by modulus
+    residual: np.ndarray       # |G| after correction
+    folds: list                # indices where the parameter turns back
+    period_doublings: list     # indices where a real multiplier crosses -1
+
+
+def continue_grazing(start: GrazingResult, parameter: str, value0: float, *,
+                     robot: RobotLike = "seed2009", ds: float = 0.01, steps: int = 20,
+                     bounds=(-math.inf, math.inf), integrator: Integrator = TIGHT,
+                     multipliers: bool = True) -> Branch:
+    """Pseudo-arclength continuation of ``G(dtheta1, dtheta2, t; mu) = 0`` (B at A's height
+    at rest after ``t``) in ``mu`` = ``parameter``, starting from a converged point at
+    ``value0``.
+
+    Tangent: the null vector of ``DG`` (3x4, by central differences), oriented along the
+    previous one; corrector: Newton on ``[G; tangent . (u - u_pred)]``. Along the branch the
+    open-loop return map's multipliers are computed by variational equations; a fold is where
+    ``d mu / ds`` changes sign, a period doubling where a real multiplier crosses -1.
+    """
+    base = as_robot(robot)
+
+    def G(u):
+        rb = mirror_robot(base, parameter, u[3])
+        return free_end_after(u[0], u[1], u[2], robot=rb, integrator=integrator)
+
+    def DG(u):
+        J = np.empty((3, 4))
+        for j in range(4):
+            h = 1e-7 * max(1.0, abs(u[j]))
+            e = np.zeros(4)
+            e[j] = h
+            J[:, j] = (G(u + e) - G(u - e)) / (2 * h)
+        return J
+
+    def tangent(J, prev):
+        _, _, vt = np.linalg.svd(J)
+        t = vt[-1]
+        if prev is None:
+            return t if t[3] >= 0 else -t
+        return t if t @ prev >= 0 else -t
+
+    u = np.array([start.dtheta1, start.dtheta2, start.t_switch, value0], float)
+    rows, res_norm, tau = [], [], None
+    for k in range(steps + 1):
+        J = DG(u)
+        tau = tangent(J, tau)
+        rows.append(u.copy())
+        res_norm.append(float(np.linalg.norm(G(u))))
+        if k == steps:
+            break
+        up = u + ds * tau
+        v = up.copy()
+        for _ in range(12):
+            F = np.concatenate([G(v), [tau @ (v - up)]])
+            if np.linalg.norm(F) < 1e-13:
+                break
+            A = np.vstack([DG(v), tau])
+            v = v - np.linalg.solve(A, F)
+        if not (bounds[0] <= v[3] <= bounds[1]) or not np.all(np.isfinite(v)):
+            break
+        u = v
+    U = np.array(rows)
+    mult = np.full((len(U), 3), np.nan, complex)
+    if multipliers:
+        for i, (d1, d2, ts, mu) in enumerate(U):
+            rb = mirror_robot(base, parameter, mu)
+            Jm = variational_jacobian("open_loop", np.array([0.0, d1, d2]), t_switch=ts,
+                                      t_motor=0.0, torque=0.0, robot=rb, integrator=integrator)
+            lam = np.linalg.eigvals(Jm)
+            mult[i] = lam[np.argsort(-np.abs(lam))]
+    dmu = np.diff(U[:, 3])
+    folds = [int(i + 1) for i in np.flatnonzero(np.sign(dmu[1:]) != np.sign(dmu[:-1]))]
+    pd = []
+    for i in range(1, len(U)):
+        for a, b in zip(mult[i - 1], mult[i]):
+            if abs(a.imag) < 1e-9 and abs(b.imag) < 1e-9 and (a.real + 1) * (b.real + 1) < 0:
+                pd.append(i)
+    return Branch(parameter, U[:, 3], U[:, 0], U[:, 1], U[:, 2], mult, np.array(res_norm),
+                  folds, sorted(set(pd)))

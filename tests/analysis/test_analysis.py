@@ -116,3 +116,27 @@ def test_state_based_controller_gait_multipliers():
     assert np.min(np.abs(lam - 1.0)) < 1e-7        # the neutral energy direction
     others = lam[np.abs(lam - 1.0) > 1e-6]
     assert len(others) == 2 and np.all(np.abs(others) < 1.0)
+
+
+def test_continuation_recovers_the_gravity_scaling_branch(grazing):
+    """Known branch: g -> k^2 g scales rates by k and times by 1/k; multipliers (dimension-
+    less) do not change."""
+    from monkeystudy.analysis import continue_grazing
+    b = continue_grazing(grazing, "gravity", 9.81, ds=0.5, steps=4)
+    assert len(b.value) == 5 and b.value[-1] > 11.0
+    k = np.sqrt(b.value / 9.81)
+    np.testing.assert_allclose(b.dtheta1, grazing.dtheta1 * k, rtol=1e-11)
+    np.testing.assert_allclose(b.dtheta2, grazing.dtheta2 * k, rtol=1e-11)
+    np.testing.assert_allclose(b.t_switch, grazing.t_switch / k, rtol=1e-11)
+    np.testing.assert_allclose(np.abs(b.multipliers), np.abs(b.multipliers[0])[None, :],
+                               atol=1e-9)
+    assert b.residual.max() < 1e-12
+    assert b.folds == [] and b.period_doublings == []
+
+
+def test_basin_is_peaked_at_the_exact_gait(grazing):
+    from monkeystudy.analysis import basin
+    off = np.array([-1e-3, 0.0, 1e-3])
+    B = basin(grazing.dtheta1, grazing.dtheta2, t_switch=grazing.t_switch, t_motor=0.0,
+              torque=0.0, offsets1=off, offsets2=off, max_cycles=60)
+    assert B[1, 1] == B.max() and B[1, 1] > 3 * np.delete(B.ravel(), 4).max()
