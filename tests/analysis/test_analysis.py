@@ -128,7 +128,8 @@ def test_continuation_recovers_the_gravity_scaling_branch(grazing):
     np.testing.assert_allclose(b.dtheta1, grazing.dtheta1 * k, rtol=1e-11)
     np.testing.assert_allclose(b.dtheta2, grazing.dtheta2 * k, rtol=1e-11)
     np.testing.assert_allclose(b.t_switch, grazing.t_switch / k, rtol=1e-11)
-    np.testing.assert_allclose(np.abs(b.multipliers), np.abs(b.multipliers[0])[None, :],
+    np.testing.assert_allclose(np.abs(b.multipliers),
+                               np.broadcast_to(np.abs(b.multipliers[0]), b.multipliers.shape),
                                atol=1e-9)
     assert b.residual.max() < 1e-12
     assert b.folds == [] and b.period_doublings == []
