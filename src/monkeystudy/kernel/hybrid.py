@@ -164,6 +164,9 @@ def write_log(log, row, t, kind, ident, cycle, phase, flipped, e_before, e_after
 
 @njit(cache=True)
 def write_sample(samp_t, samp_y, samp_mode, row, t, s8, phase, flipped, tau, seg):
+    """Store one trajectory sample at ``row``; returns the next row, or -1 if full."""
+    if row >= samp_t.shape[0]:
+        return -1
     samp_t[row] = t
     for i in range(8):
         samp_y[row, i] = s8[i]
@@ -171,6 +174,7 @@ def write_sample(samp_t, samp_y, samp_mode, row, t, s8, phase, flipped, tau, seg
     samp_mode[row, M_FLIPPED] = flipped
     samp_mode[row, M_TORQUE] = tau
     samp_mode[row, M_SEGMENT] = seg
+    return row + 1
 
 
 @njit(cache=True)
@@ -226,8 +230,7 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
 
     n_obs = obs.shape[0]
     log_cap = log.shape[0]
-    samp_cap = samp_t.shape[0]
-    sampling = sample_dt > 0.0 and samp_cap > 0
+    sampling = sample_dt > 0.0 and samp_t.shape[0] > 0
 
     K = np.zeros((16, 8))
     Fd = np.zeros((7, 8))
@@ -294,12 +297,11 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
             seg_start = t
             pending = np.inf
             if sampling:
-                if n_samp >= samp_cap:
+                n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, t, s8, phase,
+                                      flipped, tau, seg)
+                if n_samp < 0:
                     status = ST_BUFFER_FULL
                     break
-                write_sample(samp_t, samp_y, samp_mode, n_samp, t, s8, phase, flipped, tau,
-                             seg)
-                n_samp += 1
             if phase == PHASE_SWING and s8[1] < y_ref - max_drop:
                 status = ST_FELL
                 break
@@ -357,12 +359,11 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
             t_new = t_stop
             if sampling:
                 while next_k * sample_dt <= t_new:
-                    if n_samp >= samp_cap:
+                    n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, next_k * sample_dt,
+                                          s8, phase, flipped, tau, seg)
+                    if n_samp < 0:
                         status = ST_BUFFER_FULL
                         break
-                    write_sample(samp_t, samp_y, samp_mode, n_samp, next_k * sample_dt, s8,
-                                 phase, flipped, tau, seg)
-                    n_samp += 1
                     next_k += 1
             t = t_new
             if t == t_target:
@@ -558,14 +559,13 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                             counts[K_NFEV] += dense_prepare(method, phase, p, tau, fmode, t, h,
                                                             y, y_new, f_new, n, K, Fd, ytmp)
                             dense = True
-                        if n_samp >= samp_cap:
-                            status = ST_BUFFER_FULL
-                            break
                         dense_eval(method, Fd, y, h, (ts - t) / h, n, ybuf)
                         unpack_into(phase, ybuf, pivot, work)
-                        write_sample(samp_t, samp_y, samp_mode, n_samp, ts, work, phase,
-                                     flipped, tau, seg)
-                        n_samp += 1
+                        n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, ts, work,
+                                              phase, flipped, tau, seg)
+                        if n_samp < 0:
+                            status = ST_BUFFER_FULL
+                            break
                         next_k += 1
                     if status >= 0:
                         break
@@ -619,12 +619,11 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
             seg_times[seg] = t
             e_before = total_energy8(par[flipped], s8)
             if sampling:
-                if n_samp >= samp_cap:
+                n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, t, s8, phase,
+                                      flipped, tau, seg)
+                if n_samp < 0:
                     status = ST_BUFFER_FULL
                     break
-                write_sample(samp_t, samp_y, samp_mode, n_samp, t, s8, phase, flipped, tau,
-                             seg)
-                n_samp += 1
             clock_mode = int(prog[seg, S_CLOCK])
             if clock_mode == 1:
                 clock0 = t

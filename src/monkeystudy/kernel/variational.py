@@ -10,19 +10,14 @@ Swing states are packed ``y = [theta1, theta2, dtheta1, dtheta2]``; a variationa
 import numpy as np
 from numba import njit
 
-from .dynamics import attach_xy_end, flip_state, kinetic_energy, potential_energy, swing_accel
+from .dynamics import (
+    attach_xy_end, flip_state, kinetic_energy, potential_energy, rhs_swing, swing_accel,
+)
+
+#: the swing vector field, under the name the variational code reads best with
+swing_field = rhs_swing
 
 CSTEP = 1e-30
-
-
-@njit(cache=True)
-def swing_field(p, tau, fmode, y, f):
-    """Swing vector field (MODEL.md section 2) at packed ``y`` into ``f``."""
-    a1, a2 = swing_accel(p, tau, fmode, y[0], y[1], y[2], y[3])
-    f[0] = y[2]
-    f[1] = y[3]
-    f[2] = a1
-    f[3] = a2
 
 
 @njit(cache=True)
@@ -44,7 +39,7 @@ def swing_jacobian(p, tau, fmode, y, A):
 def swing_variational_rhs(p, tau, fmode, Y, dY):
     """Augmented field: ``dY[:4] = f(y)``, ``dPhi = A(y) Phi``."""
     A = np.empty((4, 4))
-    swing_field(p, tau, fmode, Y[:4], dY[:4])
+    rhs_swing(p, tau, fmode, Y[:4], dY[:4])
     swing_jacobian(p, tau, fmode, Y[:4], A)
     for i in range(4):
         for j in range(4):
