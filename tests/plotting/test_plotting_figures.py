@@ -69,9 +69,12 @@ def test_error_map_marks_and_labels_the_minima(datasets):
         marker = by_gid(fig, f"minimum_{step}")
         assert marker.get_xdata()[0] == pytest.approx(float(r["dtheta1"]))
         assert marker.get_ydata()[0] == pytest.approx(float(r["dtheta2"]))
-        label = by_gid(fig, f"label_{step}")
-        assert f"{float(r['error']):.2g}" in label.get_text()
-        assert f"{float(r['dtheta1']):.3f}" in label.get_text()
+        number = by_gid(fig, f"label_{step}").get_text()
+        keyed = [t.get_text() for leg in fig.legends for t in leg.get_texts()
+                 if t.get_text().startswith(f"{number}: {step}, ")]
+        assert len(keyed) == 1
+        assert f"e = {float(r['error']):.2g}" in keyed[0]
+        assert f"({float(r['dtheta1']):.3f}, {float(r['dtheta2']):.3f})" in keyed[0]
         path = by_gid(fig, f"path_{step}")
         np.testing.assert_allclose(path.get_xdata(), r["iterate_dtheta1"].values)
 

@@ -109,8 +109,9 @@ def fmt_tick(tick) -> str:
     return f"{tick * 1e3:g} ms tick"
 
 
-def run_label(ds) -> str:
-    """One line saying what was run: robot, torque, controller tick, integrator."""
+def run_label(ds, step: bool = True) -> str:
+    """One line saying what was run: robot, torque, controller tick, integrator, study (and
+    step unless ``step`` is false)."""
     g = gait_settings(ds)
     parts = [f"robot {robot_name(ds)}"]
     if "motor_torque" in g:
@@ -124,9 +125,9 @@ def run_label(ds) -> str:
             s += f" rtol {float(integ['rtol']):.0e}"
         parts.append(s)
     study = ds.attrs.get("study_name")
-    step = ds.attrs.get("step_name")
-    if study or step:
-        parts.append(f"study {study or '?'} / {step or '?'}")
+    step_name = ds.attrs.get("step_name") if step else None
+    if study or step_name:
+        parts.append(f"study {study or '?'}" + (f" / {step_name}" if step_name else ""))
     return ", ".join(parts)
 
 

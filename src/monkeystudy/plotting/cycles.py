@@ -89,31 +89,49 @@ def _gait_text(stab, gait) -> str:
     return times or "open-loop gait"
 
 
-def _stop_note(stab) -> str | None:
+def _stop_note(stab, who: str = "run") -> str | None:
+    """Why the run stopped early, or None when it ran all its cycles."""
     if "status" not in stab:
         return None
     code = int(stab["status"])
     if code in NORMAL_END:
         return None
+    done = stab.attrs.get("cycles_completed")
+    if done is None:
+        done = int(np.sum(np.isfinite(np.asarray(stab["error"].values, float))))
     why = status_name(code).replace("_", " ")
-    return f"run stopped after cycle {stab.sizes.get('cycle', 0)}: {why}"
+    if code == L.ST_FELL and "max_drop" in stab.attrs:
+        why += f" (attached end over {float(stab.attrs['max_drop']):g} m below the start)"
+    return f"{who} stopped after cycle {int(done)}: {why}"
 
 
-def _finish(fig, ax, stab, title, subtitle=""):
+def _finish(fig, ax, stab, title, subtitle="", step=True):
     fig.suptitle(title, x=0.02, ha="left", fontweight="bold")
-    sub = f"{subtitle}\n{run_label(stab)}" if subtitle else run_label(stab)
+    run = run_label(stab, step=step)
+    sub = f"{subtitle}\n{run}" if subtitle else run
     ax.set_title(sub, fontsize=8.5, fontweight="normal", loc="left")
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_xlabel("gait cycle")
 
 
-def _annotate_stop(ax, stab, x, y):
-    note = _stop_note(stab)
-    if note and len(x):
-        ax.annotate(note, (x[-1], y[-1]), xytext=(-8, 12), textcoords="offset points",
-                    ha="right", fontsize=8, color=VERMILLION,
-                    arrowprops=dict(arrowstyle="->", color=VERMILLION, lw=0.8),
-                    gid="stop_note")
+def _annotate_stop(ax, stab, x, y, slot: int = 0, colour: str = VERMILLION,
+                   who: str = "run"):
+    """Mark the last cycle of a run that stopped early (cycles after it are NaN) with a cross
+    whose legend entry says why."""
+    note = _stop_note(stab, who)
+    ok = np.flatnonzero(np.isfinite(y) & (y > 0 if ax.get_yscale() == "log" else True))
+    if note and ok.size:
+        i = ok[-1]
+        ax.plot([x[i]], [y[i]], marker="X", ms=11, mfc=colour, mec="black", mew=0.8,
+                ls="none", zorder=5, gid="stop_note" if slot == 0 else f"stop_note_{slot}",
+                label=note)
+
+
+def _cycle_limits(ax, stabs):
+    """Show every requested cycle (a run that stopped early leaves the rest empty)."""
+    n = max(int(s.sizes.get("cycle", 0)) for s in stabs)
+    if n:
+        ax.set_xlim(0.5, n + 0.5)
 
 
 def _cycle(stab) -> np.ndarray:
@@ -150,9 +168,14 @@ def plot_error_comparison(stabs: Sequence, *, gaits: Sequence = (), labels: Sequ
             step = s.attrs.get("step_name", f"run {k + 1}")
             ax.plot(x, yplot, marker="o", color=colours[k % len(colours)],
                     gid="error" if _single else f"error_{step}",
-                    label=lab or f"{step}: {_gait_text(s, gait)}")
-            _annotate_stop(ax, s, x, y)
+                    label=lab or ("error at the vertical crossing" if _single
+                                  else f"{step}: {_gait_text(s, gait)}"))
         ax.set_yscale("log")
+        for k, s in enumerate(stabs):
+            _annotate_stop(ax, s, _cycle(s), np.asarray(s["error"].values, float), slot=k,
+                           colour=VERMILLION if _single else colours[k % len(colours)],
+                           who="run" if _single else s.attrs.get("step_name", "run"))
+        _cycle_limits(ax, stabs)
         ax.set_ylabel("error e at the vertical crossing  [1]")
         if _single:
             title = "Error per cycle of the open-loop repetition"
@@ -160,8 +183,9 @@ def plot_error_comparison(stabs: Sequence, *, gaits: Sequence = (), labels: Sequ
         else:
             title = "Error per cycle of the open-loop runs"
             sub = ""
-            ax.legend(loc="upper left")
-        _finish(fig, ax, stabs[0], title, sub)
+        if len(stabs) > 1 or any(_stop_note(s) for s in stabs):
+            ax.legend(loc="best")
+        _finish(fig, ax, stabs[0], title, sub, step=_single)
     return fig
 
 
@@ -184,8 +208,9 @@ def plot_kinetic_energy(stab, *, gait=None):
             ax.axhline(k0, ls="--", color="0.35", lw=1.0, gid="ke_start",
                        label=f"at the gait start: {k0:.4g} J")
         _annotate_stop(ax, stab, x, y)
+        _cycle_limits(ax, [stab])
         ax.set_ylabel("kinetic energy  [J]")
-        ax.legend(loc="best")
+        ax.legend(loc="lower left")
         _finish(fig, ax, stab, "Kinetic energy at the vertical crossing, per cycle",
                 f"Repeating {_gait_text(stab, gait)}")
     return fig
@@ -229,8 +254,8 @@ def plot_pivot_height(stab, *, gait=None):
             ax.axhline(-L1, ls=":", color=VERMILLION, lw=1.2, gid="link_length",
                        label=f"one link length ({L1:g} m) below the start")
         _annotate_stop(ax, stab, x, y)
+        _cycle_limits(ax, [stab])
         ax.set_ylabel("height of the attached end  [m]")
-        ax.legend(loc="lower left")
         if ax2 is not None:
             adv = np.asarray(stab["x_advance"].values, float)
             ax2.plot(x, adv, marker="o", color=GREEN, gid="x_advance",
@@ -238,7 +263,6 @@ def plot_pivot_height(stab, *, gait=None):
             if lengths is not None:
                 ax2.axhline(0.0, color="0.6", lw=0.8)
             ax2.set_ylabel("advance per cycle  [m]")
-            ax2.legend(loc="lower left")
             ax.tick_params(labelbottom=False)
             _finish(fig, ax, stab, "Height of the attached end per cycle",
                     f"Repeating {_gait_text(stab, gait)}")
@@ -248,4 +272,12 @@ def plot_pivot_height(stab, *, gait=None):
         else:
             _finish(fig, ax, stab, "Height of the attached end per cycle",
                     f"Repeating {_gait_text(stab, gait)}")
+        # one legend under the panels: inside, it would cover the data or the reference lines
+        handles, labels = [], []
+        for a in (ax, ax2):
+            if a is not None:
+                h, lab = a.get_legend_handles_labels()
+                handles += h
+                labels += lab
+        fig.legend(handles, labels, loc="outside lower center", ncols=1, frameon=False)
     return fig

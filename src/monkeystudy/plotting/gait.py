@@ -238,7 +238,7 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
             ax.axhline(0.0, color="0.6", lw=0.6, ls=":", zorder=0)
             _draw_pose(ax, traj, i, colour, labels=(k == 0))
             tag = _change_tag(stage, i, i in swaps)
-            ax.set_title(f"{k + 1}: t = {traj.t[i]:.3f} s{tag}", fontsize=8.5,
+            ax.set_title(f"{k + 1}: t = {traj.t[i]:.3f} s\n{tag.strip() or ' '}", fontsize=8.5,
                          fontweight="bold" if tag else "normal", color=colour, loc="center")
             ax.set_aspect("equal", adjustable="box")
             ax.tick_params(labelsize=7)

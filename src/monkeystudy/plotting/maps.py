@@ -14,6 +14,7 @@ from typing import Sequence
 import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch, PathPatch
+from matplotlib.patheffects import withStroke
 from matplotlib.path import Path as MplPath
 
 from ._common import MINIMUM_COLOUR, new_figure, run_label, status_name, style
@@ -188,7 +189,7 @@ def _grid_title(g: GridData, what: str) -> str:
 # intensity map (figs. 4, 9, 10)
 # ----------------------------------------------------------------------------------------------
 def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str = "magma",
-                   show_paths: bool = True, title: str | None = None):
+                   show_paths: bool = True, profile: bool = True, title: str | None = None):
     """Intensity map of the gait error, truncated at ``vmax``, dark = small (study fig. 4).
 
     Parameters
@@ -198,27 +199,36 @@ def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str
     refines : sequence of xarray.Dataset
         ``refine`` datasets of the same study: their minima are marked with green squares and
         labelled with their position and error; their Nelder-Mead paths drawn dotted. Minima
-        outside the grid's range are left out.
+        outside the grid's range are left out (the legend says how many).
     vmax : float
         Errors above this are shown at the top colour (the study truncates at 5).
+    profile : bool
+        Add a side panel with the lowest error of each dtheta2 row (over dtheta1, log scale,
+        untruncated): the valley floor, e.g. the study's "does not drop much below 1" (fig. 9).
 
     Returns
     -------
     matplotlib.figure.Figure
         Artists with ``gid``: ``error`` (the QuadMesh; its array is the clipped error,
         ``[i_dtheta2, i_dtheta1]``, masked where there is no gait), ``nogait_<category>``
-        patches, ``minimum_<step>`` markers, ``path_<step>`` lines.
+        patches, ``minimum_<step>`` markers, ``path_<step>`` lines, ``row_minimum`` (the side
+        panel's line: x the lowest error of each row, y dtheta2).
     """
     g = grid_arrays(grid)
     e1, e2 = cell_edges(g.dtheta1), cell_edges(g.dtheta2)
     clipped = np.ma.masked_invalid(np.minimum(g.error, vmax)).T
     with style():
-        fig = new_figure(figsize=(7.4, 6.4))
-        ax = fig.add_subplot()
+        if profile:
+            fig = new_figure(figsize=(8.8, 6.4))
+            ax, axp = fig.subplots(1, 2, sharey=True, width_ratios=[4.2, 1.0])
+        else:
+            fig = new_figure(figsize=(7.4, 6.4))
+            ax, axp = fig.add_subplot(), None
         ax.grid(False)
         mesh = ax.pcolormesh(e1, e2, clipped, cmap=cmap, vmin=0.0, vmax=vmax, shading="flat",
                              gid="error", rasterized=True, zorder=1)
-        cb = fig.colorbar(mesh, ax=ax, extend="max", pad=0.02, shrink=0.9)
+        cb = fig.colorbar(mesh, ax=[ax, axp] if profile else ax, extend="max", pad=0.02,
+                          shrink=0.9)
         cb.set_label(f"gait error e  [1]  (values above {vmax:g} shown as {vmax:g})")
         handles = []
         for key, mask, colour, hatch, label in g.category_masks():
@@ -231,34 +241,39 @@ def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str
 
         # located minima (green squares, as in the study) with their values
         lo1, hi1, lo2, hi2 = e1[0], e1[-1], e2[0], e2[-1]
-        shown = [m for m in minima_from(refines)
-                 if lo1 <= m.dtheta1 <= hi1 and lo2 <= m.dtheta2 <= hi2]
-        shown.sort(key=lambda m: (-m.dtheta2, m.dtheta1))   # upper minimum, upper label
-        offsets = [(14, 16), (14, -40), (-120, 16), (-120, -40)]
-        for k, m in enumerate(shown):
+        every = minima_from(refines)
+        shown = [m for m in every if lo1 <= m.dtheta1 <= hi1 and lo2 <= m.dtheta2 <= hi2]
+        for m in shown:                       # search paths under every marker
             if show_paths and m.path1.size:
                 ax.plot(m.path1, m.path2, ls=":", lw=1.2, color=MINIMUM_COLOUR, alpha=0.9,
                         gid=f"path_{m.label}", zorder=3)
             if show_paths and m.start is not None:
                 ax.plot(*m.start, marker="o", ms=6, mfc="none", mec=MINIMUM_COLOUR, mew=1.5,
                         ls="none", zorder=4, gid=f"start_{m.label}")
+        outline = [withStroke(linewidth=2.5, foreground="black")]
+        for k, m in enumerate(shown, 1):
+            # the square marks the minimum; its number keys the value in the legend (labels
+            # beside close minima would cover each other's markers)
             ax.plot(m.dtheta1, m.dtheta2, marker="s", ms=8, mfc=MINIMUM_COLOUR, mec="black",
-                    mew=1.0, ls="none", zorder=5, gid=f"minimum_{m.label}")
-            txt = (f"{m.label}: e = {m.error:.2g}\n"
-                   f"({m.dtheta1:.3f}, {m.dtheta2:.3f})" + ("" if m.ok else "\n(no gait)"))
-            dx, dy = offsets[k % len(offsets)]
-            ax.annotate(txt, (m.dtheta1, m.dtheta2), xytext=(dx, dy),
-                        textcoords="offset points", fontsize=8, zorder=6,
-                        bbox=dict(boxstyle="round,pad=0.25", fc="white", ec="0.3", alpha=0.9),
-                        arrowprops=dict(arrowstyle="-", color="white", lw=1.0),
-                        gid=f"label_{m.label}")
+                    mew=1.0, ls="none", zorder=6, gid=f"minimum_{m.label}")
+            ax.annotate(str(k), (m.dtheta1, m.dtheta2), xytext=(6, 5),
+                        textcoords="offset points", fontsize=9, fontweight="bold",
+                        color="white", path_effects=outline, zorder=7, gid=f"label_{m.label}")
+            handles.append(Line2D(
+                [], [], marker="s", ms=8, mfc=MINIMUM_COLOUR, mec="black", ls="none",
+                label=f"{k}: {m.label}, e = {m.error:.2g} at "
+                      f"({m.dtheta1:.3f}, {m.dtheta2:.3f})" + ("" if m.ok else " (no gait)")))
         if shown:
-            handles.append(Line2D([], [], marker="s", ms=8, mfc=MINIMUM_COLOUR, mec="black",
-                                  ls="none", label="located minimum (refine), value e"))
+            outside = len(every) - len(shown)
+            if outside:
+                handles.append(Line2D([], [], ls="none", label=f"({outside} more located "
+                                                               "minima lie outside this map)"))
             if show_paths:
                 handles.append(Line2D([], [], marker="o", mfc="none", mec=MINIMUM_COLOUR,
                                       ls=":", color=MINIMUM_COLOUR,
                                       label="Nelder–Mead start (○) and best-vertex path"))
+        if profile:
+            _row_minimum_panel(axp, g)
         if handles:
             fig.legend(handles=handles, loc="outside lower center", ncols=1, frameon=False)
         fig.suptitle(title or _grid_title(g, "Horizontal-gait error e"), x=0.02,
@@ -267,17 +282,36 @@ def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str
     return fig
 
 
+def row_minimum(g: GridData) -> np.ndarray:
+    """Lowest error of each dtheta2 row over dtheta1 (NaN where the row has no gait)."""
+    e = np.where(np.isfinite(g.error), g.error, np.inf).min(axis=0)
+    return np.where(np.isfinite(e), e, np.nan)
+
+
+def _row_minimum_panel(axp, g: GridData) -> None:
+    low = row_minimum(g)
+    axp.plot(low, g.dtheta2, color="black", lw=1.2, gid="row_minimum")
+    axp.set_xscale("log")
+    axp.axvline(1.0, color="0.5", ls="--", lw=0.8)
+    axp.set_xlabel("lowest e of each\n" r"$\dot\theta_2$ row  [1]")
+    axp.tick_params(labelleft=False)
+    finite = low[np.isfinite(low) & (low > 0)]
+    if finite.size:
+        axp.set_xlim(10 ** np.floor(np.log10(finite.min())),
+                     10 ** np.ceil(np.log10(max(finite.max(), 1.0))) * 1.0001)
+
+
 # ----------------------------------------------------------------------------------------------
 # 3-D surface (fig. 3)
 # ----------------------------------------------------------------------------------------------
-def plot_error_surface(grid, *, max_cells: int = 120, cmap: str = "magma",
-                       elev: float = 28.0, azim: float = -130.0, title: str | None = None):
+def plot_error_surface(grid, *, max_cells: int = 150, cmap: str = "magma",
+                       elev: float = 50.0, azim: float = -118.0, title: str | None = None):
     """3-D surface of sqrt(error) over (dtheta1, dtheta2) (study fig. 3).
 
     Points without a gait form a flat floor at 0 in their category colours (the study's flat
     "not enough energy" region), with a legend; the surface itself is only drawn where there is
-    a gait. Grids larger than ``max_cells`` per axis are drawn at that resolution (matplotlib's
-    ``rcount``/``ccount``: every n-th point, no averaging).
+    a gait. Grids with more than ``max_cells`` points along an axis are drawn with every n-th
+    point (a uniform stride, no averaging), so the surface keeps the data's own values.
 
     Returns a Figure whose surface has ``gid`` ``sqrt_error`` and floors ``floor_<category>``.
     """
@@ -285,17 +319,18 @@ def plot_error_surface(grid, *, max_cells: int = 120, cmap: str = "magma",
     X, Y = np.meshgrid(g.dtheta1, g.dtheta2, indexing="ij")
     Z = np.sqrt(g.error)
     zmax = float(np.nanmax(Z)) if np.isfinite(Z).any() else 1.0
-    rc, cc = min(g.dtheta1.size, max_cells), min(g.dtheta2.size, max_cells)
+    rs = -(-g.dtheta1.size // max_cells)          # uniform strides (ceil division)
+    cs = -(-g.dtheta2.size // max_cells)
     with style():
         fig = new_figure(figsize=(7.6, 6.2))
         ax = fig.add_subplot(projection="3d", computed_zorder=False)
         handles = []
         for key, mask, colour, hatch, label in g.category_masks():
             Zf = np.where(mask, 0.0, np.nan)
-            ax.plot_surface(X, Y, Zf, color=colour, rcount=rc, ccount=cc, linewidth=0,
+            ax.plot_surface(X, Y, Zf, color=colour, rstride=rs, cstride=cs, linewidth=0,
                             antialiased=False, shade=False, gid=f"floor_{key}", zorder=1)
             handles.append(Patch(facecolor=colour, edgecolor="#42526e", label=label))
-        surf = ax.plot_surface(X, Y, Z, cmap=cmap, vmin=0.0, vmax=zmax, rcount=rc, ccount=cc,
+        surf = ax.plot_surface(X, Y, Z, cmap=cmap, vmin=0.0, vmax=zmax, rstride=rs, cstride=cs,
                                linewidth=0.15, edgecolor=(0, 0, 0, 0.15), antialiased=True,
                                gid="sqrt_error", zorder=2)
         cb = fig.colorbar(surf, ax=ax, shrink=0.6, pad=0.08)
