@@ -59,7 +59,7 @@ def test_report_writes_every_figure_with_provenance(reported_study):
             assert_pdf(p, sha)
         else:
             with Image.open(p) as im:
-                assert im.format == "GIF" and im.n_frames == FAST["max_frames"]
+                assert im.format == "GIF" and im.n_frames >= FAST["max_frames"]
     assert (figs / MANIFEST).exists()
 
 

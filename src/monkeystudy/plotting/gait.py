@@ -325,7 +325,8 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
     """Animate the whole run of a stability dataset; write ``base.gif`` (and ``base.mp4``).
 
     Real time at ``fps`` frames per second unless that needs more than ``max_frames`` frames,
-    then sped up (the speed-up is shown). The view (``window`` metres wide) follows the robot;
+    then sped up (the speed-up is shown); the last frame is held for a second (with the reason
+    when the run stopped early). The view (``window`` metres wide) follows the robot;
     the start height and the points where a magnet attached are drawn fixed in the world.
     ``mp4`` None: write MP4 only when ffmpeg is available. Returns the written paths.
     """
@@ -378,7 +379,11 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
         half_h = 0.5 * window * (fig.subplotpars.top - fig.subplotpars.bottom) * 4.0 / \
             ((fig.subplotpars.right - fig.subplotpars.left) * 6.4)
 
-        def update(i):
+        from .cycles import _stop_note
+        stop = _stop_note(stab)
+        last = int(frames[-1])
+
+        def update(i, final=False):
             colour = STAGES.get(stage[i], ("0.3", ""))[0]
             line.set_data([traj.A[i, 0], traj.joint[i, 0], traj.B[i, 0]],
                           [traj.A[i, 1], traj.joint[i, 1], traj.B[i, 1]])
@@ -401,8 +406,9 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
             cyc = (min(int(np.searchsorted(tc, traj.t[i], side="left")) + 1, tc.size)
                    if tc.size else None)
             info.set_text(f"t = {traj.t[i]:6.2f} s" + (f"   cycle {cyc}" if cyc else "")
-                          + f"\n{STAGES.get(stage[i], ('', stage[i]))[1]}")
-            info.set_color(colour)
+                          + f"\n{STAGES.get(stage[i], ('', stage[i]))[1]}"
+                          + (f"\n{stop}" if final and stop else ""))
+            info.set_color(VERMILLION if final and stop else colour)
 
         targets = [("gif", _PillowWriterWithComment(fps=fps, comment=comment))]
         want_mp4 = FFMpegWriter.isAvailable() if mp4 is None else mp4
@@ -415,6 +421,9 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
                 with writer.saving(fig, str(tmp), dpi):
                     for i in frames:
                         update(int(i))
+                        writer.grab_frame()
+                    update(last, final=True)          # hold the end for a second
+                    for _ in range(max(1, int(round(fps)))):
                         writer.grab_frame()
             written.append(path)
     return written
