@@ -299,16 +299,20 @@ def plan_study(loaded: LoadedStudy, out: str | Path | None = None) -> Plan:
 
 
 # --- executors -----------------------------------------------------------------------------------------
-def _worker_init() -> None:
-    """Pool worker start: Ctrl-C is the driver's business; exit if the driver dies."""
+def _worker_init(driver: int) -> None:
+    """Pool worker start: Ctrl-C is the driver's business; exit when the driver is gone
+    (after a kill -9 nobody else would stop an idle worker)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    parent = os.getppid()
 
     def watch():
         import time
         while True:
             time.sleep(1.0)
-            if os.getppid() != parent:
+            try:
+                os.kill(driver, 0)
+            except ProcessLookupError:
+                os._exit(3)
+            except PermissionError:  # pid reused by another user's process: gone too
                 os._exit(3)
 
     threading.Thread(target=watch, name="monkeystudy-parent-watch", daemon=True).start()
@@ -385,7 +389,7 @@ def open_pool(workers: int | None = None, scheduler: str | None = None) -> Itera
         if n < 1:
             raise ValueError(f"workers must be >= 1, got {n}")
         ex = ProcessPoolExecutor(max_workers=n, mp_context=_mp_context(),
-                                 initializer=_worker_init)
+                                 initializer=_worker_init, initargs=(os.getpid(),))
         pool = Pool(ex, n, f"{n} local process{'es' if n > 1 else ''}", lambda: None)
     ok = False
     try:
