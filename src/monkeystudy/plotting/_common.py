@@ -215,6 +215,8 @@ def save_figure(fig: Figure, base: Path, prov: Mapping[str, str], *,
         with style(), atomic_path(path) as tmp:
             fig.savefig(tmp, format=fmt, metadata=meta)
         written.append(path)
+        if fig.get_layout_engine() is not None:
+            fig.set_layout_engine("none")   # laid out once: later formats keep the positions
     return written
 
 

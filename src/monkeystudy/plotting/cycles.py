@@ -79,6 +79,8 @@ def matching_refine(stab, refines: Sequence):
 
 
 def _gait_text(stab, gait) -> str:
+    if gait is None:
+        gait = gait_point(stab)          # the run's own dtheta1/dtheta2, when it has them
     times = ""
     if "t_switch" in stab.attrs and "t_motor" in stab.attrs:
         times = (f"swap at {float(stab.attrs['t_switch']):.3f} s, "

@@ -362,6 +362,9 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
         b_m, = ax.plot([], [], zorder=6, **END_B)
         mag, = ax.plot([], [], zorder=3, **MAGNET)
         info = ax.text(0.01, 0.98, "", transform=ax.transAxes, va="top", fontsize=8)
+        end_note = ax.text(0.5, 0.1, "", transform=ax.transAxes, ha="center", va="bottom",
+                           fontsize=8.5, color=VERMILLION, visible=False, zorder=8,
+                           bbox=dict(boxstyle="round,pad=0.3", fc="white", ec=VERMILLION))
         ax.set_xlabel("x  [m]")
         ax.set_ylabel("y  [m]")
         from .cycles import _gait_text
@@ -406,9 +409,10 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
             cyc = (min(int(np.searchsorted(tc, traj.t[i], side="left")) + 1, tc.size)
                    if tc.size else None)
             info.set_text(f"t = {traj.t[i]:6.2f} s" + (f"   cycle {cyc}" if cyc else "")
-                          + f"\n{STAGES.get(stage[i], ('', stage[i]))[1]}"
-                          + (f"\n{stop}" if final and stop else ""))
-            info.set_color(VERMILLION if final and stop else colour)
+                          + f"\n{STAGES.get(stage[i], ('', stage[i]))[1]}")
+            info.set_color(colour)
+            end_note.set_text(stop.replace(": ", ":\n", 1) if final and stop else "")
+            end_note.set_visible(bool(final and stop))
 
         targets = [("gif", _PillowWriterWithComment(fps=fps, comment=comment))]
         want_mp4 = FFMpegWriter.isAvailable() if mp4 is None else mp4
