@@ -164,6 +164,21 @@ def report(path: Path = typer.Argument(..., help="a study output folder (outputs
         typer.echo(f"wrote {p}")
 
 
+@app.command(context_settings={"allow_extra_args": True, "ignore_unknown_options": True})
+def bench(ctx: typer.Context,
+          quick: bool = typer.Option(False, "--quick", help="fewer points and repetitions"),
+          startup: bool = typer.Option(False, "--startup",
+                                       help="also time cold and cached start-up"),
+          workers: bool = typer.Option(False, "--workers",
+                                       help="also time 1 worker against all cores")) -> None:
+    """Benchmark the simulator: ratios to the bare RHS and to scipy, measured in one run."""
+    from .bench import main as bench_main
+
+    argv = [a for a, on in (("--quick", quick), ("--startup", startup), ("--workers", workers))
+            if on]
+    raise typer.Exit(bench_main(argv + list(ctx.args)))
+
+
 def main() -> None:  # pragma: no cover - console entry point convenience
     app()
 
