@@ -6,6 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 import xarray as xr
 from PIL import Image
@@ -126,6 +127,15 @@ def test_a_broken_dataset_fails_alone(reported_copy):
     with pytest.raises(ReportError) as again:
         report_study(reported_copy, **FAST)
     assert set(again.value.failures) == {"error_map_surface", "error_map_map"}
+
+
+def test_datasets_of_other_step_kinds_are_left_alone(reported_copy):
+    # e.g. an analysis step with a 'cycle' dim that is not a stability run
+    other = xr.Dataset({"error": (("tick", "cycle"), np.ones((2, 3)))},
+                       coords={"tick": [0.0, 0.001], "cycle": [1, 2, 3]},
+                       attrs={"step_kind": "tick_sweep", "step_name": "sweep"})
+    write_nc(other, reported_copy / "sweep.nc")
+    assert report_study(reported_copy, **FAST) == []
 
 
 def test_empty_folder_draws_nothing(tmp_path):

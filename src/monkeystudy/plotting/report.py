@@ -86,9 +86,12 @@ def code_hash() -> str:
 
 
 def _kind(ds) -> str | None:
+    """The step kind a dataset's figures are drawn for (None: no figures of ours). Datasets
+    of other kinds (the analysis steps: shoot, floquet, tick_sweep, ...) are skipped; the
+    layout is only guessed for files without a ``step_kind`` attribute."""
     kind = ds.attrs.get("step_kind")
-    if kind in ("grid", "refine", "stability"):
-        return kind
+    if kind is not None:
+        return kind if kind in ("grid", "refine", "stability") else None
     if "cycle" in ds.dims:
         return "stability"
     if "iteration" in ds.dims:
