@@ -138,6 +138,17 @@ def test_datasets_of_other_step_kinds_are_left_alone(reported_copy):
     assert report_study(reported_copy, **FAST) == []
 
 
+def test_figures_of_a_deleted_dataset_are_removed(reported_copy):
+    figs = reported_copy / "figures"
+    (reported_copy / "refine_1.nc").unlink()
+    (reported_copy / "stability_1.nc").unlink()
+    report_study(reported_copy, animation=False, **FAST)   # animations: kept, not redrawn
+    names = set(os.listdir(figs))
+    assert not {n for n in names if n.startswith(("refine_1_", "stability_1_"))}
+    assert {"refine_2_convergence.png", "stability_2_animation.gif"} <= names
+    assert "stability_error_comparison.png" not in names    # one run left: no comparison
+
+
 def test_empty_folder_draws_nothing(tmp_path):
     assert report_study(tmp_path) == []
 

@@ -7,7 +7,7 @@ their ``step_kind`` attribute), plans the figures they support and writes each a
 A manifest, ``DIR/figures/manifest.json``, records per figure the SHA-256 of each input
 dataset, a hash of the plotting code and style file, and the drawing options. A figure is
 redrawn only when one of those changed or one of its files is missing, so a second call on
-unchanged datasets writes nothing.
+unchanged datasets writes nothing. Figures whose datasets were deleted are removed.
 
 =====================================  ======================================  ==============
 file (``figures/``)                    what                                    study figure
@@ -215,6 +215,25 @@ def _write_manifest(path: Path, manifest: dict) -> None:
         tmp.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
 
 
+def _prune(fig_dir: Path, manifest: dict, planned: set[str], study_dir: Path,
+           progress: Progress | None) -> None:
+    """Remove the figures (files and manifest entries) of datasets that no longer exist.
+
+    Only files the manifest recorded are removed; figures merely not drawn this time (say,
+    animations with ``animation=False``) are kept.
+    """
+    gone = [name for name, e in manifest["figures"].items()
+            if name not in planned and not all((study_dir / i).exists() for i in e["inputs"])]
+    for name in gone:
+        for o in manifest["figures"][name].get("outputs", []):
+            (fig_dir / o).unlink(missing_ok=True)
+        del manifest["figures"][name]
+        if progress:
+            progress(f"removed {name}: its datasets are gone")
+    if gone:
+        _write_manifest(fig_dir / MANIFEST, manifest)
+
+
 def report_study(study_dir: Path, *, force: bool = False,
                  formats: Sequence[str] = ("png", "pdf"), animation: bool = True,
                  fps: float = 15.0, max_frames: int = 240, dry_run: bool = False,
@@ -313,6 +332,8 @@ def report_study(study_dir: Path, *, force: bool = False,
         entry["outputs"] = [p.name for p in paths]
         manifest["figures"][job.name] = entry
         _write_manifest(manifest_path, manifest)
+    if not dry_run:
+        _prune(fig_dir, manifest, {j.name for j in jobs}, study_dir, progress)
     if failures:
         raise ReportError(failures, written)
     return written
