@@ -355,7 +355,7 @@ def _mp_context():
     methods = mp.get_all_start_methods()
     if "forkserver" in methods:
         ctx = mp.get_context("forkserver")
-        ctx.set_forkserver_preload(["monkeystudy.study.drivers"])
+        ctx.set_forkserver_preload(["monkeystudy.study._preload"])
         return ctx
     return mp.get_context("spawn")
 
