@@ -380,3 +380,305 @@ def best_grid_points(error: np.ndarray, d1: np.ndarray, d2: np.ndarray, k: int) 
     order_rest = rest[np.lexsort((rest, flat[rest]))]
     chosen = np.concatenate([order_local, order_rest])[:k]
     return pts[chosen]
+
+
+# --- analysis steps (docs/datasets.md "Analysis steps") ------------------------------------------
+#: shoot ``method`` flags
+SHOOT_METHOD_ATTRS = {
+    "long_name": "how the fixed point was found", "units": "1",
+    "flag_values": np.array([0, 1], dtype=np.int8),
+    "flag_meanings": "gauss_newton grazing",
+}
+
+#: units of the continuation parameters
+PARAMETER_UNITS = {"com": "m", "inertia": "kg m2", "gravity": "m s-2"}
+
+_SECTION_NOTE = ("on the section theta1 = 0, components (theta2 [rad], dtheta1 [rad s-1], "
+                 "dtheta2 [rad s-1])")
+
+
+def _complex_vars(nc, name: str, dims: tuple, values: np.ndarray, what: str) -> None:
+    """A complex array as ``<name>_real`` and ``<name>_imag`` (netCDF4 classic types)."""
+    v = np.asarray(values, complex)
+    _var(nc, f"{name}_real", dims, np.float64, {"long_name": f"{what}, real part",
+                                                "units": "1"}, v.real)
+    _var(nc, f"{name}_imag", dims, np.float64, {"long_name": f"{what}, imaginary part",
+                                                "units": "1"}, v.imag)
+
+
+def _index_coord(nc, dim: str, n: int, long_name: str, start: int = 0) -> None:
+    nc.createDimension(dim, n)
+    _var(nc, dim, (dim,), np.int32, {"long_name": long_name, "units": "1"},
+         np.arange(start, start + n))
+
+
+def _label_coord(nc, dim: str, labels: list[str], long_name: str) -> None:
+    nc.createDimension(dim, len(labels))
+    _var(nc, dim, (dim,), str, {"long_name": long_name, "units": "1"},
+         np.array(list(labels), object))
+
+
+def write_shoot(path: Path, attrs: dict, solutions: list[dict]) -> None:
+    """Write a shoot dataset from the deduplicated solutions of
+    :func:`~monkeystudy.study.analysis_tasks.dedup_solutions` (discovery order)."""
+    n = len(solutions)
+    n_it = max(1, max(len(s["history"]) for s in solutions))
+    with atomic_netcdf(path) as nc:
+        _index_coord(nc, "solution", n, "solution index (discovery order)")
+        _index_coord(nc, "iteration", n_it, "Newton iteration (0: the start)")
+
+        def col(key, dtype=np.float64):
+            return np.array([s[key] for s in solutions], dtype=dtype)
+
+        _var(nc, "dtheta1", ("solution",), np.float64, dict(DTHETA1, long_name="fixed point, "
+                                                             + DTHETA1["long_name"]),
+             col("dtheta1"))
+        _var(nc, "dtheta2", ("solution",), np.float64, dict(DTHETA2, long_name="fixed point, "
+                                                             + DTHETA2["long_name"]),
+             col("dtheta2"))
+        for key in ("t_switch", "t_motor", "t_end"):
+            _var(nc, key, ("solution",), np.float64, GRID_ATTRS[key], col(key))
+        _var(nc, "error", ("solution",), np.float64,
+             {"long_name": "gait error of the solution (MODEL.md section 4): grazing: "
+                           "|P(z) - z|^2 of the motorless open-loop map; gauss_newton: the "
+                           "study's gait error", "units": "1"}, col("error"))
+        _var(nc, "residual_norm", ("solution",), np.float64,
+             {"long_name": "norm of the Newton residual at the solution (grazing: B's height "
+                           "and velocity; gauss_newton: the gait residual)", "units": "1"},
+             col("residual_norm"))
+        _var(nc, "converged", ("solution",), np.int8,
+             {"long_name": "Newton met its tolerance (1) or stopped (0)", "units": "1"},
+             col("converged", np.int8))
+        _var(nc, "method", ("solution",), np.int8, SHOOT_METHOD_ATTRS, col("method", np.int8))
+        _var(nc, "status", ("solution",), np.int8, dict(STATUS_ATTRS, long_name="outcome of "
+                                                        "the solution's gait cycle"),
+             col("status", np.int8))
+        _var(nc, "start_index", ("solution",), np.int32,
+             {"long_name": "first start that found the solution", "units": "1"},
+             col("start_index", np.int32))
+        hist = np.full((n, n_it), np.nan)
+        for i, s in enumerate(solutions):
+            hist[i, :len(s["history"])] = s["history"]
+        _var(nc, "history", ("solution", "iteration"), np.float64,
+             {"long_name": "residual norm per Newton iteration (NaN: padding)", "units": "1"},
+             hist)
+        _global_attrs(nc, dict(attrs, message=[s["message"] for s in solutions],
+                               solution_starts=[s["starts"] for s in solutions]))
+
+
+def write_floquet(path: Path, attrs: dict, results: list[dict]) -> None:
+    """Write a floquet dataset from :func:`~monkeystudy.study.analysis_tasks.floquet_task`
+    results, one per controller (in the step's order)."""
+    with atomic_netcdf(path) as nc:
+        _label_coord(nc, "controller", [r["controller"] for r in results],
+                     "return map: open_loop (recorded times) or search (state-based)")
+        _index_coord(nc, "k", 3, "multiplier (by decreasing modulus) or fixed-point component")
+        _index_coord(nc, "row", 3, "Jacobian row: d(theta2, dtheta1, dtheta2) after a cycle")
+        _index_coord(nc, "col", 3, "Jacobian column: d(theta2, dtheta1, dtheta2) before")
+
+        def stack(key, dtype=np.float64):
+            return np.array([r[key] for r in results], dtype=dtype)
+
+        _complex_vars(nc, "multipliers", ("controller", "k"), stack("multipliers", complex),
+                      "Floquet multipliers by variational equations (decreasing modulus)")
+        _complex_vars(nc, "multipliers_fd", ("controller", "k"),
+                      stack("multipliers_fd", complex),
+                      "Floquet multipliers by finite differences (decreasing modulus)")
+        _var(nc, "jacobian", ("controller", "row", "col"), np.float64,
+             {"long_name": "Jacobian of the return map by variational equations (saltation "
+                           "matrices at the events), " + _SECTION_NOTE, "units": "1"},
+             stack("jacobian"))
+        _var(nc, "jacobian_fd", ("controller", "row", "col"), np.float64,
+             {"long_name": "Jacobian of the return map by fourth-order central differences, "
+                           + _SECTION_NOTE, "units": "1"}, stack("jacobian_fd"))
+        _var(nc, "fixed_point", ("controller", "k"), np.float64,
+             {"long_name": "fixed point " + _SECTION_NOTE, "units": "1",
+              "components": "theta2 dtheta1 dtheta2", "component_units": "rad, rad s-1, rad s-1"},
+             stack("fixed_point"))
+        _var(nc, "map_defect", ("controller",), np.float64,
+             {"long_name": "|P(z) - z| at the fixed point", "units": "1"}, stack("map_defect"))
+        _var(nc, "stable", ("controller",), np.int8,
+             {"long_name": "all multipliers inside the unit circle (1), neutral ones "
+                           "(|lambda - 1| < 1e-6) excluded", "units": "1"},
+             stack("stable", np.int8))
+        _var(nc, "neutral", ("controller",), np.int8,
+             {"long_name": "neutral multipliers (|lambda - 1| < 1e-6)", "units": "1"},
+             stack("neutral", np.int8))
+        _var(nc, "agreement", ("controller",), np.float64,
+             {"long_name": "max |J - J_fd| / max |J|", "units": "1"}, stack("agreement"))
+        _var(nc, "t_switch", ("controller",), np.float64,
+             {"long_name": "swap time of the fixed point's cycle", "units": "s"},
+             stack("t_switch"))
+        _var(nc, "t_motor", ("controller",), np.float64,
+             {"long_name": "motor-on duration of the fixed point's cycle", "units": "s"},
+             stack("t_motor"))
+        _var(nc, "motor_torque", ("controller",), np.float64,
+             {"long_name": "motor torque of the return map", "units": "N m"}, stack("torque"))
+        _var(nc, "newton_converged", ("controller",), np.int8,
+             {"long_name": "Newton polish of the fixed point converged (1; open_loop: the "
+                           "shoot's point, 1)", "units": "1"},
+             stack("newton_converged", np.int8))
+        _global_attrs(nc, attrs)
+
+
+def write_tick_sweep(path: Path, attrs: dict, ticks, result: dict) -> None:
+    """Write a tick_sweep dataset from a
+    :func:`~monkeystudy.study.analysis_tasks.tick_sweep_task` result."""
+    err = np.asarray(result["error"], float)
+    with atomic_netcdf(path) as nc:
+        nc.createDimension("tick", len(ticks))
+        _var(nc, "tick", ("tick",), np.float64,
+             {"long_name": "controller tick (0: exact event timing)", "units": "s"},
+             np.asarray(ticks, float))
+        _index_coord(nc, "cycle", err.shape[1], "cycle number", start=1)
+        _var(nc, "error", ("tick", "cycle"), np.float64,
+             {"long_name": "error against the gait start at the vertical crossing ending the "
+                           "cycle (MODEL.md section 4; NaN: not reached)", "units": "1"}, err)
+        _var(nc, "pivot_height", ("tick", "cycle"), np.float64,
+             {"long_name": "world height of the attached end after the cycle's swap",
+              "units": "m"}, result["pivot_height"])
+        _var(nc, "cycles_to_bound", ("tick",), np.int32,
+             {"long_name": "first cycle whose error exceeds error_bound (else the cycles "
+                           "reached)", "units": "1"}, result["cycles_to_bound"])
+        _var(nc, "cycles_completed", ("tick",), np.int32,
+             {"long_name": "cycles that reached their vertical crossing", "units": "1"},
+             result["cycles_completed"])
+        _var(nc, "status", ("tick",), np.int8, dict(STATUS_ATTRS, long_name="why the run "
+                                                    "stopped (ok: all cycles ran)"),
+             result["status"])
+        _var(nc, "growth_per_cycle", ("tick",), np.float64,
+             {"long_name": "fitted geometric growth of sqrt(error) per cycle where 1e-10 < "
+                           "sqrt(error) < 1e-4 (NaN: fewer than 3 such cycles)", "units": "1"},
+             result["growth_per_cycle"])
+        _global_attrs(nc, attrs)
+
+
+def write_basin(path: Path, attrs: dict, offsets1: np.ndarray, offsets2: np.ndarray,
+                cycles: np.ndarray) -> None:
+    """Write a basin dataset: cycles survived ``[len(offsets1), len(offsets2)]``."""
+    with atomic_netcdf(path) as nc:
+        for dim, vals, what in (("d_dtheta1", offsets1, "dtheta1"),
+                                ("d_dtheta2", offsets2, "dtheta2")):
+            nc.createDimension(dim, len(vals))
+            _var(nc, dim, (dim,), np.float64, {"long_name": f"offset of the start's {what} "
+                                                            "from the gait", "units": RATE},
+                 np.asarray(vals, float))
+        _var(nc, "cycles", ("d_dtheta1", "d_dtheta2"), np.int32,
+             {"long_name": "cycles survived before the error against the gait exceeded "
+                           "error_bound, the run fell or stopped (max_cycles: never)",
+              "units": "1"}, np.asarray(cycles, np.int32))
+        _global_attrs(nc, attrs)
+
+
+def write_continuation(path: Path, attrs: dict, result: dict) -> None:
+    """Write a continuation dataset from a
+    :func:`~monkeystudy.study.analysis_tasks.continuation_task` result."""
+    n = len(result["value"])
+    par = result["parameter"]
+    with atomic_netcdf(path) as nc:
+        _index_coord(nc, "point", n, "point on the branch (0: the shoot's gait)")
+        _index_coord(nc, "k", 3, "multiplier (by decreasing modulus)")
+        _var(nc, "parameter_value", ("point",), np.float64,
+             {"long_name": f"continuation parameter {par}", "units": PARAMETER_UNITS[par]},
+             result["value"])
+        _var(nc, "dtheta1", ("point",), np.float64, dict(DTHETA1, long_name="collisionless "
+                                                          "gait, " + DTHETA1["long_name"]),
+             result["dtheta1"])
+        _var(nc, "dtheta2", ("point",), np.float64, dict(DTHETA2, long_name="collisionless "
+                                                          "gait, " + DTHETA2["long_name"]),
+             result["dtheta2"])
+        _var(nc, "t_switch", ("point",), np.float64,
+             {"long_name": "swap time (B at A's height at rest)", "units": "s"},
+             result["t_switch"])
+        _var(nc, "residual", ("point",), np.float64,
+             {"long_name": "|G| (B's height and velocity at t_switch) after correction",
+              "units": "1"}, result["residual"])
+        _complex_vars(nc, "multipliers", ("point", "k"), result["multipliers"],
+                      "Floquet multipliers of the motorless open-loop map (variational "
+                      "equations)")
+        _global_attrs(nc, dict(attrs, parameter=par, parameter_units=PARAMETER_UNITS[par],
+                               value0=float(result["value0"]), folds=list(result["folds"]),
+                               period_doublings=list(result["period_doublings"])))
+
+
+#: the note stored with work-precision datasets
+NOT_REPRODUCIBLE = ("wall-clock timings depend on the machine and its load: time variables "
+                    "differ between runs (errors and counts do not)")
+
+
+def write_work_precision(path: Path, attrs: dict, result: dict) -> None:
+    """Write a work_precision dataset from :func:`monkeystudy.precision.work_precision`."""
+    with atomic_netcdf(path) as nc:
+        _label_coord(nc, "method", list(result["methods"]), "kernel integrator")
+        nc.createDimension("rtol", len(result["rtols"]))
+        _var(nc, "rtol", ("rtol",), np.float64, {"long_name": "relative tolerance",
+                                                 "units": "1"}, result["rtols"])
+        _label_coord(nc, "scipy_method", list(result["scipy_methods"]),
+                     "scipy.integrate.solve_ivp method")
+        nc.createDimension("scipy_rtol", len(result["scipy_rtols"]))
+        _var(nc, "scipy_rtol", ("scipy_rtol",), np.float64,
+             {"long_name": "relative tolerance of the scipy runs", "units": "1"},
+             result["scipy_rtols"])
+        mr, sr = ("method", "rtol"), ("scipy_method", "scipy_rtol")
+        _var(nc, "time_per_gait", mr, np.float64,
+             {"long_name": "wall time per gait evaluation (best of repeat)", "units": "s"},
+             result["time"])
+        _var(nc, "rhs_per_gait", mr, np.float64,
+             {"long_name": "right-hand-side evaluations per gait (mean)", "units": "1"},
+             result["nfev"])
+        _var(nc, "error_value", mr, np.float64,
+             {"long_name": "max |gait error - reference gait error|", "units": "1"},
+             result["error_value"])
+        _var(nc, "error_times", mr, np.float64,
+             {"long_name": "max |event time - reference| (t_switch, t_motor, t_end)",
+              "units": "s"}, result["error_times"])
+        _var(nc, "status_mismatch", mr, np.int32,
+             {"long_name": "points whose status differs from the reference", "units": "1"},
+             result["status_mismatch"])
+        _var(nc, "scipy_time_per_gait", sr, np.float64,
+             {"long_name": "wall time per gait evaluation, scipy solve_ivp with events",
+              "units": "s"}, result["scipy_time"])
+        _var(nc, "scipy_error_value", sr, np.float64,
+             {"long_name": "max |gait error - reference gait error|, scipy", "units": "1"},
+             result["scipy_error_value"])
+        _var(nc, "scipy_error_times", sr, np.float64,
+             {"long_name": "max |event time - reference|, scipy", "units": "s"},
+             result["scipy_error_times"])
+        _var(nc, "kernel_time_same_points", ("scipy_rtol",), np.float64,
+             {"long_name": "wall time per gait of the kernel's dop853 on the scipy points",
+              "units": "s"}, result["kernel_time_same_points"])
+        _global_attrs(nc, dict(attrs, reference=result["reference"],
+                               n_points=int(result["n_points"]), bit_reproducible=0,
+                               reproducibility=NOT_REPRODUCIBLE))
+
+
+def read_shoot(path: Path) -> list[dict]:
+    """The solutions of a shoot dataset: ``[{dtheta1, dtheta2, t_switch, t_motor, t_end,
+    error, residual_norm, converged, method, status}, ...]`` (solution order)."""
+    keys = ("dtheta1", "dtheta2", "t_switch", "t_motor", "t_end", "error", "residual_norm",
+            "converged", "method", "status")
+    with netCDF4.Dataset(path, "r") as nc:
+        nc.set_auto_mask(False)
+        vals = {k: np.atleast_1d(np.array(nc.variables[k][...])) for k in keys}
+    n = len(vals["dtheta1"])
+    out = []
+    for i in range(n):
+        d = {k: float(vals[k][i]) for k in keys}
+        for k in ("converged", "method", "status"):
+            d[k] = int(d[k])
+        d["index"] = i
+        out.append(d)
+    return out
+
+
+def read_floquet_multipliers(path: Path, controller: str = "open_loop") -> np.ndarray:
+    """The variational multipliers of one controller of a floquet dataset (complex)."""
+    with netCDF4.Dataset(path, "r") as nc:
+        nc.set_auto_mask(False)
+        labels = [str(x) for x in np.atleast_1d(nc.variables["controller"][...])]
+        if controller not in labels:
+            raise ValueError(f"{Path(path).name} has no {controller} controller")
+        i = labels.index(controller)
+        re = np.array(nc.variables["multipliers_real"][i, :])
+        im = np.array(nc.variables["multipliers_imag"][i, :])
+    return re + 1j * im

@@ -1,9 +1,10 @@
 """Provenance of datasets: package version, git revision, code hash, library versions, history.
 
 ``code_sha256`` hashes the source files that decide what a study computes (kernels, robot,
-controllers, simulation API, study schema, drivers, dataset layout) together with the package
-version. With the study text's hash it keys shards and datasets: change either and nothing old
-is reused. It does not depend on git, so an uncommitted edit counts too.
+controllers, simulation API, study schema, drivers, dataset layout, and the analysis
+computations and tasks) together with the package version. With the study text's hash it keys
+shards and datasets: change either and nothing old is reused. It does not depend on git, so
+an uncommitted edit counts too.
 """
 from __future__ import annotations
 
@@ -22,7 +23,10 @@ _PKG = Path(__file__).resolve().parents[1]
 
 #: Sources (relative to the package) that decide the numbers and the layout of datasets.
 CODE_FILES = ("kernel/*.py", "robot.py", "controllers.py", "simulate.py", "study/schema.py",
-              "study/drivers.py", "study/datasets.py")
+              "study/drivers.py", "study/datasets.py",
+              # the analysis steps: their computations, tasks and runner glue
+              "analysis.py", "precision.py", "bench.py", "study/analysis_tasks.py",
+              "study/analysis_steps.py")
 
 LIBRARIES = ("numpy", "scipy", "numba", "xarray", "netCDF4")
 

@@ -42,12 +42,17 @@ from .. import __version__
 from ..controllers import Integrator
 from ..robot import SEED2009_TORQUE, Friction, Link, Robot
 from ..simulate import RobotLike, as_robot
+from . import analysis_steps as AS
+from . import analysis_tasks
 from . import datasets as D
 from . import drivers
 from . import provenance as P
 from .loader import LoadedStudy
 from .progress import Reporter
-from .schema import BestOfGrid, GridStep, RefineStep, StabilityStep, Study
+from .schema import (
+    ANALYSIS_STEPS, BasinStep, BestOfGrid, ContinuationStep, FloquetStep, GridStep, RefineStep,
+    StabilityStep, Study,
+)
 
 
 class RunFailed(RuntimeError):
@@ -87,6 +92,8 @@ def step_deps(step) -> tuple[str, ...]:
         return (step.start.from_,)
     if isinstance(step, StabilityStep):
         return (step.from_,)
+    if isinstance(step, ANALYSIS_STEPS):
+        return AS.step_deps(step)
     return ()
 
 
@@ -209,6 +216,10 @@ class StepPlan:
             return len(self.blocks)
         if isinstance(self.step, RefineStep) and isinstance(self.step.start, BestOfGrid):
             return self.step.start.best
+        if isinstance(self.step, BasinStep):
+            return len(self.blocks)
+        if isinstance(self.step, ANALYSIS_STEPS):
+            return AS.n_tasks(self.step)
         return 1
 
     def todo_blocks(self) -> list[Block]:
@@ -244,6 +255,13 @@ class Plan:
                              f"({s.step.n_points} points, {s.step.block_size} per block, "
                              f"{len(s.saved)} saved)")
                 if todo:
+                    lines.append(f"    blocks: {_ranges([b.index for b in todo])}")
+            elif isinstance(s.step, BasinStep):
+                todo = s.todo_blocks()
+                dep = f" after {', '.join(s.deps)}" if s.deps else ""
+                lines.append(f"{head}: {len(todo)} of {len(s.blocks)} blocks to do "
+                             f"({s.step.n_points} starts, {len(s.saved)} saved){dep}")
+                if todo and len(s.blocks) > 1:
                     lines.append(f"    blocks: {_ranges([b.index for b in todo])}")
             else:
                 n = s.n_tasks
@@ -292,6 +310,10 @@ def plan_study(loaded: LoadedStudy, out: str | Path | None = None) -> Plan:
         sp = StepPlan(s, path, deps, current)
         if isinstance(s, GridStep):
             sp.blocks = make_blocks(s.n_points, s.block_size)
+            if not current:
+                sp.saved = saved_blocks(shard_dir(out, s.name, key), sp.blocks)
+        elif isinstance(s, BasinStep):
+            sp.blocks = AS.basin_blocks(s)
             if not current:
                 sp.saved = saved_blocks(shard_dir(out, s.name, key), sp.blocks)
         steps.append(sp)
@@ -447,6 +469,7 @@ class _Task:
     fn: Callable
     args: tuple
     kwargs: dict
+    exclusive: bool = False  # runs alone on the pool (wall-time measurements)
 
 
 class _Run:
@@ -509,6 +532,8 @@ class _Run:
             for i, x0 in enumerate(starts):
                 self.queue.append(_Task(s, i, drivers.refine_task,
                                         (self.spec, (float(x0[0]), float(x0[1]))), kw))
+        elif isinstance(s.step, ANALYSIS_STEPS):
+            AS.start(self, s)
         else:
             st = s.step
             gait, idx = D.read_refined(self.by_name[st.from_].path, st.start_index)
@@ -527,7 +552,7 @@ class _Run:
     # tasks ----------------------------------------------------------------------------------
     def _submit(self, t: _Task) -> None:
         args = t.args
-        if isinstance(t.tag, Block):
+        if isinstance(t.tag, Block) and isinstance(t.step.step, GridStep):
             args = (args[0], grid_points(t.step.step, t.tag.lo, t.tag.hi), args[2])
         self.inflight[self.pool.submit(t.fn, *args, **t.kwargs)] = t
 
@@ -539,6 +564,8 @@ class _Run:
             self.computed += 1
         elif isinstance(s.step, RefineStep):
             self.results[s.name][t.tag] = value
+        elif isinstance(s.step, ANALYSIS_STEPS):
+            AS.handle(self, t, value)
         else:
             self.results[s.name]["result"] = value
         self.rep.advance(s.name)
@@ -575,6 +602,8 @@ class _Run:
                        else math.inf)
             msg = (f"error {best['error']:.3g} at ({best['x'][0]:.6g}, {best['x'][1]:.6g}), "
                    f"{sum(r['nit'] for r in results)} iterations")
+        elif isinstance(st, ANALYSIS_STEPS):
+            msg = AS.finish(self, s, attrs)
         else:
             res = self.results.pop(s.name)
             gait, kw, r = res["gait"], res["options"], res["result"]
@@ -599,6 +628,9 @@ class _Run:
             if failure is None and broken is None:
                 self._start_ready()
                 while self.queue and len(self.inflight) < limit:
+                    if any(x.exclusive for x in self.inflight.values()) or \
+                            (self.queue[0].exclusive and self.inflight):
+                        break   # an exclusive task runs alone: wait for the pool to drain
                     t = self.queue.popleft()
                     try:
                         self._submit(t)
@@ -680,14 +712,18 @@ def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
     try:
         reporter.log("loading the compiled kernels (the first run after a change compiles "
                      "them, ~20 s)")
-        drivers.warm_up(spec, stability=any(isinstance(s.step, StabilityStep) for s in todo))
+        drivers.warm_up(spec, stability=any(isinstance(s.step, (StabilityStep,) + ANALYSIS_STEPS)
+                                            for s in todo))
+        if any(isinstance(s.step, (FloquetStep, ContinuationStep)) for s in todo):
+            analysis_tasks.warm_up(spec)
         with open_pool(workers, scheduler) as pool:
             reporter.log(f"{loaded.study.name}: {len(todo)} step(s) to run on {pool.kind} "
                          f"-> {plan.out}")
             run = _Run(plan, pool, reporter, history)
             run.run()
     except KeyboardInterrupt:
-        saved = sum(len(s.saved) for s in plan.steps if isinstance(s.step, GridStep))
+        saved = sum(len(s.saved) for s in plan.steps
+                    if isinstance(s.step, (GridStep, BasinStep)))
         raise RunInterrupted(f"interrupted; {saved} finished blocks are saved, rerun to "
                              "resume") from None
     return RunSummary(plan.out, run.written, current, run.computed, run.reused, run.notes)

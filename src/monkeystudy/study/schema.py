@@ -278,9 +278,280 @@ class StabilityStep(_Model):
                                       "length)")
 
 
-Step = Annotated[Union[GridStep, RefineStep, StabilityStep], Field(discriminator="kind")]
+# --- analysis steps (docs/datasets.md "Analysis steps") -----------------------------------------
+#: the tolerance ladder of the work-precision step (``monkeystudy.precision.RTOLS``)
+WORK_PRECISION_RTOLS = [1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13]
 
-STEP_KINDS = {"grid": GridStep, "refine": RefineStep, "stability": StabilityStep}
+#: the state-based controller's attracting gait (theta2 [rad], dtheta1, dtheta2 [rad s-1]),
+#: found by a 1000-cycle run of seed2009 at 0.6354 N m
+SEARCH_START = [0.0248, -1.0869, 16.0168]
+
+SectionPoint = Annotated[list[float], Field(min_length=3, max_length=3,
+                                            description="(theta2 [rad], dtheta1 [rad s-1], "
+                                                        "dtheta2 [rad s-1]) on the section "
+                                                        "theta1 = 0")]
+
+
+def _unique(v: list, what: str) -> list:
+    dup = sorted({repr(x) for x in v if v.count(x) > 1})
+    if dup:
+        raise ValueError(f"{what} must be distinct, repeated: {', '.join(dup)}")
+    return v
+
+
+class ShootStep(_Model):
+    """Exact fixed points of the horizontal gait (Newton shooting, ``monkeystudy.analysis``).
+
+    ``grazing``: Newton on (dtheta1, dtheta2, t) for end B at end A's height at rest (the
+    collisionless swap on the grazing border; an exact, motorless fixed point for mirror-image
+    links), from the swap time of the gait at the start (exact events). ``gauss_newton``:
+    Gauss-Newton on the gait's repeatability residual. One task per start; solutions closer
+    than ``dedup_tol`` are merged (the lower error kept).
+    """
+
+    name: Name
+    kind: Literal["shoot"]
+    starts: Optional[list[Point]] = Field(None, min_length=1,
+                                          description="start points (dtheta1, dtheta2) "
+                                                      "[rad s-1]")
+    from_: Optional[Name] = Field(None, alias="from",
+                                  description="an earlier refine step: its lowest-error "
+                                              "result is the start (instead of starts)")
+    method: Literal["grazing", "gauss_newton", "both"] = Field(
+        "both", description="grazing (collisionless swap), gauss_newton (gait residual) or "
+                            "both from every start")
+    dedup_tol: float = Field(1e-6, gt=0, description="solutions closer than this in "
+                                                     "(dtheta1, dtheta2) are one [rad s-1]")
+    tol: float = Field(1e-14, gt=0, lt=1.0, description="Newton stops when the residual "
+                                                        "norm or the step falls below this "
+                                                        "[1]")
+    max_iter: int = Field(40, ge=1, le=1000, description="Newton iteration limit")
+
+    @model_validator(mode="after")
+    def _starts_or_from(self) -> "ShootStep":
+        if (self.starts is None) == (self.from_ is None):
+            raise ValueError("give either starts: [[dtheta1, dtheta2], ...] or from: <refine "
+                             "step>, not both" if self.starts is not None else
+                             "give starts: [[dtheta1, dtheta2], ...] or from: <refine step>")
+        return self
+
+
+class FloquetStep(_Model):
+    """Floquet multipliers of a gait's return map on theta1 = 0: variational equations
+    (saltation matrices) beside fourth-order central differences.
+
+    ``open_loop``: the shoot step's best solution replayed with its times (motor torque 0
+    when ``t_motor`` is 0). ``search``: the state-based controller's own fixed point,
+    polished by Newton from ``search_start``.
+    """
+
+    name: Name
+    kind: Literal["floquet"]
+    from_: Optional[Name] = Field(None, alias="from",
+                                  description="an earlier shoot step (needed by open_loop)")
+    controllers: list[Literal["open_loop", "search"]] = Field(
+        ["open_loop", "search"], min_length=1, description="return maps to analyse")
+    search_start: SectionPoint = Field(SEARCH_START, description="start of the Newton "
+                                       "polish of the search controller's fixed point "
+                                       "(theta2 [rad], dtheta1, dtheta2 [rad s-1])")
+    solution: Optional[int] = Field(None, ge=0, description="which solution of the shoot "
+                                    "step (default: the lowest error)")
+    fd_step: float = Field(1e-5, gt=0, le=1e-2, description="relative finite-difference "
+                                                            "step [1]")
+
+    @field_validator("controllers")
+    @classmethod
+    def _distinct(cls, v: list) -> list:
+        return _unique(v, "controllers")
+
+    @model_validator(mode="after")
+    def _from_for_open_loop(self) -> "FloquetStep":
+        if "open_loop" in self.controllers and self.from_ is None:
+            raise ValueError("the open_loop controller needs from: <shoot step>")
+        return self
+
+
+class TickSweepStep(_Model):
+    """The controller-tick question: the exact gait replayed open-loop with its times
+    rounded to a controller tick, one run per tick, error per cycle."""
+
+    name: Name
+    kind: Literal["tick_sweep"]
+    from_: Name = Field(alias="from", description="an earlier shoot step")
+    ticks: list[Annotated[float, Field(ge=0, le=1.0)]] = Field(
+        [1e-3, 1e-4, 1e-5, 0.0], min_length=1, description="controller ticks [s]; 0 = exact "
+                                                            "timing")
+    cycles: int = Field(80, ge=1, le=100_000, description="cycles per run")
+    error_bound: float = Field(1e-2, gt=0, description="a run has left the gait at the "
+                                                       "first cycle whose error exceeds "
+                                                       "this [1]")
+    floquet: Optional[Name] = Field(None, description="an earlier floquet step (open_loop) "
+                                    "of the same shoot step: its leading multiplier instead "
+                                    "of a finite-difference one")
+    solution: Optional[int] = Field(None, ge=0, description="which solution of the shoot "
+                                    "step (default: the lowest error)")
+    max_drop: Optional[float] = Field(None, gt=0, description="stop ('fell') when the "
+                                      "attached end sinks this far [m] (default: link 1's "
+                                      "length)")
+
+    @field_validator("ticks")
+    @classmethod
+    def _distinct(cls, v: list) -> list:
+        return _unique(v, "ticks")
+
+
+class BasinOffsets(_Model):
+    d_dtheta1: Axis = Field(description="offsets of the start's dtheta1 [rad s-1]")
+    d_dtheta2: Axis = Field(description="offsets of the start's dtheta2 [rad s-1]")
+
+
+#: a basin with more points than this runs as blocks of rows on the pool (else one task)
+BASIN_TASK_POINTS = 400
+
+#: points per basin block (whole rows of d_dtheta2, at least one row)
+BASIN_BLOCK_POINTS = 100
+
+
+class BasinStep(_Model):
+    """Cycles an open-loop replay of the gait survives from perturbed starts. More than
+    ``BASIN_TASK_POINTS`` points are split into blocks of whole rows (about
+    ``BASIN_BLOCK_POINTS`` points each) on the pool, each saved as a shard (resumable)."""
+
+    name: Name
+    kind: Literal["basin"]
+    from_: Name = Field(alias="from", description="an earlier shoot step")
+    offsets: BasinOffsets = Field(description="start offsets (d_dtheta1, d_dtheta2) [rad s-1]")
+    max_cycles: int = Field(60, ge=1, le=100_000, description="cycles per run (a start that "
+                            "never fails scores this)")
+    error_bound: float = Field(1e-2, gt=0, description="failure: error against the "
+                               "unperturbed gait above this [1]")
+    tick: Optional[float] = Field(None, ge=0, le=1.0, description="controller tick [s] "
+                                  "(default: the gait's)")
+    solution: Optional[int] = Field(None, ge=0, description="which solution of the shoot "
+                                    "step (default: the lowest error)")
+
+    @property
+    def n_points(self) -> int:
+        return self.offsets.d_dtheta1.num * self.offsets.d_dtheta2.num
+
+    @property
+    def rows_per_block(self) -> int:
+        """Rows of d_dtheta1 per task: all of them up to ``BASIN_TASK_POINTS`` points."""
+        n1, n2 = self.offsets.d_dtheta1.num, self.offsets.d_dtheta2.num
+        if self.n_points <= BASIN_TASK_POINTS:
+            return n1
+        return max(1, BASIN_BLOCK_POINTS // n2)
+
+
+class ContinuationStep(_Model):
+    """Pseudo-arclength continuation of the collisionless (grazing) gait family in one
+    mirror-symmetric robot parameter, with the open-loop multipliers along the branch."""
+
+    name: Name
+    kind: Literal["continuation"]
+    from_: Name = Field(alias="from", description="an earlier shoot step (its best grazing "
+                                                  "solution starts the branch)")
+    parameter: Literal["com", "inertia", "gravity"] = Field(
+        description="com: link 1's CG from A [m] (link 2's mirrored); inertia: both links' "
+                    "[kg m2]; gravity [m s-2]")
+    ds: float = Field(description="arclength step in (dtheta1, dtheta2, t_switch, parameter) "
+                                  "[mixed units]; its sign picks the direction")
+    steps: int = Field(20, ge=1, le=100_000, description="continuation steps")
+    bounds: Optional[list[float]] = Field(None, min_length=2, max_length=2,
+                                          description="[lo, hi]: stop when the parameter "
+                                                      "leaves them (units of the parameter)")
+
+    @field_validator("ds")
+    @classmethod
+    def _nonzero(cls, v: float) -> float:
+        if v == 0.0:
+            raise ValueError("must be non-zero")
+        return v
+
+    @field_validator("bounds")
+    @classmethod
+    def _ordered(cls, v):
+        if v is not None and not v[0] < v[1]:
+            raise ValueError(f"must be [lo, hi] with lo < hi, got {v}")
+        return v
+
+
+class PointAxes(_Model):
+    dtheta1: Axis = Field(description="axis of dtheta1 [rad s-1]")
+    dtheta2: Axis = Field(description="axis of dtheta2 [rad s-1]")
+
+
+def _points_tag(v: Any) -> str | None:
+    if isinstance(v, list):
+        return "list"
+    if isinstance(v, (dict, PointAxes)):
+        return "axes"
+    return None
+
+
+PointsSpec = Annotated[
+    Union[Annotated[list[Point], Tag("list")], Annotated[PointAxes, Tag("axes")]],
+    Discriminator(_points_tag, custom_error_type="points_type",
+                  custom_error_message="must be a list of points [[dtheta1, dtheta2], ...] "
+                                       "or {dtheta1: {start, stop, num}, dtheta2: {...}}"),
+]
+
+
+class WorkPrecisionStep(_Model):
+    """Run time per gait against error, for kernel integrators over a tolerance ladder and
+    scipy solve_ivp on a subset (``monkeystudy.precision.work_precision``). Timings depend on
+    the machine and its load: this step's dataset is not bit-reproducible."""
+
+    name: Name
+    kind: Literal["work_precision"]
+    points: PointsSpec = Field(description="gait start points [rad s-1]: a list or axes")
+    methods: list[Literal["rk45", "dop853"]] = Field(["rk45", "dop853"], min_length=1,
+                                                     description="kernel integrators")
+    rtols: list[Annotated[float, Field(ge=100 * np.finfo(float).eps, lt=1.0)]] = Field(
+        WORK_PRECISION_RTOLS, min_length=1, description="relative tolerances [1]")
+    atol_ratio: float = Field(1e-2, gt=0, le=1.0, description="atol = rtol * atol_ratio "
+                                                             "[rad, rad s-1]")
+    repeat: int = Field(3, ge=1, le=100, description="timed repetitions (the best is kept)")
+    scipy_methods: list[Literal["RK45", "DOP853", "LSODA"]] = Field(
+        ["RK45", "DOP853", "LSODA"], min_length=1, description="scipy solve_ivp methods")
+    scipy_rtols: list[Annotated[float, Field(ge=100 * np.finfo(float).eps, lt=1.0)]] = Field(
+        [1e-6, 1e-8, 1e-10], min_length=1, description="scipy relative tolerances [1]")
+    scipy_points: int = Field(4, ge=1, le=10_000, description="points run by scipy (the "
+                              "first ones kept)")
+    first_swing_only: bool = Field(True, description="keep gaits that swap on the first "
+                                   "swing and end before 1.2 s (well-conditioned ones)")
+
+    @field_validator("methods", "rtols", "scipy_methods", "scipy_rtols")
+    @classmethod
+    def _distinct(cls, v: list, info: ValidationInfo) -> list:
+        return _unique(v, info.field_name)
+
+    @property
+    def n_points(self) -> int:
+        if isinstance(self.points, PointAxes):
+            return self.points.dtheta1.num * self.points.dtheta2.num
+        return len(self.points)
+
+    def point_array(self) -> np.ndarray:
+        if isinstance(self.points, PointAxes):
+            g1, g2 = np.meshgrid(self.points.dtheta1.values(), self.points.dtheta2.values(),
+                                 indexing="ij")
+            return np.stack([g1.ravel(), g2.ravel()], axis=1)
+        return np.array(self.points, dtype=np.float64).reshape(-1, 2)
+
+
+ANALYSIS_STEPS = (ShootStep, FloquetStep, TickSweepStep, BasinStep, ContinuationStep,
+                  WorkPrecisionStep)
+
+
+Step = Annotated[Union[GridStep, RefineStep, StabilityStep, ShootStep, FloquetStep,
+                       TickSweepStep, BasinStep, ContinuationStep, WorkPrecisionStep],
+                 Field(discriminator="kind")]
+
+STEP_KINDS = {"grid": GridStep, "refine": RefineStep, "stability": StabilityStep,
+              "shoot": ShootStep, "floquet": FloquetStep, "tick_sweep": TickSweepStep,
+              "basin": BasinStep, "continuation": ContinuationStep,
+              "work_precision": WorkPrecisionStep}
 
 
 class Study(_Model):
@@ -329,8 +600,56 @@ def cross_check(study: Study) -> list[tuple[tuple, str]]:
                 if s.start_index >= k:
                     problems.append((("steps", i, "start_index"),
                                      f"must be < {k} (the starts of {ref.name!r})"))
+        if isinstance(s, ANALYSIS_STEPS):
+            problems.extend(_check_analysis(study, i, s, seen))
         seen.setdefault(s.name, s)
     return problems
+
+
+def _check_analysis(study: Study, i: int, s, seen: dict) -> list[tuple[tuple, str]]:
+    """References and robot requirements of the analysis steps."""
+    out: list[tuple[tuple, str]] = []
+    if isinstance(s, ShootStep):
+        if s.from_ is not None and not isinstance(seen.get(s.from_), RefineStep):
+            out.append((("steps", i, "from"), _no_earlier(s.from_, "refine",
+                                                          seen.get(s.from_))))
+        return out
+    if isinstance(s, WorkPrecisionStep):
+        return out
+    if s.from_ is not None and not isinstance(seen.get(s.from_), ShootStep):
+        out.append((("steps", i, "from"), _no_earlier(s.from_, "shoot", seen.get(s.from_))))
+    if isinstance(s, TickSweepStep) and s.floquet is not None:
+        ref = seen.get(s.floquet)
+        if not isinstance(ref, FloquetStep):
+            out.append((("steps", i, "floquet"), _no_earlier(s.floquet, "floquet", ref)))
+        elif "open_loop" not in ref.controllers:
+            out.append((("steps", i, "floquet"),
+                        f"{ref.name!r} has no open_loop controller"))
+        elif ref.from_ != s.from_:
+            out.append((("steps", i, "floquet"),
+                        f"{ref.name!r} analyses shoot step {ref.from_!r}, this step "
+                        f"{s.from_!r}: they must be the same"))
+    if isinstance(s, (FloquetStep, ContinuationStep)):
+        problem = mirror_problem(study)
+        if problem:
+            out.append((("steps", i, "kind"), f"a {s.kind} step {problem}"))
+    return out
+
+
+def mirror_problem(study: Study) -> str | None:
+    """Why the study's robot cannot have one-cycle return maps (``None`` if it can).
+
+    The frame flips to the other end at every swap, so a one-cycle return map compares like
+    with like only when the links are mirror images (``monkeystudy.analysis``).
+    """
+    from .runner import study_robot
+
+    par = study_robot(study).params()
+    if np.allclose(par[0], par[1], rtol=0, atol=1e-14):
+        return None
+    return ("needs mirror-image links (same mass, length, inertia and friction; link 2's "
+            "com = its length - link 1's com): the frame flips at every swap, so a one-cycle "
+            "return map is defined only for them")
 
 
 def _no_earlier(name: str, kind: str, found) -> str:
@@ -349,7 +668,9 @@ def resolved_max_drop(step: StabilityStep, link1_length: float) -> float:
 
 
 __all__ = [
-    "Axis", "BestOfGrid", "FMINSEARCH_TOL", "Gait", "GridStep", "IntegratorSettings",
-    "LinkParams", "RefineStep", "RobotParams", "SCHEMA_VERSION", "STEP_KINDS", "StabilityStep",
-    "Study", "cross_check", "json_schema",
+    "ANALYSIS_STEPS", "Axis", "BasinOffsets", "BasinStep", "BestOfGrid", "ContinuationStep",
+    "FMINSEARCH_TOL", "FloquetStep", "Gait", "GridStep", "IntegratorSettings", "LinkParams",
+    "PointAxes", "RefineStep", "RobotParams", "SCHEMA_VERSION", "STEP_KINDS", "ShootStep",
+    "StabilityStep", "Study", "TickSweepStep", "WorkPrecisionStep", "cross_check",
+    "json_schema", "mirror_problem",
 ]

@@ -1,0 +1,297 @@
+"""The runner's side of the analysis steps: what each kind depends on, which tasks it queues,
+and how its results become a dataset (docs/datasets.md "Analysis steps").
+
+Tasks (:mod:`monkeystudy.study.analysis_tasks`): a shoot step runs one task per start (like a
+refine step); a floquet step one per controller; a basin step one task, or blocks of rows
+saved as shards (resumable, like grid blocks) when it has more than
+:data:`~monkeystudy.study.schema.BASIN_TASK_POINTS` points; tick_sweep, continuation and
+work_precision one task each. The work_precision task runs alone on the pool (it measures wall
+time; other tasks on the same cores would inflate it).
+
+A step that uses a shoot step (``from:``) reads its dataset when it starts and takes the
+lowest-error usable solution (status ok, finite error and times; for a continuation a
+converged grazing one), or ``solution: i``; when there is none the run fails with a message
+naming both steps.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from . import analysis_tasks as AT
+from . import datasets as D
+from .schema import (
+    BasinStep, ContinuationStep, FloquetStep, ShootStep, TickSweepStep, WorkPrecisionStep,
+)
+
+
+def step_deps(step) -> tuple[str, ...]:
+    """Names of the steps an analysis step needs first."""
+    deps: list[str] = []
+    if getattr(step, "from_", None) is not None:
+        deps.append(step.from_)
+    if isinstance(step, TickSweepStep) and step.floquet is not None:
+        deps.append(step.floquet)
+    return tuple(deps)
+
+
+def n_tasks(step) -> int:
+    if isinstance(step, ShootStep):
+        return len(step.starts) if step.starts is not None else 1
+    if isinstance(step, FloquetStep):
+        return len(step.controllers)
+    return 1
+
+
+def basin_blocks(step: BasinStep) -> list:
+    """Blocks of whole rows of a basin (flat C-order point indices ``lo..hi``)."""
+    from .runner import Block
+
+    n1, n2 = step.offsets.d_dtheta1.num, step.offsets.d_dtheta2.num
+    rows = step.rows_per_block
+    return [Block(i, r0 * n2, min(r0 + rows, n1) * n2)
+            for i, r0 in enumerate(range(0, n1, rows))]
+
+
+# --- reading dependencies ----------------------------------------------------------------------
+def _usable(g: dict, grazing: bool) -> bool:
+    keys = ("dtheta1", "dtheta2", "t_switch", "t_motor", "error")
+    ok = g["status"] == 0 and all(math.isfinite(g[k]) for k in keys)
+    if grazing:
+        ok = ok and g["method"] == AT.METHOD_GRAZING and g["converged"] == 1
+    return ok
+
+
+def shoot_gait(run, s, source: str, solution: int | None, grazing: bool = False) -> dict:
+    """The gait a step uses from shoot step ``source`` (its dataset must exist)."""
+    from .runner import RunFailed
+
+    sols = D.read_shoot(run.by_name[source].path)
+    what = "converged grazing gait" if grazing else "usable gait"
+    if solution is not None:
+        if solution >= len(sols):
+            raise RunFailed(f"{s.name}: solution {solution} requested, shoot step {source!r} "
+                            f"found {len(sols)}")
+        g = sols[solution]
+        if not _usable(g, grazing):
+            raise RunFailed(f"{s.name}: solution {solution} of shoot step {source!r} is not a "
+                            f"{what} (status {g['status']}, error {g['error']:.3g}, method "
+                            f"{AT.METHOD_NAMES[g['method']]}, converged {g['converged']})")
+        return g
+    good = [g for g in sols if _usable(g, grazing)]
+    if not good:
+        found = "; ".join(f"{AT.METHOD_NAMES[g['method']]} error {g['error']:.3g} status "
+                          f"{g['status']}" for g in sols) or "nothing"
+        raise RunFailed(f"{s.name}: shoot step {source!r} produced no {what} (found: {found})")
+    return min(good, key=lambda g: (g["error"], g["index"]))
+
+
+def _gait_attrs(source: str, g: dict | None) -> dict:
+    if g is None:
+        return {"shoot_step": source or "", "solution": -1}
+    return {"shoot_step": source, "solution": int(g["index"]), "dtheta1": g["dtheta1"],
+            "dtheta2": g["dtheta2"], "t_switch": g["t_switch"], "t_motor": g["t_motor"],
+            "gait_error": g["error"], "gait_method": AT.METHOD_NAMES[g["method"]]}
+
+
+# --- starting ----------------------------------------------------------------------------------
+def _queue(run, s, tag, fn, args, kwargs, exclusive: bool = False) -> None:
+    from .runner import _Task
+
+    run.queue.append(_Task(s, tag, fn, args, kwargs, exclusive))
+
+
+def start(run, s) -> None:
+    """Queue the tasks of an analysis step (its dependencies are done)."""
+    from .runner import RunFailed, clean_parts, saved_blocks, shard_dir
+
+    st = s.step
+    spec = run.spec
+    ctx: dict[str, Any] = {"tasks": {}}
+    run.results[s.name] = ctx
+    if isinstance(st, ShootStep):
+        if st.from_ is not None:
+            g, idx = D.read_refined(run.by_name[st.from_].path)
+            if not (math.isfinite(g["dtheta1"]) and math.isfinite(g["dtheta2"])):
+                raise RunFailed(f"{s.name}: refine step {st.from_!r} produced no usable start")
+            starts = [(g["dtheta1"], g["dtheta2"])]
+        else:
+            starts = [(float(p[0]), float(p[1])) for p in st.starts]
+        ctx["starts"] = starts
+        kw = {"method": st.method, "tol": st.tol, "max_iter": st.max_iter}
+        run.rep.start(s.name, len(starts), 0, "starts")
+        run.remaining[s.name] = len(starts)
+        for i, x0 in enumerate(starts):
+            _queue(run, s, i, AT.shoot_task, (spec, x0), kw)
+    elif isinstance(st, FloquetStep):
+        g = shoot_gait(run, s, st.from_, st.solution) if "open_loop" in st.controllers \
+            else None
+        ctx["gait"] = g
+        run.rep.start(s.name, len(st.controllers), 0, "controllers")
+        run.remaining[s.name] = len(st.controllers)
+        for i, c in enumerate(st.controllers):
+            _queue(run, s, i, AT.floquet_task, (spec, c),
+                   {"gait": g, "search_start": list(st.search_start), "fd_step": st.fd_step})
+    elif isinstance(st, TickSweepStep):
+        g = shoot_gait(run, s, st.from_, st.solution)
+        ctx["gait"] = g
+        if st.floquet is not None:
+            lam = D.read_floquet_multipliers(run.by_name[st.floquet].path, "open_loop")
+            ctx["leading"] = float(np.abs(lam[0]))
+        max_drop = st.max_drop if st.max_drop is not None else run.robot.link1.length
+        ctx["max_drop"] = max_drop
+        run.rep.start(s.name, 1, 0, "runs")
+        run.remaining[s.name] = 1
+        _queue(run, s, 0, AT.tick_sweep_task, (spec, g),
+               {"ticks": list(st.ticks), "cycles": st.cycles, "error_bound": st.error_bound,
+                "max_drop": max_drop, "leading_multiplier": st.floquet is None})
+    elif isinstance(st, BasinStep):
+        g = shoot_gait(run, s, st.from_, st.solution)
+        ctx["gait"] = g
+        tick = st.tick if st.tick is not None else run.plan.loaded.study.gait.tick
+        ctx["tick"] = tick
+        clean_parts(run.plan.out, s.name, run.plan.key)
+        folder = shard_dir(run.plan.out, s.name, run.plan.key)
+        s.saved = saved_blocks(folder, s.blocks)
+        todo = s.todo_blocks()
+        run.reused += len(s.saved)
+        run.rep.start(s.name, len(s.blocks), len(s.saved), "blocks")
+        run.remaining[s.name] = len(todo)
+        o1, o2 = st.offsets.d_dtheta1.values(), st.offsets.d_dtheta2.values()
+        n2 = o2.size
+        kw = {"max_cycles": st.max_cycles, "error_bound": st.error_bound, "tick": tick}
+        for b in todo:
+            _queue(run, s, b, AT.basin_block, (spec, g, o1[b.lo // n2:b.hi // n2], o2), kw)
+        if not todo:
+            run._finish(s)
+    elif isinstance(st, ContinuationStep):
+        g = shoot_gait(run, s, st.from_, None, grazing=True)
+        ctx["gait"] = g
+        bounds = tuple(st.bounds) if st.bounds is not None else (-math.inf, math.inf)
+        run.rep.start(s.name, 1, 0, "branches")
+        run.remaining[s.name] = 1
+        _queue(run, s, 0, AT.continuation_task, (spec, g),
+               {"parameter": st.parameter, "ds": st.ds, "steps": st.steps, "bounds": bounds})
+    elif isinstance(st, WorkPrecisionStep):
+        run.rep.start(s.name, 1, 0, "measurements")
+        run.remaining[s.name] = 1
+        _queue(run, s, 0, AT.work_precision_task, (spec, st.point_array()),
+               {"methods": tuple(st.methods), "rtols": tuple(st.rtols),
+                "atol_ratio": st.atol_ratio, "repeat": st.repeat,
+                "scipy_methods": tuple(st.scipy_methods),
+                "scipy_rtols": tuple(st.scipy_rtols), "scipy_points": st.scipy_points,
+                "first_swing_only": st.first_swing_only}, exclusive=True)
+    else:  # pragma: no cover - the schema admits no other kind
+        raise TypeError(f"not an analysis step: {st.kind}")
+
+
+def handle(run, t, value) -> None:
+    """Keep a finished (non-block) task's result until the step is complete."""
+    run.results[t.step.name]["tasks"][t.tag] = value
+
+
+# --- finishing ---------------------------------------------------------------------------------
+def _read_basin_shards(run, s) -> np.ndarray:
+    from .runner import RunFailed, shard_dir, shard_path
+
+    folder = shard_dir(run.plan.out, s.name, run.plan.key)
+    out = np.empty(s.step.n_points, np.int32)
+    for b in s.blocks:
+        with np.load(shard_path(folder, b)) as z:
+            if int(z["lo"]) != b.lo or int(z["hi"]) != b.hi or z["cycles"].size != b.hi - b.lo:
+                raise RunFailed(f"shard {shard_path(folder, b)} does not hold block "
+                                f"{b.lo}..{b.hi}")
+            out[b.lo:b.hi] = z["cycles"]
+    return out
+
+
+def finish(run, s, attrs: dict) -> str:
+    """Write the step's dataset; return the one-line summary shown when it is done."""
+    from ..kernel.layout import STATUS_NAMES
+    from .runner import RunFailed, clean_parts
+
+    st = s.step
+    ctx = run.results.pop(s.name)
+    tasks = ctx["tasks"]
+    results = [tasks[i] for i in sorted(tasks)] if not isinstance(st, BasinStep) else []
+    if isinstance(st, ShootStep):
+        sols, failures = AT.dedup_solutions(results, st.dedup_tol)
+        if not sols:
+            raise RunFailed(f"{s.name}: no start produced a solution: " + "; ".join(failures))
+        errs = [x["error"] if math.isfinite(x["error"]) else math.inf for x in sols]
+        best = int(np.argmin(errs))
+        attrs.update(method=st.method, dedup_tol=st.dedup_tol, tol=st.tol,
+                     max_iter=st.max_iter, starts=[list(x) for x in ctx["starts"]],
+                     refine_step=st.from_ or "", failures=failures, best_solution=best)
+        D.write_shoot(s.path, attrs, sols)
+        b = sols[best]
+        return (f"{len(sols)} solution(s); best: error {b['error']:.3g} at "
+                f"({b['dtheta1']:.10g}, {b['dtheta2']:.10g}) rad s-1, "
+                f"{AT.METHOD_NAMES[b['method']]}, t_switch {b['t_switch']:.6g} s")
+    if isinstance(st, FloquetStep):
+        attrs.update(_gait_attrs(st.from_, ctx["gait"]))
+        attrs.update(fd_step=st.fd_step, neutral_tol=AT.NEUTRAL_TOL,
+                     search_start=list(st.search_start),
+                     controllers=list(st.controllers))
+        D.write_floquet(s.path, attrs, results)
+        parts = []
+        for r in results:
+            lam = np.abs(r["multipliers"])
+            parts.append(f"{r['controller']}: |lambda| {', '.join(f'{x:.4g}' for x in lam)} "
+                         f"({'stable' if r['stable'] else 'unstable'}, agreement "
+                         f"{r['agreement']:.2g})")
+        return "; ".join(parts)
+    if isinstance(st, TickSweepStep):
+        r = results[0]
+        g = ctx["gait"]
+        if "leading" in ctx:
+            lead, source = ctx["leading"], f"floquet step {st.floquet} (variational equations)"
+        else:
+            lead, source = r["leading_multiplier"], "finite differences of the exact-timing " \
+                                                    "open-loop map"
+        attrs.update(_gait_attrs(st.from_, g))
+        attrs.update(leading_multiplier=lead, leading_multiplier_source=source,
+                     error_bound=st.error_bound, cycles=st.cycles, motor_torque=r["torque"],
+                     max_drop=ctx["max_drop"])
+        D.write_tick_sweep(s.path, attrs, st.ticks, r)
+        rows = ", ".join(f"{t:g} s: {int(c)}" for t, c in zip(st.ticks, r["cycles_to_bound"]))
+        return f"cycles to bound {rows}; leading multiplier {lead:.4g}"
+    if isinstance(st, BasinStep):
+        cycles = _read_basin_shards(run, s).reshape(st.offsets.d_dtheta1.num,
+                                                    st.offsets.d_dtheta2.num)
+        g = ctx["gait"]
+        attrs.update(_gait_attrs(st.from_, g))
+        attrs.update(max_cycles=st.max_cycles, error_bound=st.error_bound, tick=ctx["tick"],
+                     motor_torque=AT.replay_torque(run.spec, g), n_blocks=len(s.blocks))
+        D.write_basin(s.path, attrs, st.offsets.d_dtheta1.values(),
+                      st.offsets.d_dtheta2.values(), cycles)
+        clean_parts(run.plan.out, s.name, None)
+        i0 = int(np.argmin(np.abs(st.offsets.d_dtheta1.values())))
+        j0 = int(np.argmin(np.abs(st.offsets.d_dtheta2.values())))
+        return (f"{cycles.size} starts: cycles at the least offset {int(cycles[i0, j0])}, "
+                f"median {float(np.median(cycles)):g}, max {int(cycles.max())} of "
+                f"{st.max_cycles}")
+    if isinstance(st, ContinuationStep):
+        r = results[0]
+        attrs.update(_gait_attrs(st.from_, ctx["gait"]))
+        attrs.update(ds=st.ds, steps=st.steps,
+                     bounds=list(st.bounds) if st.bounds is not None else [])
+        D.write_continuation(s.path, attrs, r)
+        v = r["value"]
+        return (f"{len(v)} points, {st.parameter} {v[0]:.6g} -> {v[-1]:.6g} "
+                f"{D.PARAMETER_UNITS[st.parameter]}, folds {r['folds']}, period doublings "
+                f"{r['period_doublings']}, max residual {float(np.max(r['residual'])):.2g}")
+    if isinstance(st, WorkPrecisionStep):
+        r = results[0]
+        attrs.update(repeat=st.repeat, atol_ratio=st.atol_ratio,
+                     first_swing_only=int(st.first_swing_only),
+                     n_points_requested=st.n_points, scipy_points=st.scipy_points)
+        D.write_work_precision(s.path, attrs, r)
+        return (f"{len(r['methods'])} methods x {len(r['rtols'])} rtols on {r['n_points']} "
+                f"points (timings are machine-dependent)")
+    raise TypeError(f"not an analysis step: {st.kind}")  # pragma: no cover
+
+
+__all__ = ["basin_blocks", "finish", "handle", "n_tasks", "shoot_gait", "start", "step_deps"]
