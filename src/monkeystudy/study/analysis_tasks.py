@@ -350,11 +350,17 @@ def work_precision_task(spec: GaitSpec, points: np.ndarray, **options) -> dict[s
     """:func:`monkeystudy.precision.work_precision` on the study's robot and torque
     (``options``: methods, rtols, atol_ratio, repeat, scipy_methods, scipy_rtols,
     scipy_points, first_swing_only). Wall times: not reproducible bit for bit."""
+    from ..bench import ScipyGait
     from ..precision import work_precision
 
     robot, _ = _unpack(spec)
-    return work_precision(np.asarray(points, float), robot=robot, torque=float(spec["torque"]),
-                          **options)
+    pts = np.asarray(points, float).reshape(-1, 2)
+    # the first solve_ivp call of a process imports and sets up scipy's solvers: pay for it
+    # here, not in the first timed cell
+    sg = ScipyGait(robot, float(spec["torque"]), "scalar")
+    for m in options.get("scipy_methods", ("RK45", "DOP853", "LSODA")):
+        sg.gait(pts[0, 0], pts[0, 1], 1e-6, 1e-8, method=m)
+    return work_precision(pts, robot=robot, torque=float(spec["torque"]), **options)
 
 
 # --- warm-up ---------------------------------------------------------------------------------

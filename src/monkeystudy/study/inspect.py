@@ -90,4 +90,124 @@ def summarize(path: Path) -> str:
                          f"{ph[np.isfinite(ph)][-1]:.4g} m")
         lines.append(f"    replayed t_switch {a.get('t_switch')} s, t_motor {a.get('t_motor')} "
                      f"s, controller {a.get('controller')}")
+    elif kind in _ANALYSIS:
+        lines += ["    " + x for x in _ANALYSIS[kind](ds, a)]
     return "\n".join(lines)
+
+
+# --- analysis steps ----------------------------------------------------------------------------
+def _complex(ds, name: str) -> np.ndarray:
+    return ds[f"{name}_real"].values + 1j * ds[f"{name}_imag"].values
+
+
+def _mods(lam) -> str:
+    return ", ".join(f"{abs(x):.6g}" for x in np.ravel(lam))
+
+
+def _gait_line(a) -> str:
+    if int(a.get("solution", -1)) < 0:
+        return "no shoot gait used"
+    return (f"gait: solution {a.get('solution')} of {a.get('shoot_step')!r} "
+            f"({a.get('gait_method')}), ({float(a['dtheta1']):.10g}, "
+            f"{float(a['dtheta2']):.10g}) rad s-1, t_switch {float(a['t_switch']):.6g} s, "
+            f"t_motor {float(a['t_motor']):.6g} s, error {float(a['gait_error']):.3g}")
+
+
+def _shoot(ds, a) -> list[str]:
+    from .analysis_tasks import METHOD_NAMES
+    out = []
+    msgs = json.loads(a.get("message", "[]"))
+    for i in range(ds.sizes["solution"]):
+        out.append(f"solution {i}{' (best)' if i == int(a.get('best_solution', -1)) else ''}: "
+                   f"({float(ds['dtheta1'][i]):.10g}, {float(ds['dtheta2'][i]):.10g}) rad s-1, "
+                   f"error {float(ds['error'][i]):.3g}, "
+                   f"{METHOD_NAMES[int(ds['method'][i])]}, "
+                   f"{'converged' if int(ds['converged'][i]) else 'not converged'}, "
+                   f"t_switch {float(ds['t_switch'][i]):.6g} s, t_motor "
+                   f"{float(ds['t_motor'][i]):.6g} s, status "
+                   f"{STATUS_NAMES[int(ds['status'][i])]}")
+        if i < len(msgs):
+            out.append(f"  {msgs[i]}")
+    fails = json.loads(a.get("failures", "[]"))
+    if fails:
+        out.append("failed attempts: " + "; ".join(fails))
+    out.append(f"starts: {a.get('starts')}")
+    return out
+
+
+def _floquet(ds, a) -> list[str]:
+    out = [_gait_line(a)]
+    lam, lam_fd = _complex(ds, "multipliers"), _complex(ds, "multipliers_fd")
+    for i, c in enumerate(ds["controller"].values):
+        fp = ds["fixed_point"].values[i]
+        out.append(f"{c}: multipliers {np.array2string(lam[i], precision=6)} (|lambda| "
+                   f"{_mods(lam[i])}), {'stable' if int(ds['stable'][i]) else 'unstable'}")
+        out.append(f"  finite differences |lambda| {_mods(lam_fd[i])}; agreement "
+                   f"{float(ds['agreement'][i]):.2g}; map defect "
+                   f"{float(ds['map_defect'][i]):.2g}")
+        out.append(f"  fixed point (theta2, dtheta1, dtheta2) = ({fp[0]:.8g}, {fp[1]:.8g}, "
+                   f"{fp[2]:.8g}); t_switch {float(ds['t_switch'][i]):.6g} s, t_motor "
+                   f"{float(ds['t_motor'][i]):.6g} s")
+    return out
+
+
+def _tick_sweep(ds, a) -> list[str]:
+    out = [_gait_line(a),
+           f"leading multiplier {float(a.get('leading_multiplier', np.nan)):.6g} "
+           f"({a.get('leading_multiplier_source', '')}); error bound "
+           f"{a.get('error_bound')}"]
+    for i, t in enumerate(ds["tick"].values):
+        out.append(f"tick {t:g} s: {int(ds['cycles_to_bound'][i])} cycles to bound, "
+                   f"{int(ds['cycles_completed'][i])} completed, status "
+                   f"{STATUS_NAMES[int(ds['status'][i])]}, growth per cycle "
+                   f"{float(ds['growth_per_cycle'][i]):.4g}")
+    return out
+
+
+def _basin(ds, a) -> list[str]:
+    c = ds["cycles"].values
+    o1, o2 = ds["d_dtheta1"].values, ds["d_dtheta2"].values
+    i0, j0 = int(np.argmin(np.abs(o1))), int(np.argmin(np.abs(o2)))
+    return [_gait_line(a),
+            f"{c.size} starts, offsets d_dtheta1 {o1[0]:.3g}..{o1[-1]:.3g}, d_dtheta2 "
+            f"{o2[0]:.3g}..{o2[-1]:.3g} rad s-1; tick {a.get('tick')} s, error bound "
+            f"{a.get('error_bound')}",
+            f"cycles: at the least offset ({o1[i0]:.3g}, {o2[j0]:.3g}) {int(c[i0, j0])}, "
+            f"min {int(c.min())}, median {float(np.median(c)):g}, max {int(c.max())} of "
+            f"{a.get('max_cycles')}"]
+
+
+def _continuation(ds, a) -> list[str]:
+    v = ds["parameter_value"].values
+    lam = _complex(ds, "multipliers")
+    lead = np.abs(lam[:, 0])
+    return [_gait_line(a),
+            f"{v.size} points, {a.get('parameter')} {v[0]:.8g} -> {v[-1]:.8g} "
+            f"{a.get('parameter_units')}; max residual {float(np.nanmax(ds['residual'])):.2g}",
+            f"dtheta1 {float(ds['dtheta1'][0]):.8g} -> {float(ds['dtheta1'][-1]):.8g}, dtheta2 "
+            f"{float(ds['dtheta2'][0]):.8g} -> {float(ds['dtheta2'][-1]):.8g} rad s-1",
+            f"leading |lambda| {lead[0]:.6g} -> {lead[-1]:.6g}; folds {a.get('folds')}, "
+            f"period doublings {a.get('period_doublings')}"]
+
+
+def _work_precision(ds, a) -> list[str]:
+    out = [f"{a.get('n_points')} points, reference {a.get('reference')}; "
+           f"{a.get('reproducibility', '')}"]
+    for i, m in enumerate(ds["method"].values):
+        t = ds["time_per_gait"].values[i]
+        e = ds["error_value"].values[i]
+        cells = ", ".join(f"{r:.0e}: {1e6 * ti:.3g} us / {ei:.2g}"
+                          for r, ti, ei in zip(ds["rtol"].values, t, e))
+        out.append(f"{m} (rtol: time per gait / error): {cells}")
+    for i, m in enumerate(ds["scipy_method"].values):
+        t = ds["scipy_time_per_gait"].values[i]
+        k = ds["kernel_time_same_points"].values
+        cells = ", ".join(f"{r:.0e}: {ti / ki:.3g}x" for r, ti, ki in
+                          zip(ds["scipy_rtol"].values, t, k))
+        out.append(f"scipy {m} time / kernel dop853 time: {cells}")
+    return out
+
+
+_ANALYSIS = {"shoot": _shoot, "floquet": _floquet, "tick_sweep": _tick_sweep,
+             "basin": _basin, "continuation": _continuation,
+             "work_precision": _work_precision}
