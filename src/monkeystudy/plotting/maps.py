@@ -251,14 +251,19 @@ def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str
                 ax.plot(*m.start, marker="o", ms=6, mfc="none", mec=MINIMUM_COLOUR, mew=1.5,
                         ls="none", zorder=4, gid=f"start_{m.label}")
         outline = [withStroke(linewidth=2.5, foreground="black")]
-        for k, m in enumerate(shown, 1):
+        offsets = _label_offsets([((m.dtheta1 - lo1) / (hi1 - lo1),
+                                   (m.dtheta2 - lo2) / (hi2 - lo2))
+                                  for m in shown], fig.get_size_inches())
+        for k, (m, off) in enumerate(zip(shown, offsets), 1):
             # the square marks the minimum; its number keys the value in the legend (labels
             # beside close minima would cover each other's markers)
             ax.plot(m.dtheta1, m.dtheta2, marker="s", ms=8, mfc=MINIMUM_COLOUR, mec="black",
                     mew=1.0, ls="none", zorder=6, gid=f"minimum_{m.label}")
-            ax.annotate(str(k), (m.dtheta1, m.dtheta2), xytext=(6, 5),
+            ax.annotate(str(k), (m.dtheta1, m.dtheta2), xytext=off,
                         textcoords="offset points", fontsize=9, fontweight="bold",
-                        color="white", path_effects=outline, zorder=7, gid=f"label_{m.label}")
+                        color="white", path_effects=outline, zorder=7, gid=f"label_{m.label}",
+                        arrowprops=None if off == (6, 5) else dict(
+                            arrowstyle="-", color="white", lw=0.8, shrinkA=0, shrinkB=4))
             handles.append(Line2D(
                 [], [], marker="s", ms=8, mfc=MINIMUM_COLOUR, mec="black", ls="none",
                 label=f"{k}: {m.label}, e = {m.error:.2g} at "
@@ -280,6 +285,26 @@ def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str
                      ha="left", fontweight="bold")
         ax.set_title(run_label(grid), fontsize=8.5, fontweight="normal", loc="left")
     return fig
+
+
+def _label_offsets(points, fig_size, min_sep: float = 13.0) -> list[tuple[int, int]]:
+    """Offsets [points] for the number labels of markers at ``points`` (axes fractions):
+    beside the marker, moved around it when that would overlap an earlier label or marker."""
+    w, h = 0.7 * fig_size[0] * 72.0, 0.7 * fig_size[1] * 72.0    # axes size, roughly [pt]
+    markers = [(x * w, y * h) for x, y in points]
+    candidates = [(6, 5), (6, -15), (-15, 5), (-15, -15), (6, 20), (-15, 20), (20, -5),
+                  (-28, -5), (6, -30), (-15, -30)]
+    placed, out = [], []
+    for mx, my in markers:
+        for dx, dy in candidates:
+            cx, cy = mx + dx + 3, my + dy + 4                 # centre of the digit
+            clear = all(np.hypot(cx - px, cy - py) >= min_sep for px, py in placed) and \
+                all(np.hypot(cx - ox, cy - oy) >= 7.0 for ox, oy in markers)
+            if clear:
+                break
+        out.append((dx, dy))
+        placed.append((cx, cy))
+    return out
 
 
 def row_minimum(g: GridData) -> np.ndarray:
