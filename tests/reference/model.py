@@ -162,15 +162,21 @@ class RefRobot:
         out[4:] = self.projection(s8) @ s8[4:]
         return out
 
-    def flip8(self, s8, wrap_angles=True):
-        """State about the free end; ``self`` is the robot of the frame before the flip."""
+    def flip8(self, s8, wrap_theta1=True):
+        """State about the free end; ``self`` is the robot of the frame before the flip.
+
+        MODEL.md section 3 verbatim, except that ``theta1' = pi + theta1 + theta2`` is taken
+        into [-pi, pi) (so that "theta1 crosses 0" means the new link 1 passes the downward
+        vertical). ``theta2' = -theta2`` is *not* wrapped: the joint angle stays a continuous
+        function of the motion, so the gait error ``theta2_final^2 + ...`` is too.
+        """
         x, y, th1, th2, vx, vy, w1, w2 = s8
         L1, L2 = self.L1, self.L2
         s1, c1, s12, c12 = math.sin(th1), math.cos(th1), math.sin(th1 + th2), math.cos(th1 + th2)
         a1 = math.pi + th1 + th2
         a2 = -th2
-        if wrap_angles:
-            a1, a2 = wrap(a1), wrap(a2)
+        if wrap_theta1:
+            a1 = wrap(a1)
         return np.array([x + L1 * s1 + L2 * s12, y - L1 * c1 - L2 * c12, a1, a2,
                          vx + L1 * c1 * w1 + L2 * c12 * (w1 + w2),
                          vy + L1 * s1 * w1 + L2 * s12 * (w1 + w2), w1 + w2, -w2])
@@ -199,9 +205,10 @@ def _first_crossing(rhs, t, y, t_end, guard, direction, rate, rtol, atol, max_st
 
     scipy's events only compare the guard's signs at step ends, so a guard that crosses and
     re-crosses within one step is missed. With ``rate`` (the guard's time derivative) the
-    guard's extrema in the crossing direction are terminal events too: an extremum beyond zero
-    means a crossing was stepped over; it lies in the extremum's step, before the extremum, and
-    is located there with ``brentq`` on the dense output (scipy's own event method).
+    guard's extrema in the crossing direction are recorded too (a non-terminal event): an
+    extremum beyond zero before the first detected crossing means a crossing was stepped over;
+    it lies in the extremum's step, before the extremum, and is located there with ``brentq``
+    on the dense output (scipy's own event method).
     """
     from scipy.optimize import brentq
 
@@ -213,26 +220,25 @@ def _first_crossing(rhs, t, y, t_end, guard, direction, rate, rtol, atol, max_st
     if rate is not None and direction != 0:
         def r_ev(tt, yy):
             return rate(yy)
-        r_ev.terminal = True
+        r_ev.terminal = False
         r_ev.direction = -direction
         events.append(r_ev)
-    nfev = 0
-    while True:
-        sol = solve_ivp(rhs, (t, t_end), y, method="DOP853", rtol=rtol, atol=atol,
-                        events=events, max_step=max_step, dense_output=True)
-        nfev += sol.nfev
-        if sol.status != 1:
-            return math.nan, sol.y[:, -1], nfev, 0
-        if len(sol.t_events[0]):
-            return sol.t_events[0][0], sol.y_events[0][0], nfev, 0
-        te, ye = sol.t_events[1][0], sol.y_events[1][0]
-        if direction * guard(ye) > 0.0:          # stepped over a crossing
-            ta = sol.t[-2]
+    sol = solve_ivp(rhs, (t, t_end), y, method="DOP853", rtol=rtol, atol=atol,
+                    events=events, max_step=max_step, dense_output=rate is not None)
+    if len(sol.t_events) > 1:
+        for te, ye in zip(sol.t_events[1], sol.y_events[1]):
+            if direction * guard(ye) <= 0.0:
+                continue                       # an extremum short of zero
+            # stepped over a crossing: it is in the extremum's step, before the extremum
+            k = np.searchsorted(sol.t, te) - 1
+            ta = sol.t[max(k, 0)]
             assert direction * guard(sol.sol(ta)) < 0.0
             tc = brentq(lambda s: guard(sol.sol(s)), ta, te, xtol=4 * np.finfo(float).eps,
                         rtol=4 * np.finfo(float).eps)
-            return tc, sol.sol(tc), nfev, 1
-        t, y = te, ye                             # an extremum short of zero: go on
+            return tc, sol.sol(tc), sol.nfev, 1
+    if sol.status != 1:
+        return math.nan, sol.y[:, -1], sol.nfev, 0
+    return sol.t_events[0][0], sol.y_events[0][0], sol.nfev, 0
 
 
 def run_segment(rhs, t0, y0, guard, direction, *, horizon, rtol, atol, tick=0.0,

@@ -360,8 +360,11 @@ def wrap_angle(a):
 def flip_state(p, s):
     """Re-express a full 8-state about the free end, in place (MODEL.md section 3, "flip").
 
-    ``p`` are the parameters of the frame *before* the flip. Angles are wrapped to [-pi, pi)
-    so that "theta1 crosses 0" keeps meaning "link 1 passes the downward vertical".
+    ``p`` are the parameters of the frame *before* the flip. ``theta1'`` is wrapped to
+    [-pi, pi) so that "theta1 crosses 0" keeps meaning "link 1 passes the downward vertical".
+    ``theta2' = -theta2`` is not wrapped: the joint angle stays continuous along the motion.
+    (Wrapping it made the gait error ``theta2_f^2 + ...`` jump by ~(2 pi)^2 at swaps with the
+    links folded, theta2 = +-pi, where round-off picked the branch.)
     """
     x, y, th1, th2, vx, vy, w1, w2 = s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7]
     L1, L2 = p[P_L1], p[P_L2]
@@ -370,7 +373,7 @@ def flip_state(p, s):
     s[0] = x + L1 * s1 + L2 * s12
     s[1] = y - L1 * c1 - L2 * c12
     s[2] = wrap_angle(math.pi + th1 + th2)
-    s[3] = wrap_angle(-th2)
+    s[3] = -th2
     s[4] = vx + L1 * c1 * w1 + L2 * c12 * (w1 + w2)
     s[5] = vy + L1 * s1 * w1 + L2 * s12 * (w1 + w2)
     s[6] = w1 + w2
