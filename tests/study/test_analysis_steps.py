@@ -25,7 +25,8 @@ from studyhelpers import assert_same_datasets, write_study
 
 ROOT = Path(__file__).resolve().parents[2]
 SMOKE = ROOT / "studies" / "analysis_smoke.yaml"
-SMOKE_FILES = ("shoot.nc", "floquet.nc", "ticks.nc", "basin.nc", "family.nc", "timing.nc")
+SMOKE_FILES = ("shoot.nc", "nm.nc", "shoot_nm.nc", "floquet.nc", "ticks.nc", "ticks_var.nc",
+               "basin.nc", "family.nc", "timing.nc")
 REPRODUCIBLE = tuple(n for n in SMOKE_FILES if n != "timing.nc")
 
 GLOBAL_ATTRS = ("study_name", "step_name", "step_kind", "study_text", "study_sha256", "robot",
@@ -254,10 +255,10 @@ def test_smoke_runs_every_analysis_kind_through_the_cli(smoke):
         assert ds.attrs["study_text"] == text and ds.attrs["Conventions"] == "CF-1.10"
         for v in ds.variables:
             assert "units" in ds[v].attrs and "long_name" in ds[v].attrs, (name, v)
-        for v, (units, dims) in CONTRACT[kind].items():
+        for v, (units, dims) in CONTRACT.get(kind, {}).items():
             assert ds[v].attrs["units"] == units, (name, v)
             assert ds[v].dims == dims, (name, v)
-        for a in ATTRS[kind]:
+        for a in ATTRS.get(kind, ()):
             assert a in ds.attrs, (name, a)
 
 
@@ -318,6 +319,25 @@ def test_tick_sweep_exact_timing_lasts_longest(smoke):
     k = int(ds["cycles_to_bound"][exact])
     assert e[k - 1] > 1e-2 and np.all(e[:k - 1] <= 1e-2)
     assert np.all(np.isnan(e[int(ds["cycles_completed"][exact]):]))
+
+
+def test_tick_sweep_takes_the_multiplier_of_a_floquet_step(smoke):
+    ds = _open(smoke[0], "ticks_var.nc")
+    fl = _open(smoke[0], "floquet.nc")
+    lam = fl["multipliers_real"].values[0, 0] + 1j * fl["multipliers_imag"].values[0, 0]
+    assert float(ds.attrs["leading_multiplier"]) == abs(lam)
+    assert "floquet step floquet" in ds.attrs["leading_multiplier_source"]
+
+
+def test_shoot_from_a_refine_step(smoke):
+    nm = _open(smoke[0], "nm.nc")
+    ds = _open(smoke[0], "shoot_nm.nc")
+    sh = _open(smoke[0], "shoot.nc")
+    assert json.loads(ds.attrs["starts"]) == [[float(nm["dtheta1"]), float(nm["dtheta2"])]]
+    assert ds.attrs["refine_step"] == "nm" and ds.sizes["solution"] == 1
+    g = int(sh.attrs["best_solution"])
+    assert ds["error"].values[0] < 1e-20
+    assert ds["dtheta1"].values[0] == pytest.approx(sh["dtheta1"].values[g], abs=1e-9)
 
 
 def test_basin_is_peaked_at_the_gait(smoke):
