@@ -1,6 +1,8 @@
 """Robots, random physical parameters and states shared by the kernel tests."""
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from monkeystudy import Friction, Link, Robot
@@ -41,3 +43,25 @@ def random_state8(rng, vmax: float = 10.0) -> np.ndarray:
     s[4:6] = rng.uniform(-3.0, 3.0, 2)
     s[6:8] = rng.uniform(-vmax, vmax, 2)
     return s
+
+
+@functools.lru_cache(maxsize=None)
+def reference_robot(name):
+    from reference.model import RefRobot
+    return RefRobot.from_robot(ROBOTS[name])
+
+
+@functools.lru_cache(maxsize=None)
+def grazing_point(name, u, delta):
+    """``(d1, d2)`` along direction ``u`` whose first swing lifts B exactly ``delta`` [m]
+    above A at its highest (computed with the reference model)."""
+    from reference import model as ref_model
+    ref = reference_robot(name)
+    prev = None
+    for s in np.linspace(0.5, 20.0, 40):
+        m = ref_model.first_height_maximum(ref, s * u[0], s * u[1])
+        if m is not None and m[1] > 0.0:
+            break
+        prev = s
+    assert prev is not None
+    return ref_model.grazing_point(ref, u[0], u[1], delta, prev, s)

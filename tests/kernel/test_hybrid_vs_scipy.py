@@ -10,7 +10,6 @@ just reaches A's height (which scipy's own event detection steps over: the refer
 those crossings at the guard's maximum, see ``_first_crossing``), and with the 1 ms controller
 tick. Each located event must satisfy its guard to 1e-12.
 """
-import functools
 import math
 
 import numpy as np
@@ -26,18 +25,15 @@ from monkeystudy.kernel.layout import (
     ST_UNREACHABLE,
 )
 from reference import model as ref_model
-from reference.model import RefRobot
 
-from .helpers import ROBOTS, random_robot
+from .helpers import ROBOTS, grazing_point, random_robot, reference_robot
 
 KERNEL = Integrator("dop853", rtol=1e-13, atol=1e-13)
 TOL = 1e-9          # event times [s], final state, and gait error (relative to max(1, e))
 GUARD_TOL = 1e-12
 
 
-@functools.lru_cache(maxsize=None)
-def _ref(name):
-    return RefRobot.from_robot(ROBOTS[name])
+_ref = reference_robot
 
 
 def _same_status(kernel_status, ref_status):
@@ -141,20 +137,6 @@ GRAZING = [  # (robot, direction of (dtheta1, dtheta2), delta [m], torque)
     ("asymmetric", (0.3, 1.0), 1e-6, 0.6354),
     ("asymmetric", (1.0, -1.0), 1e-5, -1.5),
 ]
-
-
-@functools.lru_cache(maxsize=None)
-def grazing_point(name, u, delta):
-    """``(d1, d2)`` along ``u`` whose first swing lifts B exactly ``delta`` above A."""
-    ref = _ref(name)
-    prev = None
-    for s in np.linspace(0.5, 20.0, 40):
-        m = ref_model.first_height_maximum(ref, s * u[0], s * u[1])
-        if m is not None and m[1] > 0.0:
-            break
-        prev = s
-    assert prev is not None
-    return ref_model.grazing_point(ref, u[0], u[1], delta, prev, s)
 
 
 @pytest.mark.slow

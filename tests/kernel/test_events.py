@@ -1,0 +1,236 @@
+"""Event detection and location in the hybrid loop (``kernel/events.py``, ``kernel/hybrid.py``).
+
+* A guard that crosses zero and back within one step (the grazing swap) is found: scipy's
+  ``solve_ivp``, which takes exactly the kernel's steps, steps over it.
+* A guard already zero when a segment starts does not fire there.
+* With a controller tick, a located crossing is acted on at the first tick at or after it, and
+  only if the condition still holds there; time guards end steps exactly.
+* Observers and trajectory samples never change the steps taken.
+"""
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from monkeystudy import (
+    HorizontalSearch, Integrator, Observer, OpenLoop, PhaseSequence, Segment,
+    evaluate_horizontal_gait, initial_state, run_controller,
+)
+from monkeystudy.kernel import dynamics as dyn
+from monkeystudy.kernel.layout import (
+    K_REJECTED, K_STEPS, L_ID, L_KIND, L_STATE, L_T, LOG_OBSERVER, LOG_SEGMENT, ST_END_TIME,
+    ST_OK,
+)
+from reference import model as ref_model
+
+from .helpers import ROBOTS, grazing_point, reference_robot
+
+FM = np.array([1.0, 1.0])
+TAU = 0.6354
+
+
+def _scipy_first_swap(d1, d2, rtol):
+    """scipy's own event detection of the swap guard, on the kernel's vector field."""
+    p = ROBOTS["seed2009"].params()[0]
+
+    def f(t, y):
+        dy = np.empty(4)
+        dyn.rhs_swing(p, 0.0, FM, y, dy)
+        return dy
+
+    def height(t, y):
+        return -p[2] * math.cos(y[0]) - p[3] * math.cos(y[0] + y[1])
+    height.terminal = True
+    height.direction = 1
+    sol = solve_ivp(f, (0.0, 3.0), [0.0, 0.0, d1, d2], method="DOP853", rtol=rtol, atol=rtol,
+                    events=[height])
+    return sol.t_events[0][0] if len(sol.t_events[0]) else math.inf
+
+
+@pytest.mark.parametrize("delta", [1e-5, 1e-6, 1e-7])
+@pytest.mark.parametrize("rtol", [1e-13, 1e-10, 1e-8])
+def test_double_crossing_within_one_step(delta, rtol):
+    """B rises ``delta`` above A for a moment (the two crossings ~sqrt(delta) apart, far inside
+    one step): the kernel swaps at the first crossing; scipy's events miss it."""
+    d1, d2 = grazing_point("seed2009", (0.0, 1.0), delta)
+    ref = reference_robot("seed2009")
+    t_max, _ = ref_model.first_height_maximum(ref, d1, d2)
+    exact = ref_model.horizontal_gait(ref, d1, d2, TAU)
+    t_up = exact.t_switch
+    t_down = 2 * t_max - t_up                  # the excursion is symmetric to first order
+    assert t_up < t_max
+    # scipy takes the kernel's steps (test_integrate) and compares signs at step ends only:
+    # the whole excursion lies inside one step
+    assert _scipy_first_swap(d1, d2, rtol) > t_max + 0.5
+    big = evaluate_horizontal_gait(d1, d2, torque=TAU, integrator=Integrator("dop853", rtol,
+                                                                             rtol))
+    assert big.status == ST_OK
+    assert t_up - 0.05 * (t_down - t_up) < big.t_switch < t_max
+    if rtol == 1e-13:
+        assert abs(big.t_switch - t_up) <= 1e-9
+    # small steps: the crossing is bracketed by step ends
+    small = evaluate_horizontal_gait(d1, d2, torque=TAU,
+                                     integrator=Integrator("dop853", rtol, rtol, max_step=1e-4))
+    assert small.status == ST_OK
+    assert abs(small.t_switch - t_up) <= max(1e-9, 1e3 * rtol)
+
+
+def test_grazing_excursion_between_ticks_is_not_acted_on():
+    """With a 1 ms tick, an excursion of B above A that starts and ends between two ticks is
+    not acted on (the condition no longer holds at the tick); one containing a tick is, at
+    that tick. Both as the reference's ticked controller."""
+    d1, d2 = grazing_point("seed2009", (0.0, 1.0), 1e-7)
+    ref = reference_robot("seed2009")
+    t_max, _ = ref_model.first_height_maximum(ref, d1, d2)
+    t_up = ref_model.horizontal_gait(ref, d1, d2, TAU).t_switch
+    t_down = 2 * t_max - t_up
+    tick = 1e-3
+    assert t_down - t_up < 0.8 * tick
+    integ = Integrator("dop853", 1e-13, 1e-13)
+    # a tick inside the excursion
+    phase_in = math.fmod(0.5 * (t_up + t_max), tick)
+    k = evaluate_horizontal_gait(d1, d2, torque=TAU, tick=tick, tick_phase=phase_in,
+                                 integrator=integ)
+    assert k.t_switch == pytest.approx(0.5 * (t_up + t_max), abs=1e-12)
+    # ticks only outside it: the next tick after t_up comes after t_down
+    phase_out = math.fmod(t_down + 0.1 * tick, tick)
+    k = evaluate_horizontal_gait(d1, d2, torque=TAU, tick=tick, tick_phase=phase_out,
+                                 integrator=integ)
+    assert k.t_switch > t_down + 0.5
+    # the reference's ticked controller (its tick grid starts at 0: shift time by the phase)
+    g = _ticked_reference_swap(ref, d1, d2, tick, phase_out)
+    assert k.t_switch == pytest.approx(g, abs=1e-9)
+
+
+def _ticked_reference_swap(ref, d1, d2, tick, phase):
+    height = lambda y: ref.free_end_height(y[0], y[1])  # noqa: E731
+    rate = lambda y: (ref.L1 * math.sin(y[0]) * y[2]  # noqa: E731
+                      + ref.L2 * math.sin(y[0] + y[1]) * (y[2] + y[3]))
+    # the reference ticks at multiples of tick from 0: start the clock at -phase
+    seg = ref_model.run_segment(ref.swing_rhs(0.0), -phase, [0.0, 0.0, d1, d2], height, +1,
+                                horizon=3.0, rtol=1e-13, atol=1e-13, tick=tick, rate=rate)
+    return seg.t + phase
+
+
+# ----------------------------------------------------------------------------------------------
+# a guard already zero at a segment start
+# ----------------------------------------------------------------------------------------------
+def test_zero_guard_at_segment_start_does_not_fire():
+    """Two segments each ending when theta1 crosses 0: the second starts exactly on its guard
+    and must end at the *next* crossing (those of an observer on an uninterrupted run)."""
+    start = initial_state(2.0, -3.0, theta1=0.4)
+    integ = Integrator("dop853", 1e-12, 1e-12)
+    seg = Segment("coord", coord="theta1", value=0.0, direction="either", ticked=False)
+    res = run_controller(PhaseSequence([seg, seg, seg], observers=()), start,
+                         robot="seed2009", integrator=integ)
+    assert res.status == ST_OK
+    obs = run_controller(PhaseSequence([Segment("none")],
+                                       observers=[Observer("coord", "theta1", 0.0, "either")]),
+                         start, robot="seed2009", t_end=5.0,
+                         integrator=Integrator("dop853", 1e-12, 1e-12, max_time=10.0))
+    crossings = obs.log[obs.log[:, L_KIND] == LOG_OBSERVER, L_T]
+    assert len(crossings) >= 3
+    np.testing.assert_allclose(res.segment_times, crossings[:3], rtol=0, atol=1e-9)
+    assert np.all(np.diff(res.segment_times) > 0.05)
+
+
+def test_swap_at_height_does_not_retrigger():
+    """After a swap, the new free end (A) is exactly at the new pivot's height: a following
+    "free end at the attached end's height" segment must wait for the next rise of A."""
+    integ = Integrator("dop853", 1e-12, 1e-12)
+    prog = PhaseSequence([
+        Segment("free_end_height", direction="rising", ticked=False),
+        Segment("free_end_height", direction="rising", magnets="swap", ticked=False),
+    ], observers=())
+    res = run_controller(prog, initial_state(0.902, 10.935), robot="seed2009",
+                         integrator=integ)
+    assert res.status == ST_OK
+    t0, t1 = res.segment_times
+    assert t1 - t0 > 0.05
+    rows = res.log[res.log[:, L_KIND] == LOG_SEGMENT]
+    par = ROBOTS["seed2009"].params()
+    s = rows[1, L_STATE:L_STATE + 8]      # end of segment 1, in the flipped frame
+    dy = dyn.free_end_offset(par[1], s[2], s[3])[1]
+    assert abs(dy) <= 1e-12
+
+
+# ----------------------------------------------------------------------------------------------
+# ticks and time guards
+# ----------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("tick_phase", [0.0, 3.7e-4])
+def test_ticked_state_guard_acts_at_next_tick(tick_phase):
+    start = initial_state(1.5, 4.0)
+    seg = Segment("coord", coord="theta1", value=0.3, direction="rising", ticked=True)
+    exact = run_controller(PhaseSequence([seg], observers=()), start,
+                           integrator=Integrator("dop853", 1e-12, 1e-12))
+    ticked = run_controller(PhaseSequence([seg], observers=(), tick=1e-3,
+                                          tick_phase=tick_phase), start,
+                            integrator=Integrator("dop853", 1e-12, 1e-12))
+    te, tt = exact.segment_times[0], ticked.segment_times[0]
+    k = (tt - tick_phase) / 1e-3
+    assert abs(k - round(k)) < 1e-9
+    assert te <= tt < te + 1e-3
+    assert ticked.state[2] > 0.3        # the condition holds at the tick
+
+
+@pytest.mark.parametrize("tick", [0.0, 1e-3])
+def test_time_guards_are_step_bounds(tick):
+    """OpenLoop's swap and motor-off times: exact, or the first tick at or after them."""
+    ts, tm = 0.42766, 0.02531
+    res = run_controller(OpenLoop(ts, tm, TAU, tick=tick), initial_state(0.902, 10.935),
+                         robot="seed2009", cycles=1)
+    if tick == 0.0:
+        assert res.segment_times[0] == ts
+        assert res.segment_times[1] == ts + tm
+    else:
+        assert res.segment_times[0] == pytest.approx(0.428, abs=1e-15)
+        assert res.segment_times[1] == pytest.approx(0.453, abs=1e-15)
+
+
+# ----------------------------------------------------------------------------------------------
+# observers
+# ----------------------------------------------------------------------------------------------
+def test_observers_and_samples_do_not_change_the_steps():
+    start = initial_state(0.902, 10.935)
+    integ = Integrator("dop853", 1e-10, 1e-12)
+    plain = run_controller(HorizontalSearch(TAU), start, integrator=integ)
+    busy = run_controller(PhaseSequence(HorizontalSearch(TAU).segments(),
+                                        observers=[Observer("coord", "theta1", 0.0, "either"),
+                                                   Observer("coord", "theta2", 1.0, "either"),
+                                                   Observer("free_end_height", direction="rising")]),
+                          start, integrator=integ, sample_dt=1e-3)
+    assert plain.status == busy.status == ST_OK
+    assert plain.counts[K_STEPS] == busy.counts[K_STEPS]
+    assert plain.counts[K_REJECTED] == busy.counts[K_REJECTED]
+    np.testing.assert_array_equal(plain.state, busy.state)
+    np.testing.assert_array_equal(plain.segment_times, busy.segment_times)
+    assert np.sum(busy.log[:, L_KIND] == LOG_OBSERVER) > 0
+
+
+@pytest.mark.parametrize("name", ["seed2009", "asymmetric"])
+def test_observer_crossings_match_scipy_events(name):
+    """Every crossing of theta1 = 0 and of theta2 = 1 over 4 s of swinging, logged by
+    observers, against scipy's (non-terminal) events on the reference model."""
+    robot = ROBOTS[name]
+    ref = reference_robot(name)
+    y0 = [0.2, -0.1, 3.0, -5.0]
+    obs = [Observer("coord", "theta1", 0.0, "either"), Observer("coord", "theta2", 1.0, "either")]
+    res = run_controller(PhaseSequence([Segment("none")], observers=obs),
+                         initial_state(y0[2], y0[3], theta1=y0[0], theta2=y0[1]), robot=robot,
+                         integrator=Integrator("dop853", 1e-13, 1e-13, max_time=10.0),
+                         t_end=4.0)
+    assert res.status == ST_END_TIME
+    ev1 = lambda t, y: y[0]  # noqa: E731
+    ev2 = lambda t, y: y[1] - 1.0  # noqa: E731
+    sol = solve_ivp(ref.swing_rhs(0.0), (0.0, 4.0), y0, method="DOP853", rtol=1e-13,
+                    atol=1e-13, events=[ev1, ev2])
+    rows = res.log[res.log[:, L_KIND] == LOG_OBSERVER]
+    for k in range(2):
+        got = rows[rows[:, L_ID] == k, L_T]
+        want = sol.t_events[k]
+        assert len(got) == len(want) and len(got) >= 3
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)
+        # the logged state satisfies the observer's guard
+        vals = rows[rows[:, L_ID] == k, L_STATE + 2 + k] - (0.0, 1.0)[k]
+        assert np.max(np.abs(vals)) <= 1e-12
