@@ -209,7 +209,6 @@ def _read_basin_shards(run, s) -> np.ndarray:
 
 def finish(run, s, attrs: dict) -> str:
     """Write the step's dataset; return the one-line summary shown when it is done."""
-    from ..kernel.layout import STATUS_NAMES
     from .runner import RunFailed, clean_parts
 
     st = s.step
