@@ -379,3 +379,93 @@ def grazing_point(robot: RefRobot, u1, u2, delta, s_lo, s_hi):
         return (r[1] if r is not None else -1.0) - delta
     s = brentq(f, s_lo, s_hi, xtol=1e-15, rtol=1e-15)
     return s * u1, s * u2
+
+
+# ----------------------------------------------------------------------------------------------
+# Coulomb stick-slip (MODEL.md section 2: "treat sticking properly (an event)")
+# ----------------------------------------------------------------------------------------------
+@dataclass
+class FrictionRun:
+    events: list          # (t, dof, "stop" | "break", new mode)
+    pieces: list          # (t0, t1, fmode, OdeSolution) covering [0, t_end]
+    fmode: tuple          # modes at the end
+    y: np.ndarray         # packed swing state at the end
+
+
+def _initial_modes(robot, y, tau):
+    c = (robot.c_pivot, robot.c_joint)
+    fm = [1.0, 1.0]
+    for k in range(2):
+        if c[k] > 0.0 and y[2 + k] != 0.0:
+            fm[k] = 1.0 if y[2 + k] > 0.0 else -1.0
+    for k in range(2):
+        if c[k] > 0.0 and y[2 + k] == 0.0:
+            hold = robot.swing_holding_torque(y, tau, fm, k)
+            fm[k] = 0.0 if abs(hold) <= c[k] else (-1.0 if hold > 0.0 else 1.0)
+    return fm
+
+
+def swing_with_friction(robot: RefRobot, y0, tau, t_end, *, rtol=1e-13, atol=1e-13,
+                        max_events=200):
+    """A swing with viscous and Coulomb friction as chained solve_ivp calls.
+
+    The Coulomb force of a slipping DOF has the sign of its slip direction (held constant); its
+    speed reaching zero is a terminal event, after which it sticks if the torque needed to hold
+    it is within the Coulomb limit and otherwise slips the other way. A stuck DOF is held at
+    zero acceleration until the holding torque reaches the limit (terminal event), then slips
+    in the direction the unheld DOF would move.
+    """
+    c = (robot.c_pivot, robot.c_joint)
+    y = np.array(y0, float)
+    fm = _initial_modes(robot, y, tau)
+    t = 0.0
+    events, pieces = [], []
+    while t < t_end and len(events) < max_events:
+        guards = []
+        for k in range(2):
+            if c[k] <= 0.0:
+                continue
+            if fm[k] != 0.0:
+                def g(tt, yy, k=k, s=fm[k]):
+                    return yy[2 + k] * s
+                g.direction = -1
+                g.kind = "stop"
+            else:
+                def g(tt, yy, k=k, fmode=tuple(fm)):
+                    return abs(robot.swing_holding_torque(yy, tau, fmode, k)) - c[k]
+                g.direction = 1
+                g.kind = "break"
+            g.terminal = True
+            g.dof = k
+            guards.append(g)
+        sol = solve_ivp(robot.swing_rhs(tau, tuple(fm)), (t, t_end), y, method="DOP853",
+                        rtol=rtol, atol=atol, events=guards or None, dense_output=True)
+        t1 = sol.t[-1]
+        pieces.append((t, t1, tuple(fm), sol.sol))
+        y = sol.y[:, -1].copy()
+        t = t1
+        if sol.status != 1:
+            break
+        i = next(j for j, te in enumerate(sol.t_events) if len(te))
+        g = guards[i]
+        k = g.dof
+        y = sol.y_events[i][0].copy()
+        y[2 + k] = 0.0
+        hold = robot.swing_holding_torque(y, tau, fm, k)
+        if g.kind == "stop" and abs(hold) <= c[k]:
+            fm[k] = 0.0
+        else:
+            fm[k] = -1.0 if hold > 0.0 else 1.0
+        events.append((t, k, g.kind, fm[k]))
+    return FrictionRun(events, pieces, tuple(fm), y)
+
+
+def friction_state_at(run: FrictionRun, t):
+    for t0, t1, fm, sol in run.pieces:
+        if t0 <= t <= t1:
+            y = sol(t)
+            for k in range(2):
+                if fm[k] == 0.0:
+                    y[2 + k] = 0.0
+            return y
+    raise ValueError(t)
