@@ -449,7 +449,8 @@ steps:
 # --- task functions ------------------------------------------------------------------------------
 def test_dedup_keeps_the_lower_error_and_every_start():
     def cand(d1, err, method=1):
-        return {"dtheta1": d1, "dtheta2": 10.0, "error": err, "method": method}
+        return {"dtheta1": d1, "dtheta2": 10.0, "error": err, "method": method,
+                "t_switch": 0.4, "message": f"found {err:g}"}
     results = [{"start": (1.0, 12.0), "candidates": [cand(1.5, 400.0), cand(1.2, 1e-3, 0)],
                 "failures": []},
                {"start": (1.4, 10.3), "candidates": [cand(1.5 + 1e-8, 1e-27)],
@@ -458,6 +459,8 @@ def test_dedup_keeps_the_lower_error_and_every_start():
     assert [s["dtheta1"] for s in sols] == [1.5 + 1e-8, 1.2]
     assert sols[0]["error"] == 1e-27 and sols[0]["starts"] == [0, 1]
     assert sols[0]["start_index"] == 0
+    assert sols[0]["message"] == "found 1e-27; merged: start 0 grazing, t_switch 0.4 s, error 400"
+    assert sols[1]["message"] == "found 0.001"
     assert fails == ["start 1 [1.4, 10.3]: gauss_newton: no gait"]
 
 

@@ -126,9 +126,10 @@ def dedup_solutions(results: list[dict], tol: float) -> tuple[list[dict], list[s
 
     Candidates closer than ``tol`` [rad s-1] (Euclidean, in (dtheta1, dtheta2)) are one
     solution: the lower error is kept (NaN counts as worst), with ``start_index`` the first
-    start that found it and ``starts`` every start that did. Returns ``(solutions, failure
-    messages)``; the order is that of discovery (start by start, grazing before
-    gauss_newton).
+    start that found it and ``starts`` every start that did; the kept solution's ``message``
+    notes each merged candidate (its swap time and error: the same rates may be reached with
+    another swap time, e.g. on a later swing). Returns ``(solutions, failure messages)``; the
+    order is that of discovery (start by start, grazing before gauss_newton).
     """
     sols: list[dict] = []
     failures: list[str] = []
@@ -144,15 +145,24 @@ def dedup_solutions(results: list[dict], tol: float) -> tuple[list[dict], list[s
                 if math.hypot(s["dtheta1"] - c["dtheta1"], s["dtheta2"] - c["dtheta2"]) < tol:
                     hit = s
                     break
+            c = dict(c, found_by=i, merged=[])
             if hit is None:
                 sols.append(dict(c, start_index=i, starts=[i]))
                 continue
             if i not in hit["starts"]:
                 hit["starts"].append(i)
-            if key(c) < key(hit):
+            worse = hit if key(c) < key(hit) else c
+            notes = hit["merged"] + [
+                f"merged: start {worse['found_by']} {METHOD_NAMES[worse['method']]}, t_switch "
+                f"{worse['t_switch']:.6g} s, error {worse['error']:.3g}"]
+            if worse is hit:
                 keep = {k: hit[k] for k in ("start_index", "starts")}
                 hit.clear()
                 hit.update(c, **keep)
+            hit["merged"] = notes
+    for sol in sols:
+        sol["message"] = "; ".join([sol["message"]] + sol.pop("merged"))
+        del sol["found_by"]
     return sols, failures
 
 
