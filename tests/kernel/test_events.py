@@ -26,6 +26,8 @@ from reference import model as ref_model
 
 from .helpers import ROBOTS, grazing_point, reference_robot
 
+pytestmark = pytest.mark.nojit
+
 FM = np.array([1.0, 1.0])
 TAU = 0.6354
 

@@ -22,6 +22,8 @@ from reference.model import RefRobot
 
 from .helpers import ROBOTS
 
+pytestmark = pytest.mark.nojit
+
 SWING = PhaseSequence([Segment("none")], observers=())
 FLIGHT = PhaseSequence([Segment("none", magnets="none")], observers=())
 INTEG = Integrator("dop853", 1e-13, 1e-13, max_time=10.0)

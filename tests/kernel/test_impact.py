@@ -23,6 +23,8 @@ from reference.symbolic import derivation
 
 from .helpers import ROBOTS, random_robot, random_state8
 
+pytestmark = pytest.mark.nojit
+
 N_SAMPLES = 60
 TOL = 1e-13
 
@@ -51,7 +53,6 @@ def _free_end_velocity(p, s):
 # ----------------------------------------------------------------------------------------------
 # the projection
 # ----------------------------------------------------------------------------------------------
-@pytest.mark.nojit
 def test_projection_identities():
     worst = {}
     for robot, p, s in _cases(21):
@@ -74,7 +75,6 @@ def test_projection_identities():
         assert np.max(np.abs(s2[4:] - qp)) <= TOL * vscale, (s2[4:], qp)
 
 
-@pytest.mark.nojit
 def test_impact_energy_and_momentum():
     """K never increases; the loss is Carnot's ``1/2 (qd- - qd+)^T M (qd- - qd+)``; the impulse
     acts only on the (x, y) rows, so the theta rows of ``M qdot`` and the angular momentum
@@ -96,7 +96,6 @@ def test_impact_energy_and_momentum():
         assert abs(h_after - h_before) <= 1e-12 * hscale
 
 
-@pytest.mark.nojit
 def test_projection_of_an_attached_state_changes_nothing():
     """An end already at rest is not hit: ``P`` leaves ``J qdot = 0`` velocities alone."""
     for robot, p, s in _cases(23):
@@ -113,7 +112,6 @@ def _angle_diff(a, b):
     return abs(math.remainder(a - b, 2.0 * math.pi))
 
 
-@pytest.mark.nojit
 def test_flip_twice_is_identity():
     for robot, p, s in _cases(24):
         fp = dyn.flipped_params(p)
@@ -129,7 +127,6 @@ def test_flip_twice_is_identity():
         assert np.max(np.abs(s2[4:] - s[4:])) <= TOL * vscale
 
 
-@pytest.mark.nojit
 def test_flip_preserves_physics():
     """Same energies (world frame), same positions of both ends, the joint and both CGs (roles
     swapped), same velocity of the former (x, y) end (now the free end); and the MODEL.md
@@ -158,7 +155,6 @@ def test_flip_preserves_physics():
         assert _angle_diff(s2[2], want[2]) <= 1e-14 and _angle_diff(s2[3], want[3]) <= 1e-14
 
 
-@pytest.mark.nojit
 def test_flip_keeps_theta2_continuous():
     """``theta2' = -theta2`` exactly (MODEL.md section 3), with no 2 pi jump: at a swap with the
     links folded (theta2 = +-pi, B at A: for equal links always "at A's height") a wrap into

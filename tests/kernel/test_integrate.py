@@ -27,6 +27,8 @@ from monkeystudy.kernel.layout import (
 
 from .helpers import ASYMMETRIC, ROBOTS
 
+pytestmark = pytest.mark.nojit
+
 METHODS = {"RK45": (METHOD_RK45, rk.RK45, "rk45", 6),
            "DOP853": (METHOD_DOP853, rk.DOP853, "dop853", 12)}
 FM = np.array([1.0, 1.0])
@@ -59,7 +61,6 @@ CASES = [  # (phase, robot, packed start, duration)
 # ----------------------------------------------------------------------------------------------
 # step by step beside scipy
 # ----------------------------------------------------------------------------------------------
-@pytest.mark.nojit
 @pytest.mark.parametrize("name", list(METHODS))
 @pytest.mark.parametrize("case", CASES[::3], ids=["swing", "flight"])
 def test_every_step_beside_scipy(name, case):
@@ -129,7 +130,6 @@ def test_error_norm_is_scipy_on_random_stages():
             assert got == pytest.approx(want, rel=1e-13)
 
 
-@pytest.mark.nojit
 def test_initial_step_is_scipy():
     rng = np.random.default_rng(32)
     for i in range(40):
