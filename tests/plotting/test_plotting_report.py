@@ -130,10 +130,11 @@ def test_a_broken_dataset_fails_alone(reported_copy):
 
 
 def test_datasets_of_other_step_kinds_are_left_alone(reported_copy):
-    # e.g. an analysis step with a 'cycle' dim that is not a stability run
+    # a kind without figures, with a 'cycle' dim that is not a stability run (the analysis
+    # kinds have their own figures: test_plotting_analysis.py)
     other = xr.Dataset({"error": (("tick", "cycle"), np.ones((2, 3)))},
                        coords={"tick": [0.0, 0.001], "cycle": [1, 2, 3]},
-                       attrs={"step_kind": "tick_sweep", "step_name": "sweep"})
+                       attrs={"step_kind": "some_future_kind", "step_name": "sweep"})
     write_nc(other, reported_copy / "sweep.nc")
     assert report_study(reported_copy, **FAST) == []
 

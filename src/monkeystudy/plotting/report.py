@@ -21,7 +21,16 @@ file (``figures/``)                    what                                    s
 ``<stability>_filmstrip``              one gait cycle, frame by frame          2 (from data)
 ``<stability>_animation``              the whole run (GIF / MP4)               -
 ``stability_error_comparison``         all open-loop runs' errors              5 + 8
+``<shoot>_newton``                     residual norm per Newton iteration      -
+``<floquet>_multipliers``              multipliers and the unit circle         -
+``<tick_sweep>_error_growth``          error per cycle per tick, |lambda|^2n   -
+``<basin>_cycles_map``                 cycles to failure around the gait       -
+``<continuation>_branch``              gait family, |lambda| along it          -
+``<work_precision>_work_precision``    wall time per gait against error        -
 =====================================  ======================================  ==============
+
+The analysis figures (the last six) are drawn by :mod:`monkeystudy.plotting.analysis`, one
+per dataset of that ``step_kind`` (:data:`~monkeystudy.plotting.analysis.FIGURES`).
 """
 from __future__ import annotations
 
@@ -34,7 +43,7 @@ from typing import Callable, Sequence
 
 import xarray as xr
 
-from . import cycles, gait, maps
+from . import analysis, cycles, gait, maps
 from ._common import STYLE_FILE, atomic_path, provenance, save_figure
 
 MANIFEST = "manifest.json"
@@ -85,13 +94,17 @@ def code_hash() -> str:
     return h.hexdigest()
 
 
+#: step kinds with figures: the 2009 study's, then the analysis steps'
+KINDS = ("grid", "refine", "stability") + tuple(analysis.FIGURES)
+
+
 def _kind(ds) -> str | None:
     """The step kind a dataset's figures are drawn for (None: no figures of ours). Datasets
-    of other kinds (the analysis steps: shoot, floquet, tick_sweep, ...) are skipped; the
-    layout is only guessed for files without a ``step_kind`` attribute."""
+    of unknown kinds are skipped; the layout is only guessed (grid, refine, stability) for
+    files without a ``step_kind`` attribute."""
     kind = ds.attrs.get("step_kind")
     if kind is not None:
-        return kind if kind in ("grid", "refine", "stability") else None
+        return kind if kind in KINDS else None
     if "cycle" in ds.dims:
         return "stability"
     if "iteration" in ds.dims:
@@ -103,7 +116,7 @@ def _kind(ds) -> str | None:
 
 def _datasets(study_dir: Path) -> dict[str, list[Path]]:
     """Dataset files of the study folder by step kind (temporary and hidden files skipped)."""
-    out: dict[str, list[Path]] = {"grid": [], "refine": [], "stability": []}
+    out: dict[str, list[Path]] = {k: [] for k in KINDS}
     for p in sorted(study_dir.glob("*.nc")):
         if p.name.startswith("."):
             continue
@@ -196,6 +209,12 @@ def plan(study_dir: Path, *, animation: bool = True, fps: float = 15.0,
 
         jobs.append(Job("stability_error_comparison", flat, comparison,
                         "error per cycle of all open-loop runs"))
+
+    for kind, figures in analysis.FIGURES.items():         # one figure per dataset each
+        for p in files[kind]:
+            for suffix, fn, what in figures:
+                jobs.append(Job(f"{p.stem}_{suffix}", [p], lambda d, fn=fn: fn(d[0]),
+                                f"{p.stem}: {what}"))
     return jobs
 
 
