@@ -7,7 +7,12 @@
   only if the condition still holds there; time guards end steps exactly.
 * Observers and trajectory samples never change the steps taken.
 """
+import json
 import math
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -174,6 +179,48 @@ def test_ticked_state_guard_acts_at_next_tick(tick_phase):
     assert abs(k - round(k)) < 1e-9
     assert te <= tt < te + 1e-3
     assert ticked.state[2] > 0.3        # the condition holds at the tick
+
+
+_ON_TICK_SCRIPT = textwrap.dedent("""
+    import json, math, sys
+    from monkeystudy import Integrator, PhaseSequence, Segment, initial_state, run_controller
+    start = initial_state(1.5, 4.0)
+    seg = Segment("coord", coord="theta1", value=0.3, direction="rising", ticked=True)
+    integ = Integrator("dop853", 1e-12, 1e-12)
+    tc = run_controller(PhaseSequence([seg], observers=()), start,
+                        integrator=integ).segment_times[0]
+    out = []
+    for off in json.loads(sys.argv[1]):
+        phase = math.fmod(tc - off, 1e-3)
+        r = run_controller(PhaseSequence([seg], observers=(), tick=1e-3, tick_phase=phase),
+                           start, integrator=integ)
+        out.append([off, int(r.status), r.segment_times[0], phase])
+        print(json.dumps([tc, out]), flush=True)
+""")
+
+
+def test_crossing_on_a_tick_is_acted_on():
+    """Named fixture: a crossing exactly on a tick, or within the tick grid's round-off snap
+    after one. The first tick "at or after" the crossing is then the crossing itself; the loop
+    used to check the condition a hair before the root, fail, find the same root again and
+    spin forever. Run in a subprocess so that a regression fails instead of hanging."""
+    offsets = [0.0, 1e-13, 5e-13, -1e-13, 2e-12]
+    r = subprocess.run([sys.executable, "-c", _ON_TICK_SCRIPT, json.dumps(offsets)],
+                       cwd=Path(__file__).resolve().parents[2], capture_output=True, text=True,
+                       timeout=900)
+    assert r.returncode == 0, r.stderr[-2000:]
+    tc, out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert len(out) == len(offsets), out
+    for off, status, t_exit, phase in out:
+        assert status == ST_OK
+        k = (t_exit - phase) / 1e-3
+        assert abs(k - round(k)) < 1e-9               # on the tick grid
+        if off >= 0.0 and off <= 1e-12:               # the tick is the crossing (snapped)
+            assert abs(t_exit - tc) <= 1e-12
+        elif off < 0.0:                               # the tick just after the crossing
+            assert t_exit == pytest.approx(tc - off, abs=1e-15)
+        else:                                         # the tick just before: the next one
+            assert t_exit == pytest.approx(tc - off + 1e-3, abs=1e-12)
 
 
 @pytest.mark.parametrize("tick", [0.0, 1e-3])

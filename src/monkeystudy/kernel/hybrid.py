@@ -447,6 +447,13 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                                 t_ev = tc
                                 break
                             tk = next_tick(tc, tick, tick_phase)
+                            if tk <= tc:
+                                # the tick is the crossing itself, to round-off (next_tick
+                                # snaps within TICK_SNAP): act. Testing the condition a hair
+                                # before the root fails, and the search would find the same
+                                # root and tick again, forever.
+                                t_ev = tk if tk >= t else t
+                                break
                             if tk > t_new:
                                 pending = tk
                                 pending_sign = sign_before
