@@ -25,7 +25,7 @@ from monkeystudy import (
 from monkeystudy.kernel import dynamics as dyn
 from monkeystudy.kernel.layout import (
     K_REJECTED, K_STEPS, L_ID, L_KIND, L_STATE, L_T, LOG_OBSERVER, LOG_SEGMENT, ST_END_TIME,
-    ST_OK,
+    ST_HORIZON, ST_OK,
 )
 from reference import model as ref_model
 
@@ -221,6 +221,34 @@ def test_crossing_on_a_tick_is_acted_on():
             assert t_exit == pytest.approx(tc - off, abs=1e-15)
         else:                                         # the tick just before: the next one
             assert t_exit == pytest.approx(tc - off + 1e-3, abs=1e-12)
+
+
+@pytest.mark.parametrize("tick", [1e-3, 0.01, 0.05, 0.2])
+@pytest.mark.parametrize("coord,value,direction", [
+    ("theta1", 0.3, "rising"), ("theta1", 0.0, "either"), ("theta2", -0.5, "falling"),
+    ("theta1", 0.57, "rising"),   # 6 mrad below its peak: above for ~50 ms only
+])
+def test_ticked_guards_match_reference(tick, coord, value, direction):
+    """A ticked coordinate guard, ticks from 1 ms (acted on in the crossing's step) to 0.2 s
+    (the tick in a later step, or the condition gone by then and the search going on),
+    against the reference's ticked segment."""
+    robot = ROBOTS["asymmetric"]
+    ref = reference_robot("asymmetric")
+    y0 = [0.1, 0.2, 2.5, -4.0]
+    idx = {"theta1": 0, "theta2": 1}[coord]
+    dirn = {"rising": 1, "falling": -1, "either": 0}[direction]
+    seg = Segment("coord", coord=coord, value=value, direction=direction, ticked=True)
+    res = run_controller(PhaseSequence([seg], observers=(), tick=tick, tick_phase=0.0),
+                         initial_state(y0[2], y0[3], theta1=y0[0], theta2=y0[1]), robot=robot,
+                         integrator=Integrator("dop853", 1e-13, 1e-13))
+    want = ref_model.run_segment(ref.swing_rhs(0.0), 0.0, y0, lambda y: y[idx] - value, dirn,
+                                 horizon=3.0, rtol=1e-13, atol=1e-13, tick=tick)
+    if math.isnan(want.t):        # each excursion over before its tick: never acted on
+        assert res.status == ST_HORIZON and math.isnan(res.segment_times[0])
+        return
+    assert res.status == ST_OK
+    assert res.segment_times[0] == pytest.approx(want.t, abs=1e-9)
+    np.testing.assert_allclose(res.state[[2, 3, 6, 7]], want.y, rtol=0, atol=1e-9)
 
 
 @pytest.mark.parametrize("tick", [0.0, 1e-3])

@@ -187,7 +187,8 @@ def swing8(pivot, y4):
 
 
 def next_tick(t, tick, phase=0.0):
-    """First tick ``phase + k tick`` at or after ``t`` (a hair of round-off tolerated)."""
+    """First tick ``phase + k tick`` at or after ``t``; a time within 1e-9 tick after a tick
+    is taken to be on it (round-off)."""
     k = math.ceil((t - phase) / tick - 1e-9)
     return phase + k * tick
 
@@ -242,7 +243,7 @@ def _first_crossing(rhs, t, y, t_end, guard, direction, rate, rtol, atol, max_st
 
 
 def run_segment(rhs, t0, y0, guard, direction, *, horizon, rtol, atol, tick=0.0,
-                max_step=np.inf, rate=None):
+                tick_phase=0.0, max_step=np.inf, rate=None):
     """Integrate until ``guard`` crosses zero in ``direction`` (terminal), as chained solve_ivp.
 
     With ``tick > 0`` the crossing is acted on at the first tick at or after it, if the
@@ -261,9 +262,12 @@ def run_segment(rhs, t0, y0, guard, direction, *, horizon, rtol, atol, tick=0.0,
             return SegmentResult(math.nan, yc, nfev, recovered)
         if tick <= 0.0:
             return SegmentResult(tc, yc, nfev, recovered)
-        tk = next_tick(tc, tick)
+        sign_before = 1.0 if guard(y) > 0.0 else -1.0   # no crossing between t and tc
+        tk = next_tick(tc, tick, tick_phase)
         if tk > t_end:
             return SegmentResult(math.nan, yc, nfev, recovered)
+        if tk <= tc:                 # the crossing is on the tick (to round-off): act
+            return SegmentResult(tk, yc, nfev, recovered)
         if tk > tc:
             sol2 = solve_ivp(rhs, (tc, tk), yc, method="DOP853", rtol=rtol, atol=atol,
                              max_step=max_step)
@@ -272,7 +276,8 @@ def run_segment(rhs, t0, y0, guard, direction, *, horizon, rtol, atol, tick=0.0,
         else:
             yk = yc
         gk = guard(yk)
-        if (direction > 0 and gk >= 0.0) or (direction < 0 and gk <= 0.0) or direction == 0:
+        if (direction > 0 and gk >= 0.0) or (direction < 0 and gk <= 0.0) or \
+                (direction == 0 and gk * sign_before <= 0.0):
             return SegmentResult(tk, yk, nfev, recovered)
         t, y = tk, yk  # the condition no longer holds at the tick: keep looking
 
