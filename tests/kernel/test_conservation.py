@@ -6,7 +6,6 @@ momentum about the CG is conserved. Runs are 100 s at ``rtol = atol = 1e-12`` (D
 invariants are computed from the sampled states with the independent formulas of
 ``tests/reference`` (and the kernel's energy, which must agree).
 """
-import math
 
 import numpy as np
 import pytest

@@ -272,10 +272,10 @@ def test_observers_and_samples_do_not_change_the_steps():
     start = initial_state(0.902, 10.935)
     integ = Integrator("dop853", 1e-10, 1e-12)
     plain = run_controller(HorizontalSearch(TAU), start, integrator=integ)
-    busy = run_controller(PhaseSequence(HorizontalSearch(TAU).segments(),
-                                        observers=[Observer("coord", "theta1", 0.0, "either"),
-                                                   Observer("coord", "theta2", 1.0, "either"),
-                                                   Observer("free_end_height", direction="rising")]),
+    observers = [Observer("coord", "theta1", 0.0, "either"),
+                 Observer("coord", "theta2", 1.0, "either"),
+                 Observer("free_end_height", direction="rising")]
+    busy = run_controller(PhaseSequence(HorizontalSearch(TAU).segments(), observers=observers),
                           start, integrator=integ, sample_dt=1e-3)
     assert plain.status == busy.status == ST_OK
     assert plain.counts[K_STEPS] == busy.counts[K_STEPS]

@@ -25,7 +25,7 @@ from monkeystudy.kernel.layout import (
     ST_END_TIME,
 )
 
-from .helpers import ASYMMETRIC, ROBOTS
+from .helpers import ROBOTS
 
 pytestmark = pytest.mark.nojit
 
