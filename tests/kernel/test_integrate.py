@@ -94,11 +94,22 @@ def test_every_step_beside_scipy(name, case):
         assert np.max(np.abs(ynew[:n] - solver.y)) <= 1e-13 * scale
         np.testing.assert_allclose(K[:ns + 1, :n], solver.K,
                                    rtol=1e-13, atol=1e-13 * np.abs(solver.K).max())
-        # the error norm of the accepted step (below 1), as scipy's _estimate_error_norm
+        # the error norm of the accepted step (below 1), as scipy's _estimate_error_norm, on
+        # scipy's stages (the estimate is a small difference of stage sums: on our own stages,
+        # equal to 1e-13, it may differ in the 5th digit, which the step counts below show
+        # is harmless)
         sc = atol + np.maximum(np.abs(y_old), np.abs(solver.y)) * rtol
         want = solver._estimate_error_norm(solver.K, h, sc)
-        got = error_norm(method, K, h, y, ynew, n, rtol, atol)
-        assert got == pytest.approx(want, rel=1e-6, abs=1e-12)
+        Ks = np.zeros((16, 8))
+        Ks[:ns + 1, :n] = solver.K
+        ys = np.zeros(8)
+        ys[:n] = solver.y
+        got = error_norm(method, Ks, h, y, ys, n, rtol, atol)
+        # round-off of the estimate: its sums sum_j E_j K_j cancel, each to ~eps sum_j |E_j K_j|
+        bound = 0.0
+        for E in ((solver.E,) if ns == 6 else (solver.E5, solver.E3)):
+            bound = max(bound, np.sqrt(np.mean((abs(h) * (np.abs(E) @ np.abs(solver.K)) / sc)**2)))
+        assert abs(got - want) <= 32 * EPS * bound, (got, want, bound)
         assert got < 1.0
         # dense output on the step
         dense_prepare(method, phase, p, 0.0, FM, t_old, h, y, ynew, fnew, n, K, Fd, ytmp)
