@@ -3,6 +3,13 @@
 Every function takes xarray Datasets and returns a :class:`matplotlib.figure.Figure` built with
 the object API in the package style (``monkeystudy.mplstyle``); :func:`report_study` draws all
 figures a study folder's datasets support and writes them as PNG and PDF.
+
+Figures of the analysis steps (file ``figures/<step>_<suffix>``): shoot ``_newton``
+(:func:`plot_shoot_convergence`), floquet ``_multipliers`` (:func:`plot_floquet_multipliers`),
+tick_sweep ``_error_growth`` (:func:`plot_tick_sweep`), basin ``_cycles_map``
+(:func:`plot_basin`), continuation ``_branch`` (:func:`plot_continuation`), work_precision
+``_work_precision`` (:func:`plot_work_precision`); of the stress step: ``_stress``
+(:func:`plot_stress`).
 """
 from .maps import plot_error_map, plot_error_surface, plot_refine_convergence  # noqa: F401
 from .cycles import (  # noqa: F401
@@ -10,4 +17,9 @@ from .cycles import (  # noqa: F401
     plot_pivot_height,
 )
 from .gait import plot_filmstrip, trajectory, write_animation  # noqa: F401
-from .report import ReportError, report_study  # noqa: F401
+from .analysis import (  # noqa: F401
+    plot_basin, plot_continuation, plot_floquet_multipliers, plot_shoot_convergence,
+    plot_tick_sweep, plot_work_precision,
+)
+from .stress import plot_stress  # noqa: F401
+from .report import FIGURES, ReportError, report_study  # noqa: F401

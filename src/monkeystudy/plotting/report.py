@@ -27,10 +27,12 @@ file (``figures/``)                    what                                    s
 ``<basin>_cycles_map``                 cycles to failure around the gait       -
 ``<continuation>_branch``              gait family, |lambda| along it          -
 ``<work_precision>_work_precision``    wall time per gait against error        -
+``<stress>_stress``                    energy drift, long runs, extreme cases  -
 =====================================  ======================================  ==============
 
-The analysis figures (the last six) are drawn by :mod:`monkeystudy.plotting.analysis`, one
-per dataset of that ``step_kind`` (:data:`~monkeystudy.plotting.analysis.FIGURES`).
+The analysis figures (the six before the last) are drawn by
+:mod:`monkeystudy.plotting.analysis`, the stress figure by :mod:`monkeystudy.plotting.stress`,
+one per dataset of that ``step_kind`` (:data:`FIGURES`, merged from their ``FIGURES``).
 """
 from __future__ import annotations
 
@@ -43,7 +45,7 @@ from typing import Callable, Sequence
 
 import xarray as xr
 
-from . import analysis, cycles, gait, maps
+from . import analysis, cycles, gait, maps, stress
 from ._common import STYLE_FILE, atomic_path, provenance, save_figure
 
 MANIFEST = "manifest.json"
@@ -94,8 +96,11 @@ def code_hash() -> str:
     return h.hexdigest()
 
 
-#: step kinds with figures: the 2009 study's, then the analysis steps'
-KINDS = ("grid", "refine", "stability") + tuple(analysis.FIGURES)
+#: one figure per dataset of these step kinds: (file-name suffix, function, description)
+FIGURES = {**analysis.FIGURES, **stress.FIGURES}
+
+#: step kinds with figures: the 2009 study's, then the analysis and stress steps'
+KINDS = ("grid", "refine", "stability") + tuple(FIGURES)
 
 
 def _kind(ds) -> str | None:
@@ -210,7 +215,7 @@ def plan(study_dir: Path, *, animation: bool = True, fps: float = 15.0,
         jobs.append(Job("stability_error_comparison", flat, comparison,
                         "error per cycle of all open-loop runs"))
 
-    for kind, figures in analysis.FIGURES.items():         # one figure per dataset each
+    for kind, figures in FIGURES.items():                  # one figure per dataset each
         for p in files[kind]:
             for suffix, fn, what in figures:
                 jobs.append(Job(f"{p.stem}_{suffix}", [p], lambda d, fn=fn: fn(d[0]),

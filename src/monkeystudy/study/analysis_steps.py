@@ -5,7 +5,8 @@ Tasks (:mod:`monkeystudy.study.analysis_tasks`): a shoot step runs one task per 
 refine step); a floquet step one per controller; a basin step one task, or blocks of rows
 saved as shards (resumable, like grid blocks) when it has more than
 :data:`~monkeystudy.study.schema.BASIN_TASK_POINTS` points; tick_sweep, continuation and
-work_precision one task each. The work_precision task runs alone on the pool (it measures wall
+work_precision one task each; a stress step one task per energy-drift run and per long run,
+and one for the extreme cases. The work_precision task runs alone on the pool (it measures wall
 time; other tasks on the same cores would inflate it).
 
 A step that uses a shoot step (``from:``) reads its dataset when it starts and takes the
@@ -23,7 +24,8 @@ import numpy as np
 from . import analysis_tasks as AT
 from . import datasets as D
 from .schema import (
-    BasinStep, ContinuationStep, FloquetStep, ShootStep, TickSweepStep, WorkPrecisionStep,
+    BasinStep, ContinuationStep, FloquetStep, ShootStep, StressStep, TickSweepStep,
+    WorkPrecisionStep,
 )
 
 
@@ -42,7 +44,20 @@ def n_tasks(step) -> int:
         return len(step.starts) if step.starts is not None else 1
     if isinstance(step, FloquetStep):
         return len(step.controllers)
+    if isinstance(step, StressStep):
+        return len(stress_tasks(step))
     return 1
+
+
+def stress_tasks(step: StressStep) -> list[tuple]:
+    """The tasks of a stress step, in tag order: ``("drift", phase, rtol)`` per phase and
+    tolerance, ``("long", run name, controller kind, ticked)`` per long run, then one
+    ``("extreme",)`` task for all the extreme cases."""
+    from ..stress import LONG_RUNS
+
+    d = step.energy_drift
+    return ([("drift", ph, r) for ph in d.phases for r in d.rtols]
+            + [("long",) + run for run in LONG_RUNS] + [("extreme",)])
 
 
 def basin_blocks(step: BasinStep) -> list:
@@ -174,6 +189,27 @@ def start(run, s) -> None:
         run.remaining[s.name] = 1
         _queue(run, s, 0, AT.continuation_task, (spec, g),
                {"parameter": st.parameter, "ds": st.ds, "steps": st.steps, "bounds": bounds})
+    elif isinstance(st, StressStep):
+        tasks = stress_tasks(st)
+        d, lr, ex = st.energy_drift, st.long_runs, st.extreme
+        max_drop = lr.max_drop if lr.max_drop is not None else run.robot.link1.length
+        ctx["tasks_spec"] = tasks
+        ctx["max_drop"] = max_drop
+        run.rep.start(s.name, len(tasks), 0, "runs")
+        run.remaining[s.name] = len(tasks)
+        for i, t in enumerate(tasks):
+            if t[0] == "drift":
+                _queue(run, s, i, AT.stress_drift_task, (spec, t[1], t[2]),
+                       {"periods": d.periods, "checkpoints": d.checkpoints,
+                        "atol_ratio": d.atol_ratio})
+            elif t[0] == "long":
+                _queue(run, s, i, AT.stress_long_run_task, (spec, t[2]),
+                       {"start": list(lr.start), "cycles": lr.cycles,
+                        "tick": lr.tick if t[3] else 0.0, "max_drop": max_drop,
+                        "max_steps": lr.max_steps})
+            else:
+                _queue(run, s, i, AT.stress_extreme_task, (spec, list(ex.cases)),
+                       {"points": [list(p) for p in ex.points], "max_steps": ex.max_steps})
     elif isinstance(st, WorkPrecisionStep):
         run.rep.start(s.name, 1, 0, "measurements")
         run.remaining[s.name] = 1
@@ -282,6 +318,8 @@ def finish(run, s, attrs: dict) -> str:
         return (f"{len(v)} points, {st.parameter} {v[0]:.6g} -> {v[-1]:.6g} "
                 f"{D.PARAMETER_UNITS[st.parameter]}, folds {r['folds']}, period doublings "
                 f"{r['period_doublings']}, max residual {float(np.max(r['residual'])):.2g}")
+    if isinstance(st, StressStep):
+        return _finish_stress(s, st, ctx, results, attrs)
     if isinstance(st, WorkPrecisionStep):
         r = results[0]
         attrs.update(repeat=st.repeat, atol_ratio=st.atol_ratio,
@@ -293,4 +331,35 @@ def finish(run, s, attrs: dict) -> str:
     raise TypeError(f"not an analysis step: {st.kind}")  # pragma: no cover
 
 
-__all__ = ["basin_blocks", "finish", "handle", "n_tasks", "shoot_gait", "start", "step_deps"]
+def _finish_stress(s, st: StressStep, ctx: dict, results: list, attrs: dict) -> str:
+    from ..kernel.layout import STATUS_NAMES
+    from .. import stress as S
+
+    spec = ctx["tasks_spec"]
+    drift = [r for t, r in zip(spec, results) if t[0] == "drift"]
+    runs = [dict(r, run=t[1], controller=t[2], tick=st.long_runs.tick if t[3] else 0.0)
+            for t, r in zip(spec, results) if t[0] == "long"]
+    cases = results[-1]
+    d, lr = st.energy_drift, st.long_runs
+    attrs.update(
+        swing_start=S.SWING_START, flight_start=S.FLIGHT_START, drift_floor=S.DRIFT_FLOOR,
+        period_window=S.PERIOD_WINDOW, period_rtol=S.PERIOD_RTOL, periods=d.periods,
+        atol_ratio=d.atol_ratio, cycles=lr.cycles, long_run_start=list(lr.start),
+        long_run_tick=lr.tick, max_drop=ctx["max_drop"], long_run_max_steps=lr.max_steps,
+        extreme_points=[list(p) for p in st.extreme.points],
+        extreme_max_steps=st.extreme.max_steps,
+        huge_velocities=[list(p) for p in S.HUGE_VELOCITIES],
+        coulomb_start=list(S.COULOMB_START), coulomb_t_end=S.COULOMB_T_END,
+        bit_reproducible=1)
+    D.write_stress(s.path, attrs, list(d.phases), list(d.rtols), drift, runs, cases)
+    exps = ", ".join(f"{r['phase']} {r['rtol']:.0e}: {r['growth_exponent']:.3g}"
+                     for r in drift)
+    outs = ", ".join(f"{r['run']} {STATUS_NAMES[r['status']]} {r['cycles_completed']}"
+                     for r in runs)
+    bad = [c["case"] for c in cases if not c["finite_ok"]]
+    return (f"growth exponents {exps}; long runs {outs}; extreme cases "
+            + ("all finite where ok" if not bad else "NON-FINITE: " + ", ".join(bad)))
+
+
+__all__ = ["basin_blocks", "finish", "handle", "n_tasks", "shoot_gait", "start", "step_deps",
+           "stress_tasks"]

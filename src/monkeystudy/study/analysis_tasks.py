@@ -1,11 +1,12 @@
 """Task functions of the analysis steps (shoot, floquet, tick_sweep, basin, continuation,
-work_precision): plain values in, plain numpy arrays out.
+work_precision, stress): plain values in, plain numpy arrays out.
 
 Like :mod:`monkeystudy.study.drivers`, everything here runs on a worker, lives in an importable
 module, takes a :class:`~monkeystudy.study.drivers.GaitSpec` and plain values, and never
 touches files, xarray or the study models. The computations themselves are those of
-:mod:`monkeystudy.analysis` and :mod:`monkeystudy.precision`; this module only chooses their
-arguments the way docs/datasets.md ("Analysis steps") describes, and flattens their results.
+:mod:`monkeystudy.analysis`, :mod:`monkeystudy.precision` and :mod:`monkeystudy.stress`; this
+module only chooses their arguments the way docs/datasets.md ("Analysis steps") describes, and
+flattens their results.
 
 Gaits passed between steps are dicts ``{dtheta1, dtheta2 [rad s-1], t_switch, t_motor, t_end
 [s], error [1], method (0 gauss_newton, 1 grazing)}`` read from a shoot dataset. The motor
@@ -373,6 +374,48 @@ def work_precision_task(spec: GaitSpec, points: np.ndarray, **options) -> dict[s
     return work_precision(pts, robot=robot, torque=float(spec["torque"]), **options)
 
 
+# --- stress ----------------------------------------------------------------------------------
+def stress_drift_task(spec: GaitSpec, phase: str, rtol: float, *, periods: float,
+                      checkpoints: int, atol_ratio: float) -> dict[str, Any]:
+    """Energy drift of one unforced, frictionless run (:func:`monkeystudy.stress.
+    energy_drift`) of the study's robot with the study's integrator method."""
+    from ..stress import energy_drift
+
+    robot, integ = _unpack(spec)
+    return energy_drift(robot, phase, rtol=float(rtol), periods=float(periods),
+                        checkpoints=int(checkpoints), atol_ratio=float(atol_ratio),
+                        method=integ.method)
+
+
+def stress_long_run_task(spec: GaitSpec, kind: str, *, start, cycles: int, tick: float,
+                         max_drop: float, max_steps: int) -> dict[str, Any]:
+    """One long run (:func:`monkeystudy.stress.long_run`) with the study's robot, torque and
+    integrator (step budget ``max_steps``); ``tick`` [s], 0 = exact."""
+    from dataclasses import replace
+
+    from ..stress import long_run
+
+    robot, integ = _unpack(spec)
+    return long_run(kind, start=tuple(float(x) for x in start), cycles=int(cycles),
+                    torque=float(spec["torque"]), tick=float(tick), robot=robot,
+                    integrator=replace(integ, max_steps=int(max_steps)),
+                    max_drop=float(max_drop))
+
+
+def stress_extreme_task(spec: GaitSpec, cases, *, points, max_steps: int) -> list[dict]:
+    """The extreme cases (:func:`monkeystudy.stress.extreme_case`) in order, with the study's
+    robot, torque, controller tick and integrator (step budget ``max_steps``)."""
+    from dataclasses import replace
+
+    from ..stress import extreme_case
+
+    robot, integ = _unpack(spec)
+    integ = replace(integ, max_steps=int(max_steps))
+    return [dict(extreme_case(c, robot=robot, torque=float(spec["torque"]),
+                              tick=float(spec["tick"]), integrator=integ,
+                              points=np.asarray(points, float)), case=c) for c in cases]
+
+
 # --- warm-up ---------------------------------------------------------------------------------
 def warm_up(spec: GaitSpec) -> None:
     """Compile (or load) the variational kernels once in the driver, before fanning out."""
@@ -398,4 +441,5 @@ def warm_up(spec: GaitSpec) -> None:
 __all__ = ["METHOD_GAUSS_NEWTON", "METHOD_GRAZING", "METHOD_NAMES", "basin_block",
            "continuation_task", "cycles_to_bound", "dedup_solutions", "floquet_task",
            "growth_per_cycle", "parameter_value", "replay_torque", "shoot_task",
+           "stress_drift_task", "stress_extreme_task", "stress_long_run_task",
            "tick_sweep_task", "warm_up", "work_precision_task"]

@@ -24,6 +24,7 @@ import netCDF4
 import numpy as np
 
 from ..kernel.layout import STATUS_NAMES
+from ..stress import EXTREME_CASES as EXTREME_DESCRIPTIONS
 from .drivers import GRID_VARIABLES
 
 CONVENTIONS = "CF-1.10"
@@ -650,6 +651,129 @@ def write_work_precision(path: Path, attrs: dict, result: dict) -> None:
         _global_attrs(nc, dict(attrs, reference=result["reference"],
                                n_points=int(result["n_points"]), bit_reproducible=0,
                                reproducibility=NOT_REPRODUCIBLE))
+
+
+def write_stress(path: Path, attrs: dict, phases: list[str], rtols: list[float],
+                 drift: list[dict], runs: list[dict], cases: list[dict]) -> None:
+    """Write a stress dataset (docs/datasets.md, ``stress``) from the results of
+    :func:`~monkeystudy.study.analysis_tasks.stress_drift_task` (phase-major, one per phase
+    and tolerance), :func:`~monkeystudy.study.analysis_tasks.stress_long_run_task` (one per
+    run, with its ``run`` name, ``controller`` and ``tick``) and
+    :func:`~monkeystudy.study.analysis_tasks.stress_extreme_task` (one per case)."""
+    n_p, n_r = len(phases), len(rtols)
+    n_c = len(drift[0]["time"])
+    grid = {(r["phase"], r["rtol"]): r for r in drift}
+
+    def cell(key, dtype=np.float64):
+        return np.array([[grid[(ph, rt)][key] for rt in rtols] for ph in phases], dtype=dtype)
+
+    def per_phase(key):
+        return np.array([grid[(ph, rtols[0])][key] for ph in phases], dtype=np.float64)
+
+    n_status = len(STATUS_NAMES)
+    counts = np.zeros((len(cases), n_status), np.int32)
+    for i, c in enumerate(cases):
+        counts[i] = np.bincount(np.asarray(c["status"], np.int64), minlength=n_status)
+    with atomic_netcdf(path) as nc:
+        # energy drift
+        _label_coord(nc, "drift_phase", phases, "phase of the unforced, frictionless run: "
+                     "swing (hanging from end A) or flight (nothing attached)")
+        nc.createDimension("drift_rtol", n_r)
+        _var(nc, "drift_rtol", ("drift_rtol",), np.float64,
+             {"long_name": "relative tolerance of the run (atol = rtol * atol_ratio)",
+              "units": "1"}, np.asarray(rtols, float))
+        _index_coord(nc, "checkpoint", n_c, "checkpoint (log-spaced in time)")
+        pc = ("drift_phase", "drift_rtol")
+        _var(nc, "period", ("drift_phase",), np.float64,
+             {"long_name": "reference period: mean interval between rising crossings of "
+                           "theta1 = 0 (oscillation), or 2 pi / |mean dtheta1/dt| (link 1 "
+                           "tumbling)", "units": "s"}, per_phase("period"))
+        _var(nc, "time", ("drift_phase", "checkpoint"), np.float64,
+             {"long_name": "time of the checkpoint (1 to `periods` reference periods, "
+                           "log-spaced)", "units": "s"},
+             np.array([grid[(ph, rtols[0])]["time"] for ph in phases], float))
+        _var(nc, "energy_drift", pc + ("checkpoint",), np.float64,
+             {"long_name": "relative energy drift |E - E0| / (|K| + |V|) at the checkpoint "
+                           "(NaN: not reached)", "units": "1"},
+             np.array([[grid[(ph, rt)]["drift"] for rt in rtols] for ph in phases], float))
+        _var(nc, "growth_exponent", pc, np.float64,
+             {"long_name": "log-log slope of the drift against time over the last decade of "
+                           "checkpoints, fitted above drift_floor (NaN: fewer than 3 such "
+                           "checkpoints); 1 = linear growth", "units": "1"},
+             cell("growth_exponent"))
+        _var(nc, "drift_per_period", pc, np.float64,
+             {"long_name": "final energy drift / number of reference periods",
+              "units": "1"}, cell("drift_per_period"))
+        _var(nc, "drift_steps", pc, np.int64,
+             {"long_name": "accepted integrator steps of the run", "units": "1"},
+             cell("steps", np.int64))
+        _var(nc, "drift_status", pc, np.int8,
+             dict(STATUS_ATTRS, long_name="how the run ended (end_time: every checkpoint "
+                                          "reached)"), cell("status", np.int8))
+        _var(nc, "initial_energy", ("drift_phase",), np.float64,
+             {"long_name": "total energy E0 at the start (world frame)", "units": "J"},
+             per_phase("energy0"))
+        # long runs
+        _label_coord(nc, "run", [r["run"] for r in runs], "long run: controller and timing")
+        _var(nc, "controller", ("run",), str,
+             {"long_name": "controller: open_loop (the gait's recorded times replayed) or "
+                           "search (state-based, looped)", "units": "1"},
+             np.array([r["controller"] for r in runs], object))
+        _var(nc, "tick", ("run",), np.float64,
+             {"long_name": "controller tick (0: exact event timing)", "units": "s"},
+             [r["tick"] for r in runs])
+        _var(nc, "run_status", ("run",), np.int8,
+             dict(STATUS_ATTRS, long_name="why the run stopped (ok: all cycles ran)"),
+             [r["status"] for r in runs])
+        for key, long_name, dtype in (
+                ("cycles_completed", "cycles completed", np.int32),
+                ("steps", "accepted integrator steps", np.int64),
+                ("nfev", "right-hand-side evaluations", np.int64),
+                ("rejected", "rejected integrator steps", np.int64)):
+            _var(nc, key, ("run",), dtype, {"long_name": long_name, "units": "1"},
+                 [r[key] for r in runs])
+        _var(nc, "final_pivot_height", ("run",), np.float64,
+             {"long_name": "world height of the attached end when the run stopped (start: "
+                           "0)", "units": "m"}, [r["final_pivot_height"] for r in runs])
+        _var(nc, "t_final", ("run",), np.float64,
+             {"long_name": "simulated time when the run stopped", "units": "s"},
+             [r["t_final"] for r in runs])
+        _var(nc, "final_state_finite", ("run",), np.int8,
+             {"long_name": "the final state is finite (1) or not (0)", "units": "1"},
+             [r["finite"] for r in runs])
+        _var(nc, "t_switch", ("run",), np.float64,
+             {"long_name": "swap time replayed by an open-loop run (NaN: state-based)",
+              "units": "s"}, [r["t_switch"] for r in runs])
+        _var(nc, "t_motor", ("run",), np.float64,
+             {"long_name": "motor-on duration replayed by an open-loop run (NaN: "
+                           "state-based)", "units": "s"}, [r["t_motor"] for r in runs])
+        # extreme cases
+        _label_coord(nc, "case", [c["case"] for c in cases], "extreme case")
+        nc.createDimension("status", n_status)
+        _var(nc, "status", ("status",), np.int8, dict(STATUS_ATTRS, long_name="run status"),
+             np.arange(n_status))
+        _var(nc, "description", ("case",), str,
+             {"long_name": "what the case changes", "units": "1"},
+             np.array([EXTREME_DESCRIPTIONS.get(c["case"], "") for c in cases], object))
+        _var(nc, "status_counts", ("case", "status"), np.int32,
+             {"long_name": "runs of the case ending with each status", "units": "1"}, counts)
+        _var(nc, "n_runs", ("case",), np.int32,
+             {"long_name": "runs of the case (gait evaluations or one free run)",
+              "units": "1"}, counts.sum(axis=1))
+        _var(nc, "finite_ok", ("case",), np.int8,
+             {"long_name": "every run marked ok (free run: end_time) has finite results and "
+                           "every other run's error is NaN (1) or not (0)", "units": "1"},
+             [c["finite_ok"] for c in cases])
+        _var(nc, "max_steps_taken", ("case",), np.int64,
+             {"long_name": "most accepted integrator steps of one run of the case",
+              "units": "1"}, [c["max_steps"] for c in cases])
+        _var(nc, "energy_change", ("case",), np.float64,
+             {"long_name": "final minus initial total energy of the free run (NaN: gait "
+                           "evaluations)", "units": "J"}, [c["energy_change"] for c in cases])
+        _var(nc, "friction_events", ("case",), np.int32,
+             {"long_name": "stick and slip events of the free run (0: gait evaluations)",
+              "units": "1"}, [c["friction_events"] for c in cases])
+        _global_attrs(nc, attrs)
 
 
 def read_shoot(path: Path) -> list[dict]:

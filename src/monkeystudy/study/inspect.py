@@ -208,6 +208,28 @@ def _work_precision(ds, a) -> list[str]:
     return out
 
 
+def _stress(ds, a) -> list[str]:
+    out = []
+    for i, ph in enumerate(ds["drift_phase"].values):
+        cells = ", ".join(
+            f"{r:.0e}: drift {float(ds['energy_drift'][i, j, -1]):.3g}, exponent "
+            f"{float(ds['growth_exponent'][i, j]):.3g}, per period "
+            f"{float(ds['drift_per_period'][i, j]):.3g}"
+            for j, r in enumerate(ds["drift_rtol"].values))
+        out.append(f"energy drift, {ph} (period {float(ds['period'][i]):.4g} s, "
+                   f"{float(ds['time'][i, -1]):.4g} s): {cells}")
+    for k, r in enumerate(ds["run"].values):
+        out.append(f"long run {r}: {STATUS_NAMES[int(ds['run_status'][k])]}, "
+                   f"{int(ds['cycles_completed'][k])} of {a.get('cycles')} cycles, "
+                   f"{int(ds['steps'][k])} steps, final pivot height "
+                   f"{float(ds['final_pivot_height'][k]):.4g} m")
+    for k, c in enumerate(ds["case"].values):
+        counts = ds["status_counts"].values[k]
+        st = ", ".join(f"{STATUS_NAMES[j]} {n}" for j, n in enumerate(counts) if n)
+        out.append(f"case {c}: {st}; {'finite where ok' if int(ds['finite_ok'][k]) else 'NON-FINITE'}")
+    return out
+
+
 _ANALYSIS = {"shoot": _shoot, "floquet": _floquet, "tick_sweep": _tick_sweep,
              "basin": _basin, "continuation": _continuation,
-             "work_precision": _work_precision}
+             "work_precision": _work_precision, "stress": _stress}

@@ -540,18 +540,96 @@ class WorkPrecisionStep(_Model):
         return np.array(self.points, dtype=np.float64).reshape(-1, 2)
 
 
+#: defaults of the stress step's scenarios (``monkeystudy.stress``)
+STRESS_RTOLS = [1e-8, 1e-10, 1e-12]
+STRESS_START = [0.902, 10.935]
+STRESS_POINTS = [[0.5, 11.0], [2.0, 6.0], [5.0, -3.0], [0.1, 0.1], [0.902, 10.935]]
+STRESS_CASES = ["mass_ratio_1_100", "mass_ratio_100_1", "tiny_inertia", "cg_at_the_ends",
+                "huge_velocities", "coulomb_sticking"]
+
+
+class EnergyDriftScenario(_Model):
+    """Unforced, frictionless runs of the study's robot (``monkeystudy.stress.energy_drift``):
+    relative energy drift at log-spaced checkpoints, one run per phase and tolerance."""
+
+    phases: list[Literal["swing", "flight"]] = Field(
+        ["swing", "flight"], min_length=1, description="swing: hanging from end A, started "
+        "at (dtheta1, dtheta2) = (1, 0) rad s-1; flight: a tumbling free fall")
+    rtols: list[Annotated[float, Field(ge=100 * np.finfo(float).eps, lt=1.0)]] = Field(
+        STRESS_RTOLS, min_length=1, description="relative tolerances [1] (atol = rtol * "
+                                                "atol_ratio)")
+    atol_ratio: float = Field(1e-2, gt=0, le=1.0, description="atol = rtol * atol_ratio "
+                                                             "[rad, rad s-1, m, m s-1]")
+    periods: float = Field(10000.0, ge=10.0, le=1.0e6, description="run length in "
+                           "reference periods of the phase (swing: ~1.6 s for seed2009)")
+    checkpoints: int = Field(13, ge=4, le=200, description="log-spaced checkpoints from one "
+                             "period to the end")
+
+    @field_validator("phases", "rtols")
+    @classmethod
+    def _distinct(cls, v: list, info: ValidationInfo) -> list:
+        return _unique(v, info.field_name)
+
+
+class LongRunScenario(_Model):
+    """The study's gait replayed for many cycles open loop (ticked and exact) and by the
+    looped state-based controller (exact and ticked); every run must end with a status."""
+
+    cycles: int = Field(1000, ge=1, le=100_000, description="cycles per run")
+    start: Point = Field(STRESS_START, description="gait start (dtheta1, dtheta2) [rad s-1] "
+                         "(hanging from A); the open-loop runs replay the gait evaluated here")
+    tick: float = Field(1e-3, gt=0, le=1.0, description="controller tick of the ticked runs "
+                                                        "[s]")
+    max_drop: Optional[float] = Field(None, gt=0, description="stop ('fell') when the "
+                                      "attached end sinks this far [m] (default: link 1's "
+                                      "length)")
+    max_steps: int = Field(20_000_000, ge=1000, le=1_000_000_000,
+                           description="integrator step budget per run")
+
+
+class ExtremeScenario(_Model):
+    """Extreme parameters (``monkeystudy.stress.EXTREME_CASES``): status counts per case and
+    whether every result marked ok is finite."""
+
+    cases: list[Literal[tuple(STRESS_CASES)]] = Field(  # type: ignore[valid-type]
+        STRESS_CASES, min_length=1, description="cases to run: " + ", ".join(STRESS_CASES))
+    points: list[Point] = Field(STRESS_POINTS, min_length=1,
+                                description="gait starts (dtheta1, dtheta2) [rad s-1] of "
+                                            "the parameter cases")
+    max_steps: int = Field(200_000, ge=1000, le=1_000_000_000,
+                           description="integrator step budget per gait evaluation")
+
+    @field_validator("cases")
+    @classmethod
+    def _distinct(cls, v: list) -> list:
+        return _unique(v, "cases")
+
+
+class StressStep(_Model):
+    """Numerical stress tests (``monkeystudy.stress``): energy drift of unforced runs, long
+    controller runs, extreme parameters. Every scenario runs, with its defaults unless
+    given. Deterministic (no timings): the dataset is bit-reproducible."""
+
+    name: Name
+    kind: Literal["stress"]
+    energy_drift: EnergyDriftScenario = Field(default_factory=EnergyDriftScenario)
+    long_runs: LongRunScenario = Field(default_factory=LongRunScenario)
+    extreme: ExtremeScenario = Field(default_factory=ExtremeScenario)
+
+
 ANALYSIS_STEPS = (ShootStep, FloquetStep, TickSweepStep, BasinStep, ContinuationStep,
-                  WorkPrecisionStep)
+                  WorkPrecisionStep, StressStep)
 
 
 Step = Annotated[Union[GridStep, RefineStep, StabilityStep, ShootStep, FloquetStep,
-                       TickSweepStep, BasinStep, ContinuationStep, WorkPrecisionStep],
+                       TickSweepStep, BasinStep, ContinuationStep, WorkPrecisionStep,
+                       StressStep],
                  Field(discriminator="kind")]
 
 STEP_KINDS = {"grid": GridStep, "refine": RefineStep, "stability": StabilityStep,
               "shoot": ShootStep, "floquet": FloquetStep, "tick_sweep": TickSweepStep,
               "basin": BasinStep, "continuation": ContinuationStep,
-              "work_precision": WorkPrecisionStep}
+              "work_precision": WorkPrecisionStep, "stress": StressStep}
 
 
 class Study(_Model):
@@ -614,7 +692,7 @@ def _check_analysis(study: Study, i: int, s, seen: dict) -> list[tuple[tuple, st
             out.append((("steps", i, "from"), _no_earlier(s.from_, "refine",
                                                           seen.get(s.from_))))
         return out
-    if isinstance(s, WorkPrecisionStep):
+    if isinstance(s, (WorkPrecisionStep, StressStep)):
         return out
     if s.from_ is not None and not isinstance(seen.get(s.from_), ShootStep):
         out.append((("steps", i, "from"), _no_earlier(s.from_, "shoot", seen.get(s.from_))))
@@ -669,8 +747,9 @@ def resolved_max_drop(step: StabilityStep, link1_length: float) -> float:
 
 __all__ = [
     "ANALYSIS_STEPS", "Axis", "BasinOffsets", "BasinStep", "BestOfGrid", "ContinuationStep",
-    "FMINSEARCH_TOL", "FloquetStep", "Gait", "GridStep", "IntegratorSettings", "LinkParams",
-    "PointAxes", "RefineStep", "RobotParams", "SCHEMA_VERSION", "STEP_KINDS", "ShootStep",
-    "StabilityStep", "Study", "TickSweepStep", "WorkPrecisionStep", "cross_check",
-    "json_schema", "mirror_problem",
+    "EnergyDriftScenario", "ExtremeScenario", "FMINSEARCH_TOL", "FloquetStep", "Gait",
+    "GridStep", "IntegratorSettings", "LinkParams", "LongRunScenario", "PointAxes",
+    "RefineStep", "RobotParams", "SCHEMA_VERSION", "STEP_KINDS", "ShootStep", "StabilityStep",
+    "StressStep", "Study", "TickSweepStep", "WorkPrecisionStep", "cross_check", "json_schema",
+    "mirror_problem",
 ]
