@@ -63,14 +63,14 @@ def unpack_into(phase, y, pivot, s8):
     s8[7] = w2
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def energy(phase, p, y, pivot):
     """Total energy K + V of a packed state [J]."""
     x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
     return kinetic_energy(p, th1, th2, vx, vy, w1, w2) + potential_energy(p, yy, th1, th2)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def power(phase, p, tau, fmode, y, pivot):
     """dE/dt [W]: motor work ``tau dth2`` less viscous and Coulomb dissipation."""
     x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
@@ -80,7 +80,7 @@ def power(phase, p, tau, fmode, y, pivot):
     return pw
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def guard(kind, index, value, phase, p, tau, fmode, y, pivot, eref):
     """Value of a state guard (layout ``G_*``; time guards are handled as step bounds)."""
     x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
@@ -117,7 +117,7 @@ def guard(kind, index, value, phase, p, tau, fmode, y, pivot, eref):
     return 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def guard_rate(kind, index, phase, p, tau, fmode, y, pivot, work):
     """Time derivative of a guard along the flow [guard units / s]; ``work`` is an 8-vector."""
     x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
@@ -170,7 +170,7 @@ def _hermite_value(s, ga, da, gb, db):
             + (-2.0 * s3 + 3.0 * s2) * gb + (s3 - s2) * db)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def hermite_flags(ga, ra, gb, rb, h, direction):
     """True when the cubic Hermite model of ``g`` on the step may cross zero inside it, or
     has an interior extremum (so a crossing between same-signed ends is possible).

@@ -139,7 +139,7 @@ def friction_guard(k, phase, p, tau, fmode, y, pivot):
     return guard(G_SLIP_STOP, k, 0.0, phase, p, tau, fmode, y, pivot, 0.0)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def friction_active(k, phase, p):
     if phase == PHASE_FIXED:
         return False
@@ -177,7 +177,7 @@ def write_sample(samp_t, samp_y, samp_mode, row, t, s8, phase, flipped, tau, seg
     return row + 1
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _finite(y, n):
     for i in range(n):
         if not math.isfinite(y[i]):

@@ -83,7 +83,7 @@ def select_initial_step(phase, p, tau, fmode, t0, y0, f0, n, t_bound, max_step, 
     return min(100.0 * h0, h1, interval, max_step)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def rk_step(method, phase, p, tau, fmode, y, f, h, n, K, ytmp, y_new, f_new):
     """One embedded RK step from ``(y, f)`` over ``h``; fills ``K``, ``y_new``, ``f_new``.
 
@@ -96,7 +96,7 @@ def rk_step(method, phase, p, tau, fmode, y, f, h, n, K, ytmp, y_new, f_new):
     return rk45_step(phase, p, tau, fmode, y, f, h, n, K, ytmp, y_new, f_new)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def error_norm(method, K, h, y, y_new, n, rtol, atol):
     """Scaled RMS norm of the local error estimate (scipy's ``_estimate_error_norm``)."""
     if method == METHOD_DOP853:
