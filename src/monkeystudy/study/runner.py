@@ -252,7 +252,7 @@ class Plan:
             if isinstance(s.step, GridStep):
                 todo = s.todo_blocks()
                 lines.append(f"{head}: {len(todo)} of {len(s.blocks)} blocks to do "
-                             f"({s.step.n_points} points, {s.step.block_size} per block, "
+                             f"({s.step.n_points} points, {s.step.points_per_block} per block, "
                              f"{len(s.saved)} saved)")
                 if todo:
                     lines.append(f"    blocks: {_ranges([b.index for b in todo])}")
@@ -309,7 +309,7 @@ def plan_study(loaded: LoadedStudy, out: str | Path | None = None) -> Plan:
             stale.add(s.name)
         sp = StepPlan(s, path, deps, current)
         if isinstance(s, GridStep):
-            sp.blocks = make_blocks(s.n_points, s.block_size)
+            sp.blocks = make_blocks(s.n_points, s.points_per_block)
             if not current:
                 sp.saved = saved_blocks(shard_dir(out, s.name, key), sp.blocks)
         elif isinstance(s, BasinStep):
@@ -579,7 +579,7 @@ class _Run:
         if isinstance(st, GridStep):
             folder = shard_dir(self.plan.out, s.name, self.plan.key)
             blocks = ((b.lo, read_shard(folder, b)) for b in s.blocks)
-            attrs["block_size"] = st.block_size
+            attrs["block_size"] = st.points_per_block
             if st.points is not None:
                 info = D.write_grid(s.path, attrs, points=grid_points(st), blocks=blocks)
             else:

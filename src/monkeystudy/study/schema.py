@@ -185,8 +185,10 @@ class GridStep(_Model):
     points: Optional[list[Point]] = Field(None, min_length=1,
                                           description="explicit (dtheta1, dtheta2) points "
                                                       "[rad s-1], instead of the axes")
-    block_size: int = Field(512, ge=1, le=1_000_000,
-                            description="points per block (unit of work and of resume)")
+    block_size: Optional[int] = Field(
+        None, ge=1, le=1_000_000,
+        description="points per block (unit of work and of resume); default: about 64 blocks "
+                    "per grid, 512 to 8192 points each (fewer, larger shards on big grids)")
     skip_unreachable: bool = Field(True, description="mark points that provably cannot reach "
                                                      "the swap without integrating them")
 
@@ -207,8 +209,16 @@ class GridStep(_Model):
         return self.dtheta1.num * self.dtheta2.num
 
     @property
+    def points_per_block(self) -> int:
+        """``block_size`` if given, else ~64 blocks of 512..8192 points. Depends on the study
+        alone (never on the worker count), so block ids stay deterministic."""
+        if self.block_size is not None:
+            return self.block_size
+        return int(min(8192, max(512, -(-self.n_points // 64))))
+
+    @property
     def n_blocks(self) -> int:
-        return -(-self.n_points // self.block_size)
+        return -(-self.n_points // self.points_per_block)
 
 
 class BestOfGrid(_Model):
