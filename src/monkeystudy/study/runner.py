@@ -412,6 +412,10 @@ def open_pool(workers: int | None = None, scheduler: str | None = None) -> Itera
             raise ValueError(f"workers must be >= 1, got {n}")
         ex = ProcessPoolExecutor(max_workers=n, mp_context=_mp_context(),
                                  initializer=_worker_init, initargs=(os.getpid(),))
+        # start the workers now: they load the kernels (forkserver preload) while the
+        # driver does its own warm-up and planning, instead of after it
+        for _ in range(n):
+            ex.submit(os.getpid)
         pool = Pool(ex, n, f"{n} local process{'es' if n > 1 else ''}", lambda: None)
     ok = False
     try:
@@ -710,13 +714,13 @@ def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
     spec = study_spec(loaded.study)
     run = None
     try:
-        reporter.log("loading the compiled kernels (the first run after a change compiles "
-                     "them, ~20 s)")
-        drivers.warm_up(spec, stability=any(isinstance(s.step, (StabilityStep,) + ANALYSIS_STEPS)
-                                            for s in todo))
-        if any(isinstance(s.step, (FloquetStep, ContinuationStep)) for s in todo):
-            analysis_tasks.warm_up(spec)
         with open_pool(workers, scheduler) as pool:
+            reporter.log("loading the compiled kernels (the first run after a change "
+                         "compiles them, ~20 s)")
+            drivers.warm_up(spec, stability=any(
+                isinstance(s.step, (StabilityStep,) + ANALYSIS_STEPS) for s in todo))
+            if any(isinstance(s.step, (FloquetStep, ContinuationStep)) for s in todo):
+                analysis_tasks.warm_up(spec)
             reporter.log(f"{loaded.study.name}: {len(todo)} step(s) to run on {pool.kind} "
                          f"-> {plan.out}")
             run = _Run(plan, pool, reporter, history)
