@@ -13,7 +13,6 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
@@ -46,9 +45,12 @@ def gen_step(name: str, A, B, ns: int) -> str:
         ]
         lines += [f"    K[0, {i}] = f[{i}]" for i in range(n)]
 
+        # stage values the field reads: the angles and all velocities (x, y never enter)
+        needed = sorted(set(lay["args"]) | set(lay["vel"]))
+
         def stage_state(coeffs, prefix):
             return [f"    {prefix}{i} = y[{i}] + ({lincomb(coeffs, lambda j: f'K[{j}, {i}]')}) * h"
-                    for i in range(n)]
+                    for i in needed]
 
         def stage_eval(prefix, dest):
             acc_names = ["ax", "ay", "a1", "a2"] if n == 8 else ["a1", "a2"]
@@ -65,7 +67,7 @@ def gen_step(name: str, A, B, ns: int) -> str:
             lines += stage_eval("z", lambda i, s=s: f"K[{s}, {i}]")
         lines += [f"    y_new[{i}] = y[{i}] + h * ({lincomb(B[:ns], lambda j: f'K[{j}, {i}]')})"
                   for i in range(n)]
-        lines += [f"    z{i} = y_new[{i}]" for i in range(n)]
+        lines += [f"    z{i} = y_new[{i}]" for i in sorted(set(lay["args"]) | set(lay["vel"]))]
         lines += stage_eval("z", lambda i: f"f_new[{i}]")
         lines += [f"    K[{ns}, {i}] = f_new[{i}]" for i in range(n)]
         lines.append("")

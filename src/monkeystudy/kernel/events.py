@@ -171,6 +171,33 @@ def _hermite_value(s, ga, da, gb, db):
 
 
 @njit(cache=True, inline="always")
+def _hermite_extrema(ga, ra, gb, rb, h):
+    """Interior extrema ``s`` in (0, 1) of the cubic Hermite model of ``g`` on a step:
+    ``(n, s1, s2)`` with ``n`` the number found (0, 1 or 2)."""
+    da = h * ra
+    db = h * rb
+    # g'(s) h = c2 s^2 + c1 s + c0 for the cubic Hermite interpolant on s in [0, 1]
+    c2 = -6.0 * (gb - ga) + 3.0 * da + 3.0 * db
+    c1 = 6.0 * (gb - ga) - 4.0 * da - 2.0 * db
+    c0 = da
+    disc = c1 * c1 - 4.0 * c2 * c0
+    if c2 == 0.0 or disc < 0.0:
+        return 0, 0.0, 0.0
+    sq = math.sqrt(disc)
+    n = 0
+    s1 = 0.0
+    s2 = 0.0
+    for s in ((-c1 - sq) / (2.0 * c2), (-c1 + sq) / (2.0 * c2)):
+        if 0.0 < s < 1.0:
+            if n == 0:
+                s1 = s
+            else:
+                s2 = s
+            n += 1
+    return n, s1, s2
+
+
+@njit(cache=True, inline="always")
 def hermite_flags(ga, ra, gb, rb, h, direction):
     """True when the cubic Hermite model of ``g`` on the step may cross zero inside it, or
     has an interior extremum (so a crossing between same-signed ends is possible).
@@ -181,24 +208,12 @@ def hermite_flags(ga, ra, gb, rb, h, direction):
     """
     if ra * rb < 0.0:
         return True
-    da = h * ra
-    db = h * rb
-    # g'(s) h = c2 s^2 + c1 s + c0 for the cubic Hermite interpolant on s in [0, 1]
-    c2 = -6.0 * (gb - ga) + 3.0 * da + 3.0 * db
-    c1 = 6.0 * (gb - ga) - 4.0 * da - 2.0 * db
-    c0 = da
-    disc = c1 * c1 - 4.0 * c2 * c0
-    if c2 == 0.0 or disc < 0.0:
-        return False
-    sq = math.sqrt(disc)
-    r1 = (-c1 - sq) / (2.0 * c2)
-    r2 = (-c1 + sq) / (2.0 * c2)
-    for s in (r1, r2):
-        if 0.0 < s < 1.0:
-            gs = _hermite_value(s, ga, da, gb, db)
-            if crosses(ga, gs, direction) or crosses(gs, gb, direction) or \
-                    crosses(ga, gs, 0.0):
-                return True
+    n, s1, s2 = _hermite_extrema(ga, ra, gb, rb, h)
+    for k in range(n):
+        s = s1 if k == 0 else s2
+        gs = _hermite_value(s, ga, h * ra, gb, h * rb)
+        if crosses(ga, gs, direction) or crosses(gs, gb, direction) or crosses(ga, gs, 0.0):
+            return True
     return False
 
 
@@ -207,20 +222,8 @@ def hermite_monotone(ga, ra, gb, rb, h):
     """True when the cubic Hermite model of ``g`` has no extremum inside the step."""
     if ra * rb <= 0.0:
         return False
-    da = h * ra
-    db = h * rb
-    c2 = -6.0 * (gb - ga) + 3.0 * da + 3.0 * db
-    c1 = 6.0 * (gb - ga) - 4.0 * da - 2.0 * db
-    c0 = da
-    if c2 == 0.0:
-        return True
-    disc = c1 * c1 - 4.0 * c2 * c0
-    if disc < 0.0:
-        return True
-    sq = math.sqrt(disc)
-    r1 = (-c1 - sq) / (2.0 * c2)
-    r2 = (-c1 + sq) / (2.0 * c2)
-    return not (0.0 < r1 < 1.0 or 0.0 < r2 < 1.0)
+    n, s1, s2 = _hermite_extrema(ga, ra, gb, rb, h)
+    return n == 0
 
 
 @njit(cache=True)

@@ -32,7 +32,7 @@ from numba import njit
 
 from .dynamics import attach_xy_end, flip_state, holding_torque, rhs, total_energy8
 from .events import (
-    crosses, guard, guard_rate, guard_rate_at, hermite_flags, locate_first, pack, unpack_into,
+    crosses, guard, guard_rate, hermite_flags, locate_first, pack, unpack_into,
 )
 from .integrate import (
     MAX_FACTOR, MIN_FACTOR, SAFETY, dense_eval, dense_prepare, error_exponent, error_norm,
@@ -40,7 +40,7 @@ from .integrate import (
 )
 from .layout import (
     C_ATOL, C_MAX_CYCLES, C_MAX_DROP, C_MAX_SEGMENT_TIME, C_MAX_STEP, C_MAX_STEPS, C_METHOD,
-    C_RTOL, C_SAMPLE_DT, C_T_END, C_TICK, C_TICK_PHASE, C_ZERO_BAND, G_ENERGY,
+    C_RTOL, C_SAMPLE_DT, C_T_END, C_TICK, C_TICK_PHASE, C_ZERO_BAND,
     G_ENERGY_RESTORED, G_NONE, G_SLIP_STOP, G_STICK_BREAK, G_TIME, H_CLOCK, H_CYCLES, H_EREF,
     H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG, H_T, H_TORQUE, H_Y_REF, K_CYCLES, K_EVENTS,
     K_LOG, K_NFEV, K_REJECTED, K_SAMPLES, K_STEPS, L_CYCLE, L_E_AFTER, L_E_BEFORE, L_FLIPPED,

@@ -11,7 +11,6 @@ Arrays: ``K`` is ``(16, 8)`` (DOP853 with its three extra dense-output stages), 
 """
 import math
 
-import numpy as np
 from numba import njit
 
 from .dynamics import rhs
@@ -27,22 +26,9 @@ MAX_FACTOR = 10.0
 
 
 @njit(cache=True, inline="always")
-def n_stages(method):
-    return DOP853_N_STAGES if method == METHOD_DOP853 else RK45_N_STAGES
-
-
-@njit(cache=True, inline="always")
 def error_exponent(method):
     """-1 / (error estimator order + 1): DOP853 7, RK45 4."""
     return -1.0 / 8.0 if method == METHOD_DOP853 else -1.0 / 5.0
-
-
-@njit(cache=True)
-def rms_norm(v, n):
-    acc = 0.0
-    for i in range(n):
-        acc += v[i] * v[i]
-    return math.sqrt(acc / n)
 
 
 @njit(cache=True)
