@@ -19,7 +19,9 @@ import numpy as np
 from .controllers import HorizontalSearch, Integrator, OpenLoop
 from .kernel import layout as L
 from .robot import SEED2009_TORQUE
-from .simulate import RobotLike, Status, as_robot, evaluate_gaits, initial_state, run_controller
+from .simulate import (
+    RobotLike, Status, as_robot, evaluate_gaits, gait_error, initial_state, run_controller,
+)
 
 #: Tight integrator for analysis: the return map must be far more accurate than the finite
 #: difference steps used on it.
@@ -315,8 +317,7 @@ class CycleRun:
 
     def error_vs(self, dtheta1: float, dtheta2: float) -> np.ndarray:
         """Per-cycle error (MODEL.md section 4) against the rates of another gait."""
-        s = self.crossing_state
-        return s[:, L.TH2] ** 2 + (dtheta1 - s[:, L.DTH1]) ** 2 + (dtheta2 - s[:, L.DTH2]) ** 2
+        return gait_error(self.crossing_state, dtheta1, dtheta2)
 
 
 def open_loop_cycles(dtheta1: float, dtheta2: float, *, t_switch: float, t_motor: float,
@@ -340,8 +341,7 @@ def open_loop_cycles(dtheta1: float, dtheta2: float, *, t_switch: float, t_motor
     obs = log[log[:, L.L_KIND] == L.LOG_OBSERVER]
     states = obs[:, L.L_STATE:L.L_STATE + 8]
     flipped = obs[:, L.L_FLIPPED]
-    err = (states[:, L.TH2] ** 2 + (dtheta1 - states[:, L.DTH1]) ** 2
-           + (dtheta2 - states[:, L.DTH2]) ** 2)
+    err = gait_error(states, dtheta1, dtheta2)
     ke, _ = energies(res.params, states, flipped)
     swaps = log[(log[:, L.L_KIND] == L.LOG_SEGMENT) & (log[:, L.L_ID] == 0)]
     piv = swaps[:, L.L_STATE:L.L_STATE + 8]
@@ -543,8 +543,6 @@ def mirror_robot(base: RobotLike, parameter: str, value: float):
     Mirror images keep the one-cycle return map meaningful.
     """
     from dataclasses import replace
-
-    from .robot import Link
 
     r = as_robot(base)
     l1, l2 = r.link1, r.link2

@@ -14,7 +14,7 @@ Every controller has a ``tick`` [s]: 0 acts exactly at events; ``0.001`` is the 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np

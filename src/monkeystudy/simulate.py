@@ -16,7 +16,7 @@ import numpy as np
 
 from .controllers import HorizontalSearch, Integrator, OpenLoop, PhaseSequence, settings_vector
 from .kernel import layout as L
-from .kernel.dynamics import points8, total_energy8, kinetic_energy, potential_energy
+from .kernel.dynamics import kinetic_energy, points8, potential_energy
 from .kernel.gait import (
     N_RESULT, R_ERROR, R_FINAL, R_NFEV, R_REJECTED, R_STATUS, R_STEPS, R_T_END, R_T_MOTOR,
     R_T_SWITCH, horizontal_gait_batch, start_state,
@@ -208,6 +208,17 @@ def physical_points(params: np.ndarray, states: np.ndarray, flipped: np.ndarray)
     cg1 = np.where(fl[:, None], pts[:, 3], pts[:, 1])   # CG of physical link 1 (carries A)
     cg2 = np.where(fl[:, None], pts[:, 1], pts[:, 3])
     return {"A": a, "joint": pts[:, 2], "B": b, "cg1": cg1, "cg2": cg2}
+
+
+def gait_error(states, dtheta1: float, dtheta2: float) -> np.ndarray:
+    """The study's repeatability error (MODEL.md section 4) of frame states at a vertical
+    crossing: ``theta2^2 + (dtheta1 - dtheta1_f)^2 + (dtheta2 - dtheta2_f)^2``.
+
+    ``states[..., 8]`` are ``[x, y, th1, th2, dx, dy, dth1, dth2]``; the compiled gait
+    evaluation (:func:`monkeystudy.kernel.gait.horizontal_gait`) computes the same expression.
+    """
+    s = np.asarray(states, dtype=np.float64)
+    return s[..., L.TH2] ** 2 + (dtheta1 - s[..., L.DTH1]) ** 2 + (dtheta2 - s[..., L.DTH2]) ** 2
 
 
 def energies(params: np.ndarray, states: np.ndarray, flipped: np.ndarray):

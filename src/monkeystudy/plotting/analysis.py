@@ -700,20 +700,16 @@ def plot_continuation(ds):
         axl.set_ylim(0, max(1.1, top * 1.1))
         axl.set_xlabel(f"{name}  {unit}")
         axl.ticklabel_format(axis="x", useOffset=False)
-        for i in folds:
-            if 0 <= i < mu.size:
-                for a in axes:
-                    a.axvline(mu[i], color=SKY, ls="-.", lw=1.4,
-                              gid=f"fold_{i}" if a is axl else None)
-                axl.plot([], [], color=SKY, ls="-.", label=f"fold at point {i} "
-                                                               f"({sym} = {mu[i]:.6g})")
-        for i in pds:
-            if 0 <= i < mu.size:
-                for a in axes:
-                    a.axvline(mu[i], color=BLACK, ls=":", lw=1.4,
-                              gid=f"period_doubling_{i}" if a is axl else None)
-                axl.plot([], [], color=BLACK, ls=":", label=f"period doubling at point {i} "
-                                                              f"({sym} = {mu[i]:.6g})")
+        for idx, color, ls, key, what in ((folds, SKY, "-.", "fold", "fold"),
+                                          (pds, BLACK, ":", "period_doubling",
+                                           "period doubling")):
+            for i in idx:
+                if 0 <= i < mu.size:
+                    for a in axes:
+                        a.axvline(mu[i], color=color, ls=ls, lw=1.4,
+                                  gid=f"{key}_{i}" if a is axl else None)
+                    axl.plot([], [], color=color, ls=ls,
+                             label=f"{what} at point {i} ({sym} = {mu[i]:.6g})")
         body.legend(*axl.get_legend_handles_labels(), loc="outside lower center", ncols=3,
                    frameon=False)
         axes[0].set_title("the gait along the branch (○: the shoot's gait)", loc="left", **SUB)

@@ -660,7 +660,7 @@ def write_stress(path: Path, attrs: dict, phases: list[str], rtols: list[float],
     and tolerance), :func:`~monkeystudy.study.analysis_tasks.stress_long_run_task` (one per
     run, with its ``run`` name, ``controller`` and ``tick``) and
     :func:`~monkeystudy.study.analysis_tasks.stress_extreme_task` (one per case)."""
-    n_p, n_r = len(phases), len(rtols)
+    n_r = len(rtols)
     n_c = len(drift[0]["time"])
     grid = {(r["phase"], r["rtol"]): r for r in drift}
 

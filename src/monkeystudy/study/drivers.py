@@ -21,7 +21,9 @@ import numpy as np
 from ..controllers import Integrator, OpenLoop
 from ..kernel import layout as L
 from ..robot import Friction, Link, Robot
-from ..simulate import energies, evaluate_gaits, initial_state, physical_points, run_controller
+from ..simulate import (
+    energies, evaluate_gaits, gait_error, initial_state, physical_points, run_controller,
+)
 
 #: Variables of a grid block, with their dtype in blocks, shards and datasets.
 GRID_VARIABLES = {
@@ -186,7 +188,7 @@ def stability_task(spec: GaitSpec, gait: dict[str, float], *, cycles: int, tick:
         row = cross[k[0]]
         f = row[L.L_STATE:L.L_STATE + 8]
         out["t_cross"][c] = row[L.L_T]
-        out["error"][c] = f[L.TH2] ** 2 + (d1 - f[L.DTH1]) ** 2 + (d2 - f[L.DTH2]) ** 2
+        out["error"][c] = gait_error(f, d1, d2)
         ke, _ = energies(res.params, f[None, :], np.array([row[L.L_FLIPPED]]))
         out["kinetic_energy"][c] = ke[0]
     flipped = res.sample_mode[:, L.M_FLIPPED]
