@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .controllers import HorizontalSearch, Integrator, OpenLoop
+from .controllers import HorizontalSearch, Integrator, OpenLoop, SequenceGait
 from .kernel import layout as L
 from .robot import SEED2009_TORQUE
 from .simulate import (
@@ -245,6 +245,35 @@ def search_return_map(z, *, torque: float = SEED2009_TORQUE, robot: RobotLike = 
     res = run_controller(HorizontalSearch(torque), section_state(z), robot=robot,
                          integrator=integrator, log_capacity=0)
     return _section_of(res.state), res.status
+
+
+def cycle_section_state(gait: SequenceGait, z) -> np.ndarray:
+    """Hybrid state on a sequence gait's section: hanging from A at the origin, ``theta1 =
+    gait.section_theta1``, ``z = (theta2 [rad], dtheta1, dtheta2 [rad s-1])``."""
+    th2, w1, w2 = (float(v) for v in z)
+    return initial_state(w1, w2, theta1=gait.section_theta1, theta2=th2)
+
+
+def check_cycle_frame(gait: SequenceGait, robot) -> None:
+    """A cycle ending on end B compares like with like only for mirror-image links."""
+    if gait.end_attached() == "B":
+        _check_mirror_links(as_robot(robot))
+
+
+def cycle_return_map(z, gait: SequenceGait, *, robot: RobotLike = "seed2009",
+                     integrator: Integrator = TIGHT) -> tuple[np.ndarray, Status]:
+    """One cycle of a sequence gait from section state ``z = (theta2, dtheta1, dtheta2)``.
+
+    Returns the section state at the cycle's end (``theta2`` continued from ``z[0]`` across
+    whole turns, so the map is smooth) and the run status. A cycle that ends hanging from B
+    needs mirror-image links (``ValueError`` otherwise).
+    """
+    robot = as_robot(robot)
+    check_cycle_frame(gait, robot)
+    res = run_controller(gait.controller(), cycle_section_state(gait, z), robot=robot,
+                         integrator=integrator, cycles=1, log_capacity=0)
+    th2 = float(z[0]) + ((res.state[L.TH2] - float(z[0]) + math.pi) % (2 * math.pi) - math.pi)
+    return np.array([th2, res.state[L.DTH1], res.state[L.DTH2]]), res.status
 
 
 def jacobian_fd(fmap, z, step: float = 1e-5) -> np.ndarray:

@@ -8,6 +8,9 @@
   period.
 * :class:`PhaseSequence` - any sequence of :class:`Segment` rows (multi-swing, flight, climbing
   gaits) without new kernel code.
+* :class:`SequenceGait` - a phase sequence closed into a gait cycle by a Poincare section
+  (link 1 crossing ``theta1 = c`` in the frame of the attached end): what grid, refine and
+  floquet steps search and analyse beyond the study's horizontal gait.
 
 Every controller has a ``tick`` [s]: 0 acts exactly at events; ``0.001`` is the study's loop.
 """
@@ -39,8 +42,9 @@ class Segment:
     ----------
     until : str
         Guard ending the segment: ``time`` (``value`` on the controller clock [s]),
-        ``free_end_height`` (the free end at the attached end's height), ``energy_restored``
-        (energy back to the latched reference), ``coord`` (``coord`` crosses ``value``),
+        ``free_end_height`` (the free end ``value`` [m] above the attached end; 0: at its
+        height), ``energy_restored`` (energy back to the latched reference plus ``value``
+        [J]), ``coord`` (``coord`` crosses ``value``),
         ``energy`` (total energy crosses ``value`` [J]), ``free_end_y`` (the free end's world
         height crosses ``value`` [m]), or ``none`` (only the horizon ends it).
     magnets : str
@@ -236,6 +240,81 @@ class OpenLoop:
     def program(self):
         return PhaseSequence(self.segments(), (CYCLE_VERTICAL,), self.tick,
                              self.tick_phase).program()
+
+
+#: which ends each ``magnets`` entry action leaves attached, from the ends attached before
+def _attached_after(magnets: str, before: frozenset) -> frozenset:
+    if magnets == "keep":
+        return before
+    if magnets == "swap":
+        return frozenset({"A", "B"} - before) if len(before) == 1 else before
+    return {"A": frozenset("A"), "B": frozenset("B"), "both": frozenset("AB"),
+            "none": frozenset()}[magnets]
+
+
+@dataclass(frozen=True)
+class SequenceGait:
+    """A gait cycle given as phase-sequence segments, closed by a Poincare section.
+
+    A cycle starts on the section hanging from end A at the origin, with link 1 at
+    ``section_theta1`` [rad], link 2 at ``theta2`` [rad] and the rates being searched; it runs
+    ``segments`` in order, then a last segment (motor torque ``section_torque`` [N m]) that
+    ends the cycle when link 1 crosses ``section_theta1`` in ``section_direction``, in the
+    frame of the end attached then. The controller clock restarts at the section, so time
+    guards count from the cycle start. The section error generalises MODEL.md section 4:
+    ``wrap(theta2_f - theta2)^2 + (dtheta1_f - dtheta1)^2 + (dtheta2_f - dtheta2)^2``.
+    """
+
+    segments: Sequence[Segment]
+    section_theta1: float = 0.0
+    section_direction: str = "either"
+    section_torque: float = 0.0
+    theta2: float = 0.0
+    tick: float = 0.0
+    tick_phase: float = 0.0
+
+    def __post_init__(self):
+        _check_tick(self.tick)
+        if len(self.segments) == 0:
+            raise ValueError("a sequence gait needs at least one segment before the section")
+        for name in ("section_theta1", "section_torque", "theta2", "tick_phase"):
+            if not math.isfinite(getattr(self, name)):
+                raise ValueError(f"{name} must be finite, got {getattr(self, name)!r}")
+        if self.section_direction not in DIRECTIONS:
+            raise ValueError(f"section_direction must be one of {sorted(DIRECTIONS)}")
+        self.end_attached()
+
+    def all_segments(self) -> list[Segment]:
+        """The segments with the section segment appended (the cycle's last row)."""
+        section = Segment("coord", coord="theta1", value=self.section_theta1,
+                          direction=self.section_direction, torque=self.section_torque,
+                          ticked=False, clock="reset", cycle_end=True, next=0,
+                          fail_status=L.ST_NO_RETURN)
+        return [*self.segments, section]
+
+    def attached_ends(self) -> list[frozenset]:
+        """Ends attached during each row of the cycle (``{'A'}``, ``{'B'}``, both, none),
+        from the magnet actions alone: the program is a fixed sequence."""
+        ends, out = frozenset("A"), []
+        for seg in self.all_segments():
+            ends = _attached_after(seg.magnets, ends)
+            out.append(ends)
+        return out
+
+    def end_attached(self) -> str:
+        """The end (``'A'`` or ``'B'``) the robot hangs from when it reaches the section."""
+        ends = self.attached_ends()[-1]
+        if len(ends) != 1:
+            what = "no magnet" if not ends else "both magnets"
+            raise ValueError(f"the cycle reaches its section with {what} on: the section "
+                             "needs the robot hanging from one end")
+        return next(iter(ends))
+
+    def controller(self) -> PhaseSequence:
+        return PhaseSequence(self.all_segments(), (), self.tick, self.tick_phase)
+
+    def program(self):
+        return self.controller().program()
 
 
 @dataclass(frozen=True)

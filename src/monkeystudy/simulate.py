@@ -14,12 +14,18 @@ from typing import Union
 
 import numpy as np
 
-from .controllers import HorizontalSearch, Integrator, OpenLoop, PhaseSequence, settings_vector
+from .controllers import (
+    HorizontalSearch, Integrator, OpenLoop, PhaseSequence, SequenceGait, settings_vector,
+)
 from .kernel import layout as L
 from .kernel.dynamics import kinetic_energy, points8, potential_energy
 from .kernel.gait import (
     N_RESULT, R_ERROR, R_FINAL, R_NFEV, R_REJECTED, R_STATUS, R_STEPS, R_T_END, R_T_MOTOR,
     R_T_SWITCH, horizontal_gait_batch, start_state,
+)
+from .kernel.gait import (
+    N_CYCLE_RESULT, Q_ERROR, Q_FINAL, Q_FLIPPED, Q_NFEV, Q_REJECTED, Q_STATUS, Q_STEPS, Q_T_END,
+    cycle_gait_batch,
 )
 from .kernel.hybrid import simulate as _simulate
 from .robot import SEED2009_TORQUE, Robot
@@ -108,6 +114,45 @@ def evaluate_gaits(points, *, robot: RobotLike = "seed2009", torque: float | Non
         "nfev": out[:, R_NFEV].astype(np.int64),
         "rejected": out[:, R_REJECTED].astype(np.int64),
         "final_state": out[:, R_FINAL:R_FINAL + 8].copy(),
+    }
+
+
+def evaluate_cycle_gaits(points, gait: SequenceGait, *, robot: RobotLike = "seed2009",
+                         integrator: Integrator = Integrator()) -> dict[str, np.ndarray]:
+    """One cycle of a phase-sequence gait at many ``(dtheta1, dtheta2)`` [rad s-1] starts.
+
+    Each start is on the gait's section (``theta1 = gait.section_theta1``, ``theta2 =
+    gait.theta2``, hanging from A at the origin). Returns plain arrays, one entry per point:
+    ``error`` (the section error, :class:`~monkeystudy.controllers.SequenceGait`; NaN unless
+    ok), ``status``, ``t_end`` (the section crossing ending the cycle) [s], ``t_segment[n,
+    k]`` (exit time of segment ``k``, the section last) [s], ``x_advance``, ``y_advance``
+    (displacement of the attached end over the cycle) [m], ``steps``, ``nfev``, ``rejected``,
+    ``flipped`` (1: hanging from B at the end) and ``final_state``.
+    """
+    robot = as_robot(robot)
+    pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
+    if not np.all(np.isfinite(pts)):
+        raise ValueError("points must be finite (dtheta1, dtheta2) pairs")
+    prog, obs = gait.program()
+    settings = settings_vector(integrator, tick=gait.tick, tick_phase=gait.tick_phase,
+                               max_cycles=1)
+    out = np.empty((pts.shape[0], N_CYCLE_RESULT))
+    seg = np.empty((pts.shape[0], prog.shape[0]))
+    cycle_gait_batch(robot.params(), prog, obs, settings, gait.section_theta1, gait.theta2,
+                     pts, out, seg)
+    final = out[:, Q_FINAL:Q_FINAL + 8].copy()
+    return {
+        "error": out[:, Q_ERROR].copy(),
+        "status": out[:, Q_STATUS].astype(np.int8),
+        "t_end": out[:, Q_T_END].copy(),
+        "t_segment": seg,
+        "x_advance": final[:, L.X].copy(),
+        "y_advance": final[:, L.Y].copy(),
+        "steps": out[:, Q_STEPS].astype(np.int64),
+        "nfev": out[:, Q_NFEV].astype(np.int64),
+        "rejected": out[:, Q_REJECTED].astype(np.int64),
+        "flipped": out[:, Q_FLIPPED].astype(np.int8),
+        "final_state": final,
     }
 
 

@@ -85,9 +85,11 @@ def guard(kind, index, value, phase, p, tau, fmode, y, pivot, eref):
     """Value of a state guard (layout ``G_*``; time guards are handled as step bounds)."""
     x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
     if kind == G_FREE_END_HEIGHT:
-        return -p[P_L1] * math.cos(th1) - p[P_L2] * math.cos(th1 + th2)
+        # ``value``: the height above the attached end to reach [m] (0: the study's swap)
+        return -p[P_L1] * math.cos(th1) - p[P_L2] * math.cos(th1 + th2) - value
     if kind == G_ENERGY_RESTORED:
-        return energy(phase, p, y, pivot) - eref
+        # ``value``: energy to add to the latched reference [J] (a climb of dh needs M g dh)
+        return energy(phase, p, y, pivot) - eref - value
     if kind == G_ENERGY:
         return energy(phase, p, y, pivot) - value
     if kind == G_FREE_END_Y:

@@ -1,10 +1,13 @@
-"""Compiled gait evaluations: the horizontal gait of MODEL.md section 4, one point or a batch.
+"""Compiled gait evaluations: the horizontal gait of MODEL.md section 4 and the cycle of any
+phase-sequence gait, one point or a batch.
 
-Both call :func:`monkeystudy.kernel.hybrid.simulate` with no log and no trajectory, so a search
+All call :func:`monkeystudy.kernel.hybrid.simulate` with no log and no trajectory, so a search
 evaluation integrates, locates its three events and nothing else.
 """
 import numpy as np
 from numba import njit
+
+import math
 
 from .dynamics import total_energy8
 from .hybrid import simulate
@@ -89,3 +92,61 @@ def horizontal_gait_batch(par, prog, settings, points, energy_floor, skip_unreac
     for i in range(points.shape[0]):
         horizontal_gait(par, prog, settings, points[i, 0], points[i, 1], energy_floor,
                         skip_unreachable, out[i])
+
+
+# result columns of one cycle of a phase-sequence gait
+Q_ERROR, Q_STATUS, Q_T_END, Q_STEPS, Q_NFEV, Q_REJECTED, Q_FLIPPED, Q_PHASE = 0, 1, 2, 3, 4, 5, 6, 7
+Q_FINAL = 8  # final 8-state in the frame of the end attached at the section
+N_CYCLE_RESULT = 16
+
+
+@njit(cache=True)
+def wrapped_difference(a, b):
+    """``a - b`` wrapped to [-pi, pi) [rad]: a link turning a whole revolution per cycle
+    returns to the same configuration."""
+    return (a - b + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@njit(cache=True)
+def cycle_gait(par, prog, obs, settings, theta1, theta2, dtheta1, dtheta2, out, seg_out):
+    """One cycle of a phase-sequence gait from the section state into ``out``/``seg_out``.
+
+    Starts hanging from A at the origin with ``(theta1, theta2)`` [rad] and rates
+    ``(dtheta1, dtheta2)`` [rad s-1]; runs ``prog`` until it completes one cycle (the caller
+    sets ``C_MAX_CYCLES = 1``). The section error generalises MODEL.md section 4's:
+    ``wrap(theta2_f - theta2)^2 + (dtheta1_f - dtheta1)^2 + (dtheta2_f - dtheta2)^2`` in the
+    frame of the end attached at the cycle's end (NaN unless ``ST_OK``); ``seg_out[k]`` is the
+    time segment ``k`` was left [s] (NaN if never).
+    """
+    hyb = np.empty(N_HYB)
+    start_state(dtheta1, dtheta2, hyb)
+    hyb[2] = theta1
+    hyb[3] = theta2
+    out[:] = np.nan
+    counts = np.zeros(N_COUNTS, dtype=np.int64)
+    log = np.empty((0, N_LOG_COLS))
+    st = np.empty(0)
+    sy = np.empty((0, 8))
+    sm = np.empty((0, N_MODE_COLS))
+    status = simulate(par, prog, obs, settings, hyb, counts, seg_out, log, st, sy, sm)
+    out[Q_STATUS] = status
+    out[Q_T_END] = hyb[H_T]
+    out[Q_STEPS] = counts[K_STEPS]
+    out[Q_NFEV] = counts[K_NFEV]
+    out[Q_REJECTED] = counts[K_REJECTED]
+    out[Q_FLIPPED] = hyb[H_FLIPPED]
+    out[Q_PHASE] = hyb[H_PHASE]
+    for i in range(8):
+        out[Q_FINAL + i] = hyb[i]
+    if status == ST_OK:
+        d2 = wrapped_difference(hyb[3], theta2)
+        out[Q_ERROR] = d2 * d2 + (hyb[6] - dtheta1) ** 2 + (hyb[7] - dtheta2) ** 2
+
+
+@njit(cache=True)
+def cycle_gait_batch(par, prog, obs, settings, theta1, theta2, points, out, seg_out):
+    """:func:`cycle_gait` over ``points[N, 2]`` into ``out[N, N_CYCLE_RESULT]`` and
+    ``seg_out[N, n_segments]`` (serial)."""
+    for i in range(points.shape[0]):
+        cycle_gait(par, prog, obs, settings, theta1, theta2, points[i, 0], points[i, 1],
+                   out[i], seg_out[i])

@@ -333,7 +333,7 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
             g_seg = guard(gkind, gindex, gvalue, phase, p, tau, fmode, y, pivot, eref)
             scale = 1.0 + abs(gvalue)
             if gkind == G_ENERGY_RESTORED:
-                scale = 1.0 + abs(eref)
+                scale = 1.0 + abs(eref) + abs(gvalue)
             if entering and abs(g_seg) <= band * scale:
                 g_seg = 0.0
             if gkind == G_ENERGY_RESTORED and entering and g_seg >= 0.0:

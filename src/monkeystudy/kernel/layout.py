@@ -33,8 +33,8 @@ METHOD_DOP853 = 1
 # --- guard kinds (MODEL.md section 4 and issue #2) ----------------------------------------------
 G_NONE = -1             # segment ends only by its horizon
 G_TIME = 0              # t - (clock origin + value)                            [s]
-G_FREE_END_HEIGHT = 1   # height of the free end above the attached end: -(L1 c1 + L2 c12)  [m]
-G_ENERGY_RESTORED = 2   # E - E_ref, E_ref latched on entering a SET_EREF segment [J]
+G_FREE_END_HEIGHT = 1   # free end's height above the attached end - value: -(L1 c1 + L2 c12) - value [m]
+G_ENERGY_RESTORED = 2   # E - E_ref - value, E_ref latched on entering a SET_EREF segment [J]
 G_COORD = 3             # state[index] - value (index into the 8-state above)
 G_ENERGY = 4            # E - value                                             [J]
 G_FREE_END_Y = 5        # world height of the free end - value                  [m]
