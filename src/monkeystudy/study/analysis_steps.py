@@ -39,11 +39,11 @@ def step_deps(step) -> tuple[str, ...]:
     return tuple(deps)
 
 
-def n_tasks(step) -> int:
+def n_tasks(step, gait_kind: str = "horizontal") -> int:
     if isinstance(step, ShootStep):
         return len(step.starts) if step.starts is not None else 1
     if isinstance(step, FloquetStep):
-        return len(step.controllers)
+        return len(step.controllers_for(gait_kind))
     if isinstance(step, StressStep):
         return len(stress_tasks(step))
     return 1
@@ -141,12 +141,20 @@ def start(run, s) -> None:
         for i, x0 in enumerate(starts):
             _queue(run, s, i, AT.shoot_task, (spec, x0), kw)
     elif isinstance(st, FloquetStep):
-        g = shoot_gait(run, s, st.from_, st.solution) if "open_loop" in st.controllers \
-            else None
+        controllers = st.controllers_for(run.plan.loaded.study.gait.kind)
+        if controllers == ["sequence"]:
+            g, idx = D.read_refined(run.by_name[st.from_].path)
+            if g["status"] != 0 or not math.isfinite(g["error"]):
+                raise RunFailed(f"{s.name}: refine step {st.from_!r} found no cycle to "
+                                f"analyse (status {g['status']})")
+            g["index"] = idx
+        else:
+            g = shoot_gait(run, s, st.from_, st.solution) if "open_loop" in controllers \
+                else None
         ctx["gait"] = g
-        run.rep.start(s.name, len(st.controllers), 0, "controllers")
-        run.remaining[s.name] = len(st.controllers)
-        for i, c in enumerate(st.controllers):
+        run.rep.start(s.name, len(controllers), 0, "controllers")
+        run.remaining[s.name] = len(controllers)
+        for i, c in enumerate(controllers):
             _queue(run, s, i, AT.floquet_task, (spec, c),
                    {"gait": g, "search_start": list(st.search_start), "fd_step": st.fd_step})
     elif isinstance(st, TickSweepStep):
@@ -266,10 +274,16 @@ def finish(run, s, attrs: dict) -> str:
                 f"({b['dtheta1']:.10g}, {b['dtheta2']:.10g}) rad s-1, "
                 f"{AT.METHOD_NAMES[b['method']]}, t_switch {b['t_switch']:.6g} s")
     if isinstance(st, FloquetStep):
-        attrs.update(_gait_attrs(st.from_, ctx["gait"]))
+        controllers = st.controllers_for(run.plan.loaded.study.gait.kind)
+        if controllers == ["sequence"]:
+            g = ctx["gait"]
+            attrs.update(refine_step=st.from_, refine_start=int(g["index"]),
+                         dtheta1=g["dtheta1"], dtheta2=g["dtheta2"], gait_error=g["error"])
+        else:
+            attrs.update(_gait_attrs(st.from_, ctx["gait"]))
+            attrs["search_start"] = list(st.search_start)
         attrs.update(fd_step=st.fd_step, neutral_tol=AT.NEUTRAL_TOL,
-                     search_start=list(st.search_start),
-                     controllers=list(st.controllers))
+                     controllers=controllers)
         D.write_floquet(s.path, attrs, results)
         parts = []
         for r in results:

@@ -55,7 +55,27 @@ GRID_ATTRS = {
     "steps": {"long_name": "accepted integrator steps", "units": "1"},
     "nfev": {"long_name": "right-hand-side evaluations", "units": "1"},
     "rejected": {"long_name": "rejected integrator steps", "units": "1"},
+    # sequence gaits (monkeystudy.controllers.SequenceGait)
+    "t_segment": {"long_name": "time each segment of the cycle was left (the last: the "
+                               "section ending the cycle)", "units": "s"},
+    "x_advance": {"long_name": "horizontal displacement of the attached end over the cycle",
+                  "units": "m"},
+    "y_advance": {"long_name": "vertical displacement of the attached end over the cycle "
+                               "(> 0: climbing)", "units": "m"},
 }
+
+#: the sequence gait's error and end time (same variable names, other meanings)
+SEQUENCE_ATTRS = {
+    "error": {"long_name": "section error: wrap(theta2_f - theta2_0)^2 + (dtheta1_f - "
+                           "dtheta1_0)^2 + (dtheta2_f - dtheta2_0)^2 after one cycle; NaN "
+                           "unless ok", "units": "1"},
+    "t_end": {"long_name": "time of the section crossing ending the cycle", "units": "s"},
+}
+
+
+def variable_attrs(name: str, sequence: bool) -> dict:
+    """Attributes of a grid or refine variable for the horizontal or a sequence gait."""
+    return (SEQUENCE_ATTRS.get(name) or GRID_ATTRS[name]) if sequence else GRID_ATTRS[name]
 
 DTHETA1 = {"long_name": "initial angular rate of link 1 (dtheta1)", "units": RATE}
 DTHETA2 = {"long_name": "initial relative angular rate of link 2 (dtheta2)", "units": RATE}
@@ -133,12 +153,17 @@ def _global_attrs(nc, attrs: dict) -> None:
 
 def write_grid(path: Path, attrs: dict, *, axes: tuple[np.ndarray, np.ndarray] | None = None,
                points: np.ndarray | None = None,
-               blocks: Iterable[tuple[int, dict[str, np.ndarray]]] = ()) -> dict:
+               blocks: Iterable[tuple[int, dict[str, np.ndarray]]] = (),
+               variables: dict | None = None, n_segments: int = 0) -> dict:
     """Write a grid dataset, streaming ``blocks`` of ``(first flat index, arrays)``.
 
     ``axes`` (dtheta1, dtheta2 values) give dims ``dtheta1 x dtheta2`` (flat index in C order);
-    ``points[n, 2]`` give dim ``point``. Returns ``{"skipped_fraction", "n_points"}``.
+    ``points[n, 2]`` give dim ``point``. ``variables`` (name -> dtype) default to the
+    horizontal gait's; ``n_segments > 0`` (a sequence gait) adds dim ``segment`` for
+    ``t_segment``. Returns ``{"skipped_fraction", "n_points"}``.
     """
+    variables = GRID_VARIABLES if variables is None else variables
+    sequence = n_segments > 0
     with atomic_netcdf(path) as nc:
         if axes is not None:
             a1, a2 = (np.asarray(a, np.float64) for a in axes)
@@ -156,12 +181,18 @@ def write_grid(path: Path, attrs: dict, *, axes: tuple[np.ndarray, np.ndarray] |
             _var(nc, "dtheta2", ("point",), np.float64, DTHETA2, pts[:, 1])
             dims, shape, coords = ("point",), (pts.shape[0],), "dtheta1 dtheta2"
         n = int(np.prod(shape))
-        vs = {name: _var(nc, name, dims, dt, GRID_ATTRS[name], coordinates=coords)
-              for name, dt in GRID_VARIABLES.items()}
+        if sequence:
+            nc.createDimension("segment", n_segments)
+            _var(nc, "segment", ("segment",), np.int32,
+                 {"long_name": "segment of the cycle (the last: the section)", "units": "1"},
+                 np.arange(n_segments))
+        vs = {name: _var(nc, name, dims + (("segment",) if name == "t_segment" else ()), dt,
+                         variable_attrs(name, sequence), coordinates=coords)
+              for name, dt in variables.items()}
         written = skipped = 0
         for lo, arrays in blocks:
             for name, v in vs.items():
-                _write_flat(v, shape, lo, np.asarray(arrays[name], GRID_VARIABLES[name]))
+                _write_flat(v, shape, lo, np.asarray(arrays[name], variables[name]))
             written += len(arrays["status"])
             skipped += int(np.count_nonzero(arrays["status"] == STATUS_NAMES.index("unreachable")))
         if written != n:
@@ -172,22 +203,25 @@ def write_grid(path: Path, attrs: dict, *, axes: tuple[np.ndarray, np.ndarray] |
 
 
 def _write_flat(var, shape: tuple, lo: int, data: np.ndarray) -> None:
-    """Write ``data`` at flat (C-order) indices ``lo..lo+len`` of a 1-D or 2-D variable."""
+    """Write ``data[m, ...]`` at flat (C-order) point indices ``lo..lo+m`` of a variable over
+    ``shape`` (1-D or 2-D) points, with any trailing dims of ``data`` (e.g. ``segment``)."""
+    count = data.shape[0]
     if len(shape) == 1:
-        var[lo:lo + data.size] = data
+        var[lo:lo + count] = data
         return
     n2 = shape[1]
+    trail = data.shape[1:]
     pos, k = lo, 0
-    while k < data.size:
+    while k < count:
         i, j = divmod(pos, n2)
-        if j == 0 and data.size - k >= n2:        # whole rows at once
-            rows = (data.size - k) // n2
-            var[i:i + rows, :] = data[k:k + rows * n2].reshape(rows, n2)
+        if j == 0 and count - k >= n2:            # whole rows at once
+            rows = (count - k) // n2
+            var[i:i + rows, ...] = data[k:k + rows * n2].reshape((rows, n2) + trail)
             pos += rows * n2
             k += rows * n2
         else:                                     # a partial row
-            m = min(n2 - j, data.size - k)
-            var[i, j:j + m] = data[k:k + m]
+            m = min(n2 - j, count - k)
+            var[i, j:j + m, ...] = data[k:k + m]
             pos += m
             k += m
 
@@ -222,8 +256,19 @@ def write_refine(path: Path, attrs: dict, results: list[dict], multi: bool) -> N
                                                     DTHETA1["long_name"]), col("x", index=0))
         _var(nc, "dtheta2", sdim, np.float64, dict(DTHETA2, long_name="refined " +
                                                     DTHETA2["long_name"]), col("x", index=1))
-        for key in ("error", "t_switch", "t_motor", "t_end"):
-            _var(nc, key, sdim, np.float64, GRID_ATTRS[key], col(key))
+        sequence = "t_segment" in results[0]
+        if sequence:
+            n_seg = len(results[0]["t_segment"])
+            nc.createDimension("segment", n_seg)
+            _var(nc, "segment", ("segment",), np.int32,
+                 {"long_name": "segment of the cycle (the last: the section)", "units": "1"},
+                 np.arange(n_seg))
+            _var(nc, "t_segment", sdim + ("segment",), np.float64, GRID_ATTRS["t_segment"],
+                 col("t_segment"))
+        keys = (("error", "t_end", "x_advance", "y_advance") if sequence
+                else ("error", "t_switch", "t_motor", "t_end"))
+        for key in keys:
+            _var(nc, key, sdim, np.float64, variable_attrs(key, sequence), col(key))
         _var(nc, "status", sdim, np.int8, STATUS_ATTRS, col("status", np.int8))
         _var(nc, "start_dtheta1", sdim, np.float64, dict(DTHETA1, long_name="start of the "
                                                           "refinement, dtheta1"),
@@ -333,7 +378,8 @@ def read_refined(path: Path, start_index: int | None = None) -> tuple[dict, int]
     keys = ("dtheta1", "dtheta2", "t_switch", "t_motor", "t_end", "error", "status")
     with netCDF4.Dataset(path, "r") as nc:
         nc.set_auto_mask(False)
-        vals = {k: np.atleast_1d(nc.variables[k][...]) for k in keys}
+        # a sequence gait's refine has no t_switch, t_motor
+        vals = {k: np.atleast_1d(nc.variables[k][...]) for k in keys if k in nc.variables}
     if start_index is None:
         err = np.where(np.isfinite(vals["error"]), vals["error"], np.inf)
         start_index = int(np.argmin(err))
@@ -394,7 +440,7 @@ SHOOT_METHOD_ATTRS = {
 #: units of the continuation parameters
 PARAMETER_UNITS = {"com": "m", "inertia": "kg m2", "gravity": "m s-2"}
 
-_SECTION_NOTE = ("on the section theta1 = 0, components (theta2 [rad], dtheta1 [rad s-1], "
+_SECTION_NOTE = ("on the gait's section (theta1 = 0 unless the gait says), components (theta2 [rad], dtheta1 [rad s-1], "
                  "dtheta2 [rad s-1])")
 
 
@@ -515,6 +561,15 @@ def write_floquet(path: Path, attrs: dict, results: list[dict]) -> None:
              stack("t_motor"))
         _var(nc, "motor_torque", ("controller",), np.float64,
              {"long_name": "motor torque of the return map", "units": "N m"}, stack("torque"))
+        if "t_segment" in results[0]:       # a sequence gait's cycle
+            n_seg = len(results[0]["t_segment"])
+            _index_coord(nc, "segment", n_seg, "segment of the cycle (the last: the section)")
+            _var(nc, "t_segment", ("controller", "segment"), np.float64,
+                 GRID_ATTRS["t_segment"], stack("t_segment"))
+            for key in ("x_advance", "y_advance"):
+                _var(nc, key, ("controller",), np.float64, GRID_ATTRS[key], stack(key))
+            _var(nc, "error", ("controller",), np.float64, SEQUENCE_ATTRS["error"],
+                 stack("error"))
         _var(nc, "newton_converged", ("controller",), np.int8,
              {"long_name": "Newton polish of the fixed point converged (1; open_loop: the "
                            "shoot's point, 1)", "units": "1"},

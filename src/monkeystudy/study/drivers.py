@@ -13,22 +13,31 @@ refinement, one per stability run).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
-from typing import Any, TypedDict
+from typing import Any, Optional, TypedDict
 
 import numpy as np
 
-from ..controllers import Integrator, OpenLoop
+from ..controllers import Integrator, OpenLoop, Segment, SequenceGait
 from ..kernel import layout as L
 from ..robot import Friction, Link, Robot
 from ..simulate import (
-    energies, evaluate_gaits, gait_error, initial_state, physical_points, run_controller,
+    energies, evaluate_cycle_gaits, evaluate_gaits, gait_error, initial_state, physical_points,
+    run_controller,
 )
 
 #: Variables of a grid block, with their dtype in blocks, shards and datasets.
 GRID_VARIABLES = {
     "error": np.float64, "status": np.int8, "t_switch": np.float64, "t_motor": np.float64,
     "t_end": np.float64, "steps": np.int32, "nfev": np.int32, "rejected": np.int32,
+}
+
+#: Variables of a sequence gait's grid block (``t_segment`` has a trailing dim ``segment``).
+SEQUENCE_GRID_VARIABLES = {
+    "error": np.float64, "status": np.int8, "t_end": np.float64, "t_segment": np.float64,
+    "x_advance": np.float64, "y_advance": np.float64, "steps": np.int32, "nfev": np.int32,
+    "rejected": np.int32,
 }
 
 
@@ -39,12 +48,37 @@ class GaitSpec(TypedDict):
     torque: float        # motor torque [N m]
     tick: float          # controller tick [s]
     integrator: dict     # Integrator fields
+    sequence: Optional[dict]  # a SequenceGait's fields (segments as dicts), or None: the
+                              # horizontal gait
 
 
-def make_spec(robot: Robot, torque: float, tick: float, integrator: Integrator) -> GaitSpec:
+def make_spec(robot: Robot, torque: float, tick: float, integrator: Integrator,
+              sequence: SequenceGait | None = None) -> GaitSpec:
     return GaitSpec(robot=robot.to_dict(), torque=float(torque), tick=float(tick),
                     integrator={"method": integrator.method, "rtol": integrator.rtol,
-                                "atol": integrator.atol, "max_time": integrator.max_time})
+                                "atol": integrator.atol, "max_time": integrator.max_time},
+                    sequence=None if sequence is None else dataclasses.asdict(sequence))
+
+
+def spec_sequence(spec: GaitSpec) -> SequenceGait | None:
+    """The spec's sequence gait, or None for the horizontal gait."""
+    d = spec.get("sequence")
+    if d is None:
+        return None
+    d = dict(d)
+    d["segments"] = [Segment(**seg) for seg in d["segments"]]
+    return SequenceGait(**d)
+
+
+def grid_variables(spec: GaitSpec) -> dict[str, Any]:
+    """The variables (name -> dtype) of the spec's grid blocks."""
+    return GRID_VARIABLES if spec.get("sequence") is None else SEQUENCE_GRID_VARIABLES
+
+
+def n_cycle_segments(spec: GaitSpec) -> int:
+    """Segments of a sequence gait's cycle, the section included (0: horizontal gait)."""
+    seq = spec.get("sequence")
+    return 0 if seq is None else len(seq["segments"]) + 1
 
 
 def robot_from_dict(d: dict) -> Robot:
@@ -60,15 +94,21 @@ def _unpack(spec: GaitSpec) -> tuple[Robot, Integrator]:
 # --- grid -------------------------------------------------------------------------------------
 def grid_block(spec: GaitSpec, points: np.ndarray, skip_unreachable: bool = True
                ) -> dict[str, np.ndarray]:
-    """Evaluate the horizontal gait at ``points[n, 2]`` (dtheta1, dtheta2) [rad s-1].
+    """Evaluate the gait at ``points[n, 2]`` (dtheta1, dtheta2) [rad s-1].
 
-    Returns the arrays of :data:`GRID_VARIABLES` (``error`` NaN unless status is ok).
+    Returns the arrays of :func:`grid_variables` (``error`` NaN unless status is ok): the
+    horizontal gait's, or one cycle of the spec's sequence gait.
     """
     robot, integ = _unpack(spec)
-    r = evaluate_gaits(points, robot=robot, torque=spec["torque"], tick=spec["tick"],
-                       integrator=integ, skip_unreachable=skip_unreachable)
+    seq = spec_sequence(spec)
+    if seq is None:
+        r = evaluate_gaits(points, robot=robot, torque=spec["torque"], tick=spec["tick"],
+                           integrator=integ, skip_unreachable=skip_unreachable)
+    else:
+        # no energy bound here: a sequence's motor may act before its swap
+        r = evaluate_cycle_gaits(points, seq, robot=robot, integrator=integ)
     return {name: np.asarray(r[name]).astype(dt, copy=False)
-            for name, dt in GRID_VARIABLES.items()}
+            for name, dt in grid_variables(spec).items()}
 
 
 # --- refine -----------------------------------------------------------------------------------
@@ -88,16 +128,23 @@ def refine_task(spec: GaitSpec, start: tuple[float, float], *, xatol: float, fat
     from scipy.optimize import minimize
 
     robot, integ = _unpack(spec)
-    cache: dict[tuple[float, float], dict[str, float]] = {}
+    seq = spec_sequence(spec)
+    cache: dict[tuple[float, float], dict[str, Any]] = {}
     calls = 0
 
-    def gait(x) -> dict[str, float]:
+    def gait(x) -> dict[str, Any]:
         key = (float(x[0]), float(x[1]))
         if key not in cache:
-            r = evaluate_gaits(np.array([key]), robot=robot, torque=spec["torque"],
-                               tick=spec["tick"], integrator=integ, skip_unreachable=True)
-            cache[key] = {k: (float(r[k][0]) if k != "status" else int(r[k][0]))
-                          for k in ("error", "status", "t_switch", "t_motor", "t_end")}
+            if seq is None:
+                r = evaluate_gaits(np.array([key]), robot=robot, torque=spec["torque"],
+                                   tick=spec["tick"], integrator=integ, skip_unreachable=True)
+                keys = ("error", "status", "t_switch", "t_motor", "t_end")
+            else:
+                r = evaluate_cycle_gaits(np.array([key]), seq, robot=robot, integrator=integ)
+                keys = ("error", "status", "t_end", "t_segment", "x_advance", "y_advance")
+            cache[key] = {k: (int(r[k][0]) if k == "status" else
+                              r[k][0].copy() if k == "t_segment" else float(r[k][0]))
+                          for k in keys}
         return cache[key]
 
     def objective(x) -> float:
@@ -130,9 +177,8 @@ def refine_task(spec: GaitSpec, start: tuple[float, float], *, xatol: float, fat
     x = np.asarray(res.x, dtype=np.float64)
     g = gait(x)
     return {
-        "x": x, "error": g["error"] if g["status"] == L.ST_OK else math.nan,
-        "status": g["status"], "t_switch": g["t_switch"], "t_motor": g["t_motor"],
-        "t_end": g["t_end"], "iterate_x": np.array(it_x), "iterate_error": np.array(it_e),
+        **g, "x": x, "error": g["error"] if g["status"] == L.ST_OK else math.nan,
+        "iterate_x": np.array(it_x), "iterate_error": np.array(it_e),
         "iterate_nfev": np.array(it_n, dtype=np.int32), "nit": int(res.nit),
         "nfev": int(res.nfev), "converged": int(bool(res.success)), "message": str(res.message),
         "start": x0,
@@ -208,12 +254,18 @@ def warm_up(spec: GaitSpec, stability: bool = False) -> None:
     """Compile (or load from the on-disk cache) the kernels the tasks use, once, in the
     driver, before fanning out: parallel first compiles would race on the cache."""
     grid_block(spec, np.array([[1.0, 11.0]]))
-    if stability:
+    seq = spec_sequence(spec)
+    if stability and seq is not None:
+        robot, integ = _unpack(spec)
+        run_controller(seq.controller(), initial_state(1.0, 11.0), robot=robot,
+                       integrator=integ, t_end=0.05)
+    elif stability:
         robot, integ = _unpack(spec)
         run_controller(OpenLoop(0.01, 0.01, spec["torque"], tick=spec["tick"]),
                        initial_state(1.0, 11.0), robot=robot, integrator=integ, t_end=0.05,
                        sample_dt=0.01)
 
 
-__all__ = ["GRID_VARIABLES", "GaitSpec", "grid_block", "make_spec", "refine_task",
-           "robot_from_dict", "stability_task", "warm_up"]
+__all__ = ["GRID_VARIABLES", "GaitSpec", "SEQUENCE_GRID_VARIABLES", "grid_block",
+           "grid_variables", "make_spec", "n_cycle_segments", "refine_task", "robot_from_dict",
+           "spec_sequence", "stability_task", "warm_up"]

@@ -83,7 +83,11 @@ def study_integrator(study: Study) -> Integrator:
 
 
 def study_spec(study: Study) -> drivers.GaitSpec:
-    return drivers.make_spec(study_robot(study), study.gait.motor_torque, study.gait.tick,
+    g = study.gait
+    if g.kind == "sequence":
+        return drivers.make_spec(study_robot(study), math.nan, g.tick,
+                                 study_integrator(study), sequence=g.gait())
+    return drivers.make_spec(study_robot(study), g.motor_torque, g.tick,
                              study_integrator(study))
 
 
@@ -167,12 +171,13 @@ def write_shard(folder: Path, block: Block, arrays: dict[str, np.ndarray]) -> Pa
     return final
 
 
-def read_shard(folder: Path, block: Block) -> dict[str, np.ndarray]:
+def read_shard(folder: Path, block: Block,
+               names=tuple(drivers.GRID_VARIABLES)) -> dict[str, np.ndarray]:
     with np.load(shard_path(folder, block)) as z:
         if int(z["lo"]) != block.lo or int(z["hi"]) != block.hi:
             raise RunFailed(f"shard {shard_path(folder, block)} does not hold block "
                             f"{block.lo}..{block.hi}")
-        return {k: z[k] for k in drivers.GRID_VARIABLES}
+        return {k: z[k] for k in names}
 
 
 def clean_parts(out: Path, step_name: str, keep_key: str | None) -> None:
@@ -201,6 +206,7 @@ class StepPlan:
     up_to_date: bool
     blocks: list[Block] = field(default_factory=list)
     saved: set[int] = field(default_factory=set)
+    gait_kind: str = "horizontal"
 
     @property
     def name(self) -> str:
@@ -219,7 +225,7 @@ class StepPlan:
         if isinstance(self.step, BasinStep):
             return len(self.blocks)
         if isinstance(self.step, ANALYSIS_STEPS):
-            return AS.n_tasks(self.step)
+            return AS.n_tasks(self.step, self.gait_kind)
         return 1
 
     def todo_blocks(self) -> list[Block]:
@@ -307,7 +313,7 @@ def plan_study(loaded: LoadedStudy, out: str | Path | None = None) -> Plan:
         current = dataset_current(path, loaded.sha256) and not (set(deps) & stale)
         if not current:
             stale.add(s.name)
-        sp = StepPlan(s, path, deps, current)
+        sp = StepPlan(s, path, deps, current, gait_kind=study.gait.kind)
         if isinstance(s, GridStep):
             sp.blocks = make_blocks(s.n_points, s.points_per_block)
             if not current:
@@ -440,6 +446,8 @@ class RunSummary:
 
 
 def _json_gait(study: Study) -> dict:
+    if study.gait.kind == "sequence":
+        return study.gait.model_dump(mode="json")
     return {"kind": study.gait.kind, "motor_torque": study.gait.motor_torque,
             "tick": study.gait.tick}
 
@@ -582,13 +590,13 @@ class _Run:
         st = s.step
         if isinstance(st, GridStep):
             folder = shard_dir(self.plan.out, s.name, self.plan.key)
-            blocks = ((b.lo, read_shard(folder, b)) for b in s.blocks)
+            variables = drivers.grid_variables(self.spec)
+            blocks = ((b.lo, read_shard(folder, b, tuple(variables))) for b in s.blocks)
             attrs["block_size"] = st.points_per_block
-            if st.points is not None:
-                info = D.write_grid(s.path, attrs, points=grid_points(st), blocks=blocks)
-            else:
-                info = D.write_grid(s.path, attrs, axes=(st.dtheta1.values(),
-                                                         st.dtheta2.values()), blocks=blocks)
+            where = ({"points": grid_points(st)} if st.points is not None else
+                     {"axes": (st.dtheta1.values(), st.dtheta2.values())})
+            info = D.write_grid(s.path, attrs, blocks=blocks, variables=variables,
+                                n_segments=drivers.n_cycle_segments(self.spec), **where)
             clean_parts(self.plan.out, s.name, None)
             msg = f"{info['n_points']} points, skipped_fraction {info['skipped_fraction']:.3f}"
         elif isinstance(st, RefineStep):

@@ -146,6 +146,95 @@ class Gait(_Model):
         return v
 
 
+GuardName = Literal["time", "free_end_height", "energy_restored", "coord", "energy",
+                    "free_end_y", "none"]
+CoordName = Literal["x", "y", "theta1", "theta2", "dx", "dy", "dtheta1", "dtheta2"]
+Direction = Literal["rising", "falling", "either"]
+
+#: the status a segment's horizon reports, by guard (the study's names where they fit)
+SEGMENT_FAIL = {"free_end_height": "no_switch", "energy_restored": "energy_not_restored"}
+
+
+class SegmentSpec(_Model):
+    """One segment of a phase-sequence gait (``monkeystudy.controllers.Segment``): entry
+    actions (magnets, motor torque, energy latch), then the guard that ends it."""
+
+    until: GuardName = Field(description="guard ending the segment: time (value [s] on the "
+                             "controller clock, which restarts at the section), "
+                             "free_end_height (free end value [m] above the attached end), "
+                             "energy_restored (energy back to the latched reference + value "
+                             "[J]), coord (coord crosses value), energy (total energy "
+                             "crosses value [J]), free_end_y (free end's world height "
+                             "crosses value [m]), none (only the horizon)")
+    value: float = Field(0.0, description="guard value, in the guard's units (s, m, J, rad, "
+                                          "rad s-1 or m s-1)")
+    coord: CoordName = Field("theta1", description="the coordinate of a coord guard (frame "
+                                                   "of the attached end)")
+    direction: Direction = Field("rising", description="crossing direction of the guard")
+    magnets: Literal["keep", "swap", "A", "B", "both", "none"] = Field(
+        "keep", description="entry action: keep, swap (attach the free end, release the "
+                            "other: a plastic impact), A, B (only that end on), both, none "
+                            "(release: free flight)")
+    torque: float = Field(0.0, description="motor torque from entry on [N m], on theta2 of "
+                                           "the frame after the entry action")
+    latch_energy: bool = Field(False, description="latch the total energy on entry as the "
+                                                  "reference of energy_restored guards")
+    ticked: bool = Field(True, description="act on the controller tick (when the gait has "
+                                           "one)")
+
+    def segment(self):
+        from ..controllers import Segment
+        from ..kernel.layout import STATUS_NAMES
+
+        fail = STATUS_NAMES.index(SEGMENT_FAIL.get(self.until, "horizon"))
+        return Segment(self.until, value=self.value, coord=self.coord,
+                       direction=self.direction, magnets=self.magnets, torque=self.torque,
+                       latch_energy=self.latch_energy, ticked=self.ticked, fail_status=fail)
+
+
+class SectionSpec(_Model):
+    """The Poincare section closing a sequence gait's cycle, and the start on it."""
+
+    theta1: float = Field(0.0, ge=-3.2, le=3.2, description="link 1 angle of the section "
+                          "[rad], in the frame of the end attached there (0: vertical)")
+    direction: Direction = Field("either", description="crossing direction that ends the "
+                                                       "cycle")
+    torque: float = Field(0.0, description="motor torque on the last leg, up to the section "
+                                           "[N m]")
+    theta2: float = Field(0.0, ge=-3.2, le=3.2, description="link 2 angle at the cycle start "
+                          "[rad] (grid and refine vary dtheta1, dtheta2; floquet frees it)")
+
+
+class SequenceGaitSpec(_Model):
+    """A gait written as a phase sequence (``monkeystudy.controllers.SequenceGait``): from the
+    section hanging from A, the segments in order, then the section ends the cycle. Gait
+    error: the section error, wrap(theta2_f - theta2)^2 + (dtheta1_f - dtheta1)^2 +
+    (dtheta2_f - dtheta2)^2."""
+
+    kind: Literal["sequence"] = Field(description="the gait: 'sequence' (a phase sequence)")
+    segments: list[SegmentSpec] = Field(min_length=1, max_length=64,
+                                        description="the cycle's segments, in order")
+    section: SectionSpec = Field(default_factory=SectionSpec)
+    tick: float = Field(0.0, ge=0, le=1.0, description="controller tick [s]; 0 = exact "
+                                                       "event timing")
+
+    @model_validator(mode="after")
+    def _closes(self) -> "SequenceGaitSpec":
+        self.gait()  # a cycle that reaches its section in flight or pinned is refused here
+        return self
+
+    def gait(self):
+        from ..controllers import SequenceGait
+
+        sec = self.section
+        return SequenceGait([s.segment() for s in self.segments], section_theta1=sec.theta1,
+                            section_direction=sec.direction, section_torque=sec.torque,
+                            theta2=sec.theta2, tick=self.tick)
+
+
+GaitSpec = Annotated[Union[Gait, SequenceGaitSpec], Field(discriminator="kind")]
+
+
 class IntegratorSettings(_Model):
     """Integrator settings (scipy ``solve_ivp`` semantics for rtol/atol)."""
 
@@ -359,8 +448,10 @@ class FloquetStep(_Model):
     kind: Literal["floquet"]
     from_: Optional[Name] = Field(None, alias="from",
                                   description="an earlier shoot step (needed by open_loop)")
-    controllers: list[Literal["open_loop", "search"]] = Field(
-        ["open_loop", "search"], min_length=1, description="return maps to analyse")
+    controllers: list[Literal["open_loop", "search", "sequence"]] = Field(
+        ["open_loop", "search"], min_length=1,
+        description="return maps to analyse: open_loop, search (horizontal gaits); sequence "
+                    "(a sequence gait's cycle: its only one, and its default)")
     search_start: SectionPoint = Field(SEARCH_START, description="start of the Newton "
                                        "polish of the search controller's fixed point "
                                        "(theta2 [rad], dtheta1, dtheta2 [rad s-1])")
@@ -379,6 +470,13 @@ class FloquetStep(_Model):
         if "open_loop" in self.controllers and self.from_ is None:
             raise ValueError("the open_loop controller needs from: <shoot step>")
         return self
+
+    def controllers_for(self, gait_kind: str) -> list[str]:
+        """The controllers analysed for a study's gait: a sequence gait's default is its own
+        cycle."""
+        if gait_kind == "sequence" and "controllers" not in self.model_fields_set:
+            return ["sequence"]
+        return list(self.controllers)
 
 
 class TickSweepStep(_Model):
@@ -653,7 +751,7 @@ class Study(_Model):
     name: Name = Field(description="study name (output folder outputs/<name>)")
     description: str = Field("", description="free text")
     robot: RobotSpec = Field(description="a preset name or explicit parameters")
-    gait: Gait
+    gait: GaitSpec
     integrator: IntegratorSettings = Field(default_factory=IntegratorSettings)
     steps: list[Step] = Field(min_length=1, description="steps, run in dependency order")
 
@@ -688,10 +786,39 @@ def cross_check(study: Study) -> list[tuple[tuple, str]]:
                 if s.start_index >= k:
                     problems.append((("steps", i, "start_index"),
                                      f"must be < {k} (the starts of {ref.name!r})"))
-        if isinstance(s, ANALYSIS_STEPS):
+        if study.gait.kind == "sequence":
+            problems.extend(_check_sequence(study, i, s, seen))
+        elif isinstance(s, ANALYSIS_STEPS):
             problems.extend(_check_analysis(study, i, s, seen))
         seen.setdefault(s.name, s)
     return problems
+
+
+#: steps a sequence gait supports (the others replay or benchmark the horizontal gait)
+SEQUENCE_STEPS = ("grid", "refine", "floquet")
+
+
+def _check_sequence(study: Study, i: int, s, seen: dict) -> list[tuple[tuple, str]]:
+    """What a study with a sequence gait can run: grid, refine, and floquet from a refine."""
+    if s.kind not in SEQUENCE_STEPS:
+        return [(("steps", i, "kind"), f"a {s.kind} step needs a horizontal gait (a sequence "
+                 f"gait supports {', '.join(SEQUENCE_STEPS)})")]
+    if not isinstance(s, FloquetStep):
+        return []
+    out: list[tuple[tuple, str]] = []
+    if s.controllers_for("sequence") != ["sequence"]:
+        out.append((("steps", i, "controllers"), "a sequence gait has one return map: "
+                    "controllers: [sequence] (the default)"))
+    if s.from_ is None or not isinstance(seen.get(s.from_), RefineStep):
+        out.append((("steps", i, "from"),
+                    "a sequence gait's floquet step needs from: <refine step>"
+                    if s.from_ is None else _no_earlier(s.from_, "refine", seen.get(s.from_))))
+    if study.gait.gait().end_attached() == "B":
+        problem = mirror_problem(study)
+        if problem:
+            out.append((("steps", i, "kind"), f"a floquet step of a cycle ending on end B "
+                        f"{problem}"))
+    return out
 
 
 def _check_analysis(study: Study, i: int, s, seen: dict) -> list[tuple[tuple, str]]:
@@ -717,6 +844,9 @@ def _check_analysis(study: Study, i: int, s, seen: dict) -> list[tuple[tuple, st
             out.append((("steps", i, "floquet"),
                         f"{ref.name!r} analyses shoot step {ref.from_!r}, this step "
                         f"{s.from_!r}: they must be the same"))
+    if isinstance(s, FloquetStep) and "sequence" in s.controllers:
+        out.append((("steps", i, "controllers"), "the sequence controller needs a sequence "
+                    "gait (gait: {kind: sequence, ...})"))
     if isinstance(s, (FloquetStep, ContinuationStep)):
         problem = mirror_problem(study)
         if problem:
@@ -759,7 +889,8 @@ __all__ = [
     "ANALYSIS_STEPS", "Axis", "BasinOffsets", "BasinStep", "BestOfGrid", "ContinuationStep",
     "EnergyDriftScenario", "ExtremeScenario", "FMINSEARCH_TOL", "FloquetStep", "Gait",
     "GridStep", "IntegratorSettings", "LinkParams", "LongRunScenario", "PointAxes",
-    "RefineStep", "RobotParams", "SCHEMA_VERSION", "STEP_KINDS", "ShootStep", "StabilityStep",
+    "RefineStep", "RobotParams", "SCHEMA_VERSION", "SectionSpec", "SegmentSpec",
+    "SequenceGaitSpec", "STEP_KINDS", "ShootStep", "StabilityStep",
     "StressStep", "Study", "TickSweepStep", "WorkPrecisionStep", "cross_check", "json_schema",
     "mirror_problem",
 ]
