@@ -8,6 +8,7 @@ surface.
 """
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -32,6 +33,9 @@ NO_GAIT = (
      "no gait: B never reached A's height"),
     ("other", None, "#33b5a5", "xx", "no gait: {names}"),
 )
+#: the same categories' legend text for a sequence gait (its own guards and section)
+SEQUENCE_LABELS = {"no_switch": "no cycle: the free end never reached its catch height",
+                   "other": "no cycle: {names}"}
 MISSING = -1   # a cell of the plotting grid without a dataset point
 
 
@@ -43,6 +47,7 @@ class GridData:
     dtheta2: np.ndarray
     error: np.ndarray    # NaN where there is no gait
     status: np.ndarray   # int, MISSING where the dataset has no point
+    sequence: bool = False  # a sequence gait's cycle (section error), not the horizontal gait
 
     @property
     def ok(self) -> np.ndarray:
@@ -53,6 +58,8 @@ class GridData:
         failed = (self.status != L.ST_OK) & (self.status != MISSING)
         out, claimed = [], np.zeros_like(failed)
         for key, codes, colour, hatch, label in NO_GAIT:
+            if self.sequence:
+                label = SEQUENCE_LABELS.get(key, label)
             if codes is None:
                 mask = failed & ~claimed
                 names = sorted({status_name(c) for c in np.unique(self.status[mask])})
@@ -82,7 +89,15 @@ def grid_arrays(ds) -> GridData:
         err = np.asarray(ds["error"].transpose("dtheta1", "dtheta2").values, float)
         st = np.asarray(ds["status"].transpose("dtheta1", "dtheta2").values, int)
     err = np.where(st == L.ST_OK, err, np.nan)    # a no-gait point never shows a number
-    return GridData(d1, d2, err, st)
+    return GridData(d1, d2, err, st, is_sequence(ds))
+
+
+def is_sequence(ds) -> bool:
+    """Whether a dataset holds a sequence gait's results (its ``gait`` attribute)."""
+    try:
+        return json.loads(ds.attrs.get("gait", "{}")).get("kind") == "sequence"
+    except (TypeError, ValueError):
+        return False
 
 
 def cell_edges(v: np.ndarray) -> np.ndarray:
@@ -229,7 +244,8 @@ def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str
                              gid="error", rasterized=True, zorder=1)
         cb = fig.colorbar(mesh, ax=[ax, axp] if profile else ax, extend="max", pad=0.02,
                           shrink=0.9)
-        cb.set_label(f"gait error e  [1]  (values above {vmax:g} shown as {vmax:g})")
+        cb.set_label(f"{'section' if g.sequence else 'gait'} error e  [1]  (values above "
+                     f"{vmax:g} shown as {vmax:g})")
         handles = []
         for key, mask, colour, hatch, label in g.category_masks():
             ax.add_patch(_hatch_patch(mask_path(mask, e1, e2), colour, hatch, f"nogait_{key}"))
@@ -281,7 +297,8 @@ def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str
             _row_minimum_panel(axp, g)
         if handles:
             fig.legend(handles=handles, loc="outside lower center", ncols=1, frameon=False)
-        fig.suptitle(title or _grid_title(g, "Horizontal-gait error e"), x=0.02,
+        what = "Sequence-gait section error e" if g.sequence else "Horizontal-gait error e"
+        fig.suptitle(title or _grid_title(g, what), x=0.02,
                      ha="left", fontweight="bold")
         ax.set_title(run_label(grid), fontsize=8.5, fontweight="normal", loc="left")
     return fig
@@ -369,7 +386,9 @@ def plot_error_surface(grid, *, max_cells: int = 150, cmap: str = "magma",
         ax.view_init(elev=elev, azim=azim)
         if handles:
             fig.legend(handles=handles, loc="outside lower center", ncols=1, frameon=False)
-        fig.suptitle(title or _grid_title(g, "Square root of the gait error"), x=0.02,
+        fig.suptitle(title or _grid_title(g, "Square root of the "
+                                                + ("section" if g.sequence else "gait")
+                                                + " error"), x=0.02,
                      ha="left", fontweight="bold")
         ax.set_title(run_label(grid), fontsize=8.5, fontweight="normal", loc="left")
     return fig
@@ -406,7 +425,8 @@ def plot_refine_convergence(refine):
             lines.append(m)
         ax.set_yscale("log")
         ax.set_xlabel("Nelder–Mead iteration")
-        ax.set_ylabel("gait error e of the best vertex  [1]")
+        ax.set_ylabel(("section" if is_sequence(refine) else "gait")
+                      + " error e of the best vertex  [1]")
         ax.legend(loc="upper right", fontsize=8)
         conv = refine["converged"] if "converged" in refine else refine.attrs.get("converged")
         conv = np.atleast_1d(np.asarray(getattr(conv, "values", conv) if conv is not None
