@@ -1,17 +1,31 @@
-"""Variational equations of the swing phase and Jacobians of the resets (compiled).
+"""Variational equations and Jacobians of the resets and guards (compiled).
 
 Derivatives are taken by complex step, ``f'(x) = Im f(x + i h) / h`` with ``h = 1e-30``: no
 subtraction, so they are exact to round-off, and they differentiate the very functions the
 simulator integrates (no second copy of the equations to drift out of step).
 
-Swing states are packed ``y = [theta1, theta2, dtheta1, dtheta2]``; a variational state is
-``Y = [y (4), Phi (16, row-major)]`` with ``dPhi/dt = A(y) Phi``, ``A = df/dy``.
+Two families:
+
+* the swing phase on packed states ``y = [theta1, theta2, dtheta1, dtheta2]``, a variational
+  state ``Y = [y (4), Phi (16, row-major)]`` with ``dPhi/dt = A(y) Phi``, ``A = df/dy``, and
+  the magnet swap (used by :func:`monkeystudy.analysis.variational_jacobian`);
+* any phase on the full 8-state ``s = [x, y, theta1, theta2, dx, dy, dtheta1, dtheta2]``
+  (swinging, ``(x, y)`` and ``(dx, dy)`` stay put), so that transition matrices keep one
+  shape through swings, flights and stops and every reset is an 8 -> 8 map: the field, its
+  Jacobian, the segment guards and the entry magnet actions (used by
+  :mod:`monkeystudy.saltation` for any phase-sequence gait).
 """
 import numpy as np
 from numba import njit
 
 from .dynamics import (
-    attach_xy_end, flip_state, kinetic_energy, potential_energy, rhs_swing, swing_accel,
+    attach_xy_end, flight_accel, flip_state, kinetic_energy, potential_energy, rhs_swing,
+    swing_accel, total_energy8,
+)
+from .hybrid import apply_magnets
+from .layout import (
+    G_COORD, G_ENERGY, G_ENERGY_RESTORED, G_FREE_END_HEIGHT, G_FREE_END_Y, P_L1, P_L2,
+    PHASE_FLIGHT, PHASE_SWING,
 )
 
 #: the swing vector field, under the name the variational code reads best with
@@ -97,3 +111,156 @@ def swing_energy_gradient(p, y_end, y, g):
         e = kinetic_energy(p, z[0], z[1], 0.0, 0.0, z[2], z[3]) + \
             potential_energy(p, y_end, z[0], z[1])
         g[j] = e.imag / CSTEP
+
+
+# ----------------------------------------------------------------------------------------------
+# any phase on the full 8-state
+# ----------------------------------------------------------------------------------------------
+@njit(cache=True)
+def field8(phase, p, tau, s, f):
+    """Vector field of either phase on the full 8-state ``[x, y, th1, th2, dx, dy, dth1,
+    dth2]`` (complex-capable).
+
+    Swinging, the (x, y) end is pinned: ``d(x, y)/dt = d(dx, dy)/dt = 0`` (and ``dx = dy = 0``
+    on every swing state the resets produce); the fixed phase does not move. ``fmode = 1``:
+    no DOF is stuck. Viscous friction is part of the field; Coulomb friction would enter with
+    a frozen slip sign and stick-slip events, which make a return map non-smooth, so callers
+    refuse it.
+    """
+    fm = np.ones(2)
+    for i in range(8):
+        f[i] = 0.0
+    if phase == PHASE_SWING:
+        a1, a2 = swing_accel(p, tau, fm, s[2], s[3], s[6], s[7])
+        f[2] = s[6]
+        f[3] = s[7]
+        f[6] = a1
+        f[7] = a2
+    elif phase == PHASE_FLIGHT:
+        ax, ay, a1, a2 = flight_accel(p, tau, fm, s[2], s[3], s[6], s[7])
+        f[0] = s[4]
+        f[1] = s[5]
+        f[2] = s[6]
+        f[3] = s[7]
+        f[4] = ax
+        f[5] = ay
+        f[6] = a1
+        f[7] = a2
+
+
+@njit(cache=True)
+def field8_jacobian(phase, p, tau, s, A):
+    """``A[i, j] = d f_i / d s_j`` of :func:`field8` (complex step, exact to round-off).
+
+    The accelerations depend only on (th1, th2, dth1, dth2) (translation invariance), so four
+    complex evaluations give every column.
+    """
+    A[:, :] = 0.0
+    if phase != PHASE_SWING and phase != PHASE_FLIGHT:
+        return
+    fm = np.ones(2)
+    z = np.empty(4, dtype=np.complex128)
+    cols = (2, 3, 6, 7)
+    for k in range(4):
+        z[0] = s[2]
+        z[1] = s[3]
+        z[2] = s[6]
+        z[3] = s[7]
+        z[k] += 1j * CSTEP
+        j = cols[k]
+        if phase == PHASE_SWING:
+            a1, a2 = swing_accel(p, tau, fm, z[0], z[1], z[2], z[3])
+            A[6, j] = a1.imag / CSTEP
+            A[7, j] = a2.imag / CSTEP
+        else:
+            ax, ay, a1, a2 = flight_accel(p, tau, fm, z[0], z[1], z[2], z[3])
+            A[4, j] = ax.imag / CSTEP
+            A[5, j] = ay.imag / CSTEP
+            A[6, j] = a1.imag / CSTEP
+            A[7, j] = a2.imag / CSTEP
+    A[2, 6] = 1.0
+    A[3, 7] = 1.0
+    if phase == PHASE_FLIGHT:
+        A[0, 4] = 1.0
+        A[1, 5] = 1.0
+
+
+@njit(cache=True)
+def variational_rhs8(phase, p, tau, Y, dY):
+    """Augmented field on ``Y = [s (8), Phi (8 x m, row-major)]``: ``ds = f(s)``,
+    ``dPhi = A(s) Phi``, for either phase."""
+    m = (Y.shape[0] - 8) // 8
+    A = np.empty((8, 8))
+    # A is sparse (velocity rows are unit entries, positions never enter): skip its zeros
+    field8(phase, p, tau, Y[:8], dY[:8])
+    field8_jacobian(phase, p, tau, Y[:8], A)
+    for i in range(8):
+        for j in range(m):
+            acc = 0.0
+            for k in range(8):
+                if A[i, k] != 0.0:
+                    acc += A[i, k] * Y[8 + m * k + j]
+            dY[8 + m * i + j] = acc
+
+
+@njit(cache=True)
+def guard8(kind, index, value, p, s, eref):
+    """A segment guard on the full 8-state, as :func:`.events.guard` computes it, but with
+    ``np.cos`` so that complex steps pass through (``G_TIME`` and ``G_NONE`` are not state
+    guards: 0, typed like ``s`` so that every branch returns the same type)."""
+    if kind == G_FREE_END_HEIGHT:
+        return -p[P_L1] * np.cos(s[2]) - p[P_L2] * np.cos(s[2] + s[3]) - value
+    if kind == G_ENERGY_RESTORED:
+        return total_energy8(p, s) - eref - value
+    if kind == G_ENERGY:
+        return total_energy8(p, s) - value
+    if kind == G_FREE_END_Y:
+        return s[1] - p[P_L1] * np.cos(s[2]) - p[P_L2] * np.cos(s[2] + s[3]) - value
+    if kind == G_COORD:
+        return s[index] - value
+    return 0.0 * s[0]
+
+
+@njit(cache=True)
+def guard8_gradient(kind, index, value, p, s, eref, grad):
+    """Gradient of :func:`guard8` w.r.t. the 8-state (complex step); ``eref`` held fixed."""
+    z = np.empty(8, dtype=np.complex128)
+    for j in range(8):
+        for i in range(8):
+            z[i] = s[i]
+        z[j] += 1j * CSTEP
+        grad[j] = guard8(kind, index, value, p, z, eref).imag / CSTEP
+
+
+@njit(cache=True)
+def energy8_gradient(p, s, grad):
+    """Gradient of the total energy (:func:`.dynamics.total_energy8`) w.r.t. the 8-state."""
+    z = np.empty(8, dtype=np.complex128)
+    for j in range(8):
+        for i in range(8):
+            z[i] = s[i]
+        z[j] += 1j * CSTEP
+        grad[j] = total_energy8(p, z).imag / CSTEP
+
+
+@njit(cache=True)
+def entry_reset(par, s, phase, flipped, mag_a, mag_b, swap, out, DR):
+    """Entry magnet actions as a map on 8-states and its Jacobian (complex step).
+
+    Runs :func:`.hybrid.apply_magnets` itself (flip, plastic impact, stops) on a copy:
+    ``out`` the state after, ``DR[i, j] = d out_i / d s_j``. Returns the new
+    ``(phase, flipped)``. A flip wraps theta1 by a shift taken from the real part
+    (:func:`.dynamics.wrap_angle`), so its derivative is 1 on either branch.
+    """
+    for i in range(8):
+        out[i] = s[i]
+    ph, fl = apply_magnets(par, out, phase, flipped, mag_a, mag_b, swap)
+    z = np.empty(8, dtype=np.complex128)
+    for j in range(8):
+        for i in range(8):
+            z[i] = s[i]
+        z[j] += 1j * CSTEP
+        apply_magnets(par, z, phase, flipped, mag_a, mag_b, swap)
+        for i in range(8):
+            DR[i, j] = z[i].imag / CSTEP
+    return ph, fl

@@ -1,0 +1,273 @@
+"""Variational-equation Jacobian of any phase-sequence gait's return map (saltation matrices).
+
+:func:`monkeystudy.analysis.variational_jacobian` is written out by hand for the study's two
+controllers (swing only). This module does the same for any
+:class:`~monkeystudy.controllers.SequenceGait`: swings, flights, catches with either end,
+energy-latched and clock-timed guards, viscous friction.
+
+Method (the standard one for hybrid systems):
+
+1. One kernel run (:func:`~monkeystudy.simulate.run_controller`) gives the event sequence:
+   which segments ran, and when. The kernel's times only seed the event location; the state
+   and its transition matrix are integrated afresh here, leg by leg (scipy ``solve_ivp``,
+   DOP853), on the full 8-state ``[x, y, th1, th2, dx, dy, dth1, dth2]`` in *both* phases
+   (swinging, ``(x, y)`` and ``(dx, dy)`` do not move), so every transition matrix is 8 x n
+   and every reset is an 8 -> 8 map. Field Jacobians ``A = df/dx`` are complex steps of the
+   kernel's own accelerations (:mod:`monkeystudy.kernel.variational`).
+2. At an event at time ``t_e`` with entry actions ``R`` (the next segment's magnets: flip,
+   plastic impact, stop), the fixed-time transition matrix jumps by
+
+       Phi+ = DR Phi- + (DR f- - f+) dt_e,
+
+   ``dt_e = d t_e / d x0`` a row vector: for a state guard ``g(x) = ref``,
+   ``dt_e = -(grad g . Phi- - d ref / d x0) / (grad g . f-)`` (``ref`` is the latched energy
+   for ``energy_restored``, itself a function of the start); for a time guard, the derivative
+   of the controller clock's origin (0, or an earlier exit time after ``clock="reset"``); for a
+   segment that ends at once (a level guard already met on entry, a time already past), the
+   previous event's ``dt_e``, so that its two resets compose exactly.
+3. The section (``theta1 = c``, free time) projects: ``Phi + f- dt_e``. The start perturbs
+   ``(theta2, dtheta1, dtheta2)`` (columns 3, 6, 7 of the 8-state); the answer is rows 3, 6, 7.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .analysis import TIGHT, check_cycle_frame, cycle_section_state
+from .controllers import Integrator, SequenceGait
+from .kernel import layout as L
+from .kernel.dynamics import total_energy8
+from .kernel.variational import (
+    energy8_gradient, entry_reset, field8, field8_jacobian, guard8, guard8_gradient,
+    variational_rhs8,
+)
+from .simulate import RobotLike, Status, as_robot, run_controller
+
+#: rows/columns of the section coordinates ``z = (theta2, dtheta1, dtheta2)`` in the 8-state
+SECTION_INDEX = (L.TH2, L.DTH1, L.DTH2)
+#: largest relative difference between the re-integrated states and the kernel's log: beyond
+#: it the two did not follow the same event sequence
+_STATE_TOL = 1e-7
+#: a segment's condition within this relative distance of its threshold on entry counts as
+#: on it (the kernel's own band is 1e-12; the re-integration differs from it by ~1e-12)
+_THRESHOLD_MARGIN = 1e-9
+
+
+def _field(phase: int, p: np.ndarray, tau: float, s: np.ndarray) -> np.ndarray:
+    f = np.empty(8)
+    field8(phase, p, tau, s, f)
+    return f
+
+
+def _flow(phase: int, p: np.ndarray, tau: float, s: np.ndarray, Phi: np.ndarray, t0: float,
+          t1: float, rtol: float) -> tuple[np.ndarray, np.ndarray]:
+    """State and transition matrix carried from ``t0`` to ``t1`` [s] in one phase."""
+    if t1 <= t0 or phase == L.PHASE_FIXED:
+        return s.copy(), Phi.copy()
+    from scipy.integrate import solve_ivp
+
+    m = Phi.shape[1]
+    Y0 = np.concatenate([s, Phi.ravel()])
+    dY = np.empty_like(Y0)
+
+    def fun(t, Y):
+        variational_rhs8(phase, p, tau, Y, dY)
+        return dY.copy()
+
+    # atol two decades below rtol: the transition matrix has entries of order 1 that pass
+    # through zero, and the angles are O(1) rad
+    sol = solve_ivp(fun, (t0, t1), Y0, method="DOP853", rtol=rtol, atol=rtol * 1e-2)
+    if not sol.success:
+        raise RuntimeError(f"variational integration failed: {sol.message}")
+    Y = sol.y[:, -1]
+    return Y[:8].copy(), Y[8:].reshape(8, m).copy()
+
+
+def _check_state(mine: np.ndarray, kernel: np.ndarray, what: str) -> np.ndarray:
+    """Compare the re-integrated state with the kernel's log (same event sequence?); returns
+    ``mine`` with theta1 on the kernel's branch (a flip wraps theta1 to [-pi, pi), and at
+    +-pi round-off may pick either side)."""
+    mine = mine.copy()
+    turns = np.round((kernel[L.TH1] - mine[L.TH1]) / (2 * np.pi))
+    mine[L.TH1] += 2 * np.pi * turns
+    err = np.max(np.abs(mine - kernel))
+    if not err <= _STATE_TOL * (1.0 + np.max(np.abs(kernel))):
+        raise RuntimeError(f"re-integrated state departs from the kernel's at {what} "
+                           f"(max difference {err:.3g}): event sequences differ")
+    return mine
+
+
+def _check_zero_length(kind, index, value, p, s, eref, t, dt, clock0, dclock, seg):
+    """A segment that ends on entry is smooth in the start only if it ends on entry for every
+    nearby start: its condition must hold with a margin (or, for a time exactly reached,
+    move with the entry). On its threshold the map has a kink: a start on one side runs the
+    segment for a time proportional to the distance (e.g. a collisionless swap, where the
+    robot is momentarily at rest, followed by a motor until the energy is restored)."""
+    if kind == L.G_ENERGY_RESTORED:
+        g = guard8(kind, index, value, p, s, eref)
+        if g > _THRESHOLD_MARGIN * (1.0 + abs(eref) + abs(value)):
+            return
+        raise ValueError(f"segment {seg}'s energy guard is met exactly on entry (E - E_ref - "
+                         f"value = {g:.3g} J): the return map has a kink at this start, no "
+                         "Jacobian")
+    if kind == L.G_TIME:
+        t_target = clock0 + value
+        tol = _THRESHOLD_MARGIN * (1.0 + abs(t))
+        if t_target < t - tol or (t_target <= t + tol and np.allclose(dclock, dt, rtol=0,
+                                                                      atol=1e-12)):
+            return
+        if t_target <= t + tol:
+            raise ValueError(f"segment {seg}'s time is reached exactly on entry, and the two "
+                             "move differently with the start: the return map has a kink here")
+    raise RuntimeError(f"segment {seg} ends on entry in the kernel but not here (guard kind "
+                       f"{kind})")
+
+
+def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "seed2009",
+                                  integrator: Integrator = TIGHT,
+                                  rtol: float = 1e-12) -> np.ndarray:
+    """Jacobian of :func:`~monkeystudy.analysis.cycle_return_map` by variational equations.
+
+    Parameters
+    ----------
+    gait : SequenceGait
+        The gait; its ``tick`` must be 0 (exact event timing: on a tick the map is piecewise
+        constant in the event times, not differentiable).
+    z : array_like, shape (3,)
+        Section state ``(theta2 [rad], dtheta1 [rad s-1], dtheta2 [rad s-1])`` on
+        ``theta1 = gait.section_theta1``.
+    robot : Robot or str
+        The robot. Coulomb friction is refused (the flow is not smooth where a joint sticks);
+        viscous friction is part of the vector field. A cycle that ends hanging from B needs
+        mirror-image links (as :func:`~monkeystudy.analysis.cycle_return_map`).
+    integrator : Integrator
+        Settings of the kernel run that finds the event sequence.
+    rtol : float
+        Relative tolerance of the variational integration (absolute: ``rtol / 100``).
+
+    Returns
+    -------
+    numpy.ndarray, shape (3, 3)
+        ``d z' / d z``, with ``z'`` the section state at the end of the cycle.
+
+    Raises
+    ------
+    ValueError
+        ``gait.tick > 0``, Coulomb friction, a cycle ending on B with non-mirror links, or a
+        start on a kink of the map: a segment whose condition is met exactly on entry (e.g.
+        a collisionless swap followed by a motor until the energy is restored).
+    RuntimeError
+        The cycle does not complete (status not OK), or the re-integration departs from the
+        kernel's event sequence.
+    """
+    robot = as_robot(robot)
+    if gait.tick != 0.0:
+        raise ValueError(f"the return map is differentiable only with exact event timing "
+                         f"(tick 0), got tick={gait.tick!r}")
+    par = robot.params()
+    if par[0, L.P_C_PIVOT] > 0.0 or par[0, L.P_C_JOINT] > 0.0:
+        raise ValueError("Coulomb friction makes the return map non-smooth (stick-slip "
+                         "events): no variational Jacobian")
+    check_cycle_frame(gait, robot)
+    z = np.asarray(z, dtype=float).reshape(3)
+    prog, _ = gait.program()
+    hyb0 = cycle_section_state(gait, z)
+    res = run_controller(gait.controller(), hyb0, robot=robot, integrator=integrator,
+                         cycles=1, log_capacity=64)
+    if res.status != Status.OK:
+        raise RuntimeError(f"no cycle from z (status {res.status.name})")
+    log = res.log[res.log[:, L.L_KIND] == L.LOG_SEGMENT]
+
+    cols = list(SECTION_INDEX)
+    n = len(cols)
+    s = hyb0[:8].copy()
+    phase, flipped = L.PHASE_SWING, 0
+    Phi = np.eye(8)[:, cols]          # d s / d z at fixed time
+    t, dt = 0.0, np.zeros(n)          # time of the latest event and d t / d z
+    clock0, dclock = 0.0, np.zeros(n)
+    eref, deref = np.nan, np.zeros(n)
+    out, DR = np.empty(8), np.empty((8, 8))
+    grad = np.empty(8)
+    A = np.empty((8, 8))
+
+    def enter(seg, f_minus, dt_e):
+        """Entry actions of ``seg`` at an event: reset the state and jump Phi."""
+        nonlocal s, phase, flipped, Phi, eref, deref
+        ph, fl = entry_reset(par, s, phase, flipped, prog[seg, L.S_MAG_A],
+                             prog[seg, L.S_MAG_B], prog[seg, L.S_SWAP] > 0, out, DR)
+        phase, flipped = int(ph), int(fl)
+        s = out.copy()
+        f_plus = _field(phase, par[flipped], prog[seg, L.S_TORQUE], s)
+        Phi = DR @ Phi + np.outer(DR @ f_minus - f_plus, dt_e)
+        if prog[seg, L.S_SET_EREF] > 0:
+            # the latched energy moves with the start through the state *and* the entry time
+            eref = total_energy8(par[flipped], s)
+            energy8_gradient(par[flipped], s, grad)
+            deref = grad @ (Phi + np.outer(f_plus, dt_e))
+
+    seg = int(hyb0[L.H_SEG])
+    enter(seg, np.zeros(8), dt)       # the start is at t = 0 whatever z: dt = 0
+    t_kernel_prev = 0.0
+    for k, row in enumerate(log):
+        if int(row[L.L_ID]) != seg:
+            raise RuntimeError(f"kernel log row {k} exits segment {int(row[L.L_ID])}, "
+                               f"expected {seg}")
+        p = par[flipped]
+        tau = prog[seg, L.S_TORQUE]
+        kind = int(prog[seg, L.S_GUARD])
+        index = int(prog[seg, L.S_GINDEX])
+        value = prog[seg, L.S_GVALUE]
+        t_kernel = row[L.L_T]
+        if t_kernel == t_kernel_prev:
+            # ended at once (energy already restored on entry, or a time already past): the
+            # exit moves with the entry, and the two resets compose exactly
+            _check_zero_length(kind, index, value, p, s, eref, t, dt, clock0, dclock, seg)
+            t_e, dt_e = t, dt
+        elif kind == L.G_TIME:
+            t_e, dt_e = clock0 + value, dclock.copy()
+            s, Phi = _flow(phase, p, tau, s, Phi, t, t_e, rtol)
+        elif kind in (L.G_FREE_END_HEIGHT, L.G_ENERGY_RESTORED, L.G_COORD, L.G_ENERGY,
+                      L.G_FREE_END_Y):
+            s, Phi = _flow(phase, p, tau, s, Phi, t, t_kernel, rtol)
+            t_e = t_kernel
+            # the crossing on this trajectory: Newton from the kernel's time (they differ by
+            # round-off and the integrators' errors, ~1e-13 s); first-order Taylor steps are
+            # exact to O(dt^2) ~ 1e-26
+            for _ in range(3):
+                g = guard8(kind, index, value, p, s, eref)
+                guard8_gradient(kind, index, value, p, s, eref, grad)
+                f = _field(phase, p, tau, s)
+                delta = -g / (grad @ f)
+                field8_jacobian(phase, p, tau, s, A)
+                s = s + f * delta
+                Phi = Phi + (A @ Phi) * delta
+                t_e += delta
+            guard8_gradient(kind, index, value, p, s, eref, grad)
+            f = _field(phase, p, tau, s)
+            dref = deref if kind == L.G_ENERGY_RESTORED else 0.0
+            dt_e = -(grad @ Phi - dref) / (grad @ f)
+        else:
+            raise ValueError(f"segment {seg} has no guard that can end it (kind {kind})")
+        if not abs(t_e - t_kernel) <= 1e-8 * (1.0 + abs(t_kernel)):
+            raise RuntimeError(f"segment {seg} exits at {t_e!r} s here, {t_kernel!r} s in the "
+                               "kernel: event sequences differ")
+        f_minus = _field(phase, p, tau, s)
+        t_kernel_prev = t_kernel
+        t, dt = t_e, dt_e
+        clock_mode = int(prog[seg, L.S_CLOCK])
+        if clock_mode == 1:
+            clock0, dclock = t_e, dt_e.copy()
+        elif clock_mode == 2:
+            clock0 += value
+        if k == len(log) - 1:
+            # the section: the crossing time is free, so the state moves along the flow
+            s = _check_state(s, res.state[:8], "the section")
+            M = Phi + np.outer(f_minus, dt_e)
+            return M[cols, :]
+        seg = int(prog[seg, L.S_NEXT])
+        enter(seg, f_minus, dt_e)
+        s = _check_state(s, row[L.L_STATE:L.L_STATE + 8], f"the exit of segment "
+                         f"{int(row[L.L_ID])}")
+        if phase != int(row[L.L_PHASE]) or flipped != int(row[L.L_FLIPPED]):
+            raise RuntimeError(f"phase/frame after segment {int(row[L.L_ID])} differ from "
+                               "the kernel's")
+    raise RuntimeError("the kernel log has no segment exits")

@@ -1,0 +1,362 @@
+"""Generic variational Jacobian of sequence-gait return maps (monkeystudy.saltation).
+
+Every case compares the variational Jacobian with fourth-order central differences of the
+return map itself (:func:`~monkeystudy.analysis.jacobian_fd`, step 1e-5), in the relative
+Frobenius norm ``|J - J_fd| / |J_fd|``; the differences are limited by the finite differences
+(``~1e-13 / 1e-5`` of round-off in the map), so they are asserted below 1e-8. The study's two
+controllers also compare with the hand-written :func:`~monkeystudy.analysis.variational_jacobian`.
+The measured values at the time of writing are noted beside each assertion.
+"""
+import time
+
+import numpy as np
+import pytest
+
+from monkeystudy import Status
+from monkeystudy.analysis import (
+    TIGHT, cycle_return_map, cycle_section_state, jacobian_fd, shoot_grazing,
+    variational_jacobian,
+)
+from monkeystudy.controllers import SequenceGait, Segment
+from monkeystudy.kernel import layout as L
+from monkeystudy.robot import Friction, Link, Robot
+from monkeystudy.saltation import sequence_variational_jacobian
+from monkeystudy.simulate import run_controller
+
+TORQUE = 0.6354
+#: near the state-based controller's attracting gait (tests/analysis/test_analysis.py)
+Z_SEARCH = np.array([0.02475681, -1.08686037, 16.0167845])
+SEARCH = SequenceGait([
+    Segment("free_end_height", direction="rising", latch_energy=True),
+    Segment("energy_restored", direction="rising", magnets="swap", torque=TORQUE),
+], section_theta1=0.0, section_direction="either")
+#: links that are not mirror images: the frame's parameter row changes at every flip
+ASYMMETRIC = Robot(Link(1.2, 0.6, 0.5, 0.02), Link(0.8, 0.55, 0.08, 0.015), name="asym")
+FD_RTOL = 1e-8
+
+
+def rel(a, b):
+    return float(np.linalg.norm(a - b) / np.linalg.norm(b))
+
+
+def fd(gait, z, robot="seed2009", step=1e-5):
+    return jacobian_fd(lambda q: cycle_return_map(q, gait, robot=robot), z, step)
+
+
+def kernel_log(gait, z, robot="seed2009"):
+    res = run_controller(gait.controller(), cycle_section_state(gait, z), robot=robot,
+                         integrator=TIGHT, cycles=1)
+    assert res.status == Status.OK
+    return res
+
+
+# ------------------------------------------------------------------------------------------
+# the compiled helpers against the simulator's own functions
+# ------------------------------------------------------------------------------------------
+def test_kernel_helpers_agree_with_the_simulator():
+    from monkeystudy.kernel.dynamics import rhs, total_energy8
+    from monkeystudy.kernel.events import guard, pack
+    from monkeystudy.kernel.hybrid import apply_magnets
+    from monkeystudy.kernel.variational import (
+        energy8_gradient, entry_reset, field8, field8_jacobian, guard8, guard8_gradient,
+    )
+
+    par = ASYMMETRIC.with_friction(Friction(viscous=0.02), Friction(viscous=0.01)).params()
+    rng = np.random.default_rng(1)
+    fm = np.ones(2)
+    for phase in (L.PHASE_SWING, L.PHASE_FLIGHT):
+        for _ in range(5):
+            s = rng.normal(size=8) * [1, 1, 1, 1, 2, 2, 5, 5]
+            if phase == L.PHASE_SWING:
+                s[L.DX] = s[L.DY] = 0.0
+            p, tau = par[rng.integers(2)], rng.normal()
+            y = np.empty(8)
+            n = pack(phase, s, y)
+            dy = np.empty(8)
+            rhs(phase, p, tau, fm, y[:n], dy[:n])
+            f = np.empty(8)
+            field8(phase, p, tau, s, f)
+            packed = np.empty(8)
+            pack(phase, f, packed)
+            np.testing.assert_array_equal(packed[:n], dy[:n])
+            # field Jacobian against central differences
+            A = np.empty((8, 8))
+            field8_jacobian(phase, p, tau, s, A)
+            Af = np.empty((8, 8))
+            for j in range(8):
+                e = np.zeros(8)
+                e[j] = 1e-6
+                fp, fmn = np.empty(8), np.empty(8)
+                field8(phase, p, tau, s + e, fp)
+                field8(phase, p, tau, s - e, fmn)
+                Af[:, j] = (fp - fmn) / 2e-6
+            assert np.abs(A - Af).max() <= 1e-6 * (1 + np.abs(A).max())
+            # guards as the simulator evaluates them, and their gradients
+            for kind, index in ((L.G_FREE_END_HEIGHT, 0), (L.G_ENERGY_RESTORED, 0),
+                                (L.G_ENERGY, 0), (L.G_FREE_END_Y, 0), (L.G_COORD, 2),
+                                (L.G_COORD, 7)):
+                g_sim = guard(kind, index, 0.3, phase, p, tau, fm, y, s[:2].copy(), -1.5)
+                assert guard8(kind, index, 0.3, p, s, -1.5) == pytest.approx(g_sim, abs=1e-14)
+                grad = np.empty(8)
+                guard8_gradient(kind, index, 0.3, p, s, -1.5, grad)
+                for j in range(8):
+                    e = np.zeros(8)
+                    e[j] = 1e-6
+                    gfd = (guard8(kind, index, 0.3, p, s + e, -1.5)
+                           - guard8(kind, index, 0.3, p, s - e, -1.5)) / 2e-6
+                    assert grad[j] == pytest.approx(gfd, rel=1e-7, abs=1e-7)
+            gE = np.empty(8)
+            energy8_gradient(p, s, gE)
+            e = np.zeros(8)
+            e[L.DTH2] = 1e-6
+            assert gE[L.DTH2] == pytest.approx(
+                (total_energy8(p, s + e) - total_energy8(p, s - e)) / 2e-6, rel=1e-7)
+    # entry actions: exactly the simulator's, from every phase
+    out, DR = np.empty(8), np.empty((8, 8))
+    for phase in (L.PHASE_SWING, L.PHASE_FLIGHT, L.PHASE_FIXED):
+        for flipped in (0, 1):
+            for mags in ((-1, -1, False), (-1, -1, True), (1, 0, False), (0, 1, False),
+                         (1, 1, False), (0, 0, False)):
+                s = rng.normal(size=8)
+                ref = s.copy()
+                ph_ref, fl_ref = apply_magnets(par, ref, phase, flipped, *mags)
+                ph, fl = entry_reset(par, s, phase, flipped, *mags, out, DR)
+                assert (ph, fl) == (ph_ref, fl_ref)
+                np.testing.assert_array_equal(out, ref)
+                for j in range(8):
+                    e = np.zeros(8)
+                    e[j] = 1e-7
+                    a, b = s + e, s - e
+                    apply_magnets(par, a, phase, flipped, *mags)
+                    apply_magnets(par, b, phase, flipped, *mags)
+                    np.testing.assert_allclose(DR[:, j], (a - b) / 2e-7, rtol=1e-6,
+                                               atol=1e-7)
+
+
+# ------------------------------------------------------------------------------------------
+# the study's controllers: the hand-written Jacobian and finite differences
+# ------------------------------------------------------------------------------------------
+def test_search_gait_matches_the_hand_written_jacobian_and_fd():
+    J = sequence_variational_jacobian(SEARCH, Z_SEARCH)
+    assert rel(J, variational_jacobian("search", Z_SEARCH)) < 1e-9   # measured 7.8e-13
+    assert rel(J, fd(SEARCH, Z_SEARCH)) < FD_RTOL                      # measured 1.3e-9
+    # the finite differences, not the variational Jacobian, limit the agreement: a larger
+    # step (less round-off in the difference) agrees better
+    assert rel(J, fd(SEARCH, Z_SEARCH, step=1e-4)) < 1e-9              # measured 1.0e-10
+
+
+def search_times(z):
+    t = kernel_log(SEARCH, z).segment_times
+    return t[0], t[1] - t[0]
+
+
+def test_open_loop_gait_matches_the_hand_written_jacobian_and_fd():
+    t_sw, t_mot = search_times(Z_SEARCH)
+    gait = SequenceGait([Segment("time", value=t_sw),
+                         Segment("time", value=t_sw + t_mot, magnets="swap", torque=TORQUE)])
+    J = sequence_variational_jacobian(gait, Z_SEARCH)
+    Jh = variational_jacobian("open_loop", Z_SEARCH, t_switch=t_sw, t_motor=t_mot,
+                              torque=TORQUE)
+    assert rel(J, Jh) < 1e-9                                           # measured 3.9e-13
+    assert rel(J, fd(gait, Z_SEARCH)) < FD_RTOL                        # measured 1.2e-10
+    # a time guard is not a state guard: the map differs from the search gait's
+    assert rel(J, sequence_variational_jacobian(SEARCH, Z_SEARCH)) > 0.1
+
+
+# ------------------------------------------------------------------------------------------
+# beyond the study: flight and catch, climbing, friction, asymmetric links, a fixed phase
+# ------------------------------------------------------------------------------------------
+#: release at theta1 = 0.6 rising, fly until end B reaches the world height of the first
+#: pivot, catch with B (flip + plastic impact), motor until the cycle-start energy is back
+FLIGHT = SequenceGait([
+    Segment("coord", coord="theta1", value=0.6, direction="rising", latch_energy=True),
+    Segment("free_end_y", value=0.0, direction="rising", magnets="none"),
+    Segment("energy_restored", magnets="B", torque=2.0),
+])
+
+
+def test_flight_gait_matches_fd():
+    z = np.array([0.0, 3.0, 8.0])
+    res = kernel_log(FLIGHT, z)
+    phases = res.log[:, L.L_PHASE]
+    assert L.PHASE_FLIGHT in phases and res.state[L.H_FLIPPED] == 1   # it flew, caught B
+    J = sequence_variational_jacobian(FLIGHT, z)
+    assert rel(J, fd(FLIGHT, z)) < FD_RTOL                             # measured 2.0e-10
+
+
+def test_climbing_gait_matches_fd():
+    robot = Robot.preset("seed2009")
+    dh = 0.1
+    m_g = (robot.link1.mass + robot.link2.mass) * robot.gravity
+    gait = SequenceGait([
+        Segment("free_end_height", value=dh, direction="rising", latch_energy=True),
+        Segment("energy_restored", value=m_g * dh, magnets="swap", torque=1.5),
+    ])
+    z = np.array([0.0, 5.5, 5.0])
+    res = kernel_log(gait, z)
+    assert res.state[L.Y] == pytest.approx(dh, abs=1e-9)               # it climbed
+    J = sequence_variational_jacobian(gait, z)
+    assert rel(J, fd(gait, z)) < FD_RTOL                               # measured 4.3e-11
+
+
+def test_energy_latched_at_a_state_event_with_the_motor_on():
+    """The reference energy is latched on entering a segment at a state-triggered time while
+    the motor works (dE/dt != 0 there): the reference moves with the start through the state
+    and through the latch time."""
+    gait = SequenceGait([
+        Segment("coord", coord="theta1", value=0.3, direction="either", torque=-0.5),
+        Segment("free_end_height", direction="rising", latch_energy=True, torque=-0.5),
+        Segment("energy_restored", magnets="swap", torque=TORQUE),
+    ])
+    z = np.array([0.0, -2.5, 19.0])
+    J = sequence_variational_jacobian(gait, z)
+    assert rel(J, fd(gait, z)) < FD_RTOL                               # measured 4.6e-10
+
+
+@pytest.mark.parametrize("pivot", [0.0, 0.02])
+def test_viscous_friction_is_in_the_vector_field(pivot):
+    robot = Robot.preset("seed2009").with_friction(Friction(viscous=pivot),
+                                                   Friction(viscous=0.01))
+    J = sequence_variational_jacobian(SEARCH, Z_SEARCH, robot=robot)
+    assert rel(J, fd(SEARCH, Z_SEARCH, robot)) < FD_RTOL               # measured 7.0e-10
+    # friction changes the map enough that leaving it out could not pass the test above
+    assert rel(J, sequence_variational_jacobian(SEARCH, Z_SEARCH)) > 0.1
+
+
+def test_asymmetric_links_two_swaps_clock_reset_section_off_vertical():
+    """Ends on A (no mirror symmetry needed), so the flipped parameter row is exercised;
+    the second swap resets the clock, and a time guard counts from that state event."""
+    gait = SequenceGait([
+        Segment("free_end_height", direction="rising", latch_energy=True),
+        Segment("energy_restored", magnets="swap", torque=TORQUE),
+        Segment("free_end_height", direction="rising", latch_energy=True),
+        Segment("energy_restored", magnets="swap", torque=TORQUE, clock="reset"),
+        Segment("time", value=0.05, torque=-TORQUE),
+    ], section_theta1=0.2, section_direction="rising")
+    z = np.array([0.1, 5.0, 8.0])
+    J = sequence_variational_jacobian(gait, z, robot=ASYMMETRIC)
+    assert rel(J, fd(gait, z, ASYMMETRIC)) < FD_RTOL                   # measured 6.0e-10
+
+
+def test_fixed_phase_and_falling_section():
+    """Swing, fly, hold with both magnets (a stop: velocities vanish), hang from B on a
+    timer with the motor, swap back to A, restore the energy; section theta1 = -0.3 falling."""
+    gait = SequenceGait([
+        Segment("coord", coord="theta1", value=0.5, direction="rising", latch_energy=True),
+        Segment("free_end_y", value=-0.3, direction="rising", magnets="none", clock="reset"),
+        Segment("time", value=0.1, magnets="both"),
+        Segment("time", value=0.3, magnets="B", torque=TORQUE),
+        Segment("free_end_height", direction="rising"),
+        Segment("energy_restored", magnets="swap", torque=TORQUE),
+    ], section_theta1=-0.3, section_direction="falling")
+    z = np.array([0.0, -5.0, 16.0])
+    res = kernel_log(gait, z, ASYMMETRIC)
+    assert L.PHASE_FIXED in res.log[:, L.L_PHASE]
+    J = sequence_variational_jacobian(gait, z, robot=ASYMMETRIC)
+    assert rel(J, fd(gait, z, ASYMMETRIC)) < FD_RTOL                   # measured 2.5e-10
+
+
+# ------------------------------------------------------------------------------------------
+# segments that end on entry
+# ------------------------------------------------------------------------------------------
+def test_zero_length_flight_composes_to_the_swap():
+    """Release both ends (a flight that ends at once: the energy guard, 1 kJ below the
+    reference, is met on entry), then catch with B: the same map as the swap."""
+    gait = SequenceGait([
+        Segment("free_end_height", direction="rising", latch_energy=True),
+        Segment("energy_restored", value=-1e3, magnets="none"),
+        Segment("energy_restored", magnets="B", torque=TORQUE),
+    ])
+    res = kernel_log(gait, Z_SEARCH)
+    assert res.log[0, L.L_T] == res.log[1, L.L_T]                      # zero length
+    np.testing.assert_array_equal(cycle_return_map(Z_SEARCH, gait)[0],
+                                  cycle_return_map(Z_SEARCH, SEARCH)[0])
+    J = sequence_variational_jacobian(gait, Z_SEARCH)
+    assert rel(J, sequence_variational_jacobian(SEARCH, Z_SEARCH)) < 1e-12   # 7e-15
+
+
+def test_time_already_past_composes():
+    gait = SequenceGait([
+        Segment("free_end_height", direction="rising", latch_energy=True),
+        Segment("time", value=0.0, magnets="swap", torque=TORQUE),    # clock 0: past at once
+        Segment("energy_restored", torque=TORQUE),
+    ])
+    J = sequence_variational_jacobian(gait, Z_SEARCH)
+    assert rel(J, sequence_variational_jacobian(SEARCH, Z_SEARCH)) < 1e-12
+
+
+def test_clock_reset_at_a_zero_length_exit_matches_fd():
+    """The clock restarts at the exit of a segment that ends on entry, at the (state-
+    triggered) swap: the motor's end then moves with the swap time."""
+    gait = SequenceGait([
+        Segment("free_end_height", direction="rising", latch_energy=True),
+        Segment("energy_restored", value=-1e3, magnets="swap", torque=TORQUE, clock="reset"),
+        Segment("time", value=0.2, torque=TORQUE),
+    ])
+    res = kernel_log(gait, Z_SEARCH)
+    assert res.log[0, L.L_T] == res.log[1, L.L_T]
+    J = sequence_variational_jacobian(gait, Z_SEARCH)
+    assert rel(J, fd(gait, Z_SEARCH)) < FD_RTOL                        # measured 2.6e-9
+
+
+@pytest.fixture(scope="module")
+def grazing():
+    return shoot_grazing((1.44, 10.31), 0.433)
+
+
+def test_collisionless_swap_on_a_timer(grazing):
+    """The grazing gait: swap at the time B reaches A's height at rest, zero motor time
+    (the motor segment's time is already reached on entry)."""
+    z = np.array([0.0, grazing.dtheta1, grazing.dtheta2])
+    gait = SequenceGait([Segment("time", value=grazing.t_switch),
+                         Segment("time", value=grazing.t_switch, magnets="swap")])
+    J = sequence_variational_jacobian(gait, z)
+    Jh = variational_jacobian("open_loop", z, t_switch=grazing.t_switch, t_motor=0.0,
+                              torque=0.0)
+    assert rel(J, Jh) < 1e-9                                           # measured 5.2e-13
+    assert rel(J, fd(gait, z)) < FD_RTOL                               # measured 1.9e-10
+
+
+def test_collisionless_swap_then_energy_level_guard_is_a_kink(grazing):
+    """After a collisionless swap the energy is restored *exactly*, so the motor segment ends
+    on entry; but the robot is at rest there, and any nearby start loses energy O(dz^2) at
+    the swap, which the motor (starting from zero power) restores in a time O(|dz|): the
+    map has a kink (one-sided slopes differ), and no Jacobian is returned."""
+    z = np.array([0.0, grazing.dtheta1, grazing.dtheta2])
+    gait = SequenceGait([Segment("time", value=grazing.t_switch, latch_energy=True),
+                         Segment("energy_restored", magnets="swap", torque=TORQUE)])
+    f0 = cycle_return_map(z, gait)[0]
+    e = np.array([1e-4, 0.0, 0.0])
+    up = (cycle_return_map(z + e, gait)[0] - f0) / 1e-4
+    down = (f0 - cycle_return_map(z - e, gait)[0]) / 1e-4
+    assert rel(up, down) > 0.5                                         # a kink indeed
+    with pytest.raises(ValueError, match="kink"):
+        sequence_variational_jacobian(gait, z)
+
+
+# ------------------------------------------------------------------------------------------
+# refusals, and speed
+# ------------------------------------------------------------------------------------------
+def test_refuses_ticks_coulomb_friction_and_failed_cycles():
+    ticked = SequenceGait(SEARCH.segments, tick=1e-3)
+    with pytest.raises(ValueError, match="tick"):
+        sequence_variational_jacobian(ticked, Z_SEARCH)
+    coulomb = Robot.preset("seed2009").with_friction(joint=Friction(coulomb=0.01))
+    with pytest.raises(ValueError, match="Coulomb"):
+        sequence_variational_jacobian(SEARCH, Z_SEARCH, robot=coulomb)
+    coulomb = Robot.preset("seed2009").with_friction(pivot=Friction(coulomb=0.01))
+    with pytest.raises(ValueError, match="Coulomb"):
+        sequence_variational_jacobian(SEARCH, Z_SEARCH, robot=coulomb)
+    with pytest.raises(ValueError, match="mirror"):
+        sequence_variational_jacobian(SEARCH, Z_SEARCH, robot=ASYMMETRIC)  # ends on B
+    with pytest.raises(RuntimeError, match="no cycle"):
+        sequence_variational_jacobian(SEARCH, [0.0, 0.1, 0.1])         # never swaps
+
+
+def test_speed():
+    sequence_variational_jacobian(FLIGHT, [0.0, 3.0, 8.0])             # compiled, warm
+    t0 = time.perf_counter()
+    for _ in range(5):
+        sequence_variational_jacobian(FLIGHT, [0.0, 3.0, 8.0])
+        sequence_variational_jacobian(SEARCH, Z_SEARCH)
+    assert (time.perf_counter() - t0) / 10 < 1.0                       # measured ~5 ms
