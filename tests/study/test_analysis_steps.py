@@ -160,7 +160,7 @@ BAD = [
     ("{name: x, kind: floquet, from: sh, controllers: [open_loop, open_loop]}", None,
      f"{EXTRA_LINE}: steps[8].controllers: controllers must be distinct"),
     ("{name: x, kind: floquet, from: sh, controllers: [closed_loop]}", None,
-     f"{EXTRA_LINE}: steps[8].controllers[0]: must be 'open_loop' or 'search', got "
+     f"{EXTRA_LINE}: steps[8].controllers[0]: must be 'open_loop', 'search' or 'sequence', got "
      "'closed_loop'"),
     ("{name: x, kind: floquet, from: sh, controllers: []}", None,
      f"{EXTRA_LINE}: steps[8].controllers: must not be empty"),

@@ -209,7 +209,8 @@ def _children(pid: int) -> list[int]:
 
 
 def _pool_workers(driver: int) -> list[int]:
-    """The local pool's worker processes (children of the driver's forkserver)."""
+    """The local pool's worker processes: children of the driver's forkserver, or (start
+    method fork) the driver's own children other than multiprocessing's resource tracker."""
     workers = []
     for child in _children(driver):
         try:
@@ -218,6 +219,8 @@ def _pool_workers(driver: int) -> list[int]:
             continue
         if b"forkserver" in cmd:
             workers += _children(child)
+        elif b"resource_tracker" not in cmd:
+            workers.append(child)
     return workers
 
 

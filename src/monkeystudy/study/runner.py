@@ -378,14 +378,31 @@ class Pool:
         self._closer()
 
 
+#: environment variable choosing the local pool's start method (fork, forkserver, spawn)
+START_METHOD_ENV = "MONKEYSTUDY_START_METHOD"
+
+
 def _mp_context():
+    """The local pool's start method: ``fork`` when this process is single-threaded (the
+    workers inherit the imported modules and loaded kernels: no start-up of their own), else
+    the ``forkserver`` (forking a multi-threaded process can copy a lock some other thread
+    holds, e.g. after an in-process Dask cluster), else ``spawn``; or ``$MONKEYSTUDY_START_
+    METHOD``."""
     import multiprocessing as mp
     methods = mp.get_all_start_methods()
-    if "forkserver" in methods:
-        ctx = mp.get_context("forkserver")
+    method = os.environ.get(START_METHOD_ENV)
+    if not method:
+        if "fork" in methods and threading.active_count() == 1:
+            method = "fork"
+        else:
+            method = "forkserver" if "forkserver" in methods else "spawn"
+    if method not in methods:
+        raise RunFailed(f"{START_METHOD_ENV}={method!r}: this platform offers "
+                        f"{', '.join(methods)}")
+    ctx = mp.get_context(method)
+    if method == "forkserver":
         ctx.set_forkserver_preload(["monkeystudy.study._preload"])
-        return ctx
-    return mp.get_context("spawn")
+    return ctx
 
 
 def default_workers() -> int:
@@ -396,9 +413,14 @@ def default_workers() -> int:
 
 
 @contextmanager
-def open_pool(workers: int | None = None, scheduler: str | None = None) -> Iterator[Pool]:
+def open_pool(workers: int | None = None, scheduler: str | None = None,
+              warm_up: Callable[[], None] | None = None) -> Iterator[Pool]:
     """A local process pool (``workers``, default all cores) or, with ``scheduler``
-    (``tcp://host:port``), the executor of a Dask distributed cluster."""
+    (``tcp://host:port``), the executor of a Dask distributed cluster.
+
+    ``warm_up`` loads the kernels in this process. With the forkserver (the default) it runs
+    while the workers start (they load their own from the preload); with ``fork`` it runs
+    first, and the forked workers inherit the loaded kernels."""
     if scheduler:
         try:
             from distributed import Client
@@ -416,13 +438,20 @@ def open_pool(workers: int | None = None, scheduler: str | None = None) -> Itera
         n = default_workers() if workers is None else int(workers)
         if n < 1:
             raise ValueError(f"workers must be >= 1, got {n}")
-        ex = ProcessPoolExecutor(max_workers=n, mp_context=_mp_context(),
+        ctx = _mp_context()
+        forked = ctx.get_start_method() == "fork"
+        if forked and warm_up is not None:
+            warm_up()
+            warm_up = None
+        ex = ProcessPoolExecutor(max_workers=n, mp_context=ctx,
                                  initializer=_worker_init, initargs=(os.getpid(),))
         # start the workers now: they load the kernels (forkserver preload) while the
         # driver does its own warm-up and planning, instead of after it
         for _ in range(n):
             ex.submit(os.getpid)
         pool = Pool(ex, n, f"{n} local process{'es' if n > 1 else ''}", lambda: None)
+    if warm_up is not None:
+        warm_up()
     ok = False
     try:
         yield pool
@@ -722,13 +751,15 @@ def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
     spec = study_spec(loaded.study)
     run = None
     try:
-        with open_pool(workers, scheduler) as pool:
+        def warm_up():
             reporter.log("loading the compiled kernels (the first run after a change "
                          "compiles them, ~20 s)")
             drivers.warm_up(spec, stability=any(
                 isinstance(s.step, (StabilityStep,) + ANALYSIS_STEPS) for s in todo))
             if any(isinstance(s.step, (FloquetStep, ContinuationStep)) for s in todo):
                 analysis_tasks.warm_up(spec)
+
+        with open_pool(workers, scheduler, warm_up) as pool:
             reporter.log(f"{loaded.study.name}: {len(todo)} step(s) to run on {pool.kind} "
                          f"-> {plan.out}")
             run = _Run(plan, pool, reporter, history)
