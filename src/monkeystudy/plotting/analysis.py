@@ -22,6 +22,7 @@ Artists carry ``gid`` s (listed in each docstring) so the tests can read back th
 """
 from __future__ import annotations
 
+import json
 import math
 import re
 from typing import Callable
@@ -309,6 +310,27 @@ def _classify(lam: np.ndarray, neutral_tol: float) -> list[str]:
 CLASS_COLOUR = {"unstable": VERMILLION, "stable": BLUE, "neutral": "0.45"}
 
 
+def _section_of(ds) -> float:
+    """The return map's section theta1 [rad]: a sequence gait's, else the vertical."""
+    try:
+        g = json.loads(ds.attrs.get("gait", "{}"))
+    except (TypeError, ValueError):
+        return 0.0
+    return float(g.get("section", {}).get("theta1", 0.0)) if g.get("kind") == "sequence" \
+        else 0.0
+
+
+def _cycle_of(ds) -> str:
+    """What one cycle of a sequence gait's fixed point does (advance, climb, duration)."""
+    if "x_advance" not in ds:
+        return ""
+    parts = [f"cycle: x advance {float(ds['x_advance'].values[0]):.4g} m",
+             f"climb {float(ds['y_advance'].values[0]):.3g} m"]
+    if "t_segment" in ds:
+        parts.append(f"period {float(np.asarray(ds['t_segment'].values)[0, -1]):.4g} s")
+    return ", ".join(parts) + "\n"
+
+
 def plot_floquet_multipliers(ds):
     """Floquet multipliers in the complex plane, one panel per controller.
 
@@ -330,10 +352,16 @@ def plot_floquet_multipliers(ds):
         fig = new_figure(figsize=(max(7.0, 4.4 * n + 0.6), 6.8))
         gait = _gait_of(ds)
         times = _times_of(ds)
-        sub = (r"Return map P on the section $\theta_1$ = 0, state ($\theta_2$, " + D1 + ", "
-               + D2 + "); a multiplier outside the unit circle makes the gait unstable\n"
-               + (f"open loop: {gait}" + (f", {times}" if times else "") + "\n" if gait else "")
-               + run_line(ds, tick=False))
+        section = _section_of(ds)
+        if "sequence" in ctrls:
+            what = (f"sequence gait, refined start {gait}\n" if gait else "") + \
+                _cycle_of(ds)
+        else:
+            what = (f"open loop: {gait}" + (f", {times}" if times else "") + "\n"
+                    if gait else "")
+        sub = (rf"Return map P on the section $\theta_1$ = {section:.4g} rad, state "
+               r"($\theta_2$, " + D1 + ", " + D2 + "); a multiplier outside the unit circle "
+               "makes the gait unstable\n" + what + run_line(ds, tick=False))
         body = _titles(fig, "Floquet multipliers of the gait's return map", sub)
         axes = np.atleast_1d(body.subplots(1, n, squeeze=False)[0])
         finite = np.abs(lam_all[np.isfinite(lam_all)])
@@ -351,8 +379,14 @@ def plot_floquet_multipliers(ds):
                            linewidths=1.2, zorder=4, gid=f"multipliers_fd_{c}")
             ax.scatter(lam.real, lam.imag, s=45, c=[CLASS_COLOUR[k] for k in cls],
                        edgecolors="black", linewidths=0.6, zorder=5, gid=f"multipliers_{c}")
+            placed: list[float] = []     # real parts of the labels above the axis so far
             for k, (v, kind) in enumerate(zip(lam, cls)):
                 below = v.imag < -1e-12
+                if not below and abs(v.imag) <= 1e-12:
+                    # neighbouring real multipliers: alternate above / below the axis
+                    below = any(abs(v.real - x) < 0.3 * R for x in placed)
+                    if not below:
+                        placed.append(v.real)
                 txt = f"|λ| = {abs(v):.4g}" + (" (neutral)" if kind == "neutral" else "")
                 ax.annotate(txt, (v.real, v.imag), xytext=(0, -16 if below else 11),
                             textcoords="offset points", ha="center", fontsize=8,
