@@ -317,7 +317,9 @@ def _fake_pool(exc):
     from contextlib import contextmanager
 
     @contextmanager
-    def fake(workers=None, scheduler=None):
+    def fake(workers=None, scheduler=None, warm_up=None):
+        if warm_up is not None:
+            warm_up()
         yield R.Pool(_FakeExecutor(exc), 2, "fake", lambda: None)
     return fake
 
