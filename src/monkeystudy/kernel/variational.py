@@ -19,8 +19,8 @@ import numpy as np
 from numba import njit
 
 from .dynamics import (
-    attach_xy_end, flight_accel, flip_state, kinetic_energy, potential_energy, rhs_swing,
-    swing_accel, total_energy8,
+    attach_xy_end, flight_accel, flip_state, kinetic_energy, potential_energy, rhs_flight,
+    rhs_swing, swing_accel, total_energy8,
 )
 from .hybrid import apply_magnets
 from .layout import (
@@ -137,15 +137,7 @@ def field8(phase, p, tau, s, f):
         f[6] = a1
         f[7] = a2
     elif phase == PHASE_FLIGHT:
-        ax, ay, a1, a2 = flight_accel(p, tau, fm, s[2], s[3], s[6], s[7])
-        f[0] = s[4]
-        f[1] = s[5]
-        f[2] = s[6]
-        f[3] = s[7]
-        f[4] = ax
-        f[5] = ay
-        f[6] = a1
-        f[7] = a2
+        rhs_flight(p, tau, fm, s, f)   # the flight state is the 8-state itself
 
 
 @njit(cache=True)
