@@ -18,6 +18,7 @@ import numpy as np
 
 from .controllers import HorizontalSearch, Integrator, OpenLoop, SequenceGait
 from .kernel import layout as L
+from .kernel.gait import wrapped_difference
 from .robot import SEED2009_TORQUE
 from .simulate import (
     RobotLike, Status, as_robot, evaluate_gaits, gait_error, initial_state, run_controller,
@@ -272,7 +273,7 @@ def cycle_return_map(z, gait: SequenceGait, *, robot: RobotLike = "seed2009",
     check_cycle_frame(gait, robot)
     res = run_controller(gait.controller(), cycle_section_state(gait, z), robot=robot,
                          integrator=integrator, cycles=1, log_capacity=0)
-    th2 = float(z[0]) + ((res.state[L.TH2] - float(z[0]) + math.pi) % (2 * math.pi) - math.pi)
+    th2 = float(z[0]) + wrapped_difference(res.state[L.TH2], float(z[0]))
     return np.array([th2, res.state[L.DTH1], res.state[L.DTH2]]), res.status
 
 

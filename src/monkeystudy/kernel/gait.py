@@ -1,20 +1,20 @@
 """Compiled gait evaluations: the horizontal gait of MODEL.md section 4 and the cycle of any
 phase-sequence gait, one point or a batch.
 
-All call :func:`monkeystudy.kernel.hybrid.simulate` with no log and no trajectory, so a search
-evaluation integrates, locates its three events and nothing else.
+All call :func:`monkeystudy.kernel.hybrid.simulate` (through :func:`simulate_unlogged`) with
+no log and no trajectory, so a search evaluation integrates, locates its events and nothing else.
 """
+import math
+
 import numpy as np
 from numba import njit
-
-import math
 
 from .dynamics import total_energy8
 from .hybrid import simulate
 from .layout import (
-    H_FLIPPED, H_PHASE, H_SEG, H_T, H_Y_REF, K_NFEV, K_REJECTED, K_STEPS, N_COUNTS,
-    N_HYB, N_LOG_COLS, N_MODE_COLS, N_OBS_COLS, PHASE_SWING, ST_OK, ST_UNREACHABLE, H_FMODE0, H_FMODE1,
-    H_EREF, H_CLOCK,
+    H_CLOCK, H_EREF, H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG, H_T, H_Y_REF, K_NFEV,
+    K_REJECTED, K_STEPS, N_COUNTS, N_HYB, N_LOG_COLS, N_MODE_COLS, N_OBS_COLS, PHASE_SWING,
+    ST_OK, ST_UNREACHABLE,
 )
 
 # result columns of one gait evaluation
@@ -42,6 +42,14 @@ def start_state(dtheta1, dtheta2, hyb):
 
 
 @njit(cache=True)
+def simulate_unlogged(par, prog, obs, settings, hyb, counts, seg_times):
+    """:func:`~monkeystudy.kernel.hybrid.simulate` with no event log and no trajectory (what
+    a search needs: the outcome, the segment exit times and the counts)."""
+    return simulate(par, prog, obs, settings, hyb, counts, seg_times, np.empty((0, N_LOG_COLS)),
+                    np.empty(0), np.empty((0, 8)), np.empty((0, N_MODE_COLS)))
+
+
+@njit(cache=True)
 def horizontal_gait(par, prog, settings, dtheta1, dtheta2, energy_floor, skip_unreachable,
                     out):
     """Evaluate the horizontal gait at ``(dtheta1, dtheta2)`` [rad s-1] into ``out``.
@@ -66,12 +74,8 @@ def horizontal_gait(par, prog, settings, dtheta1, dtheta2, energy_floor, skip_un
             return
     counts = np.zeros(N_COUNTS, dtype=np.int64)
     seg_times = np.empty(prog.shape[0])
-    log = np.empty((0, N_LOG_COLS))
-    st = np.empty(0)
-    sy = np.empty((0, 8))
-    sm = np.empty((0, N_MODE_COLS))
-    status = simulate(par, prog, np.empty((0, N_OBS_COLS)), settings, hyb, counts, seg_times, log, st,
-                      sy, sm)
+    status = simulate_unlogged(par, prog, np.empty((0, N_OBS_COLS)), settings, hyb, counts,
+                               seg_times)
     out[R_STATUS] = status
     out[R_T_SWITCH] = seg_times[0]
     out[R_T_MOTOR] = seg_times[1] - seg_times[0]
@@ -124,11 +128,7 @@ def cycle_gait(par, prog, obs, settings, theta1, theta2, dtheta1, dtheta2, out, 
     hyb[3] = theta2
     out[:] = np.nan
     counts = np.zeros(N_COUNTS, dtype=np.int64)
-    log = np.empty((0, N_LOG_COLS))
-    st = np.empty(0)
-    sy = np.empty((0, 8))
-    sm = np.empty((0, N_MODE_COLS))
-    status = simulate(par, prog, obs, settings, hyb, counts, seg_out, log, st, sy, sm)
+    status = simulate_unlogged(par, prog, obs, settings, hyb, counts, seg_out)
     out[Q_STATUS] = status
     out[Q_T_END] = hyb[H_T]
     out[Q_STEPS] = counts[K_STEPS]

@@ -73,6 +73,10 @@ SEQUENCE_ATTRS = {
 }
 
 
+#: long_name of a sequence gait's segment coordinate
+SEGMENT_NOTE = "segment of the cycle (the last: the section)"
+
+
 def variable_attrs(name: str, sequence: bool) -> dict:
     """Attributes of a grid or refine variable for the horizontal or a sequence gait."""
     return (SEQUENCE_ATTRS.get(name) or GRID_ATTRS[name]) if sequence else GRID_ATTRS[name]
@@ -182,10 +186,7 @@ def write_grid(path: Path, attrs: dict, *, axes: tuple[np.ndarray, np.ndarray] |
             dims, shape, coords = ("point",), (pts.shape[0],), "dtheta1 dtheta2"
         n = int(np.prod(shape))
         if sequence:
-            nc.createDimension("segment", n_segments)
-            _var(nc, "segment", ("segment",), np.int32,
-                 {"long_name": "segment of the cycle (the last: the section)", "units": "1"},
-                 np.arange(n_segments))
+            _index_coord(nc, "segment", n_segments, SEGMENT_NOTE)
         vs = {name: _var(nc, name, dims + (("segment",) if name == "t_segment" else ()), dt,
                          variable_attrs(name, sequence), coordinates=coords)
               for name, dt in variables.items()}
@@ -258,11 +259,7 @@ def write_refine(path: Path, attrs: dict, results: list[dict], multi: bool) -> N
                                                     DTHETA2["long_name"]), col("x", index=1))
         sequence = "t_segment" in results[0]
         if sequence:
-            n_seg = len(results[0]["t_segment"])
-            nc.createDimension("segment", n_seg)
-            _var(nc, "segment", ("segment",), np.int32,
-                 {"long_name": "segment of the cycle (the last: the section)", "units": "1"},
-                 np.arange(n_seg))
+            _index_coord(nc, "segment", len(results[0]["t_segment"]), SEGMENT_NOTE)
             _var(nc, "t_segment", sdim + ("segment",), np.float64, GRID_ATTRS["t_segment"],
                  col("t_segment"))
         keys = (("error", "t_end", "x_advance", "y_advance") if sequence
@@ -562,8 +559,7 @@ def write_floquet(path: Path, attrs: dict, results: list[dict]) -> None:
         _var(nc, "motor_torque", ("controller",), np.float64,
              {"long_name": "motor torque of the return map", "units": "N m"}, stack("torque"))
         if "t_segment" in results[0]:       # a sequence gait's cycle
-            n_seg = len(results[0]["t_segment"])
-            _index_coord(nc, "segment", n_seg, "segment of the cycle (the last: the section)")
+            _index_coord(nc, "segment", len(results[0]["t_segment"]), SEGMENT_NOTE)
             _var(nc, "t_segment", ("controller", "segment"), np.float64,
                  GRID_ATTRS["t_segment"], stack("t_segment"))
             for key in ("x_advance", "y_advance"):
