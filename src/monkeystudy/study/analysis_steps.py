@@ -190,11 +190,22 @@ def start(run, s) -> None:
         if not todo:
             run._finish(s)
     elif isinstance(st, ContinuationStep):
-        g = shoot_gait(run, s, st.from_, None, grazing=True)
-        ctx["gait"] = g
         bounds = tuple(st.bounds) if st.bounds is not None else (-math.inf, math.inf)
         run.rep.start(s.name, 1, 0, "branches")
         run.remaining[s.name] = 1
+        if run.plan.loaded.study.gait.kind == "sequence":
+            fp = D.read_floquet_point(run.by_name[st.from_].path, "sequence")
+            if fp["newton_converged"] == 0 or not np.all(np.isfinite(fp["fixed_point"])):
+                raise RunFailed(f"{s.name}: floquet step {st.from_!r} did not converge to a "
+                                f"fixed point (map defect {fp['map_defect']:.3g}): nothing "
+                                f"to continue")
+            ctx["gait"] = fp
+            _queue(run, s, 0, AT.sequence_continuation_task, (spec, fp["fixed_point"]),
+                   {"parameter": st.parameter, "ds": st.ds, "steps": st.steps,
+                    "ds_max": st.ds_max, "bounds": bounds})
+            return
+        g = shoot_gait(run, s, st.from_, None, grazing=True)
+        ctx["gait"] = g
         _queue(run, s, 0, AT.continuation_task, (spec, g),
                {"parameter": st.parameter, "ds": st.ds, "steps": st.steps, "bounds": bounds})
     elif isinstance(st, StressStep):
@@ -324,14 +335,25 @@ def finish(run, s, attrs: dict) -> str:
                 f"{st.max_cycles}")
     if isinstance(st, ContinuationStep):
         r = results[0]
-        attrs.update(_gait_attrs(st.from_, ctx["gait"]))
+        sequence = "theta2" in r
+        if sequence:
+            fp = ctx["gait"]
+            attrs.update(floquet_step=st.from_, fixed_point=list(fp["fixed_point"]),
+                         map_defect=fp["map_defect"],
+                         ds_max=st.ds_max if st.ds_max is not None else abs(st.ds))
+        else:
+            attrs.update(_gait_attrs(st.from_, ctx["gait"]))
         attrs.update(ds=st.ds, steps=st.steps,
                      bounds=list(st.bounds) if st.bounds is not None else [])
         D.write_continuation(s.path, attrs, r)
         v = r["value"]
-        return (f"{len(v)} points, {st.parameter} {v[0]:.6g} -> {v[-1]:.6g} "
-                f"{D.PARAMETER_UNITS[st.parameter]}, folds {r['folds']}, period doublings "
-                f"{r['period_doublings']}, max residual {float(np.max(r['residual'])):.2g}")
+        msg = (f"{len(v)} points, {st.parameter} {v[0]:.6g} -> {v[-1]:.6g} "
+               f"{D.PARAMETER_UNITS[st.parameter]}, folds {r['folds']}, period doublings "
+               f"{r['period_doublings']}, max residual {float(np.max(r['residual'])):.2g}")
+        if sequence:
+            msg += (f", through +1 {r['through_plus_one']}, Neimark-Sacker "
+                    f"{r['neimark_sacker']}, stopped: {r['stop_reason']}")
+        return msg
     if isinstance(st, StressStep):
         return _finish_stress(s, st, ctx, results, attrs)
     if isinstance(st, WorkPrecisionStep):

@@ -410,6 +410,42 @@ def continuation_task(spec: GaitSpec, gait: dict, *, parameter: str, ds: float, 
             "period_doublings": list(b.period_doublings)}
 
 
+def sequence_continuation_task(spec: GaitSpec, fixed_point, *, parameter: str, ds: float,
+                               steps: int, ds_max: float | None = None,
+                               bounds=(-math.inf, math.inf)) -> dict[str, Any]:
+    """Continue a sequence gait's fixed point ``(theta2, dtheta1, dtheta2)`` in ``parameter``
+    (:func:`~monkeystudy.continuation.continue_cycle`), starting at the study's own value;
+    with each branch point's segment end times and advance per cycle."""
+    from ..continuation import continue_cycle, with_parameter
+    from ..simulate import evaluate_cycle_gaits
+    from .drivers import n_cycle_segments, spec_sequence
+
+    robot, integ = _unpack(spec)
+    seq = spec_sequence(spec)
+    z0 = np.asarray(fixed_point, float)
+    b = continue_cycle(seq, z0, parameter, robot=robot, ds=float(ds), steps=int(steps),
+                       ds_max=ds_max, bounds=tuple(bounds), integrator=integ)
+    n = len(b.value)
+    t_seg = np.full((n, n_cycle_segments(spec)), np.nan)
+    adv = np.full((n, 2), np.nan)
+    for i in range(n):
+        rb, g = with_parameter(robot, seq, parameter, b.value[i])
+        g = dataclasses.replace(g, theta2=b.theta2)
+        r = evaluate_cycle_gaits(np.array([[b.dtheta1[i], b.dtheta2[i]]]), g, robot=rb,
+                                 integrator=integ)
+        t_seg[i] = r["t_segment"][0]
+        adv[i] = r["x_advance"][0], r["y_advance"][0]
+    return {"parameter": parameter, "value0": float(b.value[0]), "value": b.value,
+            "theta2": b.theta2, "dtheta1": b.dtheta1, "dtheta2": b.dtheta2,
+            "residual": b.residual, "iterations": b.iterations, "arclength": b.arclength,
+            "multipliers": b.multipliers, "neutral": b.neutral, "stable": b.stable,
+            "t_segment": t_seg, "x_advance": adv[:, 0], "y_advance": adv[:, 1],
+            "folds": list(b.folds), "period_doublings": list(b.period_doublings),
+            "through_plus_one": list(b.through_plus_one),
+            "neimark_sacker": list(b.neimark_sacker),
+            "stop_reason": b.stop_reason}
+
+
 # --- work precision --------------------------------------------------------------------------
 def work_precision_task(spec: GaitSpec, points: np.ndarray, **options) -> dict[str, Any]:
     """:func:`monkeystudy.precision.work_precision` on the study's robot and torque
@@ -494,6 +530,6 @@ def warm_up(spec: GaitSpec) -> None:
 
 __all__ = ["METHOD_GAUSS_NEWTON", "METHOD_GRAZING", "METHOD_NAMES", "basin_block",
            "continuation_task", "cycles_to_bound", "dedup_solutions", "floquet_task",
-           "growth_per_cycle", "parameter_value", "replay_torque", "shoot_task",
-           "stress_drift_task", "stress_extreme_task", "stress_long_run_task",
+           "growth_per_cycle", "parameter_value", "replay_torque", "sequence_continuation_task",
+           "shoot_task", "stress_drift_task", "stress_extreme_task", "stress_long_run_task",
            "tick_sweep_task", "warm_up", "work_precision_task"]

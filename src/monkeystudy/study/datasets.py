@@ -435,7 +435,8 @@ SHOOT_METHOD_ATTRS = {
 }
 
 #: units of the continuation parameters
-PARAMETER_UNITS = {"com": "m", "inertia": "kg m2", "gravity": "m s-2"}
+PARAMETER_UNITS = {"com": "m", "inertia": "kg m2", "gravity": "m s-2", "torque": "N m",
+                   "mass_ratio": "1", "joint_viscous": "N m s", "pivot_viscous": "N m s"}
 
 _SECTION_NOTE = ("on the gait's section (theta1 = 0 unless the gait says), components (theta2 [rad], dtheta1 [rad s-1], "
                  "dtheta2 [rad s-1])")
@@ -624,33 +625,66 @@ def write_basin(path: Path, attrs: dict, offsets1: np.ndarray, offsets2: np.ndar
 
 def write_continuation(path: Path, attrs: dict, result: dict) -> None:
     """Write a continuation dataset from a
-    :func:`~monkeystudy.study.analysis_tasks.continuation_task` result."""
+    :func:`~monkeystudy.study.analysis_tasks.continuation_task` (horizontal gait) or
+    :func:`~monkeystudy.study.analysis_tasks.sequence_continuation_task` result."""
     n = len(result["value"])
     par = result["parameter"]
+    sequence = "theta2" in result
+    what = "sequence gait's fixed point" if sequence else "collisionless gait"
     with atomic_netcdf(path) as nc:
-        _index_coord(nc, "point", n, "point on the branch (0: the shoot's gait)")
+        _index_coord(nc, "point", n, "point on the branch (0: the "
+                     + ("floquet step's fixed point)" if sequence else "shoot's gait)"))
         _index_coord(nc, "k", 3, "multiplier (by decreasing modulus)")
         _var(nc, "parameter_value", ("point",), np.float64,
              {"long_name": f"continuation parameter {par}", "units": PARAMETER_UNITS[par]},
              result["value"])
-        _var(nc, "dtheta1", ("point",), np.float64, dict(DTHETA1, long_name="collisionless "
-                                                          "gait, " + DTHETA1["long_name"]),
+        _var(nc, "dtheta1", ("point",), np.float64, dict(DTHETA1, long_name=f"{what}, "
+                                                          + DTHETA1["long_name"]),
              result["dtheta1"])
-        _var(nc, "dtheta2", ("point",), np.float64, dict(DTHETA2, long_name="collisionless "
-                                                          "gait, " + DTHETA2["long_name"]),
+        _var(nc, "dtheta2", ("point",), np.float64, dict(DTHETA2, long_name=f"{what}, "
+                                                          + DTHETA2["long_name"]),
              result["dtheta2"])
-        _var(nc, "t_switch", ("point",), np.float64,
-             {"long_name": "swap time (B at A's height at rest)", "units": "s"},
-             result["t_switch"])
-        _var(nc, "residual", ("point",), np.float64,
-             {"long_name": "|G| (B's height and velocity at t_switch) after correction",
-              "units": "1"}, result["residual"])
-        _complex_vars(nc, "multipliers", ("point", "k"), result["multipliers"],
-                      "Floquet multipliers of the motorless open-loop map (variational "
-                      "equations)")
+        if sequence:
+            _index_coord(nc, "segment", np.shape(result["t_segment"])[1], SEGMENT_NOTE)
+            _var(nc, "residual", ("point",), np.float64,
+                 {"long_name": "|P(z) - z| of the return map after correction", "units": "1"},
+                 result["residual"])
+            _var(nc, "corrector_iterations", ("point",), np.int32,
+                 {"long_name": "Gauss-Newton corrector iterations (0: the start)",
+                  "units": "1"}, np.asarray(result["iterations"], np.int32))
+            _var(nc, "arclength", ("point",), np.float64,
+                 {"long_name": "cumulative arclength in (dtheta1, dtheta2, parameter)",
+                  "units": "1"}, result["arclength"])
+            _var(nc, "stable", ("point",), np.int8,
+                 {"long_name": "1: every non-neutral multiplier inside the unit circle",
+                  "units": "1"}, np.asarray(result["stable"], np.int8))
+            _var(nc, "neutral", ("point",), np.int8,
+                 {"long_name": "multipliers within 1e-6 of 1 (the free energy level)",
+                  "units": "1"}, np.asarray(result["neutral"], np.int8))
+            _var(nc, "t_segment", ("point", "segment"), np.float64,
+                 GRID_ATTRS["t_segment"], result["t_segment"])
+            for name in ("x_advance", "y_advance"):
+                _var(nc, name, ("point",), np.float64, GRID_ATTRS[name], result[name])
+            _complex_vars(nc, "multipliers", ("point", "k"), result["multipliers"],
+                          "Floquet multipliers of the cycle's return map (variational "
+                          "equations)")
+            extra = {"theta2": float(result["theta2"]), "stop_reason": result["stop_reason"],
+                     "through_plus_one": list(result["through_plus_one"]),
+                     "neimark_sacker": list(result["neimark_sacker"])}
+        else:
+            _var(nc, "t_switch", ("point",), np.float64,
+                 {"long_name": "swap time (B at A's height at rest)", "units": "s"},
+                 result["t_switch"])
+            _var(nc, "residual", ("point",), np.float64,
+                 {"long_name": "|G| (B's height and velocity at t_switch) after correction",
+                  "units": "1"}, result["residual"])
+            _complex_vars(nc, "multipliers", ("point", "k"), result["multipliers"],
+                          "Floquet multipliers of the motorless open-loop map (variational "
+                          "equations)")
+            extra = {}
         _global_attrs(nc, dict(attrs, parameter=par, parameter_units=PARAMETER_UNITS[par],
                                value0=float(result["value0"]), folds=list(result["folds"]),
-                               period_doublings=list(result["period_doublings"])))
+                               period_doublings=list(result["period_doublings"]), **extra))
 
 
 #: the note stored with work-precision datasets
@@ -843,6 +877,22 @@ def read_shoot(path: Path) -> list[dict]:
             d[k] = int(d[k])
         d["index"] = i
         out.append(d)
+    return out
+
+
+def read_floquet_point(path: Path, controller: str = "sequence") -> dict:
+    """One controller's analysed point of a floquet dataset: ``{fixed_point (3,), map_defect,
+    newton_converged}`` (``newton_converged`` -1 when the dataset has none)."""
+    with netCDF4.Dataset(path, "r") as nc:
+        nc.set_auto_mask(False)
+        labels = [str(x) for x in np.atleast_1d(nc.variables["controller"][...])]
+        if controller not in labels:
+            raise ValueError(f"{Path(path).name} has no {controller} controller")
+        i = labels.index(controller)
+        out = {"fixed_point": np.array(nc.variables["fixed_point"][i, :], float),
+               "map_defect": float(nc.variables["map_defect"][i])}
+        nc_conv = nc.variables.get("newton_converged")
+        out["newton_converged"] = int(nc_conv[i]) if nc_conv is not None else -1
     return out
 
 

@@ -551,19 +551,38 @@ class BasinStep(_Model):
         return max(1, BASIN_BLOCK_POINTS // n2)
 
 
+#: continuation parameters of the horizontal gait's collisionless family (mirror-symmetric)
+GRAZING_PARAMETERS = ("com", "inertia", "gravity")
+
+
 class ContinuationStep(_Model):
-    """Pseudo-arclength continuation of the collisionless (grazing) gait family in one
-    mirror-symmetric robot parameter, with the open-loop multipliers along the branch."""
+    """Pseudo-arclength continuation of a gait family in one parameter, with the Floquet
+    multipliers along the branch and its folds and bifurcations.
+
+    Horizontal gait (``from:`` a shoot step): the collisionless (grazing) family in a
+    mirror-symmetric parameter (com, inertia, gravity). Sequence gait (``from:`` a floquet
+    step, whose Newton-polished fixed point starts the branch at the section's theta2): any
+    parameter, ``monkeystudy.continuation``.
+    """
 
     name: Name
     kind: Literal["continuation"]
-    from_: Name = Field(alias="from", description="an earlier shoot step (its best grazing "
-                                                  "solution starts the branch)")
-    parameter: Literal["com", "inertia", "gravity"] = Field(
+    from_: Name = Field(alias="from", description="an earlier step: a shoot step (horizontal "
+                                                  "gait: its best grazing solution) or a "
+                                                  "floquet step (sequence gait: its fixed "
+                                                  "point)")
+    parameter: Literal["com", "inertia", "gravity", "torque", "mass_ratio", "joint_viscous",
+                       "pivot_viscous"] = Field(
         description="com: link 1's CG from A [m] (link 2's mirrored); inertia: both links' "
-                    "[kg m2]; gravity [m s-2]")
-    ds: float = Field(description="arclength step in (dtheta1, dtheta2, t_switch, parameter) "
-                                  "[mixed units]; its sign picks the direction")
+                    "[kg m2]; gravity [m s-2]; sequence gaits also: torque (the first motor "
+                    "segment's [N m], the others scaled with it), mass_ratio (link 2's mass "
+                    "over link 1's at the same total mass, inertias scaled with the masses "
+                    "[1]), joint_viscous, pivot_viscous (viscous friction [N m s])")
+    ds: float = Field(description="first arclength step in (dtheta1, dtheta2, [t_switch,] "
+                                  "parameter) [mixed units]; its sign picks the direction")
+    ds_max: Optional[float] = Field(None, gt=0, description="sequence gaits: largest |ds| "
+                                    "the adaptive step may grow to (default |ds|); a failed "
+                                    "corrector halves the step down to |ds| / 256")
     steps: int = Field(20, ge=1, le=100_000, description="continuation steps")
     bounds: Optional[list[float]] = Field(None, min_length=2, max_length=2,
                                           description="[lo, hi]: stop when the parameter "
@@ -795,14 +814,17 @@ def cross_check(study: Study) -> list[tuple[tuple, str]]:
 
 
 #: steps a sequence gait supports (the others replay or benchmark the horizontal gait)
-SEQUENCE_STEPS = ("grid", "refine", "floquet")
+SEQUENCE_STEPS = ("grid", "refine", "floquet", "continuation")
 
 
 def _check_sequence(study: Study, i: int, s, seen: dict) -> list[tuple[tuple, str]]:
-    """What a study with a sequence gait can run: grid, refine, and floquet from a refine."""
+    """What a study with a sequence gait can run: grid, refine, floquet from a refine, and
+    continuation from a floquet step."""
     if s.kind not in SEQUENCE_STEPS:
         return [(("steps", i, "kind"), f"a {s.kind} step needs a horizontal gait (a sequence "
                  f"gait supports {', '.join(SEQUENCE_STEPS)})")]
+    if isinstance(s, ContinuationStep):
+        return _check_sequence_continuation(study, i, s, seen)
     if not isinstance(s, FloquetStep):
         return []
     out: list[tuple[tuple, str]] = []
@@ -817,6 +839,37 @@ def _check_sequence(study: Study, i: int, s, seen: dict) -> list[tuple[tuple, st
         problem = mirror_problem(study)
         if problem:
             out.append((("steps", i, "kind"), f"a floquet step of a cycle ending on end B "
+                        f"{problem}"))
+    return out
+
+
+def _check_sequence_continuation(study: Study, i: int, s: "ContinuationStep",
+                                 seen: dict) -> list[tuple[tuple, str]]:
+    out: list[tuple[tuple, str]] = []
+    if not isinstance(seen.get(s.from_), FloquetStep):
+        out.append((("steps", i, "from"), _no_earlier(s.from_, "floquet", seen.get(s.from_))))
+    gait = study.gait.gait()
+    if gait.tick != 0.0:
+        out.append((("steps", i, "kind"), "continuation needs exact event timing (gait tick "
+                    "0): on a tick the return map is not differentiable"))
+    from .runner import study_robot
+
+    rb = study_robot(study)
+    if rb.pivot_friction.coulomb or rb.joint_friction.coulomb:
+        out.append((("steps", i, "kind"), "continuation needs a smooth flow: Coulomb "
+                    "friction is not (the variational equations refuse it)"))
+    if s.parameter == "torque" and all(seg.torque == 0.0 for seg in gait.segments) \
+            and gait.section_torque == 0.0:
+        out.append((("steps", i, "parameter"), "the gait never runs its motor (every torque "
+                    "is 0): the motor torque does not move its fixed points"))
+    if gait.end_attached() == "B":
+        if s.parameter == "mass_ratio":
+            out.append((("steps", i, "parameter"), "mass_ratio != 1 breaks the mirror "
+                        "symmetry a cycle ending on end B needs: continue a cycle with two "
+                        "swaps (ending on A) instead"))
+        problem = mirror_problem(study)
+        if problem:
+            out.append((("steps", i, "kind"), f"a continuation of a cycle ending on end B "
                         f"{problem}"))
     return out
 
@@ -844,6 +897,13 @@ def _check_analysis(study: Study, i: int, s, seen: dict) -> list[tuple[tuple, st
             out.append((("steps", i, "floquet"),
                         f"{ref.name!r} analyses shoot step {ref.from_!r}, this step "
                         f"{s.from_!r}: they must be the same"))
+    if isinstance(s, ContinuationStep) and s.parameter not in GRAZING_PARAMETERS:
+        out.append((("steps", i, "parameter"), f"the horizontal gait's collisionless family "
+                    f"is continued in {', '.join(GRAZING_PARAMETERS)} (it is motorless and "
+                    f"needs mirror-image links); {s.parameter} needs a sequence gait"))
+    if isinstance(s, ContinuationStep) and s.ds_max is not None:
+        out.append((("steps", i, "ds_max"), "the collisionless family is continued with a "
+                    "fixed step; ds_max applies to sequence gaits"))
     if isinstance(s, FloquetStep) and "sequence" in s.controllers:
         out.append((("steps", i, "controllers"), "the sequence controller needs a sequence "
                     "gait (gait: {kind: sequence, ...})"))

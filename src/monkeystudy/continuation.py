@@ -1,0 +1,372 @@
+"""Gait families of sequence gaits: pseudo-arclength continuation of a cycle's fixed point
+in a robot or motor parameter, with its Floquet multipliers and bifurcations along the branch.
+
+The collisionless family of the horizontal gait has its own continuation
+(:func:`monkeystudy.analysis.continue_grazing`: a grazing swap is a border, not a smooth fixed
+point). Here the fixed point is that of a sequence gait's return map
+(:func:`monkeystudy.analysis.cycle_return_map`), whose Jacobian comes from the variational
+equations through every phase (:func:`monkeystudy.saltation.sequence_variational_jacobian`).
+
+Unknowns ``u = (dtheta1, dtheta2, mu)`` at the section's fixed ``theta2``; equations
+``R(u) = P(theta2, dtheta1, dtheta2; mu) - (theta2, dtheta1, dtheta2)``. A gait that latches
+its energy at the cycle start and restores it later has a family of fixed points (one
+multiplier is exactly 1: the energy level is free); fixing ``theta2`` picks one member, and
+``R`` then has rank 2 in three unknowns, so the solutions form a curve. Gauss-Newton with
+least-squares steps solves the three equations; the tangent is the null vector of ``DR``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .analysis import TIGHT, cycle_return_map, mirror_robot
+from .controllers import Integrator, SequenceGait
+from .robot import Friction
+from .simulate import RobotLike, Status, as_robot
+
+#: parameters a sequence gait can be continued in, with their units
+CYCLE_PARAMETERS = {
+    "torque": "N m", "mass_ratio": "1", "com": "m", "inertia": "kg m2", "gravity": "m s-2",
+    "joint_viscous": "N m s", "pivot_viscous": "N m s",
+}
+
+#: multipliers within this of 1 are the neutral energy level, not a stability verdict
+NEUTRAL_TOL = 1e-6
+
+
+def motor_torque(gait: SequenceGait) -> float:
+    """The gait's reference motor torque [N m]: the first non-zero segment torque (the
+    section segment's last); ``ValueError`` when the gait never runs its motor."""
+    for seg in gait.segments:
+        if seg.torque != 0.0:
+            return float(seg.torque)
+    if gait.section_torque != 0.0:
+        return float(gait.section_torque)
+    raise ValueError("the gait has no motor segment (every torque is 0): the motor torque "
+                     "does not move its fixed points")
+
+
+def parameter_of(robot: RobotLike, gait: SequenceGait, parameter: str) -> float:
+    """The current value of a continuation ``parameter`` (units: :data:`CYCLE_PARAMETERS`).
+
+    ``torque``: :func:`motor_torque`; ``mass_ratio``: link 2's mass over link 1's; ``com``,
+    ``inertia``: link 1's (mirror-symmetric, see :func:`~monkeystudy.analysis.mirror_robot`);
+    ``joint_viscous``, ``pivot_viscous``: the viscous friction coefficients.
+    """
+    r = as_robot(robot)
+    if parameter == "torque":
+        return motor_torque(gait)
+    if parameter == "mass_ratio":
+        return r.link2.mass / r.link1.mass
+    if parameter == "com":
+        return r.link1.com
+    if parameter == "inertia":
+        return r.link1.inertia
+    if parameter == "gravity":
+        return r.gravity
+    if parameter == "joint_viscous":
+        return r.joint_friction.viscous
+    if parameter == "pivot_viscous":
+        return r.pivot_friction.viscous
+    raise ValueError(f"parameter must be one of {sorted(CYCLE_PARAMETERS)}, got {parameter!r}")
+
+
+def with_parameter(robot: RobotLike, gait: SequenceGait, parameter: str, value: float):
+    """``(robot, gait)`` with ``parameter`` set to ``value``.
+
+    ``torque``: every motor torque scaled by ``value / motor_torque(gait)`` (signs and ratios
+    kept). ``mass_ratio``: link masses ``M / (1 + q)`` and ``M q / (1 + q)`` at the same total
+    mass ``M``, each inertia scaled with its link's mass (same shape, different density).
+    ``com``, ``inertia``, ``gravity``: :func:`~monkeystudy.analysis.mirror_robot`.
+    """
+    r = as_robot(robot)
+    value = float(value)
+    if parameter == "torque":
+        scale = value / motor_torque(gait)
+        segs = [replace(s, torque=s.torque * scale) for s in gait.segments]
+        return r, replace(gait, segments=segs, section_torque=gait.section_torque * scale)
+    if parameter == "mass_ratio":
+        if not value > 0.0:
+            raise ValueError(f"mass_ratio must be > 0, got {value!r}")
+        total = r.link1.mass + r.link2.mass
+        m1, m2 = total / (1.0 + value), total * value / (1.0 + value)
+        l1 = replace(r.link1, mass=m1, inertia=r.link1.inertia * m1 / r.link1.mass)
+        l2 = replace(r.link2, mass=m2, inertia=r.link2.inertia * m2 / r.link2.mass)
+        return replace(r, link1=l1, link2=l2, name=f"{r.name}:mass_ratio={value:.6g}"), gait
+    if parameter in ("com", "inertia", "gravity"):
+        return mirror_robot(r, parameter, value), gait
+    if parameter == "joint_viscous":
+        return r.with_friction(joint=replace(r.joint_friction, viscous=value)), gait
+    if parameter == "pivot_viscous":
+        return r.with_friction(pivot=replace(r.pivot_friction, viscous=value)), gait
+    raise ValueError(f"parameter must be one of {sorted(CYCLE_PARAMETERS)}, got {parameter!r}")
+
+
+@dataclass
+class CycleBranch:
+    """A continued family of a sequence gait's fixed points: one row per branch point.
+
+    ``multipliers`` (n, 3) complex, by decreasing modulus, from the variational equations
+    (NaN where they are not defined, e.g. at a collisionless swap followed by an energy
+    restore); ``neutral`` counts the multipliers within :data:`NEUTRAL_TOL` of 1. Bifurcation
+    lists hold branch indices ``i``: the event happened between points ``i - 1`` and ``i``.
+    A fold is where the parameter turns back along the branch. With ``theta2`` pinned, a fold
+    of the branch need not put a second multiplier at 1 (the energy family may just stop
+    reaching the section's ``theta2``); a real multiplier through +1 away from a fold is a
+    change of stability on a branch that goes on (transcritical, pitchfork or a degenerate
+    fold of the energy family: the multipliers alone do not say which).
+    ``stop_reason``: ``steps`` (all taken), ``bounds`` (the parameter left them), ``border``
+    (the map jumps just ahead: the cycle's event sequence changes there, e.g. a guard met at
+    a turning point, so the smooth family ends) or ``ds_min`` (the corrector failed at the
+    least step for another reason).
+    """
+
+    parameter: str
+    theta2: float              # the section's theta2 [rad], fixed along the branch
+    value: np.ndarray          # the parameter
+    dtheta1: np.ndarray        # [rad s-1]
+    dtheta2: np.ndarray        # [rad s-1]
+    residual: np.ndarray       # |P(z) - z| after correction
+    iterations: np.ndarray     # corrector iterations per point (0 at the start)
+    arclength: np.ndarray      # cumulative arclength in (dtheta1, dtheta2, mu)
+    multipliers: np.ndarray
+    neutral: np.ndarray
+    stable: np.ndarray         # all non-neutral |lambda| < 1
+    folds: list = field(default_factory=list)             # d mu / ds changes sign
+    period_doublings: list = field(default_factory=list)  # a real multiplier crosses -1
+    through_plus_one: list = field(default_factory=list)  # a non-neutral real one crosses +1
+    neimark_sacker: list = field(default_factory=list)    # a complex pair crosses |lambda| 1
+    stop_reason: str = "steps"
+
+
+def _nonneutral(lam: np.ndarray) -> np.ndarray:
+    """The multipliers left when the one nearest 1 within :data:`NEUTRAL_TOL` is dropped."""
+    d = np.abs(lam - 1.0)
+    k = int(np.argmin(d))
+    return np.delete(lam, k) if d[k] < NEUTRAL_TOL else lam
+
+
+def _unstable_counts(lam: np.ndarray) -> tuple[int, int, int]:
+    """Non-neutral multipliers outside the unit circle: (real > 1, real < -1, complex)."""
+    m = _nonneutral(lam)
+    real = np.abs(m.imag) <= 1e-9
+    return (int(np.sum(real & (m.real > 1.0))), int(np.sum(real & (m.real < -1.0))),
+            int(np.sum(~real & (np.abs(m) > 1.0))))
+
+
+def _crossings(m0: np.ndarray, m1: np.ndarray) -> tuple[bool, bool, bool]:
+    """(period doubling, through +1, Neimark-Sacker) between two multiplier sets: the number of
+    real multipliers beyond -1, real ones beyond +1, or complex ones outside the unit circle
+    changed (a complex pair that meets the real axis and leaves through +1 counts as +1)."""
+    if not (np.all(np.isfinite(m0)) and np.all(np.isfinite(m1))):
+        return False, False, False
+    a, b = _unstable_counts(m0), _unstable_counts(m1)
+    return a[1] != b[1], a[0] != b[0], a[2] != b[2]
+
+
+def fold_indices(values) -> list[int]:
+    """Branch indices where the parameter turns back (``d mu`` changes sign after them)."""
+    dmu = np.diff(np.asarray(values, float))
+    return [int(i + 1) for i in np.flatnonzero(np.sign(dmu[1:]) * np.sign(dmu[:-1]) < 0)]
+
+
+def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike = "seed2009",
+                   ds: float = 0.01, steps: int = 20, ds_min: float | None = None,
+                   ds_max: float | None = None, bounds=(-math.inf, math.inf),
+                   integrator: Integrator = TIGHT, tol: float = 1e-11,
+                   max_corrector: int = 8, fd_step: float = 1e-6,
+                   multipliers: bool = True) -> CycleBranch:
+    """Pseudo-arclength continuation of a sequence gait's fixed point in ``parameter``.
+
+    Parameters
+    ----------
+    gait : SequenceGait
+        The gait at the start value of the parameter (its ``tick`` must be 0 for the
+        multipliers; the branch itself needs only the map).
+    z0 : array_like, shape (3,)
+        A fixed point ``(theta2 [rad], dtheta1, dtheta2 [rad s-1])`` on the gait's section
+        (e.g. a floquet step's Newton-polished point); ``theta2`` stays fixed along the branch.
+    parameter : str
+        One of :data:`CYCLE_PARAMETERS` (see :func:`with_parameter`).
+    robot : Robot or str
+        The robot at the start value.
+    ds : float
+        First arclength step in ``(dtheta1 [rad s-1], dtheta2 [rad s-1], mu)``; its sign picks
+        the direction (``mu`` increasing for ``ds > 0``).
+    steps : int
+        Branch points to add after the start.
+    ds_min, ds_max : float, optional
+        Least and largest ``|ds|`` (defaults ``|ds| / 256`` and ``|ds|``). A failed corrector
+        (no convergence in ``max_corrector`` iterations, or no cycle) halves the step and
+        retries; one converging in at most 3 iterations grows it by 1.5, up to ``ds_max``.
+    bounds : (float, float)
+        Stop when the parameter leaves ``[lo, hi]``.
+    integrator : Integrator
+        Kernel settings for the return map (default: :data:`~monkeystudy.analysis.TIGHT`).
+    tol : float
+        Corrector tolerance on ``|R| / max(1, |z|)`` [1]; the map is accurate to about the
+        integrator's rtol times ``|z|``.
+    fd_step : float
+        Relative central-difference step for ``dR / d mu`` (the state columns come from the
+        variational equations).
+    multipliers : bool
+        Compute the multipliers along the branch (variational equations at every point).
+
+    Returns
+    -------
+    CycleBranch
+    """
+    from .saltation import sequence_variational_jacobian
+
+    if parameter not in CYCLE_PARAMETERS:
+        raise ValueError(f"parameter must be one of {sorted(CYCLE_PARAMETERS)}, "
+                         f"got {parameter!r}")
+    if ds == 0.0 or not math.isfinite(ds):
+        raise ValueError(f"ds must be finite and non-zero, got {ds!r}")
+    base = as_robot(robot)
+    mu0 = parameter_of(base, gait, parameter)
+    theta2 = float(np.asarray(z0, float)[0])
+    ds_min = abs(ds) / 256.0 if ds_min is None else float(ds_min)
+    ds_max = abs(ds) if ds_max is None else float(ds_max)
+
+    def setup(mu):
+        return with_parameter(base, gait, parameter, mu)
+
+    def z_of(u):
+        return np.array([theta2, u[0], u[1]])
+
+    def R(u):
+        rb, g = setup(u[2])
+        zn, st = cycle_return_map(z_of(u), g, robot=rb, integrator=integrator)
+        return zn - z_of(u), st
+
+    def jac_state(u):
+        rb, g = setup(u[2])
+        return sequence_variational_jacobian(g, z_of(u), robot=rb, integrator=integrator)
+
+    def DR(u):
+        """d R / d (dtheta1, dtheta2, mu): variational columns, central difference in mu."""
+        J = jac_state(u)
+        D = np.empty((3, 3))
+        D[:, 0] = J[:, 1] - np.eye(3)[:, 1]
+        D[:, 1] = J[:, 2] - np.eye(3)[:, 2]
+        h = fd_step * max(1.0, abs(u[2]))
+        rp, sp = R(u + np.array([0.0, 0.0, h]))
+        rm, sm = R(u - np.array([0.0, 0.0, h]))
+        if sp != Status.OK or sm != Status.OK:
+            raise RuntimeError("the parameter stencil left the gait")
+        D[:, 2] = (rp - rm) / (2 * h)
+        return D, J
+
+    def tangent(D, prev, sign):
+        _, _, vt = np.linalg.svd(D)
+        t = vt[-1] / np.linalg.norm(vt[-1])
+        if prev is None:
+            return t if t[2] * sign >= 0 else -t
+        return t if t @ prev >= 0 else -t
+
+    def scale_of(u):
+        return max(1.0, float(np.abs(z_of(u)).max()))
+
+    def correct(up, tau):
+        """Gauss-Newton on ``[R(v); tau . (v - up)] = 0``: ``((v, iterations) or None,
+        |R| at the predictor)``."""
+        v = up.copy()
+        prev = first = math.inf
+        for it in range(1, max_corrector + 1):
+            r, st = R(v)
+            if st != Status.OK or not np.all(np.isfinite(r)):
+                return None, first
+            norm = float(np.linalg.norm(r))
+            if it == 1:
+                first = norm
+            if it > 2 and norm > prev:
+                return None, first      # diverging: a smaller step will do better
+            prev = norm
+            if norm <= tol * scale_of(v) and abs(tau @ (v - up)) <= tol:
+                return (v, it - 1), first
+            try:
+                D, _ = DR(v)
+            except (RuntimeError, ValueError):
+                return None, first
+            A = np.vstack([D, tau])
+            F = np.concatenate([r, [tau @ (v - up)]])
+            step, *_ = np.linalg.lstsq(A, -F, rcond=None)
+            v = v + step
+            if not np.all(np.isfinite(v)):
+                return None, first
+        r, st = R(v)
+        if st == Status.OK and np.linalg.norm(r) <= tol * scale_of(v):
+            return (v, max_corrector), first
+        return None, first
+
+    u = np.array([float(z0[1]), float(z0[2]), mu0])
+    r0, st0 = R(u)
+    if st0 != Status.OK:
+        raise RuntimeError(f"no cycle from the start (status {Status(st0).name})")
+    if np.linalg.norm(r0) > 1e3 * tol * scale_of(u):
+        raise ValueError(f"the start is not a fixed point: |P(z) - z| = "
+                         f"{np.linalg.norm(r0):.3g} (polish it first, e.g. a floquet step)")
+    rows, res, iters, tau = [u.copy()], [float(np.linalg.norm(r0))], [0], None
+    D, _ = DR(u)
+    tau = tangent(D, None, math.copysign(1.0, ds))
+    h = abs(ds)
+    reason = "steps"
+    while len(rows) <= steps:
+        got, predicted = correct(u + h * tau, tau)
+        if got is None:
+            h /= 2.0
+            if h < ds_min:
+                # a continuous map leaves a residual O(h^2) at the predictor; one that jumps
+                # there (or has no cycle) has reached a border where the cycle's event
+                # sequence changes, e.g. a guard met at a turning point
+                jump = not predicted <= 1e-3 * scale_of(u)
+                reason = "border" if jump else "ds_min"
+                break
+            continue
+        v, it = got
+        if not bounds[0] <= v[2] <= bounds[1]:
+            reason = "bounds"
+            break
+        r, _ = R(v)
+        rows.append(v.copy())
+        res.append(float(np.linalg.norm(r)))
+        iters.append(it)
+        D, _ = DR(v)
+        tau = tangent(D, tau, 1.0)
+        u = v
+        if it <= 3:
+            h = min(ds_max, 1.5 * h)
+    U = np.array(rows)
+    n = len(U)
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(U, axis=0), axis=1))])
+    lam = np.full((n, 3), np.nan + 0j)
+    if multipliers:
+        for i, ui in enumerate(U):
+            try:
+                ev = np.linalg.eigvals(jac_state(ui))
+            except ValueError:
+                continue      # e.g. a kink (collisionless swap with an energy restore)
+            lam[i] = ev[np.argsort(-np.abs(ev), kind="stable")]
+    neutral = np.array([int(np.sum(np.abs(m - 1.0) < NEUTRAL_TOL)) for m in lam])
+    stable = np.array([int(np.all(np.isfinite(m)) and bool(np.all(np.abs(_nonneutral(m)) < 1.0)))
+                       for m in lam])
+    folds = fold_indices(U[:, 2])
+    pd, p1, ns = [], [], []
+    for i in range(1, n):
+        a, b, c = _crossings(lam[i - 1], lam[i])
+        if a:
+            pd.append(i)
+        if b and i not in folds and (i - 1) not in folds and (i + 1) not in folds:
+            p1.append(i)  # a fold may send a multiplier through +1: named as the fold
+        if c:
+            ns.append(i)
+    return CycleBranch(parameter, theta2, U[:, 2], U[:, 0], U[:, 1], np.array(res),
+                       np.array(iters), arc, lam, neutral, stable, folds, pd, p1, ns, reason)
+
+
+__all__ = ["CYCLE_PARAMETERS", "CycleBranch", "continue_cycle", "fold_indices", "motor_torque",
+           "parameter_of", "with_parameter"]
