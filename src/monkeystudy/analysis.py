@@ -495,7 +495,7 @@ class FixedPointResult:
 
 
 def solve_fixed_point(fmap, z0, *, jacobian=None, rtol: float = 1e-12,
-                      max_iter: int = 30) -> FixedPointResult:
+                      max_iter: int = 30, rcond: float = 1e-7) -> FixedPointResult:
     """Newton on ``P(z) - z = 0`` with a least-squares step.
 
     A neutral multiplier (the energy level of the state-based controller, which restores
@@ -504,7 +504,11 @@ def solve_fixed_point(fmap, z0, *, jacobian=None, rtol: float = 1e-12,
     quadratically to one of its members. ``jacobian(z)`` defaults to finite differences.
     Converged when ``|P(z) - z| <= rtol * max(1, |z|)``: the map itself is only accurate to
     about its integrator's tolerance times ``|z|`` (1e-13 for :data:`TIGHT`), so ``rtol``
-    sits one decade above that noise floor.
+    sits one decade above that noise floor. ``rcond``: singular values of ``DP - I`` below
+    ``rcond`` times the largest are taken as zero. The neutral one is zero only to the
+    Jacobian's accuracy (~1e-9 by variational equations at rtol 1e-12); kept, it would turn
+    the part of ``P(z) - z`` that lies off the family's range into a step ~1e9 times too
+    long.
     """
     jac = jacobian or (lambda q: jacobian_fd(fmap, q))
     z = np.asarray(z0, float).copy()
@@ -517,7 +521,7 @@ def solve_fixed_point(fmap, z0, *, jacobian=None, rtol: float = 1e-12,
     converged = False
     for _ in range(max_iter):
         J = jac(z)
-        step, *_ = np.linalg.lstsq(J - np.eye(z.size), -F, rcond=1e-10)
+        step, *_ = np.linalg.lstsq(J - np.eye(z.size), -F, rcond=rcond)
         lam = 1.0
         for _ in range(20):
             zt = z + lam * step

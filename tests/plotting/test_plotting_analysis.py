@@ -286,7 +286,7 @@ def test_continuation_marks_folds_and_period_doublings(ds):
     assert "1 fold, 1 period doubling (marked)" in titles(fig)[1]
     leg = legend_texts(fig)
     assert any(t.startswith("fold at point 2") for t in leg)
-    assert any(t.startswith("period doubling at point 3") for t in leg)
+    assert any(t.startswith("period doubling between points 2 and 3") for t in leg)
 
 
 # --- work precision -------------------------------------------------------------------------

@@ -187,7 +187,14 @@ BAD = [
      "stop: 0.0, num: 1}, d_dtheta2: {start: 0.0, stop: 0.0, num: 1}}}", None,
      f"{EXTRA_LINE}: steps[8].max_cycles: must be >= 1, got 0"),
     ("{name: x, kind: continuation, from: sh, parameter: mass, ds: 0.01}", None,
-     f"{EXTRA_LINE}: steps[8].parameter: must be 'com', 'inertia' or 'gravity', got 'mass'"),
+     f"{EXTRA_LINE}: steps[8].parameter: must be 'com', 'inertia', 'gravity', 'torque', "
+     "'mass_ratio', 'joint_viscous' or 'pivot_viscous', got 'mass'"),
+    ("{name: x, kind: continuation, from: sh, parameter: mass_ratio, ds: 0.01}", None,
+     f"{EXTRA_LINE}: steps[8].parameter: the horizontal gait's collisionless family is "
+     "continued in com, inertia, gravity"),
+    ("{name: x, kind: continuation, from: sh, parameter: com, ds: 0.01, ds_max: 0.1}", None,
+     f"{EXTRA_LINE}: steps[8].ds_max: the collisionless family is continued with a fixed "
+     "step"),
     ("{name: x, kind: continuation, from: sh, parameter: com, ds: 0.0}", None,
      f"{EXTRA_LINE}: steps[8].ds: must be non-zero"),
     ("{name: x, kind: continuation, from: sh, parameter: com, ds: '0.01'}", None,

@@ -105,3 +105,63 @@ def test_two_workers_give_the_same_datasets(flight_run, tmp_path):
     run_study(load_study(study), tmp_path / "two", workers=2)
     assert_same_datasets(folder / "one", tmp_path / "two",
                          names=["map.nc", "best.nc", "floquet.nc"])
+
+
+#: studies/two_step.yaml on a small grid, with short continuations
+TWO_STEP = """\
+schema_version: 1
+name: two_step_tiny
+robot: seed2009
+gait:
+  kind: sequence
+  section: {theta1: 0.0, direction: either, theta2: 0.0}
+  segments:
+    - {until: free_end_height, value: 0.0, direction: rising, latch_energy: true}
+    - {until: energy_restored, value: 0.0, magnets: swap, torque: 0.6354}
+    - {until: coord, coord: theta1, value: 0.0, direction: either}
+    - {until: free_end_height, value: 0.0, direction: rising, latch_energy: true}
+    - {until: energy_restored, value: 0.0, magnets: swap, torque: 0.6354}
+integrator: {method: dop853, rtol: 1.0e-12, atol: 1.0e-13, max_time: 3.0}
+steps:
+  - {name: map, kind: grid,
+     dtheta1: {start: 0.70, stop: 0.78, num: 5}, dtheta2: {start: 11.1, stop: 11.2, num: 5}}
+  - {name: best, kind: refine, start: {from: map, best: 1}, xatol: 1.0e-10, fatol: 1.0e-20,
+     maxfev: 600}
+  - {name: floquet, kind: floquet, from: best}
+  - {name: lighter, kind: continuation, from: floquet, parameter: mass_ratio, ds: -0.05,
+     steps: 3}
+  - {name: stronger, kind: continuation, from: floquet, parameter: torque, ds: 0.05,
+     steps: 2, bounds: [0.0, 0.7]}
+"""
+
+
+def test_sequence_continuation_end_to_end(tmp_path):
+    study = write_study(tmp_path, TWO_STEP, "two_step.yaml")
+    run_study(load_study(study), tmp_path / "out", workers=1)
+    with xr.open_dataset(tmp_path / "out" / "floquet.nc") as fl:
+        z = fl["fixed_point"].values[0]
+    with xr.open_dataset(tmp_path / "out" / "lighter.nc") as ds:
+        ds.load()
+    assert ds.attrs["parameter"] == "mass_ratio" and ds.attrs["stop_reason"] == "steps"
+    assert ds.sizes["point"] == 4 and ds.sizes["segment"] == 6
+    assert ds["parameter_value"].values[0] == 1.0
+    assert np.all(np.diff(ds["parameter_value"].values) < 0)
+    np.testing.assert_array_equal([ds["dtheta1"].values[0], ds["dtheta2"].values[0]], z[1:])
+    assert ds.attrs["theta2"] == z[0]
+    assert np.all(ds["residual"].values < 1e-10)
+    assert ds["stable"].values[0] == 1 and ds["neutral"].values.tolist() == [1] * 4
+    assert np.all(ds["x_advance"].values > 0.9)      # it walks: about 0.92 m per two steps
+    for name in ("parameter_value", "residual", "t_segment", "multipliers_real"):
+        assert ds[name].attrs["units"] and ds[name].attrs["long_name"]
+    with xr.open_dataset(tmp_path / "out" / "stronger.nc") as ds2:
+        v = ds2["parameter_value"].values
+        assert ds2.attrs["stop_reason"] == "bounds" and v[0] == pytest.approx(0.6354)
+        assert np.all(v <= 0.7) and v.size >= 2
+    from monkeystudy.plotting.analysis import plot_continuation
+    import matplotlib.pyplot as plt
+    fig = plot_continuation(ds)
+    gids = {a.get_gid() for ax in fig.axes for a in ax.get_children() if a.get_gid()}
+    assert {"dtheta1", "dtheta2", "t_cycle", "modulus_0", "modulus_1", "unit_level",
+            "start"} <= gids
+    assert "modulus_2" not in gids                   # the neutral multiplier is left out
+    plt.close(fig)

@@ -180,14 +180,25 @@ def _basin(ds, a) -> list[str]:
 def _continuation(ds, a) -> list[str]:
     v = ds["parameter_value"].values
     lam = _complex(ds, "multipliers")
-    lead = np.abs(lam[:, 0])
-    return [_gait_line(a),
+    if "t_segment" in ds:      # a sequence gait: leave the neutral multiplier out
+        rest = [np.abs(m[~(np.abs(m - 1.0) < 1e-6)]) for m in lam]
+        lead = np.array([r.max() if r.size else np.nan for r in rest])
+        head = (f"sequence gait, section theta2 {float(a.get('theta2', np.nan)):.6g} rad, "
+                f"from floquet step {a.get('floquet_step')}; stopped: {a.get('stop_reason')}")
+        marks = (f"folds {a.get('folds')}, period doublings {a.get('period_doublings')}, "
+                 f"through +1 {a.get('through_plus_one')}, Neimark-Sacker "
+                 f"{a.get('neimark_sacker')}; stable at {int(ds['stable'].sum())} of "
+                 f"{v.size} points")
+    else:
+        lead = np.abs(lam[:, 0])
+        head = _gait_line(a)
+        marks = f"folds {a.get('folds')}, period doublings {a.get('period_doublings')}"
+    return [head,
             f"{v.size} points, {a.get('parameter')} {v[0]:.8g} -> {v[-1]:.8g} "
             f"{a.get('parameter_units')}; max residual {float(np.nanmax(ds['residual'])):.2g}",
             f"dtheta1 {float(ds['dtheta1'][0]):.8g} -> {float(ds['dtheta1'][-1]):.8g}, dtheta2 "
             f"{float(ds['dtheta2'][0]):.8g} -> {float(ds['dtheta2'][-1]):.8g} rad s-1",
-            f"leading |lambda| {lead[0]:.6g} -> {lead[-1]:.6g}; folds {a.get('folds')}, "
-            f"period doublings {a.get('period_doublings')}"]
+            f"leading |lambda| {lead[0]:.6g} -> {lead[-1]:.6g}; " + marks]
 
 
 def _work_precision(ds, a) -> list[str]:

@@ -1,0 +1,226 @@
+"""Continuation of sequence gaits (monkeystudy.continuation): parameter plumbing, bifurcation
+bookkeeping, and branches checked against physics they must obey."""
+import dataclasses
+import math
+from functools import partial
+
+import numpy as np
+import pytest
+
+from monkeystudy.analysis import cycle_return_map, jacobian_fd, solve_fixed_point
+from monkeystudy.continuation import (
+    _crossings, continue_cycle, fold_indices, motor_torque, parameter_of, with_parameter,
+)
+from monkeystudy.controllers import Integrator, Segment, SequenceGait
+from monkeystudy.robot import Robot
+from monkeystudy.saltation import sequence_variational_jacobian
+from monkeystudy.simulate import evaluate_cycle_gaits
+
+TORQUE = 0.6354
+INTEG = Integrator(method="dop853", rtol=1e-12, atol=1e-13)
+
+
+def two_step(torque: float = TORQUE) -> SequenceGait:
+    """studies/two_step.yaml: the state-based horizontal gait as a two-swap cycle (it ends on
+    A, so its return map exists for any robot)."""
+    return SequenceGait([
+        Segment("free_end_height", 0.0, direction="rising", latch_energy=True),
+        Segment("energy_restored", 0.0, magnets="swap", torque=torque),
+        Segment("coord", 0.0, coord="theta1", direction="either"),
+        Segment("free_end_height", 0.0, direction="rising", latch_energy=True),
+        Segment("energy_restored", 0.0, magnets="swap", torque=torque)], theta2=0.0)
+
+
+def two_swing() -> SequenceGait:
+    """studies/two_swing.yaml: a full oscillation before the swap (ends on B)."""
+    return SequenceGait([
+        Segment("coord", 0.0, coord="theta1", direction="falling", latch_energy=True),
+        Segment("coord", 0.0, coord="theta1", direction="rising"),
+        Segment("free_end_height", 0.0, direction="rising"),
+        Segment("energy_restored", 0.0, magnets="swap", torque=TORQUE)], theta2=0.0)
+
+
+@pytest.fixture(scope="module")
+def two_step_point():
+    """The two-step gait's fixed point at theta2 = 0 for seed2009 (from the study's refine)."""
+    g = two_step()
+    fmap = partial(cycle_return_map, gait=g, robot="seed2009", integrator=INTEG)
+    fp = solve_fixed_point(fmap, np.array([0.0, 0.74231351, 11.16262254]), jacobian=lambda q:
+                           sequence_variational_jacobian(g, q, robot="seed2009",
+                                                         integrator=INTEG))
+    assert fp.converged
+    return fp.z
+
+
+def residual(gait, z, robot) -> float:
+    zn, st = cycle_return_map(z, gait, robot=robot, integrator=INTEG)
+    assert st == 0
+    return float(np.abs(zn - z).max())
+
+
+# --- parameters ------------------------------------------------------------------------------
+def test_mass_ratio_keeps_total_mass_and_shape():
+    base = Robot.preset("seed2009")
+    r, g = with_parameter(base, two_step(), "mass_ratio", 0.5)
+    assert r.link1.mass + r.link2.mass == pytest.approx(2.0, rel=1e-15)
+    assert r.link2.mass / r.link1.mass == pytest.approx(0.5, rel=1e-15)
+    # same shape: inertia per unit mass and CG positions unchanged
+    assert r.link1.inertia / r.link1.mass == pytest.approx(base.link1.inertia / 1.0)
+    assert r.link2.inertia / r.link2.mass == pytest.approx(base.link2.inertia / 1.0)
+    assert (r.link1.com, r.link2.com) == (base.link1.com, base.link2.com)
+    assert parameter_of(r, g, "mass_ratio") == pytest.approx(0.5)
+    same, _ = with_parameter(base, two_step(), "mass_ratio", 1.0)
+    np.testing.assert_array_equal(same.params(), base.params())
+    with pytest.raises(ValueError, match="mass_ratio must be > 0"):
+        with_parameter(base, two_step(), "mass_ratio", 0.0)
+
+
+def test_torque_scales_every_motor_segment():
+    g = dataclasses.replace(two_step(), section_torque=-0.2)
+    _, g2 = with_parameter("seed2009", g, "torque", 2 * TORQUE)
+    assert [s.torque for s in g2.segments] == [0.0, 2 * TORQUE, 0.0, 0.0, 2 * TORQUE]
+    assert g2.section_torque == pytest.approx(-0.4)
+    assert motor_torque(g2) == 2 * TORQUE
+    motorless = SequenceGait([Segment("free_end_height", 0.0, magnets="keep")])
+    with pytest.raises(ValueError, match="no motor segment"):
+        motor_torque(motorless)
+
+
+def test_friction_and_mirror_parameters():
+    r, _ = with_parameter("seed2009", two_step(), "joint_viscous", 0.01)
+    assert r.joint_friction.viscous == 0.01 and r.pivot_friction.viscous == 0.0
+    r, _ = with_parameter("seed2009", two_step(), "pivot_viscous", 0.02)
+    assert r.pivot_friction.viscous == 0.02
+    r, _ = with_parameter("seed2009", two_step(), "com", 0.5)
+    assert r.link1.com == 0.5 and r.link2.com == pytest.approx(0.61 - 0.5)
+    with pytest.raises(ValueError, match="parameter must be one of"):
+        with_parameter("seed2009", two_step(), "length", 1.0)
+
+
+# --- bifurcation bookkeeping -----------------------------------------------------------------
+def test_crossings_classify_multipliers_leaving_the_circle():
+    neutral = 1.0
+    pd, p1, ns = _crossings(np.array([neutral, -0.9, 0.3]), np.array([neutral, -1.1, 0.3]))
+    assert (pd, p1, ns) == (True, False, False)
+    pd, p1, ns = _crossings(np.array([neutral, 0.9, 0.3]), np.array([neutral, 1.2, 0.3]))
+    assert (pd, p1, ns) == (False, True, False)
+    pd, p1, ns = _crossings(np.array([neutral, 0.9 + 0.3j, 0.9 - 0.3j]),
+                            np.array([neutral, 1.0 + 0.3j, 1.0 - 0.3j]))
+    assert (pd, p1, ns) == (False, False, True)
+    # a stable complex pair that meets the real axis and leaves through +1
+    pd, p1, ns = _crossings(np.array([neutral, 0.98 + 0.1j, 0.98 - 0.1j]),
+                            np.array([neutral, 1.2, 0.7]))
+    assert (pd, p1, ns) == (False, True, False)
+    # the neutral multiplier is never a crossing, nor moving inside the circle
+    assert _crossings(np.array([1.0, 0.5, 0.2]), np.array([1.0, 0.6, -0.3])) == \
+        (False, False, False)
+
+
+def test_fold_indices():
+    assert fold_indices([0.0, 1.0, 2.0, 1.5, 1.0, 1.2]) == [2, 4]
+    assert fold_indices([3.0, 2.0, 1.0]) == []
+
+
+# --- branches ---------------------------------------------------------------------------------
+def test_gravity_torque_scaling_maps_one_branch_onto_another(two_step_point):
+    """Dimensional analysis: with gravity and every torque multiplied by s, a trajectory runs
+    sqrt(s) times faster on the same path (no time or energy guards here). So the torque
+    branch at 4 g is the torque branch at g with torque x 4 and rates x 2: the continuation,
+    run from the scaled start, must recover the known branch point by point."""
+    z = two_step_point
+    g0 = Robot.preset("seed2009")
+    b1 = continue_cycle(two_step(), z, "torque", robot=g0, integrator=INTEG, ds=0.02,
+                        steps=8)
+    assert b1.stop_reason == "steps" and np.all(np.diff(b1.value) > 0)
+    g4 = dataclasses.replace(g0, gravity=4 * g0.gravity)
+    z4 = np.array([z[0], 2 * z[1], 2 * z[2]])
+    assert residual(two_step(4 * TORQUE), z4, g4) < 1e-10      # the scaled start is exact
+    b4 = continue_cycle(two_step(4 * TORQUE), z4, "torque", robot=g4, integrator=INTEG,
+                        ds=0.05, steps=8)
+    assert b4.stop_reason == "steps"
+    inside = b4.value / 4 <= b1.value[-1]
+    assert inside.sum() >= 5
+    from scipy.interpolate import CubicSpline
+    for y1, y4 in ((b1.dtheta1, b4.dtheta1), (b1.dtheta2, b4.dtheta2)):
+        known = CubicSpline(b1.value, y1)(b4.value[inside] / 4)
+        np.testing.assert_allclose(y4[inside] / 2, known, rtol=0, atol=2e-6)
+    # the multipliers are dimensionless: the same along both branches
+    lam1 = np.sort(np.abs(b1.multipliers[0]))
+    lam4 = np.sort(np.abs(b4.multipliers[0]))
+    np.testing.assert_allclose(lam4, lam1, atol=1e-8)
+
+
+def test_mass_ratio_branch_points_are_fixed_points_with_right_multipliers(two_step_point):
+    b = continue_cycle(two_step(), two_step_point, "mass_ratio", robot="seed2009",
+                       integrator=INTEG, ds=-0.05, steps=5)
+    assert len(b.value) == 6 and np.all(np.diff(b.value) < 0)
+    assert b.value[-1] < 0.85
+    base = Robot.preset("seed2009")
+    for i in range(len(b.value)):
+        rb, g = with_parameter(base, two_step(), "mass_ratio", b.value[i])
+        g = dataclasses.replace(g, theta2=b.theta2)
+        # evaluated afresh by the batch kernel: a fixed point to the integrator's accuracy
+        r = evaluate_cycle_gaits(np.array([[b.dtheta1[i], b.dtheta2[i]]]), g, robot=rb,
+                                 integrator=INTEG)
+        assert r["status"][0] == 0 and r["error"][0] < 1e-20
+    # the multipliers against finite differences at the last point, where the ratio is
+    # far from the mirror-symmetric 1 and the gait has become unstable
+    rb, g = with_parameter(base, two_step(), "mass_ratio", b.value[-1])
+    zl = np.array([b.theta2, b.dtheta1[-1], b.dtheta2[-1]])
+    Jfd = jacobian_fd(partial(cycle_return_map, gait=g, robot=rb, integrator=INTEG), zl)
+    lam_fd = np.linalg.eigvals(Jfd)
+    np.testing.assert_allclose(np.sort(np.abs(b.multipliers[-1])), np.sort(np.abs(lam_fd)),
+                               atol=1e-6)
+    assert b.neutral.tolist() == [1] * len(b.value)   # the free energy level, everywhere
+    assert b.stable[0] == 1 and b.stable[-1] == 0
+    assert len(b.through_plus_one) == 1               # stability is lost through +1
+    i = b.through_plus_one[0]
+    assert np.abs(b.multipliers[i - 1]).max() < 1.0 + 1e-6 < np.abs(b.multipliers[i]).max()
+
+
+def test_branch_stops_at_a_border_where_the_event_sequence_changes():
+    """The two-swing gait's torque branch ends where the first swing's return to the
+    vertical becomes a tangency: just beyond it, link 1 recrosses theta1 = 0 at once."""
+    g = two_swing()
+    fmap = partial(cycle_return_map, gait=g, robot="seed2009", integrator=INTEG)
+    fp = solve_fixed_point(fmap, np.array([0.0, -2.23093117, 19.27909023]), jacobian=lambda q:
+                           sequence_variational_jacobian(g, q, robot="seed2009",
+                                                         integrator=INTEG))
+    assert fp.converged
+    b = continue_cycle(g, fp.z, "torque", robot="seed2009", integrator=INTEG, ds=0.3,
+                       steps=40)
+    assert b.stop_reason == "border"
+    assert 0.80 < b.value[-1] < 0.86
+    last = dataclasses.replace(g, theta2=b.theta2)
+
+    def seg_times(mu, d1, d2):
+        rb, gg = with_parameter("seed2009", last, "torque", mu)
+        return evaluate_cycle_gaits(np.array([[d1, d2]]), gg, robot=rb,
+                                    integrator=INTEG)["t_segment"][0]
+
+    t_here = seg_times(b.value[-1], b.dtheta1[-1], b.dtheta2[-1])
+    # a little further along the branch's direction the second segment ends within a
+    # fraction of the first swing instead of a whole swing later
+    d = np.array([b.dtheta1[-1] - b.dtheta1[-2], b.dtheta2[-1] - b.dtheta2[-2],
+                  b.value[-1] - b.value[-2]])
+    d /= np.linalg.norm(d)
+    jumped = False
+    for h in (0.005, 0.01, 0.02, 0.04):
+        u = np.array([b.dtheta1[-1], b.dtheta2[-1], b.value[-1]]) + h * d
+        t = seg_times(u[2], u[0], u[1])
+        if t[1] - t[0] < 0.5 * (t_here[1] - t_here[0]):
+            jumped = True
+            break
+    assert jumped
+
+
+def test_refuses_what_it_cannot_continue(two_step_point):
+    z = two_step_point
+    with pytest.raises(ValueError, match="not a fixed point"):
+        continue_cycle(two_step(), z + np.array([0.0, 1e-3, 0.0]), "torque",
+                       integrator=INTEG, steps=1)
+    with pytest.raises(ValueError, match="parameter must be one of"):
+        continue_cycle(two_step(), z, "links", integrator=INTEG)
+    with pytest.raises(ValueError, match="non-zero"):
+        continue_cycle(two_step(), z, "torque", integrator=INTEG, ds=0.0)
+    assert math.isclose(parameter_of("seed2009", two_step(), "gravity"), 9.81)
