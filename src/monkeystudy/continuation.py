@@ -7,12 +7,14 @@ point). Here the fixed point is that of a sequence gait's return map
 (:func:`monkeystudy.analysis.cycle_return_map`), whose Jacobian comes from the variational
 equations through every phase (:func:`monkeystudy.saltation.sequence_variational_jacobian`).
 
-Unknowns ``u = (dtheta1, dtheta2, mu)`` at the section's fixed ``theta2``; equations
-``R(u) = P(theta2, dtheta1, dtheta2; mu) - (theta2, dtheta1, dtheta2)``. A gait that latches
-its energy at the cycle start and restores it later has a family of fixed points (one
-multiplier is exactly 1: the energy level is free); fixing ``theta2`` picks one member, and
-``R`` then has rank 2 in three unknowns, so the solutions form a curve. Gauss-Newton with
-least-squares steps solves the three equations; the tangent is the null vector of ``DR``.
+Unknowns ``u = (theta2, dtheta1, dtheta2, mu)``; equations ``R(u) = P(z; mu) - z`` with
+``z = (theta2, dtheta1, dtheta2)``. A gait that latches its energy at the cycle start and
+restores it later has a family of fixed points (one multiplier is exactly 1: the energy level
+is free), and ``R`` has rank 2: the phase condition ``theta2 = theta2_0`` then picks one
+member. A gait with an isolated fixed point (e.g. one that tops its energy up to an absolute
+level) keeps ``theta2`` free. Either way the solutions form a curve; Gauss-Newton with
+least-squares steps solves the equations, and the tangent is the null vector of their
+Jacobian.
 """
 from __future__ import annotations
 
@@ -32,6 +34,9 @@ CYCLE_PARAMETERS = {
     "torque": "N m", "mass_ratio": "1", "com": "m", "inertia": "kg m2", "gravity": "m s-2",
     "joint_viscous": "N m s", "pivot_viscous": "N m s",
 }
+
+#: least admissible values (a finite-difference stencil must not step below them)
+PARAMETER_FLOOR = {"joint_viscous": 0.0, "pivot_viscous": 0.0, "mass_ratio": 1e-6}
 
 #: multipliers within this of 1 are the neutral energy level, not a stability verdict
 NEUTRAL_TOL = 1e-6
@@ -125,13 +130,14 @@ class CycleBranch:
     """
 
     parameter: str
-    theta2: float              # the section's theta2 [rad], fixed along the branch
+    theta2_pinned: bool        # a family (neutral multiplier): theta2 held at the start's
     value: np.ndarray          # the parameter
+    theta2: np.ndarray         # [rad] on the section
     dtheta1: np.ndarray        # [rad s-1]
     dtheta2: np.ndarray        # [rad s-1]
     residual: np.ndarray       # |P(z) - z| after correction
     iterations: np.ndarray     # corrector iterations per point (0 at the start)
-    arclength: np.ndarray      # cumulative arclength in (dtheta1, dtheta2, mu)
+    arclength: np.ndarray      # cumulative arclength in (theta2, dtheta1, dtheta2, mu)
     multipliers: np.ndarray
     neutral: np.ndarray
     stable: np.ndarray         # all non-neutral |lambda| < 1
@@ -188,13 +194,14 @@ def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike =
         multipliers; the branch itself needs only the map).
     z0 : array_like, shape (3,)
         A fixed point ``(theta2 [rad], dtheta1, dtheta2 [rad s-1])`` on the gait's section
-        (e.g. a floquet step's Newton-polished point); ``theta2`` stays fixed along the branch.
+        (e.g. a floquet step's Newton-polished point). When the start has a neutral
+        multiplier (a family), ``theta2`` stays at ``z0[0]`` along the branch.
     parameter : str
         One of :data:`CYCLE_PARAMETERS` (see :func:`with_parameter`).
     robot : Robot or str
         The robot at the start value.
     ds : float
-        First arclength step in ``(dtheta1 [rad s-1], dtheta2 [rad s-1], mu)``; its sign picks
+        First arclength step in ``(theta2 [rad], dtheta1, dtheta2 [rad s-1], mu)``; its sign picks
         the direction (``mu`` increasing for ``ds > 0``).
     steps : int
         Branch points to add after the start.
@@ -228,56 +235,84 @@ def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike =
         raise ValueError(f"ds must be finite and non-zero, got {ds!r}")
     base = as_robot(robot)
     mu0 = parameter_of(base, gait, parameter)
-    theta2 = float(np.asarray(z0, float)[0])
+    z0 = np.asarray(z0, float)
+    theta2_0 = float(z0[0])
     ds_min = abs(ds) / 256.0 if ds_min is None else float(ds_min)
     ds_max = abs(ds) if ds_max is None else float(ds_max)
+    MU = 3          # u = (theta2, dtheta1, dtheta2, mu)
+    floor = PARAMETER_FLOOR.get(parameter, -math.inf)
 
     def setup(mu):
         return with_parameter(base, gait, parameter, mu)
 
-    def z_of(u):
-        return np.array([theta2, u[0], u[1]])
-
     def R(u):
-        rb, g = setup(u[2])
-        zn, st = cycle_return_map(z_of(u), g, robot=rb, integrator=integrator)
-        return zn - z_of(u), st
+        rb, g = setup(u[MU])
+        zn, st = cycle_return_map(u[:3], g, robot=rb, integrator=integrator)
+        return zn - u[:3], st
 
     def jac_state(u):
-        rb, g = setup(u[2])
-        return sequence_variational_jacobian(g, z_of(u), robot=rb, integrator=integrator)
+        rb, g = setup(u[MU])
+        return sequence_variational_jacobian(g, u[:3], robot=rb, integrator=integrator)
 
-    def DR(u):
-        """d R / d (dtheta1, dtheta2, mu): variational columns, central difference in mu."""
+    u = np.array([theta2_0, float(z0[1]), float(z0[2]), mu0])
+    r0, st0 = R(u)
+    if st0 != Status.OK:
+        raise RuntimeError(f"no cycle from the start (status {Status(st0).name})")
+    if np.linalg.norm(r0) > 1e3 * tol * max(1.0, float(np.abs(u[:3]).max())):
+        raise ValueError(f"the start is not a fixed point: |P(z) - z| = "
+                         f"{np.linalg.norm(r0):.3g} (polish it first, e.g. a floquet step)")
+    lam0 = np.linalg.eigvals(jac_state(u))
+    # a free energy level makes the fixed points a family: pin theta2 to pick one member
+    pinned = bool(np.any(np.abs(lam0 - 1.0) < NEUTRAL_TOL))
+
+    def F(u):
+        """The equations: ``P(z) - z`` and, for a family, the phase condition on theta2."""
+        r, st = R(u)
+        return (np.append(r, u[0] - theta2_0) if pinned else r), st
+
+    def DF(u):
+        """d F / d u: variational columns for the state, differences in mu."""
         J = jac_state(u)
-        D = np.empty((3, 3))
-        D[:, 0] = J[:, 1] - np.eye(3)[:, 1]
-        D[:, 1] = J[:, 2] - np.eye(3)[:, 2]
-        h = fd_step * max(1.0, abs(u[2]))
-        rp, sp = R(u + np.array([0.0, 0.0, h]))
-        rm, sm = R(u - np.array([0.0, 0.0, h]))
+        D = np.empty((4 if pinned else 3, 4))
+        D[:3, :3] = J - np.eye(3)
+        if pinned:
+            D[3] = (1.0, 0.0, 0.0, 0.0)
+        h = fd_step * max(1.0, abs(u[MU]))
+        e = np.zeros(4)
+        e[MU] = h
+        if u[MU] - h < floor:
+            # friction cannot go negative: one-sided, second order
+            (r0, s0), (r1, s1), (r2, s2) = R(u), R(u + e), R(u + 2 * e)
+            if Status.OK != s0 or Status.OK != s1 or Status.OK != s2:
+                raise RuntimeError("the parameter stencil left the gait")
+            D[:3, MU] = (-3.0 * r0 + 4.0 * r1 - r2) / (2 * h)
+            return D
+        rp, sp = R(u + e)
+        rm, sm = R(u - e)
         if sp != Status.OK or sm != Status.OK:
             raise RuntimeError("the parameter stencil left the gait")
-        D[:, 2] = (rp - rm) / (2 * h)
-        return D, J
+        D[:3, MU] = (rp - rm) / (2 * h)
+        return D
 
     def tangent(D, prev, sign):
         _, _, vt = np.linalg.svd(D)
         t = vt[-1] / np.linalg.norm(vt[-1])
         if prev is None:
-            return t if t[2] * sign >= 0 else -t
+            return t if t[MU] * sign >= 0 else -t
         return t if t @ prev >= 0 else -t
 
     def scale_of(u):
-        return max(1.0, float(np.abs(z_of(u)).max()))
+        return max(1.0, float(np.abs(u[:3]).max()))
 
     def correct(up, tau):
-        """Gauss-Newton on ``[R(v); tau . (v - up)] = 0``: ``((v, iterations) or None,
-        |R| at the predictor)``."""
+        """Gauss-Newton on ``[F(v); tau . (v - up)] = 0``: ``((v, iterations) or None,
+        |P(z) - z| at the predictor)``."""
         v = up.copy()
         prev = first = math.inf
         for it in range(1, max_corrector + 1):
-            r, st = R(v)
+            if v[MU] < floor:
+                return None, first      # left the admissible parameters (e.g. friction < 0)
+            r, st = F(v)
             if st != Status.OK or not np.all(np.isfinite(r)):
                 return None, first
             norm = float(np.linalg.norm(r))
@@ -289,30 +324,22 @@ def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike =
             if norm <= tol * scale_of(v) and abs(tau @ (v - up)) <= tol:
                 return (v, it - 1), first
             try:
-                D, _ = DR(v)
+                D = DF(v)
             except (RuntimeError, ValueError):
                 return None, first
             A = np.vstack([D, tau])
-            F = np.concatenate([r, [tau @ (v - up)]])
-            step, *_ = np.linalg.lstsq(A, -F, rcond=None)
+            b = np.concatenate([r, [tau @ (v - up)]])
+            step, *_ = np.linalg.lstsq(A, -b, rcond=None)
             v = v + step
             if not np.all(np.isfinite(v)):
                 return None, first
-        r, st = R(v)
+        r, st = F(v)
         if st == Status.OK and np.linalg.norm(r) <= tol * scale_of(v):
             return (v, max_corrector), first
         return None, first
 
-    u = np.array([float(z0[1]), float(z0[2]), mu0])
-    r0, st0 = R(u)
-    if st0 != Status.OK:
-        raise RuntimeError(f"no cycle from the start (status {Status(st0).name})")
-    if np.linalg.norm(r0) > 1e3 * tol * scale_of(u):
-        raise ValueError(f"the start is not a fixed point: |P(z) - z| = "
-                         f"{np.linalg.norm(r0):.3g} (polish it first, e.g. a floquet step)")
-    rows, res, iters, tau = [u.copy()], [float(np.linalg.norm(r0))], [0], None
-    D, _ = DR(u)
-    tau = tangent(D, None, math.copysign(1.0, ds))
+    rows, res, iters = [u.copy()], [float(np.linalg.norm(r0))], [0]
+    tau = tangent(DF(u), None, math.copysign(1.0, ds))
     h = abs(ds)
     reason = "steps"
     while len(rows) <= steps:
@@ -328,15 +355,14 @@ def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike =
                 break
             continue
         v, it = got
-        if not bounds[0] <= v[2] <= bounds[1]:
+        if not bounds[0] <= v[MU] <= bounds[1]:
             reason = "bounds"
             break
         r, _ = R(v)
         rows.append(v.copy())
         res.append(float(np.linalg.norm(r)))
         iters.append(it)
-        D, _ = DR(v)
-        tau = tangent(D, tau, 1.0)
+        tau = tangent(DF(v), tau, 1.0)
         u = v
         if it <= 3:
             h = min(ds_max, 1.5 * h)
@@ -354,7 +380,7 @@ def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike =
     neutral = np.array([int(np.sum(np.abs(m - 1.0) < NEUTRAL_TOL)) for m in lam])
     stable = np.array([int(np.all(np.isfinite(m)) and bool(np.all(np.abs(_nonneutral(m)) < 1.0)))
                        for m in lam])
-    folds = fold_indices(U[:, 2])
+    folds = fold_indices(U[:, MU])
     pd, p1, ns = [], [], []
     for i in range(1, n):
         a, b, c = _crossings(lam[i - 1], lam[i])
@@ -364,7 +390,7 @@ def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike =
             p1.append(i)  # a fold may send a multiplier through +1: named as the fold
         if c:
             ns.append(i)
-    return CycleBranch(parameter, theta2, U[:, 2], U[:, 0], U[:, 1], np.array(res),
+    return CycleBranch(parameter, pinned, U[:, MU], U[:, 0], U[:, 1], U[:, 2], np.array(res),
                        np.array(iters), arc, lam, neutral, stable, folds, pd, p1, ns, reason)
 
 

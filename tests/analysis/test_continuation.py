@@ -158,7 +158,7 @@ def test_mass_ratio_branch_points_are_fixed_points_with_right_multipliers(two_st
     base = Robot.preset("seed2009")
     for i in range(len(b.value)):
         rb, g = with_parameter(base, two_step(), "mass_ratio", b.value[i])
-        g = dataclasses.replace(g, theta2=b.theta2)
+        g = dataclasses.replace(g, theta2=b.theta2[i])
         # evaluated afresh by the batch kernel: a fixed point to the integrator's accuracy
         r = evaluate_cycle_gaits(np.array([[b.dtheta1[i], b.dtheta2[i]]]), g, robot=rb,
                                  integrator=INTEG)
@@ -166,12 +166,14 @@ def test_mass_ratio_branch_points_are_fixed_points_with_right_multipliers(two_st
     # the multipliers against finite differences at the last point, where the ratio is
     # far from the mirror-symmetric 1 and the gait has become unstable
     rb, g = with_parameter(base, two_step(), "mass_ratio", b.value[-1])
-    zl = np.array([b.theta2, b.dtheta1[-1], b.dtheta2[-1]])
+    zl = np.array([b.theta2[-1], b.dtheta1[-1], b.dtheta2[-1]])
     Jfd = jacobian_fd(partial(cycle_return_map, gait=g, robot=rb, integrator=INTEG), zl)
     lam_fd = np.linalg.eigvals(Jfd)
     np.testing.assert_allclose(np.sort(np.abs(b.multipliers[-1])), np.sort(np.abs(lam_fd)),
                                atol=1e-6)
     assert b.neutral.tolist() == [1] * len(b.value)   # the free energy level, everywhere
+    assert b.theta2_pinned        # held by the phase condition, to the corrector's tolerance
+    np.testing.assert_allclose(b.theta2, two_step_point[0], rtol=0, atol=1e-10)
     assert b.stable[0] == 1 and b.stable[-1] == 0
     assert len(b.through_plus_one) == 1               # stability is lost through +1
     i = b.through_plus_one[0]
@@ -191,7 +193,7 @@ def test_branch_stops_at_a_border_where_the_event_sequence_changes():
                        steps=40)
     assert b.stop_reason == "border"
     assert 0.80 < b.value[-1] < 0.86
-    last = dataclasses.replace(g, theta2=b.theta2)
+    last = dataclasses.replace(g, theta2=b.theta2[-1])
 
     def seg_times(mu, d1, d2):
         rb, gg = with_parameter("seed2009", last, "torque", mu)
@@ -224,3 +226,31 @@ def test_refuses_what_it_cannot_continue(two_step_point):
     with pytest.raises(ValueError, match="non-zero"):
         continue_cycle(two_step(), z, "torque", integrator=INTEG, ds=0.0)
     assert math.isclose(parameter_of("seed2009", two_step(), "gravity"), 9.81)
+
+
+def test_an_isolated_fixed_point_is_continued_with_theta2_free():
+    """Topping the energy up to an absolute level (not a latched one) leaves no neutral
+    multiplier: the fixed point is isolated, theta2 moves along the branch. In joint friction,
+    which starts at its floor 0 (one-sided differences there)."""
+    from monkeystudy.kernel.dynamics import kinetic_energy, potential_energy
+
+    par = Robot.preset("seed2009").params()[0]
+    level = (kinetic_energy(par, 0.0, 0.0, 0.0, 0.0, 0.7423135, 11.1626225)
+             + potential_energy(par, 0.0, 0.0, 0.0))
+    g = SequenceGait([Segment("free_end_height", 0.0, direction="rising"),
+                      Segment("energy", float(level), direction="rising", magnets="swap",
+                              torque=TORQUE)], theta2=0.0)
+    fmap = partial(cycle_return_map, gait=g, robot="seed2009", integrator=INTEG)
+    fp = solve_fixed_point(fmap, np.array([0.0, 0.7423135, 11.1626225]), jacobian=lambda q:
+                           sequence_variational_jacobian(g, q, robot="seed2009",
+                                                         integrator=INTEG))
+    assert fp.converged
+    b = continue_cycle(g, fp.z, "joint_viscous", robot="seed2009", integrator=INTEG,
+                       ds=0.02, steps=2)
+    assert not b.theta2_pinned and b.neutral.tolist() == [0, 0, 0]
+    assert b.value[0] == 0.0 and np.all(b.value[1:] > 0.0)
+    assert abs(b.theta2[-1] - b.theta2[0]) > 1e-3
+    for i in range(len(b.value)):
+        rb, gi = with_parameter("seed2009", g, "joint_viscous", b.value[i])
+        z = np.array([b.theta2[i], b.dtheta1[i], b.dtheta2[i]])
+        assert residual(gi, z, rb) < 1e-10

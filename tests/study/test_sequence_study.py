@@ -147,7 +147,8 @@ def test_sequence_continuation_end_to_end(tmp_path):
     assert ds["parameter_value"].values[0] == 1.0
     assert np.all(np.diff(ds["parameter_value"].values) < 0)
     np.testing.assert_array_equal([ds["dtheta1"].values[0], ds["dtheta2"].values[0]], z[1:])
-    assert ds.attrs["theta2"] == z[0]
+    assert ds.attrs["theta2_pinned"] == 1
+    np.testing.assert_allclose(ds["theta2"].values, z[0], rtol=0, atol=1e-10)
     assert np.all(ds["residual"].values < 1e-10)
     assert ds["stable"].values[0] == 1 and ds["neutral"].values.tolist() == [1] * 4
     assert np.all(ds["x_advance"].values > 0.9)      # it walks: about 0.92 m per two steps

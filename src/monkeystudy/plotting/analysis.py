@@ -728,8 +728,12 @@ def plot_continuation(ds):
                    "border": "the cycle's event sequence changes just ahead (the map jumps)",
                    "ds_min": "the corrector failed at the least step (the map is not smooth "
                              "ahead)"}.get(stop, stop)
-            sub += (f"section θ2 = {_attr_float(ds, 'theta2'):.4g} rad, from floquet step "
-                    f"{ds.attrs.get('floquet_step', '?')}; stopped: {why}\n"
+            th2 = _values(ds, "theta2")
+            pin = (f"θ2 held at {th2[0]:.4g} rad (a family: one neutral multiplier)"
+                   if int(_attr_float(ds, "theta2_pinned") or 0) else
+                   f"θ2 {th2[0]:.4g} → {th2[-1]:.4g} rad")
+            sub += (f"{pin}, from floquet step {ds.attrs.get('floquet_step', '?')}; stopped: "
+                    f"{why}\n"
                     + run_line(ds, tick=False))
             title = f"Sequence-gait family continued in {what}"
         else:

@@ -335,7 +335,7 @@ def finish(run, s, attrs: dict) -> str:
                 f"{st.max_cycles}")
     if isinstance(st, ContinuationStep):
         r = results[0]
-        sequence = "theta2" in r
+        sequence = "t_segment" in r
         if sequence:
             fp = ctx["gait"]
             attrs.update(floquet_step=st.from_, fixed_point=list(fp["fixed_point"]),

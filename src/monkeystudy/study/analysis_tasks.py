@@ -430,13 +430,14 @@ def sequence_continuation_task(spec: GaitSpec, fixed_point, *, parameter: str, d
     adv = np.full((n, 2), np.nan)
     for i in range(n):
         rb, g = with_parameter(robot, seq, parameter, b.value[i])
-        g = dataclasses.replace(g, theta2=b.theta2)
+        g = dataclasses.replace(g, theta2=float(b.theta2[i]))
         r = evaluate_cycle_gaits(np.array([[b.dtheta1[i], b.dtheta2[i]]]), g, robot=rb,
                                  integrator=integ)
         t_seg[i] = r["t_segment"][0]
         adv[i] = r["x_advance"][0], r["y_advance"][0]
     return {"parameter": parameter, "value0": float(b.value[0]), "value": b.value,
-            "theta2": b.theta2, "dtheta1": b.dtheta1, "dtheta2": b.dtheta2,
+            "theta2": b.theta2, "theta2_pinned": int(b.theta2_pinned),
+            "dtheta1": b.dtheta1, "dtheta2": b.dtheta2,
             "residual": b.residual, "iterations": b.iterations, "arclength": b.arclength,
             "multipliers": b.multipliers, "neutral": b.neutral, "stable": b.stable,
             "t_segment": t_seg, "x_advance": adv[:, 0], "y_advance": adv[:, 1],

@@ -629,7 +629,7 @@ def write_continuation(path: Path, attrs: dict, result: dict) -> None:
     :func:`~monkeystudy.study.analysis_tasks.sequence_continuation_task` result."""
     n = len(result["value"])
     par = result["parameter"]
-    sequence = "theta2" in result
+    sequence = "t_segment" in result
     what = "sequence gait's fixed point" if sequence else "collisionless gait"
     with atomic_netcdf(path) as nc:
         _index_coord(nc, "point", n, "point on the branch (0: the "
@@ -649,11 +649,15 @@ def write_continuation(path: Path, attrs: dict, result: dict) -> None:
             _var(nc, "residual", ("point",), np.float64,
                  {"long_name": "|P(z) - z| of the return map after correction", "units": "1"},
                  result["residual"])
+            _var(nc, "theta2", ("point",), np.float64,
+                 {"long_name": "theta2 of the fixed point on the section (held at the "
+                               "start's when theta2_pinned)", "units": "rad"},
+                 result["theta2"])
             _var(nc, "corrector_iterations", ("point",), np.int32,
                  {"long_name": "Gauss-Newton corrector iterations (0: the start)",
                   "units": "1"}, np.asarray(result["iterations"], np.int32))
             _var(nc, "arclength", ("point",), np.float64,
-                 {"long_name": "cumulative arclength in (dtheta1, dtheta2, parameter)",
+                 {"long_name": "cumulative arclength in (theta2, dtheta1, dtheta2, parameter)",
                   "units": "1"}, result["arclength"])
             _var(nc, "stable", ("point",), np.int8,
                  {"long_name": "1: every non-neutral multiplier inside the unit circle",
@@ -668,7 +672,8 @@ def write_continuation(path: Path, attrs: dict, result: dict) -> None:
             _complex_vars(nc, "multipliers", ("point", "k"), result["multipliers"],
                           "Floquet multipliers of the cycle's return map (variational "
                           "equations)")
-            extra = {"theta2": float(result["theta2"]), "stop_reason": result["stop_reason"],
+            extra = {"theta2_pinned": int(result["theta2_pinned"]),
+                     "stop_reason": result["stop_reason"],
                      "through_plus_one": list(result["through_plus_one"]),
                      "neimark_sacker": list(result["neimark_sacker"])}
         else:

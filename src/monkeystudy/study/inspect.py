@@ -183,8 +183,10 @@ def _continuation(ds, a) -> list[str]:
     if "t_segment" in ds:      # a sequence gait: leave the neutral multiplier out
         rest = [np.abs(m[~(np.abs(m - 1.0) < 1e-6)]) for m in lam]
         lead = np.array([r.max() if r.size else np.nan for r in rest])
-        head = (f"sequence gait, section theta2 {float(a.get('theta2', np.nan)):.6g} rad, "
-                f"from floquet step {a.get('floquet_step')}; stopped: {a.get('stop_reason')}")
+        th2 = ds["theta2"].values
+        head = (f"sequence gait, theta2 {th2[0]:.6g} -> {th2[-1]:.6g} rad (pinned: "
+                f"{a.get('theta2_pinned')}), from floquet step {a.get('floquet_step')}; "
+                f"stopped: {a.get('stop_reason')}")
         marks = (f"folds {a.get('folds')}, period doublings {a.get('period_doublings')}, "
                  f"through +1 {a.get('through_plus_one')}, Neimark-Sacker "
                  f"{a.get('neimark_sacker')}; stable at {int(ds['stable'].sum())} of "
