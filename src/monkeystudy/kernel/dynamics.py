@@ -73,10 +73,13 @@ def flipped_params(p):
 @njit(cache=True, inline="always")
 def _swing_terms(p, tau, fmode, th1, th2, w1, w2):
     """Swing mass matrix entries and right-hand side ``F - C qdot - G`` (MODEL.md sec. 2)."""
-    s1 = np.sin(th1)
-    s2 = np.sin(th2)
-    c2 = np.cos(th2)
-    s12 = np.sin(th1 + th2)
+    return _swing_terms_t(p, tau, fmode, np.sin(th1), np.sin(th2), np.cos(th2),
+                          np.sin(th1 + th2), w1, w2)
+
+
+@njit(cache=True, inline="always")
+def _swing_terms_t(p, tau, fmode, s1, s2, c2, s12, w1, w2):
+    """:func:`_swing_terms` from the sines and cosines of the angles."""
     h = p[P_H]
     gm2r2s12 = p[P_G] * p[P_M2R2] * s12
     m11 = p[P_K11] + 2.0 * h * c2
@@ -104,10 +107,12 @@ def _solve2(m11, m12, m22, r1, r2, lock1, lock2):
 @njit(cache=True, inline="always")
 def _flight_coupling(p, th1, th2):
     """Off-diagonal block of the flight mass matrix, rows (x, y), columns (theta1, theta2)."""
-    c1 = np.cos(th1)
-    s1 = np.sin(th1)
-    c12 = np.cos(th1 + th2)
-    s12 = np.sin(th1 + th2)
+    return _flight_coupling_t(p, np.cos(th1), np.sin(th1), np.cos(th1 + th2), np.sin(th1 + th2))
+
+
+@njit(cache=True, inline="always")
+def _flight_coupling_t(p, c1, s1, c12, s12):
+    """:func:`_flight_coupling` from the sines and cosines of the angles."""
     a = p[P_A]
     m2r2 = p[P_M2R2]
     return (a * c1 + m2r2 * c12, m2r2 * c12, a * s1 + m2r2 * s12, m2r2 * s12,
@@ -122,6 +127,26 @@ def swing_accel(p, tau, fmode, th1, th2, w1, w2):
 
 
 @njit(cache=True, inline="always")
+def swing_accel_trig(p, tau, fmode, th1, th2, w1, w2):
+    """:func:`swing_accel` and ``(s1, c1, s2, c2, s12, c12)``, the sines and cosines of
+    ``theta1``, ``theta2`` and ``theta1 + theta2`` (layout ``T_*``).
+
+    For the last stage of a step: the guards at the new point need the same sines and cosines
+    (bit for bit the values :func:`.events.guard` would compute), and a cosine beside a sine of
+    the same angle costs little (LLVM fuses them into one ``sincos`` call).
+    """
+    s1 = np.sin(th1)
+    c1 = np.cos(th1)
+    s2 = np.sin(th2)
+    c2 = np.cos(th2)
+    s12 = np.sin(th1 + th2)
+    c12 = np.cos(th1 + th2)
+    m11, m12, m22, r1, r2 = _swing_terms_t(p, tau, fmode, s1, s2, c2, s12, w1, w2)
+    a1, a2 = _solve2(m11, m12, m22, r1, r2, fmode[0] == 0.0, fmode[1] == 0.0)
+    return a1, a2, s1, c1, s2, c2, s12, c12
+
+
+@njit(cache=True, inline="always")
 def flight_accel(p, tau, fmode, th1, th2, w1, w2):
     """Free-flight (4-DOF) accelerations ``(ddx, ddy, ddtheta1, ddtheta2)``, MODEL.md sec. 2.
 
@@ -129,7 +154,28 @@ def flight_accel(p, tau, fmode, th1, th2, w1, w2):
     exact, and cheaper than a general 4x4 factorisation. The position of the (x, y) end and
     its velocity do not enter (translation invariance).
     """
-    b02, b03, b12, b13, c1, s1, c12, s12 = _flight_coupling(p, th1, th2)
+    return _flight_accel_t(p, tau, fmode, np.sin(th1), np.cos(th1), np.sin(th2), np.cos(th2),
+                           np.sin(th1 + th2), np.cos(th1 + th2), w1, w2)
+
+
+@njit(cache=True, inline="always")
+def flight_accel_trig(p, tau, fmode, th1, th2, w1, w2):
+    """:func:`flight_accel` and the sines and cosines of the angles (see
+    :func:`swing_accel_trig`)."""
+    s1 = np.sin(th1)
+    c1 = np.cos(th1)
+    s2 = np.sin(th2)
+    c2 = np.cos(th2)
+    s12 = np.sin(th1 + th2)
+    c12 = np.cos(th1 + th2)
+    ax, ay, a1, a2 = _flight_accel_t(p, tau, fmode, s1, c1, s2, c2, s12, c12, w1, w2)
+    return ax, ay, a1, a2, s1, c1, s2, c2, s12, c12
+
+
+@njit(cache=True, inline="always")
+def _flight_accel_t(p, tau, fmode, s1, c1, s2, c2, s12, c12, w1, w2):
+    """:func:`flight_accel` from the sines and cosines of the angles."""
+    b02, b03, b12, b13, _, _, _, _ = _flight_coupling_t(p, c1, s1, c12, s12)
     mt = p[P_MTOT]
     a = p[P_A]
     m2r2 = p[P_M2R2]
@@ -137,8 +183,6 @@ def flight_accel(p, tau, fmode, th1, th2, w1, w2):
     # right-hand side F - C qdot - G; no pivot friction in flight (nothing is pinned)
     rx = a * s1 * w1 * w1 + m2r2 * s12 * w12 * w12
     ry = -(a * c1 * w1 * w1 + m2r2 * c12 * w12 * w12) - p[P_G] * mt
-    s2 = np.sin(th2)
-    c2 = np.cos(th2)
     h = p[P_H]
     gm2r2s12 = p[P_G] * m2r2 * s12
     r1 = h * s2 * (2.0 * w1 * w2 + w2 * w2) - p[P_G] * a * s1 - gm2r2s12
@@ -230,23 +274,40 @@ def holding_torque(phase, p, tau, fmode, y, k):
 @njit(cache=True)
 def kinetic_energy(p, th1, th2, vx, vy, w1, w2):
     """Kinetic energy K [J], MODEL.md section 1 (``vx = vy = 0`` while swinging)."""
+    k = kinetic_energy_rot(p, np.cos(th2), w1, w2)
+    if vx != 0.0 or vy != 0.0:
+        k += kinetic_energy_trans(p, np.cos(th1), np.sin(th1), np.cos(th1 + th2),
+                                  np.sin(th1 + th2), vx, vy, w1, w2)
+    return k
+
+
+@njit(cache=True, inline="always")
+def kinetic_energy_rot(p, c2, w1, w2):
+    """The rotational part of :func:`kinetic_energy` (all of it while swinging) [J]."""
     h = p[P_H]
-    c2 = np.cos(th2)
     m11 = p[P_K11] + 2.0 * h * c2
     m12 = p[P_K22] + h * c2
-    k = 0.5 * (m11 * w1 * w1 + 2.0 * m12 * w1 * w2 + p[P_K22] * w2 * w2)
-    if vx != 0.0 or vy != 0.0:
-        b02, b03, b12, b13, c1, s1, c12, s12 = _flight_coupling(p, th1, th2)
-        k += 0.5 * p[P_MTOT] * (vx * vx + vy * vy) + vx * (b02 * w1 + b03 * w2) \
-            + vy * (b12 * w1 + b13 * w2)
-    return k
+    return 0.5 * (m11 * w1 * w1 + 2.0 * m12 * w1 * w2 + p[P_K22] * w2 * w2)
+
+
+@njit(cache=True, inline="always")
+def kinetic_energy_trans(p, c1, s1, c12, s12, vx, vy, w1, w2):
+    """The part of :func:`kinetic_energy` due to the (x, y) end's velocity [J]."""
+    b02, b03, b12, b13, _, _, _, _ = _flight_coupling_t(p, c1, s1, c12, s12)
+    return 0.5 * p[P_MTOT] * (vx * vx + vy * vy) + vx * (b02 * w1 + b03 * w2) \
+        + vy * (b12 * w1 + b13 * w2)
 
 
 @njit(cache=True)
 def potential_energy(p, y_end, th1, th2):
     """Potential energy V [J] with the (x, y) end at world height ``y_end`` (MODEL.md sec. 1)."""
-    return p[P_G] * (p[P_MTOT] * y_end - p[P_A] * np.cos(th1)
-                     - p[P_M2R2] * np.cos(th1 + th2))
+    return potential_energy_t(p, y_end, np.cos(th1), np.cos(th1 + th2))
+
+
+@njit(cache=True, inline="always")
+def potential_energy_t(p, y_end, c1, c12):
+    """:func:`potential_energy` from ``cos(theta1)`` and ``cos(theta1 + theta2)`` [J]."""
+    return p[P_G] * (p[P_MTOT] * y_end - p[P_A] * c1 - p[P_M2R2] * c12)
 
 
 @njit(cache=True)

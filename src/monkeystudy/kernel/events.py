@@ -16,12 +16,15 @@ import math
 import numpy as np
 from numba import njit
 
-from .dynamics import kinetic_energy, potential_energy, rhs
+from .dynamics import (
+    kinetic_energy, kinetic_energy_rot, kinetic_energy_trans, potential_energy,
+    potential_energy_t, rhs,
+)
 from .integrate import dense_eval
 from .layout import (
     G_COORD, G_ENERGY, G_ENERGY_RESTORED, G_FREE_END_HEIGHT, G_FREE_END_Y, G_SLIP_STOP,
     G_STICK_BREAK, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_L1, P_L2, PHASE_FLIGHT,
-    PHASE_SWING,
+    PHASE_SWING, T_C1, T_C12, T_C2, T_S1, T_S12, T_S2,
 )
 
 EPS = 2.220446049250313e-16
@@ -71,6 +74,34 @@ def energy(phase, p, y, pivot):
 
 
 @njit(cache=True, inline="always")
+def energy_t(phase, p, y, pivot, s1, c1, c2, s12, c12):
+    """:func:`energy` from the sines and cosines of the angles (the same arithmetic as
+    :func:`.dynamics.total_energy8`, so bit for bit the same value) [J]."""
+    x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
+    k = kinetic_energy_rot(p, c2, w1, w2)
+    if vx != 0.0 or vy != 0.0:
+        k += kinetic_energy_trans(p, c1, s1, c12, s12, vx, vy, w1, w2)
+    return k + potential_energy_t(p, yy, c1, c12)
+
+
+@njit(cache=True, inline="always")
+def trig_of(phase, y, trig):
+    """Sines and cosines of a packed state's angles into ``trig`` (layout ``T_*``)."""
+    if phase == PHASE_FLIGHT:
+        th1 = y[2]
+        th2 = y[3]
+    else:
+        th1 = y[0]
+        th2 = y[1]
+    trig[T_S1] = np.sin(th1)
+    trig[T_C1] = np.cos(th1)
+    trig[T_S2] = np.sin(th2)
+    trig[T_C2] = np.cos(th2)
+    trig[T_S12] = np.sin(th1 + th2)
+    trig[T_C12] = np.cos(th1 + th2)
+
+
+@njit(cache=True, inline="always")
 def power(phase, p, tau, fmode, y, pivot):
     """dE/dt [W]: motor work ``tau dth2`` less viscous and Coulomb dissipation."""
     x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
@@ -81,19 +112,45 @@ def power(phase, p, tau, fmode, y, pivot):
 
 
 @njit(cache=True, inline="always")
+def _needs_trig(kind):
+    return (kind == G_FREE_END_HEIGHT or kind == G_FREE_END_Y or kind == G_ENERGY_RESTORED
+            or kind == G_ENERGY)
+
+
+@njit(cache=True, inline="always")
 def guard(kind, index, value, phase, p, tau, fmode, y, pivot, eref):
     """Value of a state guard (layout ``G_*``; time guards are handled as step bounds)."""
+    if _needs_trig(kind):
+        x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
+        return guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, np.sin(th1),
+                       np.cos(th1), np.cos(th2), np.sin(th1 + th2), np.cos(th1 + th2))
+    return guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, 0.0, 0.0, 0.0,
+                   0.0, 0.0)
+
+
+@njit(cache=True, inline="always")
+def guard_trig(kind, index, value, phase, p, tau, fmode, y, pivot, eref, trig):
+    """:func:`guard` with the sines and cosines of the angles given (``trig``, layout
+    ``T_*``, as a step leaves them): bit for bit the same value, without the trigonometry."""
+    return guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, trig[T_S1],
+                   trig[T_C1], trig[T_C2], trig[T_S12], trig[T_C12])
+
+
+@njit(cache=True, inline="always")
+def guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, s1, c1, c2, s12, c12):
+    """:func:`guard` from the sines and cosines of ``theta1``, ``theta2``, ``theta1 + theta2``
+    (only read by the kinds that need them)."""
     x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
     if kind == G_FREE_END_HEIGHT:
         # ``value``: the height above the attached end to reach [m] (0: the study's swap)
-        return -p[P_L1] * math.cos(th1) - p[P_L2] * math.cos(th1 + th2) - value
+        return -p[P_L1] * c1 - p[P_L2] * c12 - value
     if kind == G_ENERGY_RESTORED:
         # ``value``: energy to add to the latched reference [J] (a climb of dh needs M g dh)
-        return energy(phase, p, y, pivot) - eref - value
+        return energy_t(phase, p, y, pivot, s1, c1, c2, s12, c12) - eref - value
     if kind == G_ENERGY:
-        return energy(phase, p, y, pivot) - value
+        return energy_t(phase, p, y, pivot, s1, c1, c2, s12, c12) - value
     if kind == G_FREE_END_Y:
-        return yy - p[P_L1] * math.cos(th1) - p[P_L2] * math.cos(th1 + th2) - value
+        return yy - p[P_L1] * c1 - p[P_L2] * c12 - value
     if kind == G_COORD:
         if index == 0:
             return x - value
@@ -122,11 +179,28 @@ def guard(kind, index, value, phase, p, tau, fmode, y, pivot, eref):
 @njit(cache=True, inline="always")
 def guard_rate(kind, index, phase, p, tau, fmode, y, pivot, work):
     """Time derivative of a guard along the flow [guard units / s]; ``work`` is an 8-vector."""
+    if kind == G_FREE_END_HEIGHT or kind == G_FREE_END_Y:
+        x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
+        return guard_rate_t(kind, index, phase, p, tau, fmode, y, pivot, work, np.sin(th1),
+                            np.sin(th1 + th2))
+    return guard_rate_t(kind, index, phase, p, tau, fmode, y, pivot, work, 0.0, 0.0)
+
+
+@njit(cache=True, inline="always")
+def guard_rate_trig(kind, index, phase, p, tau, fmode, y, pivot, work, trig):
+    """:func:`guard_rate` with the sines and cosines given (see :func:`guard_trig`)."""
+    return guard_rate_t(kind, index, phase, p, tau, fmode, y, pivot, work, trig[T_S1],
+                        trig[T_S12])
+
+
+@njit(cache=True, inline="always")
+def guard_rate_t(kind, index, phase, p, tau, fmode, y, pivot, work, s1, s12):
+    """:func:`guard_rate` from ``sin(theta1)`` and ``sin(theta1 + theta2)``."""
     x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
     if kind == G_FREE_END_HEIGHT:
-        return p[P_L1] * math.sin(th1) * w1 + p[P_L2] * math.sin(th1 + th2) * (w1 + w2)
+        return p[P_L1] * s1 * w1 + p[P_L2] * s12 * (w1 + w2)
     if kind == G_FREE_END_Y:
-        return vy + p[P_L1] * math.sin(th1) * w1 + p[P_L2] * math.sin(th1 + th2) * (w1 + w2)
+        return vy + p[P_L1] * s1 * w1 + p[P_L2] * s12 * (w1 + w2)
     if kind == G_ENERGY_RESTORED or kind == G_ENERGY:
         return power(phase, p, tau, fmode, y, pivot)
     if kind == G_COORD:

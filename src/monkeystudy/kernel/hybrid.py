@@ -32,11 +32,12 @@ from numba import njit
 
 from .dynamics import attach_xy_end, flip_state, holding_torque, rhs, total_energy8
 from .events import (
-    crosses, guard, guard_rate, hermite_flags, locate_first, pack, unpack_into,
+    crosses, guard, guard_rate, guard_rate_trig, guard_trig, hermite_flags, locate_first, pack,
+    unpack_into,
 )
 from .integrate import (
-    MAX_FACTOR, MIN_FACTOR, SAFETY, dense_eval, dense_prepare, error_exponent, error_norm,
-    rk_step, select_initial_step,
+    MAX_FACTOR, MIN_FACTOR, SAFETY, dense_eval, dense_prepare, error_norm, error_power, rk_step,
+    select_initial_step,
 )
 from .layout import (
     C_ATOL, C_MAX_CYCLES, C_MAX_DROP, C_MAX_SEGMENT_TIME, C_MAX_STEP, C_MAX_STEPS, C_METHOD,
@@ -45,7 +46,7 @@ from .layout import (
     H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG, H_T, H_TORQUE, H_Y_REF, K_CYCLES, K_EVENTS,
     K_LOG, K_NFEV, K_REJECTED, K_SAMPLES, K_STEPS, L_CYCLE, L_E_AFTER, L_E_BEFORE, L_FLIPPED,
     L_ID, L_KIND, L_PHASE, L_STATE, L_T, LOG_FRICTION, LOG_OBSERVER, LOG_SEGMENT, M_FLIPPED,
-    M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, O_GDIR, O_GINDEX, O_GUARD, O_GVALUE,
+    M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, N_TRIG, O_GDIR, O_GINDEX, O_GUARD, O_GVALUE,
     O_SEGMENT,
     P_C_JOINT, P_C_PIVOT, PHASE_FIXED, PHASE_FLIGHT, PHASE_SWING, S_CLOCK, S_CYCLE, S_FAIL,
     S_GDIR, S_GINDEX, S_GUARD, S_GVALUE, S_MAG_A, S_MAG_B, S_NEXT, S_SET_EREF, S_SWAP,
@@ -178,6 +179,12 @@ def write_sample(samp_t, samp_y, samp_mode, row, t, s8, phase, flipped, tau, seg
 
 
 @njit(cache=True, inline="always")
+def _min_step(t):
+    """scipy's smallest step at ``t``: ten units in the last place [s]."""
+    return 10.0 * abs(np.nextafter(t, np.inf) - t)
+
+
+@njit(cache=True, inline="always")
 def _finite(y, n):
     for i in range(n):
         if not math.isfinite(y[i]):
@@ -225,7 +232,6 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
     max_step = settings[C_MAX_STEP]
     max_drop = settings[C_MAX_DROP]
     band = settings[C_ZERO_BAND]
-    err_exp = error_exponent(method)
     err_order = 7 if method == METHOD_DOP853 else 4
 
     n_obs = obs.shape[0]
@@ -238,6 +244,7 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
     f = np.zeros(8)
     y_new = np.zeros(8)
     f_new = np.zeros(8)
+    trig_new = np.zeros(N_TRIG)  # sines and cosines at y_new, left by the step for the guards
     ytmp = np.zeros(8)
     ybuf = np.zeros(8)
     work = np.zeros(8)
@@ -381,15 +388,17 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                 if t >= bound:
                     break
                 # ---- one adaptive step (scipy's RungeKutta._step_impl) ----
-                min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
+                # scipy's min_step, 10 ulp(t), is at most 10 eps |t| (+ a subnormal at t = 0):
+                # the nextafter call is only needed for a step below that
+                tiny = 10.0 * EPS * abs(t) + 1e-300
                 if h_abs > max_step:
                     h_abs = max_step
-                elif h_abs < min_step:
-                    h_abs = min_step
+                elif h_abs < tiny and h_abs < _min_step(t):
+                    h_abs = _min_step(t)
                 rejected = False
                 ok = True
                 while True:
-                    if h_abs < min_step:
+                    if h_abs < tiny and h_abs < _min_step(t):
                         ok = False
                         break
                     t_new = t + h_abs
@@ -398,18 +407,18 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                     h = t_new - t
                     h_abs = abs(h)
                     counts[K_NFEV] += rk_step(method, phase, p, tau, fmode, y, f, h, n, K,
-                                              ytmp, y_new, f_new)
+                                              trig_new, y_new, f_new)
                     en = error_norm(method, K, h, y, y_new, n, rtol, atol)
                     if en < 1.0:
                         if en == 0.0:
                             factor = MAX_FACTOR
                         else:
-                            factor = min(MAX_FACTOR, SAFETY * en ** err_exp)
+                            factor = min(MAX_FACTOR, SAFETY * error_power(method, en))
                         if rejected:
                             factor = min(1.0, factor)
                         h_abs *= factor
                         break
-                    h_abs *= max(MIN_FACTOR, SAFETY * en ** err_exp)
+                    h_abs *= max(MIN_FACTOR, SAFETY * error_power(method, en))
                     rejected = True
                     counts[K_REJECTED] += 1
                 if not ok:
@@ -426,8 +435,10 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                 t_ev = np.inf
                 # ---- segment guard ----
                 if state_guard and pending == np.inf:
-                    gb = guard(gkind, gindex, gvalue, phase, p, tau, fmode, y_new, pivot, eref)
-                    rb = guard_rate(gkind, gindex, phase, p, tau, fmode, y_new, pivot, work)
+                    gb = guard_trig(gkind, gindex, gvalue, phase, p, tau, fmode, y_new, pivot,
+                                    eref, trig_new)
+                    rb = guard_rate_trig(gkind, gindex, phase, p, tau, fmode, y_new, pivot, work,
+                                         trig_new)
                     if crosses(g_seg, gb, gdir) or hermite_flags(g_seg, r_seg, gb, rb, h, gdir):
                         if not dense:
                             counts[K_NFEV] += dense_prepare(method, phase, p, tau, fmode, t, h,
@@ -477,13 +488,15 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                     g_seg = gb
                     r_seg = rb
                 elif state_guard and t_new == pending:
-                    gb = guard(gkind, gindex, gvalue, phase, p, tau, fmode, y_new, pivot, eref)
+                    gb = guard_trig(gkind, gindex, gvalue, phase, p, tau, fmode, y_new, pivot,
+                                    eref, trig_new)
                     if (gdir > 0 and gb >= 0.0) or (gdir < 0 and gb <= 0.0) or \
                             (gdir == 0 and gb * pending_sign <= 0.0):
                         t_ev = t_new
                     pending = np.inf
                     g_seg = gb
-                    r_seg = guard_rate(gkind, gindex, phase, p, tau, fmode, y_new, pivot, work)
+                    r_seg = guard_rate_trig(gkind, gindex, phase, p, tau, fmode, y_new, pivot,
+                                            work, trig_new)
                 if t_new == t_target and t_target < t_ev:
                     t_ev = t_new
                 seg_event = t_ev < np.inf
@@ -516,10 +529,12 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                     oidx = int(obs[k, O_GINDEX])
                     oval = obs[k, O_GVALUE]
                     odir = obs[k, O_GDIR]
-                    gb = guard(okind, oidx, oval, phase, p, tau, fmode, y_new, pivot, eref)
+                    gb = guard_trig(okind, oidx, oval, phase, p, tau, fmode, y_new, pivot, eref,
+                                    trig_new)
                     ga = g_obs[k]
                     ra = guard_rate(okind, oidx, phase, p, tau, fmode, y, pivot, work)
-                    rb = guard_rate(okind, oidx, phase, p, tau, fmode, y_new, pivot, work)
+                    rb = guard_rate_trig(okind, oidx, phase, p, tau, fmode, y_new, pivot, work,
+                                         trig_new)
                     flagged = crosses(ga, gb, odir) or hermite_flags(ga, ra, gb, rb, h, odir)
                     if flagged:
                         if not dense:

@@ -8,13 +8,17 @@ import math
 
 from numba import njit
 
-from .dynamics import flight_accel, swing_accel
+from .dynamics import flight_accel, flight_accel_trig, swing_accel, swing_accel_trig
 
 FM = {"contract"}
+# numpy's error model: no division-by-zero test before each division (a singular mass matrix
+# gives inf/nan, which the hybrid loop reports as ST_NONFINITE), and without those exception
+# paths numba no longer reference-counts the array arguments on every call
+EM = "numpy"
 
 
-@njit(cache=True, fastmath=FM)
-def _dop853_step4(p, tau, fmode, y, f, h, K, y_new, f_new):
+@njit(cache=True, fastmath=FM, error_model=EM)
+def _dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[0, 0] = f[0]
     K[0, 1] = f[1]
     K[0, 2] = f[2]
@@ -126,7 +130,13 @@ def _dop853_step4(p, tau, fmode, y, f, h, K, y_new, f_new):
     z1 = y_new[1]
     z2 = y_new[2]
     z3 = y_new[3]
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2, s1, c1, s2, c2, s12, c12 = swing_accel_trig(p, tau, fmode, z0, z1, z2, z3)
+    trig[0] = s1
+    trig[1] = c1
+    trig[2] = s2
+    trig[3] = c2
+    trig[4] = s12
+    trig[5] = c12
     f_new[0] = z2
     f_new[1] = z3
     f_new[2] = a1
@@ -137,8 +147,8 @@ def _dop853_step4(p, tau, fmode, y, f, h, K, y_new, f_new):
     K[12, 3] = f_new[3]
 
 
-@njit(cache=True, fastmath=FM)
-def _dop853_step8(p, tau, fmode, y, f, h, K, y_new, f_new):
+@njit(cache=True, fastmath=FM, error_model=EM)
+def _dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[0, 0] = f[0]
     K[0, 1] = f[1]
     K[0, 2] = f[2]
@@ -326,7 +336,13 @@ def _dop853_step8(p, tau, fmode, y, f, h, K, y_new, f_new):
     z5 = y_new[5]
     z6 = y_new[6]
     z7 = y_new[7]
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2, s1, c1, s2, c2, s12, c12 = flight_accel_trig(p, tau, fmode, z2, z3, z6, z7)
+    trig[0] = s1
+    trig[1] = c1
+    trig[2] = s2
+    trig[3] = c2
+    trig[4] = s12
+    trig[5] = c12
     f_new[0] = z4
     f_new[1] = z5
     f_new[2] = z6
@@ -345,18 +361,18 @@ def _dop853_step8(p, tau, fmode, y, f, h, K, y_new, f_new):
     K[12, 7] = f_new[7]
 
 
-@njit(cache=True)
-def dop853_step(phase, p, tau, fmode, y, f, h, n, K, ytmp, y_new, f_new):
+@njit(cache=True, error_model=EM)
+def dop853_step(phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new):
     """One DOP853 step of packed size ``n`` (see ``integrate.rk_step``)."""
     if n == 4:
-        _dop853_step4(p, tau, fmode, y, f, h, K, y_new, f_new)
+        _dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
     else:
-        _dop853_step8(p, tau, fmode, y, f, h, K, y_new, f_new)
+        _dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
     return 12
 
 
-@njit(cache=True, fastmath=FM)
-def _rk45_step4(p, tau, fmode, y, f, h, K, y_new, f_new):
+@njit(cache=True, fastmath=FM, error_model=EM)
+def _rk45_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[0, 0] = f[0]
     K[0, 1] = f[1]
     K[0, 2] = f[2]
@@ -414,7 +430,13 @@ def _rk45_step4(p, tau, fmode, y, f, h, K, y_new, f_new):
     z1 = y_new[1]
     z2 = y_new[2]
     z3 = y_new[3]
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2, s1, c1, s2, c2, s12, c12 = swing_accel_trig(p, tau, fmode, z0, z1, z2, z3)
+    trig[0] = s1
+    trig[1] = c1
+    trig[2] = s2
+    trig[3] = c2
+    trig[4] = s12
+    trig[5] = c12
     f_new[0] = z2
     f_new[1] = z3
     f_new[2] = a1
@@ -425,8 +447,8 @@ def _rk45_step4(p, tau, fmode, y, f, h, K, y_new, f_new):
     K[6, 3] = f_new[3]
 
 
-@njit(cache=True, fastmath=FM)
-def _rk45_step8(p, tau, fmode, y, f, h, K, y_new, f_new):
+@njit(cache=True, fastmath=FM, error_model=EM)
+def _rk45_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[0, 0] = f[0]
     K[0, 1] = f[1]
     K[0, 2] = f[2]
@@ -524,7 +546,13 @@ def _rk45_step8(p, tau, fmode, y, f, h, K, y_new, f_new):
     z5 = y_new[5]
     z6 = y_new[6]
     z7 = y_new[7]
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2, s1, c1, s2, c2, s12, c12 = flight_accel_trig(p, tau, fmode, z2, z3, z6, z7)
+    trig[0] = s1
+    trig[1] = c1
+    trig[2] = s2
+    trig[3] = c2
+    trig[4] = s12
+    trig[5] = c12
     f_new[0] = z4
     f_new[1] = z5
     f_new[2] = z6
@@ -543,25 +571,26 @@ def _rk45_step8(p, tau, fmode, y, f, h, K, y_new, f_new):
     K[6, 7] = f_new[7]
 
 
-@njit(cache=True)
-def rk45_step(phase, p, tau, fmode, y, f, h, n, K, ytmp, y_new, f_new):
+@njit(cache=True, error_model=EM)
+def rk45_step(phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new):
     """One RK45 step of packed size ``n`` (see ``integrate.rk_step``)."""
     if n == 4:
-        _rk45_step4(p, tau, fmode, y, f, h, K, y_new, f_new)
+        _rk45_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
     else:
-        _rk45_step8(p, tau, fmode, y, f, h, K, y_new, f_new)
+        _rk45_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
     return 6
 
 
-@njit(cache=True, fastmath=FM)
+@njit(cache=True, fastmath=FM, error_model=EM)
 def dop853_error_norm(K, h, y, y_new, n, rtol, atol):
     """DOP853's combined 5th/3rd-order error norm (scipy ``DOP853._estimate_error_norm``)."""
     e5 = 0.0
     e3 = 0.0
     for i in range(n):
-        sc = atol + max(abs(y[i]), abs(y_new[i])) * rtol
-        a5 = (0.01312004499419488 * K[0, i] + -1.2251564463762044 * K[5, i] + -0.4957589496572502 * K[6, i] + 1.6643771824549864 * K[7, i] + -0.35032884874997366 * K[8, i] + 0.3341791187130175 * K[9, i] + 0.08192320648511571 * K[10, i] + -0.022355307863886294 * K[11, i]) / sc
-        a3 = (-0.18980075407240762 * K[0, i] + 4.450312892752409 * K[5, i] + 1.8915178993145003 * K[6, i] + -5.801203960010585 * K[7, i] + -0.4226823213237919 * K[8, i] + -0.1521609496625161 * K[9, i] + 0.20136540080403034 * K[10, i] + 0.02265179219836082 * K[11, i]) / sc
+        # one division, not two (within an ulp of scipy's err / scale)
+        isc = 1.0 / (atol + max(abs(y[i]), abs(y_new[i])) * rtol)
+        a5 = (0.01312004499419488 * K[0, i] + -1.2251564463762044 * K[5, i] + -0.4957589496572502 * K[6, i] + 1.6643771824549864 * K[7, i] + -0.35032884874997366 * K[8, i] + 0.3341791187130175 * K[9, i] + 0.08192320648511571 * K[10, i] + -0.022355307863886294 * K[11, i]) * isc
+        a3 = (-0.18980075407240762 * K[0, i] + 4.450312892752409 * K[5, i] + 1.8915178993145003 * K[6, i] + -5.801203960010585 * K[7, i] + -0.4226823213237919 * K[8, i] + -0.1521609496625161 * K[9, i] + 0.20136540080403034 * K[10, i] + 0.02265179219836082 * K[11, i]) * isc
         e5 += a5 * a5
         e3 += a3 * a3
     if e5 == 0.0 and e3 == 0.0:
@@ -569,7 +598,7 @@ def dop853_error_norm(K, h, y, y_new, n, rtol, atol):
     return abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * n)
 
 
-@njit(cache=True, fastmath=FM)
+@njit(cache=True, fastmath=FM, error_model=EM)
 def rk45_error_norm(K, h, y, y_new, n, rtol, atol):
     """RK45's RMS error norm (scipy ``RungeKutta._estimate_error_norm``)."""
     acc = 0.0
