@@ -179,23 +179,38 @@ def guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, s1, c1, c2
 @njit(cache=True, inline="always")
 def guard_rate(kind, index, phase, p, tau, fmode, y, pivot, work):
     """Time derivative of a guard along the flow [guard units / s]; ``work`` is an 8-vector."""
+    if rate_uses_field(kind, index):
+        return guard_rate_field(kind, index, phase, p, tau, fmode, y, work)
     if kind == G_FREE_END_HEIGHT or kind == G_FREE_END_Y:
         x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
-        return guard_rate_t(kind, index, phase, p, tau, fmode, y, pivot, work, np.sin(th1),
-                            np.sin(th1 + th2))
-    return guard_rate_t(kind, index, phase, p, tau, fmode, y, pivot, work, 0.0, 0.0)
+        return guard_rate_kin(kind, index, phase, p, tau, fmode, y, pivot, np.sin(th1),
+                              np.sin(th1 + th2))
+    return guard_rate_kin(kind, index, phase, p, tau, fmode, y, pivot, 0.0, 0.0)
 
 
 @njit(cache=True, inline="always")
 def guard_rate_trig(kind, index, phase, p, tau, fmode, y, pivot, work, trig):
     """:func:`guard_rate` with the sines and cosines given (see :func:`guard_trig`)."""
-    return guard_rate_t(kind, index, phase, p, tau, fmode, y, pivot, work, trig[T_S1],
-                        trig[T_S12])
+    if rate_uses_field(kind, index):
+        return guard_rate_field(kind, index, phase, p, tau, fmode, y, work)
+    return guard_rate_kin(kind, index, phase, p, tau, fmode, y, pivot, trig[T_S1], trig[T_S12])
 
 
 @njit(cache=True, inline="always")
-def guard_rate_t(kind, index, phase, p, tau, fmode, y, pivot, work, s1, s12):
-    """:func:`guard_rate` from ``sin(theta1)`` and ``sin(theta1 + theta2)``."""
+def rate_uses_field(kind, index):
+    """Whether a guard's rate needs the vector field (an acceleration)."""
+    return (kind == G_COORD and index >= 4) or kind == G_SLIP_STOP
+
+
+@njit(cache=True, inline="always")
+def guard_rate_kin(kind, index, phase, p, tau, fmode, y, pivot, s1, s12):
+    """Rate of a guard that does not need the vector field (kinematics and power), from
+    ``sin(theta1)`` and ``sin(theta1 + theta2)``.
+
+    Free of calls, so that numba drops the reference counting of the arrays it receives
+    where it is inlined into the hybrid loop's step (a call there keeps it: see
+    :func:`guard_rate_field`).
+    """
     x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
     if kind == G_FREE_END_HEIGHT:
         return p[P_L1] * s1 * w1 + p[P_L2] * s12 * (w1 + w2)
@@ -212,7 +227,18 @@ def guard_rate_t(kind, index, phase, p, tau, fmode, y, pivot, work, s1, s12):
             return w1
         if index == 3:
             return w2
-        rhs(phase, p, tau, fmode, y, work)
+    return 0.0
+
+
+@njit(cache=True)
+def guard_rate_field(kind, index, phase, p, tau, fmode, y, work):
+    """Rate of a guard on a velocity (an acceleration) or of a slip-stop guard.
+
+    Not inlined: it calls the vector field, and a call inside an inlined function makes numba
+    keep atomic reference counts of all that function's arrays on every evaluation.
+    """
+    rhs(phase, p, tau, fmode, y, work)
+    if kind == G_COORD:
         if phase == PHASE_FLIGHT:
             return work[index]
         if index == 6:
@@ -220,12 +246,9 @@ def guard_rate_t(kind, index, phase, p, tau, fmode, y, pivot, work, s1, s12):
         if index == 7:
             return work[3]
         return 0.0
-    if kind == G_SLIP_STOP:
-        rhs(phase, p, tau, fmode, y, work)
-        if phase == PHASE_FLIGHT:
-            return work[6 + index] * fmode[index]
-        return work[2 + index] * fmode[index]
-    return 0.0
+    if phase == PHASE_FLIGHT:
+        return work[6 + index] * fmode[index]
+    return work[2 + index] * fmode[index]
 
 
 @njit(cache=True, inline="always")

@@ -32,13 +32,17 @@ from numba import njit
 
 from .dynamics import attach_xy_end, flip_state, holding_torque, rhs, total_energy8
 from .events import (
-    crosses, guard, guard_rate, guard_rate_trig, guard_trig, hermite_flags, locate_first, pack,
-    unpack_into,
+    crosses, guard, guard_rate, guard_rate_field, guard_rate_kin, guard_rate_trig, guard_trig,
+    hermite_flags, locate_first, pack, rate_uses_field, unpack_into,
 )
 from .integrate import (
-    MAX_FACTOR, MIN_FACTOR, SAFETY, dense_eval, dense_prepare, error_norm, error_power, rk_step,
-    select_initial_step,
+    MAX_FACTOR, MIN_FACTOR, SAFETY, dense_eval, dense_prepare, error_estimator_order,
+    error_power, select_initial_step,
 )
+from .rk_explicit import (
+    dop853_error_norm, dop853_step, rk45_error_norm, rk45_step, vern9_error_norm, vern9_step,
+)
+from .tableaux import VERN9_INTERPOLATOR_POWER, VERN9_N_STAGES_EXTENDED
 from .layout import (
     C_ATOL, C_MAX_CYCLES, C_MAX_DROP, C_MAX_SEGMENT_TIME, C_MAX_STEP, C_MAX_STEPS, C_METHOD,
     C_RTOL, C_SAMPLE_DT, C_T_END, C_TICK, C_TICK_PHASE, C_ZERO_BAND,
@@ -46,8 +50,8 @@ from .layout import (
     H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG, H_T, H_TORQUE, H_Y_REF, K_CYCLES, K_EVENTS,
     K_LOG, K_NFEV, K_REJECTED, K_SAMPLES, K_STEPS, L_CYCLE, L_E_AFTER, L_E_BEFORE, L_FLIPPED,
     L_ID, L_KIND, L_PHASE, L_STATE, L_T, LOG_FRICTION, LOG_OBSERVER, LOG_SEGMENT, M_FLIPPED,
-    M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, N_TRIG, O_GDIR, O_GINDEX, O_GUARD, O_GVALUE,
-    O_SEGMENT,
+    M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, METHOD_VERN9, N_TRIG, O_GDIR, O_GINDEX,
+    O_GUARD, O_GVALUE, O_SEGMENT, T_S1, T_S12,
     P_C_JOINT, P_C_PIVOT, PHASE_FIXED, PHASE_FLIGHT, PHASE_SWING, S_CLOCK, S_CYCLE, S_FAIL,
     S_GDIR, S_GINDEX, S_GUARD, S_GVALUE, S_MAG_A, S_MAG_B, S_NEXT, S_SET_EREF, S_SWAP,
     S_TICKED, S_TORQUE, ST_BUFFER_FULL, ST_END_TIME, ST_FELL, ST_HORIZON, ST_NONFINITE, ST_OK,
@@ -232,14 +236,14 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
     max_step = settings[C_MAX_STEP]
     max_drop = settings[C_MAX_DROP]
     band = settings[C_ZERO_BAND]
-    err_order = 7 if method == METHOD_DOP853 else 4
+    err_order = error_estimator_order(method)
 
     n_obs = obs.shape[0]
     log_cap = log.shape[0]
     sampling = sample_dt > 0.0 and samp_t.shape[0] > 0
 
-    K = np.zeros((16, 8))
-    Fd = np.zeros((7, 8))
+    K = np.zeros((VERN9_N_STAGES_EXTENDED, 8))   # the largest method's stages
+    Fd = np.zeros((VERN9_INTERPOLATOR_POWER, 8))
     y = np.zeros(8)
     f = np.zeros(8)
     y_new = np.zeros(8)
@@ -406,9 +410,20 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                         t_new = bound
                     h = t_new - t
                     h_abs = abs(h)
-                    counts[K_NFEV] += rk_step(method, phase, p, tau, fmode, y, f, h, n, K,
-                                              trig_new, y_new, f_new)
-                    en = error_norm(method, K, h, y, y_new, n, rtol, atol)
+                    # integrate.rk_step and error_norm, written out: through an inlined
+                    # wrapper numba would reference-count the eight arrays on every step
+                    if method == METHOD_DOP853:
+                        counts[K_NFEV] += dop853_step(phase, p, tau, fmode, y, f, h, n, K,
+                                                      trig_new, y_new, f_new)
+                        en = dop853_error_norm(K, h, y, y_new, n, rtol, atol)
+                    elif method == METHOD_VERN9:
+                        counts[K_NFEV] += vern9_step(phase, p, tau, fmode, y, f, h, n, K,
+                                                     trig_new, y_new, f_new)
+                        en = vern9_error_norm(K, h, y, y_new, n, rtol, atol)
+                    else:
+                        counts[K_NFEV] += rk45_step(phase, p, tau, fmode, y, f, h, n, K,
+                                                    trig_new, y_new, f_new)
+                        en = rk45_error_norm(K, h, y, y_new, n, rtol, atol)
                     if en < 1.0:
                         if en == 0.0:
                             factor = MAX_FACTOR
@@ -437,8 +452,13 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                 if state_guard and pending == np.inf:
                     gb = guard_trig(gkind, gindex, gvalue, phase, p, tau, fmode, y_new, pivot,
                                     eref, trig_new)
-                    rb = guard_rate_trig(gkind, gindex, phase, p, tau, fmode, y_new, pivot, work,
-                                         trig_new)
+                    # guard_rate_trig written out: its call to the vector field must not sit
+                    # inside an inlined function (numba would reference-count its arrays)
+                    if rate_uses_field(gkind, gindex):
+                        rb = guard_rate_field(gkind, gindex, phase, p, tau, fmode, y_new, work)
+                    else:
+                        rb = guard_rate_kin(gkind, gindex, phase, p, tau, fmode, y_new, pivot,
+                                            trig_new[T_S1], trig_new[T_S12])
                     if crosses(g_seg, gb, gdir) or hermite_flags(g_seg, r_seg, gb, rb, h, gdir):
                         if not dense:
                             counts[K_NFEV] += dense_prepare(method, phase, p, tau, fmode, t, h,

@@ -34,6 +34,7 @@ PHASE_FIXED = 2    # both ends attached, no motion
 # --- integrator methods ----------------------------------------------------------------------
 METHOD_RK45 = 0
 METHOD_DOP853 = 1
+METHOD_VERN9 = 2
 
 # --- guard kinds (MODEL.md section 4 and issue #2) ----------------------------------------------
 G_NONE = -1             # segment ends only by its horizon
