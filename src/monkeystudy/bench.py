@@ -450,7 +450,7 @@ def main(argv=None) -> int:
     print(f"  {'method':7} {'rtol':>7} {'us/gait':>9} {'RHS/gait':>9} {'ns/RHS':>7} "
           f"{'x chain':>8} {'x indep':>8} {'x gait':>7} {'err(error)':>11} {'err(times)':>11}")
     kernel_rows = {}
-    for method in ("dop853", "rk45"):
+    for method in ("dop853", "rk45", "vern9"):
         for rtol in ((1e-6, 1e-10) if args.quick else (1e-6, 1e-8, 1e-10, 1e-12)):
             if method == "rk45" and rtol < 1e-10:
                 continue
