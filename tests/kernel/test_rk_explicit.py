@@ -4,8 +4,9 @@ from them.
 * The file is what ``tools/gen_rk_kernels.py`` generates from the tableaux (regenerate after
   changing either).
 * The sines and cosines a step leaves for the guards (``trig``) are bit for bit those of the
-  new point's angles, so a guard evaluated from them equals :func:`guard` there exactly (the
-  event logic compares signs of guards evaluated both ways).
+  new point's angles, so a guard evaluated from them (``guard_trig``, and the hot loop's
+  ``guard_and_rate_step``) equals :func:`guard` there exactly (the event logic compares signs of
+  guards evaluated both ways).
 * DOP853's controller power ``en ** (-1/8)``, taken from square roots, is within two ulps of
   ``pow``.
 """
@@ -17,7 +18,9 @@ import numpy as np
 import pytest
 
 from monkeystudy.kernel import dynamics as dyn
-from monkeystudy.kernel.events import guard, guard_rate, guard_rate_trig, guard_trig, trig_of
+from monkeystudy.kernel.events import (
+    guard, guard_and_rate_step, guard_rate, guard_rate_trig, guard_trig, trig_of,
+)
 from monkeystudy.kernel.integrate import error_power, rk_step
 from monkeystudy.kernel.layout import (
     G_COORD, G_ENERGY, G_ENERGY_RESTORED, G_FREE_END_HEIGHT, G_FREE_END_Y, METHOD_DOP853,
@@ -81,6 +84,9 @@ def test_step_trig_is_the_new_points_and_guards_agree_bit_for_bit(method, phase)
             r = guard_rate(kind, index, phase, p, 0.3, FM, y_new, pivot, work)
             rt = guard_rate_trig(kind, index, phase, p, 0.3, FM, y_new, pivot, work, trig)
             assert r == rt, (kind, r, rt)
+            gs, rs = guard_and_rate_step(kind, index, value, phase, p, 0.3, FM, y_new, pivot,
+                                         -2.0, trig)
+            assert (gs, rs) == (g, r), (kind, gs, rs, g, r)
 
 
 def test_energy_guard_is_total_energy8_exactly():

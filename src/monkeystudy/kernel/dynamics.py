@@ -284,17 +284,32 @@ def kinetic_energy(p, th1, th2, vx, vy, w1, w2):
 @njit(cache=True, inline="always")
 def kinetic_energy_rot(p, c2, w1, w2):
     """The rotational part of :func:`kinetic_energy` (all of it while swinging) [J]."""
-    h = p[P_H]
-    m11 = p[P_K11] + 2.0 * h * c2
-    m12 = p[P_K22] + h * c2
-    return 0.5 * (m11 * w1 * w1 + 2.0 * m12 * w1 * w2 + p[P_K22] * w2 * w2)
+    return kinetic_rot_s(p[P_H], p[P_K11], p[P_K22], c2, w1, w2)
+
+
+@njit(cache=True, inline="always")
+def kinetic_rot_s(h, k11, k22, c2, w1, w2):
+    """:func:`kinetic_energy_rot` from scalars (``P_H``, ``P_K11``, ``P_K22``)."""
+    m11 = k11 + 2.0 * h * c2
+    m12 = k22 + h * c2
+    return 0.5 * (m11 * w1 * w1 + 2.0 * m12 * w1 * w2 + k22 * w2 * w2)
 
 
 @njit(cache=True, inline="always")
 def kinetic_energy_trans(p, c1, s1, c12, s12, vx, vy, w1, w2):
     """The part of :func:`kinetic_energy` due to the (x, y) end's velocity [J]."""
-    b02, b03, b12, b13, _, _, _, _ = _flight_coupling_t(p, c1, s1, c12, s12)
-    return 0.5 * p[P_MTOT] * (vx * vx + vy * vy) + vx * (b02 * w1 + b03 * w2) \
+    return kinetic_trans_s(p[P_A], p[P_M2R2], p[P_MTOT], c1, s1, c12, s12, vx, vy, w1, w2)
+
+
+@njit(cache=True, inline="always")
+def kinetic_trans_s(a, m2r2, mt, c1, s1, c12, s12, vx, vy, w1, w2):
+    """:func:`kinetic_energy_trans` from scalars (``P_A``, ``P_M2R2``, ``P_MTOT``); the
+    coupling block as :func:`_flight_coupling_t` forms it."""
+    b02 = a * c1 + m2r2 * c12
+    b03 = m2r2 * c12
+    b12 = a * s1 + m2r2 * s12
+    b13 = m2r2 * s12
+    return 0.5 * mt * (vx * vx + vy * vy) + vx * (b02 * w1 + b03 * w2) \
         + vy * (b12 * w1 + b13 * w2)
 
 
@@ -307,7 +322,13 @@ def potential_energy(p, y_end, th1, th2):
 @njit(cache=True, inline="always")
 def potential_energy_t(p, y_end, c1, c12):
     """:func:`potential_energy` from ``cos(theta1)`` and ``cos(theta1 + theta2)`` [J]."""
-    return p[P_G] * (p[P_MTOT] * y_end - p[P_A] * c1 - p[P_M2R2] * c12)
+    return potential_s(p[P_G], p[P_MTOT], p[P_A], p[P_M2R2], y_end, c1, c12)
+
+
+@njit(cache=True, inline="always")
+def potential_s(g, mt, a, m2r2, y_end, c1, c12):
+    """:func:`potential_energy_t` from scalars (``P_G``, ``P_MTOT``, ``P_A``, ``P_M2R2``)."""
+    return g * (mt * y_end - a * c1 - m2r2 * c12)
 
 
 @njit(cache=True)

@@ -32,8 +32,8 @@ from numba import njit
 
 from .dynamics import attach_xy_end, flip_state, holding_torque, rhs, total_energy8
 from .events import (
-    crosses, guard, guard_rate, guard_rate_field, guard_rate_kin, guard_rate_trig, guard_trig,
-    hermite_flags, locate_first, pack, rate_uses_field, unpack_into,
+    crosses, guard, guard_and_rate_step, guard_rate, guard_rate_field, guard_rate_trig,
+    guard_trig, hermite_flags, locate_first, pack, rate_uses_field, unpack_into,
 )
 from .integrate import (
     MAX_FACTOR, MIN_FACTOR, SAFETY, dense_eval, dense_prepare, error_estimator_order,
@@ -51,7 +51,7 @@ from .layout import (
     K_LOG, K_NFEV, K_REJECTED, K_SAMPLES, K_STEPS, L_CYCLE, L_E_AFTER, L_E_BEFORE, L_FLIPPED,
     L_ID, L_KIND, L_PHASE, L_STATE, L_T, LOG_FRICTION, LOG_OBSERVER, LOG_SEGMENT, M_FLIPPED,
     M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, METHOD_VERN9, N_TRIG, O_GDIR, O_GINDEX,
-    O_GUARD, O_GVALUE, O_SEGMENT, T_S1, T_S12,
+    O_GUARD, O_GVALUE, O_SEGMENT,
     P_C_JOINT, P_C_PIVOT, PHASE_FIXED, PHASE_FLIGHT, PHASE_SWING, S_CLOCK, S_CYCLE, S_FAIL,
     S_GDIR, S_GINDEX, S_GUARD, S_GVALUE, S_MAG_A, S_MAG_B, S_NEXT, S_SET_EREF, S_SWAP,
     S_TICKED, S_TORQUE, ST_BUFFER_FULL, ST_END_TIME, ST_FELL, ST_HORIZON, ST_NONFINITE, ST_OK,
@@ -450,15 +450,15 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                 t_ev = np.inf
                 # ---- segment guard ----
                 if state_guard and pending == np.inf:
-                    gb = guard_trig(gkind, gindex, gvalue, phase, p, tau, fmode, y_new, pivot,
-                                    eref, trig_new)
-                    # guard_rate_trig written out: its call to the vector field must not sit
-                    # inside an inlined function (numba would reference-count its arrays)
+                    # guard and rate from the step's sines and cosines; the vector field's
+                    # call kept out of inlined code (numba would reference-count its arrays)
                     if rate_uses_field(gkind, gindex):
+                        gb = guard_trig(gkind, gindex, gvalue, phase, p, tau, fmode, y_new,
+                                        pivot, eref, trig_new)
                         rb = guard_rate_field(gkind, gindex, phase, p, tau, fmode, y_new, work)
                     else:
-                        rb = guard_rate_kin(gkind, gindex, phase, p, tau, fmode, y_new, pivot,
-                                            trig_new[T_S1], trig_new[T_S12])
+                        gb, rb = guard_and_rate_step(gkind, gindex, gvalue, phase, p, tau, fmode,
+                                                     y_new, pivot, eref, trig_new)
                     if crosses(g_seg, gb, gdir) or hermite_flags(g_seg, r_seg, gb, rb, h, gdir):
                         if not dense:
                             counts[K_NFEV] += dense_prepare(method, phase, p, tau, fmode, t, h,
