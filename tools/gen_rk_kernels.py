@@ -42,7 +42,7 @@ def gen_step(name: str, A, B, ns: int) -> str:
         n = lay["n"]
         lines = [
             "@njit(cache=True, fastmath=FM, error_model=EM)",
-            f"def _{name}_step{n}(p, tau, fmode, y, f, h, K, trig, y_new, f_new):",
+            f"def {name}_step{n}(p, tau, fmode, y, f, h, K, trig, y_new, f_new):",
         ]
         lines += [f"    K[0, {i}] = f[{i}]" for i in range(n)]
 
@@ -85,9 +85,9 @@ def gen_step(name: str, A, B, ns: int) -> str:
         f"def {name}_step(phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new):",
         f'    """One {name.upper()} step of packed size ``n`` (see ``integrate.rk_step``)."""',
         "    if n == 4:",
-        f"        _{name}_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new)",
+        f"        {name}_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new)",
         "    else:",
-        f"        _{name}_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new)",
+        f"        {name}_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new)",
         f"    return {ns}",
         "",
     ]))

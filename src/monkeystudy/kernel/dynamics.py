@@ -227,13 +227,29 @@ def rhs_flight(p, tau, fmode, y, dy):
 
 @njit(cache=True)
 def rhs(phase, p, tau, fmode, y, dy):
-    """Vector field of the current phase (the fixed phase has none: ``dy = 0``)."""
+    """Vector field of the current phase (the fixed phase has none: ``dy = 0``).
+
+    The accelerations are inlined, not called through :func:`rhs_swing` / :func:`rhs_flight`:
+    a function free of calls lets numba drop the reference counting of its array arguments
+    (atomic operations on every call).
+    """
     if phase == PHASE_SWING:
-        rhs_swing(p, tau, fmode, y, dy)
+        a1, a2 = swing_accel(p, tau, fmode, y[0], y[1], y[2], y[3])
+        dy[0] = y[2]
+        dy[1] = y[3]
+        dy[2] = a1
+        dy[3] = a2
     elif phase == PHASE_FLIGHT:
-        rhs_flight(p, tau, fmode, y, dy)
+        ax, ay, a1, a2 = flight_accel(p, tau, fmode, y[2], y[3], y[6], y[7])
+        for i in range(4):
+            dy[i] = y[4 + i]
+        dy[4] = ax
+        dy[5] = ay
+        dy[6] = a1
+        dy[7] = a2
     else:
-        dy[:] = 0.0
+        for i in range(dy.shape[0]):
+            dy[i] = 0.0
 
 
 @njit(cache=True)

@@ -40,9 +40,13 @@ from .integrate import (
     error_power, select_initial_step,
 )
 from .rk_explicit import (
-    dop853_error_norm, dop853_step, rk45_error_norm, rk45_step, vern9_error_norm, vern9_step,
+    dop853_error_norm, dop853_step4, dop853_step8, rk45_error_norm, rk45_step4, rk45_step8,
+    vern9_error_norm, vern9_step4, vern9_step8,
 )
-from .tableaux import VERN9_INTERPOLATOR_POWER, VERN9_N_STAGES_EXTENDED
+from .tableaux import (
+    DOP853_N_STAGES, RK45_N_STAGES, VERN9_INTERPOLATOR_POWER, VERN9_N_STAGES,
+    VERN9_N_STAGES_EXTENDED,
+)
 from .layout import (
     C_ATOL, C_MAX_CYCLES, C_MAX_DROP, C_MAX_SEGMENT_TIME, C_MAX_STEP, C_MAX_STEPS, C_METHOD,
     C_RTOL, C_SAMPLE_DT, C_T_END, C_TICK, C_TICK_PHASE, C_ZERO_BAND,
@@ -190,10 +194,12 @@ def _min_step(t):
 
 @njit(cache=True, inline="always")
 def _finite(y, n):
+    # one exit, no early return: numba then drops the per-step reference counting of ``y``
+    # (x * 0 is 0 for finite x, NaN for inf and NaN)
+    acc = 0.0
     for i in range(n):
-        if not math.isfinite(y[i]):
-            return False
-    return True
+        acc += y[i] * 0.0
+    return acc == 0.0
 
 
 @njit(cache=True)
@@ -358,8 +364,11 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                              phase, p, tau, fmode, y, pivot, eref)
             if abs(g_obs[k]) <= band * (1.0 + abs(obs[k, O_GVALUE])):
                 g_obs[k] = 0.0
+        # friction DOFs watched on this leg (fixed along it; tested once, not on every step)
+        fric0 = friction_active(0, phase, p)
+        fric1 = friction_active(1, phase, p)
         for k in range(2):
-            if friction_active(k, phase, p):
+            if fric0 if k == 0 else fric1:
                 g_fric[k] = friction_guard(k, phase, p, tau, fmode, y, pivot)
         entering = False
 
@@ -410,19 +419,29 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                         t_new = bound
                     h = t_new - t
                     h_abs = abs(h)
-                    # integrate.rk_step and error_norm, written out: through an inlined
-                    # wrapper numba would reference-count the eight arrays on every step
+                    # integrate.rk_step and error_norm written out down to the straight-line
+                    # steps: through a wrapper (inlined or called) numba reference-counts the
+                    # eight arrays on every step (atomic operations, ~4 % of a gait)
                     if method == METHOD_DOP853:
-                        counts[K_NFEV] += dop853_step(phase, p, tau, fmode, y, f, h, n, K,
-                                                      trig_new, y_new, f_new)
+                        if n == 4:
+                            dop853_step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                        else:
+                            dop853_step8(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                        counts[K_NFEV] += DOP853_N_STAGES
                         en = dop853_error_norm(K, h, y, y_new, n, rtol, atol)
                     elif method == METHOD_VERN9:
-                        counts[K_NFEV] += vern9_step(phase, p, tau, fmode, y, f, h, n, K,
-                                                     trig_new, y_new, f_new)
+                        if n == 4:
+                            vern9_step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                        else:
+                            vern9_step8(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                        counts[K_NFEV] += VERN9_N_STAGES
                         en = vern9_error_norm(K, h, y, y_new, n, rtol, atol)
                     else:
-                        counts[K_NFEV] += rk45_step(phase, p, tau, fmode, y, f, h, n, K,
-                                                    trig_new, y_new, f_new)
+                        if n == 4:
+                            rk45_step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                        else:
+                            rk45_step8(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                        counts[K_NFEV] += RK45_N_STAGES
                         en = rk45_error_norm(K, h, y, y_new, n, rtol, atol)
                     if en < 1.0:
                         if en == 0.0:
@@ -523,7 +542,7 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                 # ---- friction events (earliest, strictly before any segment event) ----
                 fric_k = -1
                 for k in range(2):
-                    if not friction_active(k, phase, p):
+                    if not (fric0 if k == 0 else fric1):
                         continue
                     gb = friction_guard(k, phase, p, tau, fmode, y_new, pivot)
                     fkind = G_STICK_BREAK if fmode[k] == 0.0 else G_SLIP_STOP

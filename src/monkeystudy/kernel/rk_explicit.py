@@ -18,7 +18,7 @@ EM = "numpy"
 
 
 @njit(cache=True, fastmath=FM, error_model=EM)
-def _dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
+def dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[0, 0] = f[0]
     K[0, 1] = f[1]
     K[0, 2] = f[2]
@@ -148,7 +148,7 @@ def _dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
 
 
 @njit(cache=True, fastmath=FM, error_model=EM)
-def _dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
+def dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[0, 0] = f[0]
     K[0, 1] = f[1]
     K[0, 2] = f[2]
@@ -365,14 +365,14 @@ def _dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
 def dop853_step(phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new):
     """One DOP853 step of packed size ``n`` (see ``integrate.rk_step``)."""
     if n == 4:
-        _dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
+        dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
     else:
-        _dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
+        dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
     return 12
 
 
 @njit(cache=True, fastmath=FM, error_model=EM)
-def _rk45_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
+def rk45_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[0, 0] = f[0]
     K[0, 1] = f[1]
     K[0, 2] = f[2]
@@ -448,7 +448,7 @@ def _rk45_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
 
 
 @njit(cache=True, fastmath=FM, error_model=EM)
-def _rk45_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
+def rk45_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[0, 0] = f[0]
     K[0, 1] = f[1]
     K[0, 2] = f[2]
@@ -575,14 +575,14 @@ def _rk45_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
 def rk45_step(phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new):
     """One RK45 step of packed size ``n`` (see ``integrate.rk_step``)."""
     if n == 4:
-        _rk45_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
+        rk45_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
     else:
-        _rk45_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
+        rk45_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
     return 6
 
 
 @njit(cache=True, fastmath=FM, error_model=EM)
-def _vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
+def vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[0, 0] = f[0]
     K[0, 1] = f[1]
     K[0, 2] = f[2]
@@ -748,7 +748,7 @@ def _vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
 
 
 @njit(cache=True, fastmath=FM, error_model=EM)
-def _vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
+def vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[0, 0] = f[0]
     K[0, 1] = f[1]
     K[0, 2] = f[2]
@@ -1025,9 +1025,9 @@ def _vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
 def vern9_step(phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new):
     """One VERN9 step of packed size ``n`` (see ``integrate.rk_step``)."""
     if n == 4:
-        _vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
+        vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
     else:
-        _vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
+        vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
     return 16
 
 
