@@ -421,7 +421,8 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                     h_abs = abs(h)
                     # integrate.rk_step and error_norm written out down to the straight-line
                     # steps: through a wrapper (inlined or called) numba reference-counts the
-                    # eight arrays on every step (atomic operations, ~4 % of a gait)
+                    # eight arrays on every step (atomic operations: the two wrappers cost ~10 %
+                    # of a gait)
                     if method == METHOD_DOP853:
                         if n == 4:
                             dop853_step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
