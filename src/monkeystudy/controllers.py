@@ -350,6 +350,8 @@ class Integrator:
 METHODS = {
     "rk45": (L.METHOD_RK45, 5, "Dormand-Prince 5(4), 4th-order free interpolant"),
     "dop853": (L.METHOD_DOP853, 8, "Dormand-Prince 8(5,3), 7th-order dense output"),
+    "vern9": (L.METHOD_VERN9, 9, "Verner 9(8) (2010, 16 stages), 9th-order interpolant "
+              "(nine extra stages, only on steps with an event)"),
 }
 
 

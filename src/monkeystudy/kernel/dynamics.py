@@ -73,10 +73,13 @@ def flipped_params(p):
 @njit(cache=True, inline="always")
 def _swing_terms(p, tau, fmode, th1, th2, w1, w2):
     """Swing mass matrix entries and right-hand side ``F - C qdot - G`` (MODEL.md sec. 2)."""
-    s1 = np.sin(th1)
-    s2 = np.sin(th2)
-    c2 = np.cos(th2)
-    s12 = np.sin(th1 + th2)
+    return _swing_terms_t(p, tau, fmode, np.sin(th1), np.sin(th2), np.cos(th2),
+                          np.sin(th1 + th2), w1, w2)
+
+
+@njit(cache=True, inline="always")
+def _swing_terms_t(p, tau, fmode, s1, s2, c2, s12, w1, w2):
+    """:func:`_swing_terms` from the sines and cosines of the angles."""
     h = p[P_H]
     gm2r2s12 = p[P_G] * p[P_M2R2] * s12
     m11 = p[P_K11] + 2.0 * h * c2
@@ -104,10 +107,12 @@ def _solve2(m11, m12, m22, r1, r2, lock1, lock2):
 @njit(cache=True, inline="always")
 def _flight_coupling(p, th1, th2):
     """Off-diagonal block of the flight mass matrix, rows (x, y), columns (theta1, theta2)."""
-    c1 = np.cos(th1)
-    s1 = np.sin(th1)
-    c12 = np.cos(th1 + th2)
-    s12 = np.sin(th1 + th2)
+    return _flight_coupling_t(p, np.cos(th1), np.sin(th1), np.cos(th1 + th2), np.sin(th1 + th2))
+
+
+@njit(cache=True, inline="always")
+def _flight_coupling_t(p, c1, s1, c12, s12):
+    """:func:`_flight_coupling` from the sines and cosines of the angles."""
     a = p[P_A]
     m2r2 = p[P_M2R2]
     return (a * c1 + m2r2 * c12, m2r2 * c12, a * s1 + m2r2 * s12, m2r2 * s12,
@@ -122,6 +127,26 @@ def swing_accel(p, tau, fmode, th1, th2, w1, w2):
 
 
 @njit(cache=True, inline="always")
+def swing_accel_trig(p, tau, fmode, th1, th2, w1, w2):
+    """:func:`swing_accel` and ``(s1, c1, s2, c2, s12, c12)``, the sines and cosines of
+    ``theta1``, ``theta2`` and ``theta1 + theta2`` (layout ``T_*``).
+
+    For the last stage of a step: the guards at the new point need the same sines and cosines
+    (bit for bit the values :func:`.events.guard` would compute), and a cosine beside a sine of
+    the same angle costs little (LLVM fuses them into one ``sincos`` call).
+    """
+    s1 = np.sin(th1)
+    c1 = np.cos(th1)
+    s2 = np.sin(th2)
+    c2 = np.cos(th2)
+    s12 = np.sin(th1 + th2)
+    c12 = np.cos(th1 + th2)
+    m11, m12, m22, r1, r2 = _swing_terms_t(p, tau, fmode, s1, s2, c2, s12, w1, w2)
+    a1, a2 = _solve2(m11, m12, m22, r1, r2, fmode[0] == 0.0, fmode[1] == 0.0)
+    return a1, a2, s1, c1, s2, c2, s12, c12
+
+
+@njit(cache=True, inline="always")
 def flight_accel(p, tau, fmode, th1, th2, w1, w2):
     """Free-flight (4-DOF) accelerations ``(ddx, ddy, ddtheta1, ddtheta2)``, MODEL.md sec. 2.
 
@@ -129,7 +154,28 @@ def flight_accel(p, tau, fmode, th1, th2, w1, w2):
     exact, and cheaper than a general 4x4 factorisation. The position of the (x, y) end and
     its velocity do not enter (translation invariance).
     """
-    b02, b03, b12, b13, c1, s1, c12, s12 = _flight_coupling(p, th1, th2)
+    return _flight_accel_t(p, tau, fmode, np.sin(th1), np.cos(th1), np.sin(th2), np.cos(th2),
+                           np.sin(th1 + th2), np.cos(th1 + th2), w1, w2)
+
+
+@njit(cache=True, inline="always")
+def flight_accel_trig(p, tau, fmode, th1, th2, w1, w2):
+    """:func:`flight_accel` and the sines and cosines of the angles (see
+    :func:`swing_accel_trig`)."""
+    s1 = np.sin(th1)
+    c1 = np.cos(th1)
+    s2 = np.sin(th2)
+    c2 = np.cos(th2)
+    s12 = np.sin(th1 + th2)
+    c12 = np.cos(th1 + th2)
+    ax, ay, a1, a2 = _flight_accel_t(p, tau, fmode, s1, c1, s2, c2, s12, c12, w1, w2)
+    return ax, ay, a1, a2, s1, c1, s2, c2, s12, c12
+
+
+@njit(cache=True, inline="always")
+def _flight_accel_t(p, tau, fmode, s1, c1, s2, c2, s12, c12, w1, w2):
+    """:func:`flight_accel` from the sines and cosines of the angles."""
+    b02, b03, b12, b13, _, _, _, _ = _flight_coupling_t(p, c1, s1, c12, s12)
     mt = p[P_MTOT]
     a = p[P_A]
     m2r2 = p[P_M2R2]
@@ -137,8 +183,6 @@ def flight_accel(p, tau, fmode, th1, th2, w1, w2):
     # right-hand side F - C qdot - G; no pivot friction in flight (nothing is pinned)
     rx = a * s1 * w1 * w1 + m2r2 * s12 * w12 * w12
     ry = -(a * c1 * w1 * w1 + m2r2 * c12 * w12 * w12) - p[P_G] * mt
-    s2 = np.sin(th2)
-    c2 = np.cos(th2)
     h = p[P_H]
     gm2r2s12 = p[P_G] * m2r2 * s12
     r1 = h * s2 * (2.0 * w1 * w2 + w2 * w2) - p[P_G] * a * s1 - gm2r2s12
@@ -183,13 +227,29 @@ def rhs_flight(p, tau, fmode, y, dy):
 
 @njit(cache=True)
 def rhs(phase, p, tau, fmode, y, dy):
-    """Vector field of the current phase (the fixed phase has none: ``dy = 0``)."""
+    """Vector field of the current phase (the fixed phase has none: ``dy = 0``).
+
+    The accelerations are inlined, not called through :func:`rhs_swing` / :func:`rhs_flight`:
+    a function free of calls lets numba drop the reference counting of its array arguments
+    (atomic operations on every call).
+    """
     if phase == PHASE_SWING:
-        rhs_swing(p, tau, fmode, y, dy)
+        a1, a2 = swing_accel(p, tau, fmode, y[0], y[1], y[2], y[3])
+        dy[0] = y[2]
+        dy[1] = y[3]
+        dy[2] = a1
+        dy[3] = a2
     elif phase == PHASE_FLIGHT:
-        rhs_flight(p, tau, fmode, y, dy)
+        ax, ay, a1, a2 = flight_accel(p, tau, fmode, y[2], y[3], y[6], y[7])
+        for i in range(4):
+            dy[i] = y[4 + i]
+        dy[4] = ax
+        dy[5] = ay
+        dy[6] = a1
+        dy[7] = a2
     else:
-        dy[:] = 0.0
+        for i in range(dy.shape[0]):
+            dy[i] = 0.0
 
 
 @njit(cache=True)
@@ -230,23 +290,61 @@ def holding_torque(phase, p, tau, fmode, y, k):
 @njit(cache=True)
 def kinetic_energy(p, th1, th2, vx, vy, w1, w2):
     """Kinetic energy K [J], MODEL.md section 1 (``vx = vy = 0`` while swinging)."""
-    h = p[P_H]
-    c2 = np.cos(th2)
-    m11 = p[P_K11] + 2.0 * h * c2
-    m12 = p[P_K22] + h * c2
-    k = 0.5 * (m11 * w1 * w1 + 2.0 * m12 * w1 * w2 + p[P_K22] * w2 * w2)
+    k = kinetic_energy_rot(p, np.cos(th2), w1, w2)
     if vx != 0.0 or vy != 0.0:
-        b02, b03, b12, b13, c1, s1, c12, s12 = _flight_coupling(p, th1, th2)
-        k += 0.5 * p[P_MTOT] * (vx * vx + vy * vy) + vx * (b02 * w1 + b03 * w2) \
-            + vy * (b12 * w1 + b13 * w2)
+        k += kinetic_energy_trans(p, np.cos(th1), np.sin(th1), np.cos(th1 + th2),
+                                  np.sin(th1 + th2), vx, vy, w1, w2)
     return k
+
+
+@njit(cache=True, inline="always")
+def kinetic_energy_rot(p, c2, w1, w2):
+    """The rotational part of :func:`kinetic_energy` (all of it while swinging) [J]."""
+    return kinetic_rot_s(p[P_H], p[P_K11], p[P_K22], c2, w1, w2)
+
+
+@njit(cache=True, inline="always")
+def kinetic_rot_s(h, k11, k22, c2, w1, w2):
+    """:func:`kinetic_energy_rot` from scalars (``P_H``, ``P_K11``, ``P_K22``)."""
+    m11 = k11 + 2.0 * h * c2
+    m12 = k22 + h * c2
+    return 0.5 * (m11 * w1 * w1 + 2.0 * m12 * w1 * w2 + k22 * w2 * w2)
+
+
+@njit(cache=True, inline="always")
+def kinetic_energy_trans(p, c1, s1, c12, s12, vx, vy, w1, w2):
+    """The part of :func:`kinetic_energy` due to the (x, y) end's velocity [J]."""
+    return kinetic_trans_s(p[P_A], p[P_M2R2], p[P_MTOT], c1, s1, c12, s12, vx, vy, w1, w2)
+
+
+@njit(cache=True, inline="always")
+def kinetic_trans_s(a, m2r2, mt, c1, s1, c12, s12, vx, vy, w1, w2):
+    """:func:`kinetic_energy_trans` from scalars (``P_A``, ``P_M2R2``, ``P_MTOT``); the
+    coupling block as :func:`_flight_coupling_t` forms it."""
+    b02 = a * c1 + m2r2 * c12
+    b03 = m2r2 * c12
+    b12 = a * s1 + m2r2 * s12
+    b13 = m2r2 * s12
+    return 0.5 * mt * (vx * vx + vy * vy) + vx * (b02 * w1 + b03 * w2) \
+        + vy * (b12 * w1 + b13 * w2)
 
 
 @njit(cache=True)
 def potential_energy(p, y_end, th1, th2):
     """Potential energy V [J] with the (x, y) end at world height ``y_end`` (MODEL.md sec. 1)."""
-    return p[P_G] * (p[P_MTOT] * y_end - p[P_A] * np.cos(th1)
-                     - p[P_M2R2] * np.cos(th1 + th2))
+    return potential_energy_t(p, y_end, np.cos(th1), np.cos(th1 + th2))
+
+
+@njit(cache=True, inline="always")
+def potential_energy_t(p, y_end, c1, c12):
+    """:func:`potential_energy` from ``cos(theta1)`` and ``cos(theta1 + theta2)`` [J]."""
+    return potential_s(p[P_G], p[P_MTOT], p[P_A], p[P_M2R2], y_end, c1, c12)
+
+
+@njit(cache=True, inline="always")
+def potential_s(g, mt, a, m2r2, y_end, c1, c12):
+    """:func:`potential_energy_t` from scalars (``P_G``, ``P_MTOT``, ``P_A``, ``P_M2R2``)."""
+    return g * (mt * y_end - a * c1 - m2r2 * c12)
 
 
 @njit(cache=True)

@@ -16,12 +16,12 @@ import math
 import numpy as np
 from numba import njit
 
-from .dynamics import kinetic_energy, potential_energy, rhs
+from .dynamics import kinetic_rot_s, kinetic_trans_s, potential_s, rhs
 from .integrate import dense_eval
 from .layout import (
     G_COORD, G_ENERGY, G_ENERGY_RESTORED, G_FREE_END_HEIGHT, G_FREE_END_Y, G_SLIP_STOP,
-    G_STICK_BREAK, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_L1, P_L2, PHASE_FLIGHT,
-    PHASE_SWING,
+    G_STICK_BREAK, P_A, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_H, P_K11, P_K22,
+    P_L1, P_L2, P_M2R2, P_MTOT, PHASE_FLIGHT, PHASE_SWING, T_C1, T_C12, T_C2, T_S1, T_S12, T_S2,
 )
 
 EPS = 2.220446049250313e-16
@@ -64,36 +64,79 @@ def unpack_into(phase, y, pivot, s8):
 
 
 @njit(cache=True, inline="always")
-def energy(phase, p, y, pivot):
-    """Total energy K + V of a packed state [J]."""
-    x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
-    return kinetic_energy(p, th1, th2, vx, vy, w1, w2) + potential_energy(p, yy, th1, th2)
+def trig_of(phase, y, trig):
+    """Sines and cosines of a packed state's angles into ``trig`` (layout ``T_*``)."""
+    if phase == PHASE_FLIGHT:
+        th1 = y[2]
+        th2 = y[3]
+    else:
+        th1 = y[0]
+        th2 = y[1]
+    trig[T_S1] = np.sin(th1)
+    trig[T_C1] = np.cos(th1)
+    trig[T_S2] = np.sin(th2)
+    trig[T_C2] = np.cos(th2)
+    trig[T_S12] = np.sin(th1 + th2)
+    trig[T_C12] = np.cos(th1 + th2)
 
 
 @njit(cache=True, inline="always")
-def power(phase, p, tau, fmode, y, pivot):
-    """dE/dt [W]: motor work ``tau dth2`` less viscous and Coulomb dissipation."""
-    x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
-    pw = tau * w2 - p[P_B_JOINT] * w2 * w2 - p[P_C_JOINT] * fmode[1] * w2
-    if phase == PHASE_SWING:
-        pw -= p[P_B_PIVOT] * w1 * w1 + p[P_C_PIVOT] * fmode[0] * w1
-    return pw
+def _needs_trig(kind):
+    return (kind == G_FREE_END_HEIGHT or kind == G_FREE_END_Y or kind == G_ENERGY_RESTORED
+            or kind == G_ENERGY)
 
 
 @njit(cache=True, inline="always")
 def guard(kind, index, value, phase, p, tau, fmode, y, pivot, eref):
     """Value of a state guard (layout ``G_*``; time guards are handled as step bounds)."""
+    if _needs_trig(kind):
+        x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
+        return guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, np.sin(th1),
+                       np.cos(th1), np.cos(th2), np.sin(th1 + th2), np.cos(th1 + th2))
+    return guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, 0.0, 0.0, 0.0,
+                   0.0, 0.0)
+
+
+@njit(cache=True, inline="always")
+def guard_trig(kind, index, value, phase, p, tau, fmode, y, pivot, eref, trig):
+    """:func:`guard` with the sines and cosines of the angles given (``trig``, layout
+    ``T_*``, as a step leaves them): bit for bit the same value, without the trigonometry."""
+    return guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, trig[T_S1],
+                   trig[T_C1], trig[T_C2], trig[T_S12], trig[T_C12])
+
+
+@njit(cache=True, inline="always")
+def guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, s1, c1, c2, s12, c12):
+    """:func:`guard` from the sines and cosines of ``theta1``, ``theta2``, ``theta1 + theta2``
+    (only read by the kinds that need them)."""
     x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
+    w = w1 if index == 0 else w2
+    fm = fmode[0] if index == 0 else fmode[1]
+    return guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, c2, s12,
+                   c12, p[P_L1], p[P_L2], p[P_G], p[P_MTOT], p[P_A], p[P_M2R2], p[P_H],
+                   p[P_K11], p[P_K22], w * fm)
+
+
+@njit(cache=True, inline="always")
+def guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, c2, s12, c12,
+            L1, L2, g, mt, a, m2r2, h, k11, k22, slip):
+    """:func:`guard` from scalars only: the unpacked state, the sines and cosines, the
+    parameters it reads, and ``slip`` (the slipping DOF's speed times its mode)."""
     if kind == G_FREE_END_HEIGHT:
         # ``value``: the height above the attached end to reach [m] (0: the study's swap)
-        return -p[P_L1] * math.cos(th1) - p[P_L2] * math.cos(th1 + th2) - value
-    if kind == G_ENERGY_RESTORED:
-        # ``value``: energy to add to the latched reference [J] (a climb of dh needs M g dh)
-        return energy(phase, p, y, pivot) - eref - value
-    if kind == G_ENERGY:
-        return energy(phase, p, y, pivot) - value
+        return -L1 * c1 - L2 * c12 - value
+    if kind == G_ENERGY_RESTORED or kind == G_ENERGY:
+        # G_ENERGY_RESTORED's ``value``: energy to add to the latched reference [J] (a climb of
+        # dh needs M g dh); the same arithmetic as dynamics.total_energy8, bit for bit
+        e = kinetic_rot_s(h, k11, k22, c2, w1, w2)
+        if vx != 0.0 or vy != 0.0:
+            e += kinetic_trans_s(a, m2r2, mt, c1, s1, c12, s12, vx, vy, w1, w2)
+        e = e + potential_s(g, mt, a, m2r2, yy, c1, c12)
+        if kind == G_ENERGY_RESTORED:
+            return e - eref - value
+        return e - value
     if kind == G_FREE_END_Y:
-        return yy - p[P_L1] * math.cos(th1) - p[P_L2] * math.cos(th1 + th2) - value
+        return yy - L1 * c1 - L2 * c12 - value
     if kind == G_COORD:
         if index == 0:
             return x - value
@@ -112,33 +155,137 @@ def guard(kind, index, value, phase, p, tau, fmode, y, pivot, eref):
         return w2 - value
     if kind == G_SLIP_STOP:
         # zero speed of the slipping DOF, signed so that it falls to zero
-        w = w1 if index == 0 else w2
-        return w * fmode[index]
+        return slip
     if kind == G_STICK_BREAK:
         return 0.0  # evaluated by the hybrid loop (needs the holding torque)
     return 0.0
 
 
 @njit(cache=True, inline="always")
+def guard_and_rate_step(kind, index, value, phase, p, tau, fmode, y, pivot, eref, trig):
+    """``(guard, rate)`` at a step's new point, from the sines and cosines the step left in
+    ``trig``, for a guard whose rate needs no vector field (``rate_uses_field`` false); ``y``
+    has 8 slots (a swing state uses the first 4).
+
+    Bit for bit :func:`guard_trig` and :func:`guard_rate_kin`. Every array element it may need
+    is read first, in straight-line code: inlined into the hybrid loop, numba then drops the
+    reference counting of the five arrays (with reads inside the kind branches it kept some
+    six atomic increments and decrements per step, ~7 % of a gait).
+    """
+    L1 = p[P_L1]
+    L2 = p[P_L2]
+    g = p[P_G]
+    mt = p[P_MTOT]
+    a = p[P_A]
+    m2r2 = p[P_M2R2]
+    h = p[P_H]
+    k11 = p[P_K11]
+    k22 = p[P_K22]
+    bj = p[P_B_JOINT]
+    cj = p[P_C_JOINT]
+    bp = p[P_B_PIVOT]
+    cp = p[P_C_PIVOT]
+    fm0 = fmode[0]
+    fm1 = fmode[1]
+    s1 = trig[T_S1]
+    c1 = trig[T_C1]
+    c2 = trig[T_C2]
+    s12 = trig[T_S12]
+    c12 = trig[T_C12]
+    y0 = y[0]
+    y1 = y[1]
+    y2 = y[2]
+    y3 = y[3]
+    y4 = y[4]
+    y5 = y[5]
+    y6 = y[6]
+    y7 = y[7]
+    px = pivot[0]
+    py = pivot[1]
+    if phase == PHASE_FLIGHT:
+        x, yy, th1, th2, vx, vy, w1, w2 = y0, y1, y2, y3, y4, y5, y6, y7
+    else:
+        x, yy, th1, th2, vx, vy, w1, w2 = px, py, y0, y1, 0.0, 0.0, y2, y3
+    w = w1 if index == 0 else w2
+    fm = fm0 if index == 0 else fm1
+    gv = guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, c2, s12,
+                 c12, L1, L2, g, mt, a, m2r2, h, k11, k22, w * fm)
+    r = rate_kin_s(kind, index, phase, tau, vx, vy, w1, w2, s1, s12, L1, L2, bj, cj, bp, cp,
+                   fm0, fm1)
+    return gv, r
+
+
+@njit(cache=True, inline="always")
 def guard_rate(kind, index, phase, p, tau, fmode, y, pivot, work):
     """Time derivative of a guard along the flow [guard units / s]; ``work`` is an 8-vector."""
+    if rate_uses_field(kind, index):
+        return guard_rate_field(kind, index, phase, p, tau, fmode, y, work)
+    if kind == G_FREE_END_HEIGHT or kind == G_FREE_END_Y:
+        x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
+        return guard_rate_kin(kind, index, phase, p, tau, fmode, y, pivot, np.sin(th1),
+                              np.sin(th1 + th2))
+    return guard_rate_kin(kind, index, phase, p, tau, fmode, y, pivot, 0.0, 0.0)
+
+
+@njit(cache=True, inline="always")
+def guard_rate_trig(kind, index, phase, p, tau, fmode, y, pivot, work, trig):
+    """:func:`guard_rate` with the sines and cosines given (see :func:`guard_trig`)."""
+    if rate_uses_field(kind, index):
+        return guard_rate_field(kind, index, phase, p, tau, fmode, y, work)
+    return guard_rate_kin(kind, index, phase, p, tau, fmode, y, pivot, trig[T_S1], trig[T_S12])
+
+
+@njit(cache=True, inline="always")
+def rate_uses_field(kind, index):
+    """Whether a guard's rate needs the vector field (an acceleration)."""
+    return (kind == G_COORD and index >= 4) or kind == G_SLIP_STOP
+
+
+@njit(cache=True, inline="always")
+def guard_rate_kin(kind, index, phase, p, tau, fmode, y, pivot, s1, s12):
+    """Rate of a guard that does not need the vector field (kinematics and power), from
+    ``sin(theta1)`` and ``sin(theta1 + theta2)``."""
     x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
+    return rate_kin_s(kind, index, phase, tau, vx, vy, w1, w2, s1, s12, p[P_L1], p[P_L2],
+                      p[P_B_JOINT], p[P_C_JOINT], p[P_B_PIVOT], p[P_C_PIVOT], fmode[0],
+                      fmode[1])
+
+
+@njit(cache=True, inline="always")
+def rate_kin_s(kind, index, phase, tau, vx, vy, w1, w2, s1, s12, L1, L2, bj, cj, bp, cp, fm0,
+               fm1):
+    """:func:`guard_rate_kin` from scalars only."""
     if kind == G_FREE_END_HEIGHT:
-        return p[P_L1] * math.sin(th1) * w1 + p[P_L2] * math.sin(th1 + th2) * (w1 + w2)
+        return L1 * s1 * w1 + L2 * s12 * (w1 + w2)
     if kind == G_FREE_END_Y:
-        return vy + p[P_L1] * math.sin(th1) * w1 + p[P_L2] * math.sin(th1 + th2) * (w1 + w2)
+        return vy + L1 * s1 * w1 + L2 * s12 * (w1 + w2)
     if kind == G_ENERGY_RESTORED or kind == G_ENERGY:
-        return power(phase, p, tau, fmode, y, pivot)
+        # dE/dt [W]: motor work tau dth2 less viscous and Coulomb dissipation
+        pw = tau * w2 - bj * w2 * w2 - cj * fm1 * w2
+        if phase == PHASE_SWING:
+            pw -= bp * w1 * w1 + cp * fm0 * w1
+        return pw
     if kind == G_COORD:
-        if index == 0:
-            return vx
-        if index == 1:
-            return vy
         if index == 2:
             return w1
         if index == 3:
             return w2
-        rhs(phase, p, tau, fmode, y, work)
+        if index == 0:
+            return vx
+        if index == 1:
+            return vy
+    return 0.0
+
+
+@njit(cache=True)
+def guard_rate_field(kind, index, phase, p, tau, fmode, y, work):
+    """Rate of a guard on a velocity (an acceleration) or of a slip-stop guard.
+
+    Not inlined: it calls the vector field, and a call inside an inlined function makes numba
+    keep atomic reference counts of all that function's arrays on every evaluation.
+    """
+    rhs(phase, p, tau, fmode, y, work)
+    if kind == G_COORD:
         if phase == PHASE_FLIGHT:
             return work[index]
         if index == 6:
@@ -146,12 +293,9 @@ def guard_rate(kind, index, phase, p, tau, fmode, y, pivot, work):
         if index == 7:
             return work[3]
         return 0.0
-    if kind == G_SLIP_STOP:
-        rhs(phase, p, tau, fmode, y, work)
-        if phase == PHASE_FLIGHT:
-            return work[6 + index] * fmode[index]
-        return work[2 + index] * fmode[index]
-    return 0.0
+    if phase == PHASE_FLIGHT:
+        return work[6 + index] * fmode[index]
+    return work[2 + index] * fmode[index]
 
 
 @njit(cache=True, inline="always")

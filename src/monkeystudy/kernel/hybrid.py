@@ -32,11 +32,20 @@ from numba import njit
 
 from .dynamics import attach_xy_end, flip_state, holding_torque, rhs, total_energy8
 from .events import (
-    crosses, guard, guard_rate, hermite_flags, locate_first, pack, unpack_into,
+    crosses, guard, guard_and_rate_step, guard_rate, guard_rate_field, guard_rate_trig,
+    guard_trig, hermite_flags, locate_first, pack, rate_uses_field, unpack_into,
 )
 from .integrate import (
-    MAX_FACTOR, MIN_FACTOR, SAFETY, dense_eval, dense_prepare, error_exponent, error_norm,
-    rk_step, select_initial_step,
+    MAX_FACTOR, MIN_FACTOR, SAFETY, dense_eval, dense_prepare, error_estimator_order,
+    error_power, select_initial_step,
+)
+from .rk_explicit import (
+    dop853_error_norm, dop853_step4, dop853_step8, rk45_error_norm, rk45_step4, rk45_step8,
+    vern9_error_norm, vern9_step4, vern9_step8,
+)
+from .tableaux import (
+    DOP853_N_STAGES, RK45_N_STAGES, VERN9_INTERPOLATOR_POWER, VERN9_N_STAGES,
+    VERN9_N_STAGES_EXTENDED,
 )
 from .layout import (
     C_ATOL, C_MAX_CYCLES, C_MAX_DROP, C_MAX_SEGMENT_TIME, C_MAX_STEP, C_MAX_STEPS, C_METHOD,
@@ -45,8 +54,8 @@ from .layout import (
     H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG, H_T, H_TORQUE, H_Y_REF, K_CYCLES, K_EVENTS,
     K_LOG, K_NFEV, K_REJECTED, K_SAMPLES, K_STEPS, L_CYCLE, L_E_AFTER, L_E_BEFORE, L_FLIPPED,
     L_ID, L_KIND, L_PHASE, L_STATE, L_T, LOG_FRICTION, LOG_OBSERVER, LOG_SEGMENT, M_FLIPPED,
-    M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, O_GDIR, O_GINDEX, O_GUARD, O_GVALUE,
-    O_SEGMENT,
+    M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, METHOD_VERN9, N_TRIG, O_GDIR, O_GINDEX,
+    O_GUARD, O_GVALUE, O_SEGMENT,
     P_C_JOINT, P_C_PIVOT, PHASE_FIXED, PHASE_FLIGHT, PHASE_SWING, S_CLOCK, S_CYCLE, S_FAIL,
     S_GDIR, S_GINDEX, S_GUARD, S_GVALUE, S_MAG_A, S_MAG_B, S_NEXT, S_SET_EREF, S_SWAP,
     S_TICKED, S_TORQUE, ST_BUFFER_FULL, ST_END_TIME, ST_FELL, ST_HORIZON, ST_NONFINITE, ST_OK,
@@ -178,11 +187,19 @@ def write_sample(samp_t, samp_y, samp_mode, row, t, s8, phase, flipped, tau, seg
 
 
 @njit(cache=True, inline="always")
+def _min_step(t):
+    """scipy's smallest step at ``t``: ten units in the last place [s]."""
+    return 10.0 * abs(np.nextafter(t, np.inf) - t)
+
+
+@njit(cache=True, inline="always")
 def _finite(y, n):
+    # one exit, no early return: numba then drops the per-step reference counting of ``y``
+    # (x * 0 is 0 for finite x, NaN for inf and NaN)
+    acc = 0.0
     for i in range(n):
-        if not math.isfinite(y[i]):
-            return False
-    return True
+        acc += y[i] * 0.0
+    return acc == 0.0
 
 
 @njit(cache=True)
@@ -225,19 +242,19 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
     max_step = settings[C_MAX_STEP]
     max_drop = settings[C_MAX_DROP]
     band = settings[C_ZERO_BAND]
-    err_exp = error_exponent(method)
-    err_order = 7 if method == METHOD_DOP853 else 4
+    err_order = error_estimator_order(method)
 
     n_obs = obs.shape[0]
     log_cap = log.shape[0]
     sampling = sample_dt > 0.0 and samp_t.shape[0] > 0
 
-    K = np.zeros((16, 8))
-    Fd = np.zeros((7, 8))
+    K = np.zeros((VERN9_N_STAGES_EXTENDED, 8))   # the largest method's stages
+    Fd = np.zeros((VERN9_INTERPOLATOR_POWER, 8))
     y = np.zeros(8)
     f = np.zeros(8)
     y_new = np.zeros(8)
     f_new = np.zeros(8)
+    trig_new = np.zeros(N_TRIG)  # sines and cosines at y_new, left by the step for the guards
     ytmp = np.zeros(8)
     ybuf = np.zeros(8)
     work = np.zeros(8)
@@ -347,8 +364,11 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                              phase, p, tau, fmode, y, pivot, eref)
             if abs(g_obs[k]) <= band * (1.0 + abs(obs[k, O_GVALUE])):
                 g_obs[k] = 0.0
+        # friction DOFs watched on this leg (fixed along it; tested once, not on every step)
+        fric0 = friction_active(0, phase, p)
+        fric1 = friction_active(1, phase, p)
         for k in range(2):
-            if friction_active(k, phase, p):
+            if fric0 if k == 0 else fric1:
                 g_fric[k] = friction_guard(k, phase, p, tau, fmode, y, pivot)
         entering = False
 
@@ -381,15 +401,17 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                 if t >= bound:
                     break
                 # ---- one adaptive step (scipy's RungeKutta._step_impl) ----
-                min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
+                # scipy's min_step, 10 ulp(t), is at most 10 eps |t| (+ a subnormal at t = 0):
+                # the nextafter call is only needed for a step below that
+                tiny = 10.0 * EPS * abs(t) + 1e-300
                 if h_abs > max_step:
                     h_abs = max_step
-                elif h_abs < min_step:
-                    h_abs = min_step
+                elif h_abs < tiny and h_abs < _min_step(t):
+                    h_abs = _min_step(t)
                 rejected = False
                 ok = True
                 while True:
-                    if h_abs < min_step:
+                    if h_abs < tiny and h_abs < _min_step(t):
                         ok = False
                         break
                     t_new = t + h_abs
@@ -397,19 +419,41 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                         t_new = bound
                     h = t_new - t
                     h_abs = abs(h)
-                    counts[K_NFEV] += rk_step(method, phase, p, tau, fmode, y, f, h, n, K,
-                                              ytmp, y_new, f_new)
-                    en = error_norm(method, K, h, y, y_new, n, rtol, atol)
+                    # integrate.rk_step and error_norm written out down to the straight-line
+                    # steps: through a wrapper (inlined or called) numba reference-counts the
+                    # eight arrays on every step (atomic operations: the two wrappers cost ~10 %
+                    # of a gait)
+                    if method == METHOD_DOP853:
+                        if n == 4:
+                            dop853_step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                        else:
+                            dop853_step8(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                        counts[K_NFEV] += DOP853_N_STAGES
+                        en = dop853_error_norm(K, h, y, y_new, n, rtol, atol)
+                    elif method == METHOD_VERN9:
+                        if n == 4:
+                            vern9_step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                        else:
+                            vern9_step8(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                        counts[K_NFEV] += VERN9_N_STAGES
+                        en = vern9_error_norm(K, h, y, y_new, n, rtol, atol)
+                    else:
+                        if n == 4:
+                            rk45_step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                        else:
+                            rk45_step8(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                        counts[K_NFEV] += RK45_N_STAGES
+                        en = rk45_error_norm(K, h, y, y_new, n, rtol, atol)
                     if en < 1.0:
                         if en == 0.0:
                             factor = MAX_FACTOR
                         else:
-                            factor = min(MAX_FACTOR, SAFETY * en ** err_exp)
+                            factor = min(MAX_FACTOR, SAFETY * error_power(method, en))
                         if rejected:
                             factor = min(1.0, factor)
                         h_abs *= factor
                         break
-                    h_abs *= max(MIN_FACTOR, SAFETY * en ** err_exp)
+                    h_abs *= max(MIN_FACTOR, SAFETY * error_power(method, en))
                     rejected = True
                     counts[K_REJECTED] += 1
                 if not ok:
@@ -426,8 +470,15 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                 t_ev = np.inf
                 # ---- segment guard ----
                 if state_guard and pending == np.inf:
-                    gb = guard(gkind, gindex, gvalue, phase, p, tau, fmode, y_new, pivot, eref)
-                    rb = guard_rate(gkind, gindex, phase, p, tau, fmode, y_new, pivot, work)
+                    # guard and rate from the step's sines and cosines; the vector field's
+                    # call kept out of inlined code (numba would reference-count its arrays)
+                    if rate_uses_field(gkind, gindex):
+                        gb = guard_trig(gkind, gindex, gvalue, phase, p, tau, fmode, y_new,
+                                        pivot, eref, trig_new)
+                        rb = guard_rate_field(gkind, gindex, phase, p, tau, fmode, y_new, work)
+                    else:
+                        gb, rb = guard_and_rate_step(gkind, gindex, gvalue, phase, p, tau, fmode,
+                                                     y_new, pivot, eref, trig_new)
                     if crosses(g_seg, gb, gdir) or hermite_flags(g_seg, r_seg, gb, rb, h, gdir):
                         if not dense:
                             counts[K_NFEV] += dense_prepare(method, phase, p, tau, fmode, t, h,
@@ -477,20 +528,22 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                     g_seg = gb
                     r_seg = rb
                 elif state_guard and t_new == pending:
-                    gb = guard(gkind, gindex, gvalue, phase, p, tau, fmode, y_new, pivot, eref)
+                    gb = guard_trig(gkind, gindex, gvalue, phase, p, tau, fmode, y_new, pivot,
+                                    eref, trig_new)
                     if (gdir > 0 and gb >= 0.0) or (gdir < 0 and gb <= 0.0) or \
                             (gdir == 0 and gb * pending_sign <= 0.0):
                         t_ev = t_new
                     pending = np.inf
                     g_seg = gb
-                    r_seg = guard_rate(gkind, gindex, phase, p, tau, fmode, y_new, pivot, work)
+                    r_seg = guard_rate_trig(gkind, gindex, phase, p, tau, fmode, y_new, pivot,
+                                            work, trig_new)
                 if t_new == t_target and t_target < t_ev:
                     t_ev = t_new
                 seg_event = t_ev < np.inf
                 # ---- friction events (earliest, strictly before any segment event) ----
                 fric_k = -1
                 for k in range(2):
-                    if not friction_active(k, phase, p):
+                    if not (fric0 if k == 0 else fric1):
                         continue
                     gb = friction_guard(k, phase, p, tau, fmode, y_new, pivot)
                     fkind = G_STICK_BREAK if fmode[k] == 0.0 else G_SLIP_STOP
@@ -516,10 +569,12 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                     oidx = int(obs[k, O_GINDEX])
                     oval = obs[k, O_GVALUE]
                     odir = obs[k, O_GDIR]
-                    gb = guard(okind, oidx, oval, phase, p, tau, fmode, y_new, pivot, eref)
+                    gb = guard_trig(okind, oidx, oval, phase, p, tau, fmode, y_new, pivot, eref,
+                                    trig_new)
                     ga = g_obs[k]
                     ra = guard_rate(okind, oidx, phase, p, tau, fmode, y, pivot, work)
-                    rb = guard_rate(okind, oidx, phase, p, tau, fmode, y_new, pivot, work)
+                    rb = guard_rate_trig(okind, oidx, phase, p, tau, fmode, y_new, pivot, work,
+                                         trig_new)
                     flagged = crosses(ga, gb, odir) or hermite_flags(ga, ra, gb, rb, h, odir)
                     if flagged:
                         if not dense:

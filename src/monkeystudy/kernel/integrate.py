@@ -6,18 +6,23 @@ The step-size controller, error norms and initial-step selection follow
 for the same vector field our accepted steps coincide with ``solve_ivp``'s: the tests compare
 them one by one. Work arrays are preallocated by the caller; nothing here allocates.
 
-Arrays: ``K`` is ``(16, 8)`` (DOP853 with its three extra dense-output stages), ``F`` the
-``(7, 8)`` dense-output coefficients; only the first ``n`` columns are used (4 swing, 8 flight).
+Arrays: ``K`` is ``(16, 8)`` (DOP853 with its three extra dense-output stages; ``(26, 8)`` for
+Vern9 with its ten), ``F`` the ``(7, 8)`` dense-output coefficients (``(9, 8)`` for Vern9);
+only the first ``n`` columns are used (4 swing, 8 flight). Vern9 (Verner's 9(8) pair) has no
+scipy counterpart: it uses the same controller with scipy's RMS error norm.
 """
 import math
 
 from numba import njit
 
 from .dynamics import rhs
-from .layout import METHOD_DOP853
-from .rk_explicit import dop853_error_norm, dop853_step, rk45_error_norm, rk45_step
+from .layout import METHOD_DOP853, METHOD_VERN9
+from .rk_explicit import (
+    dop853_error_norm, dop853_step, rk45_error_norm, rk45_step, vern9_error_norm, vern9_step,
+)
 from .tableaux import (
     DOP853_A, DOP853_D, DOP853_N_STAGES, DOP853_N_STAGES_EXTENDED, RK45_N_STAGES, RK45_P,
+    VERN9_A, VERN9_INTERPOLATOR_POWER, VERN9_N_STAGES, VERN9_N_STAGES_EXTENDED, VERN9_R,
 )
 
 SAFETY = 0.9
@@ -27,8 +32,36 @@ MAX_FACTOR = 10.0
 
 @njit(cache=True, inline="always")
 def error_exponent(method):
-    """-1 / (error estimator order + 1): DOP853 7, RK45 4."""
-    return -1.0 / 8.0 if method == METHOD_DOP853 else -1.0 / 5.0
+    """-1 / (error estimator order + 1): DOP853 7, RK45 4, Vern9 8."""
+    if method == METHOD_DOP853:
+        return -1.0 / 8.0
+    if method == METHOD_VERN9:
+        return -1.0 / 9.0
+    return -1.0 / 5.0
+
+
+@njit(cache=True, inline="always")
+def error_estimator_order(method):
+    """Order of the embedded error estimate (for the initial step)."""
+    if method == METHOD_DOP853:
+        return 7
+    if method == METHOD_VERN9:
+        return 8
+    return 4
+
+
+@njit(cache=True, inline="always")
+def error_power(method, en):
+    """``en ** error_exponent(method)``, the step-size controller's power of the error norm.
+
+    DOP853's ``en ** (-1/8)`` is taken as ``1 / sqrt(sqrt(sqrt(en)))``: correctly rounded
+    square roots put it within two ulps of ``pow`` (the factor then scales the step by
+    ~1e-16 relative, far below the round-off the stages already carry) at a third of the cost
+    of the ``pow`` call (once per step).
+    """
+    if method == METHOD_DOP853:
+        return 1.0 / math.sqrt(math.sqrt(math.sqrt(en)))
+    return en ** error_exponent(method)
 
 
 @njit(cache=True)
@@ -70,16 +103,20 @@ def select_initial_step(phase, p, tau, fmode, t0, y0, f0, n, t_bound, max_step, 
 
 
 @njit(cache=True, inline="always")
-def rk_step(method, phase, p, tau, fmode, y, f, h, n, K, ytmp, y_new, f_new):
+def rk_step(method, phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new):
     """One embedded RK step from ``(y, f)`` over ``h``; fills ``K``, ``y_new``, ``f_new``.
 
     Dispatches to the straight-line steps of :mod:`.rk_explicit` (generated from the
     tableaux; ``n`` 4 means swing, 8 flight). Returns the number of right-hand-side
-    evaluations (stages, first-same-as-last reused).
+    evaluations (stages, first-same-as-last reused). ``trig`` (length >= ``N_TRIG``)
+    receives the sines and cosines of the angles at ``y_new`` (layout ``T_*``), computed with
+    the last stage, for the guards.
     """
     if method == METHOD_DOP853:
-        return dop853_step(phase, p, tau, fmode, y, f, h, n, K, ytmp, y_new, f_new)
-    return rk45_step(phase, p, tau, fmode, y, f, h, n, K, ytmp, y_new, f_new)
+        return dop853_step(phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new)
+    if method == METHOD_VERN9:
+        return vern9_step(phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new)
+    return rk45_step(phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new)
 
 
 @njit(cache=True, inline="always")
@@ -87,6 +124,8 @@ def error_norm(method, K, h, y, y_new, n, rtol, atol):
     """Scaled RMS norm of the local error estimate (scipy's ``_estimate_error_norm``)."""
     if method == METHOD_DOP853:
         return dop853_error_norm(K, h, y, y_new, n, rtol, atol)
+    if method == METHOD_VERN9:
+        return vern9_error_norm(K, h, y, y_new, n, rtol, atol)
     return rk45_error_norm(K, h, y, y_new, n, rtol, atol)
 
 
@@ -95,8 +134,32 @@ def dense_prepare(method, phase, p, tau, fmode, t_old, h, y_old, y_new, f_new, n
     """Dense-output coefficients of the last step into ``Fd``; returns extra RHS evaluations.
 
     DOP853: the 7th-order interpolant (three extra stages); RK45: the 4th-order free
-    interpolant ``Q = K^T P``.
+    interpolant ``Q = K^T P``; Vern9: the 9th-order interpolant (nine extra stages beyond
+    ``f_new``, which the step left in ``K[16]``), ``Fd[k] = sum_i R[i, k] k_i``, the last
+    coefficient closing it on ``y_new``.
     """
+    if method == METHOD_VERN9:
+        for s in range(VERN9_N_STAGES + 1, VERN9_N_STAGES_EXTENDED):
+            for i in range(n):
+                acc = 0.0
+                for j in range(s):
+                    acc += K[j, i] * VERN9_A[s, j]
+                ytmp[i] = y_old[i] + acc * h
+            rhs(phase, p, tau, fmode, ytmp, K[s])
+        last = VERN9_INTERPOLATOR_POWER - 1
+        for i in range(n):
+            low = 0.0
+            for r in range(last):
+                acc = 0.0
+                for j in range(VERN9_N_STAGES_EXTENDED):
+                    acc += VERN9_R[j, r] * K[j, i]
+                Fd[r, i] = acc
+                low += acc
+            # the theta^9 coefficient closes the polynomial on the step's end: the weights
+            # b_i(1) = sum_k R[i, k] equal b_i only to ~1e-12 in double precision (terms of
+            # ~1e4 cancel), a jump at step ends that event location would see
+            Fd[last, i] = (y_new[i] - y_old[i]) / h - low
+        return VERN9_N_STAGES_EXTENDED - VERN9_N_STAGES - 1
     if method == METHOD_DOP853:
         ns = DOP853_N_STAGES
         for s in range(ns + 1, DOP853_N_STAGES_EXTENDED):
@@ -129,6 +192,13 @@ def dense_prepare(method, phase, p, tau, fmode, t_old, h, y_old, y_new, f_new, n
 @njit(cache=True)
 def dense_eval(method, Fd, y_old, h, x, n, out):
     """Interpolated state at ``t_old + x h`` (``0 <= x <= 1``) into ``out``."""
+    if method == METHOD_VERN9:
+        for i in range(n):
+            acc = Fd[VERN9_INTERPOLATOR_POWER - 1, i]
+            for r in range(VERN9_INTERPOLATOR_POWER - 2, -1, -1):
+                acc = acc * x + Fd[r, i]
+            out[i] = y_old[i] + h * x * acc
+        return
     if method == METHOD_DOP853:
         for i in range(n):
             acc = 0.0

@@ -21,6 +21,11 @@ N_PARAMS = 19
 X, Y, TH1, TH2, DX, DY, DTH1, DTH2 = 0, 1, 2, 3, 4, 5, 6, 7
 N_STATE = 8
 
+# --- sines and cosines of a state's angles, as a step leaves them for the guards (theta1,
+# theta2, theta1 + theta2)
+T_S1, T_C1, T_S2, T_C2, T_S12, T_C12 = 0, 1, 2, 3, 4, 5
+N_TRIG = 6
+
 # --- phases ------------------------------------------------------------------------------------
 PHASE_SWING = 0    # the (x, y) end is attached, 2-DOF
 PHASE_FLIGHT = 1   # nothing attached, 4-DOF
@@ -29,6 +34,7 @@ PHASE_FIXED = 2    # both ends attached, no motion
 # --- integrator methods ----------------------------------------------------------------------
 METHOD_RK45 = 0
 METHOD_DOP853 = 1
+METHOD_VERN9 = 2
 
 # --- guard kinds (MODEL.md section 4 and issue #2) ----------------------------------------------
 G_NONE = -1             # segment ends only by its horizon

@@ -238,7 +238,7 @@ GaitSpec = Annotated[Union[Gait, SequenceGaitSpec], Field(discriminator="kind")]
 class IntegratorSettings(_Model):
     """Integrator settings (scipy ``solve_ivp`` semantics for rtol/atol)."""
 
-    method: Literal["dop853", "rk45"] = Field("dop853", description="Runge-Kutta pair")
+    method: Literal["dop853", "rk45", "vern9"] = Field("dop853", description="Runge-Kutta pair")
     rtol: float = Field(1e-10, ge=100 * np.finfo(float).eps, lt=1.0,
                         description="relative tolerance [1]")
     atol: float = Field(1e-12, gt=0, description="absolute tolerance [rad, rad s-1]")
@@ -632,8 +632,8 @@ class WorkPrecisionStep(_Model):
     name: Name
     kind: Literal["work_precision"]
     points: PointsSpec = Field(description="gait start points [rad s-1]: a list or axes")
-    methods: list[Literal["rk45", "dop853"]] = Field(["rk45", "dop853"], min_length=1,
-                                                     description="kernel integrators")
+    methods: list[Literal["rk45", "dop853", "vern9"]] = Field(
+        ["rk45", "dop853"], min_length=1, description="kernel integrators")
     rtols: list[Annotated[float, Field(ge=100 * np.finfo(float).eps, lt=1.0)]] = Field(
         WORK_PRECISION_RTOLS, min_length=1, description="relative tolerances [1]")
     atol_ratio: float = Field(1e-2, gt=0, le=1.0, description="atol = rtol * atol_ratio "
