@@ -18,7 +18,6 @@ Jacobian.
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field, replace
 
@@ -26,7 +25,6 @@ import numpy as np
 
 from .analysis import TIGHT, cycle_return_map, mirror_robot
 from .controllers import Integrator, SequenceGait
-from .robot import Friction
 from .simulate import RobotLike, Status, as_robot
 
 #: parameters a sequence gait can be continued in, with their units
@@ -115,8 +113,7 @@ class CycleBranch:
     """A continued family of a sequence gait's fixed points: one row per branch point.
 
     ``multipliers`` (n, 3) complex, by decreasing modulus, from the variational equations
-    (NaN where they are not defined, e.g. at a collisionless swap followed by an energy
-    restore); ``neutral`` counts the multipliers within :data:`NEUTRAL_TOL` of 1. Bifurcation
+    the tangent was taken from (NaN when not asked for); ``neutral`` counts the multipliers within :data:`NEUTRAL_TOL` of 1. Bifurcation
     lists hold branch indices ``i``: the event happened between points ``i - 1`` and ``i``.
     A fold is where the parameter turns back along the branch. With ``theta2`` pinned, a fold
     of the branch need not put a second multiplier at 1 (the energy family may just stop
@@ -126,7 +123,7 @@ class CycleBranch:
     ``stop_reason``: ``steps`` (all taken), ``bounds`` (the parameter left them), ``border``
     (the map jumps just ahead: the cycle's event sequence changes there, e.g. a guard met at
     a turning point, so the smooth family ends) or ``ds_min`` (the corrector failed at the
-    least step for another reason).
+    least step for another reason, or converged where the map is not differentiable).
     """
 
     parameter: str
@@ -271,7 +268,8 @@ def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike =
         return (np.append(r, u[0] - theta2_0) if pinned else r), st
 
     def DF(u):
-        """d F / d u: variational columns for the state, differences in mu."""
+        """``(d F / d u, d P / d z)``: variational columns for the state, differences in
+        mu."""
         J = jac_state(u)
         D = np.empty((4 if pinned else 3, 4))
         D[:3, :3] = J - np.eye(3)
@@ -286,13 +284,13 @@ def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike =
             if Status.OK != s0 or Status.OK != s1 or Status.OK != s2:
                 raise RuntimeError("the parameter stencil left the gait")
             D[:3, MU] = (-3.0 * r0 + 4.0 * r1 - r2) / (2 * h)
-            return D
+            return D, J
         rp, sp = R(u + e)
         rm, sm = R(u - e)
         if sp != Status.OK or sm != Status.OK:
             raise RuntimeError("the parameter stencil left the gait")
         D[:3, MU] = (rp - rm) / (2 * h)
-        return D
+        return D, J
 
     def tangent(D, prev, sign):
         _, _, vt = np.linalg.svd(D)
@@ -324,7 +322,7 @@ def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike =
             if norm <= tol * scale_of(v) and abs(tau @ (v - up)) <= tol:
                 return (v, it - 1), first
             try:
-                D = DF(v)
+                D, _ = DF(v)
             except (RuntimeError, ValueError):
                 return None, first
             A = np.vstack([D, tau])
@@ -339,7 +337,9 @@ def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike =
         return None, first
 
     rows, res, iters = [u.copy()], [float(np.linalg.norm(r0))], [0]
-    tau = tangent(DF(u), None, math.copysign(1.0, ds))
+    D, J = DF(u)
+    jacs = [J]      # each accepted point's Jacobian: the tangent's and the multipliers'
+    tau = tangent(D, None, math.copysign(1.0, ds))
     h = abs(ds)
     reason = "steps"
     while len(rows) <= steps:
@@ -358,11 +358,17 @@ def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike =
         if not bounds[0] <= v[MU] <= bounds[1]:
             reason = "bounds"
             break
+        try:
+            D, J = DF(v)
+        except (RuntimeError, ValueError):
+            reason = "ds_min"     # converged onto a point where the map is not differentiable
+            break
         r, _ = R(v)
         rows.append(v.copy())
         res.append(float(np.linalg.norm(r)))
         iters.append(it)
-        tau = tangent(DF(v), tau, 1.0)
+        jacs.append(J)
+        tau = tangent(D, tau, 1.0)
         u = v
         if it <= 3:
             h = min(ds_max, 1.5 * h)
@@ -371,11 +377,8 @@ def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike =
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(U, axis=0), axis=1))])
     lam = np.full((n, 3), np.nan + 0j)
     if multipliers:
-        for i, ui in enumerate(U):
-            try:
-                ev = np.linalg.eigvals(jac_state(ui))
-            except ValueError:
-                continue      # e.g. a kink (collisionless swap with an energy restore)
+        for i, Ji in enumerate(jacs):
+            ev = np.linalg.eigvals(Ji)
             lam[i] = ev[np.argsort(-np.abs(ev), kind="stable")]
     neutral = np.array([int(np.sum(np.abs(m - 1.0) < NEUTRAL_TOL)) for m in lam])
     stable = np.array([int(np.all(np.isfinite(m)) and bool(np.all(np.abs(_nonneutral(m)) < 1.0)))

@@ -229,7 +229,9 @@ def test_mirror_links_are_not_required_by_the_other_kinds():
     text = BASE.format(robot=NON_MIRROR).replace(
         "  - {name: fl, kind: floquet, from: sh}\n", "").replace(", floquet: fl", "").replace(
         "  - {name: co, kind: continuation, from: sh, parameter: com, ds: 0.01}\n", "")
-    parse_study(text)
+    loaded = parse_study(text)      # raises StudyError if any remaining step is refused
+    assert "fl" not in [s.name for s in loaded.study.steps]
+    assert len(loaded.study.steps) >= 3
 
 
 # --- end to end --------------------------------------------------------------------------------
