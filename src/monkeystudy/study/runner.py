@@ -19,6 +19,7 @@ its refine); independent steps share the pool.
 """
 from __future__ import annotations
 
+import gc
 import math
 import os
 import shutil
@@ -331,6 +332,7 @@ def _worker_init(driver: int) -> None:
     """Pool worker start: Ctrl-C is the driver's business; exit when the driver is gone
     (after a kill -9 nobody else would stop an idle worker)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    gc.enable()  # the driver may fork with collection off during its start-up
 
     def watch():
         import time
@@ -443,6 +445,11 @@ def open_pool(workers: int | None = None, scheduler: str | None = None,
         if forked and warm_up is not None:
             warm_up()
             warm_up = None
+        if not gc.isenabled():
+            # start-up mode (the CLI): the modules and kernels loaded so far live as long as
+            # the process, so keep them out of every later collection, here and in the forked
+            # workers (whose pages then stay shared: the collector never writes to them)
+            gc.freeze()
         ex = ProcessPoolExecutor(max_workers=n, mp_context=ctx,
                                  initializer=_worker_init, initargs=(os.getpid(),))
         # start the workers now: they load the kernels (forkserver preload) while the
@@ -452,6 +459,7 @@ def open_pool(workers: int | None = None, scheduler: str | None = None,
         pool = Pool(ex, n, f"{n} local process{'es' if n > 1 else ''}", lambda: None)
     if warm_up is not None:
         warm_up()
+    gc.enable()  # start-up is over (the CLI turns collection off while it imports)
     ok = False
     try:
         yield pool
