@@ -116,6 +116,14 @@ def _gait_of(ds) -> str | None:
     d1, d2 = _attr_float(ds, "dtheta1"), _attr_float(ds, "dtheta2")
     if not (math.isfinite(d1) and math.isfinite(d2)):
         return None
+    th2 = _attr_float(ds, "start_theta2")
+    if math.isfinite(th2):                       # a sequence gait: its section state
+        s = f"gait (θ2 {th2:.3g} rad; {d1:.6g}, {d2:.6g} rad s⁻¹)"
+        for key, what in (("floquet_step", "fixed point of floquet step"),
+                          ("refine_step", "start of refine step")):
+            if ds.attrs.get(key):
+                return f"{s}, {what} {ds.attrs[key]}"
+        return s
     s = f"gait ({d1:.6g}, {d2:.6g}) rad s⁻¹"
     src = ds.attrs.get("shoot_step")
     return f"{s} from shoot step {src}" if src else s
@@ -497,6 +505,8 @@ def plot_tick_sweep(ds):
         colour[i] = BLUE if ticks[i] == 0 else palette[k % len(palette)]
     exact = [i for i in range(len(ticks)) if ticks[i] == 0]
     n_cycles = int(ds.sizes["cycle"])
+    own = ds.attrs.get("replay") == "gait"          # a sequence gait's own controller
+    at = "section" if "section_theta1" in ds.attrs else "vertical"
 
     def exceeded(i):
         e = err[i]
@@ -516,8 +526,8 @@ def plot_tick_sweep(ds):
         i0 = exact[0]
         title = (f"{question}\nNo: with exact timing the run still leaves the gait "
                  f"(error > {bound:g} from cycle {to_bound[i0]})")
-        verdict = ("the open-loop gait itself is unstable; a tick only sets the starting "
-                   "error, the multiplier does the rest")
+        verdict = (f"the {'' if own else 'open-loop '}gait itself is unstable; a tick only "
+                   "sets the starting error, the multiplier does the rest")
     elif exact:
         i0 = exact[0]
         failed = [i for i in range(len(ticks)) if ticks[i] > 0 and exceeded(i)]
@@ -528,7 +538,9 @@ def plot_tick_sweep(ds):
             "; the tick's rounding is what drives the runs off the gait" if failed else ""))
     else:
         i0 = None
-        title = "Error per cycle of the exact gait's open-loop replay for each controller tick"
+        title = ("Error per cycle of the gait's own controller for each controller tick"
+                 if own else "Error per cycle of the exact gait's open-loop replay for each "
+                 "controller tick")
         verdict = "no exact-timing run in this sweep"
     with style():
         fig = new_figure(figsize=(9.0, 6.8))
@@ -536,11 +548,16 @@ def plot_tick_sweep(ds):
         lam_txt = (f"Leading multiplier |λmax| = {lam:.4g} ⇒ the error grows × |λmax|² = "
                    f"{lam ** 2:.3g} per cycle (dashed line)"
                    if math.isfinite(lam) else "Leading multiplier unknown")
+        if own and math.isfinite(lam) and abs(lam - 1.0) < 1e-6:
+            lam_txt += (";\n|λmax| = 1 is the neutral multiplier (the free energy level): a "
+                        "deviation along the gait family neither grows nor decays")
         gait = _gait_of(ds)
-        sub = ("Error per cycle of the exact gait replayed open loop, one run per controller "
+        how = ("run by its own controller (guards acted on at the ticks)" if own
+               else "replayed open loop")
+        sub = (f"Error per cycle of the exact gait {how}, one run per controller "
                f"tick.\n{lam_txt}.\nVerdict: {verdict}.\n"
-               + (f"Replaying the {gait}" + (f", {_times_of(ds)}" if _times_of(ds) else "")
-                  + "\n" if gait else "")
+               + (("Running" if own else "Replaying") + f" the {gait}"
+                  + (f", {_times_of(ds)}" if _times_of(ds) else "") + "\n" if gait else "")
                + run_line(ds, tick=False, torque=_attr_float(ds, "motor_torque", None)
                           if "motor_torque" in ds.attrs else None))
         body = _titles(fig, title, sub)
@@ -588,7 +605,7 @@ def plot_tick_sweep(ds):
         ax.set_xlim(0, n_cycles + 1)
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         ax.set_xlabel("gait cycle n")
-        ax.set_ylabel("error e at the vertical crossing  [1]")
+        ax.set_ylabel(f"error e at the {at} crossing  [1]")
         body.legend(handles=handles, loc="outside lower center", ncols=1, frameon=False)
     return fig
 
@@ -632,8 +649,10 @@ def plot_basin(ds, *, cmap: str = "viridis", numbers: int = 225):
                + (f"{fmt_tick(tick)}, " if math.isfinite(tick) else "")
                + run_line(ds, tick=False, torque=_attr_float(ds, "motor_torque", None)
                           if "motor_torque" in ds.attrs else None))
-        body = _titles(fig, "Basin of the open-loop gait: cycles survived from perturbed "
-                            "starts", sub)
+        own = ds.attrs.get("replay") == "gait"
+        body = _titles(fig, "Basin of the gait under its own controller: cycles survived from "
+                            "perturbed starts" if own else "Basin of the open-loop gait: "
+                            "cycles survived from perturbed starts", sub)
         ax = body.subplots()
         ax.grid(False)
         base = matplotlib.colormaps[cmap]

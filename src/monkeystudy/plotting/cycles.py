@@ -1,4 +1,5 @@
-"""Per-cycle figures of an open-loop repetition (``stability`` dataset; study figs. 5-8).
+"""Per-cycle figures of an open-loop repetition (``stability`` dataset; study figs. 5-8); a
+sequence gait's runs (its own controller or open loop) are measured at its section.
 
 * :func:`plot_error_per_cycle` - error at each vertical crossing, log scale (figs. 5 and 8);
   :func:`plot_error_comparison` overlays several runs;
@@ -141,6 +142,16 @@ def _cycle(stab) -> np.ndarray:
                       else np.arange(1, stab.sizes["cycle"] + 1), float)
 
 
+def _crossing(stab) -> str:
+    """Where the run is measured: a sequence gait's section, else the vertical."""
+    return "section crossing" if "section_theta1" in stab.attrs else "vertical crossing"
+
+
+def _own(stab) -> bool:
+    """A sequence gait run by its own controller (not replayed open loop)."""
+    return stab.attrs.get("replay") == "gait"
+
+
 # ----------------------------------------------------------------------------------------------
 def plot_error_per_cycle(stab, *, gait=None, label: str | None = None):
     """Error against the initial state at each vertical crossing, per cycle, log scale.
@@ -170,20 +181,23 @@ def plot_error_comparison(stabs: Sequence, *, gaits: Sequence = (), labels: Sequ
             step = s.attrs.get("step_name", f"run {k + 1}")
             ax.plot(x, yplot, marker="o", color=colours[k % len(colours)],
                     gid="error" if _single else f"error_{step}",
-                    label=lab or ("error at the vertical crossing" if _single
-                                  else f"{step}: {_gait_text(s, gait)}"))
+                    label=lab or (f"error at the {_crossing(s)}" if _single
+                                  else f"{step}{' (own controller)' if _own(s) else ''}: "
+                                       f"{_gait_text(s, gait)}"))
         ax.set_yscale("log")
         for k, s in enumerate(stabs):
             _annotate_stop(ax, s, _cycle(s), np.asarray(s["error"].values, float), slot=k,
                            colour=VERMILLION if _single else colours[k % len(colours)],
                            who="run" if _single else s.attrs.get("step_name", "run"))
         _cycle_limits(ax, stabs)
-        ax.set_ylabel("error e at the vertical crossing  [1]")
+        ax.set_ylabel(f"error e at the {_crossing(stabs[0])}  [1]")
         if _single:
-            title = "Error per cycle of the open-loop repetition"
+            title = ("Error per cycle of the gait under its own controller" if _own(stabs[0])
+                     else "Error per cycle of the open-loop repetition")
             sub = f"Repeating {_gait_text(stabs[0], gaits[0])}"
         else:
-            title = "Error per cycle of the open-loop runs"
+            title = ("Error per cycle of the multi-cycle runs" if any(_own(s) for s in stabs)
+                     else "Error per cycle of the open-loop runs")
             sub = ""
         if len(stabs) > 1 or any(_stop_note(s) for s in stabs):
             ax.legend(loc="best")
@@ -204,7 +218,7 @@ def plot_kinetic_energy(stab, *, gait=None):
         fig = new_figure(figsize=(7.0, 4.6))
         ax = fig.add_subplot()
         ax.plot(x, y, marker="o", color=BLUE, gid="kinetic_energy",
-                label="kinetic energy at the vertical crossing")
+                label=f"kinetic energy at the {_crossing(stab)}")
         k0 = _start_kinetic_energy(stab, gait)
         if k0 is not None:
             ax.axhline(k0, ls="--", color="0.35", lw=1.0, gid="ke_start",
@@ -213,7 +227,7 @@ def plot_kinetic_energy(stab, *, gait=None):
         _cycle_limits(ax, [stab])
         ax.set_ylabel("kinetic energy  [J]")
         ax.legend(loc="lower left")
-        _finish(fig, ax, stab, "Kinetic energy at the vertical crossing, per cycle",
+        _finish(fig, ax, stab, f"Kinetic energy at the {_crossing(stab)}, per cycle",
                 f"Repeating {_gait_text(stab, gait)}")
     return fig
 
@@ -226,7 +240,9 @@ def _start_kinetic_energy(stab, gait) -> float | None:
         return None
     from ..kernel.dynamics import kinetic_energy
     p = robot.params()[0]
-    return float(kinetic_energy(p, 0.0, 0.0, 0.0, 0.0, float(gait[0]), float(gait[1])))
+    th1 = float(stab.attrs.get("section_theta1", 0.0))   # a sequence gait's section state
+    th2 = float(stab.attrs.get("start_theta2", 0.0))
+    return float(kinetic_energy(p, th1, th2, 0.0, 0.0, float(gait[0]), float(gait[1])))
 
 
 def plot_pivot_height(stab, *, gait=None):
@@ -248,7 +264,8 @@ def plot_pivot_height(stab, *, gait=None):
         else:
             ax, ax2 = fig.add_subplot(), None
         ax.plot(x, y, marker="o", color=BLUE, gid="pivot_height",
-                label="attached end after the swap")
+                label="attached end at the section crossing" if "section_theta1" in stab.attrs
+                else "attached end after the swap")
         ax.axhline(0.0, ls="--", color="0.35", lw=1.0, gid="start_height",
                    label="start height (attached end at the gait start)")
         if lengths is not None:

@@ -111,6 +111,47 @@ def _gait_attrs(source: str, g: dict | None) -> dict:
             "gait_error": g["error"], "gait_method": AT.METHOD_NAMES[g["method"]]}
 
 
+def sequence_start(run, s) -> dict:
+    """Where a sequence gait's multi-cycle step starts: ``{z: (theta2, dtheta1, dtheta2),
+    source, source_kind, ...}`` from its ``from:`` floquet step (the fixed point) or refine
+    step (the refined rates at the section's theta2)."""
+    from .runner import RunFailed
+    from .schema import RefineStep
+
+    st = s.step
+    src = run.by_name[st.from_]
+    section_theta1 = run.plan.loaded.study.gait.section.theta1
+    if isinstance(src.step, RefineStep):
+        g, idx = D.read_refined(src.path, getattr(st, "start_index", None))
+        if g["status"] != 0 or not math.isfinite(g["error"]):
+            raise RunFailed(f"{s.name}: refine step {st.from_!r} found no cycle to run "
+                            f"(status {g['status']})")
+        theta2 = run.plan.loaded.study.gait.section.theta2
+        return {"z": np.array([theta2, g["dtheta1"], g["dtheta2"]]), "source": st.from_,
+                "source_kind": "refine", "index": idx, "gait_error": g["error"],
+                "section_theta1": section_theta1}
+    fp = D.read_floquet_point(src.path, "sequence")
+    if fp["newton_converged"] == 0 or not np.all(np.isfinite(fp["fixed_point"])):
+        raise RunFailed(f"{s.name}: floquet step {st.from_!r} did not converge to a fixed "
+                        f"point (map defect {fp['map_defect']:.3g}): nothing to run")
+    return {"z": np.asarray(fp["fixed_point"], float), "source": st.from_,
+            "source_kind": "floquet", "index": -1, "map_defect": fp["map_defect"],
+            "section_theta1": section_theta1}
+
+
+def sequence_attrs(gait: dict, replay: str) -> dict:
+    """Global attributes naming a sequence gait's start and how it was run."""
+    z = gait["z"]
+    out = {"replay": replay, f"{gait['source_kind']}_step": gait["source"],
+           "start_theta2": float(z[0]), "dtheta1": float(z[1]), "dtheta2": float(z[2]),
+           "section_theta1": float(gait["section_theta1"])}
+    if gait["source_kind"] == "refine":
+        out.update(refine_start=int(gait["index"]), gait_error=float(gait["gait_error"]))
+    else:
+        out["map_defect"] = float(gait["map_defect"])
+    return out
+
+
 # --- starting ----------------------------------------------------------------------------------
 def _queue(run, s, tag, fn, args, kwargs, exclusive: bool = False) -> None:
     from .runner import _Task
@@ -157,6 +198,9 @@ def start(run, s) -> None:
         for i, c in enumerate(controllers):
             _queue(run, s, i, AT.floquet_task, (spec, c),
                    {"gait": g, "search_start": list(st.search_start), "fd_step": st.fd_step})
+    elif isinstance(st, (TickSweepStep, BasinStep)) and \
+            run.plan.loaded.study.gait.kind == "sequence":
+        _start_sequence_replay(run, s, ctx)
     elif isinstance(st, TickSweepStep):
         g = shoot_gait(run, s, st.from_, st.solution)
         ctx["gait"] = g
@@ -242,6 +286,48 @@ def start(run, s) -> None:
         raise TypeError(f"not an analysis step: {st.kind}")
 
 
+def _start_sequence_replay(run, s, ctx: dict) -> None:
+    """Queue a sequence gait's tick_sweep (one task) or basin (blocks of rows)."""
+    from .runner import clean_parts, saved_blocks, shard_dir
+
+    st = s.step
+    g = sequence_start(run, s)
+    ctx["gait"] = g
+    replay = st.replay or "gait"
+    ctx["replay"] = replay
+    if isinstance(st, TickSweepStep):
+        max_drop = st.max_drop if st.max_drop is not None else run.robot.link1.length
+        ctx["max_drop"] = max_drop
+        run.rep.start(s.name, 1, 0, "runs")
+        run.remaining[s.name] = 1
+        _queue(run, s, 0, AT.sequence_tick_sweep_task, (run.spec, g["z"]),
+               {"ticks": list(st.ticks), "cycles": st.cycles, "error_bound": st.error_bound,
+                "max_drop": max_drop, "replay": replay,
+                "leading_multiplier": replay == "open_loop"})
+        if replay == "gait":
+            lam = D.read_floquet_multipliers(run.by_name[st.from_].path, "sequence")
+            ctx["leading"] = float(np.abs(lam[0]))
+        return
+    tick = st.tick if st.tick is not None else run.plan.loaded.study.gait.tick
+    ctx["tick"] = tick
+    clean_parts(run.plan.out, s.name, run.plan.key)
+    folder = shard_dir(run.plan.out, s.name, run.plan.key)
+    s.saved = saved_blocks(folder, s.blocks)
+    todo = s.todo_blocks()
+    run.reused += len(s.saved)
+    run.rep.start(s.name, len(s.blocks), len(s.saved), "blocks")
+    run.remaining[s.name] = len(todo)
+    o1, o2 = st.offsets.d_dtheta1.values(), st.offsets.d_dtheta2.values()
+    n2 = o2.size
+    kw = {"max_cycles": st.max_cycles, "error_bound": st.error_bound, "tick": tick,
+          "replay": replay}
+    for b in todo:
+        _queue(run, s, b, AT.sequence_basin_block, (run.spec, g["z"], o1[b.lo // n2:b.hi // n2],
+                                                     o2), kw)
+    if not todo:
+        run._finish(s)
+
+
 def handle(run, t, value) -> None:
     """Keep a finished (non-block) task's result until the step is complete."""
     run.results[t.step.name]["tasks"][t.tag] = value
@@ -306,12 +392,23 @@ def finish(run, s, attrs: dict) -> str:
     if isinstance(st, TickSweepStep):
         r = results[0]
         g = ctx["gait"]
-        if "leading" in ctx:
+        sequence = "replay" in ctx
+        if sequence and "leading" in ctx:
+            lead, source = ctx["leading"], (f"floquet step {st.from_} (variational equations "
+                                            "of the gait's own controller)")
+        elif "leading" in ctx:
             lead, source = ctx["leading"], f"floquet step {st.floquet} (variational equations)"
         else:
             lead, source = r["leading_multiplier"], "finite differences of the exact-timing " \
                                                     "open-loop map"
-        attrs.update(_gait_attrs(st.from_, g))
+        if sequence:
+            attrs.update(sequence_attrs(g, ctx["replay"]), t_segment=list(r["t_segment"]))
+            if ctx["replay"] == "open_loop":
+                lam = np.asarray(r["multipliers"], complex)
+                attrs.update(open_loop_multipliers_real=lam.real.tolist(),
+                             open_loop_multipliers_imag=lam.imag.tolist())
+        else:
+            attrs.update(_gait_attrs(st.from_, g), replay="open_loop")
         attrs.update(leading_multiplier=lead, leading_multiplier_source=source,
                      error_bound=st.error_bound, cycles=st.cycles, motor_torque=r["torque"],
                      max_drop=ctx["max_drop"])
@@ -322,9 +419,15 @@ def finish(run, s, attrs: dict) -> str:
         cycles = _read_basin_shards(run, s).reshape(st.offsets.d_dtheta1.num,
                                                     st.offsets.d_dtheta2.num)
         g = ctx["gait"]
-        attrs.update(_gait_attrs(st.from_, g))
+        if "replay" in ctx:
+            from .drivers import spec_sequence
+            attrs.update(sequence_attrs(g, ctx["replay"]),
+                         motor_torque=AT.sequence_torque(spec_sequence(run.spec)))
+        else:
+            attrs.update(_gait_attrs(st.from_, g), replay="open_loop",
+                         motor_torque=AT.replay_torque(run.spec, g))
         attrs.update(max_cycles=st.max_cycles, error_bound=st.error_bound, tick=ctx["tick"],
-                     motor_torque=AT.replay_torque(run.spec, g), n_blocks=len(s.blocks))
+                     n_blocks=len(s.blocks))
         D.write_basin(s.path, attrs, st.offsets.d_dtheta1.values(),
                       st.offsets.d_dtheta2.values(), cycles)
         clean_parts(run.plan.out, s.name, None)

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..kernel import layout as L
-from .drivers import GaitSpec, _unpack
+from .drivers import GaitSpec, _unpack, spec_sequence
 
 #: shoot ``method`` flag values (dataset variable ``method``)
 METHOD_GAUSS_NEWTON, METHOD_GRAZING = 0, 1
@@ -39,6 +39,15 @@ GROWTH_WINDOW = (1e-10, 1e-4)
 def replay_torque(spec: GaitSpec, gait: dict) -> float:
     """Motor torque [N m] of an open-loop replay of ``gait``: 0 if it has no motor phase."""
     return 0.0 if float(gait["t_motor"]) == 0.0 else float(spec["torque"])
+
+
+def sequence_torque(gait) -> float:
+    """A sequence gait's reference motor torque [N m] (0 when it never runs its motor)."""
+    from ..continuation import motor_torque
+    try:
+        return motor_torque(gait)
+    except ValueError:
+        return 0.0
 
 
 def _norm_or_nan(v) -> float:
@@ -359,6 +368,69 @@ def tick_sweep_task(spec: GaitSpec, gait: dict, *, ticks, cycles: int, error_bou
     return {"error": err, "pivot_height": piv, "cycles_to_bound": to_bound,
             "cycles_completed": completed, "status": status, "growth_per_cycle": growth,
             "leading_multiplier": lead, "torque": torque}
+
+
+def sequence_tick_sweep_task(spec: GaitSpec, z_star, *, ticks, cycles: int,
+                             error_bound: float, max_drop: float, replay: str,
+                             leading_multiplier: bool, fd_step: float = 1e-5) -> dict[str, Any]:
+    """:func:`tick_sweep_task` for the spec's sequence gait from its fixed point ``z_star =
+    (theta2 [rad], dtheta1, dtheta2 [rad s-1])``, run as its own controller or open-loop
+    (``replay``; :func:`monkeystudy.replay.sequence_cycles`). ``pivot_height`` is the attached
+    end's height at each section crossing. ``leading_multiplier``: |lambda_max| of the
+    replayed exact-timing map by finite differences (NaN otherwise); also returns all three
+    (``multipliers``) and the replayed segment times (``t_segment`` [s])."""
+    from functools import partial
+
+    from ..analysis import cycle_return_map, floquet
+    from ..replay import cycle_times, open_loop_gait, sequence_cycles
+
+    robot, integ = _unpack(spec)
+    gait = spec_sequence(spec)
+    z_star = np.asarray(z_star, float)
+    times = cycle_times(gait, z_star, robot=robot, integrator=integ)
+    n = len(ticks)
+    err = np.full((n, cycles), np.nan)
+    piv = np.full((n, cycles), np.nan)
+    to_bound = np.zeros(n, np.int32)
+    completed = np.zeros(n, np.int32)
+    status = np.zeros(n, np.int8)
+    growth = np.full(n, np.nan)
+    for i, tick in enumerate(ticks):
+        r = sequence_cycles(gait, z_star, cycles=cycles, robot=robot, integrator=integ,
+                            replay=replay, times=times, tick=float(tick), max_drop=max_drop)
+        e = r.error[:cycles]
+        err[i, :e.size] = e
+        piv[i, :e.size] = r.pivot_height[:cycles]
+        to_bound[i] = cycles_to_bound(e, error_bound)
+        completed[i] = e.size
+        status[i] = int(r.status)
+        growth[i] = growth_per_cycle(e)
+    lead, lam = math.nan, np.full(3, np.nan + 0j)
+    if leading_multiplier:
+        g = open_loop_gait(gait, times) if replay == "open_loop" else gait
+        fl = floquet(partial(cycle_return_map, gait=dataclasses.replace(g, tick=0.0),
+                             robot=robot, integrator=integ), z_star, step=fd_step)
+        lam = np.asarray(fl.multipliers, complex)
+        lead = float(np.abs(lam[0]))
+    return {"error": err, "pivot_height": piv, "cycles_to_bound": to_bound,
+            "cycles_completed": completed, "status": status, "growth_per_cycle": growth,
+            "leading_multiplier": lead, "multipliers": lam, "torque": sequence_torque(gait),
+            "t_segment": times}
+
+
+def sequence_basin_block(spec: GaitSpec, z_star, offsets1: np.ndarray, offsets2: np.ndarray,
+                         *, max_cycles: int, error_bound: float, tick: float,
+                         replay: str) -> dict[str, np.ndarray]:
+    """:func:`basin_block` for the spec's sequence gait around its fixed point ``z_star``
+    (:func:`monkeystudy.replay.sequence_basin`)."""
+    from ..replay import sequence_basin
+
+    robot, integ = _unpack(spec)
+    B = sequence_basin(spec_sequence(spec), np.asarray(z_star, float),
+                       np.asarray(offsets1, float), np.asarray(offsets2, float),
+                       max_cycles=int(max_cycles), error_bound=float(error_bound), robot=robot,
+                       integrator=integ, replay=replay, tick=float(tick))
+    return {"cycles": np.ascontiguousarray(B, np.int32).ravel()}
 
 
 # --- basin -----------------------------------------------------------------------------------

@@ -317,6 +317,8 @@ def write_stability(path: Path, attrs: dict, result: dict, gait: dict) -> None:
     result; ``gait`` is the replayed refined gait (rates [rad s-1], times [s])."""
     n = len(result["error"])
     ns = len(result["time"])
+    at = "section crossing" if attrs.get("replay") in ("gait", "open_loop") and \
+        "section_theta1" in attrs else "vertical crossing"
     with atomic_netcdf(path) as nc:
         nc.createDimension("cycle", n)
         nc.createDimension("sample", ns)
@@ -324,14 +326,18 @@ def write_stability(path: Path, attrs: dict, result: dict, gait: dict) -> None:
         _var(nc, "cycle", ("cycle",), np.int32, {"long_name": "cycle number", "units": "1"},
              np.arange(1, n + 1))
         _var(nc, "xy", ("xy",), str, {"long_name": "world axis", "units": "1"}, np.array(["x", "y"], object))
+        section = at == "section crossing"
         per_cycle = {
-            "error": ("error against the initial rates at the vertical crossing ending the "
-                      "cycle (MODEL.md section 4)", "1"),
-            "kinetic_energy": ("kinetic energy at that vertical crossing", "J"),
-            "pivot_height": ("world height of the attached end after the cycle's swap", "m"),
+            "error": (f"error against the initial state at the {at} ending the cycle "
+                      f"(MODEL.md section 4{'; the section error' if section else ''})", "1"),
+            "kinetic_energy": (f"kinetic energy at that {at}", "J"),
+            "pivot_height": ("world height of the attached end at that section crossing"
+                             if section else "world height of the attached end after the "
+                             "cycle's swap", "m"),
             "x_advance": ("horizontal displacement of the attached end in the cycle", "m"),
-            "t_cross": ("time of the vertical crossing ending the cycle", "s"),
-            "t_swap": ("time of the cycle's swap", "s"),
+            "t_cross": (f"time of the {at} ending the cycle", "s"),
+            "t_swap": ("time of the cycle's first magnet action (NaN: none)" if section
+                       else "time of the cycle's swap", "s"),
         }
         for key, (long_name, units) in per_cycle.items():
             _var(nc, key, ("cycle",), np.float64, {"long_name": long_name, "units": units},
@@ -353,8 +359,8 @@ def write_stability(path: Path, attrs: dict, result: dict, gait: dict) -> None:
         _var(nc, "motor_torque", ("sample",), np.float64,
              {"long_name": "motor torque on theta2 of the frame", "units": "N m"},
              result["motor_torque"], coordinates="time")
-        _global_attrs(nc, dict(attrs, t_switch=float(gait["t_switch"]),
-                               t_motor=float(gait["t_motor"]),
+        times = {k: float(gait[k]) for k in ("t_switch", "t_motor") if k in gait}
+        _global_attrs(nc, dict(attrs, **times,
                                cycles_completed=int(result["cycles_completed"]),
                                steps=int(result["steps"]), nfev=int(result["nfev"])))
 
@@ -578,6 +584,8 @@ def write_tick_sweep(path: Path, attrs: dict, ticks, result: dict) -> None:
     """Write a tick_sweep dataset from a
     :func:`~monkeystudy.study.analysis_tasks.tick_sweep_task` result."""
     err = np.asarray(result["error"], float)
+    section = "section_theta1" in attrs
+    at = "section crossing" if section else "vertical crossing"
     with atomic_netcdf(path) as nc:
         nc.createDimension("tick", len(ticks))
         _var(nc, "tick", ("tick",), np.float64,
@@ -585,16 +593,17 @@ def write_tick_sweep(path: Path, attrs: dict, ticks, result: dict) -> None:
              np.asarray(ticks, float))
         _index_coord(nc, "cycle", err.shape[1], "cycle number", start=1)
         _var(nc, "error", ("tick", "cycle"), np.float64,
-             {"long_name": "error against the gait start at the vertical crossing ending the "
-                           "cycle (MODEL.md section 4; NaN: not reached)", "units": "1"}, err)
+             {"long_name": f"error against the gait start at the {at} ending the cycle "
+                           "(MODEL.md section 4; NaN: not reached)", "units": "1"}, err)
         _var(nc, "pivot_height", ("tick", "cycle"), np.float64,
-             {"long_name": "world height of the attached end after the cycle's swap",
-              "units": "m"}, result["pivot_height"])
+             {"long_name": "world height of the attached end at the section crossing ending "
+                           "the cycle" if section else "world height of the attached end "
+                           "after the cycle's swap", "units": "m"}, result["pivot_height"])
         _var(nc, "cycles_to_bound", ("tick",), np.int32,
              {"long_name": "first cycle whose error exceeds error_bound (else the cycles "
                            "reached)", "units": "1"}, result["cycles_to_bound"])
         _var(nc, "cycles_completed", ("tick",), np.int32,
-             {"long_name": "cycles that reached their vertical crossing", "units": "1"},
+             {"long_name": f"cycles that reached their {at}", "units": "1"},
              result["cycles_completed"])
         _var(nc, "status", ("tick",), np.int8, dict(STATUS_ATTRS, long_name="why the run "
                                                     "stopped (ok: all cycles ran)"),

@@ -249,6 +249,57 @@ def stability_task(spec: GaitSpec, gait: dict[str, float], *, cycles: int, tick:
     return out
 
 
+def sequence_stability_task(spec: GaitSpec, z0, *, cycles: int, tick: float | None,
+                            sample_dt: float, max_drop: float, replay: str) -> dict[str, Any]:
+    """Run the spec's sequence gait for ``cycles`` cycles from section state ``z0 = (theta2
+    [rad], dtheta1, dtheta2 [rad s-1])`` (:func:`monkeystudy.replay.sequence_cycles`: its own
+    controller or its open-loop replay, ``tick`` [s] or the gait's).
+
+    Returns the keys of :func:`stability_task`, measured at each section crossing (``t_cross``)
+    with ``t_swap`` the cycle's first magnet action [s], plus ``t_segment`` (the replayed
+    segment times of an open-loop replay, else the recorded cycle's) [s]. A start whose cycle
+    does not close is not run: ``status`` is its status and every cycle is NaN.
+    """
+    from ..replay import sequence_cycles
+
+    robot, integ = _unpack(spec)
+    gait = spec_sequence(spec)
+    nan = np.full(cycles, np.nan)
+    out: dict[str, Any] = {
+        "status": L.ST_OK, "cycles_completed": 0,
+        "error": nan.copy(), "kinetic_energy": nan.copy(), "pivot_height": nan.copy(),
+        "x_advance": nan.copy(), "t_cross": nan.copy(), "t_swap": nan.copy(),
+        "time": np.empty(0), "A": np.empty((0, 2)), "joint": np.empty((0, 2)),
+        "B": np.empty((0, 2)), "phase": np.empty(0, np.int8), "motor_torque": np.empty(0),
+        "steps": 0, "nfev": 0, "t_segment": np.full(len(gait.all_segments()), np.nan),
+    }
+    z0 = np.asarray(z0, float)
+    one = evaluate_cycle_gaits([[z0[1], z0[2]]], dataclasses.replace(gait, theta2=z0[0]),
+                               robot=robot, integrator=integ)
+    if int(one["status"][0]) != L.ST_OK:
+        out["status"] = int(one["status"][0])
+        return out
+    times = one["t_segment"][0].copy()
+    out["t_segment"] = times
+    r = sequence_cycles(gait, z0, cycles=cycles, robot=robot, integrator=integ,
+                        replay=replay, times=times, tick=tick, max_drop=max_drop,
+                        sample_dt=sample_dt)
+    n = min(cycles, len(r.error))
+    for key in ("error", "kinetic_energy", "pivot_height", "x_advance", "t_cross", "t_swap"):
+        out[key][:n] = getattr(r, key)[:n]
+    res = r.run
+    flipped = res.sample_mode[:, L.M_FLIPPED]
+    pts = physical_points(res.params, res.sample_state, flipped)
+    out.update({
+        "status": int(res.status), "cycles_completed": int(res.counts[L.K_CYCLES]),
+        "time": res.sample_t.copy(), "A": pts["A"], "joint": pts["joint"], "B": pts["B"],
+        "phase": res.sample_mode[:, L.M_PHASE].astype(np.int8),
+        "motor_torque": res.sample_mode[:, L.M_TORQUE].copy(),
+        "steps": int(res.counts[L.K_STEPS]), "nfev": int(res.counts[L.K_NFEV]),
+    })
+    return out
+
+
 # --- warm-up ------------------------------------------------------------------------------------
 def warm_up(spec: GaitSpec, stability: bool = False) -> None:
     """Compile (or load from the on-disk cache) the kernels the tasks use, once, in the

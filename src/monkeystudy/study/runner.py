@@ -585,16 +585,23 @@ class _Run:
             AS.start(self, s)
         else:
             st = s.step
-            gait, idx = D.read_refined(self.by_name[st.from_].path, st.start_index)
-            gait["start_index"] = idx
             tick = st.controller.tick if st.controller.tick is not None else \
                 self.plan.loaded.study.gait.tick
-            kw = {"cycles": st.cycles, "tick": tick, "clock": st.controller.clock,
-                  "sample_dt": st.sample_dt,
-                  "max_drop": st.max_drop if st.max_drop is not None
-                  else self.robot.link1.length}
+            max_drop = st.max_drop if st.max_drop is not None else self.robot.link1.length
             self.rep.start(s.name, 1, 0, "runs")
             self.remaining[s.name] = 1
+            if self.plan.loaded.study.gait.kind == "sequence":
+                gait = AS.sequence_start(self, s)
+                kw = {"cycles": st.cycles, "tick": tick, "sample_dt": st.sample_dt,
+                      "max_drop": max_drop, "replay": st.replay or "gait"}
+                self.results[s.name] = {"gait": gait, "options": kw}
+                self.queue.append(_Task(s, None, drivers.sequence_stability_task,
+                                        (self.spec, gait["z"]), kw))
+                return
+            gait, idx = D.read_refined(self.by_name[st.from_].path, st.start_index)
+            gait["start_index"] = idx
+            kw = {"cycles": st.cycles, "tick": tick, "clock": st.controller.clock,
+                  "sample_dt": st.sample_dt, "max_drop": max_drop}
             self.results[s.name] = {"gait": gait, "options": kw}
             self.queue.append(_Task(s, None, drivers.stability_task, (self.spec, gait), kw))
 
@@ -656,10 +663,17 @@ class _Run:
         else:
             res = self.results.pop(s.name)
             gait, kw, r = res["gait"], res["options"], res["result"]
-            attrs.update(controller={"tick": kw["tick"], "clock": kw["clock"]},
-                         sample_dt=kw["sample_dt"], max_drop=kw["max_drop"],
-                         cycles=kw["cycles"], refine_step=st.from_,
-                         refine_start=gait["start_index"])
+            if "replay" in kw:   # a sequence gait
+                attrs.update(AS.sequence_attrs(gait, kw["replay"]),
+                             controller={"tick": kw["tick"], "clock": "reset_at_section"},
+                             sample_dt=kw["sample_dt"], max_drop=kw["max_drop"],
+                             cycles=kw["cycles"], t_segment=list(r["t_segment"]))
+                gait = {"dtheta1": gait["z"][1], "dtheta2": gait["z"][2]}
+            else:
+                attrs.update(controller={"tick": kw["tick"], "clock": kw["clock"]},
+                             sample_dt=kw["sample_dt"], max_drop=kw["max_drop"],
+                             cycles=kw["cycles"], refine_step=st.from_,
+                             refine_start=gait["start_index"], replay="open_loop")
             D.write_stability(s.path, attrs, r, gait)
             from ..kernel.layout import STATUS_NAMES
             msg = f"{r['cycles_completed']} cycles, status {STATUS_NAMES[r['status']]}"

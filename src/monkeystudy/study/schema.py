@@ -365,9 +365,15 @@ class StabilityStep(_Model):
 
     name: Name
     kind: Literal["stability"]
-    from_: Name = Field(alias="from", description="an earlier refine step")
+    from_: Name = Field(alias="from", description="an earlier refine step (a sequence gait: "
+                                                  "or a floquet step, its fixed point)")
     cycles: int = Field(ge=1, le=100_000, description="number of cycles")
     controller: OpenLoopSettings = Field(default_factory=OpenLoopSettings)
+    replay: Optional[Literal["gait", "open_loop"]] = Field(
+        None, description="how the gait is run: open_loop (its recorded segment times, the "
+                          "clock restarting at each section crossing; the horizontal gait's "
+                          "only replay and its default) or gait (a sequence gait's own "
+                          "controller, guards and all; a sequence gait's default)")
     start_index: Optional[int] = Field(None, ge=0, description="which start of a multi-start "
                                        "refine step (default: the lowest error)")
     sample_dt: float = Field(0.005, gt=0, le=1.0,
@@ -481,11 +487,19 @@ class FloquetStep(_Model):
 
 class TickSweepStep(_Model):
     """The controller-tick question: the exact gait replayed open-loop with its times
-    rounded to a controller tick, one run per tick, error per cycle."""
+    rounded to a controller tick, one run per tick, error per cycle. A sequence gait runs from
+    its floquet step's fixed point, as its own controller (its guards acted on at the ticks)
+    or open-loop (``replay``)."""
 
     name: Name
     kind: Literal["tick_sweep"]
-    from_: Name = Field(alias="from", description="an earlier shoot step")
+    from_: Name = Field(alias="from", description="an earlier shoot step (a sequence gait: "
+                                                  "a floquet step, its fixed point)")
+    replay: Optional[Literal["gait", "open_loop"]] = Field(
+        None, description="how the gait is run: open_loop (its recorded segment times, the "
+                          "clock restarting at each section crossing; the horizontal gait's "
+                          "only replay and its default) or gait (a sequence gait's own "
+                          "controller, guards and all; a sequence gait's default)")
     ticks: list[Annotated[float, Field(ge=0, le=1.0)]] = Field(
         [1e-3, 1e-4, 1e-5, 0.0], min_length=1, description="controller ticks [s]; 0 = exact "
                                                             "timing")
@@ -521,13 +535,20 @@ BASIN_BLOCK_POINTS = 100
 
 
 class BasinStep(_Model):
-    """Cycles an open-loop replay of the gait survives from perturbed starts. More than
+    """Cycles an open-loop replay of the gait (a sequence gait: ``replay``) survives from
+    perturbed starts. More than
     ``BASIN_TASK_POINTS`` points are split into blocks of whole rows (about
     ``BASIN_BLOCK_POINTS`` points each) on the pool, each saved as a shard (resumable)."""
 
     name: Name
     kind: Literal["basin"]
-    from_: Name = Field(alias="from", description="an earlier shoot step")
+    from_: Name = Field(alias="from", description="an earlier shoot step (a sequence gait: "
+                                                  "a floquet step, its fixed point)")
+    replay: Optional[Literal["gait", "open_loop"]] = Field(
+        None, description="how the gait is run: open_loop (its recorded segment times, the "
+                          "clock restarting at each section crossing; the horizontal gait's "
+                          "only replay and its default) or gait (a sequence gait's own "
+                          "controller, guards and all; a sequence gait's default)")
     offsets: BasinOffsets = Field(description="start offsets (d_dtheta1, d_dtheta2) [rad s-1]")
     max_cycles: int = Field(60, ge=1, le=100_000, description="cycles per run (a start that "
                             "never fails scores this)")
@@ -796,7 +817,10 @@ def cross_check(study: Study) -> list[tuple[tuple, str]]:
             elif s.start.best > ref.n_points:
                 problems.append((("steps", i, "start", "best"),
                                  f"must be <= the {ref.n_points} points of {ref.name!r}"))
-        if isinstance(s, StabilityStep):
+        if isinstance(s, StabilityStep) and study.gait.kind != "sequence":
+            if s.replay == "gait":
+                problems.append((("steps", i, "replay"), "the horizontal gait is replayed "
+                                 "open-loop (replay: gait needs a sequence gait)"))
             ref = seen.get(s.from_)
             if not isinstance(ref, RefineStep):
                 problems.append((("steps", i, "from"), _no_earlier(s.from_, "refine", ref)))
@@ -814,17 +838,20 @@ def cross_check(study: Study) -> list[tuple[tuple, str]]:
 
 
 #: steps a sequence gait supports (the others replay or benchmark the horizontal gait)
-SEQUENCE_STEPS = ("grid", "refine", "floquet", "continuation")
+SEQUENCE_STEPS = ("grid", "refine", "floquet", "continuation", "stability", "tick_sweep",
+                  "basin")
 
 
 def _check_sequence(study: Study, i: int, s, seen: dict) -> list[tuple[tuple, str]]:
-    """What a study with a sequence gait can run: grid, refine, floquet from a refine, and
-    continuation from a floquet step."""
+    """What a study with a sequence gait can run: grid, refine, floquet from a refine,
+    continuation, tick_sweep and basin from a floquet step, stability from either."""
     if s.kind not in SEQUENCE_STEPS:
         return [(("steps", i, "kind"), f"a {s.kind} step needs a horizontal gait (a sequence "
                  f"gait supports {', '.join(SEQUENCE_STEPS)})")]
     if isinstance(s, ContinuationStep):
         return _check_sequence_continuation(study, i, s, seen)
+    if isinstance(s, (StabilityStep, TickSweepStep, BasinStep)):
+        return _check_sequence_replay(study, i, s, seen)
     if not isinstance(s, FloquetStep):
         return []
     out: list[tuple[tuple, str]] = []
@@ -839,6 +866,41 @@ def _check_sequence(study: Study, i: int, s, seen: dict) -> list[tuple[tuple, st
         problem = mirror_problem(study)
         if problem:
             out.append((("steps", i, "kind"), f"a floquet step of a cycle ending on end B "
+                        f"{problem}"))
+    return out
+
+
+def _check_sequence_replay(study: Study, i: int, s, seen: dict) -> list[tuple[tuple, str]]:
+    """A sequence gait's multi-cycle runs start from a floquet step's fixed point (a
+    stability step also from a refine step's start)."""
+    out: list[tuple[tuple, str]] = []
+    ref = seen.get(s.from_)
+    kinds = (FloquetStep, RefineStep) if isinstance(s, StabilityStep) else (FloquetStep,)
+    if not isinstance(ref, kinds):
+        out.append((("steps", i, "from"), _no_earlier(
+            s.from_, "floquet or refine" if isinstance(s, StabilityStep) else "floquet", ref)))
+    if isinstance(s, StabilityStep):
+        if s.controller.clock != "reset_at_vertical":
+            out.append((("steps", i, "controller", "clock"), "a sequence gait's clock "
+                        "restarts at each section crossing (reset_at_vertical)"))
+        if s.start_index is not None and isinstance(ref, RefineStep):
+            k = ref.start.best if isinstance(ref.start, BestOfGrid) else 1
+            if s.start_index >= k:
+                out.append((("steps", i, "start_index"),
+                            f"must be < {k} (the starts of {ref.name!r})"))
+        elif s.start_index is not None:
+            out.append((("steps", i, "start_index"), "start_index picks a refine step's "
+                        "start; a floquet step has one fixed point"))
+    if isinstance(s, (TickSweepStep, BasinStep)) and s.solution is not None:
+        out.append((("steps", i, "solution"), "solution picks a shoot step's solution; a "
+                    "floquet step has one fixed point"))
+    if isinstance(s, TickSweepStep) and s.floquet is not None:
+        out.append((("steps", i, "floquet"), "a sequence gait's tick_sweep takes its fixed "
+                    "point and multipliers from its from: floquet step"))
+    if study.gait.gait().end_attached() == "B":
+        problem = mirror_problem(study)
+        if problem:
+            out.append((("steps", i, "kind"), f"a {s.kind} step of a cycle ending on end B "
                         f"{problem}"))
     return out
 
@@ -886,6 +948,9 @@ def _check_analysis(study: Study, i: int, s, seen: dict) -> list[tuple[tuple, st
         return out
     if s.from_ is not None and not isinstance(seen.get(s.from_), ShootStep):
         out.append((("steps", i, "from"), _no_earlier(s.from_, "shoot", seen.get(s.from_))))
+    if isinstance(s, (TickSweepStep, BasinStep)) and s.replay == "gait":
+        out.append((("steps", i, "replay"), "the horizontal gait is replayed open-loop "
+                    "(replay: gait needs a sequence gait)"))
     if isinstance(s, TickSweepStep) and s.floquet is not None:
         ref = seen.get(s.floquet)
         if not isinstance(ref, FloquetStep):
