@@ -166,3 +166,68 @@ def test_sequence_continuation_end_to_end(tmp_path):
             "start"} <= gids
     assert "modulus_2" not in gids                   # the neutral multiplier is left out
     plt.close(fig)
+
+
+#: the same gait run for many cycles: its own controller and the open-loop replay
+TWO_STEP_REPLAYS = TWO_STEP.split("  - {name: lighter")[0] + """\
+  - {name: own, kind: stability, from: floquet, cycles: 12, replay: gait}
+  - {name: own_from_refine, kind: stability, from: best, cycles: 3}
+  - {name: open, kind: stability, from: floquet, cycles: 12, replay: open_loop}
+  - {name: ticks_open, kind: tick_sweep, from: floquet, replay: open_loop, ticks: [1.0e-3, 0.0],
+     cycles: 12}
+  - {name: ticks_own, kind: tick_sweep, from: floquet, ticks: [1.0e-3, 0.0], cycles: 12}
+  - {name: basin, kind: basin, from: floquet, max_cycles: 4, error_bound: 1.0e-2,
+     offsets: {d_dtheta1: {start: -0.3, stop: 0.3, num: 3},
+               d_dtheta2: {start: -0.3, stop: 0.3, num: 3}}}
+"""
+
+
+def test_sequence_replays_end_to_end(tmp_path):
+    study = write_study(tmp_path, TWO_STEP_REPLAYS, "two_step.yaml")
+    run_study(load_study(study), tmp_path / "out", workers=2)
+    out = tmp_path / "out"
+    with xr.open_dataset(out / "floquet.nc") as fl:
+        z = fl["fixed_point"].values[0]
+        lam_own = np.abs(fl["multipliers_real"].values[0] + 1j * fl["multipliers_imag"].values[0])
+    with xr.open_dataset(out / "own.nc") as own, xr.open_dataset(out / "open.nc") as ol:
+        own.load()
+        ol.load()
+    # the own controller holds the stable gait; the open-loop replay of it drifts away
+    assert own.attrs["replay"] == "gait" and ol.attrs["replay"] == "open_loop"
+    assert own.attrs["floquet_step"] == "floquet" and own.attrs["start_theta2"] == z[0]
+    assert int(own["status"]) == 0 and np.all(own["error"].values < 1e-15)
+    assert np.all(own["x_advance"].values > 0.9)
+    assert "section crossing" in own["error"].attrs["long_name"]
+    e = ol["error"].values
+    assert e[-1] > 1e6 * e[2] > 0
+    np.testing.assert_allclose(json.loads(ol.attrs["t_segment"]),
+                               json.loads(own.attrs["t_segment"]), rtol=0, atol=1e-12)
+    with xr.open_dataset(out / "own_from_refine.nc") as r:
+        assert r.attrs["refine_step"] == "best" and r.attrs["start_theta2"] == 0.0
+        assert np.all(r["error"].values < 1e-12)
+    with xr.open_dataset(out / "ticks_open.nc") as t_open:
+        t_open.load()
+    assert t_open.attrs["leading_multiplier"] == pytest.approx(2.529, abs=2e-3)
+    assert "finite differences" in t_open.attrs["leading_multiplier_source"]
+    assert len(json.loads(t_open.attrs["open_loop_multipliers_real"])) == 3
+    to_bound = dict(zip(t_open["tick"].values.tolist(), t_open["cycles_to_bound"].values))
+    assert to_bound[1e-3] < to_bound[0.0]
+    with xr.open_dataset(out / "ticks_own.nc") as t_own:
+        t_own.load()
+    assert t_own.attrs["leading_multiplier"] == pytest.approx(lam_own.max(), rel=1e-12)
+    assert "floquet step floquet" in t_own.attrs["leading_multiplier_source"]
+    assert np.all(t_own["error"].sel(tick=0.0).values < 1e-15)
+    assert t_own["error"].sel(tick=1e-3).values[0] > 1e-6     # the tick moves the swap
+    with xr.open_dataset(out / "basin.nc") as b:
+        b.load()
+    assert b.attrs["replay"] == "gait" and b["cycles"].values[1, 1] == 4
+    assert b["cycles"].values[0, 0] < 4
+    from monkeystudy.plotting.analysis import plot_basin, plot_tick_sweep
+    from monkeystudy.plotting.cycles import plot_error_comparison
+    import matplotlib.pyplot as plt
+    for fig, want in ((plot_tick_sweep(t_open), {"error_0", "error_1", "prediction"}),
+                      (plot_basin(b), {"cycles", "gait"}),
+                      (plot_error_comparison([own, ol]), {"error_own", "error_open"})):
+        gids = {a.get_gid() for ax in fig.axes for a in ax.get_children() if a.get_gid()}
+        assert want <= gids, gids
+        plt.close(fig)
