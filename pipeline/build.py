@@ -8,9 +8,11 @@
 For each study file:
 
 1. **datasets** - the study runner's own plan (``monkeystudy.study.runner.plan_study``) says
-   whether ``<out>/<study name>/<step>.nc`` exist and are current: same study text
-   (``study_sha256``) and same simulation code (``code_sha256``, a hash of the kernels, robot,
-   controllers, drivers and dataset layout - an edit to the figure code does not rerun studies).
+   whether ``<out>/<study name>/<step>.nc`` exist and are current: same step key
+   (``step_sha256``: the robot, gait, integrator, the step's settings and its dependencies'
+   keys - editing one step reruns only it and what depends on it) and same simulation code
+   (``code_sha256``, a hash of the simulation and study packages and the dataset layout - an
+   edit to the figure code does not rerun studies).
    Missing or stale steps are run with ``monkeystudy run STUDY --out DIR`` in a subprocess
    (its progress is shown; it resumes from saved shards and skips current steps itself).
 2. **figures** - ``monkeystudy.plotting.report.report_study`` redraws only the figures whose

@@ -17,7 +17,8 @@ from monkeystudy.cli import app
 ROOT = Path(__file__).resolve().parents[1]
 SMOKE = ROOT / "studies" / "smoke.yaml"
 
-GLOBAL_ATTRS = ("study_name", "step_name", "step_kind", "study_text", "study_sha256", "robot",
+GLOBAL_ATTRS = ("study_name", "step_name", "step_kind", "study_text", "study_sha256",
+                "step_sha256", "robot",
                 "gait", "integrator", "monkeystudy_version", "git_revision",
                 "library_versions", "history", "Conventions")
 

@@ -29,7 +29,8 @@ SMOKE_FILES = ("shoot.nc", "nm.nc", "shoot_nm.nc", "floquet.nc", "ticks.nc", "ti
                "basin.nc", "family.nc", "timing.nc")
 REPRODUCIBLE = tuple(n for n in SMOKE_FILES if n != "timing.nc")
 
-GLOBAL_ATTRS = ("study_name", "step_name", "step_kind", "study_text", "study_sha256", "robot",
+GLOBAL_ATTRS = ("study_name", "step_name", "step_kind", "study_text", "study_sha256",
+                "step_sha256", "robot",
                 "gait", "integrator", "monkeystudy_version", "git_revision",
                 "library_versions", "history", "Conventions")
 
@@ -425,7 +426,7 @@ def test_basin_resumes_from_saved_blocks(smoke, tmp_path):
     plan = plan_study(loaded, out)
     sp = next(s for s in plan.steps if s.name == "basin")
     assert [s.name for s in plan.steps if not s.up_to_date] == ["basin"]
-    folder = R.shard_dir(out, "basin", plan.key)
+    folder = R.shard_dir(out, "basin", sp.key)
     flat = ref["cycles"].values.ravel()
     for b in sp.blocks[:4]:
         R.write_shard(folder, b, {"cycles": flat[b.lo:b.hi]})

@@ -99,29 +99,58 @@ def test_dry_run_plan_touches_nothing(tmp_path):
     assert not out.exists()
 
 
-def test_changed_study_reruns_and_stale_shards_are_never_used(tiny_reference, tmp_path):
+def test_changed_step_reruns_it_and_its_dependents_only(tiny_reference, tmp_path):
+    """Step keys: a new block size for ``map`` reruns map and the steps built on it (best,
+    cycles) but not ``pts``; shards under any other key are dropped, never used; and the
+    results do not depend on the block size."""
     study, ref = tiny_reference
     out = tmp_path / "out"
-    # shards of some other study text / code: garbage under another key must be dropped
+    for name in TINY_FILES:
+        (out / name).parent.mkdir(parents=True, exist_ok=True)
+        (out / name).write_bytes((ref / name).read_bytes())
+    # shards of some other step key: garbage that must be dropped
     stale = out / ".map.parts" / "0123456789abcdef"
     stale.mkdir(parents=True)
     np.savez(stale / "b000000.npz", lo=0, hi=10, error=np.zeros(10))
-    edited = write_study(tmp_path, TINY.replace("small study", "small study, edited"),
+    edited = write_study(tmp_path, TINY.replace("block_size: 10", "block_size: 7"),
                          "edited.yaml")
     loaded = load_study(edited)
     plan = plan_study(loaded, out)
-    assert all(not s.up_to_date for s in plan.steps)
+    assert {s.name: s.up_to_date for s in plan.steps} == \
+        {"map": False, "pts": True, "best": False, "cycles": False}
     assert all(not s.saved for s in plan.steps)
-    run_study(loaded, out, workers=2)
+    pts_inode = (out / "pts.nc").stat().st_ino
+    summary = run_study(loaded, out, workers=2)
+    assert sorted(p.name for p in summary.written) == ["best.nc", "cycles.nc", "map.nc"]
+    assert (out / "pts.nc").stat().st_ino == pts_inode
     assert not stale.exists() and not (out / ".map.parts").exists()
     with xr.open_dataset(out / "map.nc") as a, xr.open_dataset(ref / "map.nc") as b:
         assert a["error"].values.tobytes() == b["error"].values.tobytes()
-        assert a.attrs["study_sha256"] != b.attrs["study_sha256"]
-    # a rerun of the original text replaces the files (new inodes), never rewrites them
+        assert a.attrs["step_sha256"] != b.attrs["step_sha256"]
+    for name in ("best.nc", "cycles.nc"):
+        with xr.open_dataset(out / name) as a, xr.open_dataset(ref / name) as b:
+            for v in a.data_vars:
+                np.testing.assert_array_equal(a[v].values, b[v].values)
+    # a rerun of the original text replaces the rerun files (new inodes), never rewrites them
     ino = (out / "map.nc").stat().st_ino
     run_study(load_study(study), out, workers=2)
     assert (out / "map.nc").stat().st_ino != ino
     assert_same_datasets(ref, out, TINY_FILES)
+
+
+def test_description_and_robot_edits(tiny_reference, tmp_path):
+    """Free text changes no step key; the robot, gait or integrator changes every one."""
+    study, ref = tiny_reference
+    described = write_study(tmp_path, TINY.replace("small study", "small study, edited"),
+                            "described.yaml")
+    assert all(s.up_to_date for s in plan_study(load_study(described), ref).steps)
+    robot = ("robot: seed2009", "robot:\n  gravity: 9.80\n  links:\n"
+             "    - {mass: 1.0, length: 0.61, com: 0.543754, inertia: 0.01808704}\n"
+             "    - {mass: 1.0, length: 0.61, com: 0.066246, inertia: 0.01808704}")
+    for old, new in (robot, ("tick: 0.001", "tick: 0.0005"), ("rtol: 1.0e-8", "rtol: 1.0e-9")):
+        assert old in TINY
+        edited = write_study(tmp_path, TINY.replace(old, new), "edited.yaml")
+        assert not any(s.up_to_date for s in plan_study(load_study(edited), ref).steps), new
 
 
 # --- atomic writes ------------------------------------------------------------------------------

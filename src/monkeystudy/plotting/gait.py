@@ -287,8 +287,9 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
                     Line2D([], [], label="end B", **END_B),
                     Line2D([], [], label="attached end (magnet on)", **MAGNET)]
         fig.legend(handles=handles, loc="outside lower center", ncols=4, frameon=False)
-        from .cycles import _gait_text
-        fig.suptitle(f"Gait cycle {cycle} of the open-loop run, "
+        from .cycles import _gait_text, _own
+        run = "run under the gait's own controller" if _own(stab) else "open-loop run"
+        fig.suptitle(f"Gait cycle {cycle} of the {run}, "
                      f"{_gait_text(stab, gait)}", x=0.01, ha="left", fontweight="bold")
         tl.set_title(run_label(stab), fontsize=8.5, fontweight="normal", loc="left")
     return fig

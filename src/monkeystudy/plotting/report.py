@@ -20,7 +20,7 @@ file (``figures/``)                    what                                    s
 ``<stability>_height``                 attached-end height per cycle           7
 ``<stability>_filmstrip``              one gait cycle, frame by frame          2 (from data)
 ``<stability>_animation``              the whole run (GIF / MP4)               -
-``stability_error_comparison``         all open-loop runs' errors              5 + 8
+``stability_error_comparison``         all multi-cycle runs' errors            5 + 8
 ``<shoot>_newton``                     residual norm per Newton iteration      -
 ``<floquet>_multipliers``              multipliers and the unit circle         -
 ``<tick_sweep>_error_growth``          error per cycle per tick, |lambda|^2n   -
@@ -213,7 +213,7 @@ def plan(study_dir: Path, *, animation: bool = True, fps: float = 15.0,
             return cycles.plot_error_comparison(stabs, gaits=gaits)
 
         jobs.append(Job("stability_error_comparison", flat, comparison,
-                        "error per cycle of all open-loop runs"))
+                        "error per cycle of all multi-cycle runs"))
 
     for kind, figures in FIGURES.items():                  # one figure per dataset each
         for p in files[kind]:

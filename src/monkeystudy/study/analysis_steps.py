@@ -219,8 +219,8 @@ def start(run, s) -> None:
         ctx["gait"] = g
         tick = st.tick if st.tick is not None else run.plan.loaded.study.gait.tick
         ctx["tick"] = tick
-        clean_parts(run.plan.out, s.name, run.plan.key)
-        folder = shard_dir(run.plan.out, s.name, run.plan.key)
+        clean_parts(run.plan.out, s.name, s.key)
+        folder = shard_dir(run.plan.out, s.name, s.key)
         s.saved = saved_blocks(folder, s.blocks)
         todo = s.todo_blocks()
         run.reused += len(s.saved)
@@ -310,8 +310,8 @@ def _start_sequence_replay(run, s, ctx: dict) -> None:
         return
     tick = st.tick if st.tick is not None else run.plan.loaded.study.gait.tick
     ctx["tick"] = tick
-    clean_parts(run.plan.out, s.name, run.plan.key)
-    folder = shard_dir(run.plan.out, s.name, run.plan.key)
+    clean_parts(run.plan.out, s.name, s.key)
+    folder = shard_dir(run.plan.out, s.name, s.key)
     s.saved = saved_blocks(folder, s.blocks)
     todo = s.todo_blocks()
     run.reused += len(s.saved)
@@ -337,7 +337,7 @@ def handle(run, t, value) -> None:
 def _read_basin_shards(run, s) -> np.ndarray:
     from .runner import RunFailed, shard_dir, shard_path
 
-    folder = shard_dir(run.plan.out, s.name, run.plan.key)
+    folder = shard_dir(run.plan.out, s.name, s.key)
     out = np.empty(s.step.n_points, np.int32)
     for b in s.blocks:
         with np.load(shard_path(folder, b)) as z:

@@ -26,7 +26,7 @@ CODE_FILES = ("kernel/*.py", "robot.py", "controllers.py", "simulate.py", "study
               "study/drivers.py", "study/datasets.py",
               # the analysis steps: their computations, tasks and runner glue
               "analysis.py", "precision.py", "bench.py", "study/analysis_tasks.py",
-              "study/analysis_steps.py",
+              "study/analysis_steps.py", "saltation.py", "continuation.py", "replay.py",
               # the stress scenarios
               "stress.py")
 

@@ -7,12 +7,14 @@ ids (a grid step: consecutive runs of ``block_size`` points in C order; a refine
 per start; a stability step: one task). Every finished grid block becomes a shard on disk,
 written atomically::
 
-    <out>/.<step>.parts/<run key>/b000012.npz
+    <out>/.<step>.parts/<step key>/b000012.npz
 
-The run key hashes the study text and the code (:func:`~monkeystudy.study.provenance.run_key`),
-so stale shards are never reused; a rerun skips the shards that exist and the final datasets do
-not depend on which blocks were computed when, nor where, nor by how many workers. A dataset
-whose ``study_sha256`` and ``code_sha256`` match is up to date and is not recomputed.
+Each step has a content key (:func:`step_keys`: the robot, gait, integrator, the step's
+settings, its dependencies' keys and the code), so stale shards are never reused; a rerun skips
+the shards that exist and the final datasets do not depend on which blocks were computed when,
+nor where, nor by how many workers. A dataset whose ``step_sha256`` and ``code_sha256`` match
+is up to date and is not recomputed: editing one step of a study reruns that step and the steps
+that depend on it, not the others.
 
 Steps run in dependency order (a refine after the grid it starts from, a stability run after
 its refine); independent steps share the pool.
@@ -208,6 +210,7 @@ class StepPlan:
     blocks: list[Block] = field(default_factory=list)
     saved: set[int] = field(default_factory=set)
     gait_kind: str = "horizontal"
+    key: str = ""            # step_keys(): what the dataset depends on, hashed
 
     @property
     def name(self) -> str:
@@ -294,9 +297,29 @@ def default_out(study: Study) -> Path:
     return Path("outputs") / study.name
 
 
-def dataset_current(path: Path, study_sha256: str) -> bool:
+def step_keys(study: Study) -> dict[str, str]:
+    """Each step's content key: sha256 of everything its dataset depends on - the robot, the
+    gait, the integrator, the step's own settings, its dependencies' keys and the code.
+    Editing one step (or adding one) leaves the others' keys, datasets and shards valid;
+    editing the robot, gait or integrator changes every key."""
+    import hashlib
+    import json
+
+    common = {"schema_version": study.schema_version, "robot": study_robot(study).to_dict(),
+              "gait": _json_gait(study), "integrator": _json_integrator(study),
+              "code": P.code_sha256()}
+    keys: dict[str, str] = {}
+    for s in study.steps:
+        payload = dict(common, step=s.model_dump(mode="json", by_alias=True),
+                       deps=[keys[d] for d in step_deps(s)])
+        keys[s.name] = hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
+    return keys
+
+
+def dataset_current(path: Path, step_sha256: str) -> bool:
+    """The dataset exists and was made from the same step key (:func:`step_keys`)."""
     attrs = D.read_attrs(path)
-    return bool(attrs) and attrs.get("study_sha256") == study_sha256 and \
+    return bool(attrs) and attrs.get("step_sha256") == step_sha256 and \
         attrs.get("code_sha256") == P.code_sha256()
 
 
@@ -306,23 +329,24 @@ def plan_study(loaded: LoadedStudy, out: str | Path | None = None) -> Plan:
     study = loaded.study
     out = Path(out) if out is not None else default_out(study)
     key = P.run_key(loaded.sha256)
+    keys = step_keys(study)
     steps: list[StepPlan] = []
     stale: set[str] = set()
     for s in study.steps:
         path = out / f"{s.name}.nc"
         deps = step_deps(s)
-        current = dataset_current(path, loaded.sha256) and not (set(deps) & stale)
+        current = dataset_current(path, keys[s.name]) and not (set(deps) & stale)
         if not current:
             stale.add(s.name)
-        sp = StepPlan(s, path, deps, current, gait_kind=study.gait.kind)
+        sp = StepPlan(s, path, deps, current, gait_kind=study.gait.kind, key=keys[s.name])
         if isinstance(s, GridStep):
             sp.blocks = make_blocks(s.n_points, s.points_per_block)
             if not current:
-                sp.saved = saved_blocks(shard_dir(out, s.name, key), sp.blocks)
+                sp.saved = saved_blocks(shard_dir(out, s.name, sp.key), sp.blocks)
         elif isinstance(s, BasinStep):
             sp.blocks = AS.basin_blocks(s)
             if not current:
-                sp.saved = saved_blocks(shard_dir(out, s.name, key), sp.blocks)
+                sp.saved = saved_blocks(shard_dir(out, s.name, sp.key), sp.blocks)
         steps.append(sp)
     return Plan(loaded, out, key, steps)
 
@@ -551,8 +575,8 @@ class _Run:
     def _start(self, s: StepPlan) -> None:
         out = self.plan.out
         if isinstance(s.step, GridStep):
-            clean_parts(out, s.name, self.plan.key)
-            folder = shard_dir(out, s.name, self.plan.key)
+            clean_parts(out, s.name, s.key)
+            folder = shard_dir(out, s.name, s.key)
             s.saved = saved_blocks(folder, s.blocks)
             todo = s.todo_blocks()
             self.reused += len(s.saved)
@@ -615,7 +639,7 @@ class _Run:
     def _handle(self, t: _Task, value: Any) -> None:
         s = t.step
         if isinstance(t.tag, Block):
-            write_shard(shard_dir(self.plan.out, s.name, self.plan.key), t.tag, value)
+            write_shard(shard_dir(self.plan.out, s.name, s.key), t.tag, value)
             s.saved.add(t.tag.index)
             self.computed += 1
         elif isinstance(s.step, RefineStep):
@@ -631,9 +655,10 @@ class _Run:
 
     def _finish(self, s: StepPlan) -> None:
         attrs = step_attrs(self.plan.loaded, s.step, self.history)
+        attrs["step_sha256"] = s.key
         st = s.step
         if isinstance(st, GridStep):
-            folder = shard_dir(self.plan.out, s.name, self.plan.key)
+            folder = shard_dir(self.plan.out, s.name, s.key)
             variables = drivers.grid_variables(self.spec)
             blocks = ((b.lo, read_shard(folder, b, tuple(variables))) for b in s.blocks)
             attrs["block_size"] = st.points_per_block
@@ -739,7 +764,7 @@ class _Run:
 
     def _handle_quiet(self, t: _Task, value: Any) -> None:
         try:
-            write_shard(shard_dir(self.plan.out, t.step.name, self.plan.key), t.tag, value)
+            write_shard(shard_dir(self.plan.out, t.step.name, t.step.key), t.tag, value)
         except Exception:
             pass
 
