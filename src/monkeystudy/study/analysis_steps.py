@@ -161,7 +161,7 @@ def _queue(run, s, tag, fn, args, kwargs, exclusive: bool = False) -> None:
 
 def start(run, s) -> None:
     """Queue the tasks of an analysis step (its dependencies are done)."""
-    from .runner import RunFailed, clean_parts, saved_blocks, shard_dir
+    from .runner import RunFailed
 
     st = s.step
     spec = run.spec
@@ -217,22 +217,7 @@ def start(run, s) -> None:
     elif isinstance(st, BasinStep):
         g = shoot_gait(run, s, st.from_, st.solution)
         ctx["gait"] = g
-        tick = st.tick if st.tick is not None else run.plan.loaded.study.gait.tick
-        ctx["tick"] = tick
-        clean_parts(run.plan.out, s.name, s.key)
-        folder = shard_dir(run.plan.out, s.name, s.key)
-        s.saved = saved_blocks(folder, s.blocks)
-        todo = s.todo_blocks()
-        run.reused += len(s.saved)
-        run.rep.start(s.name, len(s.blocks), len(s.saved), "blocks")
-        run.remaining[s.name] = len(todo)
-        o1, o2 = st.offsets.d_dtheta1.values(), st.offsets.d_dtheta2.values()
-        n2 = o2.size
-        kw = {"max_cycles": st.max_cycles, "error_bound": st.error_bound, "tick": tick}
-        for b in todo:
-            _queue(run, s, b, AT.basin_block, (spec, g, o1[b.lo // n2:b.hi // n2], o2), kw)
-        if not todo:
-            run._finish(s)
+        _queue_basin(run, s, ctx, AT.basin_block, g, {})
     elif isinstance(st, ContinuationStep):
         bounds = tuple(st.bounds) if st.bounds is not None else (-math.inf, math.inf)
         run.rep.start(s.name, 1, 0, "branches")
@@ -288,8 +273,6 @@ def start(run, s) -> None:
 
 def _start_sequence_replay(run, s, ctx: dict) -> None:
     """Queue a sequence gait's tick_sweep (one task) or basin (blocks of rows)."""
-    from .runner import clean_parts, saved_blocks, shard_dir
-
     st = s.step
     g = sequence_start(run, s)
     ctx["gait"] = g
@@ -308,22 +291,28 @@ def _start_sequence_replay(run, s, ctx: dict) -> None:
             lam = D.read_floquet_multipliers(run.by_name[st.from_].path, "sequence")
             ctx["leading"] = float(np.abs(lam[0]))
         return
+    _queue_basin(run, s, ctx, AT.sequence_basin_block, g["z"], {"replay": replay})
+
+
+def _queue_basin(run, s, ctx: dict, fn, gait, extra: dict) -> None:
+    """Queue a basin step's missing blocks of rows: ``fn(spec, gait, offsets1, offsets2,
+    max_cycles=, error_bound=, tick=, **extra)``; saved blocks (shards) are reused."""
+    from .runner import clean_parts, saved_blocks, shard_dir
+
+    st = s.step
     tick = st.tick if st.tick is not None else run.plan.loaded.study.gait.tick
     ctx["tick"] = tick
     clean_parts(run.plan.out, s.name, s.key)
-    folder = shard_dir(run.plan.out, s.name, s.key)
-    s.saved = saved_blocks(folder, s.blocks)
+    s.saved = saved_blocks(shard_dir(run.plan.out, s.name, s.key), s.blocks)
     todo = s.todo_blocks()
     run.reused += len(s.saved)
     run.rep.start(s.name, len(s.blocks), len(s.saved), "blocks")
     run.remaining[s.name] = len(todo)
     o1, o2 = st.offsets.d_dtheta1.values(), st.offsets.d_dtheta2.values()
     n2 = o2.size
-    kw = {"max_cycles": st.max_cycles, "error_bound": st.error_bound, "tick": tick,
-          "replay": replay}
+    kw = {"max_cycles": st.max_cycles, "error_bound": st.error_bound, "tick": tick, **extra}
     for b in todo:
-        _queue(run, s, b, AT.sequence_basin_block, (run.spec, g["z"], o1[b.lo // n2:b.hi // n2],
-                                                     o2), kw)
+        _queue(run, s, b, fn, (run.spec, gait, o1[b.lo // n2:b.hi // n2], o2), kw)
     if not todo:
         run._finish(s)
 
