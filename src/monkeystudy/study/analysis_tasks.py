@@ -321,6 +321,26 @@ def cycles_to_bound(error: np.ndarray, bound: float) -> int:
     return int(bad[0]) + 1 if bad.size else int(e.size)
 
 
+def _sweep(ticks, cycles: int, error_bound: float, run_one) -> dict[str, np.ndarray]:
+    """One run per tick: ``run_one(tick) -> (error per cycle, pivot height per cycle,
+    status)``; the per-tick arrays of a tick_sweep dataset (NaN padded to ``cycles``)."""
+    n = len(ticks)
+    out = {"error": np.full((n, cycles), np.nan), "pivot_height": np.full((n, cycles), np.nan),
+           "cycles_to_bound": np.zeros(n, np.int32), "cycles_completed": np.zeros(n, np.int32),
+           "status": np.zeros(n, np.int8), "growth_per_cycle": np.full(n, np.nan)}
+    for i, tick in enumerate(ticks):
+        error, pivot, status = run_one(tick)
+        e = np.asarray(error, float)[:cycles]
+        p = np.asarray(pivot, float)[:cycles]
+        out["error"][i, :e.size] = e
+        out["pivot_height"][i, :p.size] = p
+        out["cycles_to_bound"][i] = cycles_to_bound(e, error_bound)
+        out["cycles_completed"][i] = e.size
+        out["status"][i] = int(status)
+        out["growth_per_cycle"][i] = growth_per_cycle(e)
+    return out
+
+
 def tick_sweep_task(spec: GaitSpec, gait: dict, *, ticks, cycles: int, error_bound: float,
                     max_drop: float, leading_multiplier: bool = True,
                     fd_step: float = 1e-5) -> dict[str, Any]:
@@ -340,34 +360,21 @@ def tick_sweep_task(spec: GaitSpec, gait: dict, *, ticks, cycles: int, error_bou
     torque = replay_torque(spec, gait)
     d1, d2 = float(gait["dtheta1"]), float(gait["dtheta2"])
     t_switch, t_motor = float(gait["t_switch"]), float(gait["t_motor"])
-    n = len(ticks)
-    err = np.full((n, cycles), np.nan)
-    piv = np.full((n, cycles), np.nan)
-    to_bound = np.zeros(n, np.int32)
-    completed = np.zeros(n, np.int32)
-    status = np.zeros(n, np.int8)
-    growth = np.full(n, np.nan)
-    for i, tick in enumerate(ticks):
+
+    def run_one(tick):
         run = open_loop_cycles(d1, d2, t_switch=t_switch, t_motor=t_motor, cycles=cycles,
                                torque=torque, robot=robot, integrator=integ,
                                tick=float(tick), max_drop=max_drop)
-        e = np.asarray(run.error, float)[:cycles]
-        p = np.asarray(run.pivot_height, float)[:cycles]
-        err[i, :e.size] = e
-        piv[i, :p.size] = p
-        to_bound[i] = cycles_to_bound(e, error_bound)
-        completed[i] = e.size
-        status[i] = int(run.status)
-        growth[i] = growth_per_cycle(e)
+        return run.error, run.pivot_height, run.status
+
+    out = _sweep(ticks, cycles, error_bound, run_one)
     lead = math.nan
     if leading_multiplier:
         fmap = partial(open_loop_return_map, t_switch=t_switch, t_motor=t_motor, torque=torque,
                        robot=robot, integrator=integ)
         fl = floquet(fmap, np.array([0.0, d1, d2]), step=fd_step)
         lead = float(np.abs(fl.multipliers[0]))
-    return {"error": err, "pivot_height": piv, "cycles_to_bound": to_bound,
-            "cycles_completed": completed, "status": status, "growth_per_cycle": growth,
-            "leading_multiplier": lead, "torque": torque}
+    return dict(out, leading_multiplier=lead, torque=torque)
 
 
 def sequence_tick_sweep_task(spec: GaitSpec, z_star, *, ticks, cycles: int,
@@ -388,23 +395,13 @@ def sequence_tick_sweep_task(spec: GaitSpec, z_star, *, ticks, cycles: int,
     gait = spec_sequence(spec)
     z_star = np.asarray(z_star, float)
     times = cycle_times(gait, z_star, robot=robot, integrator=integ)
-    n = len(ticks)
-    err = np.full((n, cycles), np.nan)
-    piv = np.full((n, cycles), np.nan)
-    to_bound = np.zeros(n, np.int32)
-    completed = np.zeros(n, np.int32)
-    status = np.zeros(n, np.int8)
-    growth = np.full(n, np.nan)
-    for i, tick in enumerate(ticks):
+
+    def run_one(tick):
         r = sequence_cycles(gait, z_star, cycles=cycles, robot=robot, integrator=integ,
                             replay=replay, times=times, tick=float(tick), max_drop=max_drop)
-        e = r.error[:cycles]
-        err[i, :e.size] = e
-        piv[i, :e.size] = r.pivot_height[:cycles]
-        to_bound[i] = cycles_to_bound(e, error_bound)
-        completed[i] = e.size
-        status[i] = int(r.status)
-        growth[i] = growth_per_cycle(e)
+        return r.error, r.pivot_height, r.status
+
+    out = _sweep(ticks, cycles, error_bound, run_one)
     lead, lam = math.nan, np.full(3, np.nan + 0j)
     if leading_multiplier:
         g = open_loop_gait(gait, times) if replay == "open_loop" else gait
@@ -412,10 +409,8 @@ def sequence_tick_sweep_task(spec: GaitSpec, z_star, *, ticks, cycles: int,
                              robot=robot, integrator=integ), z_star, step=fd_step)
         lam = np.asarray(fl.multipliers, complex)
         lead = float(np.abs(lam[0]))
-    return {"error": err, "pivot_height": piv, "cycles_to_bound": to_bound,
-            "cycles_completed": completed, "status": status, "growth_per_cycle": growth,
-            "leading_multiplier": lead, "multipliers": lam, "torque": sequence_torque(gait),
-            "t_segment": times}
+    return dict(out, leading_multiplier=lead, multipliers=lam, torque=sequence_torque(gait),
+                t_segment=times)
 
 
 def sequence_basin_block(spec: GaitSpec, z_star, offsets1: np.ndarray, offsets2: np.ndarray,

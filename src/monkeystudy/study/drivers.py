@@ -186,6 +186,19 @@ def refine_task(spec: GaitSpec, start: tuple[float, float], *, xatol: float, fat
 
 
 # --- stability --------------------------------------------------------------------------------
+def _run_record(res) -> dict[str, Any]:
+    """A multi-cycle run's status, counts and sampled trajectory (world positions [m] of A,
+    the joint and B; phase; motor torque [N m]) for a stability dataset."""
+    pts = physical_points(res.params, res.sample_state, res.sample_mode[:, L.M_FLIPPED])
+    return {
+        "status": int(res.status), "cycles_completed": int(res.counts[L.K_CYCLES]),
+        "time": res.sample_t.copy(), "A": pts["A"], "joint": pts["joint"], "B": pts["B"],
+        "phase": res.sample_mode[:, L.M_PHASE].astype(np.int8),
+        "motor_torque": res.sample_mode[:, L.M_TORQUE].copy(),
+        "steps": int(res.counts[L.K_STEPS]), "nfev": int(res.counts[L.K_NFEV]),
+    }
+
+
 def stability_task(spec: GaitSpec, gait: dict[str, float], *, cycles: int, tick: float,
                    clock: str, sample_dt: float, max_drop: float) -> dict[str, Any]:
     """Replay a refined gait open-loop (swap at ``t_switch``, motor for ``t_motor`` [s]).
@@ -237,15 +250,7 @@ def stability_task(spec: GaitSpec, gait: dict[str, float], *, cycles: int, tick:
         out["error"][c] = gait_error(f, d1, d2)
         ke, _ = energies(res.params, f[None, :], np.array([row[L.L_FLIPPED]]))
         out["kinetic_energy"][c] = ke[0]
-    flipped = res.sample_mode[:, L.M_FLIPPED]
-    pts = physical_points(res.params, res.sample_state, flipped)
-    out.update({
-        "status": int(res.status), "cycles_completed": int(res.counts[L.K_CYCLES]),
-        "time": res.sample_t.copy(), "A": pts["A"], "joint": pts["joint"], "B": pts["B"],
-        "phase": res.sample_mode[:, L.M_PHASE].astype(np.int8),
-        "motor_torque": res.sample_mode[:, L.M_TORQUE].copy(),
-        "steps": int(res.counts[L.K_STEPS]), "nfev": int(res.counts[L.K_NFEV]),
-    })
+    out.update(_run_record(res))
     return out
 
 
@@ -288,15 +293,7 @@ def sequence_stability_task(spec: GaitSpec, z0, *, cycles: int, tick: float | No
     for key in ("error", "kinetic_energy", "pivot_height", "x_advance", "t_cross", "t_swap"):
         out[key][:n] = getattr(r, key)[:n]
     res = r.run
-    flipped = res.sample_mode[:, L.M_FLIPPED]
-    pts = physical_points(res.params, res.sample_state, flipped)
-    out.update({
-        "status": int(res.status), "cycles_completed": int(res.counts[L.K_CYCLES]),
-        "time": res.sample_t.copy(), "A": pts["A"], "joint": pts["joint"], "B": pts["B"],
-        "phase": res.sample_mode[:, L.M_PHASE].astype(np.int8),
-        "motor_torque": res.sample_mode[:, L.M_TORQUE].copy(),
-        "steps": int(res.counts[L.K_STEPS]), "nfev": int(res.counts[L.K_NFEV]),
-    })
+    out.update(_run_record(res))
     return out
 
 

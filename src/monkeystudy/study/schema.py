@@ -352,6 +352,14 @@ class RefineStep(_Model):
                            description="objective value where the gait fails [1]")
 
 
+#: how a multi-cycle step runs the gait (``monkeystudy.replay``)
+Replay = Annotated[Optional[Literal["gait", "open_loop"]], Field(
+    description="how the gait is run: open_loop (its recorded segment times, the clock "
+                "restarting at each section crossing; the horizontal gait's only replay and "
+                "its default) or gait (a sequence gait's own controller, guards and all; a "
+                "sequence gait's default)")]
+
+
 class OpenLoopSettings(_Model):
     tick: Optional[float] = Field(None, ge=0, le=1.0,
                                   description="controller tick [s] (default: the gait's)")
@@ -369,11 +377,7 @@ class StabilityStep(_Model):
                                                   "or a floquet step, its fixed point)")
     cycles: int = Field(ge=1, le=100_000, description="number of cycles")
     controller: OpenLoopSettings = Field(default_factory=OpenLoopSettings)
-    replay: Optional[Literal["gait", "open_loop"]] = Field(
-        None, description="how the gait is run: open_loop (its recorded segment times, the "
-                          "clock restarting at each section crossing; the horizontal gait's "
-                          "only replay and its default) or gait (a sequence gait's own "
-                          "controller, guards and all; a sequence gait's default)")
+    replay: Replay = None
     start_index: Optional[int] = Field(None, ge=0, description="which start of a multi-start "
                                        "refine step (default: the lowest error)")
     sample_dt: float = Field(0.005, gt=0, le=1.0,
@@ -495,11 +499,7 @@ class TickSweepStep(_Model):
     kind: Literal["tick_sweep"]
     from_: Name = Field(alias="from", description="an earlier shoot step (a sequence gait: "
                                                   "a floquet step, its fixed point)")
-    replay: Optional[Literal["gait", "open_loop"]] = Field(
-        None, description="how the gait is run: open_loop (its recorded segment times, the "
-                          "clock restarting at each section crossing; the horizontal gait's "
-                          "only replay and its default) or gait (a sequence gait's own "
-                          "controller, guards and all; a sequence gait's default)")
+    replay: Replay = None
     ticks: list[Annotated[float, Field(ge=0, le=1.0)]] = Field(
         [1e-3, 1e-4, 1e-5, 0.0], min_length=1, description="controller ticks [s]; 0 = exact "
                                                             "timing")
@@ -544,11 +544,7 @@ class BasinStep(_Model):
     kind: Literal["basin"]
     from_: Name = Field(alias="from", description="an earlier shoot step (a sequence gait: "
                                                   "a floquet step, its fixed point)")
-    replay: Optional[Literal["gait", "open_loop"]] = Field(
-        None, description="how the gait is run: open_loop (its recorded segment times, the "
-                          "clock restarting at each section crossing; the horizontal gait's "
-                          "only replay and its default) or gait (a sequence gait's own "
-                          "controller, guards and all; a sequence gait's default)")
+    replay: Replay = None
     offsets: BasinOffsets = Field(description="start offsets (d_dtheta1, d_dtheta2) [rad s-1]")
     max_cycles: int = Field(60, ge=1, le=100_000, description="cycles per run (a start that "
                             "never fails scores this)")
