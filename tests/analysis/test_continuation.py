@@ -11,45 +11,12 @@ from monkeystudy.analysis import cycle_return_map, jacobian_fd, solve_fixed_poin
 from monkeystudy.continuation import (
     _crossings, continue_cycle, fold_indices, motor_torque, parameter_of, with_parameter,
 )
-from monkeystudy.controllers import Integrator, Segment, SequenceGait
+from monkeystudy.controllers import Segment, SequenceGait
 from monkeystudy.robot import Robot
 from monkeystudy.saltation import sequence_variational_jacobian
 from monkeystudy.simulate import evaluate_cycle_gaits
 
-TORQUE = 0.6354
-INTEG = Integrator(method="dop853", rtol=1e-12, atol=1e-13)
-
-
-def two_step(torque: float = TORQUE) -> SequenceGait:
-    """studies/two_step.yaml: the state-based horizontal gait as a two-swap cycle (it ends on
-    A, so its return map exists for any robot)."""
-    return SequenceGait([
-        Segment("free_end_height", 0.0, direction="rising", latch_energy=True),
-        Segment("energy_restored", 0.0, magnets="swap", torque=torque),
-        Segment("coord", 0.0, coord="theta1", direction="either"),
-        Segment("free_end_height", 0.0, direction="rising", latch_energy=True),
-        Segment("energy_restored", 0.0, magnets="swap", torque=torque)], theta2=0.0)
-
-
-def two_swing() -> SequenceGait:
-    """studies/two_swing.yaml: a full oscillation before the swap (ends on B)."""
-    return SequenceGait([
-        Segment("coord", 0.0, coord="theta1", direction="falling", latch_energy=True),
-        Segment("coord", 0.0, coord="theta1", direction="rising"),
-        Segment("free_end_height", 0.0, direction="rising"),
-        Segment("energy_restored", 0.0, magnets="swap", torque=TORQUE)], theta2=0.0)
-
-
-@pytest.fixture(scope="module")
-def two_step_point():
-    """The two-step gait's fixed point at theta2 = 0 for seed2009 (from the study's refine)."""
-    g = two_step()
-    fmap = partial(cycle_return_map, gait=g, robot="seed2009", integrator=INTEG)
-    fp = solve_fixed_point(fmap, np.array([0.0, 0.74231351, 11.16262254]), jacobian=lambda q:
-                           sequence_variational_jacobian(g, q, robot="seed2009",
-                                                         integrator=INTEG))
-    assert fp.converged
-    return fp.z
+from sequencegaits import INTEG, TORQUE, two_step, two_swing
 
 
 def residual(gait, z, robot) -> float:

@@ -7,61 +7,49 @@ from functools import partial
 import numpy as np
 import pytest
 
-from monkeystudy.analysis import cycle_return_map, floquet, solve_fixed_point
+from monkeystudy.analysis import cycle_return_map, floquet
 from monkeystudy.controllers import Integrator, Segment
 from monkeystudy.kernel import layout as L
 from monkeystudy.replay import (
     cycle_times, open_loop_gait, section_error, sequence_basin, sequence_cycles,
 )
-from monkeystudy.saltation import sequence_variational_jacobian
 from monkeystudy.simulate import evaluate_cycle_gaits
 
-from test_continuation import INTEG, two_step  # the same gait and tolerance
+from sequencegaits import INTEG, two_step
 
 TIGHT = Integrator(method="dop853", rtol=1e-13, atol=1e-13)
 
 
-@pytest.fixture(scope="module")
-def fixed_point():
-    g = two_step()
-    fmap = partial(cycle_return_map, gait=g, robot="seed2009", integrator=INTEG)
-    fp = solve_fixed_point(fmap, np.array([0.0, 0.74231351, 11.16262254]), jacobian=lambda q:
-                           sequence_variational_jacobian(g, q, robot="seed2009",
-                                                         integrator=INTEG))
-    assert fp.converged
-    return fp.z
-
-
-def test_open_loop_gait_retraces_the_recorded_cycle(fixed_point):
+def test_open_loop_gait_retraces_the_recorded_cycle(two_step_point):
     """At the fixed point the open-loop replay is the same trajectory: same segment exits,
     same section state, same advance."""
     g = two_step()
-    times = cycle_times(g, fixed_point, integrator=INTEG)
+    times = cycle_times(g, two_step_point, integrator=INTEG)
     ol = open_loop_gait(g, times)
     assert all(s.until == "time" for s in ol.segments)
     assert [s.magnets for s in ol.segments] == [s.magnets for s in g.segments]
     assert [s.torque for s in ol.segments] == [s.torque for s in g.segments]
-    z_gait, _ = cycle_return_map(fixed_point, g, integrator=INTEG)
-    z_ol, st = cycle_return_map(fixed_point, ol, integrator=INTEG)
+    z_gait, _ = cycle_return_map(two_step_point, g, integrator=INTEG)
+    z_ol, st = cycle_return_map(two_step_point, ol, integrator=INTEG)
     assert st == 0
     np.testing.assert_allclose(z_ol, z_gait, rtol=0, atol=1e-9)
-    th2 = fixed_point[0]   # the cycle's start, as cycle_times used it
-    r_g = evaluate_cycle_gaits([fixed_point[1:]], dataclasses.replace(g, theta2=th2),
+    th2 = two_step_point[0]   # the cycle's start, as cycle_times used it
+    r_g = evaluate_cycle_gaits([two_step_point[1:]], dataclasses.replace(g, theta2=th2),
                                integrator=INTEG)
-    r_o = evaluate_cycle_gaits([fixed_point[1:]], dataclasses.replace(ol, theta2=th2),
+    r_o = evaluate_cycle_gaits([two_step_point[1:]], dataclasses.replace(ol, theta2=th2),
                                integrator=INTEG)
     np.testing.assert_allclose(r_o["t_segment"], r_g["t_segment"], rtol=0, atol=1e-12)
     assert r_o["x_advance"][0] == pytest.approx(r_g["x_advance"][0], abs=1e-10)
 
 
-def test_own_controller_holds_the_fixed_point(fixed_point):
+def test_own_controller_holds_the_two_step_point(two_step_point):
     """The two-step gait is stable (multipliers 1, 0.85, 0.62): from its fixed point the
     error stays at round-off and every cycle advances by the same step."""
-    r = sequence_cycles(two_step(), fixed_point, cycles=50, integrator=INTEG)
+    r = sequence_cycles(two_step(), two_step_point, cycles=50, integrator=INTEG)
     assert r.status == L.ST_OK and len(r.error) == 50
     assert np.all(r.error < 1e-16)
-    one = evaluate_cycle_gaits([fixed_point[1:]],
-                               dataclasses.replace(two_step(), theta2=fixed_point[0]),
+    one = evaluate_cycle_gaits([two_step_point[1:]],
+                               dataclasses.replace(two_step(), theta2=two_step_point[0]),
                                integrator=INTEG)
     np.testing.assert_allclose(r.x_advance, one["x_advance"][0], rtol=0, atol=1e-9)
     np.testing.assert_allclose(r.pivot_height, 0.0, atol=1e-9)
@@ -71,22 +59,22 @@ def test_own_controller_holds_the_fixed_point(fixed_point):
     np.testing.assert_allclose(r.t_swap[0], one["t_segment"][0, 0], rtol=0, atol=1e-12)
 
 
-def test_open_loop_error_grows_at_the_floquet_rate(fixed_point):
+def test_open_loop_error_grows_at_the_floquet_rate(two_step_point):
     """A small perturbation of the open-loop replay grows by the leading multiplier of its
     return map (finite differences of one cycle) each cycle: the per-cycle runs and the
     linearisation are independent paths through the simulator."""
     g = two_step()
-    times = cycle_times(g, fixed_point, integrator=TIGHT)
+    times = cycle_times(g, two_step_point, integrator=TIGHT)
     ol = open_loop_gait(g, times)
-    fl = floquet(partial(cycle_return_map, gait=ol, integrator=TIGHT), fixed_point)
+    fl = floquet(partial(cycle_return_map, gait=ol, integrator=TIGHT), two_step_point)
     lam = abs(fl.multipliers[0])
     assert lam > 2.0   # the open-loop replay of this stable gait is unstable
     w, v = np.linalg.eig(fl.jacobian)
     lead = np.real(v[:, np.argmax(np.abs(w))])
     delta = 1e-7
-    r = sequence_cycles(g, fixed_point + delta * lead / np.linalg.norm(lead), cycles=5,
+    r = sequence_cycles(g, two_step_point + delta * lead / np.linalg.norm(lead), cycles=5,
                         integrator=TIGHT, replay="open_loop", times=times,
-                        reference=fixed_point)
+                        reference=two_step_point)
     d = np.sqrt(r.error)               # |deviation| after each cycle
     # along the leading eigenvector the deviation is multiplied by lambda every cycle. Two
     # errors bound the check: the fixed point's own defect (~5e-11, relative ~5e-4 of a 1e-7
@@ -96,22 +84,22 @@ def test_open_loop_error_grows_at_the_floquet_rate(fixed_point):
     np.testing.assert_allclose(d[0], delta * lam, rtol=5e-4)
 
 
-def test_tick_delays_each_guard_to_the_next_tick(fixed_point):
+def test_tick_delays_each_guard_to_the_next_tick(two_step_point):
     """With a tick, the gait's first swap happens at the first tick after B reaches A's
     height (the clock starts at the section, at t = 0)."""
     g = two_step()
-    exact = cycle_times(g, fixed_point, integrator=INTEG)[0]
+    exact = cycle_times(g, two_step_point, integrator=INTEG)[0]
     for h in (1e-3, 1e-4):
-        r = sequence_cycles(g, fixed_point, cycles=1, integrator=INTEG, tick=h)
+        r = sequence_cycles(g, two_step_point, cycles=1, integrator=INTEG, tick=h)
         assert r.t_swap[0] == pytest.approx(math.ceil(exact / h) * h, abs=1e-12)
         assert r.t_swap[0] > exact
-    ol = sequence_cycles(g, fixed_point, cycles=1, integrator=INTEG, tick=1e-3,
+    ol = sequence_cycles(g, two_step_point, cycles=1, integrator=INTEG, tick=1e-3,
                          replay="open_loop")
     assert ol.t_swap[0] == pytest.approx(math.ceil(exact / 1e-3) * 1e-3, abs=1e-12)
 
 
-def test_basin_centre_survives_and_far_starts_do_not(fixed_point):
-    B = sequence_basin(two_step(), fixed_point, [0.0, 0.3], [0.0], max_cycles=10,
+def test_basin_centre_survives_and_far_starts_do_not(two_step_point):
+    B = sequence_basin(two_step(), two_step_point, [0.0, 0.3], [0.0], max_cycles=10,
                        error_bound=1e-2, integrator=INTEG)
     assert B.shape == (2, 1)
     assert B[0, 0] == 10
@@ -127,9 +115,9 @@ def test_section_error_wraps_theta2():
     assert e[1] == 0.0
 
 
-def test_refusals(fixed_point):
+def test_refusals(two_step_point):
     g = two_step()
-    t = cycle_times(g, fixed_point, integrator=INTEG)
+    t = cycle_times(g, two_step_point, integrator=INTEG)
     with pytest.raises(ValueError, match="must not decrease"):
         open_loop_gait(g, t[::-1])
     with pytest.raises(ValueError, match="finite segment exit times"):
@@ -140,10 +128,10 @@ def test_refusals(fixed_point):
     with pytest.raises(ValueError, match="moves the controller clock"):
         open_loop_gait(moved, t)
     with pytest.raises(ValueError, match="replay must be"):
-        sequence_cycles(g, fixed_point, cycles=1, replay="closed")
+        sequence_cycles(g, two_step_point, cycles=1, replay="closed")
     swap_first = dataclasses.replace(g, segments=(Segment("coord", 0.0, magnets="swap"),
                                                   *g.segments))
     with pytest.raises(ValueError, match="first segment acts on the magnets"):
-        sequence_cycles(swap_first, fixed_point, cycles=1)
+        sequence_cycles(swap_first, two_step_point, cycles=1)
     with pytest.raises(ValueError, match="does not close"):
         cycle_times(g, np.array([0.0, 0.0, 0.1]), integrator=INTEG)

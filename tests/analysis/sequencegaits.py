@@ -1,0 +1,43 @@
+"""Sequence gaits and their fixed point shared by the analysis tests (continuation, replay)."""
+from functools import partial
+
+import numpy as np
+
+from monkeystudy.analysis import cycle_return_map, solve_fixed_point
+from monkeystudy.controllers import Integrator, Segment, SequenceGait
+from monkeystudy.saltation import sequence_variational_jacobian
+
+TORQUE = 0.6354
+INTEG = Integrator(method="dop853", rtol=1e-12, atol=1e-13)
+
+
+def two_step(torque: float = TORQUE) -> SequenceGait:
+    """studies/two_step.yaml: the state-based horizontal gait as a two-swap cycle (it ends on
+    A, so its return map exists for any robot)."""
+    return SequenceGait([
+        Segment("free_end_height", 0.0, direction="rising", latch_energy=True),
+        Segment("energy_restored", 0.0, magnets="swap", torque=torque),
+        Segment("coord", 0.0, coord="theta1", direction="either"),
+        Segment("free_end_height", 0.0, direction="rising", latch_energy=True),
+        Segment("energy_restored", 0.0, magnets="swap", torque=torque)], theta2=0.0)
+
+
+def two_swing() -> SequenceGait:
+    """studies/two_swing.yaml: a full oscillation before the swap (ends on B)."""
+    return SequenceGait([
+        Segment("coord", 0.0, coord="theta1", direction="falling", latch_energy=True),
+        Segment("coord", 0.0, coord="theta1", direction="rising"),
+        Segment("free_end_height", 0.0, direction="rising"),
+        Segment("energy_restored", 0.0, magnets="swap", torque=TORQUE)], theta2=0.0)
+
+
+def solve_two_step_point() -> np.ndarray:
+    """The two-step gait's fixed point at theta2 = 0 for seed2009 (from the study's refine)."""
+    g = two_step()
+    fmap = partial(cycle_return_map, gait=g, robot="seed2009", integrator=INTEG)
+    fp = solve_fixed_point(fmap, np.array([0.0, 0.74231351, 11.16262254]), jacobian=lambda q:
+                           sequence_variational_jacobian(g, q, robot="seed2009",
+                                                         integrator=INTEG))
+    if not fp.converged:
+        raise RuntimeError(f"two-step fixed point did not converge: {fp}")
+    return fp.z
