@@ -137,10 +137,30 @@ def test_run_grid_serial_and_pool_agree():
     assert flat["error"].tobytes() == serial["error"].ravel().tobytes()
 
 
-def test_grid_consolidation_memory_is_flat(tmp_path):
-    """Streaming 100 blocks of 1000 points holds about one block in memory, not the grid."""
+def test_coalesce_merges_contiguous_blocks_up_to_the_limit():
+    variables = {"status": np.int8, "error": np.float64}
+
+    def block(lo, m):
+        return lo, {"status": np.arange(lo, lo + m) % 7, "error": np.arange(lo, lo + m) * 0.5}
+
+    # contiguous 0..30 in blocks of 10, then a gap (40..), then one block larger than the limit
+    blocks = [block(0, 10), block(10, 10), block(20, 10), block(40, 10), block(50, 35)]
+    pieces = list(D._coalesce(iter(blocks), variables, limit=25))
+    assert [(lo, len(a["status"])) for lo, a in pieces] == [(0, 20), (20, 10), (40, 10),
+                                                            (50, 35)]
+    for lo, a in pieces:
+        m = len(a["status"])
+        assert a["status"].dtype == np.int8 and a["error"].dtype == np.float64
+        np.testing.assert_array_equal(a["status"], np.arange(lo, lo + m) % 7)
+        np.testing.assert_array_equal(a["error"], np.arange(lo, lo + m) * 0.5)
+
+
+def test_grid_consolidation_memory_is_flat(tmp_path, monkeypatch):
+    """Streaming 100 blocks of 1000 points holds about one write buffer in memory, not the
+    grid (the buffer is made small here so that a 10^5-point grid is many buffers)."""
     import tracemalloc
 
+    monkeypatch.setattr(D, "WRITE_BUFFER_POINTS", 4000)
     a1, a2 = np.linspace(0, 1, 100), np.linspace(0, 1, 1000)
 
     def blocks():
