@@ -338,9 +338,42 @@ steps:
 """
 
 
-def grid_run(n_points: int, rtol: float = 1e-8) -> dict:
-    """Run a ``n_points`` error map end to end (``monkeystudy run`` in a fresh process) and
-    time the kernel alone on a sample of the same grid in this process."""
+def _served_runs(tmp: str, study: str, workers: int, repeat: int) -> tuple[float, list[float]]:
+    """Start ``monkeystudy serve`` (seconds until it answers), then time ``repeat`` runs of
+    ``study`` handed to it by the command line's thin client, each into a fresh folder."""
+    sock = os.path.join(tmp, "serve.sock")
+    t0 = time.perf_counter()
+    server = subprocess.Popen([sys.executable, "-m", "monkeystudy", "serve", "--socket",
+                               sock, "--workers", str(workers)], stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL)
+    from .service import ServiceError, request
+    try:
+        while True:
+            try:
+                request(sock, "ping", timeout=5.0)
+                break
+            except (ServiceError, OSError):
+                if server.poll() is not None:
+                    raise RuntimeError("monkeystudy serve exited") from None
+                time.sleep(0.02)
+        start = time.perf_counter() - t0
+        walls = []
+        for i in range(repeat):
+            t0 = time.perf_counter()
+            subprocess.run([sys.executable, "-m", "monkeystudy", "run", study, "--out",
+                            os.path.join(tmp, f"served{i}"), "--server", sock], check=True,
+                           capture_output=True, text=True)
+            walls.append(time.perf_counter() - t0)
+    finally:
+        server.terminate()
+        server.wait(timeout=30)
+    return start, walls
+
+
+def grid_run(n_points: int, rtol: float = 1e-8, served: int = 0) -> dict:
+    """Run a ``n_points`` error map end to end (``monkeystudy run`` in a fresh process; with
+    ``served`` > 0 also that many runs handed to a resident ``monkeystudy serve``) and time the
+    kernel alone on a sample of the same grid in this process."""
     import resource
 
     n1 = max(2, int(round(math.sqrt(n_points * 3.0 / 5.0))))
@@ -352,7 +385,7 @@ def grid_run(n_points: int, rtol: float = 1e-8) -> dict:
             fh.write(GRID_STUDY.format(rtol=rtol, atol=rtol * 1e-2, n1=n1, n2=n2))
         before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
         t0 = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "monkeystudy.cli", "run", study, "--out",
+        subprocess.run([sys.executable, "-m", "monkeystudy", "run", study, "--out",
                         os.path.join(tmp, "out"), "--workers", str(workers)], check=True,
                        capture_output=True, text=True)
         wall = time.perf_counter() - t0
@@ -361,6 +394,13 @@ def grid_run(n_points: int, rtol: float = 1e-8) -> dict:
         with xr.open_dataset(os.path.join(tmp, "out", "error_map.nc")) as ds:
             status = ds["status"].values
             error = ds["error"].values
+            if served:
+                serve_start, serve_walls = _served_runs(tmp, study, workers, served)
+                for i in range(served):   # the same numbers as the command line's run
+                    with xr.open_dataset(os.path.join(tmp, f"served{i}",
+                                                      "error_map.nc")) as other:
+                        if not other["error"].equals(ds["error"]):
+                            raise RuntimeError("a served run differs from the direct run")
     # kernel alone, serial, on a random sample of the same grid points
     rng = np.random.default_rng(3)
     a1 = np.linspace(0.0, 3.0, n1)
@@ -373,8 +413,10 @@ def grid_run(n_points: int, rtol: float = 1e-8) -> dict:
     per_gait = best_of(lambda: kernel_gaits(robot.params(), prog, st, pts,
                                             robot.swap_energy_floor()), 3) / len(pts)
     predicted = per_gait * n1 * n2 / workers
-    return {"points": n1 * n2, "wall": wall, "per_gait": per_gait, "predicted": predicted,
-            "ratio": wall / predicted, "peak_rss_mb": max(peak_kb, before) / 1024,
+    extra = {} if not served else {"serve_start": serve_start, "served": serve_walls,
+                                   "served_ratios": [w / predicted for w in serve_walls]}
+    return {**extra, "points": n1 * n2, "wall": wall, "per_gait": per_gait,
+            "predicted": predicted, "ratio": wall / predicted, "peak_rss_mb": max(peak_kb, before) / 1024,
             "ok_fraction": float(np.mean(status == 0)),
             "skipped_fraction": float(np.mean(status == 5)), "workers": workers,
             "finite_errors": int(np.isfinite(error).sum())}
@@ -426,6 +468,9 @@ def main(argv=None) -> int:
     ap.add_argument("--grid", type=int, action="append", metavar="N",
                     help="also run an N-point error map end to end (repeatable: compare peak "
                          "memory across sizes)")
+    ap.add_argument("--served", type=int, default=0, metavar="K",
+                    help="with --grid: also start 'monkeystudy serve' and time K runs of the "
+                         "same map handed to it ('run --server')")
     args = ap.parse_args(argv)
 
     robot = Robot.preset("seed2009")
@@ -510,12 +555,18 @@ def main(argv=None) -> int:
           f"through the Python API {sk['t_with_outputs'] * 1e6:.0f} us "
           f"({sk['t_with_outputs'] / sk['t_eval']:.1f}x)")
     for n in args.grid or []:
-        g = grid_run(n)
+        g = grid_run(n, served=args.served)
         print(f"\nend-to-end error map, {g['points']} points, {g['workers']} workers, "
-              f"DOP853 rtol 1e-8: {g['wall']:.1f} s wall; kernel alone {g['per_gait'] * 1e6:.1f} "
-              f"us/gait -> predicted {g['predicted']:.1f} s; ratio {g['ratio']:.2f}; peak RSS "
-              f"{g['peak_rss_mb']:.0f} MB; ok {g['ok_fraction']:.3f}, skipped (unreachable) "
-              f"{g['skipped_fraction']:.3f}")
+              f"DOP853 rtol 1e-8: {g['wall']:.2f} s wall; kernel alone "
+              f"{g['per_gait'] * 1e6:.1f} us/gait -> predicted {g['predicted']:.2f} s; ratio "
+              f"{g['ratio']:.2f}; peak RSS {g['peak_rss_mb']:.0f} MB; ok {g['ok_fraction']:.3f}, "
+              f"skipped (unreachable) {g['skipped_fraction']:.3f}")
+        if args.served:
+            print(f"  handed to a resident 'monkeystudy serve' (started in "
+                  f"{g['serve_start']:.1f} s, once): "
+                  + ", ".join(f"{w:.2f} s" for w in g["served"]) + " wall; ratio "
+                  + ", ".join(f"{r:.2f}" for r in g["served_ratios"])
+                  + " (same datasets as the direct run)")
     if args.startup:
         cached = startup_seconds(cold=False)
         cold = startup_seconds(cold=True)

@@ -9,13 +9,12 @@ import atexit
 import gc
 import json
 import signal
-import traceback
 from pathlib import Path
 from typing import Optional
 
 import typer
 
-EXIT_OK, EXIT_FAILED, EXIT_INVALID, EXIT_INTERRUPTED = 0, 1, 2, 3
+from .exit_codes import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_INVALID
 
 app = typer.Typer(
     name="monkeystudy", add_completion=False, no_args_is_help=True,
@@ -60,8 +59,15 @@ def run(
                                             help="Dask scheduler address, tcp://host:port"),
     dry_run: bool = typer.Option(False, "--dry-run",
                                  help="list the steps and blocks to do; run nothing"),
+    server: Optional[str] = typer.Option(
+        None, "--server", is_flag=False, flag_value="", metavar="[SOCKET]",
+        help="run on a resident 'monkeystudy serve' (its socket; bare --server: "
+             "$MONKEYSTUDY_SERVER or ~/.cache/monkeystudy/serve.sock)"),
 ) -> None:
     """Run a study: one netCDF dataset per step in the output folder; resumes."""
+    if server is not None:
+        _run_on_server(study, out, workers, scheduler, dry_run, server)
+        return
     # Start-up allocates ~10^6 long-lived objects (numba's types, the loaded kernels): cyclic
     # collections while importing only rescan them (~0.2 s). The runner turns collection back
     # on once the kernels are loaded (and freezes them before it forks the workers).
@@ -74,50 +80,78 @@ def run(
 
 def _run(study: Path, out: Optional[Path], workers: Optional[int], scheduler: Optional[str],
          dry_run: bool) -> None:
+    from .study.command import execute_run
     from .study.progress import make_reporter
-    from .study.runner import RunFailed, RunInterrupted, plan_study, run_study
+    from .study.provenance import run_command
 
     loaded = _load(study)
     if scheduler and workers is not None:
         _err("--workers applies to the local pool; with --scheduler the cluster decides")
         raise typer.Exit(EXIT_INVALID)
-    if dry_run:
-        plan = plan_study(loaded, out)
-        typer.echo(plan.describe())
-        typer.echo("dry run: nothing was run" if not plan.up_to_date
-                   else "dry run: everything is up to date")
-        return
-    reporter = make_reporter()
-    previous = _sigterm_as_interrupt()
-    command = " ".join(["monkeystudy", "run", str(study)]
-                       + ([f"--out {out}"] if out is not None else [])
-                       + ([f"--workers {workers}"] if workers is not None else [])
-                       + ([f"--scheduler {scheduler}"] if scheduler else []))
+    previous = None if dry_run else _sigterm_as_interrupt()
     try:
-        summary = run_study(loaded, out, workers=workers, scheduler=scheduler,
-                            reporter=reporter, command=command)
-    except RunInterrupted as exc:
-        reporter.close()
-        _err(f"monkeystudy: {exc}")
-        raise typer.Exit(EXIT_INTERRUPTED) from None
-    except RunFailed as exc:
-        reporter.close()
-        _err(f"monkeystudy: run failed: {exc}")
-        raise typer.Exit(EXIT_FAILED) from None
-    except Exception as exc:  # a bug or an environment problem: say so, keep the traceback
-        reporter.close()
-        _err("".join(traceback.format_exception(exc)))
-        _err(f"monkeystudy: run failed: {type(exc).__name__}: {exc} (finished blocks are "
-             "saved)")
-        raise typer.Exit(EXIT_FAILED) from None
+        code = execute_run(loaded, out, echo=typer.echo, err=_err, reporter=make_reporter,
+                           command=run_command(study, out, workers, scheduler), workers=workers,
+                           scheduler=scheduler, dry_run=dry_run)
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
-    reporter.close()
-    for p in summary.written:
-        typer.echo(f"wrote {p}")
-    for p in summary.up_to_date:
-        typer.echo(f"up to date {p}")
+    if code:
+        raise typer.Exit(code)
+
+
+def _run_on_server(study: Path, out: Optional[Path], workers: Optional[int],
+                   scheduler: Optional[str], dry_run: bool, server: str) -> None:
+    """The thin client: no numpy, no numba; the server loads, validates and runs."""
+    from .service import default_socket, submit_run
+    from .study.provenance import run_command
+
+    if workers is not None or scheduler:
+        _err("--workers and --scheduler choose where a run goes: not with --server (the "
+             "server's pool was chosen with 'monkeystudy serve --workers')")
+        raise typer.Exit(EXIT_INVALID)
+    path = server or default_socket()
+    code = submit_run(path, study, out, dry_run=dry_run,
+                      command=run_command(study, out, None, None, path))
+    if code:
+        raise typer.Exit(code)
+
+
+@app.command()
+def serve(
+    socket_path: Optional[str] = typer.Option(
+        None, "--socket", metavar="PATH",
+        help="the Unix socket to listen on [default: $MONKEYSTUDY_SERVER or "
+             "~/.cache/monkeystudy/serve.sock]"),
+    workers: Optional[int] = typer.Option(None, "--workers", "-j", min=1,
+                                          help="local worker processes [default: all cores]"),
+    stop: bool = typer.Option(False, "--stop", help="stop the server listening there"),
+    status: bool = typer.Option(False, "--status", help="is a server listening there?"),
+) -> None:
+    """Keep the kernels loaded and a worker pool warm; 'run --server' hands studies to it."""
+    from .service import Server, ServiceError, default_socket, request
+
+    path = socket_path or default_socket()
+    if stop or status:
+        try:
+            msg = request(path, "stop" if stop else "ping")
+        except (ServiceError, OSError, ValueError) as exc:
+            _err(f"monkeystudy serve: {exc}")
+            raise typer.Exit(EXIT_FAILED) from None
+        typer.echo(f"server pid {msg.get('pid')} at {path}: " + (
+            "stopping" if stop else f"{msg.get('workers')} worker(s), monkeystudy "
+                                    f"{msg.get('version')}, sources {msg.get('source_sha256', '')[:12]}"))
+        return
+    srv = Server(path, workers)
+    try:
+        srv.start()
+    except ServiceError as exc:
+        _err(f"monkeystudy serve: {exc}")
+        raise typer.Exit(EXIT_INVALID) from None
+    except KeyboardInterrupt:
+        srv.close()
+        raise typer.Exit(EXIT_INTERRUPTED) from None
+    srv.serve_forever()
 
 
 @app.command()

@@ -51,6 +51,21 @@ RobotLike = Union[Robot, str]
 Controller = Union[HorizontalSearch, OpenLoop, PhaseSequence]
 
 
+def loaded_kernels() -> int:
+    """How many compiled kernel signatures this process has loaded (compiled or read from
+    the cache): a resident pool compares it before and after a warm-up to see whether its
+    workers, forked earlier, lack a kernel."""
+    import sys
+
+    from numba.core.dispatcher import Dispatcher
+    count = 0
+    for name, module in list(sys.modules.items()):
+        if name.startswith(__package__ + ".kernel.") and module is not None:
+            count += sum(len(obj.overloads) for obj in vars(module).values()
+                         if isinstance(obj, Dispatcher))
+    return count
+
+
 def as_robot(robot: RobotLike) -> Robot:
     return Robot.preset(robot) if isinstance(robot, str) else robot
 

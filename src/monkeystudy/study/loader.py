@@ -59,10 +59,12 @@ class LoadedStudy:
         return hashlib.sha256(self.text.encode("utf-8")).hexdigest()
 
 
-def load_study(path: str | Path) -> LoadedStudy:
-    """Read and validate a study file; raise :class:`StudyError` listing every problem."""
+def load_study(path: str | Path, shown: str | None = None) -> LoadedStudy:
+    """Read and validate a study file; raise :class:`StudyError` listing every problem.
+
+    ``shown`` names the file in messages (default: ``path`` as given)."""
     path = Path(path)
-    shown = str(path)
+    shown = str(path) if shown is None else shown
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:

@@ -44,6 +44,16 @@ def code_sha256() -> str:
     return h.hexdigest()
 
 
+def source_sha256() -> str:
+    """Hash of every Python source of the package, read now (not cached): a resident server
+    compares it with its own at start to notice an edited package (any file, not only those
+    that decide the numbers: it runs the old code of all of them)."""
+    h = hashlib.sha256()
+    for p in sorted(_PKG.rglob("*.py")):
+        h.update(p.relative_to(_PKG).as_posix().encode() + b"\0" + p.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
 @functools.lru_cache(maxsize=None)
 def git_revision() -> str:
     """``HEAD`` of the repository holding the package, ``+dirty`` if sources changed;
@@ -77,6 +87,17 @@ def history_line(command: str | None = None) -> str:
     when = datetime.now(timezone.utc).replace(microsecond=0).isoformat()
     cmd = command if command is not None else " ".join(["monkeystudy"] + sys.argv[1:])
     return f"{when}: {cmd}"
+
+
+def run_command(study, out=None, workers: int | None = None, scheduler: str | None = None,
+                server: str | None = None) -> str:
+    """``monkeystudy run ...`` with the options given, as the datasets' ``history`` records
+    it."""
+    return " ".join(["monkeystudy", "run", str(study)]
+                    + ([f"--out {out}"] if out is not None else [])
+                    + ([f"--workers {workers}"] if workers is not None else [])
+                    + ([f"--scheduler {scheduler}"] if scheduler else [])
+                    + ([f"--server {server}"] if server else []))
 
 
 def run_key(study_sha256: str) -> str:

@@ -117,6 +117,10 @@ class Block:
     def id(self) -> str:
         return f"b{self.index:06d}"
 
+    @property
+    def size(self) -> int:
+        return self.hi - self.lo
+
 
 def make_blocks(n_points: int, block_size: int) -> list[Block]:
     return [Block(i, lo, min(lo + block_size, n_points))
@@ -375,14 +379,31 @@ def _worker_init(driver: int) -> None:
 class Pool:
     """An executor, its number of task slots, and how to stop it at once."""
 
-    def __init__(self, executor: Executor, slots: int, kind: str, closer: Callable[[], None]):
+    def __init__(self, executor: Executor, slots: int, kind: str, closer: Callable[[], None],
+                 fork: Callable[[], Executor] | None = None):
         self.executor = executor
         self.slots = max(1, int(slots))
         self.kind = kind
         self._closer = closer
+        self._fork = fork
+
+    def renew(self) -> None:
+        """Replace the (idle) local workers by new ones forked from this process now, so that
+        they inherit the kernels it loaded since; other pools are left as they are."""
+        if self._fork is not None:
+            self.executor.shutdown(wait=True)
+            self.executor = self._fork()
 
     def submit(self, fn, *args, **kwargs) -> Future:
         return self.executor.submit(fn, *args, **kwargs)
+
+    @property
+    def usable(self) -> bool:
+        """False once the pool was aborted, shut down or lost a worker."""
+        ex = self.executor
+        if isinstance(ex, ProcessPoolExecutor):
+            return not (getattr(ex, "_broken", False) or getattr(ex, "_shutdown_thread", False))
+        return True
 
     def abort(self) -> None:
         """Cancel queued tasks and stop the workers now (finished shards stay on disk)."""
@@ -438,6 +459,38 @@ def default_workers() -> int:
         return os.cpu_count() or 1
 
 
+def local_pool(workers: int | None = None,
+               warm_up: Callable[[], None] | None = None) -> Pool:
+    """A started local process pool of ``workers`` (default all cores); see :func:`open_pool`
+    for ``warm_up``. The caller closes it (``monkeystudy serve`` keeps one across runs)."""
+    n = default_workers() if workers is None else int(workers)
+    if n < 1:
+        raise ValueError(f"workers must be >= 1, got {n}")
+    ctx = _mp_context()
+    if ctx.get_start_method() == "fork" and warm_up is not None:
+        warm_up()
+        warm_up = None
+    if not gc.isenabled():
+        # start-up mode (the CLI): the modules and kernels loaded so far live as long as
+        # the process, so keep them out of every later collection, here and in the forked
+        # workers (whose pages then stay shared: the collector never writes to them)
+        gc.freeze()
+
+    def fork() -> Executor:
+        ex = ProcessPoolExecutor(max_workers=n, mp_context=ctx,
+                                 initializer=_worker_init, initargs=(os.getpid(),))
+        # start the workers now: they load the kernels (forkserver preload) while the
+        # driver does its own warm-up and planning, instead of after it
+        for _ in range(n):
+            ex.submit(os.getpid)
+        return ex
+
+    ex = fork()
+    if warm_up is not None:
+        warm_up()
+    return Pool(ex, n, f"{n} local process{'es' if n > 1 else ''}", lambda: None, fork)
+
+
 @contextmanager
 def open_pool(workers: int | None = None, scheduler: str | None = None,
               warm_up: Callable[[], None] | None = None) -> Iterator[Pool]:
@@ -461,26 +514,8 @@ def open_pool(workers: int | None = None, scheduler: str | None = None,
         slots = sum(client.nthreads().values()) or 1
         pool = Pool(client.get_executor(pure=False), slots, f"dask {scheduler}", client.close)
     else:
-        n = default_workers() if workers is None else int(workers)
-        if n < 1:
-            raise ValueError(f"workers must be >= 1, got {n}")
-        ctx = _mp_context()
-        forked = ctx.get_start_method() == "fork"
-        if forked and warm_up is not None:
-            warm_up()
-            warm_up = None
-        if not gc.isenabled():
-            # start-up mode (the CLI): the modules and kernels loaded so far live as long as
-            # the process, so keep them out of every later collection, here and in the forked
-            # workers (whose pages then stay shared: the collector never writes to them)
-            gc.freeze()
-        ex = ProcessPoolExecutor(max_workers=n, mp_context=ctx,
-                                 initializer=_worker_init, initargs=(os.getpid(),))
-        # start the workers now: they load the kernels (forkserver preload) while the
-        # driver does its own warm-up and planning, instead of after it
-        for _ in range(n):
-            ex.submit(os.getpid)
-        pool = Pool(ex, n, f"{n} local process{'es' if n > 1 else ''}", lambda: None)
+        pool = local_pool(workers, warm_up)
+        warm_up = None
     if warm_up is not None:
         warm_up()
     gc.enable()  # start-up is over (the CLI turns collection off while it imports)
@@ -564,6 +599,10 @@ class _Run:
         self.computed = 0
         self.reused = 0
         self.notes: dict[str, str] = {}
+        # finished blocks kept in memory for the consolidation (which reads the others back
+        # from their shards); at most one write buffer of points, so memory stays flat
+        self.held: dict[tuple[str, int], dict[str, np.ndarray]] = {}
+        self.held_points = 0
 
     # starting steps -----------------------------------------------------------------------
     def _start_ready(self) -> None:
@@ -642,6 +681,10 @@ class _Run:
             write_shard(shard_dir(self.plan.out, s.name, s.key), t.tag, value)
             s.saved.add(t.tag.index)
             self.computed += 1
+            if isinstance(s.step, GridStep) and \
+                    self.held_points + t.tag.size <= D.WRITE_BUFFER_POINTS:
+                self.held[(s.name, t.tag.index)] = value
+                self.held_points += t.tag.size
         elif isinstance(s.step, RefineStep):
             self.results[s.name][t.tag] = value
         elif isinstance(s.step, ANALYSIS_STEPS):
@@ -660,7 +703,8 @@ class _Run:
         if isinstance(st, GridStep):
             folder = shard_dir(self.plan.out, s.name, s.key)
             variables = drivers.grid_variables(self.spec)
-            blocks = ((b.lo, read_shard(folder, b, tuple(variables))) for b in s.blocks)
+            blocks = ((b.lo, self._held(s, b) or read_shard(folder, b, tuple(variables)))
+                      for b in s.blocks)
             attrs["block_size"] = st.points_per_block
             where = ({"points": grid_points(st)} if st.points is not None else
                      {"axes": (st.dtheta1.values(), st.dtheta2.values())})
@@ -706,6 +750,12 @@ class _Run:
         self.done.add(s.name)
         self.notes[s.name] = msg
         self.rep.finish(s.name, msg)
+
+    def _held(self, s: StepPlan, b: Block) -> dict[str, np.ndarray] | None:
+        value = self.held.pop((s.name, b.index), None)
+        if value is not None:
+            self.held_points -= b.size
+        return value
 
     # the loop -------------------------------------------------------------------------------
     def run(self) -> None:
@@ -778,12 +828,19 @@ def _is_lost_worker(exc: BaseException) -> bool:
 
 def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
               workers: int | None = None, scheduler: str | None = None,
-              reporter: Reporter | None = None, command: str | None = None) -> RunSummary:
+              reporter: Reporter | None = None, command: str | None = None,
+              pool: Pool | None = None) -> RunSummary:
     """Run a study: every step not up to date, resuming from saved shards.
+
+    ``pool``: a resident pool to run on instead of opening one (``monkeystudy serve``); it
+    stays open after a finished run and is aborted (its workers stopped) after any other end,
+    so that no task of this run outlives it: check :attr:`Pool.usable` before reusing it.
 
     Raises :class:`RunFailed` (a task raised, exit 1) or :class:`RunInterrupted` (Ctrl-C,
     SIGTERM or a dead worker, exit 3; rerun to resume).
     """
+    if pool is not None and (workers is not None or scheduler):
+        raise ValueError("workers and scheduler choose a pool: not with pool=")
     reporter = reporter or Reporter()
     plan = plan_study(loaded, out)
     current = [s.path for s in plan.steps if s.up_to_date]
@@ -799,17 +856,19 @@ def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
     run = None
     try:
         def warm_up():
-            reporter.log("loading the compiled kernels (the first run after a change "
-                         "compiles them, ~20 s)")
+            if pool is None:   # a resident pool's process has them (see _resident)
+                reporter.log("loading the compiled kernels (the first run after a change "
+                             "compiles them: a few minutes)")
             drivers.warm_up(spec, stability=any(
                 isinstance(s.step, (StabilityStep,) + ANALYSIS_STEPS) for s in todo))
             if any(isinstance(s.step, (FloquetStep, ContinuationStep)) for s in todo):
                 analysis_tasks.warm_up(spec)
 
-        with open_pool(workers, scheduler, warm_up) as pool:
-            reporter.log(f"{loaded.study.name}: {len(todo)} step(s) to run on {pool.kind} "
+        with (open_pool(workers, scheduler, warm_up) if pool is None
+              else _resident(pool, warm_up)) as used:
+            reporter.log(f"{loaded.study.name}: {len(todo)} step(s) to run on {used.kind} "
                          f"-> {plan.out}")
-            run = _Run(plan, pool, reporter, history)
+            run = _Run(plan, used, reporter, history)
             run.run()
     except KeyboardInterrupt:
         saved = sum(len(s.saved) for s in plan.steps
@@ -817,6 +876,23 @@ def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
         raise RunInterrupted(f"interrupted; {saved} finished blocks are saved, rerun to "
                              "resume") from None
     return RunSummary(plan.out, run.written, current, run.computed, run.reused, run.notes)
+
+
+@contextmanager
+def _resident(pool: Pool, warm_up: Callable[[], None]) -> Iterator[Pool]:
+    """Run on a pool that outlives the run; abort it unless the run finishes."""
+    from ..simulate import loaded_kernels
+    before = loaded_kernels()
+    warm_up()
+    if loaded_kernels() != before:
+        pool.renew()   # this run needs kernels the workers were forked without
+    ok = False
+    try:
+        yield pool
+        ok = True
+    finally:
+        if not ok:
+            pool.abort()
 
 
 # --- programmatic grids (benchmarks) -----------------------------------------------------------------

@@ -1,0 +1,64 @@
+"""What ``monkeystudy run`` does once the study is loaded, shared by the command line and by
+``monkeystudy serve`` (which runs it for a client on its resident pool).
+
+Output goes through two callables, ``echo`` (results: standard output) and ``err`` (messages:
+standard error), and the outcome is an exit code:
+
+0 done; 1 the run failed; 2 invalid input; 3 interrupted or partial (rerun to resume).
+"""
+from __future__ import annotations
+
+import traceback
+from pathlib import Path
+from typing import Callable
+
+from .loader import LoadedStudy
+from .progress import Reporter
+
+from ..exit_codes import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_INVALID, EXIT_OK
+
+
+def execute_run(loaded: LoadedStudy, out: Path | None, *, echo: Callable[[str], None],
+                err: Callable[[str], None], reporter: Callable[[], Reporter],
+                command: str, workers: int | None = None, scheduler: str | None = None,
+                dry_run: bool = False, pool=None, shown: Callable[[Path], str] = str) -> int:
+    """Run (or with ``dry_run`` describe) ``loaded`` into ``out``; return the exit code.
+
+    ``reporter`` makes the progress reporter (only when there is something to run);
+    ``pool`` is a resident :class:`~.runner.Pool`; ``shown`` renders written paths.
+    """
+    from .runner import RunFailed, RunInterrupted, plan_study, run_study
+
+    if dry_run:
+        plan = plan_study(loaded, out)
+        echo(plan.describe())
+        echo("dry run: nothing was run" if not plan.up_to_date
+             else "dry run: everything is up to date")
+        return EXIT_OK
+    rep = reporter()
+    try:
+        summary = run_study(loaded, out, workers=workers, scheduler=scheduler, reporter=rep,
+                            command=command, pool=pool)
+    except RunInterrupted as exc:
+        rep.close()
+        err(f"monkeystudy: {exc}")
+        return EXIT_INTERRUPTED
+    except RunFailed as exc:
+        rep.close()
+        err(f"monkeystudy: run failed: {exc}")
+        return EXIT_FAILED
+    except Exception as exc:  # a bug or an environment problem: say so, keep the traceback
+        rep.close()
+        err("".join(traceback.format_exception(exc)))
+        err(f"monkeystudy: run failed: {type(exc).__name__}: {exc} (finished blocks are "
+            "saved)")
+        return EXIT_FAILED
+    rep.close()
+    for p in summary.written:
+        echo(f"wrote {shown(p)}")
+    for p in summary.up_to_date:
+        echo(f"up to date {shown(p)}")
+    return EXIT_OK
+
+
+__all__ = ["EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_INVALID", "EXIT_OK", "execute_run"]
