@@ -31,14 +31,14 @@ def served_run_parser() -> argparse.ArgumentParser:
     ap.add_argument("--workers", "-j", type=int)
     ap.add_argument("--scheduler")
     ap.add_argument("--dry-run", action="store_true")
-    ap.add_argument("--server", nargs="?", const="")
+    ap.add_argument("--server", action="store_true")
+    ap.add_argument("--socket")
     return ap
 
 
 def _served_run(argv: list[str]) -> int | None:
     """The exit code of a served run, or None when ``argv`` is not one this path takes."""
-    if len(argv) < 2 or argv[0] != "run" or not any(
-            a == "--server" or a.startswith("--server=") for a in argv[1:]):
+    if len(argv) < 2 or argv[0] != "run" or "--server" not in argv[1:]:
         return None
     if any(a in ("-h", "--help") for a in argv[1:]):
         return None
@@ -46,13 +46,13 @@ def _served_run(argv: list[str]) -> int | None:
         args = served_run_parser().parse_args(argv[1:])
     except _Refused:
         return None
-    if args.server is None or args.workers is not None or args.scheduler:
+    if args.workers is not None or args.scheduler:
         return None
     from pathlib import Path
 
     from .service import default_socket, submit_run
     from .study.provenance import run_command
-    path = args.server or default_socket()
+    path = args.socket or default_socket()
     study = Path(args.study)
     out = Path(args.out) if args.out is not None else None
     return submit_run(path, study, out, dry_run=args.dry_run,

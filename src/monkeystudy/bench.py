@@ -361,8 +361,8 @@ def _served_runs(tmp: str, study: str, workers: int, repeat: int) -> tuple[float
         for i in range(repeat):
             t0 = time.perf_counter()
             subprocess.run([sys.executable, "-m", "monkeystudy", "run", study, "--out",
-                            os.path.join(tmp, f"served{i}"), "--server", sock], check=True,
-                           capture_output=True, text=True)
+                            os.path.join(tmp, f"served{i}"), "--server", "--socket", sock],
+                           check=True, capture_output=True, text=True)
             walls.append(time.perf_counter() - t0)
     finally:
         server.terminate()
@@ -416,7 +416,8 @@ def grid_run(n_points: int, rtol: float = 1e-8, served: int = 0) -> dict:
     extra = {} if not served else {"serve_start": serve_start, "served": serve_walls,
                                    "served_ratios": [w / predicted for w in serve_walls]}
     return {**extra, "points": n1 * n2, "wall": wall, "per_gait": per_gait,
-            "predicted": predicted, "ratio": wall / predicted, "peak_rss_mb": max(peak_kb, before) / 1024,
+            "predicted": predicted, "ratio": wall / predicted,
+            "peak_rss_mb": max(peak_kb, before) / 1024,
             "ok_fraction": float(np.mean(status == 0)),
             "skipped_fraction": float(np.mean(status == 5)), "workers": workers,
             "finite_errors": int(np.isfinite(error).sum())}
@@ -470,7 +471,7 @@ def main(argv=None) -> int:
                          "memory across sizes)")
     ap.add_argument("--served", type=int, default=0, metavar="K",
                     help="with --grid: also start 'monkeystudy serve' and time K runs of the "
-                         "same map handed to it ('run --server')")
+                         "same map handed to it ('run --server --socket')")
     args = ap.parse_args(argv)
 
     robot = Robot.preset("seed2009")

@@ -59,15 +59,20 @@ def run(
                                             help="Dask scheduler address, tcp://host:port"),
     dry_run: bool = typer.Option(False, "--dry-run",
                                  help="list the steps and blocks to do; run nothing"),
-    server: Optional[str] = typer.Option(
-        None, "--server", is_flag=False, flag_value="", metavar="[SOCKET]",
-        help="run on a resident 'monkeystudy serve' (its socket; bare --server: "
-             "$MONKEYSTUDY_SERVER or ~/.cache/monkeystudy/serve.sock)"),
+    server: bool = typer.Option(False, "--server",
+                                help="hand the study to a resident 'monkeystudy serve'"),
+    socket_path: Optional[str] = typer.Option(
+        None, "--socket", metavar="PATH",
+        help="the server's socket [default: $MONKEYSTUDY_SERVER or "
+             "~/.cache/monkeystudy/serve.sock]"),
 ) -> None:
     """Run a study: one netCDF dataset per step in the output folder; resumes."""
-    if server is not None:
-        _run_on_server(study, out, workers, scheduler, dry_run, server)
+    if server:
+        _run_on_server(study, out, workers, scheduler, dry_run, socket_path)
         return
+    if socket_path is not None:
+        _err("--socket names the server of --server")
+        raise typer.Exit(EXIT_INVALID)
     # Start-up allocates ~10^6 long-lived objects (numba's types, the loaded kernels): cyclic
     # collections while importing only rescan them (~0.2 s). The runner turns collection back
     # on once the kernels are loaded (and freezes them before it forks the workers).
@@ -101,7 +106,7 @@ def _run(study: Path, out: Optional[Path], workers: Optional[int], scheduler: Op
 
 
 def _run_on_server(study: Path, out: Optional[Path], workers: Optional[int],
-                   scheduler: Optional[str], dry_run: bool, server: str) -> None:
+                   scheduler: Optional[str], dry_run: bool, socket_path: Optional[str]) -> None:
     """The thin client: no numpy, no numba; the server loads, validates and runs."""
     from .service import default_socket, submit_run
     from .study.provenance import run_command
@@ -110,7 +115,7 @@ def _run_on_server(study: Path, out: Optional[Path], workers: Optional[int],
         _err("--workers and --scheduler choose where a run goes: not with --server (the "
              "server's pool was chosen with 'monkeystudy serve --workers')")
         raise typer.Exit(EXIT_INVALID)
-    path = server or default_socket()
+    path = socket_path or default_socket()
     code = submit_run(path, study, out, dry_run=dry_run,
                       command=run_command(study, out, None, None, path))
     if code:
@@ -138,9 +143,10 @@ def serve(
         except (ServiceError, OSError, ValueError) as exc:
             _err(f"monkeystudy serve: {exc}")
             raise typer.Exit(EXIT_FAILED) from None
-        typer.echo(f"server pid {msg.get('pid')} at {path}: " + (
-            "stopping" if stop else f"{msg.get('workers')} worker(s), monkeystudy "
-                                    f"{msg.get('version')}, sources {msg.get('source_sha256', '')[:12]}"))
+        state = "stopping" if stop else (
+            f"{msg.get('workers')} worker(s), monkeystudy {msg.get('version')}, sources "
+            f"{msg.get('source_sha256', '')[:12]}")
+        typer.echo(f"server pid {msg.get('pid')} at {path}: {state}")
         return
     srv = Server(path, workers)
     try:

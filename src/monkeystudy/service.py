@@ -1,5 +1,6 @@
 """A resident study service: ``monkeystudy serve`` keeps an interpreter with the kernels loaded
-and a warm worker pool; ``monkeystudy run STUDY --server`` hands it the study.
+and a warm worker pool; ``monkeystudy run STUDY --server [--socket PATH]`` hands it the
+study.
 
 A run from the command line pays ~1 s before its first block: the interpreter, numpy, numba
 (whose first dispatch imports scipy.linalg), the cached kernels, forking the pool. Against a
@@ -38,7 +39,7 @@ from pathlib import Path
 from typing import Callable, TextIO
 
 PROTOCOL = 1
-#: environment variable naming the server's socket for ``monkeystudy run --server``
+#: environment variable naming the server's socket (``serve --socket`` and ``run --socket``)
 SERVER_ENV = "MONKEYSTUDY_SERVER"
 from .exit_codes import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_INVALID
 

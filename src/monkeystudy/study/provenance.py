@@ -97,7 +97,7 @@ def run_command(study, out=None, workers: int | None = None, scheduler: str | No
                     + ([f"--out {out}"] if out is not None else [])
                     + ([f"--workers {workers}"] if workers is not None else [])
                     + ([f"--scheduler {scheduler}"] if scheduler else [])
-                    + ([f"--server {server}"] if server else []))
+                    + ([f"--server --socket {server}"] if server else []))
 
 
 def run_key(study_sha256: str) -> str:
