@@ -145,6 +145,11 @@ def test_a_second_server_on_the_same_socket_is_refused(server):
     assert res.returncode == 2 and "already listening" in res.stderr
 
 
+def test_an_impossible_socket_path_is_refused_at_once(tmp_path):
+    res = _client("serve", "--socket", tmp_path / ("x" * 120) / "s.sock")
+    assert res.returncode == 2 and "socket path too long" in res.stderr
+
+
 def test_other_code_is_refused(server, tmp_path, monkeypatch):
     """A client whose package differs from the server's gets exit 1, never a dataset."""
     from monkeystudy.study import provenance

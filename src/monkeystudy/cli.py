@@ -38,16 +38,6 @@ def _load(study: Path):
         raise typer.Exit(EXIT_INVALID) from None
 
 
-def _sigterm_as_interrupt():
-    """SIGTERM stops a run like Ctrl-C (finished blocks are kept)."""
-    def handler(signum, frame):
-        raise KeyboardInterrupt
-    try:
-        return signal.signal(signal.SIGTERM, handler)
-    except ValueError:  # not the main thread
-        return None
-
-
 @app.command()
 def run(
     study: Path = typer.Argument(..., help="study file (YAML)", show_default=False),
@@ -85,6 +75,7 @@ def run(
 
 def _run(study: Path, out: Optional[Path], workers: Optional[int], scheduler: Optional[str],
          dry_run: bool) -> None:
+    from .service import sigterm_as_interrupt
     from .study.command import execute_run
     from .study.progress import make_reporter
     from .study.provenance import run_command
@@ -93,7 +84,7 @@ def _run(study: Path, out: Optional[Path], workers: Optional[int], scheduler: Op
     if scheduler and workers is not None:
         _err("--workers applies to the local pool; with --scheduler the cluster decides")
         raise typer.Exit(EXIT_INVALID)
-    previous = None if dry_run else _sigterm_as_interrupt()
+    previous = None if dry_run else sigterm_as_interrupt()
     try:
         code = execute_run(loaded, out, echo=typer.echo, err=_err, reporter=make_reporter,
                            command=run_command(study, out, workers, scheduler), workers=workers,
@@ -151,7 +142,9 @@ def serve(
     srv = Server(path, workers)
     try:
         srv.start()
-    except ServiceError as exc:
+    except (ServiceError, OSError) as exc:   # another server there; a bad socket path
+        if srv.pool is not None:
+            srv.close()
         _err(f"monkeystudy serve: {exc}")
         raise typer.Exit(EXIT_INVALID) from None
     except KeyboardInterrupt:

@@ -121,7 +121,7 @@ def submit_run(path: str, study: Path, out: Path | None, *, command: str, dry_ru
     except ServiceError as exc:
         print(f"monkeystudy: {exc}", file=stderr, flush=True)
         return EXIT_FAILED
-    previous = _sigterm_as_interrupt()
+    previous = sigterm_as_interrupt()
     stopping = False
     try:
         _send(sock, req)
@@ -159,7 +159,9 @@ def submit_run(path: str, study: Path, out: Path | None, *, command: str, dry_ru
             signal.signal(signal.SIGTERM, previous)
 
 
-def _sigterm_as_interrupt():
+def sigterm_as_interrupt():
+    """SIGTERM stops like Ctrl-C (finished blocks are kept); returns the previous handler, or
+    None off the main thread (where no handler can be set)."""
     def handler(signum, frame):
         raise KeyboardInterrupt
     try:
@@ -242,6 +244,11 @@ class Server:
                   "(Ctrl-C or 'monkeystudy serve --stop' stops)")
 
     def _check_free(self) -> None:
+        """Refuse a socket path that cannot work, before minutes of loading could."""
+        if len(os.fsencode(self.path)) > 107:    # sockaddr_un.sun_path, with its NUL
+            raise ServiceError(f"socket path too long for a Unix socket ({len(self.path)} > "
+                               f"107 bytes): {self.path}")
+        os.makedirs(os.path.dirname(os.path.abspath(self.path)), mode=0o700, exist_ok=True)
         if os.path.exists(self.path):
             try:
                 msg = request(self.path, "ping", timeout=2.0)
@@ -252,8 +259,6 @@ class Server:
                                f"listening on {self.path}")
 
     def _bind(self) -> None:
-        folder = os.path.dirname(os.path.abspath(self.path))
-        os.makedirs(folder, mode=0o700, exist_ok=True)
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
         old = os.umask(0o177)             # the socket file is born 0600
         try:
@@ -289,6 +294,12 @@ class Server:
                         pass
                     except _Stop:
                         break
+                    except Exception as exc:  # a bug: tell the client, keep serving
+                        import traceback
+                        text = "".join(traceback.format_exception(exc))
+                        self._say(f"request failed:\n{text}")
+                        self._reply(conn, {"err": f"monkeystudy serve: request failed: "
+                                                  f"{type(exc).__name__}: {exc}"}, EXIT_FAILED)
         finally:
             for s, h in previous.items():
                 signal.signal(s, h)
