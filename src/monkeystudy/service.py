@@ -41,6 +41,7 @@ from typing import Callable, TextIO
 PROTOCOL = 1
 #: environment variable naming the server's socket (``serve --socket`` and ``run --socket``)
 SERVER_ENV = "MONKEYSTUDY_SERVER"
+from . import __version__
 from .exit_codes import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_INVALID
 
 
@@ -74,18 +75,23 @@ def _connect(path: str, timeout: float | None = None) -> socket.socket:
     return sock
 
 
-def _lines(sock: socket.socket):
-    """JSON messages read from ``sock`` until it closes."""
-    buf = b""
-    while True:
-        chunk = sock.recv(65536)
-        if not chunk:
-            return
-        buf += chunk
-        while b"\n" in buf:
-            line, buf = buf.split(b"\n", 1)
-            if line:
-                yield json.loads(line)
+class _Reader:
+    """JSON messages read from a socket, one per line. Its buffer lives outside any generator,
+    so a Ctrl-C that interrupts a read loses nothing: the client keeps reading afterwards
+    (an exception raised inside a generator would finish it)."""
+
+    def __init__(self, sock: socket.socket):
+        self.sock, self.buf = sock, b""
+
+    def next(self) -> dict | None:
+        """The next message; None once the peer has closed."""
+        while b"\n" not in self.buf:
+            chunk = self.sock.recv(65536)
+            if not chunk:
+                return None
+            self.buf += chunk
+        line, self.buf = self.buf.split(b"\n", 1)
+        return json.loads(line) if line.strip() else self.next()
 
 
 def _send(sock: socket.socket, message: dict) -> None:
@@ -97,7 +103,8 @@ def request(path: str, op: str, timeout: float | None = 10.0) -> dict:
     """One short request (``ping``, ``stop``) and its reply."""
     with _connect(path, timeout) as sock:
         _send(sock, {"protocol": PROTOCOL, "op": op})
-        for msg in _lines(sock):
+        msg = _Reader(sock).next()
+        if msg is not None:
             return msg
     raise ServiceError(f"the server at {path} closed the connection without answering")
 
@@ -125,10 +132,10 @@ def submit_run(path: str, study: Path, out: Path | None, *, command: str, dry_ru
     stopping = False
     try:
         _send(sock, req)
-        messages = _lines(sock)
+        messages = _Reader(sock)
         while True:
             try:
-                msg = next(messages, None)
+                msg = messages.next()
             except KeyboardInterrupt:
                 if stopping:
                     print("monkeystudy: left without waiting for the server; finished blocks "
@@ -235,7 +242,6 @@ class Server:
             drivers.warm_up(spec, stability=True)
             analysis_tasks.warm_up(spec)
             self._say(f"kernels loaded in {time.perf_counter() - t0:.1f} s")
-            self._local_pool = local_pool
             self.pool = local_pool(self.workers)   # forked now: the workers inherit it all
         finally:
             gc.enable()
@@ -322,7 +328,7 @@ class Server:
     def _handle(self, conn: socket.socket) -> None:
         conn.settimeout(10.0)
         try:
-            req = next(_lines(conn), None)
+            req = _Reader(conn).next()
         except (OSError, ValueError) as exc:
             self._say(f"bad request: {exc}")
             return
@@ -334,7 +340,7 @@ class Server:
         op = req.get("op")
         if op == "ping":
             _send(conn, {"pid": os.getpid(), "workers": self.pool.slots if self.pool else 0,
-                         "source_sha256": self.code, "version": _version()})
+                         "source_sha256": self.code, "version": __version__})
         elif op == "stop":
             _send(conn, {"pid": os.getpid(), "stopping": True})
             self._stop = True
@@ -358,7 +364,7 @@ class Server:
         from .study.command import execute_run
         from .study.loader import StudyError, load_study
         from .study.progress import PlainReporter
-        from .study.runner import default_out
+        from .study.runner import default_out, local_pool
 
         t0 = time.perf_counter()
         shown_study = req.get("shown") or req.get("study")
@@ -387,7 +393,7 @@ class Server:
         cwd = Path(req.get("cwd") or ".")
         out = Path(req["out"]) if req.get("out") else cwd / default_out(loaded.study)
         if self.pool is None or not self.pool.usable:
-            self.pool = self._local_pool(self.workers)
+            self.pool = local_pool(self.workers)
 
         finished = threading.Event()
 
@@ -420,11 +426,6 @@ class Server:
         send({"exit": code})
         self._say(f"{shown_study} (from {cwd}): exit {code} in "
                   f"{time.perf_counter() - t0:.2f} s")
-
-
-def _version() -> str:
-    from . import __version__
-    return __version__
 
 
 #: the study whose kernels the server loads before forking its workers (a run that needs
