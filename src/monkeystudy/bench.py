@@ -26,8 +26,8 @@ from numba import njit
 
 from .controllers import HorizontalSearch, Integrator, settings_vector
 from .kernel.dynamics import rhs_swing
-from .kernel.gait import N_RESULT, R_ERROR, R_NFEV, R_T_END, R_T_MOTOR, R_T_SWITCH, \
-    horizontal_gait_batch
+from .kernel.gait import N_RESULT, R_ERROR, R_NFEV, R_REJECTED, R_STEPS, R_T_END, R_T_MOTOR, \
+    R_T_SWITCH, horizontal_gait_batch
 from .robot import SEED2009_TORQUE, Robot
 
 # ------------------------------------------------------------------------------------------
@@ -506,6 +506,7 @@ def main(argv=None) -> int:
                     for a, b in pts])
     kernel_rows = {}
     kernel_nfev = {}
+    kernel_rejected = {}
     for method in ("dop853", "rk45", "vern9"):
         for rtol in ((1e-6, 1e-10) if args.quick else (1e-6, 1e-8, 1e-10, 1e-12)):
             if method == "rk45" and rtol < 1e-10:
@@ -520,6 +521,9 @@ def main(argv=None) -> int:
             e_t = np.nanmax(np.abs(out[:, [R_T_SWITCH, R_T_MOTOR, R_T_END]] - ref[:, 1:4]))
             kernel_rows[(method, rtol)] = (dt, e_err, e_t)
             kernel_nfev[(method, rtol)] = out[:, R_NFEV].mean()
+            # share of attempted steps the controller rejected (each costs a full step)
+            kernel_rejected[(method, rtol)] = (out[:, R_REJECTED].sum()
+                                               / (out[:, R_STEPS] + out[:, R_REJECTED]).sum())
     chain_before = chain_ns
     chain_after, indep_after = rhs_cost_ns(par)
     chain_ns, indep_ns = min(chain_ns, chain_after), min(indep_ns, indep_after)
@@ -532,12 +536,14 @@ def main(argv=None) -> int:
     print("\nkernel, per gait (errors: max |difference| of gait error and event times "
           "vs scipy DOP853 rtol 1e-13):")
     print(f"  {'method':7} {'rtol':>7} {'us/gait':>9} {'RHS/gait':>9} {'ns/RHS':>7} "
-          f"{'x chain':>8} {'x indep':>8} {'x gait':>7} {'err(error)':>11} {'err(times)':>11}")
+          f"{'x chain':>8} {'x indep':>8} {'x gait':>7} {'rejected':>9} {'err(error)':>11} "
+          f"{'err(times)':>11}")
     for (method, rtol), (dt, e_err, e_t) in kernel_rows.items():
         nfev = kernel_nfev[(method, rtol)]
         print(f"  {method:7} {rtol:7.0e} {dt * 1e6:9.1f} {nfev:9.0f} {dt / nfev * 1e9:7.1f} "
               f"{dt / (nfev * chain_ns * 1e-9):8.2f} {dt / (nfev * indep_ns * 1e-9):8.2f} "
-              f"{dt / (nfev * gait_ns * 1e-9):7.2f} {e_err:11.2e} {e_t:11.2e}")
+              f"{dt / (nfev * gait_ns * 1e-9):7.2f} {kernel_rejected[(method, rtol)]:9.1%} "
+              f"{e_err:11.2e} {e_t:11.2e}")
     print("  cost split over the tolerances (us/gait = fixed + marginal x RHS/gait):")
     for method in ("dop853", "rk45", "vern9"):
         keys = [k for k in kernel_rows if k[0] == method]
