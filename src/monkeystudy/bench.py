@@ -287,6 +287,16 @@ def rhs_cost_ns(par) -> tuple[float, float]:
     return chain, indep
 
 
+#: the kernel configurations timed: label -> (method, step-size controller)
+KERNEL_CONFIGS = {
+    "dop853": ("dop853", "scipy"),
+    "rk45": ("rk45", "scipy"),
+    "vern9": ("vern9", "scipy"),
+    "dop853+pi": ("dop853", "pi"),
+    "vern9+pi": ("vern9", "pi"),
+}
+
+
 def gait_points(n: int, seed: int = 0) -> np.ndarray:
     """Gait starts that swap, spread over the study's valley (dtheta1 0.5-1.6, dtheta2 10-12)."""
     rng = np.random.default_rng(seed)
@@ -507,11 +517,11 @@ def main(argv=None) -> int:
     kernel_rows = {}
     kernel_nfev = {}
     kernel_rejected = {}
-    for method in ("dop853", "rk45", "vern9"):
+    for label, (method, controller) in KERNEL_CONFIGS.items():
         for rtol in ((1e-6, 1e-10) if args.quick else (1e-6, 1e-8, 1e-10, 1e-12)):
             if method == "rk45" and rtol < 1e-10:
                 continue
-            integ = Integrator(method=method, rtol=rtol, atol=rtol * 1e-2)
+            integ = Integrator(method=method, rtol=rtol, atol=rtol * 1e-2, controller=controller)
             prog, _ = HorizontalSearch(SEED2009_TORQUE).program()
             st = settings_vector(integ)
             out = kernel_gaits(par, prog, st, pts, floor)
@@ -519,10 +529,10 @@ def main(argv=None) -> int:
             dt = best_of(lambda: kernel_gaits(par, prog, st, pts, floor), reps) / npts
             e_err = np.nanmax(np.abs(out[:, R_ERROR] - ref[:, 0]))
             e_t = np.nanmax(np.abs(out[:, [R_T_SWITCH, R_T_MOTOR, R_T_END]] - ref[:, 1:4]))
-            kernel_rows[(method, rtol)] = (dt, e_err, e_t)
-            kernel_nfev[(method, rtol)] = out[:, R_NFEV].mean()
+            kernel_rows[(label, rtol)] = (dt, e_err, e_t)
+            kernel_nfev[(label, rtol)] = out[:, R_NFEV].mean()
             # share of attempted steps the controller rejected (each costs a full step)
-            kernel_rejected[(method, rtol)] = (out[:, R_REJECTED].sum()
+            kernel_rejected[(label, rtol)] = (out[:, R_REJECTED].sum()
                                                / (out[:, R_STEPS] + out[:, R_REJECTED]).sum())
     chain_before = chain_ns
     chain_after, indep_after = rhs_cost_ns(par)
@@ -535,23 +545,23 @@ def main(argv=None) -> int:
 
     print("\nkernel, per gait (errors: max |difference| of gait error and event times "
           "vs scipy DOP853 rtol 1e-13):")
-    print(f"  {'method':7} {'rtol':>7} {'us/gait':>9} {'RHS/gait':>9} {'ns/RHS':>7} "
+    print(f"  {'method':9} {'rtol':>7} {'us/gait':>9} {'RHS/gait':>9} {'ns/RHS':>7} "
           f"{'x chain':>8} {'x indep':>8} {'x gait':>7} {'rejected':>9} {'err(error)':>11} "
           f"{'err(times)':>11}")
     for (method, rtol), (dt, e_err, e_t) in kernel_rows.items():
         nfev = kernel_nfev[(method, rtol)]
-        print(f"  {method:7} {rtol:7.0e} {dt * 1e6:9.1f} {nfev:9.0f} {dt / nfev * 1e9:7.1f} "
+        print(f"  {method:9} {rtol:7.0e} {dt * 1e6:9.1f} {nfev:9.0f} {dt / nfev * 1e9:7.1f} "
               f"{dt / (nfev * chain_ns * 1e-9):8.2f} {dt / (nfev * indep_ns * 1e-9):8.2f} "
               f"{dt / (nfev * gait_ns * 1e-9):7.2f} {kernel_rejected[(method, rtol)]:9.1%} "
               f"{e_err:11.2e} {e_t:11.2e}")
     print("  cost split over the tolerances (us/gait = fixed + marginal x RHS/gait):")
-    for method in ("dop853", "rk45", "vern9"):
+    for method in KERNEL_CONFIGS:
         keys = [k for k in kernel_rows if k[0] == method]
         if len(keys) < 2:
             continue
         fixed, marginal = cost_split([kernel_nfev[k] for k in keys],
                                      [kernel_rows[k][0] for k in keys])
-        print(f"    {method:7} marginal {marginal * 1e9:5.1f} ns per RHS "
+        print(f"    {method:9} marginal {marginal * 1e9:5.1f} ns per RHS "
               f"({marginal * 1e9 / chain_ns:.2f}x chain, {marginal * 1e9 / gait_ns:.2f}x gait "
               f"states), fixed {fixed * 1e6:4.1f} us per gait")
 

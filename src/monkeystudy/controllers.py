@@ -323,6 +323,12 @@ class Integrator:
 
     ``max_time`` [s] is the horizon of one controller segment (a phase that has not ended by
     then fails with that segment's status).
+
+    ``controller`` is the step-size controller: ``"scipy"`` (default) is scipy's, factor
+    ``0.9 err^(-1/k)``, so the accepted steps equal ``solve_ivp``'s one for one; ``"pi"`` is
+    Gustafsson's PI controller, ``0.9 err^(-0.7/k) err_prev^(0.4/k)`` (Hairer & Wanner II,
+    sec. IV.2), which damps the grow-and-reject cycle of the high-order pairs (k is the error
+    estimator's order + 1).
     """
 
     method: str = "dop853"
@@ -331,10 +337,14 @@ class Integrator:
     max_time: float = 3.0
     max_step: float = math.inf
     max_steps: int = 10_000_000
+    controller: str = "scipy"
 
     def __post_init__(self):
         if self.method not in METHODS:
             raise ValueError(f"method must be one of {sorted(METHODS)}, got {self.method!r}")
+        if self.controller not in CONTROLLERS:
+            raise ValueError(f"controller must be one of {sorted(CONTROLLERS)}, "
+                             f"got {self.controller!r}")
         for name in ("rtol", "atol", "max_time", "max_step"):
             v = float(getattr(self, name))
             if math.isnan(v) or v <= 0:
@@ -345,6 +355,9 @@ class Integrator:
             raise ValueError(f"rtol must be >= 100 eps ({100 * np.finfo(float).eps:.3g}), "
                              f"got {self.rtol!r}")
 
+
+#: Step-size controllers: name -> kernel id (layout ``CONTROLLER_*``).
+CONTROLLERS = {"scipy": L.CONTROLLER_SCIPY, "pi": L.CONTROLLER_PI}
 
 #: Registered integrators: name -> (kernel id, order, description).
 METHODS = {
@@ -373,4 +386,5 @@ def settings_vector(integrator: Integrator, *, tick: float = 0.0, tick_phase: fl
     s[L.C_MAX_STEP] = integrator.max_step
     s[L.C_MAX_DROP] = max_drop
     s[L.C_ZERO_BAND] = zero_band
+    s[L.C_CONTROLLER] = CONTROLLERS[integrator.controller]
     return s

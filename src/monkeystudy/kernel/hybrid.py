@@ -36,8 +36,8 @@ from .events import (
     guard_trig, hermite_flags, locate_first, pack, rate_uses_field, unpack_into,
 )
 from .integrate import (
-    MAX_FACTOR, MIN_FACTOR, SAFETY, dense_eval, dense_prepare, error_estimator_order,
-    error_power, select_initial_step,
+    MAX_FACTOR, MIN_FACTOR, PI_ERR_FLOOR, SAFETY, dense_eval, dense_prepare,
+    error_estimator_order, error_power, pi_factor, select_initial_step,
 )
 from .rk_explicit import (
     dop853_error_norm, dop853_step4, dop853_step8, rk45_error_norm, rk45_step4, rk45_step8,
@@ -48,18 +48,17 @@ from .tableaux import (
     VERN9_N_STAGES_EXTENDED,
 )
 from .layout import (
-    C_ATOL, C_MAX_CYCLES, C_MAX_DROP, C_MAX_SEGMENT_TIME, C_MAX_STEP, C_MAX_STEPS, C_METHOD,
-    C_RTOL, C_SAMPLE_DT, C_T_END, C_TICK, C_TICK_PHASE, C_ZERO_BAND,
+    C_ATOL, C_CONTROLLER, C_MAX_CYCLES, C_MAX_DROP, C_MAX_SEGMENT_TIME, C_MAX_STEP, C_MAX_STEPS,
+    C_METHOD, C_RTOL, C_SAMPLE_DT, C_T_END, C_TICK, C_TICK_PHASE, C_ZERO_BAND, CONTROLLER_PI,
     G_ENERGY_RESTORED, G_NONE, G_SLIP_STOP, G_STICK_BREAK, G_TIME, H_CLOCK, H_CYCLES, H_EREF,
     H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG, H_T, H_TORQUE, H_Y_REF, K_CYCLES, K_EVENTS,
     K_LOG, K_NFEV, K_REJECTED, K_SAMPLES, K_STEPS, L_CYCLE, L_E_AFTER, L_E_BEFORE, L_FLIPPED,
     L_ID, L_KIND, L_PHASE, L_STATE, L_T, LOG_FRICTION, LOG_OBSERVER, LOG_SEGMENT, M_FLIPPED,
-    M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, METHOD_VERN9, N_TRIG, O_GDIR, O_GINDEX,
-    O_GUARD, O_GVALUE, O_SEGMENT,
-    P_C_JOINT, P_C_PIVOT, PHASE_FIXED, PHASE_FLIGHT, PHASE_SWING, S_CLOCK, S_CYCLE, S_FAIL,
-    S_GDIR, S_GINDEX, S_GUARD, S_GVALUE, S_MAG_A, S_MAG_B, S_NEXT, S_SET_EREF, S_SWAP,
-    S_TICKED, S_TORQUE, ST_BUFFER_FULL, ST_END_TIME, ST_FELL, ST_HORIZON, ST_NONFINITE, ST_OK,
-    ST_STEP_FAILURE,
+    M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, METHOD_VERN9, N_TRIG, O_GDIR,
+    O_GINDEX, O_GUARD, O_GVALUE, O_SEGMENT, P_C_JOINT, P_C_PIVOT, PHASE_FIXED, PHASE_FLIGHT,
+    PHASE_SWING, S_CLOCK, S_CYCLE, S_FAIL, S_GDIR, S_GINDEX, S_GUARD, S_GVALUE, S_MAG_A,
+    S_MAG_B, S_NEXT, S_SET_EREF, S_SWAP, S_TICKED, S_TORQUE, ST_BUFFER_FULL, ST_END_TIME,
+    ST_FELL, ST_HORIZON, ST_NONFINITE, ST_OK, ST_STEP_FAILURE,
 )
 
 EPS = 2.220446049250313e-16
@@ -243,6 +242,8 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
     max_drop = settings[C_MAX_DROP]
     band = settings[C_ZERO_BAND]
     err_order = error_estimator_order(method)
+    pi_control = settings[C_CONTROLLER] == CONTROLLER_PI
+    en_prev = 1.0  # the PI controller's previous accepted error norm
 
     n_obs = obs.shape[0]
     log_cap = log.shape[0]
@@ -393,6 +394,7 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
             h_abs = select_initial_step(phase, p, tau, fmode, t, y, f, n, t_stop, max_step,
                                         err_order, rtol, atol, ytmp, f_new)
             counts[K_NFEV] += 2
+            en_prev = 1.0  # a leg starts the PI controller afresh, as the integrator restarts
             r_seg = 0.0
             if state_guard:
                 r_seg = guard_rate(gkind, gindex, phase, p, tau, fmode, y, pivot, work)
@@ -445,7 +447,10 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                         counts[K_NFEV] += RK45_N_STAGES
                         en = rk45_error_norm(K, h, y, y_new, n, rtol, atol)
                     if en < 1.0:
-                        if en == 0.0:
+                        if pi_control:
+                            factor = pi_factor(en, en_prev, err_order)
+                            en_prev = max(en, PI_ERR_FLOOR)
+                        elif en == 0.0:
                             factor = MAX_FACTOR
                         else:
                             factor = min(MAX_FACTOR, SAFETY * error_power(method, en))

@@ -83,7 +83,12 @@ C_MAX_STEPS = 9          # step budget for the whole run
 C_MAX_STEP = 10          # largest step [s]
 C_MAX_DROP = 11          # stop with FELL when the attached end sinks this far below start [m]
 C_ZERO_BAND = 12         # relative band treated as "already zero" at a segment start
-N_SETTINGS = 13
+C_CONTROLLER = 13        # step-size controller: CONTROLLER_*
+N_SETTINGS = 14
+
+# --- step-size controllers ------------------------------------------------------------------------
+CONTROLLER_SCIPY = 0     # scipy's: factor SAFETY * err^(-1/k); steps equal solve_ivp's
+CONTROLLER_PI = 1        # Gustafsson's PI: SAFETY * err^(-0.7/k) * err_prev^(0.4/k)
 
 # --- status codes (also the dataset's flag_values) ---------------------------------------------
 ST_OK = 0

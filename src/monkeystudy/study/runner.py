@@ -82,7 +82,8 @@ def study_robot(study: Study) -> Robot:
 
 def study_integrator(study: Study) -> Integrator:
     i = study.integrator
-    return Integrator(method=i.method, rtol=i.rtol, atol=i.atol, max_time=i.max_time)
+    return Integrator(method=i.method, rtol=i.rtol, atol=i.atol, max_time=i.max_time,
+                      controller=i.controller)
 
 
 def study_spec(study: Study) -> drivers.GaitSpec:

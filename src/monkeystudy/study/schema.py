@@ -244,6 +244,9 @@ class IntegratorSettings(_Model):
     atol: float = Field(1e-12, gt=0, description="absolute tolerance [rad, rad s-1]")
     max_time: float = Field(3.0, gt=0, le=1.0e4,
                             description="horizon of one controller phase [s]")
+    controller: Literal["scipy", "pi"] = Field(
+        "scipy", description="step-size controller: scipy's (steps equal solve_ivp's) or "
+                             "Gustafsson's PI (fewer rejected steps)")
 
 
 # --- steps ------------------------------------------------------------------------------------
