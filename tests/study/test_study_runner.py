@@ -393,3 +393,26 @@ def test_progress_is_rich_on_a_terminal_and_plain_otherwise():
     rich.start("map", 4)
     rich.advance("map")
     rich.close()
+
+
+def test_integrator_controller_reaches_the_workers(tmp_path):
+    """``integrator.controller: pi`` is what the pool's workers integrate with, and the dataset
+    records it (a spec that dropped it would silently run scipy's controller)."""
+    from monkeystudy import Integrator, evaluate_gaits
+
+    pts = [[0.9, 10.9], [1.0, 11.0], [1.2, 11.3]]
+    text = ("schema_version: 1\nname: pi\nrobot: seed2009\n"
+            "gait: {kind: horizontal, motor_torque: 0.6354, tick: 0.0}\n"
+            "integrator: {rtol: 1.0e-8, atol: 1.0e-10, controller: pi}\n"
+            f"steps:\n  - {{name: pts, kind: grid, points: {pts}, block_size: 2}}\n")
+    out = tmp_path / "out"
+    run_study(load_study(write_study(tmp_path, text, "pi.yaml")), out, workers=2)
+    with xr.open_dataset(out / "pts.nc") as ds:
+        assert '"controller": "pi"' in ds.attrs["integrator"]
+        got = ds["error"].values
+        rejected = ds["rejected"].values
+    want = {c: evaluate_gaits(pts, integrator=Integrator(rtol=1e-8, atol=1e-10, controller=c))
+            for c in ("pi", "scipy")}
+    assert np.array_equal(got, want["pi"]["error"])
+    assert np.array_equal(rejected, want["pi"]["rejected"])
+    assert not np.array_equal(got, want["scipy"]["error"])

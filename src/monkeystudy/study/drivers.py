@@ -56,7 +56,8 @@ def make_spec(robot: Robot, torque: float, tick: float, integrator: Integrator,
               sequence: SequenceGait | None = None) -> GaitSpec:
     return GaitSpec(robot=robot.to_dict(), torque=float(torque), tick=float(tick),
                     integrator={"method": integrator.method, "rtol": integrator.rtol,
-                                "atol": integrator.atol, "max_time": integrator.max_time},
+                                "atol": integrator.atol, "max_time": integrator.max_time,
+                                "controller": integrator.controller},
                     sequence=None if sequence is None else dataclasses.asdict(sequence))
 
 

@@ -551,7 +551,8 @@ def _json_gait(study: Study) -> dict:
 
 def _json_integrator(study: Study) -> dict:
     i = study.integrator
-    return {"method": i.method, "rtol": i.rtol, "atol": i.atol, "max_time": i.max_time}
+    return {"method": i.method, "rtol": i.rtol, "atol": i.atol, "max_time": i.max_time,
+            "controller": i.controller}
 
 
 def step_attrs(loaded: LoadedStudy, step, history: str) -> dict:
