@@ -45,6 +45,9 @@ def work_precision(points, *, robot: RobotLike = "seed2009", torque: float = SEE
                    first_swing_only: bool = True) -> dict:
     """Measure time per gait [s] and errors for each (method, rtol); plain arrays out.
 
+    ``methods`` are kernel pairs (``METHODS``), each optionally with ``+pi`` for the PI
+    step-size controller (``"dop853+pi"``); without it, scipy's controller.
+
     Returns ``{"methods", "rtols", "time", "nfev", "error_value", "error_times",
     "status_mismatch", "scipy_methods", "scipy_rtols", "scipy_time", "scipy_error_value",
     "scipy_error_times", "kernel_time_same_points"}``. Errors are NaN where no point had a
@@ -57,8 +60,11 @@ def work_precision(points, *, robot: RobotLike = "seed2009", torque: float = SEE
     prog, _ = HorizontalSearch(torque).program()
 
     def settings(method, rtol):
-        return settings_vector(Integrator(method=method, rtol=rtol, atol=rtol * atol_ratio,
-                                          max_steps=5_000_000))
+        # "dop853+pi": the pair with the PI step-size controller (Integrator.controller)
+        pair, _, controller = method.partition("+")
+        return settings_vector(Integrator(method=pair, rtol=rtol, atol=rtol * atol_ratio,
+                                          max_steps=5_000_000,
+                                          controller=controller or "scipy"))
 
     ref = kernel_gaits(par, prog, settings(*REFERENCE), pts, floor)
     if first_swing_only:

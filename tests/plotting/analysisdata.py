@@ -372,7 +372,8 @@ def continuation_dataset(gait: dict, parameter: str, value0: float, ds: float,
 
 # --- work precision --------------------------------------------------------------------------
 def work_precision_dataset(attrs: dict) -> xr.Dataset:
-    r = P.work_precision(WP_POINTS, rtols=WP_RTOLS, repeat=1)
+    r = P.work_precision(WP_POINTS, rtols=WP_RTOLS, repeat=1,
+                         methods=("rk45", "dop853", "vern9", "dop853+pi"))
     MR, SR = ("method", "rtol"), ("scipy_method", "scipy_rtol")
     return xr.Dataset(
         {

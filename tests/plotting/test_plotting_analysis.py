@@ -309,9 +309,15 @@ def test_work_precision_lines_are_time_against_error(ds):
             assert line.get_linestyle() == "--"
     for i, m in enumerate(d["method"].values):
         for j, r in enumerate(d["rtol"].values):
+            if "+" in m:  # a PI variant: unlabelled, on its pair's colour, dotted
+                assert not fig.findobj(lambda a, g=f"rtol_{m}_{j}": a.get_gid() == g)
+                continue
             lab = by_gid(fig, f"rtol_{m}_{j}")
             assert lab.get_text() == PA._sci(r, 1)
             assert lab.xy == (d["error_value"].values[i, j], t[i, j])
+    pi, pair = by_gid(fig, "kernel_dop853+pi_times"), by_gid(fig, "kernel_dop853_times")
+    assert pi.get_color() == pair.get_color() and pi.get_linestyle() == ":"
+    assert pair.get_linestyle() == "-"
     assert titles(fig)[0].endswith(f"(reference: {d.attrs['reference']})")
     assert len({by_gid(fig, f"scipy_{m}_value").get_marker()
                 for m in d["scipy_method"].values}) == d.sizes["scipy_method"]

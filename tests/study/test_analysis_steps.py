@@ -203,7 +203,8 @@ BAD = [
     ("{name: x, kind: continuation, from: sh, parameter: com, ds: 0.01, bounds: [1.0, 0.5]}",
      None, f"{EXTRA_LINE}: steps[8].bounds: must be [lo, hi] with lo < hi"),
     ("{name: x, kind: work_precision, points: [[0.9, 10.9]], methods: [euler]}", None,
-     f"{EXTRA_LINE}: steps[8].methods[0]: must be 'rk45', 'dop853' or 'vern9', got 'euler'"),
+     f"{EXTRA_LINE}: steps[8].methods[0]: must be 'rk45', 'dop853', 'vern9', 'rk45+pi', "
+     "'dop853+pi' or 'vern9+pi', got 'euler'"),
     ("{name: x, kind: work_precision, points: [[0.9, 10.9]], rtols: [1.0e-6, 0.0]}", None,
      f"{EXTRA_LINE}: steps[8].rtols[1]: must be >= "),
     ("{name: x, kind: work_precision, points: all}", None,

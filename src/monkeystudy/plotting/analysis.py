@@ -839,6 +839,15 @@ def _times(x: float) -> str:
     return f"{x:.0f}" if x >= 10 else f"{x:.2g}"
 
 
+def _kernel_style(method, i, colors):
+    """Colour by Runge-Kutta pair; the PI-controlled variant (``"<pair>+pi"``) keeps its
+    pair's colour, dotted with square markers (scipy's solve_ivp lines are dashed)."""
+    pair, _, controller = method.partition("+")
+    known = {"rk45": BLUE, "dop853": GREEN, "vern9": PURPLE}
+    color = known.get(pair, colors[i % len(colors)])
+    return (color, ":", "s") if controller else (color, "-", "o")
+
+
 def plot_work_precision(ds):
     """Wall time per gait against error, log-log: one line per kernel integrator over the
     tolerance ladder (points labelled with their rtol), scipy's ``solve_ivp`` methods dashed
@@ -877,10 +886,12 @@ def plot_work_precision(ds):
                                   ("times", axt, "max error of the event times  [s]")):
             e = _values(ds, f"error_{which}")
             for i, m in enumerate(methods):
-                c = kcol[i % len(kcol)]
-                ax.plot(_positive(e[i]), t[i], marker="o", ms=5, color=c, lw=1.6,
+                c, ls, mk = _kernel_style(m, i, kcol)
+                ax.plot(_positive(e[i]), t[i], marker=mk, ms=5, color=c, lw=1.6, ls=ls,
                         gid=f"kernel_{m}_{which}")
-                for j, r in enumerate(rtols):
+                # the PI variants' points are not labelled: they would sit on their pair's
+                labelled = "+" not in m
+                for j, r in enumerate(rtols if labelled else ()):
                     if np.isfinite(e[i, j]) and e[i, j] > 0 and np.isfinite(t[i, j]):
                         ax.annotate(_sci(r, 1), (e[i, j], t[i, j]),
                                     xytext=(0, 7 if i == above else -15), ha="center",
@@ -893,10 +904,10 @@ def plot_work_precision(ds):
                         ax.plot(_positive(e[i][mm]), t[i][mm], marker="o", ms=12, mfc="none",
                                 mec=VERMILLION, mew=1.5, ls="none", gid=f"mismatch_{m}")
                 if which == "value":
-                    handles.append(Line2D([], [], color=c, marker="o", ms=5,
+                    handles.append(Line2D([], [], color=c, marker=mk, ms=5, ls=ls,
                                           label=f"kernel {m} (rtol "
                                                 f"{_sci(rtols.min(), 1)}…{_sci(rtols.max(), 1)}"
-                                                ", labelled)"))
+                                                + (", labelled)" if labelled else ")")))
             if has_scipy:
                 smeth = [str(m) for m in np.atleast_1d(ds["scipy_method"].values)]
                 srt = _values(ds, "scipy_rtol")

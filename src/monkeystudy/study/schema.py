@@ -652,8 +652,9 @@ class WorkPrecisionStep(_Model):
     name: Name
     kind: Literal["work_precision"]
     points: PointsSpec = Field(description="gait start points [rad s-1]: a list or axes")
-    methods: list[Literal["rk45", "dop853", "vern9"]] = Field(
-        ["rk45", "dop853"], min_length=1, description="kernel integrators")
+    methods: list[Literal["rk45", "dop853", "vern9", "rk45+pi", "dop853+pi", "vern9+pi"]] = Field(
+        ["rk45", "dop853"], min_length=1,
+        description="kernel integrators; '+pi': with the PI step-size controller")
     rtols: list[Annotated[float, Field(ge=100 * np.finfo(float).eps, lt=1.0)]] = Field(
         WORK_PRECISION_RTOLS, min_length=1, description="relative tolerances [1]")
     atol_ratio: float = Field(1e-2, gt=0, le=1.0, description="atol = rtol * atol_ratio "
