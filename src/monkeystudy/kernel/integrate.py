@@ -4,7 +4,8 @@ The step-size controller, error norms and initial-step selection follow
 ``scipy.integrate._ivp.rk`` line for line (SAFETY 0.9, factors in [0.2, 10], the
 ``atol + rtol * max(|y|, |y_new|)`` scale, DOP853's combined 5th/3rd-order estimate), so that
 for the same vector field our accepted steps coincide with ``solve_ivp``'s: the tests compare
-them one by one. Work arrays are preallocated by the caller; nothing here allocates.
+them one by one (the default controller; :func:`pi_factor` is the opt-in PI controller).
+Work arrays are preallocated by the caller; nothing here allocates.
 
 Arrays: ``K`` is ``(16, 8)`` (DOP853 with its three extra dense-output stages; ``(26, 8)`` for
 Vern9 with its ten), ``F`` the ``(7, 8)`` dense-output coefficients (``(9, 8)`` for Vern9);
@@ -68,8 +69,8 @@ def error_power(method, en):
 #: 2002): the exponents of the new and previous error norms, times 1/k, k = estimator order + 1
 PI_ALPHA = 0.7
 PI_BETA = 0.4
-#: the previous error norm is floored here (a step with a tiny error must not make the next
-#: factor explode; MAX_FACTOR clips it in any case)
+#: the previous error norm is floored here, as Hairer's DOPRI5 floors FACOLD (a step with a
+#: tiny error must not make the next factor explode; MAX_FACTOR clips it in any case)
 PI_ERR_FLOOR = 1e-4
 
 

@@ -52,12 +52,17 @@ class GaitSpec(TypedDict):
                               # horizontal gait
 
 
+def integrator_fields(integrator: Integrator) -> dict:
+    """The integrator settings a study can set, as a gait spec and a dataset carry them (one
+    list: a field missing here would silently fall back to its default on the workers)."""
+    return {"method": integrator.method, "rtol": integrator.rtol, "atol": integrator.atol,
+            "max_time": integrator.max_time, "controller": integrator.controller}
+
+
 def make_spec(robot: Robot, torque: float, tick: float, integrator: Integrator,
               sequence: SequenceGait | None = None) -> GaitSpec:
     return GaitSpec(robot=robot.to_dict(), torque=float(torque), tick=float(tick),
-                    integrator={"method": integrator.method, "rtol": integrator.rtol,
-                                "atol": integrator.atol, "max_time": integrator.max_time,
-                                "controller": integrator.controller},
+                    integrator=integrator_fields(integrator),
                     sequence=None if sequence is None else dataclasses.asdict(sequence))
 
 
@@ -316,5 +321,5 @@ def warm_up(spec: GaitSpec, stability: bool = False) -> None:
 
 
 __all__ = ["GRID_VARIABLES", "GaitSpec", "SEQUENCE_GRID_VARIABLES", "grid_block",
-           "grid_variables", "make_spec", "n_cycle_segments", "refine_task", "robot_from_dict",
-           "spec_sequence", "stability_task", "warm_up"]
+           "grid_variables", "integrator_fields", "make_spec", "n_cycle_segments", "refine_task",
+           "robot_from_dict", "spec_sequence", "stability_task", "warm_up"]

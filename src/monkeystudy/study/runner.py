@@ -550,9 +550,7 @@ def _json_gait(study: Study) -> dict:
 
 
 def _json_integrator(study: Study) -> dict:
-    i = study.integrator
-    return {"method": i.method, "rtol": i.rtol, "atol": i.atol, "max_time": i.max_time,
-            "controller": i.controller}
+    return drivers.integrator_fields(study_integrator(study))
 
 
 def step_attrs(loaded: LoadedStudy, step, history: str) -> dict:
