@@ -71,19 +71,27 @@ def flipped_params(p):
 # equations of motion
 # ----------------------------------------------------------------------------------------------
 @njit(cache=True, inline="always")
-def _swing_terms(p, tau, fmode, th1, th2, w1, w2):
-    """Swing mass matrix entries and right-hand side ``F - C qdot - G`` (MODEL.md sec. 2).
+def _field_trig(th1, th2):
+    """``(s1, c1, s2, c2, s12, c12)`` for the vector fields, the sum angle from the identity.
 
-    ``sin(theta1 + theta2)`` comes from the angle-sum identity: a sine beside the cosine of
-    the same angle is one ``sincos`` call, so the field needs two trigonometric calls instead
-    of three (a gait ~5 % faster, ``monkeystudy bench``). Its absolute error, ~1 ulp of the
-    products, is below that of ``sin`` of the rounded sum ``theta1 + theta2``.
+    A sine beside the cosine of the same angle is one ``sincos`` call, so the fields need two
+    trigonometric calls instead of three (a gait ~7 % faster, ``monkeystudy bench``). The
+    identity's absolute error, ~1 ulp of the products, is below that of ``sin`` of the rounded
+    sum ``theta1 + theta2``. (The guards take the sum angle directly: see
+    :func:`swing_accel_trig`.)
     """
     s1 = np.sin(th1)
     c1 = np.cos(th1)
     s2 = np.sin(th2)
     c2 = np.cos(th2)
-    return _swing_terms_t(p, tau, fmode, s1, s2, c2, s1 * c2 + c1 * s2, w1, w2)
+    return s1, c1, s2, c2, s1 * c2 + c1 * s2, c1 * c2 - s1 * s2
+
+
+@njit(cache=True, inline="always")
+def _swing_terms(p, tau, fmode, th1, th2, w1, w2):
+    """Swing mass matrix entries and right-hand side ``F - C qdot - G`` (MODEL.md sec. 2)."""
+    s1, _, s2, c2, s12, _ = _field_trig(th1, th2)
+    return _swing_terms_t(p, tau, fmode, s1, s2, c2, s12, w1, w2)
 
 
 @njit(cache=True, inline="always")
@@ -144,7 +152,7 @@ def swing_accel_trig(p, tau, fmode, th1, th2, w1, w2):
     (bit for bit the values :func:`.events.guard` would compute), and a cosine beside a sine of
     the same angle costs little (LLVM fuses them into one ``sincos`` call).
     Here ``sin``/``cos(theta1 + theta2)`` are taken directly, not by the identity of
-    :func:`_swing_terms`: the guards compute them so, and must agree bit for bit.
+    :func:`_field_trig`: the guards compute them so, and must agree bit for bit.
     """
     s1 = np.sin(th1)
     c1 = np.cos(th1)
@@ -165,13 +173,8 @@ def flight_accel(p, tau, fmode, th1, th2, w1, w2):
     exact, and cheaper than a general 4x4 factorisation. The position of the (x, y) end and
     its velocity do not enter (translation invariance).
     """
-    s1 = np.sin(th1)
-    c1 = np.cos(th1)
-    s2 = np.sin(th2)
-    c2 = np.cos(th2)
-    # the sum angle by the identity, as in _swing_terms (two sincos calls instead of three)
-    return _flight_accel_t(p, tau, fmode, s1, c1, s2, c2, s1 * c2 + c1 * s2, c1 * c2 - s1 * s2,
-                           w1, w2)
+    s1, c1, s2, c2, s12, c12 = _field_trig(th1, th2)
+    return _flight_accel_t(p, tau, fmode, s1, c1, s2, c2, s12, c12, w1, w2)
 
 
 @njit(cache=True, inline="always")
