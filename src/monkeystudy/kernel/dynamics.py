@@ -77,14 +77,25 @@ def _field_trig(th1, th2):
     A sine beside the cosine of the same angle is one ``sincos`` call, so the fields need two
     trigonometric calls instead of three (a gait ~7 % faster, ``monkeystudy bench``). The
     identity's absolute error, ~1 ulp of the products, is below that of ``sin`` of the rounded
-    sum ``theta1 + theta2``. (The guards take the sum angle directly: see
-    :func:`swing_accel_trig`.)
+    sum ``theta1 + theta2``. (The guards take the sum angle directly: :func:`angle_trig`.)
     """
     s1 = np.sin(th1)
     c1 = np.cos(th1)
     s2 = np.sin(th2)
     c2 = np.cos(th2)
     return s1, c1, s2, c2, s1 * c2 + c1 * s2, c1 * c2 - s1 * s2
+
+
+@njit(cache=True, inline="always")
+def angle_trig(th1, th2):
+    """``(s1, c1, s2, c2, s12, c12)`` with the sum angle taken directly (layout ``T_*``).
+
+    The one definition of the sines and cosines the guards see: the step's last stage
+    (:func:`swing_accel_trig`, :func:`flight_accel_trig`) and :func:`.events.trig_of` both
+    use it, so they agree bit for bit.
+    """
+    return (np.sin(th1), np.cos(th1), np.sin(th2), np.cos(th2), np.sin(th1 + th2),
+            np.cos(th1 + th2))
 
 
 @njit(cache=True, inline="always")
@@ -148,18 +159,12 @@ def swing_accel_trig(p, tau, fmode, th1, th2, w1, w2):
     """:func:`swing_accel` and ``(s1, c1, s2, c2, s12, c12)``, the sines and cosines of
     ``theta1``, ``theta2`` and ``theta1 + theta2`` (layout ``T_*``).
 
-    For the last stage of a step: the guards at the new point need the same sines and cosines
-    (bit for bit the values :func:`.events.guard` would compute), and a cosine beside a sine of
-    the same angle costs little (LLVM fuses them into one ``sincos`` call).
-    Here ``sin``/``cos(theta1 + theta2)`` are taken directly, not by the identity of
-    :func:`_field_trig`: the guards compute them so, and must agree bit for bit.
+    For the last stage of a step: the guards at the new point need these very values
+    (:func:`angle_trig`, the sum angle taken directly, not by the identity of
+    :func:`_field_trig`), and a cosine beside a sine of the same angle costs little (one
+    ``sincos`` call).
     """
-    s1 = np.sin(th1)
-    c1 = np.cos(th1)
-    s2 = np.sin(th2)
-    c2 = np.cos(th2)
-    s12 = np.sin(th1 + th2)
-    c12 = np.cos(th1 + th2)
+    s1, c1, s2, c2, s12, c12 = angle_trig(th1, th2)
     m11, m12, m22, r1, r2 = _swing_terms_t(p, tau, fmode, s1, s2, c2, s12, w1, w2)
     a1, a2 = _solve2(m11, m12, m22, r1, r2, fmode[0] == 0.0, fmode[1] == 0.0)
     return a1, a2, s1, c1, s2, c2, s12, c12
@@ -181,12 +186,7 @@ def flight_accel(p, tau, fmode, th1, th2, w1, w2):
 def flight_accel_trig(p, tau, fmode, th1, th2, w1, w2):
     """:func:`flight_accel` and the sines and cosines of the angles (see
     :func:`swing_accel_trig`)."""
-    s1 = np.sin(th1)
-    c1 = np.cos(th1)
-    s2 = np.sin(th2)
-    c2 = np.cos(th2)
-    s12 = np.sin(th1 + th2)
-    c12 = np.cos(th1 + th2)
+    s1, c1, s2, c2, s12, c12 = angle_trig(th1, th2)
     ax, ay, a1, a2 = _flight_accel_t(p, tau, fmode, s1, c1, s2, c2, s12, c12, w1, w2)
     return ax, ay, a1, a2, s1, c1, s2, c2, s12, c12
 

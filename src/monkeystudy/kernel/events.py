@@ -16,7 +16,9 @@ import math
 import numpy as np
 from numba import njit
 
-from .dynamics import kinetic_rot_s, kinetic_trans_s, potential_s, rhs
+from .dynamics import (
+    angle_trig, kinetic_rot_s, kinetic_trans_s, potential_s, rhs,
+)
 from .integrate import dense_eval
 from .layout import (
     G_COORD, G_ENERGY, G_ENERGY_RESTORED, G_FREE_END_HEIGHT, G_FREE_END_Y, G_SLIP_STOP,
@@ -72,12 +74,13 @@ def trig_of(phase, y, trig):
     else:
         th1 = y[0]
         th2 = y[1]
-    trig[T_S1] = np.sin(th1)
-    trig[T_C1] = np.cos(th1)
-    trig[T_S2] = np.sin(th2)
-    trig[T_C2] = np.cos(th2)
-    trig[T_S12] = np.sin(th1 + th2)
-    trig[T_C12] = np.cos(th1 + th2)
+    s1, c1, s2, c2, s12, c12 = angle_trig(th1, th2)
+    trig[T_S1] = s1
+    trig[T_C1] = c1
+    trig[T_S2] = s2
+    trig[T_C2] = c2
+    trig[T_S12] = s12
+    trig[T_C12] = c12
 
 
 @njit(cache=True, inline="always")
@@ -91,8 +94,9 @@ def guard(kind, index, value, phase, p, tau, fmode, y, pivot, eref):
     """Value of a state guard (layout ``G_*``; time guards are handled as step bounds)."""
     if _needs_trig(kind):
         x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
-        return guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, np.sin(th1),
-                       np.cos(th1), np.cos(th2), np.sin(th1 + th2), np.cos(th1 + th2))
+        s1, c1, _, c2, s12, c12 = angle_trig(th1, th2)
+        return guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, s1, c1, c2, s12,
+                       c12)
     return guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, 0.0, 0.0, 0.0,
                    0.0, 0.0)
 
@@ -222,8 +226,8 @@ def guard_rate(kind, index, phase, p, tau, fmode, y, pivot, work):
         return guard_rate_field(kind, index, phase, p, tau, fmode, y, work)
     if kind == G_FREE_END_HEIGHT or kind == G_FREE_END_Y:
         x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
-        return guard_rate_kin(kind, index, phase, p, tau, fmode, y, pivot, np.sin(th1),
-                              np.sin(th1 + th2))
+        s1, _, _, _, s12, _ = angle_trig(th1, th2)
+        return guard_rate_kin(kind, index, phase, p, tau, fmode, y, pivot, s1, s12)
     return guard_rate_kin(kind, index, phase, p, tau, fmode, y, pivot, 0.0, 0.0)
 
 
