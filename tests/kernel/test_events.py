@@ -23,9 +23,10 @@ from monkeystudy import (
     evaluate_horizontal_gait, initial_state, run_controller,
 )
 from monkeystudy.kernel import dynamics as dyn
+from monkeystudy.kernel import events as ev
 from monkeystudy.kernel.layout import (
-    K_REJECTED, K_STEPS, L_ID, L_KIND, L_STATE, L_T, LOG_OBSERVER, LOG_SEGMENT, ST_END_TIME,
-    ST_HORIZON, ST_OK,
+    G_COORD, G_ENERGY_RESTORED, G_FREE_END_HEIGHT, K_REJECTED, K_STEPS, L_ID, L_KIND, L_STATE,
+    L_T, LOG_OBSERVER, LOG_SEGMENT, ST_END_TIME, ST_HORIZON, ST_OK,
 )
 from reference import model as ref_model
 
@@ -311,3 +312,137 @@ def test_observer_crossings_match_scipy_events(name):
         # the logged state satisfies the observer's guard
         vals = rows[rows[:, L_ID] == k, L_STATE + 2 + k] - (0.0, 1.0)[k]
         assert np.max(np.abs(vals)) <= 1e-12
+
+
+# ----------------------------------------------------------------------------------------------
+# the cubic Hermite screen: which steps are searched on the dense output
+# ----------------------------------------------------------------------------------------------
+def _screen_cases(rng, n, h_omega_max):
+    """Steps of smooth guards (sinusoids, a two-tone sum, a Gaussian bump) whose interior
+    extremum lies near zero; yields ``(ga, ra, gb, rb, h, samples)``."""
+    shapes = [
+        (lambda x: np.cos(x), lambda x: -np.sin(x)),
+        (lambda x: np.cos(x) + 0.3 * np.cos(2.7 * x + 0.4),
+         lambda x: -np.sin(x) - 0.81 * np.sin(2.7 * x + 0.4)),
+        (lambda x: np.exp(-x * x), lambda x: -2.0 * x * np.exp(-x * x)),
+    ]
+    for _ in range(n):
+        f, fp = shapes[rng.integers(len(shapes))]
+        h = rng.uniform(0.02, h_omega_max)
+        t0 = rng.uniform(-3.0, 3.0)
+        g = f(np.linspace(t0, t0 + h, 401))
+        k = np.argmax(np.abs(g - 0.5 * (g[0] + g[-1])))
+        if k in (0, 400):
+            continue
+        variation = abs(g[k] - g[0]) + abs(g[k] - g[-1])
+        g = g - (g[k] + rng.uniform(-1.0, 1.0) * 0.5 * variation)  # extremum near zero
+        yield g[0], fp(t0), g[-1], fp(t0 + h), h, g
+
+
+def test_screen_flags_every_excursion_across_zero_on_resolved_steps():
+    """Whenever a smooth guard crosses zero and back inside a step (same-signed ends), the
+    screen flags the step, for steps up to 2 rad of the guard's phase (a swing period in
+    three steps; the study's steps are ~0.05-0.3 rad)."""
+    rng = np.random.default_rng(11)
+    crossings = 0
+    for ga, ra, gb, rb, h, g in _screen_cases(rng, 6000, 2.0):
+        for direction in (1.0, -1.0, 0.0):
+            if ev.crosses(ga, gb, direction):
+                continue
+            if any(ev.crosses(g[k], g[k + 1], direction) for k in range(len(g) - 1)):
+                crossings += 1
+                assert ev.hermite_flags(ga, ra, gb, rb, h, direction), (ga, ra, gb, rb, h)
+    assert crossings > 500
+
+
+def test_screen_skips_extrema_far_from_zero():
+    """A turning point well away from zero (a swing's apex below the attached end) is not
+    searched; one within the margin, or whose model crosses, is."""
+    h = 0.1
+    # g = -1 + 0.5 cos(t) around its maximum at t = 0.05: variation ~1e-3, value ~-0.5
+    t = np.array([0.0, h]) - 0.05
+    g = -1.0 + 0.5 * np.cos(t)
+    r = -0.5 * np.sin(t)
+    assert r[0] * r[1] < 0.0
+    assert not ev.hermite_flags(g[0], r[0], g[1], r[1], h, 1.0)
+    variation = 2 * (0.5 - 0.5 * math.cos(0.05))
+    top = 0.5 - 1.0  # the maximum's value
+    # the same turning point moved to lie within the margin below and above zero, and to
+    # straddle it (the model crosses)
+    for peak in (-0.5 * ev.GRAZE_MARGIN * variation, 0.5 * ev.GRAZE_MARGIN * variation,
+                 0.25 * variation):
+        shift = peak - top
+        assert ev.hermite_flags(g[0] + shift, r[0], g[1] + shift, r[1], h, 1.0), peak
+    # and farther below zero than the margin
+    shift = -2.0 * ev.GRAZE_MARGIN * variation - top
+    assert not ev.hermite_flags(g[0] + shift, r[0], g[1] + shift, r[1], h, 1.0)
+
+
+def test_hermite_root_estimate_solves_the_monotone_cubic():
+    """The root estimate seeding the dense-output Newton search is the cubic model's root."""
+    rng = np.random.default_rng(5)
+    checked = 0
+    for _ in range(2000):
+        ga, gb = -rng.uniform(1e-6, 1.0), rng.uniform(1e-6, 1.0)
+        da, db = rng.uniform(0.0, 3.0, 2) * (gb - ga)
+        if rng.random() < 0.5:
+            ga, gb, da, db = -ga, -gb, -da, -db
+        if not ev.hermite_monotone(ga, da, gb, db, 1.0):
+            continue
+        s = ev._hermite_root(ga, da, gb, db)
+        coeffs = [2 * ga + da - 2 * gb + db, -3 * ga - 2 * da + 3 * gb - db, da, ga]
+        want = [r.real for r in np.roots(coeffs) if abs(r.imag) < 1e-9 and -1e-9 <= r.real <= 1 + 1e-9]
+        assert len(want) == 1
+        assert s == pytest.approx(want[0], abs=1e-11)
+        checked += 1
+    assert checked > 1000
+
+
+def _swing_steps(d1, d2, tau, rtol):
+    p = ROBOTS["seed2009"].params()[0]
+
+    def f(t, y):
+        dy = np.empty(4)
+        dyn.rhs_swing(p, tau, FM, y, dy)
+        return dy
+    # scipy's DOP853 takes the kernel's steps (test_integrate) and has its dense output
+    return p, solve_ivp(f, (0.0, 3.0), [0.0, 0.0, d1, d2], method="DOP853", rtol=rtol,
+                        atol=rtol * 1e-2, dense_output=True)
+
+
+@pytest.mark.parametrize("rtol", [1e-3, 1e-6, 1e-10])
+def test_screen_margin_covers_the_cubic_models_error_on_the_studys_swings(rtol):
+    """On swings from the study's valley and around it, wherever the swap guard (free end's
+    height), the energy-restored guard (motor on) or theta1 turns inside a step, the cubic
+    model's extremum value is within an eighth of ``GRAZE_MARGIN`` times the model's
+    variation of the dense output's: the screen's margin holds with a factor of 8 to spare."""
+    pivot = np.zeros(2)
+    work = np.zeros(8)
+    worst = 0.0
+    turns = 0
+    for d1 in (0.5, 1.0, 1.6, 2.5):
+        for d2 in (2.0, 6.0, 10.0, 12.0, 15.0):
+            for kind, index, tau in ((G_FREE_END_HEIGHT, 0, 0.0), (G_ENERGY_RESTORED, 0, TAU),
+                                     (G_COORD, 2, 0.0)):
+                p, sol = _swing_steps(d1, d2, tau, rtol)
+                eref = dyn.total_energy8(p, np.array([0.0, 0, 0, 0, 0, 0, d1, d2]))
+
+                def g_r(y):
+                    return (ev.guard(kind, index, 0.0, 0, p, tau, FM, y, pivot, eref),
+                            ev.guard_rate(kind, index, 0, p, tau, FM, y, pivot, work))
+                for i in range(len(sol.t) - 1):
+                    ga, ra = g_r(sol.y[:, i])
+                    gb, rb = g_r(sol.y[:, i + 1])
+                    h = sol.t[i + 1] - sol.t[i]
+                    if ra * rb >= 0.0:
+                        continue
+                    n, s1, _ = ev._hermite_extrema(ga, ra, gb, rb, h)
+                    assert n == 1
+                    gs = ev._hermite_value(s1, ga, h * ra, gb, h * rb)
+                    ts = np.linspace(sol.t[i], sol.t[i + 1], 4001)
+                    gd = np.array([g_r(y)[0] for y in sol.sol(ts).T])
+                    ge = gd[np.argmax(np.abs(gd - 0.5 * (ga + gb)))]
+                    worst = max(worst, abs(ge - gs) / (abs(gs - ga) + abs(gs - gb)))
+                    turns += 1
+    assert turns >= 100
+    assert worst <= ev.GRAZE_MARGIN / 8, worst
