@@ -3,8 +3,9 @@
 A guard ``g`` is a scalar function of the packed state; an event is a crossing of zero in a
 given direction. Crossings are detected on each accepted step from the exact end-point values
 *and* rates ``dg/dt`` (a cubic Hermite model flags an excursion that leaves and re-enters
-inside one step), confirmed by sign checks on the dense output, and located by Brent's method
-on the interpolant to ``4 eps`` in time (scipy's ``solve_event_equation`` tolerance).
+inside one step, and any turning point it puts near zero), confirmed by sign checks on the
+dense output, and located by Newton's method (Brent's as fall-back) on the interpolant to
+``4 eps`` in time (scipy's ``solve_event_equation`` tolerance).
 
 Sign convention (half open): a rising crossing between samples ``a < b`` needs ``g(a) < 0 <=
 g(b)``; falling ``g(a) > 0 >= g(b)``; "either" one of the two. A guard exactly zero at the start
