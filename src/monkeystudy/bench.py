@@ -573,7 +573,8 @@ def main(argv=None) -> int:
             if rhs_kind == "numpy" and method != "DOP853":
                 continue
             # best of three, as the kernel's times: one disturbed pass of scipy would flatter
-            # the ratio (single passes read 8.9 and 12.0 ms/gait in two runs of one day)
+            # the ratio (single passes read 8.9 and 12.0 ms/gait in two runs of one day); the
+            # untimed first pass gives the results and warms scipy up
             res = [sg.gait(a, b, rtol, rtol * 1e-2, method=method) for a, b in pts[:nsub]]
             dt = best_of(lambda: [sg.gait(a, b, rtol, rtol * 1e-2, method=method)
                                   for a, b in pts[:nsub]], 2 if args.quick else 3) / nsub
