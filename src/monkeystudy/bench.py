@@ -185,7 +185,10 @@ class ScipyGait:
 # ------------------------------------------------------------------------------------------
 
 
-@njit(cache=True)
+# Not cached on disk: numba's cache checks only this file, so a cached chain would keep timing
+# the right-hand side it was compiled with after the kernel changes (the kernel's own cache is
+# keyed by a hash of all its sources, see kernel/__init__.py). Compiling the three costs ~1 s.
+@njit
 def _rhs_chain(p, reps, y0):
     """``reps`` RHS evaluations, each input depending on the last output (latency-bound)."""
     y = y0.copy()
@@ -198,7 +201,7 @@ def _rhs_chain(p, reps, y0):
     return y[0]
 
 
-@njit(cache=True)
+@njit
 def _rhs_independent(p, ys, reps):
     """``reps * len(ys)`` RHS evaluations on independent inputs (throughput-bound)."""
     dy = np.zeros(4)
@@ -211,7 +214,7 @@ def _rhs_independent(p, ys, reps):
     return acc
 
 
-@njit(cache=True)
+@njit
 def _rhs_chain_states(p, reps, states):
     """``reps * len(states)`` RHS evaluations as a dependent chain over given swing states
     (each input is the next state nudged by the last output, so the calls cannot overlap)."""

@@ -1,8 +1,9 @@
 """Equations of motion, energy, kinematics, impact and flip of the MonkeyBot (compiled).
 
-The accelerations, energies, flip and impact use ``np.sin``/``np.cos`` (as fast as ``math`` on
-floats) so that they also accept complex arguments: :mod:`.variational` differentiates them by
-complex step, exactly to round-off.
+Every sine and cosine is :func:`.trig.sincos`, one definition (the guards' energies and heights
+then equal those of :func:`total_energy8` and :func:`free_end_offset` bit for bit). It also
+accepts complex arguments: :mod:`.variational` differentiates the vector fields, energies, flip
+and impact by complex step, exactly to round-off.
 
 Pure ``@njit(cache=True)`` functions on float64 arrays; parameter rows follow
 :mod:`monkeystudy.kernel.layout`. Equation references are to ``shared/MODEL.md``.
@@ -29,6 +30,7 @@ from .layout import (
     P_A, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_H, P_I1, P_I2, P_K11, P_K22,
     P_L1, P_L2, P_M1, P_M2, P_M2R2, P_MTOT, P_R1, P_R2, N_PARAMS, PHASE_SWING, PHASE_FLIGHT,
 )
+from .trig import sincos
 
 TWO_PI = 2.0 * math.pi
 
@@ -74,15 +76,13 @@ def flipped_params(p):
 def _field_trig(th1, th2):
     """``(s1, c1, s2, c2, s12, c12)`` for the vector fields, the sum angle from the identity.
 
-    A sine beside the cosine of the same angle is one ``sincos`` call, so the fields need two
-    trigonometric calls instead of three (a gait ~7 % faster, ``monkeystudy bench``). The
+    A sine beside the cosine of the same angle is one :func:`.trig.sincos` (one reduction), so
+    the fields need two instead of three (a gait ~7 % faster, measured with libm's). The
     identity's absolute error, ~1 ulp of the products, is below that of ``sin`` of the rounded
     sum ``theta1 + theta2``. (The guards take the sum angle directly: :func:`angle_trig`.)
     """
-    s1 = np.sin(th1)
-    c1 = np.cos(th1)
-    s2 = np.sin(th2)
-    c2 = np.cos(th2)
+    s1, c1 = sincos(th1)
+    s2, c2 = sincos(th2)
     return s1, c1, s2, c2, s1 * c2 + c1 * s2, c1 * c2 - s1 * s2
 
 
@@ -94,8 +94,10 @@ def angle_trig(th1, th2):
     (:func:`swing_accel_trig`, :func:`flight_accel_trig`) and :func:`.events.trig_of` both
     use it, so they agree bit for bit.
     """
-    return (np.sin(th1), np.cos(th1), np.sin(th2), np.cos(th2), np.sin(th1 + th2),
-            np.cos(th1 + th2))
+    s1, c1 = sincos(th1)
+    s2, c2 = sincos(th2)
+    s12, c12 = sincos(th1 + th2)
+    return s1, c1, s2, c2, s12, c12
 
 
 @njit(cache=True, inline="always")
@@ -135,7 +137,9 @@ def _solve2(m11, m12, m22, r1, r2, lock1, lock2):
 @njit(cache=True, inline="always")
 def _flight_coupling(p, th1, th2):
     """Off-diagonal block of the flight mass matrix, rows (x, y), columns (theta1, theta2)."""
-    return _flight_coupling_t(p, np.cos(th1), np.sin(th1), np.cos(th1 + th2), np.sin(th1 + th2))
+    s1, c1 = sincos(th1)
+    s12, c12 = sincos(th1 + th2)
+    return _flight_coupling_t(p, c1, s1, c12, s12)
 
 
 @njit(cache=True, inline="always")
@@ -162,7 +166,7 @@ def swing_accel_trig(p, tau, fmode, th1, th2, w1, w2):
     For the last stage of a step: the guards at the new point need these very values
     (:func:`angle_trig`, the sum angle taken directly, not by the identity of
     :func:`_field_trig`), and a cosine beside a sine of the same angle costs little (one
-    ``sincos`` call).
+    :func:`.trig.sincos`).
     """
     s1, c1, s2, c2, s12, c12 = angle_trig(th1, th2)
     m11, m12, m22, r1, r2 = _swing_terms_t(p, tau, fmode, s1, s2, c2, s12, w1, w2)
@@ -296,9 +300,10 @@ def holding_torque(phase, p, tau, fmode, y, k):
         th1, th2, w1, w2 = y[2], y[3], y[6], y[7]
         b02, b03, b12, b13, c1, s1, c12, s12 = _flight_coupling(p, th1, th2)
         h = p[P_H]
-        r2 = (-h * math.sin(th2) * w1 * w1 - p[P_G] * p[P_M2R2] * s12 + tau
+        s2, c2 = sincos(th2)
+        r2 = (-h * s2 * w1 * w1 - p[P_G] * p[P_M2R2] * s12 + tau
               - p[P_B_JOINT] * w2)
-        return (b03 * dy[4] + b13 * dy[5] + (p[P_K22] + h * math.cos(th2)) * dy[6]
+        return (b03 * dy[4] + b13 * dy[5] + (p[P_K22] + h * c2) * dy[6]
                 + p[P_K22] * dy[7] - r2)
     return 0.0
 
@@ -309,10 +314,12 @@ def holding_torque(phase, p, tau, fmode, y, k):
 @njit(cache=True)
 def kinetic_energy(p, th1, th2, vx, vy, w1, w2):
     """Kinetic energy K [J], MODEL.md section 1 (``vx = vy = 0`` while swinging)."""
-    k = kinetic_energy_rot(p, np.cos(th2), w1, w2)
+    _, c2 = sincos(th2)
+    k = kinetic_energy_rot(p, c2, w1, w2)
     if vx != 0.0 or vy != 0.0:
-        k += kinetic_energy_trans(p, np.cos(th1), np.sin(th1), np.cos(th1 + th2),
-                                  np.sin(th1 + th2), vx, vy, w1, w2)
+        s1, c1 = sincos(th1)
+        s12, c12 = sincos(th1 + th2)
+        k += kinetic_energy_trans(p, c1, s1, c12, s12, vx, vy, w1, w2)
     return k
 
 
@@ -351,7 +358,9 @@ def kinetic_trans_s(a, m2r2, mt, c1, s1, c12, s12, vx, vy, w1, w2):
 @njit(cache=True)
 def potential_energy(p, y_end, th1, th2):
     """Potential energy V [J] with the (x, y) end at world height ``y_end`` (MODEL.md sec. 1)."""
-    return potential_energy_t(p, y_end, np.cos(th1), np.cos(th1 + th2))
+    _, c1 = sincos(th1)
+    _, c12 = sincos(th1 + th2)
+    return potential_energy_t(p, y_end, c1, c12)
 
 
 @njit(cache=True, inline="always")
@@ -376,16 +385,17 @@ def total_energy8(p, s):
 @njit(cache=True)
 def free_end_offset(p, th1, th2):
     """Position of the free end relative to the (x, y) end [m] (MODEL.md section 1, B)."""
-    return (p[P_L1] * math.sin(th1) + p[P_L2] * math.sin(th1 + th2),
-            -p[P_L1] * math.cos(th1) - p[P_L2] * math.cos(th1 + th2))
+    s1, c1 = sincos(th1)
+    s12, c12 = sincos(th1 + th2)
+    return p[P_L1] * s1 + p[P_L2] * s12, -p[P_L1] * c1 - p[P_L2] * c12
 
 
 @njit(cache=True)
 def points8(p, s, out):
     """World positions of the (x, y) end, CG1, joint, CG2 and the free end: ``out[5, 2]``."""
     x, y, th1, th2 = s[0], s[1], s[2], s[3]
-    s1, c1 = math.sin(th1), math.cos(th1)
-    s12, c12 = math.sin(th1 + th2), math.cos(th1 + th2)
+    s1, c1 = sincos(th1)
+    s12, c12 = sincos(th1 + th2)
     L1, L2, r1, r2 = p[P_L1], p[P_L2], p[P_R1], p[P_R2]
     out[0, 0], out[0, 1] = x, y
     out[1, 0], out[1, 1] = x + r1 * s1, y - r1 * c1
@@ -403,8 +413,7 @@ def flight_matrices(p, s):
     th1, th2, w1, w2 = s[2], s[3], s[6], s[7]
     b02, b03, b12, b13, c1, s1, c12, s12 = _flight_coupling(p, th1, th2)
     h = p[P_H]
-    c2 = math.cos(th2)
-    s2 = math.sin(th2)
+    s2, c2 = sincos(th2)
     M = np.zeros((4, 4))
     M[0, 0] = M[1, 1] = p[P_MTOT]
     M[0, 2] = M[2, 0] = b02
@@ -454,7 +463,7 @@ def attach_xy_end(p, s):
     th1, th2, vx, vy, w1, w2 = s[2], s[3], s[4], s[5], s[6], s[7]
     b02, b03, b12, b13, c1, s1, c12, s12 = _flight_coupling(p, th1, th2)
     h = p[P_H]
-    c2 = np.cos(th2)
+    _, c2 = sincos(th2)
     m11 = p[P_K11] + 2.0 * h * c2
     m12 = p[P_K22] + h * c2
     m22 = p[P_K22]
@@ -485,8 +494,8 @@ def flip_state(p, s):
     """
     x, y, th1, th2, vx, vy, w1, w2 = s[0], s[1], s[2], s[3], s[4], s[5], s[6], s[7]
     L1, L2 = p[P_L1], p[P_L2]
-    s1, c1 = np.sin(th1), np.cos(th1)
-    s12, c12 = np.sin(th1 + th2), np.cos(th1 + th2)
+    s1, c1 = sincos(th1)
+    s12, c12 = sincos(th1 + th2)
     s[0] = x + L1 * s1 + L2 * s12
     s[1] = y - L1 * c1 - L2 * c12
     s[2] = wrap_angle(math.pi + th1 + th2)

@@ -19,12 +19,12 @@ import numpy as np
 from numba import njit
 
 from .dynamics import (
-    attach_xy_end, flight_accel, flip_state, kinetic_energy, potential_energy, rhs_flight,
-    rhs_swing, swing_accel, total_energy8,
+    attach_xy_end, flight_accel, flip_state, free_end_offset, kinetic_energy, potential_energy,
+    rhs_flight, rhs_swing, swing_accel, total_energy8,
 )
 from .hybrid import apply_magnets
 from .layout import (
-    G_COORD, G_ENERGY, G_ENERGY_RESTORED, G_FREE_END_HEIGHT, G_FREE_END_Y, P_L1, P_L2,
+    G_COORD, G_ENERGY, G_ENERGY_RESTORED, G_FREE_END_HEIGHT, G_FREE_END_Y,
     PHASE_FLIGHT, PHASE_SWING,
 )
 
@@ -197,17 +197,17 @@ def variational_rhs8(phase, p, tau, Y, dY):
 
 @njit(cache=True)
 def guard8(kind, index, value, p, s, eref):
-    """A segment guard on the full 8-state, as :func:`.events.guard` computes it, but with
-    ``np.cos`` so that complex steps pass through (``G_TIME`` and ``G_NONE`` are not state
+    """A segment guard on the full 8-state, as :func:`.events.guard` computes it, from the
+    8-state so that complex steps pass through (``G_TIME`` and ``G_NONE`` are not state
     guards: 0, typed like ``s`` so that every branch returns the same type)."""
     if kind == G_FREE_END_HEIGHT:
-        return -p[P_L1] * np.cos(s[2]) - p[P_L2] * np.cos(s[2] + s[3]) - value
+        return free_end_offset(p, s[2], s[3])[1] - value
     if kind == G_ENERGY_RESTORED:
         return total_energy8(p, s) - eref - value
     if kind == G_ENERGY:
         return total_energy8(p, s) - value
     if kind == G_FREE_END_Y:
-        return s[1] - p[P_L1] * np.cos(s[2]) - p[P_L2] * np.cos(s[2] + s[3]) - value
+        return s[1] + free_end_offset(p, s[2], s[3])[1] - value
     if kind == G_COORD:
         return s[index] - value
     return 0.0 * s[0]
