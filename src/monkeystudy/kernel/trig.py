@@ -48,30 +48,25 @@ def fma(typingctx, a, b, c):
     return sig, codegen
 
 
-@intrinsic
-def _bits(typingctx, x):
-    """The IEEE-754 bits of a float64 as an int64 (a register move)."""
-    if not isinstance(x, types.Float):
-        return None
-    sig = types.int64(types.float64)
+def _bitcast(from_kind, from_type, to_type, llvm_to):
+    """An intrinsic reinterpreting the 64 bits of a ``from_type`` as a ``to_type`` (a register
+    move); it accepts arguments of the numba type class ``from_kind``."""
+    @intrinsic
+    def bitcast(typingctx, x):
+        if not isinstance(x, from_kind):
+            return None
 
-    def codegen(context, builder, signature, args):
-        return builder.bitcast(args[0], ir.IntType(64))
+        def codegen(context, builder, signature, args):
+            return builder.bitcast(args[0], llvm_to)
 
-    return sig, codegen
+        return to_type(from_type), codegen
+
+    return bitcast
 
 
-@intrinsic
-def _from_bits(typingctx, i):
-    """The float64 whose IEEE-754 bits are the int64 ``i``."""
-    if not isinstance(i, types.Integer):
-        return None
-    sig = types.float64(types.int64)
-
-    def codegen(context, builder, signature, args):
-        return builder.bitcast(args[0], ir.DoubleType())
-
-    return sig, codegen
+#: the IEEE-754 bits of a float64 as an int64, and back
+_bits = _bitcast(types.Float, types.float64, types.int64, ir.IntType(64))
+_from_bits = _bitcast(types.Integer, types.int64, types.float64, ir.DoubleType())
 
 
 # fdlibm k_sin.c: sin r = r + r^3 (S1 + r^2 S2 + ... + r^10 S6) on [-pi/4, pi/4]
