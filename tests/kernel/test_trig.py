@@ -130,3 +130,14 @@ def test_same_bits_in_a_contracting_step_and_in_the_guards():
         trig_of(PHASE_SWING, np.array([th1, th2, 0.0, 0.0]), trig_buf)
         c = tuple(trig_buf[[T_S1, T_C1, T_S2, T_C2, T_S12, T_C12]])
         assert a == b == c
+
+
+def test_pieces_of_pi_over_two_and_two_over_pi():
+    """Each piece of pi/2 is the double nearest what the previous ones leave (300-bit pi)."""
+    mpmath.mp.prec = 300
+    rest = mpmath.pi / 2
+    for piece in (trig.PIO2_1, trig.PIO2_2, trig.PIO2_3):
+        assert piece == float(rest)
+        rest -= mpmath.mpf(piece)
+    assert abs(rest) < 1e-49
+    assert trig.INV_PIO2 == float(2 / mpmath.pi)
