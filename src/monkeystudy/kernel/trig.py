@@ -11,18 +11,19 @@ times the swing right-hand side with it).
 Algorithm, for ``|x| < REDUCE_BOUND``: ``k = round(x 2/pi)``, ``r = x - k pi/2`` by Cody-Waite
 reduction with ``pi/2`` split into three doubles (each product exact inside a fused
 multiply-add), then ``sin r`` and ``cos r`` on ``[-pi/4, pi/4]`` by fdlibm's kernel polynomials
-(``k_sin.c``, ``k_cos.c``, same coefficients) and the quadrant ``k mod 4`` chosen by selects and
-sign flips, without branches. The reduced argument is one double, without fdlibm's tail, so
-the error is up to ~1.3 ulp instead of fdlibm's ~1 (``tests/kernel/test_trig.py`` measures it
-against 120-bit values, including arguments next to multiples of pi/2, where the third piece of
-pi/2 matters). Larger arguments, infinities and NaN go to the C library.
+(``k_sin.c``, ``k_cos.c``, same coefficients, evaluated by Estrin's scheme) and the quadrant
+``k mod 4`` chosen by selects and sign flips, without branches. The reduced argument is one
+double, without fdlibm's tail, so the error is up to ~1.3 ulp instead of fdlibm's ~1
+(``tests/kernel/test_trig.py`` measures it against 120-bit values, including arguments next to
+multiples of pi/2, where the third piece of pi/2 matters). Larger arguments, infinities and NaN
+go to the C library.
 
 The same bits wherever it is inlined: :func:`sincos` is compiled on its own, strictly (no
 fast-math flags), and LLVM keeps those per-instruction flags when it inlines it, so the
 ``contract`` flag of the Runge-Kutta steps does not reach it, and the sines a step leaves for
-the guards equal those :func:`.events.trig_of` computes (tested). The Horner steps are explicit
-fused multiply-adds (``llvm.fma``, one rounding each) for speed and accuracy, not left to
-contraction.
+the guards equal those :func:`.events.trig_of` computes (tested). The polynomial steps are
+explicit fused multiply-adds (``llvm.fma``, one rounding each) for speed and accuracy, not left
+to contraction.
 
 Complex arguments (the complex-step derivatives of :mod:`.variational`) go to ``np.sin`` /
 ``np.cos``: only real evaluations need to be fast.
@@ -108,12 +109,16 @@ def _sincos_reduced(x):
     r = fma(-k, PIO2_2, r)
     r = fma(-k, PIO2_3, r)
     z = r * r
-    sin_r = fma(z * r, fma(z, fma(z, fma(z, fma(z, fma(z, S6, S5), S4), S3), S2), S1), r)
+    # the polynomials by Estrin's scheme (pairs, then powers z^2): three dependent multiply-adds
+    # instead of Horner's five, and the stage's next step waits on this latency
+    z2 = z * z
+    poly_s = fma(z2, fma(z2, fma(z, S6, S5), fma(z, S4, S3)), fma(z, S2, S1))
+    sin_r = fma(z * r, poly_s, r)
+    poly_c = fma(z2, fma(z2, fma(z, C6, C5), fma(z, C4, C3)), fma(z, C2, C1))
     half_z = 0.5 * z
     w = 1.0 - half_z
-    tail = z * fma(z, fma(z, fma(z, fma(z, fma(z, C6, C5), C4), C3), C2), C1)
-    # fdlibm's cos form: 1 - z/2 rounded, plus what that rounding lost, plus the tail
-    cos_r = w + fma(z, tail, (1.0 - w) - half_z)
+    # fdlibm's cos form: 1 - z/2 rounded, plus what that rounding lost, plus the tail z^2 poly
+    cos_r = w + fma(z2, poly_c, (1.0 - w) - half_z)
     # x = k pi/2 + r: odd quadrants swap sine and cosine; the sign bits follow k mod 4
     odd = (quadrant & 1) == 1
     s = cos_r if odd else sin_r
