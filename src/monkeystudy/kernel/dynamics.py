@@ -115,9 +115,11 @@ def _swing_terms_t(p, tau, fmode, s1, s2, c2, s12, w1, w2):
     m11 = p[P_K11] + 2.0 * h * c2
     m12 = p[P_K22] + h * c2
     m22 = p[P_K22]
-    r1 = (h * s2 * (2.0 * w1 * w2 + w2 * w2) - p[P_G] * p[P_A] * s1 - gm2r2s12
-          - p[P_B_PIVOT] * w1 - p[P_C_PIVOT] * fmode[0])
-    r2 = -h * s2 * w1 * w1 - gm2r2s12 + tau - p[P_B_JOINT] * w2 - p[P_C_JOINT] * fmode[1]
+    # the term in s12 last: it waits on both angles' sines and cosines (the identity of
+    # _field_trig), the latest operand of a stage, so the other terms are summed meanwhile
+    r1 = (h * s2 * (2.0 * w1 * w2 + w2 * w2) - p[P_G] * p[P_A] * s1
+          - p[P_B_PIVOT] * w1 - p[P_C_PIVOT] * fmode[0]) - gm2r2s12
+    r2 = (-h * s2 * w1 * w1 + tau - p[P_B_JOINT] * w2 - p[P_C_JOINT] * fmode[1]) - gm2r2s12
     return m11, m12, m22, r1, r2
 
 
@@ -130,8 +132,10 @@ def _solve2(m11, m12, m22, r1, r2, lock1, lock2):
         return 0.0, r2 / m22
     if lock2:
         return r1 / m11, 0.0
-    det = m11 * m22 - m12 * m12
-    return (m22 * r1 - m12 * r2) / det, (m11 * r2 - m12 * r1) / det
+    # the reciprocal of the determinant needs only the mass matrix (cos theta2), known before
+    # the right-hand side (sin(theta1 + theta2)): divided meanwhile, then two products
+    inv_det = 1.0 / (m11 * m22 - m12 * m12)
+    return (m22 * r1 - m12 * r2) * inv_det, (m11 * r2 - m12 * r1) * inv_det
 
 
 @njit(cache=True, inline="always")
