@@ -245,9 +245,10 @@ def gait_swing_states(pts) -> np.ndarray:
 def rhs_cost_gait_ns(par, states) -> float:
     """ns per swing RHS evaluation as a dependent chain over the gaits' own states.
 
-    libm's sine and cosine take longer for arguments beyond ~2.4 rad than near zero (~20 vs
-    ~13 ns here), and the gaits' joint angle runs up to ~pi: this is the RHS cost at the
-    arguments the integrator actually sees, the fair denominator for the overhead ratio.
+    The RHS cost at the arguments the integrator actually sees, the fair denominator for the
+    overhead ratio: libm's sine and cosine took ~50 % longer beyond ~2.4 rad than near zero,
+    where the gaits' joint angle runs; the kernel's own (``kernel/trig.py``) cost the same at
+    every angle, and this figure shows whether that still holds.
     """
     _rhs_chain_states(par[0], 1, states[:4])
     reps = max(1, 200_000 // len(states))
