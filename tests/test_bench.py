@@ -21,3 +21,14 @@ def test_cost_split_is_the_least_squares_line():
     # normal equations: the residual is orthogonal to both columns
     assert abs(residual.sum()) < 1e-15
     assert abs((residual * nfev).sum()) < 1e-12
+
+
+def test_sincos_chains_compute_the_same_recurrence():
+    """The bench's two sine-and-cosine chains differ only in whose sines they use: the same
+    recurrence, the same result to round-off (so their times compare like with like)."""
+    from monkeystudy.bench import _sincos_chain_kernel, _sincos_chain_libm
+
+    a = _sincos_chain_kernel(2000, 0.3, 2.6)
+    b = _sincos_chain_libm(2000, 0.3, 2.6)
+    assert a == pytest.approx(b, rel=1e-12)
+    assert a != _sincos_chain_kernel(2001, 0.3, 2.6)

@@ -26,6 +26,7 @@ from numba import njit
 
 from .controllers import HorizontalSearch, Integrator, settings_vector
 from .kernel.dynamics import rhs_swing
+from .kernel.trig import sincos
 from .kernel.gait import N_RESULT, R_ERROR, R_NFEV, R_REJECTED, R_STEPS, R_T_END, R_T_MOTOR, \
     R_T_SWITCH, horizontal_gait_batch
 from .robot import SEED2009_TORQUE, Robot
@@ -291,6 +292,45 @@ def rhs_cost_ns(par) -> tuple[float, float]:
     return chain, indep
 
 
+@njit
+def _sincos_chain_kernel(n, a, b):
+    """``n`` pairs of the kernel's :func:`.kernel.trig.sincos` of two angles, each pair's
+    angles depending on the last results (latency-bound, as in a Runge-Kutta stage)."""
+    acc = 0.0
+    for _ in range(n):
+        s1, c1 = sincos(a)
+        s2, c2 = sincos(b)
+        acc += s1 * c2 + c1 * s2
+        a = a + 1e-3 * (s1 * c2 + 0.3)
+        b = b - 1e-3 * (c1 * s2 + 0.2)
+    return acc + a + b
+
+
+@njit
+def _sincos_chain_libm(n, a, b):
+    """:func:`_sincos_chain_kernel` with the C library's ``sin`` and ``cos``."""
+    acc = 0.0
+    for _ in range(n):
+        s1 = np.sin(a)
+        c1 = np.cos(a)
+        s2 = np.sin(b)
+        c2 = np.cos(b)
+        acc += s1 * c2 + c1 * s2
+        a = a + 1e-3 * (s1 * c2 + 0.3)
+        b = b - 1e-3 * (c1 * s2 + 0.2)
+    return acc + a + b
+
+
+def sincos_cost_ns() -> tuple[float, float]:
+    """ns per pair of dependent sine-and-cosine evaluations: (kernel's, C library's)."""
+    n = 200_000
+    out = []
+    for chain in (_sincos_chain_kernel, _sincos_chain_libm):
+        chain(10, 0.3, 2.6)
+        out.append(best_of(lambda: chain(n, 0.3, 2.6)) / n * 1e9)
+    return out[0], out[1]
+
+
 #: the kernel configurations timed: label -> (method, step-size controller)
 KERNEL_CONFIGS = {
     "dop853": ("dop853", "scipy"),
@@ -546,6 +586,11 @@ def main(argv=None) -> int:
           f"{chain_ns:.1f} ns per evaluation as a dependent chain ({chain_before:.1f} / "
           f"{chain_after:.1f}), {indep_ns:.1f} ns independent (both at small angles); "
           f"{gait_ns:.1f} ns as a chain over the gaits' own states")
+
+    trig_kernel, trig_libm = sincos_cost_ns()
+    print(f"sine and cosine of two angles as a dependent chain: {trig_kernel:.1f} ns with the "
+          f"kernel's own (kernel/trig.py), {trig_libm:.1f} ns with the C library's "
+          f"({trig_libm / trig_kernel:.2f}x)")
 
     print("\nkernel, per gait (errors: max |difference| of gait error and event times "
           "vs scipy DOP853 rtol 1e-13):")

@@ -6,7 +6,7 @@ floating-point register (all are caller-saved on x86-64), so the stage sums are 
 reloaded around each call, and the two angles cannot be evaluated side by side. Here the
 reduction and both polynomials are straight-line code the compiler inlines and interleaves: a
 dependent chain of two sines and cosines costs ~19 ns instead of ~33 ns (``monkeystudy bench``
-times the swing right-hand side with it).
+prints both, and the swing right-hand side with it).
 
 Algorithm, for ``|x| < REDUCE_BOUND``: ``k = round(x 2/pi)``, ``r = x - k pi/2`` by Cody-Waite
 reduction with ``pi/2`` split into three doubles (each product exact inside a fused
