@@ -35,6 +35,36 @@ FLIGHT = {"n": 8, "pos": [0, 1, 2, 3], "vel": [4, 5, 6, 7], "accel": "flight_acc
           "args": (2, 3, 6, 7)}
 
 
+def needed(lay) -> list[int]:
+    """Stage values the field reads: the angles and all velocities (x, y never enter)."""
+    return sorted(set(lay["args"]) | set(lay["vel"]))
+
+
+def stage_state(lay, coeffs, prefix, base="y") -> list[str]:
+    """``prefix_i = base_i + (sum_j coeffs_j K[j, i]) h`` for the components the field reads."""
+    return [f"    {prefix}{i} = {base}[{i}] + ({lincomb(coeffs, lambda j: f'K[{j}, {i}]')}) * h"
+            for i in needed(lay)]
+
+
+def stage_eval(lay, prefix, dest, trig=False) -> list[str]:
+    """The field at the stage values ``prefix_i`` into ``dest(i)`` (positions' rates are the
+    velocities); with ``trig``, also the sines and cosines of its angles into ``trig``."""
+    n = lay["n"]
+    acc_names = ["ax", "ay", "a1", "a2"] if n == 8 else ["a1", "a2"]
+    args = ", ".join(f"{prefix}{i}" for i in lay["args"])
+    if trig:
+        code = [f"    {', '.join(acc_names + TRIG)} = {lay['accel']}_trig(p, tau, fmode, "
+                f"{args})"]
+        code += [f"    trig[{k}] = {v}" for k, v in enumerate(TRIG)]
+    else:
+        code = [f"    {', '.join(acc_names)} = {lay['accel']}(p, tau, fmode, {args})"]
+    for k, i in enumerate(lay["pos"]):
+        code.append(f"    {dest(i)} = {prefix}{lay['vel'][k]}")
+    for k, i in enumerate(lay["vel"]):
+        code.append(f"    {dest(i)} = {acc_names[k]}")
+    return code
+
+
 def gen_step(name: str, A, B, ns: int) -> str:
     """A step unrolled into scalars for each packed size (4 swing, 8 flight)."""
     out = []
@@ -45,38 +75,15 @@ def gen_step(name: str, A, B, ns: int) -> str:
             f"def {name}_step{n}(p, tau, fmode, y, f, h, K, trig, y_new, f_new):",
         ]
         lines += [f"    K[0, {i}] = f[{i}]" for i in range(n)]
-
-        # stage values the field reads: the angles and all velocities (x, y never enter)
-        needed = sorted(set(lay["args"]) | set(lay["vel"]))
-
-        def stage_state(coeffs, prefix):
-            return [f"    {prefix}{i} = y[{i}] + ({lincomb(coeffs, lambda j: f'K[{j}, {i}]')}) * h"
-                    for i in needed]
-
-        def stage_eval(prefix, dest, trig=False):
-            acc_names = ["ax", "ay", "a1", "a2"] if n == 8 else ["a1", "a2"]
-            args = ", ".join(f"{prefix}{i}" for i in lay["args"])
-            if trig:
-                code = [f"    {', '.join(acc_names + TRIG)} = {lay['accel']}_trig(p, tau, fmode, "
-                        f"{args})"]
-                code += [f"    trig[{k}] = {v}" for k, v in enumerate(TRIG)]
-            else:
-                code = [f"    {', '.join(acc_names)} = {lay['accel']}(p, tau, fmode, {args})"]
-            for k, i in enumerate(lay["pos"]):
-                code.append(f"    {dest(i)} = {prefix}{lay['vel'][k]}")
-            for k, i in enumerate(lay["vel"]):
-                code.append(f"    {dest(i)} = {acc_names[k]}")
-            return code
-
         for s in range(1, ns):
-            lines += stage_state(A[s, :s], "z")
-            lines += stage_eval("z", lambda i, s=s: f"K[{s}, {i}]")
+            lines += stage_state(lay, A[s, :s], "z")
+            lines += stage_eval(lay, "z", lambda i, s=s: f"K[{s}, {i}]")
         lines += [f"    y_new[{i}] = y[{i}] + h * ({lincomb(B[:ns], lambda j: f'K[{j}, {i}]')})"
                   for i in range(n)]
-        lines += [f"    z{i} = y_new[{i}]" for i in sorted(set(lay["args"]) | set(lay["vel"]))]
+        lines += [f"    z{i} = y_new[{i}]" for i in needed(lay)]
         # the last stage (first-same-as-last) also leaves the sines and cosines at the new point
         # for the guards (layout ``T_*``)
-        lines += stage_eval("z", lambda i: f"f_new[{i}]", trig=True)
+        lines += stage_eval(lay, "z", lambda i: f"f_new[{i}]", trig=True)
         lines += [f"    K[{ns}, {i}] = f_new[{i}]" for i in range(n)]
         lines.append("")
         out.append("\n".join(lines))
@@ -94,39 +101,116 @@ def gen_step(name: str, A, B, ns: int) -> str:
     return "\n\n".join(out)
 
 
-def gen_error_dop853() -> str:
-    e5 = lincomb(T.DOP853_E5, lambda j: f"K[{j}, i]")
-    e3 = lincomb(T.DOP853_E3, lambda j: f"K[{j}, i]")
-    return f'''@njit(cache=True, fastmath=FM, error_model=EM)
-def dop853_error_norm(K, h, y, y_new, n, rtol, atol):
-    """DOP853's combined 5th/3rd-order error norm (scipy ``DOP853._estimate_error_norm``)."""
-    e5 = 0.0
-    e3 = 0.0
-    for i in range(n):
-        # one division, not two (within an ulp of scipy's err / scale)
-        isc = 1.0 / (atol + max(abs(y[i]), abs(y_new[i])) * rtol)
-        a5 = ({e5}) * isc
-        a3 = ({e3}) * isc
-        e5 += a5 * a5
-        e3 += a3 * a3
-    if e5 == 0.0 and e3 == 0.0:
-        return 0.0
-    return abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * n)
-'''
+def gen_dense_dop853() -> str:
+    """DOP853's dense-output preparation unrolled (three extra stages, then the coefficients
+    of the 7th-order interpolant), for each packed size, and its dispatcher."""
+    A, D = T.DOP853_A, T.DOP853_D
+    ns, ne = T.DOP853_N_STAGES, T.DOP853_N_STAGES_EXTENDED
+    out = []
+    for lay in (SWING, FLIGHT):
+        n = lay["n"]
+        lines = [
+            "@njit(cache=True, fastmath=FM, error_model=EM)",
+            f"def dop853_dense{n}(p, tau, fmode, y_old, y_new, f_new, h, K, Fd):",
+            '    """Dense-output coefficients of the last step into ``Fd`` (scipy '
+            '``Dop853DenseOutput``);\n    ``K`` holds the step\'s stages, ``K[12]`` its '
+            '``f_new``."""',
+        ]
+        for s in range(ns + 1, ne):
+            lines += stage_state(lay, A[s, :s], "z", base="y_old")
+            lines += stage_eval(lay, "z", lambda i, s=s: f"K[{s}, {i}]")
+        for i in range(n):
+            lines += [
+                f"    dy = y_new[{i}] - y_old[{i}]",
+                f"    Fd[0, {i}] = dy",
+                f"    Fd[1, {i}] = h * K[0, {i}] - dy",
+                f"    Fd[2, {i}] = 2.0 * dy - h * (f_new[{i}] + K[0, {i}])",
+            ]
+            lines += [f"    Fd[{3 + r}, {i}] = h * ({lincomb(D[r, :ne], lambda j: f'K[{j}, {i}]')})"
+                      for r in range(D.shape[0])]
+        out.append("\n".join(lines) + "\n")
+    out.append("\n".join([
+        "@njit(cache=True, error_model=EM)",
+        "def dop853_dense(p, tau, fmode, y_old, y_new, f_new, h, n, K, Fd):",
+        '    """:func:`dop853_dense4` or :func:`dop853_dense8` by packed size ``n``; returns the '
+        'extra\n    right-hand-side evaluations."""',
+        "    if n == 4:",
+        "        dop853_dense4(p, tau, fmode, y_old, y_new, f_new, h, K, Fd)",
+        "    else:",
+        "        dop853_dense8(p, tau, fmode, y_old, y_new, f_new, h, K, Fd)",
+        f"    return {ne - ns - 1}",
+        "",
+    ]))
+    return "\n\n".join(out)
 
 
-def gen_error_rms(name: str, E, doc: str) -> str:
-    e = lincomb(E, lambda j: f"K[{j}, i]")
-    return f'''@njit(cache=True, fastmath=FM, error_model=EM)
-def {name}_error_norm(K, h, y, y_new, n, rtol, atol):
-    """{doc}"""
-    acc = 0.0
-    for i in range(n):
-        sc = atol + max(abs(y[i]), abs(y_new[i])) * rtol
-        a = ({e}) * h / sc
-        acc += a * a
-    return math.sqrt(acc / n)
-'''
+def pairwise(terms: list[str]) -> str:
+    """``terms`` summed as a balanced tree (a shorter dependent chain than a running sum)."""
+    while len(terms) > 1:
+        terms = [f"({terms[k]} + {terms[k + 1]})" if k + 1 < len(terms) else terms[k]
+                 for k in range(0, len(terms), 2)]
+    return terms[0][1:-1] if terms[0].startswith("(") else terms[0]
+
+
+def gen_error_sq(name: str, doc: str, estimates, finish: str) -> str:
+    """Squared error norms unrolled for each packed size, and their dispatcher.
+
+    ``estimates`` maps a prefix to the weights of one error estimate; ``finish`` is the
+    returned expression of the pairwise sums of squares (named by prefix) and ``n``.
+    """
+    out = []
+    for n in (4, 8):
+        lines = [
+            "@njit(cache=True, fastmath=FM, error_model=EM)",
+            f"def {name}_error_sq{n}(K, h, y, y_new, rtol, atol):",
+            f'    """{doc}"""',
+        ]
+        for i in range(n):
+            # one division, not one per estimate (within an ulp of scipy's err / scale)
+            lines.append(f"    isc{i} = 1.0 / (atol + max(abs(y[{i}]), abs(y_new[{i}])) * rtol)")
+            for prefix, (E, scaled_by_h) in estimates.items():
+                hfac = "(h * isc{i})" if scaled_by_h else "isc{i}"
+                lines.append(f"    {prefix}{i} = ({lincomb(E, lambda j: f'K[{j}, {i}]')}) * "
+                             + hfac.format(i=i))
+        for prefix in estimates:
+            lines.append(f"    {prefix} = "
+                         + pairwise([f"{prefix}{i} * {prefix}{i}" for i in range(n)]))
+        lines += [f"    {line}" for line in finish.format(n=f"{n}.0").splitlines()]
+        out.append("\n".join(lines) + "\n")
+    out.append("\n".join([
+        "@njit(cache=True, error_model=EM)",
+        f"def {name}_error_sq(K, h, y, y_new, n, rtol, atol):",
+        f'    """:func:`{name}_error_sq4` or :func:`{name}_error_sq8` by packed size ``n``."""',
+        "    if n == 4:",
+        f"        return {name}_error_sq4(K, h, y, y_new, rtol, atol)",
+        f"    return {name}_error_sq8(K, h, y, y_new, rtol, atol)",
+        "",
+    ]))
+    return "\n\n".join(out)
+
+
+def gen_errors() -> str:
+    dop853 = gen_error_sq(
+        "dop853",
+        "Square of DOP853's combined 5th/3rd-order error norm (scipy "
+        "``DOP853._estimate_error_norm``):\n    ``h^2 e5^2 / ((e5 + e3 / 100) n)``, ``e5``, "
+        "``e3`` the sums of squares of the scaled estimates.",
+        {"e5_": (T.DOP853_E5, False), "e3_": (T.DOP853_E3, False)},
+        "if e5_ == 0.0:\n"
+        "    return 0.0\n"
+        "# e5 / (e5 + e3 / 100) <= 1: no overflow where the norm itself is finite\n"
+        "return (h * h) * (e5_ * (e5_ / ((e5_ + 0.01 * e3_) * {n})))",
+    )
+    rms = []
+    for name, E in (("rk45", T.RK45_E), ("vern9", T.VERN9_E)):
+        rms.append(gen_error_sq(
+            name,
+            f"Square of {name.upper()}'s RMS error norm of ``h sum_i E_i k_i`` (scipy's "
+            "``RungeKutta._estimate_error_norm``).",
+            {"e_": (E, True)},
+            "return e_ / {n}",
+        ))
+    return "\n\n".join([dop853] + rms)
 
 
 def generate() -> str:
@@ -136,8 +220,6 @@ Literal coefficients from :mod:`monkeystudy.kernel.tableaux`, zeros dropped. ``F
 floating-point contraction (fused multiply-add): it never reassociates sums, so the result is
 as accurate as the generic loop (a single rounding per multiply-add instead of two).
 """
-import math
-
 from numba import njit
 
 from .dynamics import flight_accel, flight_accel_trig, swing_accel, swing_accel_trig
@@ -154,11 +236,8 @@ EM = "numpy"
         gen_step("dop853", T.DOP853_A, T.DOP853_B, T.DOP853_N_STAGES),
         gen_step("rk45", T.RK45_A, T.RK45_B, T.RK45_N_STAGES),
         gen_step("vern9", T.VERN9_A, T.VERN9_B, T.VERN9_N_STAGES),
-        gen_error_dop853(),
-        gen_error_rms("rk45", T.RK45_E,
-                      "RK45's RMS error norm (scipy ``RungeKutta._estimate_error_norm``)."),
-        gen_error_rms("vern9", T.VERN9_E,
-                      "Vern9's RMS error norm of ``h sum_i E_i k_i`` (scipy's norm, as RK45's)."),
+        gen_dense_dop853(),
+        gen_errors(),
     ]
     return head + "\n\n".join(body)
 

@@ -7,8 +7,8 @@ from them.
   new point's angles, so a guard evaluated from them (``guard_trig``, and the hot loop's
   ``guard_and_rate_step``) equals :func:`guard` there exactly (the event logic compares signs of
   guards evaluated both ways).
-* DOP853's controller power ``en ** (-1/8)``, taken from square roots, is within two ulps of
-  ``pow``.
+* DOP853's controller power ``en ** (-1/8)``, taken from the squared norm by
+  :func:`.roots.inv_root16`, is within two ulps of scipy's ``pow`` of the norm.
 """
 import importlib.util
 import math
@@ -21,7 +21,7 @@ from monkeystudy.kernel import dynamics as dyn
 from monkeystudy.kernel.events import (
     guard, guard_and_rate_step, guard_rate, guard_rate_trig, guard_trig, trig_of,
 )
-from monkeystudy.kernel.integrate import error_power, rk_step
+from monkeystudy.kernel.integrate import error_power_sq, rk_step
 from monkeystudy.kernel.layout import (
     G_COORD, G_ENERGY, G_ENERGY_RESTORED, G_FREE_END_HEIGHT, G_FREE_END_Y, METHOD_DOP853,
     METHOD_RK45, N_TRIG, PHASE_FLIGHT, PHASE_SWING,
@@ -111,10 +111,16 @@ def test_energy_guard_is_total_energy8_exactly():
             assert g == dyn.total_energy8(p, s8)
 
 
-def test_dop853_error_power_is_pow_to_two_ulps():
+def test_dop853_error_power_is_scipys_pow_to_two_ulps():
+    """The controller's factor from ``en_sq`` against scipy's ``en ** (-1/8)`` of the norm
+    itself (``en`` is the rounded square root of ``en_sq`` here, as the norm scipy computes is
+    rounded): inv_root16's ~1 ulp plus pow's 0.5 plus the norm's rounding, scaled by 1/8."""
     rng = np.random.default_rng(3)
-    for en in np.concatenate([10.0 ** rng.uniform(-300, 300, 2000), [1e-310, 1.0, 0.5, 2.0]]):
-        got = error_power(METHOD_DOP853, en)
-        want = en ** (-1.0 / 8.0)
-        assert abs(got - want) <= 2 * math.ulp(want), (en, got, want)
-    assert error_power(METHOD_RK45, 0.3) == 0.3 ** (-1.0 / 5.0)
+    values = np.concatenate([10.0 ** rng.uniform(-300, 300, 2000), rng.uniform(0.0, 1.0, 2000),
+                             [1e-310, 1.0, 0.5, 2.0, np.nextafter(1.0, 0.0)]])
+    for en_sq in values:
+        got = error_power_sq(METHOD_DOP853, en_sq)
+        want = math.sqrt(en_sq) ** (-1.0 / 8.0)
+        assert abs(got - want) <= 2 * math.ulp(want), (en_sq, got, want)
+    assert error_power_sq(METHOD_DOP853, 0.0) == math.inf
+    assert error_power_sq(METHOD_RK45, 0.09) == 0.09 ** (-1.0 / 10.0)

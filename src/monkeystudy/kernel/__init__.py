@@ -37,8 +37,8 @@ try:
     # every kernel module is decorated now, while the cache directory is ours; then the
     # global setting goes back to what it was, so other numba users are unaffected
     from . import (  # noqa: F401
-        dynamics, events, gait, hybrid, integrate, layout, rk_explicit, tableaux, trig,
-        variational,
+        dynamics, events, gait, hybrid, integrate, intrinsics, layout, rk_explicit, roots,
+        tableaux, trig, variational,
     )
 finally:
     _numba_config.CACHE_DIR = _saved_cache_dir

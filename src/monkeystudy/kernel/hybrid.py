@@ -37,11 +37,12 @@ from .events import (
 )
 from .integrate import (
     MAX_FACTOR, MIN_FACTOR, PI_ERR_FLOOR, SAFETY, dense_eval, dense_prepare,
-    error_estimator_order, error_power, pi_factor, select_initial_step,
+    error_estimator_order, error_power_sq, pi_factor, select_initial_step,
 )
 from .rk_explicit import (
-    dop853_error_norm, dop853_step4, dop853_step8, rk45_error_norm, rk45_step4, rk45_step8,
-    vern9_error_norm, vern9_step4, vern9_step8,
+    dop853_error_sq4, dop853_error_sq8, dop853_step4, dop853_step8, rk45_error_sq4,
+    rk45_error_sq8, rk45_step4, rk45_step8, vern9_error_sq4, vern9_error_sq8, vern9_step4,
+    vern9_step8,
 )
 from .tableaux import (
     DOP853_N_STAGES, RK45_N_STAGES, VERN9_INTERPOLATOR_POWER, VERN9_N_STAGES,
@@ -421,44 +422,48 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                         t_new = bound
                     h = t_new - t
                     h_abs = abs(h)
-                    # integrate.rk_step and error_norm written out down to the straight-line
+                    # integrate.rk_step and error_norm_sq written out down to the straight-line
                     # steps: through a wrapper (inlined or called) numba reference-counts the
                     # eight arrays on every step (atomic operations: the two wrappers cost ~10 %
-                    # of a gait)
+                    # of a gait). The controller works on the squared norm en_sq (see
+                    # integrate.error_power_sq).
                     if method == METHOD_DOP853:
                         if n == 4:
                             dop853_step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                            en_sq = dop853_error_sq4(K, h, y, y_new, rtol, atol)
                         else:
                             dop853_step8(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                            en_sq = dop853_error_sq8(K, h, y, y_new, rtol, atol)
                         counts[K_NFEV] += DOP853_N_STAGES
-                        en = dop853_error_norm(K, h, y, y_new, n, rtol, atol)
                     elif method == METHOD_VERN9:
                         if n == 4:
                             vern9_step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                            en_sq = vern9_error_sq4(K, h, y, y_new, rtol, atol)
                         else:
                             vern9_step8(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                            en_sq = vern9_error_sq8(K, h, y, y_new, rtol, atol)
                         counts[K_NFEV] += VERN9_N_STAGES
-                        en = vern9_error_norm(K, h, y, y_new, n, rtol, atol)
                     else:
                         if n == 4:
                             rk45_step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                            en_sq = rk45_error_sq4(K, h, y, y_new, rtol, atol)
                         else:
                             rk45_step8(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                            en_sq = rk45_error_sq8(K, h, y, y_new, rtol, atol)
                         counts[K_NFEV] += RK45_N_STAGES
-                        en = rk45_error_norm(K, h, y, y_new, n, rtol, atol)
-                    if en < 1.0:
+                    if en_sq < 1.0:
                         if pi_control:
+                            en = math.sqrt(en_sq)
                             factor = pi_factor(en, en_prev, err_order)
                             en_prev = max(en, PI_ERR_FLOOR)
-                        elif en == 0.0:
-                            factor = MAX_FACTOR
                         else:
-                            factor = min(MAX_FACTOR, SAFETY * error_power(method, en))
+                            # en_sq = 0 gives an infinite power: MAX_FACTOR
+                            factor = min(MAX_FACTOR, SAFETY * error_power_sq(method, en_sq))
                         if rejected:
                             factor = min(1.0, factor)
                         h_abs *= factor
                         break
-                    h_abs *= max(MIN_FACTOR, SAFETY * error_power(method, en))
+                    h_abs *= max(MIN_FACTOR, SAFETY * error_power_sq(method, en_sq))
                     rejected = True
                     counts[K_REJECTED] += 1
                 if not ok:

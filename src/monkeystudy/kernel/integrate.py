@@ -19,11 +19,13 @@ from numba import njit
 from .dynamics import rhs
 from .layout import METHOD_DOP853, METHOD_VERN9
 from .rk_explicit import (
-    dop853_error_norm, dop853_step, rk45_error_norm, rk45_step, vern9_error_norm, vern9_step,
+    dop853_dense, dop853_error_sq, dop853_step, rk45_error_sq, rk45_step, vern9_error_sq,
+    vern9_step,
 )
+from .roots import inv_root16
 from .tableaux import (
-    DOP853_A, DOP853_D, DOP853_N_STAGES, DOP853_N_STAGES_EXTENDED, RK45_N_STAGES, RK45_P,
-    VERN9_A, VERN9_INTERPOLATOR_POWER, VERN9_N_STAGES, VERN9_N_STAGES_EXTENDED, VERN9_R,
+    RK45_N_STAGES, RK45_P, VERN9_A, VERN9_INTERPOLATOR_POWER, VERN9_N_STAGES,
+    VERN9_N_STAGES_EXTENDED, VERN9_R,
 )
 
 SAFETY = 0.9
@@ -52,17 +54,19 @@ def error_estimator_order(method):
 
 
 @njit(cache=True, inline="always")
-def error_power(method, en):
-    """``en ** error_exponent(method)``, the step-size controller's power of the error norm.
+def error_power_sq(method, en_sq):
+    """``en ** error_exponent(method)`` from the squared error norm ``en_sq = en ** 2``, the
+    step-size controller's power.
 
-    DOP853's ``en ** (-1/8)`` is taken as ``1 / sqrt(sqrt(sqrt(en)))``: correctly rounded
-    square roots put it within two ulps of ``pow`` (the factor then scales the step by
-    ~1e-16 relative, far below the round-off the stages already carry) at a third of the cost
-    of the ``pow`` call (once per step).
+    DOP853's ``en ** (-1/8)`` is ``en_sq ** (-1/16)`` by :func:`.roots.inv_root16`, within
+    ~1 ulp (scipy's ``pow`` of the rounded norm is within ~0.5: the factors agree to ~2 ulp,
+    the steps to ~1e-16 relative) and in a third of the latency of the square roots it
+    replaces, paid once per step. ``en_sq = 0`` gives ``inf`` (the caller clips it to
+    ``MAX_FACTOR``), as ``pow`` does for the others.
     """
     if method == METHOD_DOP853:
-        return 1.0 / math.sqrt(math.sqrt(math.sqrt(en)))
-    return en ** error_exponent(method)
+        return inv_root16(en_sq)
+    return en_sq ** (0.5 * error_exponent(method))
 
 
 #: Gustafsson's PI gains (Hairer & Wanner, Solving ODEs II, sec. IV.2, eq. 2.43c; Soederlind
@@ -145,13 +149,22 @@ def rk_step(method, phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new):
 
 
 @njit(cache=True, inline="always")
-def error_norm(method, K, h, y, y_new, n, rtol, atol):
-    """Scaled RMS norm of the local error estimate (scipy's ``_estimate_error_norm``)."""
+def error_norm_sq(method, K, h, y, y_new, n, rtol, atol):
+    """Square of the scaled norm of the local error estimate (scipy's
+    ``_estimate_error_norm``): the controller needs only the square (a step is accepted if it
+    is below 1, and :func:`error_power_sq` takes its power), which spares a square root per
+    step."""
     if method == METHOD_DOP853:
-        return dop853_error_norm(K, h, y, y_new, n, rtol, atol)
+        return dop853_error_sq(K, h, y, y_new, n, rtol, atol)
     if method == METHOD_VERN9:
-        return vern9_error_norm(K, h, y, y_new, n, rtol, atol)
-    return rk45_error_norm(K, h, y, y_new, n, rtol, atol)
+        return vern9_error_sq(K, h, y, y_new, n, rtol, atol)
+    return rk45_error_sq(K, h, y, y_new, n, rtol, atol)
+
+
+@njit(cache=True, inline="always")
+def error_norm(method, K, h, y, y_new, n, rtol, atol):
+    """Scaled norm of the local error estimate (scipy's ``_estimate_error_norm``)."""
+    return math.sqrt(error_norm_sq(method, K, h, y, y_new, n, rtol, atol))
 
 
 @njit(cache=True)
@@ -186,25 +199,9 @@ def dense_prepare(method, phase, p, tau, fmode, t_old, h, y_old, y_new, f_new, n
             Fd[last, i] = (y_new[i] - y_old[i]) / h - low
         return VERN9_N_STAGES_EXTENDED - VERN9_N_STAGES - 1
     if method == METHOD_DOP853:
-        ns = DOP853_N_STAGES
-        for s in range(ns + 1, DOP853_N_STAGES_EXTENDED):
-            for i in range(n):
-                acc = 0.0
-                for j in range(s):
-                    acc += K[j, i] * DOP853_A[s, j]
-                ytmp[i] = y_old[i] + acc * h
-            rhs(phase, p, tau, fmode, ytmp, K[s])
-        for i in range(n):
-            dy = y_new[i] - y_old[i]
-            Fd[0, i] = dy
-            Fd[1, i] = h * K[0, i] - dy
-            Fd[2, i] = 2.0 * dy - h * (f_new[i] + K[0, i])
-            for r in range(4):
-                acc = 0.0
-                for j in range(DOP853_N_STAGES_EXTENDED):
-                    acc += DOP853_D[r, j] * K[j, i]
-                Fd[3 + r, i] = h * acc
-        return DOP853_N_STAGES_EXTENDED - ns - 1
+        # written out (kernel/rk_explicit.py): the generic loops multiply through the zeros
+        # of the tableau, and an event costs one of these
+        return dop853_dense(p, tau, fmode, y_old, y_new, f_new, h, n, K, Fd)
     for i in range(n):
         for r in range(4):
             acc = 0.0

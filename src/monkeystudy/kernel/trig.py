@@ -31,43 +31,10 @@ Complex arguments (the complex-step derivatives of :mod:`.variational`) go to ``
 import math
 
 import numpy as np
-from llvmlite import ir
 from numba import njit, types
-from numba.extending import intrinsic, overload
+from numba.extending import overload
 
-
-@intrinsic
-def fma(typingctx, a, b, c):
-    """``a * b + c`` with one rounding (``llvm.fma.f64``)."""
-    if not all(isinstance(t, types.Float) for t in (a, b, c)):
-        return None
-    sig = types.float64(types.float64, types.float64, types.float64)
-
-    def codegen(context, builder, signature, args):
-        return builder.fma(*args)
-
-    return sig, codegen
-
-
-def _bitcast(from_kind, from_type, to_type, llvm_to):
-    """An intrinsic reinterpreting the 64 bits of a ``from_type`` as a ``to_type`` (a register
-    move); it accepts arguments of the numba type class ``from_kind``."""
-    @intrinsic
-    def bitcast(typingctx, x):
-        if not isinstance(x, from_kind):
-            return None
-
-        def codegen(context, builder, signature, args):
-            return builder.bitcast(args[0], llvm_to)
-
-        return to_type(from_type), codegen
-
-    return bitcast
-
-
-#: the IEEE-754 bits of a float64 as an int64, and back
-_bits = _bitcast(types.Float, types.float64, types.int64, ir.IntType(64))
-_from_bits = _bitcast(types.Integer, types.int64, types.float64, ir.DoubleType())
+from .intrinsics import as_bits, fma, from_bits
 
 
 # fdlibm k_sin.c: sin r = r + r^3 (S1 + r^2 S2 + ... + r^10 S6) on [-pi/4, pi/4]
@@ -103,7 +70,7 @@ REDUCE_BOUND = 1.0e5
 def _sincos_reduced(x):
     """``(sin x, cos x)`` for ``|x| < REDUCE_BOUND``, without branches."""
     kf = fma(x, INV_PIO2, TO_INT)
-    quadrant = _bits(kf) & 3
+    quadrant = as_bits(kf) & 3
     k = kf - TO_INT
     r = fma(-k, PIO2_1, x)
     r = fma(-k, PIO2_2, r)
@@ -123,8 +90,8 @@ def _sincos_reduced(x):
     odd = (quadrant & 1) == 1
     s = cos_r if odd else sin_r
     c = sin_r if odd else cos_r
-    s = _from_bits(_bits(s) ^ ((quadrant & 2) << 62))
-    c = _from_bits(_bits(c) ^ (((quadrant + 1) & 2) << 62))
+    s = from_bits(as_bits(s) ^ ((quadrant & 2) << 62))
+    c = from_bits(as_bits(c) ^ (((quadrant + 1) & 2) << 62))
     # sin x rounds to x below 2**-27; taking x keeps the sign of zero (sin -0 = -0), which
     # the polynomial loses (a select, not a branch)
     s = x if abs(x) < TINY else s
