@@ -71,7 +71,7 @@ def gen_step(name: str, A, B, ns: int) -> str:
     for lay in (SWING, FLIGHT):
         n = lay["n"]
         lines = [
-            "@njit(cache=True, fastmath=FM, error_model=EM)",
+            "@njit(cache=True, fastmath=FM, error_model=EM, _nrt=False)",
             f"def {name}_step{n}(p, tau, fmode, y, f, h, K, trig, y_new, f_new):",
         ]
         lines += [f"    K[0, {i}] = f[{i}]" for i in range(n)]
@@ -88,7 +88,7 @@ def gen_step(name: str, A, B, ns: int) -> str:
         lines.append("")
         out.append("\n".join(lines))
     out.append("\n".join([
-        "@njit(cache=True, error_model=EM)",
+        "@njit(cache=True, error_model=EM, _nrt=False)",
         f"def {name}_step(phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new):",
         f'    """One {name.upper()} step of packed size ``n`` (see ``integrate.rk_step``)."""',
         "    if n == 4:",
@@ -110,7 +110,7 @@ def gen_dense_dop853() -> str:
     for lay in (SWING, FLIGHT):
         n = lay["n"]
         lines = [
-            "@njit(cache=True, fastmath=FM, error_model=EM)",
+            "@njit(cache=True, fastmath=FM, error_model=EM, _nrt=False)",
             f"def dop853_dense{n}(p, tau, fmode, y_old, y_new, f_new, h, K, Fd):",
             '    """Dense-output coefficients of the last step into ``Fd`` (scipy '
             '``Dop853DenseOutput``);\n    ``K`` holds the step\'s stages, ``K[12]`` its '
@@ -130,7 +130,7 @@ def gen_dense_dop853() -> str:
                       for r in range(D.shape[0])]
         out.append("\n".join(lines) + "\n")
     out.append("\n".join([
-        "@njit(cache=True, error_model=EM)",
+        "@njit(cache=True, error_model=EM, _nrt=False)",
         "def dop853_dense(p, tau, fmode, y_old, y_new, f_new, h, n, K, Fd):",
         '    """:func:`dop853_dense4` or :func:`dop853_dense8` by packed size ``n``; returns the '
         'extra\n    right-hand-side evaluations."""',
@@ -161,7 +161,7 @@ def gen_error_sq(name: str, doc: str, estimates, finish: str) -> str:
     out = []
     for n in (4, 8):
         lines = [
-            "@njit(cache=True, fastmath=FM, error_model=EM)",
+            "@njit(cache=True, fastmath=FM, error_model=EM, _nrt=False)",
             f"def {name}_error_sq{n}(K, h, y, y_new, rtol, atol):",
             f'    """{doc}"""',
         ]
@@ -178,7 +178,7 @@ def gen_error_sq(name: str, doc: str, estimates, finish: str) -> str:
         lines += [f"    {line}" for line in finish.format(n=f"{n}.0").splitlines()]
         out.append("\n".join(lines) + "\n")
     out.append("\n".join([
-        "@njit(cache=True, error_model=EM)",
+        "@njit(cache=True, error_model=EM, _nrt=False)",
         f"def {name}_error_sq(K, h, y, y_new, n, rtol, atol):",
         f'    """:func:`{name}_error_sq4` or :func:`{name}_error_sq8` by packed size ``n``."""',
         "    if n == 4:",
@@ -226,8 +226,9 @@ from .dynamics import flight_accel, flight_accel_trig, swing_accel, swing_accel_
 
 FM = {"contract"}
 # numpy's error model: no division-by-zero test before each division (a singular mass matrix
-# gives inf/nan, which the hybrid loop reports as ST_NONFINITE), and without those exception
-# paths numba no longer reference-counts the array arguments on every call
+# gives inf/nan, which the hybrid loop reports as ST_NONFINITE); ``_nrt=False``: nothing here
+# allocates, so numba's reference counting of the array arguments is left out (see
+# ``kernel/__init__.py``)
 EM = "numpy"
 
 

@@ -2,6 +2,15 @@
 
 Never imports xarray, yaml, matplotlib or the study layer (a test enforces it).
 
+Every kernel function is compiled with numpy's error model (``error_model="numpy"``): a
+division by zero gives ``inf`` or ``nan`` (which the hybrid loop reports as ``ST_NONFINITE``),
+never an exception. Functions that allocate nothing are also compiled without numba's runtime
+(``_nrt=False``): numba otherwise increfs each array argument on entry and decrefs it on exit
+(atomic operations) wherever its pruning pass cannot prove the pair redundant, which it cannot
+in a function that calls another that calls a third. On the event-location and leg-start paths
+that was ~450 reference-count calls, ~1 us, per gait. Such a function fails to compile if it
+ever creates an array, rather than running wrongly.
+
 Numba's on-disk cache checks only the source file of each function, not of the functions it
 calls: edit ``integrate.py`` and a cached ``hybrid.simulate`` keeps running the old integrator.
 So the cache lives in a directory keyed by a hash of *all* kernel sources (below

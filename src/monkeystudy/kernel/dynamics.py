@@ -38,7 +38,7 @@ TWO_PI = 2.0 * math.pi
 # ----------------------------------------------------------------------------------------------
 # parameters
 # ----------------------------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def derive_params(p):
     """Fill the derived slots of a parameter row in place (MODEL.md section 2 shorthand)."""
     m1, m2, L1, r1, r2 = p[P_M1], p[P_M2], p[P_L1], p[P_R1], p[P_R2]
@@ -50,7 +50,7 @@ def derive_params(p):
     p[P_MTOT] = m1 + m2
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def flipped_params(p):
     """Parameters of the same robot described from the other end (MODEL.md section 3).
 
@@ -72,7 +72,7 @@ def flipped_params(p):
 # ----------------------------------------------------------------------------------------------
 # equations of motion
 # ----------------------------------------------------------------------------------------------
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _field_trig(th1, th2):
     """``(s1, c1, s2, c2, s12, c12)`` for the vector fields, the sum angle from the identity.
 
@@ -86,7 +86,7 @@ def _field_trig(th1, th2):
     return s1, c1, s2, c2, s1 * c2 + c1 * s2, c1 * c2 - s1 * s2
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def angle_trig(th1, th2):
     """``(s1, c1, s2, c2, s12, c12)`` with the sum angle taken directly (layout ``T_*``).
 
@@ -100,14 +100,14 @@ def angle_trig(th1, th2):
     return s1, c1, s2, c2, s12, c12
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _swing_terms(p, tau, fmode, th1, th2, w1, w2):
     """Swing mass matrix entries and right-hand side ``F - C qdot - G`` (MODEL.md sec. 2)."""
     s1, _, s2, c2, s12, _ = _field_trig(th1, th2)
     return _swing_terms_t(p, tau, fmode, s1, s2, c2, s12, w1, w2)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _swing_terms_t(p, tau, fmode, s1, s2, c2, s12, w1, w2):
     """:func:`_swing_terms` from the sines and cosines of the angles."""
     h = p[P_H]
@@ -123,7 +123,7 @@ def _swing_terms_t(p, tau, fmode, s1, s2, c2, s12, w1, w2):
     return m11, m12, m22, r1, r2
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _solve2(m11, m12, m22, r1, r2, lock1, lock2):
     """Solve the symmetric 2x2 system, with locked DOFs held at zero acceleration."""
     if lock1 and lock2:
@@ -138,7 +138,7 @@ def _solve2(m11, m12, m22, r1, r2, lock1, lock2):
     return (m22 * r1 - m12 * r2) * inv_det, (m11 * r2 - m12 * r1) * inv_det
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _flight_coupling(p, th1, th2):
     """Off-diagonal block of the flight mass matrix, rows (x, y), columns (theta1, theta2)."""
     s1, c1 = sincos(th1)
@@ -146,7 +146,7 @@ def _flight_coupling(p, th1, th2):
     return _flight_coupling_t(p, c1, s1, c12, s12)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _flight_coupling_t(p, c1, s1, c12, s12):
     """:func:`_flight_coupling` from the sines and cosines of the angles."""
     a = p[P_A]
@@ -155,14 +155,14 @@ def _flight_coupling_t(p, c1, s1, c12, s12):
             c1, s1, c12, s12)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def swing_accel(p, tau, fmode, th1, th2, w1, w2):
     """Swing (2-DOF) accelerations ``(ddtheta1, ddtheta2)`` [rad s-2], MODEL.md section 2."""
     m11, m12, m22, r1, r2 = _swing_terms(p, tau, fmode, th1, th2, w1, w2)
     return _solve2(m11, m12, m22, r1, r2, fmode[0] == 0.0, fmode[1] == 0.0)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def swing_accel_trig(p, tau, fmode, th1, th2, w1, w2):
     """:func:`swing_accel` and ``(s1, c1, s2, c2, s12, c12)``, the sines and cosines of
     ``theta1``, ``theta2`` and ``theta1 + theta2`` (layout ``T_*``).
@@ -178,7 +178,7 @@ def swing_accel_trig(p, tau, fmode, th1, th2, w1, w2):
     return a1, a2, s1, c1, s2, c2, s12, c12
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def flight_accel(p, tau, fmode, th1, th2, w1, w2):
     """Free-flight (4-DOF) accelerations ``(ddx, ddy, ddtheta1, ddtheta2)``, MODEL.md sec. 2.
 
@@ -190,7 +190,7 @@ def flight_accel(p, tau, fmode, th1, th2, w1, w2):
     return _flight_accel_t(p, tau, fmode, s1, c1, s2, c2, s12, c12, w1, w2)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def flight_accel_trig(p, tau, fmode, th1, th2, w1, w2):
     """:func:`flight_accel` and the sines and cosines of the angles (see
     :func:`swing_accel_trig`)."""
@@ -199,7 +199,7 @@ def flight_accel_trig(p, tau, fmode, th1, th2, w1, w2):
     return ax, ay, a1, a2, s1, c1, s2, c2, s12, c12
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _flight_accel_t(p, tau, fmode, s1, c1, s2, c2, s12, c12, w1, w2):
     """:func:`flight_accel` from the sines and cosines of the angles."""
     b02, b03, b12, b13, _, _, _, _ = _flight_coupling_t(p, c1, s1, c12, s12)
@@ -228,7 +228,7 @@ def _flight_accel_t(p, tau, fmode, s1, c1, s2, c2, s12, c12, w1, w2):
     return (rx - b02 * a1 - b03 * a2) * inv_mt, (ry - b12 * a1 - b13 * a2) * inv_mt, a1, a2
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def rhs_swing(p, tau, fmode, y, dy):
     """Swing (2-DOF) vector field, MODEL.md section 2. ``y`` packed swing state."""
     a1, a2 = swing_accel(p, tau, fmode, y[0], y[1], y[2], y[3])
@@ -238,7 +238,7 @@ def rhs_swing(p, tau, fmode, y, dy):
     dy[3] = a2
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def rhs_flight(p, tau, fmode, y, dy):
     """Free-flight (4-DOF) vector field, MODEL.md section 2. ``y`` packed flight state."""
     ax, ay, a1, a2 = flight_accel(p, tau, fmode, y[2], y[3], y[6], y[7])
@@ -252,7 +252,7 @@ def rhs_flight(p, tau, fmode, y, dy):
     dy[7] = a2
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def rhs(phase, p, tau, fmode, y, dy):
     """Vector field of the current phase (the fixed phase has none: ``dy = 0``).
 
@@ -279,7 +279,7 @@ def rhs(phase, p, tau, fmode, y, dy):
             dy[i] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def holding_torque(phase, p, tau, fmode, y, k):
     """Friction torque that would hold DOF ``k`` (0 pivot, 1 joint) at zero speed [N m].
 
@@ -315,7 +315,7 @@ def holding_torque(phase, p, tau, fmode, y, k):
 # ----------------------------------------------------------------------------------------------
 # energy and kinematics (world frame, MODEL.md section 1)
 # ----------------------------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def kinetic_energy(p, th1, th2, vx, vy, w1, w2):
     """Kinetic energy K [J], MODEL.md section 1 (``vx = vy = 0`` while swinging)."""
     _, c2 = sincos(th2)
@@ -327,13 +327,13 @@ def kinetic_energy(p, th1, th2, vx, vy, w1, w2):
     return k
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def kinetic_energy_rot(p, c2, w1, w2):
     """The rotational part of :func:`kinetic_energy` (all of it while swinging) [J]."""
     return kinetic_rot_s(p[P_H], p[P_K11], p[P_K22], c2, w1, w2)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def kinetic_rot_s(h, k11, k22, c2, w1, w2):
     """:func:`kinetic_energy_rot` from scalars (``P_H``, ``P_K11``, ``P_K22``)."""
     m11 = k11 + 2.0 * h * c2
@@ -341,13 +341,13 @@ def kinetic_rot_s(h, k11, k22, c2, w1, w2):
     return 0.5 * (m11 * w1 * w1 + 2.0 * m12 * w1 * w2 + k22 * w2 * w2)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def kinetic_energy_trans(p, c1, s1, c12, s12, vx, vy, w1, w2):
     """The part of :func:`kinetic_energy` due to the (x, y) end's velocity [J]."""
     return kinetic_trans_s(p[P_A], p[P_M2R2], p[P_MTOT], c1, s1, c12, s12, vx, vy, w1, w2)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def kinetic_trans_s(a, m2r2, mt, c1, s1, c12, s12, vx, vy, w1, w2):
     """:func:`kinetic_energy_trans` from scalars (``P_A``, ``P_M2R2``, ``P_MTOT``); the
     coupling block as :func:`_flight_coupling_t` forms it."""
@@ -359,7 +359,7 @@ def kinetic_trans_s(a, m2r2, mt, c1, s1, c12, s12, vx, vy, w1, w2):
         + vy * (b12 * w1 + b13 * w2)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def potential_energy(p, y_end, th1, th2):
     """Potential energy V [J] with the (x, y) end at world height ``y_end`` (MODEL.md sec. 1)."""
     _, c1 = sincos(th1)
@@ -367,26 +367,26 @@ def potential_energy(p, y_end, th1, th2):
     return potential_energy_t(p, y_end, c1, c12)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def potential_energy_t(p, y_end, c1, c12):
     """:func:`potential_energy` from ``cos(theta1)`` and ``cos(theta1 + theta2)`` [J]."""
     return potential_s(p[P_G], p[P_MTOT], p[P_A], p[P_M2R2], y_end, c1, c12)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def potential_s(g, mt, a, m2r2, y_end, c1, c12):
     """:func:`potential_energy_t` from scalars (``P_G``, ``P_MTOT``, ``P_A``, ``P_M2R2``)."""
     return g * (mt * y_end - a * c1 - m2r2 * c12)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def total_energy8(p, s):
     """Total energy of a full 8-state ``[x, y, th1, th2, dx, dy, dth1, dth2]`` [J]."""
     return kinetic_energy(p, s[2], s[3], s[4], s[5], s[6], s[7]) + \
         potential_energy(p, s[1], s[2], s[3])
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def free_end_offset(p, th1, th2):
     """Position of the free end relative to the (x, y) end [m] (MODEL.md section 1, B)."""
     s1, c1 = sincos(th1)
@@ -394,7 +394,7 @@ def free_end_offset(p, th1, th2):
     return p[P_L1] * s1 + p[P_L2] * s12, -p[P_L1] * c1 - p[P_L2] * c12
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def points8(p, s, out):
     """World positions of the (x, y) end, CG1, joint, CG2 and the free end: ``out[5, 2]``."""
     x, y, th1, th2 = s[0], s[1], s[2], s[3]
@@ -411,7 +411,7 @@ def points8(p, s, out):
 # ----------------------------------------------------------------------------------------------
 # matrices (for tests, Floquet work and documentation; the vector fields inline them)
 # ----------------------------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def flight_matrices(p, s):
     """Flight ``M`` (4x4), ``C qdot`` (4) and ``G`` (4) at a full 8-state, MODEL.md sec. 2."""
     th1, th2, w1, w2 = s[2], s[3], s[6], s[7]
@@ -441,7 +441,7 @@ def flight_matrices(p, s):
     return M, Cq, G
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def impact_projection(p, s):
     """The plastic-impact projection ``P = I - M^-1 J^T (J M^-1 J^T)^-1 J`` (MODEL.md sec. 3)."""
     M, Cq, G = flight_matrices(p, s)
@@ -456,7 +456,7 @@ def impact_projection(p, s):
 # ----------------------------------------------------------------------------------------------
 # impact and flip (MODEL.md section 3)
 # ----------------------------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def attach_xy_end(p, s):
     """Plastic impact that pins the (x, y) end: ``qdot+ = P qdot-`` (MODEL.md eq. for P).
 
@@ -480,13 +480,13 @@ def attach_xy_end(p, s):
     s[7] = (m11 * r2 - m12 * r1) / det
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def wrap_angle(a):
     """Angle in [-pi, pi) (the shift uses the real part, so complex steps pass through)."""
     return a - TWO_PI * math.floor((a.real + math.pi) / TWO_PI)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def flip_state(p, s):
     """Re-express a full 8-state about the free end, in place (MODEL.md section 3, "flip").
 

@@ -34,7 +34,7 @@ N_SCAN = 8  # dense-output sub-intervals checked when a step is flagged
 GRAZE_MARGIN = 8.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def unpack(phase, y, pivot):
     """Full 8-state ``(x, y, th1, th2, dx, dy, dth1, dth2)`` from a packed vector."""
     if phase == PHASE_FLIGHT:
@@ -42,7 +42,7 @@ def unpack(phase, y, pivot):
     return pivot[0], pivot[1], y[0], y[1], 0.0, 0.0, y[2], y[3]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def pack(phase, s8, y):
     """Packed integration vector of a phase from a full 8-state; returns its length."""
     if phase == PHASE_FLIGHT:
@@ -56,7 +56,7 @@ def pack(phase, s8, y):
     return 4
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def unpack_into(phase, y, pivot, s8):
     x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
     s8[0] = x
@@ -69,7 +69,7 @@ def unpack_into(phase, y, pivot, s8):
     s8[7] = w2
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def trig_of(phase, y, trig):
     """Sines and cosines of a packed state's angles into ``trig`` (layout ``T_*``)."""
     if phase == PHASE_FLIGHT:
@@ -87,13 +87,13 @@ def trig_of(phase, y, trig):
     trig[T_C12] = c12
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _needs_trig(kind):
     return (kind == G_FREE_END_HEIGHT or kind == G_FREE_END_Y or kind == G_ENERGY_RESTORED
             or kind == G_ENERGY)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def guard(kind, index, value, phase, p, tau, fmode, y, pivot, eref):
     """Value of a state guard (layout ``G_*``; time guards are handled as step bounds)."""
     if _needs_trig(kind):
@@ -105,7 +105,7 @@ def guard(kind, index, value, phase, p, tau, fmode, y, pivot, eref):
                    0.0, 0.0)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def guard_trig(kind, index, value, phase, p, tau, fmode, y, pivot, eref, trig):
     """:func:`guard` with the sines and cosines of the angles given (``trig``, layout
     ``T_*``, as a step leaves them): bit for bit the same value, without the trigonometry."""
@@ -113,7 +113,7 @@ def guard_trig(kind, index, value, phase, p, tau, fmode, y, pivot, eref, trig):
                    trig[T_C1], trig[T_C2], trig[T_S12], trig[T_C12])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, s1, c1, c2, s12, c12):
     """:func:`guard` from the sines and cosines of ``theta1``, ``theta2``, ``theta1 + theta2``
     (only read by the kinds that need them)."""
@@ -125,7 +125,7 @@ def guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, s1, c1, c2
                    p[P_K11], p[P_K22], w * fm)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, c2, s12, c12,
             L1, L2, g, mt, a, m2r2, h, k11, k22, slip):
     """:func:`guard` from scalars only: the unpacked state, the sines and cosines, the
@@ -169,7 +169,7 @@ def guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, c
     return 0.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def guard_and_rate_step(kind, index, value, phase, p, tau, fmode, y, pivot, eref, trig):
     """``(guard, rate)`` at a step's new point, from the sines and cosines the step left in
     ``trig``, for a guard whose rate needs no vector field (``rate_uses_field`` false); ``y``
@@ -223,7 +223,7 @@ def guard_and_rate_step(kind, index, value, phase, p, tau, fmode, y, pivot, eref
     return gv, r
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def guard_rate(kind, index, phase, p, tau, fmode, y, pivot, work):
     """Time derivative of a guard along the flow [guard units / s]; ``work`` is an 8-vector."""
     if rate_uses_field(kind, index):
@@ -235,7 +235,7 @@ def guard_rate(kind, index, phase, p, tau, fmode, y, pivot, work):
     return guard_rate_kin(kind, index, phase, p, tau, fmode, y, pivot, 0.0, 0.0)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def guard_rate_trig(kind, index, phase, p, tau, fmode, y, pivot, work, trig):
     """:func:`guard_rate` with the sines and cosines given (see :func:`guard_trig`)."""
     if rate_uses_field(kind, index):
@@ -243,13 +243,13 @@ def guard_rate_trig(kind, index, phase, p, tau, fmode, y, pivot, work, trig):
     return guard_rate_kin(kind, index, phase, p, tau, fmode, y, pivot, trig[T_S1], trig[T_S12])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def rate_uses_field(kind, index):
     """Whether a guard's rate needs the vector field (an acceleration)."""
     return (kind == G_COORD and index >= 4) or kind == G_SLIP_STOP
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def guard_rate_kin(kind, index, phase, p, tau, fmode, y, pivot, s1, s12):
     """Rate of a guard that does not need the vector field (kinematics and power), from
     ``sin(theta1)`` and ``sin(theta1 + theta2)``."""
@@ -259,7 +259,7 @@ def guard_rate_kin(kind, index, phase, p, tau, fmode, y, pivot, s1, s12):
                       fmode[1])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def rate_kin_s(kind, index, phase, tau, vx, vy, w1, w2, s1, s12, L1, L2, bj, cj, bp, cp, fm0,
                fm1):
     """:func:`guard_rate_kin` from scalars only."""
@@ -285,7 +285,7 @@ def rate_kin_s(kind, index, phase, tau, vx, vy, w1, w2, s1, s12, L1, L2, bj, cj,
     return 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def guard_rate_field(kind, index, phase, p, tau, fmode, y, work):
     """Rate of a guard on a velocity (an acceleration) or of a slip-stop guard.
 
@@ -306,7 +306,7 @@ def guard_rate_field(kind, index, phase, p, tau, fmode, y, work):
     return work[2 + index] * fmode[index]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def crosses(ga, gb, direction):
     """Half-open sign rule for a crossing from ``ga`` to ``gb`` (see module docstring)."""
     if direction > 0:
@@ -316,7 +316,7 @@ def crosses(ga, gb, direction):
     return (ga < 0.0 <= gb) or (ga > 0.0 >= gb)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _hermite_value(s, ga, da, gb, db):
     s2 = s * s
     s3 = s2 * s
@@ -324,7 +324,7 @@ def _hermite_value(s, ga, da, gb, db):
             + (-2.0 * s3 + 3.0 * s2) * gb + (s3 - s2) * db)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _hermite_extrema(ga, ra, gb, rb, h):
     """Interior extrema ``s`` in (0, 1) of the cubic Hermite model of ``g`` on a step:
     ``(n, s1, s2)`` with ``n`` the number found (0, 1 or 2)."""
@@ -355,7 +355,7 @@ def _hermite_extrema(ga, ra, gb, rb, h):
     return n, s1, s2
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def hermite_flags(ga, ra, gb, rb, h, direction):
     """True when the cubic Hermite model of ``g`` on the step may cross zero inside it, or
     has an interior extremum near zero (so a crossing between same-signed ends is possible).
@@ -382,7 +382,7 @@ def hermite_flags(ga, ra, gb, rb, h, direction):
     return False
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _hermite_root(ga, da, gb, db):
     """Root ``s`` in [0, 1] of a monotone cubic Hermite model with ends of opposite signs.
 
@@ -421,7 +421,7 @@ def _hermite_root(ga, da, gb, db):
     return s
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def hermite_monotone(ga, ra, gb, rb, h):
     """True when the cubic Hermite model of ``g`` has no extremum inside the step."""
     if ra * rb <= 0.0:
@@ -430,7 +430,7 @@ def hermite_monotone(ga, ra, gb, rb, h):
     return n == 0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def guard_at(kind, index, value, method, Fd, y_old, t_old, h, t, n, phase, p, tau, fmode,
              pivot, eref, ybuf):
     """Guard on the dense output at time ``t`` (state left in ``ybuf``)."""
@@ -438,14 +438,14 @@ def guard_at(kind, index, value, method, Fd, y_old, t_old, h, t, n, phase, p, ta
     return guard(kind, index, value, phase, p, tau, fmode, ybuf, pivot, eref)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def rate_at(kind, index, method, Fd, y_old, t_old, h, t, n, phase, p, tau, fmode, pivot,
             ybuf, work):
     dense_eval(method, Fd, y_old, h, (t - t_old) / h, n, ybuf)
     return guard_rate(kind, index, phase, p, tau, fmode, ybuf, pivot, work)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def guard_rate_at(kind, index, value, method, Fd, y_old, t_old, h, t, n, phase, p, tau, fmode,
                   pivot, eref, ybuf, work):
     """Guard and its rate on the dense output at ``t`` from one interpolation."""
@@ -454,7 +454,7 @@ def guard_rate_at(kind, index, value, method, Fd, y_old, t_old, h, t, n, phase, 
             guard_rate(kind, index, phase, p, tau, fmode, ybuf, pivot, work))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def newton_root(kind, index, value, a, b, ga, gb, x0, method, Fd, y_old, t_old, h, n, phase,
                 p, tau, fmode, pivot, eref, ybuf, work):
     """Root of the guard on the dense output in the bracket [a, b] (``ga``, ``gb`` of opposite
@@ -501,7 +501,7 @@ def newton_root(kind, index, value, a, b, ga, gb, x0, method, Fd, y_old, t_old, 
                  p, tau, fmode, pivot, eref, ybuf, work)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def brent(which, kind, index, value, a, b, fa, fb, method, Fd, y_old, t_old, h, n, phase, p,
           tau, fmode, pivot, eref, ybuf, work):
     """Brent's root of the guard (``which == 0``) or of its rate (``which == 1``) on [a, b].
@@ -567,7 +567,7 @@ def brent(which, kind, index, value, a, b, fa, fb, method, Fd, y_old, t_old, h, 
     return b
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def locate_first(kind, index, value, direction, t_a, t_b, g_a, g_b, r_a, r_b, method, Fd,
                  y_old, t_old, h, n, phase, p, tau, fmode, pivot, eref, ybuf, work):
     """Earliest crossing of the guard in ``(t_a, t_b]`` on the dense output, or ``inf``.

@@ -1,8 +1,8 @@
 """Compiled gait evaluations: the horizontal gait of MODEL.md section 4 and the cycle of any
 phase-sequence gait, one point or a batch.
 
-All call :func:`monkeystudy.kernel.hybrid.simulate` (through :func:`simulate_unlogged`) with
-no log and no trajectory, so a search evaluation integrates, locates its events and nothing else.
+All call :func:`monkeystudy.kernel.hybrid.simulate` with the zero-size log and trajectory of
+:func:`search_scratch`, so a search evaluation integrates, locates its events and nothing else.
 """
 import math
 
@@ -24,7 +24,7 @@ R_FINAL = 8  # final 8-state (frame after the swap)
 N_RESULT = 16
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def start_state(dtheta1, dtheta2, hyb):
     """Hybrid state of a gait start: hanging from A at theta = 0, A at the origin."""
     hyb[:] = 0.0
@@ -41,15 +41,28 @@ def start_state(dtheta1, dtheta2, hyb):
     hyb[H_Y_REF] = np.nan
 
 
-@njit(cache=True)
-def simulate_unlogged(par, prog, obs, settings, hyb, counts, seg_times):
-    """:func:`~monkeystudy.kernel.hybrid.simulate` with no event log and no trajectory (what
-    a search needs: the outcome, the segment exit times and the counts)."""
-    return simulate(par, prog, obs, settings, hyb, counts, seg_times, np.empty((0, N_LOG_COLS)),
-                    np.empty(0), np.empty((0, 8)), np.empty((0, N_MODE_COLS)))
+@njit(cache=True, error_model="numpy")
+def search_scratch(n_segments):
+    """Work arrays of one search evaluation, allocated once per batch (an allocation costs
+    ~20 ns, a gait ~20 us): the hybrid state, the counters, the segment exit times, and the
+    zero-size observers, event log and trajectory of a run that records nothing."""
+    return (np.empty(N_HYB), np.zeros(N_COUNTS, dtype=np.int64), np.empty(n_segments),
+            np.empty((0, N_OBS_COLS)), np.empty((0, N_LOG_COLS)), np.empty(0), np.empty((0, 8)),
+            np.empty((0, N_MODE_COLS)))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
+def simulate_unlogged(par, prog, obs, settings, scratch):
+    """:func:`~monkeystudy.kernel.hybrid.simulate` from the hybrid state ``scratch[0]`` with
+    no event log and no trajectory (what a search needs: the outcome, the segment exit times
+    in ``scratch[2]`` and the counts in ``scratch[1]``, zeroed here)."""
+    hyb, counts, seg_times, _, no_log, no_t, no_y, no_mode = scratch
+    counts[:] = 0
+    return simulate(par, prog, obs, settings, hyb, counts, seg_times, no_log, no_t, no_y,
+                    no_mode)
+
+
+@njit(cache=True, error_model="numpy")
 def horizontal_gait(par, prog, settings, dtheta1, dtheta2, energy_floor, skip_unreachable,
                     out):
     """Evaluate the horizontal gait at ``(dtheta1, dtheta2)`` [rad s-1] into ``out``.
@@ -61,21 +74,26 @@ def horizontal_gait(par, prog, settings, dtheta1, dtheta2, energy_floor, skip_un
     swap_energy_floor`) is marked ``ST_UNREACHABLE`` without integrating: with the motor off,
     energy cannot grow before the swap.
     """
-    hyb = np.empty(N_HYB)
+    horizontal_gait_in(par, prog, settings, dtheta1, dtheta2, energy_floor, skip_unreachable,
+                       out, search_scratch(prog.shape[0]))
+
+
+@njit(cache=True, error_model="numpy")
+def horizontal_gait_in(par, prog, settings, dtheta1, dtheta2, energy_floor, skip_unreachable,
+                       out, scratch):
+    """:func:`horizontal_gait` in the work arrays of :func:`search_scratch`."""
+    hyb, counts, seg_times, no_obs = scratch[0], scratch[1], scratch[2], scratch[3]
     start_state(dtheta1, dtheta2, hyb)
     out[:] = np.nan
     out[R_STEPS] = 0.0
     out[R_NFEV] = 0.0
     out[R_REJECTED] = 0.0
     if skip_unreachable:
-        e0 = total_energy8(par[0], hyb[:8])
+        e0 = total_energy8(par[0], hyb)
         if e0 < energy_floor - 1e-12 * (1.0 + abs(energy_floor)):
             out[R_STATUS] = ST_UNREACHABLE
             return
-    counts = np.zeros(N_COUNTS, dtype=np.int64)
-    seg_times = np.empty(prog.shape[0])
-    status = simulate_unlogged(par, prog, np.empty((0, N_OBS_COLS)), settings, hyb, counts,
-                               seg_times)
+    status = simulate_unlogged(par, prog, no_obs, settings, scratch)
     out[R_STATUS] = status
     out[R_T_SWITCH] = seg_times[0]
     out[R_T_MOTOR] = seg_times[1] - seg_times[0]
@@ -90,12 +108,13 @@ def horizontal_gait(par, prog, settings, dtheta1, dtheta2, energy_floor, skip_un
         out[R_ERROR] = th2 * th2 + (dtheta1 - hyb[6]) ** 2 + (dtheta2 - hyb[7]) ** 2
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def horizontal_gait_batch(par, prog, settings, points, energy_floor, skip_unreachable, out):
     """:func:`horizontal_gait` over ``points[N, 2]`` into ``out[N, N_RESULT]`` (serial)."""
+    scratch = search_scratch(prog.shape[0])
     for i in range(points.shape[0]):
-        horizontal_gait(par, prog, settings, points[i, 0], points[i, 1], energy_floor,
-                        skip_unreachable, out[i])
+        horizontal_gait_in(par, prog, settings, points[i, 0], points[i, 1], energy_floor,
+                           skip_unreachable, out[i], scratch)
 
 
 # result columns of one cycle of a phase-sequence gait
@@ -104,14 +123,14 @@ Q_FINAL = 8  # final 8-state in the frame of the end attached at the section
 N_CYCLE_RESULT = 16
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def wrapped_difference(a, b):
     """``a - b`` wrapped to [-pi, pi) [rad]: a link turning a whole revolution per cycle
     returns to the same configuration."""
     return (a - b + math.pi) % (2.0 * math.pi) - math.pi
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def cycle_gait(par, prog, obs, settings, theta1, theta2, dtheta1, dtheta2, out, seg_out):
     """One cycle of a phase-sequence gait from the section state into ``out``/``seg_out``.
 
@@ -122,13 +141,13 @@ def cycle_gait(par, prog, obs, settings, theta1, theta2, dtheta1, dtheta2, out, 
     frame of the end attached at the cycle's end (NaN unless ``ST_OK``); ``seg_out[k]`` is the
     time segment ``k`` was left [s] (NaN if never).
     """
-    hyb = np.empty(N_HYB)
+    hyb, counts, _, _, no_log, no_t, no_y, no_mode = search_scratch(0)
     start_state(dtheta1, dtheta2, hyb)
     hyb[2] = theta1
     hyb[3] = theta2
     out[:] = np.nan
-    counts = np.zeros(N_COUNTS, dtype=np.int64)
-    status = simulate_unlogged(par, prog, obs, settings, hyb, counts, seg_out)
+    status = simulate(par, prog, obs, settings, hyb, counts, seg_out, no_log, no_t, no_y,
+                      no_mode)
     out[Q_STATUS] = status
     out[Q_T_END] = hyb[H_T]
     out[Q_STEPS] = counts[K_STEPS]
@@ -143,7 +162,7 @@ def cycle_gait(par, prog, obs, settings, theta1, theta2, dtheta1, dtheta2, out, 
         out[Q_ERROR] = d2 * d2 + (hyb[6] - dtheta1) ** 2 + (hyb[7] - dtheta2) ** 2
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def cycle_gait_batch(par, prog, obs, settings, theta1, theta2, points, out, seg_out):
     """:func:`cycle_gait` over ``points[N, 2]`` into ``out[N, N_CYCLE_RESULT]`` and
     ``seg_out[N, n_segments]`` (serial)."""

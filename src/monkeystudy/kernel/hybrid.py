@@ -55,7 +55,7 @@ from .layout import (
     H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG, H_T, H_TORQUE, H_Y_REF, K_CYCLES, K_EVENTS,
     K_LOG, K_NFEV, K_REJECTED, K_SAMPLES, K_STEPS, L_CYCLE, L_E_AFTER, L_E_BEFORE, L_FLIPPED,
     L_ID, L_KIND, L_PHASE, L_STATE, L_T, LOG_FRICTION, LOG_OBSERVER, LOG_SEGMENT, M_FLIPPED,
-    M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, METHOD_VERN9, N_TRIG, O_GDIR,
+    M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, METHOD_VERN9, O_GDIR,
     O_GINDEX, O_GUARD, O_GVALUE, O_SEGMENT, P_C_JOINT, P_C_PIVOT, PHASE_FIXED, PHASE_FLIGHT,
     PHASE_SWING, S_CLOCK, S_CYCLE, S_FAIL, S_GDIR, S_GINDEX, S_GUARD, S_GVALUE, S_MAG_A,
     S_MAG_B, S_NEXT, S_SET_EREF, S_SWAP, S_TICKED, S_TORQUE, ST_BUFFER_FULL, ST_END_TIME,
@@ -66,14 +66,14 @@ EPS = 2.220446049250313e-16
 TICK_SNAP = 1e-9  # a time within this fraction of a tick of a tick is on it (round-off)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def next_tick(t, tick, tick_phase):
     """First controller tick at or after ``t`` [s]."""
     k = math.ceil((t - tick_phase) / tick - TICK_SNAP)
     return tick_phase + k * tick
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def apply_magnets(par, s8, phase, flipped, mag_a, mag_b, swap):
     """Entry magnet actions; returns the new ``(phase, flipped)``; ``s8`` changed in place.
 
@@ -115,7 +115,7 @@ def apply_magnets(par, s8, phase, flipped, mag_a, mag_b, swap):
     return PHASE_FLIGHT, flipped
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def init_friction(phase, p, tau, s8, fmode, y, pivot):
     """Friction modes at a phase start: slip with the speed's sign, or stick test at rest."""
     for k in range(2):
@@ -139,7 +139,7 @@ def init_friction(phase, p, tau, s8, fmode, y, pivot):
                 fmode[k] = -1.0 if hold > 0.0 else 1.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def friction_guard(k, phase, p, tau, fmode, y, pivot):
     """Guard of friction DOF ``k`` in its current mode: speed x slip sign, or |hold| - c."""
     if fmode[k] == 0.0:
@@ -148,7 +148,7 @@ def friction_guard(k, phase, p, tau, fmode, y, pivot):
     return guard(G_SLIP_STOP, k, 0.0, phase, p, tau, fmode, y, pivot, 0.0)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def friction_active(k, phase, p):
     if phase == PHASE_FIXED:
         return False
@@ -157,7 +157,7 @@ def friction_active(k, phase, p):
     return p[P_C_JOINT] > 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def write_log(log, row, t, kind, ident, cycle, phase, flipped, e_before, e_after, s8):
     log[row, L_T] = t
     log[row, L_KIND] = kind
@@ -171,7 +171,7 @@ def write_log(log, row, t, kind, ident, cycle, phase, flipped, e_before, e_after
         log[row, L_STATE + i] = s8[i]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def write_sample(samp_t, samp_y, samp_mode, row, t, s8, phase, flipped, tau, seg):
     """Store one trajectory sample at ``row``; returns the next row, or -1 if full."""
     if row >= samp_t.shape[0]:
@@ -186,13 +186,13 @@ def write_sample(samp_t, samp_y, samp_mode, row, t, s8, phase, flipped, tau, seg
     return row + 1
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _min_step(t):
     """scipy's smallest step at ``t``: ten units in the last place [s]."""
     return 10.0 * abs(np.nextafter(t, np.inf) - t)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _finite(y, n):
     # one exit, no early return: numba then drops the per-step reference counting of ``y``
     # (x * 0 is 0 for finite x, NaN for inf and NaN)
@@ -202,7 +202,7 @@ def _finite(y, n):
     return acc == 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp_y, samp_mode):
     """Run a controller program from the hybrid state ``hyb``; returns a status ``ST_*``.
 
@@ -252,19 +252,23 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
 
     K = np.zeros((VERN9_N_STAGES_EXTENDED, 8))   # the largest method's stages
     Fd = np.zeros((VERN9_INTERPOLATOR_POWER, 8))
-    y = np.zeros(8)
-    f = np.zeros(8)
-    y_new = np.zeros(8)
-    f_new = np.zeros(8)
-    trig_new = np.zeros(N_TRIG)  # sines and cosines at y_new, left by the step for the guards
-    ytmp = np.zeros(8)
-    ybuf = np.zeros(8)
-    work = np.zeros(8)
-    s8 = np.zeros(8)
-    pivot = np.zeros(2)
-    fmode = np.zeros(2)
+    # the work vectors are rows of one array, the pairs rows of another: an allocation costs
+    # ~20 ns, and a gait is ~20 us
+    vectors = np.zeros((9, 8))
+    y = vectors[0]
+    f = vectors[1]
+    y_new = vectors[2]
+    f_new = vectors[3]
+    trig_new = vectors[4]  # sines and cosines at y_new (N_TRIG), left by the step for the guards
+    ytmp = vectors[5]
+    ybuf = vectors[6]
+    work = vectors[7]
+    s8 = vectors[8]
+    pairs = np.zeros((3, 2))
+    pivot = pairs[0]
+    fmode = pairs[1]
+    g_fric = pairs[2]
     g_obs = np.zeros(max(n_obs, 1))
-    g_fric = np.zeros(2)
 
     for i in range(8):
         s8[i] = hyb[i]
@@ -757,7 +761,7 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
     return status
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _locate_friction(k, fkind, t0, t1, ga, gb, method, Fd, y_old, h, n, phase, p, tau, fmode,
                      pivot, ybuf):
     """Bisection-secant (Illinois) root of a friction guard bracketed on [t0, t1]."""

@@ -10,12 +10,13 @@ from .dynamics import flight_accel, flight_accel_trig, swing_accel, swing_accel_
 
 FM = {"contract"}
 # numpy's error model: no division-by-zero test before each division (a singular mass matrix
-# gives inf/nan, which the hybrid loop reports as ST_NONFINITE), and without those exception
-# paths numba no longer reference-counts the array arguments on every call
+# gives inf/nan, which the hybrid loop reports as ST_NONFINITE); ``_nrt=False``: nothing here
+# allocates, so numba's reference counting of the array arguments is left out (see
+# ``kernel/__init__.py``)
 EM = "numpy"
 
 
-@njit(cache=True, fastmath=FM, error_model=EM)
+@njit(cache=True, fastmath=FM, error_model=EM, _nrt=False)
 def dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[0, 0] = f[0]
     K[0, 1] = f[1]
@@ -145,7 +146,7 @@ def dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[12, 3] = f_new[3]
 
 
-@njit(cache=True, fastmath=FM, error_model=EM)
+@njit(cache=True, fastmath=FM, error_model=EM, _nrt=False)
 def dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[0, 0] = f[0]
     K[0, 1] = f[1]
@@ -359,7 +360,7 @@ def dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[12, 7] = f_new[7]
 
 
-@njit(cache=True, error_model=EM)
+@njit(cache=True, error_model=EM, _nrt=False)
 def dop853_step(phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new):
     """One DOP853 step of packed size ``n`` (see ``integrate.rk_step``)."""
     if n == 4:
@@ -369,7 +370,7 @@ def dop853_step(phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new):
     return 12
 
 
-@njit(cache=True, fastmath=FM, error_model=EM)
+@njit(cache=True, fastmath=FM, error_model=EM, _nrt=False)
 def rk45_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[0, 0] = f[0]
     K[0, 1] = f[1]
@@ -445,7 +446,7 @@ def rk45_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[6, 3] = f_new[3]
 
 
-@njit(cache=True, fastmath=FM, error_model=EM)
+@njit(cache=True, fastmath=FM, error_model=EM, _nrt=False)
 def rk45_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[0, 0] = f[0]
     K[0, 1] = f[1]
@@ -569,7 +570,7 @@ def rk45_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[6, 7] = f_new[7]
 
 
-@njit(cache=True, error_model=EM)
+@njit(cache=True, error_model=EM, _nrt=False)
 def rk45_step(phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new):
     """One RK45 step of packed size ``n`` (see ``integrate.rk_step``)."""
     if n == 4:
@@ -579,7 +580,7 @@ def rk45_step(phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new):
     return 6
 
 
-@njit(cache=True, fastmath=FM, error_model=EM)
+@njit(cache=True, fastmath=FM, error_model=EM, _nrt=False)
 def vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[0, 0] = f[0]
     K[0, 1] = f[1]
@@ -745,7 +746,7 @@ def vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[16, 3] = f_new[3]
 
 
-@njit(cache=True, fastmath=FM, error_model=EM)
+@njit(cache=True, fastmath=FM, error_model=EM, _nrt=False)
 def vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[0, 0] = f[0]
     K[0, 1] = f[1]
@@ -1019,7 +1020,7 @@ def vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     K[16, 7] = f_new[7]
 
 
-@njit(cache=True, error_model=EM)
+@njit(cache=True, error_model=EM, _nrt=False)
 def vern9_step(phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new):
     """One VERN9 step of packed size ``n`` (see ``integrate.rk_step``)."""
     if n == 4:
@@ -1029,7 +1030,7 @@ def vern9_step(phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new):
     return 16
 
 
-@njit(cache=True, fastmath=FM, error_model=EM)
+@njit(cache=True, fastmath=FM, error_model=EM, _nrt=False)
 def dop853_dense4(p, tau, fmode, y_old, y_new, f_new, h, K, Fd):
     """Dense-output coefficients of the last step into ``Fd`` (scipy ``Dop853DenseOutput``);
     ``K`` holds the step's stages, ``K[12]`` its ``f_new``."""
@@ -1094,7 +1095,7 @@ def dop853_dense4(p, tau, fmode, y_old, y_new, f_new, h, K, Fd):
     Fd[6, 3] = h * (-25.69393346270375 * K[0, 3] + -154.18974869023643 * K[5, 3] + -231.5293791760455 * K[6, 3] + 357.6391179106141 * K[7, 3] + 93.40532418362432 * K[8, 3] + -37.45832313645163 * K[9, 3] + 104.0996495089623 * K[10, 3] + 29.8402934266605 * K[11, 3] + -43.53345659001114 * K[12, 3] + 96.32455395918828 * K[13, 3] + -39.17726167561544 * K[14, 3] + -149.72683625798564 * K[15, 3])
 
 
-@njit(cache=True, fastmath=FM, error_model=EM)
+@njit(cache=True, fastmath=FM, error_model=EM, _nrt=False)
 def dop853_dense8(p, tau, fmode, y_old, y_new, f_new, h, K, Fd):
     """Dense-output coefficients of the last step into ``Fd`` (scipy ``Dop853DenseOutput``);
     ``K`` holds the step's stages, ``K[12]`` its ``f_new``."""
@@ -1209,7 +1210,7 @@ def dop853_dense8(p, tau, fmode, y_old, y_new, f_new, h, K, Fd):
     Fd[6, 7] = h * (-25.69393346270375 * K[0, 7] + -154.18974869023643 * K[5, 7] + -231.5293791760455 * K[6, 7] + 357.6391179106141 * K[7, 7] + 93.40532418362432 * K[8, 7] + -37.45832313645163 * K[9, 7] + 104.0996495089623 * K[10, 7] + 29.8402934266605 * K[11, 7] + -43.53345659001114 * K[12, 7] + 96.32455395918828 * K[13, 7] + -39.17726167561544 * K[14, 7] + -149.72683625798564 * K[15, 7])
 
 
-@njit(cache=True, error_model=EM)
+@njit(cache=True, error_model=EM, _nrt=False)
 def dop853_dense(p, tau, fmode, y_old, y_new, f_new, h, n, K, Fd):
     """:func:`dop853_dense4` or :func:`dop853_dense8` by packed size ``n``; returns the extra
     right-hand-side evaluations."""
@@ -1220,7 +1221,7 @@ def dop853_dense(p, tau, fmode, y_old, y_new, f_new, h, n, K, Fd):
     return 3
 
 
-@njit(cache=True, fastmath=FM, error_model=EM)
+@njit(cache=True, fastmath=FM, error_model=EM, _nrt=False)
 def dop853_error_sq4(K, h, y, y_new, rtol, atol):
     """Square of DOP853's combined 5th/3rd-order error norm (scipy ``DOP853._estimate_error_norm``):
     ``h^2 e5^2 / ((e5 + e3 / 100) n)``, ``e5``, ``e3`` the sums of squares of the scaled estimates."""
@@ -1244,7 +1245,7 @@ def dop853_error_sq4(K, h, y, y_new, rtol, atol):
     return (h * h) * (e5_ * (e5_ / ((e5_ + 0.01 * e3_) * 4.0)))
 
 
-@njit(cache=True, fastmath=FM, error_model=EM)
+@njit(cache=True, fastmath=FM, error_model=EM, _nrt=False)
 def dop853_error_sq8(K, h, y, y_new, rtol, atol):
     """Square of DOP853's combined 5th/3rd-order error norm (scipy ``DOP853._estimate_error_norm``):
     ``h^2 e5^2 / ((e5 + e3 / 100) n)``, ``e5``, ``e3`` the sums of squares of the scaled estimates."""
@@ -1280,7 +1281,7 @@ def dop853_error_sq8(K, h, y, y_new, rtol, atol):
     return (h * h) * (e5_ * (e5_ / ((e5_ + 0.01 * e3_) * 8.0)))
 
 
-@njit(cache=True, error_model=EM)
+@njit(cache=True, error_model=EM, _nrt=False)
 def dop853_error_sq(K, h, y, y_new, n, rtol, atol):
     """:func:`dop853_error_sq4` or :func:`dop853_error_sq8` by packed size ``n``."""
     if n == 4:
@@ -1288,7 +1289,7 @@ def dop853_error_sq(K, h, y, y_new, n, rtol, atol):
     return dop853_error_sq8(K, h, y, y_new, rtol, atol)
 
 
-@njit(cache=True, fastmath=FM, error_model=EM)
+@njit(cache=True, fastmath=FM, error_model=EM, _nrt=False)
 def rk45_error_sq4(K, h, y, y_new, rtol, atol):
     """Square of RK45's RMS error norm of ``h sum_i E_i k_i`` (scipy's ``RungeKutta._estimate_error_norm``)."""
     isc0 = 1.0 / (atol + max(abs(y[0]), abs(y_new[0])) * rtol)
@@ -1303,7 +1304,7 @@ def rk45_error_sq4(K, h, y, y_new, rtol, atol):
     return e_ / 4.0
 
 
-@njit(cache=True, fastmath=FM, error_model=EM)
+@njit(cache=True, fastmath=FM, error_model=EM, _nrt=False)
 def rk45_error_sq8(K, h, y, y_new, rtol, atol):
     """Square of RK45's RMS error norm of ``h sum_i E_i k_i`` (scipy's ``RungeKutta._estimate_error_norm``)."""
     isc0 = 1.0 / (atol + max(abs(y[0]), abs(y_new[0])) * rtol)
@@ -1326,7 +1327,7 @@ def rk45_error_sq8(K, h, y, y_new, rtol, atol):
     return e_ / 8.0
 
 
-@njit(cache=True, error_model=EM)
+@njit(cache=True, error_model=EM, _nrt=False)
 def rk45_error_sq(K, h, y, y_new, n, rtol, atol):
     """:func:`rk45_error_sq4` or :func:`rk45_error_sq8` by packed size ``n``."""
     if n == 4:
@@ -1334,7 +1335,7 @@ def rk45_error_sq(K, h, y, y_new, n, rtol, atol):
     return rk45_error_sq8(K, h, y, y_new, rtol, atol)
 
 
-@njit(cache=True, fastmath=FM, error_model=EM)
+@njit(cache=True, fastmath=FM, error_model=EM, _nrt=False)
 def vern9_error_sq4(K, h, y, y_new, rtol, atol):
     """Square of VERN9's RMS error norm of ``h sum_i E_i k_i`` (scipy's ``RungeKutta._estimate_error_norm``)."""
     isc0 = 1.0 / (atol + max(abs(y[0]), abs(y_new[0])) * rtol)
@@ -1349,7 +1350,7 @@ def vern9_error_sq4(K, h, y, y_new, rtol, atol):
     return e_ / 4.0
 
 
-@njit(cache=True, fastmath=FM, error_model=EM)
+@njit(cache=True, fastmath=FM, error_model=EM, _nrt=False)
 def vern9_error_sq8(K, h, y, y_new, rtol, atol):
     """Square of VERN9's RMS error norm of ``h sum_i E_i k_i`` (scipy's ``RungeKutta._estimate_error_norm``)."""
     isc0 = 1.0 / (atol + max(abs(y[0]), abs(y_new[0])) * rtol)
@@ -1372,7 +1373,7 @@ def vern9_error_sq8(K, h, y, y_new, rtol, atol):
     return e_ / 8.0
 
 
-@njit(cache=True, error_model=EM)
+@njit(cache=True, error_model=EM, _nrt=False)
 def vern9_error_sq(K, h, y, y_new, n, rtol, atol):
     """:func:`vern9_error_sq4` or :func:`vern9_error_sq8` by packed size ``n``."""
     if n == 4:

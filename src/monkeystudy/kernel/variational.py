@@ -34,7 +34,7 @@ swing_field = rhs_swing
 CSTEP = 1e-30
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def swing_jacobian(p, tau, fmode, y, A):
     """``A[i, j] = d f_i / d y_j`` of the swing field (complex step, exact to round-off)."""
     z = np.empty(4, dtype=np.complex128)
@@ -49,7 +49,7 @@ def swing_jacobian(p, tau, fmode, y, A):
         A[3, j] = a2.imag / CSTEP
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def swing_variational_rhs(p, tau, fmode, Y, dY):
     """Augmented field: ``dY[:4] = f(y)``, ``dPhi = A(y) Phi``."""
     A = np.empty((4, 4))
@@ -63,7 +63,7 @@ def swing_variational_rhs(p, tau, fmode, Y, dY):
             dY[4 + 4 * i + j] = acc
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _swap(p_before, p_after, y):
     """Swing state after a magnet swap (embed, flip, project; MODEL.md section 3)."""
     s8 = np.zeros(8, dtype=y.dtype)
@@ -81,13 +81,13 @@ def _swap(p_before, p_after, y):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def swap_state(p_before, p_after, y):
     """The swap as a map on packed swing states (float)."""
     return _swap(p_before, p_after, y)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def swap_jacobian(p_before, p_after, y, J):
     """Jacobian of :func:`swap_state` (complex step): flip and plastic impact together."""
     z = np.empty(4, dtype=np.complex128)
@@ -100,7 +100,7 @@ def swap_jacobian(p_before, p_after, y, J):
             J[i, j] = out[i].imag / CSTEP
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def swing_energy_gradient(p, y_end, y, g):
     """Gradient of the total energy (attached end at height ``y_end``) w.r.t. packed ``y``."""
     for j in range(4):
@@ -116,7 +116,7 @@ def swing_energy_gradient(p, y_end, y, g):
 # ----------------------------------------------------------------------------------------------
 # any phase on the full 8-state
 # ----------------------------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def field8(phase, p, tau, s, f):
     """Vector field of either phase on the full 8-state ``[x, y, th1, th2, dx, dy, dth1,
     dth2]`` (complex-capable).
@@ -140,7 +140,7 @@ def field8(phase, p, tau, s, f):
         rhs_flight(p, tau, fm, s, f)   # the flight state is the 8-state itself
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def field8_jacobian(phase, p, tau, s, A):
     """``A[i, j] = d f_i / d s_j`` of :func:`field8` (complex step, exact to round-off).
 
@@ -177,7 +177,7 @@ def field8_jacobian(phase, p, tau, s, A):
         A[1, 5] = 1.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def variational_rhs8(phase, p, tau, Y, dY):
     """Augmented field on ``Y = [s (8), Phi (8 x m, row-major)]``: ``ds = f(s)``,
     ``dPhi = A(s) Phi``, for either phase."""
@@ -195,7 +195,7 @@ def variational_rhs8(phase, p, tau, Y, dY):
             dY[8 + m * i + j] = acc
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def guard8(kind, index, value, p, s, eref):
     """A segment guard on the full 8-state, as :func:`.events.guard` computes it, from the
     8-state so that complex steps pass through (``G_TIME`` and ``G_NONE`` are not state
@@ -213,7 +213,7 @@ def guard8(kind, index, value, p, s, eref):
     return 0.0 * s[0]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def guard8_gradient(kind, index, value, p, s, eref, grad):
     """Gradient of :func:`guard8` w.r.t. the 8-state (complex step); ``eref`` held fixed."""
     z = np.empty(8, dtype=np.complex128)
@@ -224,7 +224,7 @@ def guard8_gradient(kind, index, value, p, s, eref, grad):
         grad[j] = guard8(kind, index, value, p, z, eref).imag / CSTEP
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def energy8_gradient(p, s, grad):
     """Gradient of the total energy (:func:`.dynamics.total_energy8`) w.r.t. the 8-state."""
     z = np.empty(8, dtype=np.complex128)
@@ -235,7 +235,7 @@ def energy8_gradient(p, s, grad):
         grad[j] = total_energy8(p, z).imag / CSTEP
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def entry_reset(par, s, phase, flipped, mag_a, mag_b, swap, out, DR):
     """Entry magnet actions as a map on 8-states and its Jacobian (complex step).
 
