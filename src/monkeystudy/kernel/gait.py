@@ -82,7 +82,14 @@ def horizontal_gait(par, prog, settings, dtheta1, dtheta2, energy_floor, skip_un
 def horizontal_gait_in(par, prog, settings, dtheta1, dtheta2, energy_floor, skip_unreachable,
                        out, scratch):
     """:func:`horizontal_gait` in the work arrays of :func:`search_scratch`."""
-    hyb, counts, seg_times, no_obs = scratch[0], scratch[1], scratch[2], scratch[3]
+    if not _gait_start(par, dtheta1, dtheta2, energy_floor, skip_unreachable, scratch[0], out):
+        _gait_run(par, prog, settings, dtheta1, dtheta2, out, scratch)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _gait_start(par, dtheta1, dtheta2, energy_floor, skip_unreachable, hyb, out):
+    """The start state into ``hyb``, ``out`` cleared; True if the start is marked unreachable
+    (then ``out`` is complete)."""
     start_state(dtheta1, dtheta2, hyb)
     out[:] = np.nan
     out[R_STEPS] = 0.0
@@ -92,7 +99,14 @@ def horizontal_gait_in(par, prog, settings, dtheta1, dtheta2, energy_floor, skip
         e0 = total_energy8(par[0], hyb)
         if e0 < energy_floor - 1e-12 * (1.0 + abs(energy_floor)):
             out[R_STATUS] = ST_UNREACHABLE
-            return
+            return True
+    return False
+
+
+@njit(cache=True, error_model="numpy")
+def _gait_run(par, prog, settings, dtheta1, dtheta2, out, scratch):
+    """Integrate the gait from the start state in ``scratch[0]`` and fill ``out``."""
+    hyb, counts, seg_times, no_obs = scratch[0], scratch[1], scratch[2], scratch[3]
     status = simulate_unlogged(par, prog, no_obs, settings, scratch)
     out[R_STATUS] = status
     out[R_T_SWITCH] = seg_times[0]
@@ -112,9 +126,13 @@ def horizontal_gait_in(par, prog, settings, dtheta1, dtheta2, energy_floor, skip
 def horizontal_gait_batch(par, prog, settings, points, energy_floor, skip_unreachable, out):
     """:func:`horizontal_gait` over ``points[N, 2]`` into ``out[N, N_RESULT]`` (serial)."""
     scratch = search_scratch(prog.shape[0])
+    hyb = scratch[0]
     for i in range(points.shape[0]):
-        horizontal_gait_in(par, prog, settings, points[i, 0], points[i, 1], energy_floor,
-                           skip_unreachable, out[i], scratch)
+        # the start checked here, not through horizontal_gait_in: marking an unreachable start
+        # then costs no call (passing the scratch tuple costs more than the check itself)
+        if not _gait_start(par, points[i, 0], points[i, 1], energy_floor, skip_unreachable,
+                           hyb, out[i]):
+            _gait_run(par, prog, settings, points[i, 0], points[i, 1], out[i], scratch)
 
 
 # result columns of one cycle of a phase-sequence gait
