@@ -87,18 +87,25 @@ def gen_step(name: str, A, B, ns: int) -> str:
         lines += [f"    K[{ns}, {i}] = f_new[{i}]" for i in range(n)]
         lines.append("")
         out.append("\n".join(lines))
-    out.append("\n".join([
-        "@njit(cache=True, error_model=EM, _nrt=False)",
-        f"def {name}_step(phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new):",
-        f'    """One {name.upper()} step of packed size ``n`` (see ``integrate.rk_step``)."""',
-        "    if n == 4:",
-        f"        {name}_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new)",
-        "    else:",
-        f"        {name}_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new)",
-        f"    return {ns}",
-        "",
-    ]))
+    out.append(gen_size_dispatch(
+        f"{name}_step", "phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new",
+        f"One {name.upper()} step of packed size ``n`` (see ``integrate.rk_step``).", ns))
     return "\n\n".join(out)
+
+
+def gen_size_dispatch(name: str, params: str, doc: str, result=None) -> str:
+    """A function ``name(params)`` calling ``name4`` or ``name8`` by the packed size ``n``
+    (4 swing, 8 flight) with the other parameters but ``phase``; it returns ``result`` if
+    given, else what the callee returns."""
+    args = ", ".join(a for a in params.split(", ") if a not in ("phase", "n"))
+    lines = ["@njit(cache=True, error_model=EM, _nrt=False)", f"def {name}({params}):",
+             f'    """{doc}"""', "    if n == 4:"]
+    if result is None:
+        lines += [f"        return {name}4({args})", f"    return {name}8({args})"]
+    else:
+        lines += [f"        {name}4({args})", "    else:", f"        {name}8({args})",
+                  f"    return {result}"]
+    return "\n".join(lines + [""])
 
 
 def gen_dense_dop853() -> str:
@@ -129,18 +136,10 @@ def gen_dense_dop853() -> str:
             lines += [f"    Fd[{3 + r}, {i}] = h * ({lincomb(D[r, :ne], lambda j: f'K[{j}, {i}]')})"
                       for r in range(D.shape[0])]
         out.append("\n".join(lines) + "\n")
-    out.append("\n".join([
-        "@njit(cache=True, error_model=EM, _nrt=False)",
-        "def dop853_dense(p, tau, fmode, y_old, y_new, f_new, h, n, K, Fd):",
-        '    """:func:`dop853_dense4` or :func:`dop853_dense8` by packed size ``n``; returns the '
-        'extra\n    right-hand-side evaluations."""',
-        "    if n == 4:",
-        "        dop853_dense4(p, tau, fmode, y_old, y_new, f_new, h, K, Fd)",
-        "    else:",
-        "        dop853_dense8(p, tau, fmode, y_old, y_new, f_new, h, K, Fd)",
-        f"    return {ne - ns - 1}",
-        "",
-    ]))
+    out.append(gen_size_dispatch(
+        "dop853_dense", "p, tau, fmode, y_old, y_new, f_new, h, n, K, Fd",
+        ":func:`dop853_dense4` or :func:`dop853_dense8` by packed size ``n``; returns the "
+        "extra\n    right-hand-side evaluations.", ne - ns - 1))
     return "\n\n".join(out)
 
 
@@ -177,15 +176,9 @@ def gen_error_sq(name: str, doc: str, estimates, finish: str) -> str:
                          + pairwise([f"{prefix}{i} * {prefix}{i}" for i in range(n)]))
         lines += [f"    {line}" for line in finish.format(n=f"{n}.0").splitlines()]
         out.append("\n".join(lines) + "\n")
-    out.append("\n".join([
-        "@njit(cache=True, error_model=EM, _nrt=False)",
-        f"def {name}_error_sq(K, h, y, y_new, n, rtol, atol):",
-        f'    """:func:`{name}_error_sq4` or :func:`{name}_error_sq8` by packed size ``n``."""',
-        "    if n == 4:",
-        f"        return {name}_error_sq4(K, h, y, y_new, rtol, atol)",
-        f"    return {name}_error_sq8(K, h, y, y_new, rtol, atol)",
-        "",
-    ]))
+    out.append(gen_size_dispatch(
+        f"{name}_error_sq", "K, h, y, y_new, n, rtol, atol",
+        f":func:`{name}_error_sq4` or :func:`{name}_error_sq8` by packed size ``n``."))
     return "\n\n".join(out)
 
 
