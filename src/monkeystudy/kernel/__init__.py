@@ -8,8 +8,9 @@ never an exception. Functions that allocate nothing are also compiled without nu
 (``_nrt=False``): numba otherwise increfs each array argument on entry and decrefs it on exit
 (atomic operations) wherever its pruning pass cannot prove the pair redundant, which it cannot
 in a function that calls another that calls a third. On the event-location and leg-start paths
-that was ~450 reference-count calls, ~1 us, per gait. Such a function fails to compile if it
-ever creates an array, rather than running wrongly.
+that was ~450 reference-count calls per gait (3.9 % of it in perf; removing them took 0.6 us
+off a 23.7 us gait). Such a function fails to compile if it ever creates an array, rather than
+running wrongly.
 
 Numba's on-disk cache checks only the source file of each function, not of the functions it
 calls: edit ``integrate.py`` and a cached ``hybrid.simulate`` keeps running the old integrator.

@@ -74,14 +74,7 @@ def horizontal_gait(par, prog, settings, dtheta1, dtheta2, energy_floor, skip_un
     swap_energy_floor`) is marked ``ST_UNREACHABLE`` without integrating: with the motor off,
     energy cannot grow before the swap.
     """
-    horizontal_gait_in(par, prog, settings, dtheta1, dtheta2, energy_floor, skip_unreachable,
-                       out, search_scratch(prog.shape[0]))
-
-
-@njit(cache=True, error_model="numpy")
-def horizontal_gait_in(par, prog, settings, dtheta1, dtheta2, energy_floor, skip_unreachable,
-                       out, scratch):
-    """:func:`horizontal_gait` in the work arrays of :func:`search_scratch`."""
+    scratch = search_scratch(prog.shape[0])
     if not _gait_start(par, dtheta1, dtheta2, energy_floor, skip_unreachable, scratch[0], out):
         _gait_run(par, prog, settings, dtheta1, dtheta2, out, scratch)
 
@@ -128,8 +121,8 @@ def horizontal_gait_batch(par, prog, settings, points, energy_floor, skip_unreac
     scratch = search_scratch(prog.shape[0])
     hyb = scratch[0]
     for i in range(points.shape[0]):
-        # the start checked here, not through horizontal_gait_in: marking an unreachable start
-        # then costs no call (passing the scratch tuple costs more than the check itself)
+        # the start checked before the call that passes the scratch tuple: marking an
+        # unreachable start then costs no call (47 ns, against 125 ns through the call)
         if not _gait_start(par, points[i, 0], points[i, 1], energy_floor, skip_unreachable,
                            hyb, out[i]):
             _gait_run(par, prog, settings, points[i, 0], points[i, 1], out[i], scratch)
