@@ -2,9 +2,12 @@
 
 The generic stage loops of :mod:`monkeystudy.kernel.integrate` multiply through the zeros of
 the tableau and leave LLVM dependent chains it cannot schedule; written out with literal
-coefficients (as Hairer's Fortran DOP853 is), a step costs about a third less. The numbers come
-from :mod:`monkeystudy.kernel.tableaux`; ``tests/kernel/test_rk_explicit.py`` checks the file is
-up to date and agrees with the generic loops.
+coefficients (as Hairer's Fortran DOP853 is), a step costs about a third less. The weighted
+sums over stored stages are vector operations on whole rows of ``K``
+(``intrinsics.combine_rows4``/``8``): numba compiles with LLVM's straight-line (SLP) vectoriser
+off, and in scalars these sums were a quarter of a step's instructions. The numbers come from
+:mod:`monkeystudy.kernel.tableaux`; ``tests/kernel/test_rk_explicit.py`` checks the file is up
+to date and agrees with the generic loops.
 
 Usage: ``python tools/gen_rk_kernels.py`` (rewrites the file).
 """
@@ -22,11 +25,6 @@ from monkeystudy.kernel import tableaux as T  # noqa: E402
 TARGET = ROOT / "src" / "monkeystudy" / "kernel" / "rk_explicit.py"
 
 
-def lincomb(coeffs, row_expr) -> str:
-    terms = [f"{float(c)!r} * {row_expr(j)}" for j, c in enumerate(coeffs) if c != 0.0]
-    return " + ".join(terms) if terms else "0.0"
-
-
 # packed layout: positions then velocities; the vector field's derivative of a position is
 # the matching velocity, so only the accelerations need the dynamics
 TRIG = ["s1", "c1", "s2", "c2", "s12", "c12"]  # order of layout.T_*
@@ -40,10 +38,43 @@ def needed(lay) -> list[int]:
     return sorted(set(lay["args"]) | set(lay["vel"]))
 
 
+def literal_tuple(values) -> str:
+    return f"({values[0]!r},)" if len(values) == 1 else f"({', '.join(map(repr, values))})"
+
+
+def combine(lay, coeffs, prefix, rows=None) -> tuple[list[str], list[str]]:
+    """``sum_j coeffs_j K[j, :]`` over ``rows`` (default: all) with nonzero weights, in row
+    order, by ``intrinsics.combine_rows4``/``8`` (one vector multiply-add per row) into
+    ``prefix0 .. prefix{n-1}``: (code, the components' names)."""
+    n = lay["n"]
+    rows = range(len(coeffs)) if rows is None else rows
+    terms = [(j, float(coeffs[j])) for j in rows if coeffs[j] != 0.0]
+    if not terms:
+        return [], ["0.0"] * n
+    names = [f"{prefix}{i}" for i in range(n)]
+    code = [f"    {', '.join(names)} = combine_rows{n}(K, {literal_tuple([j for j, _ in terms])}, "
+            f"{literal_tuple([c for _, c in terms])})"]
+    return code, names
+
+
 def stage_state(lay, coeffs, prefix, base="y") -> list[str]:
-    """``prefix_i = base_i + (sum_j coeffs_j K[j, i]) h`` for the components the field reads."""
-    return [f"    {prefix}{i} = {base}[{i}] + ({lincomb(coeffs, lambda j: f'K[{j}, {i}]')}) * h"
-            for i in needed(lay)]
+    """``prefix_i = base_i + (sum_j coeffs_j K[j, i]) h`` for the components the field reads.
+
+    The older stages' part is one vector combination (off the critical path: those stages are
+    done); the newest stage's term is added in scalars, as the field has just left it there.
+    """
+    s = len(coeffs)
+    code, older = combine(lay, coeffs, "o", rows=range(s - 1))
+    newest = float(coeffs[s - 1])
+    for i in needed(lay):
+        if newest == 0.0:
+            total = older[i]
+        elif older[i] == "0.0":
+            total = f"{newest!r} * K[{s - 1}, {i}]"
+        else:
+            total = f"{older[i]} + {newest!r} * K[{s - 1}, {i}]"
+        code.append(f"    {prefix}{i} = {base}[{i}] + ({total}) * h")
+    return code
 
 
 def stage_eval(lay, prefix, dest, trig=False) -> list[str]:
@@ -78,8 +109,14 @@ def gen_step(name: str, A, B, ns: int) -> str:
         for s in range(1, ns):
             lines += stage_state(lay, A[s, :s], "z")
             lines += stage_eval(lay, "z", lambda i, s=s: f"K[{s}, {i}]")
-        lines += [f"    y_new[{i}] = y[{i}] + h * ({lincomb(B[:ns], lambda j: f'K[{j}, {i}]')})"
-                  for i in range(n)]
+        code, older = combine(lay, B[:ns], "b", rows=range(ns - 1))
+        lines += code
+        last = float(B[ns - 1])
+        for i in range(n):
+            total = older[i] if last == 0.0 else (
+                f"{last!r} * K[{ns - 1}, {i}]" if older[i] == "0.0"
+                else f"{older[i]} + {last!r} * K[{ns - 1}, {i}]")
+            lines.append(f"    y_new[{i}] = y[{i}] + h * ({total})")
         lines += [f"    z{i} = y_new[{i}]" for i in needed(lay)]
         # the last stage (first-same-as-last) also leaves the sines and cosines at the new point
         # for the guards (layout ``T_*``)
@@ -133,8 +170,10 @@ def gen_dense_dop853() -> str:
                 f"    Fd[1, {i}] = h * K[0, {i}] - dy",
                 f"    Fd[2, {i}] = 2.0 * dy - h * (f_new[{i}] + K[0, {i}])",
             ]
-            lines += [f"    Fd[{3 + r}, {i}] = h * ({lincomb(D[r, :ne], lambda j: f'K[{j}, {i}]')})"
-                      for r in range(D.shape[0])]
+        for r in range(D.shape[0]):
+            code, rowsum = combine(lay, D[r, :ne], f"d{r}_")
+            lines += code
+            lines += [f"    Fd[{3 + r}, {i}] = h * {rowsum[i]}" for i in range(n)]
         out.append("\n".join(lines) + "\n")
     out.append(gen_size_dispatch(
         "dop853_dense", "p, tau, fmode, y_old, y_new, f_new, h, n, K, Fd",
@@ -164,13 +203,17 @@ def gen_error_sq(name: str, doc: str, estimates, finish: str) -> str:
             f"def {name}_error_sq{n}(K, h, y, y_new, rtol, atol):",
             f'    """{doc}"""',
         ]
+        lay = SWING if n == 4 else FLIGHT
+        sums = {}
+        for prefix, (E, _) in estimates.items():
+            code, sums[prefix] = combine(lay, E, f"w{prefix}")
+            lines += code
         for i in range(n):
             # one division, not one per estimate (within an ulp of scipy's err / scale)
             lines.append(f"    isc{i} = 1.0 / (atol + max(abs(y[{i}]), abs(y_new[{i}])) * rtol)")
             for prefix, (E, scaled_by_h) in estimates.items():
                 hfac = "(h * isc{i})" if scaled_by_h else "isc{i}"
-                lines.append(f"    {prefix}{i} = ({lincomb(E, lambda j: f'K[{j}, {i}]')}) * "
-                             + hfac.format(i=i))
+                lines.append(f"    {prefix}{i} = {sums[prefix][i]} * " + hfac.format(i=i))
         for prefix in estimates:
             lines.append(f"    {prefix} = "
                          + pairwise([f"{prefix}{i} * {prefix}{i}" for i in range(n)]))
@@ -209,13 +252,16 @@ def gen_errors() -> str:
 def generate() -> str:
     head = '''"""Straight-line Runge-Kutta steps (GENERATED by tools/gen_rk_kernels.py: do not edit).
 
-Literal coefficients from :mod:`monkeystudy.kernel.tableaux`, zeros dropped. ``FM`` allows only
+Literal coefficients from :mod:`monkeystudy.kernel.tableaux`, zeros dropped. Sums over stored
+stages are ``combine_rows4``/``8``: one vector multiply-add per row of ``K``, in row order;
+a stage's newest term is added in scalars, straight from the field. ``FM`` allows only
 floating-point contraction (fused multiply-add): it never reassociates sums, so the result is
 as accurate as the generic loop (a single rounding per multiply-add instead of two).
 """
 from numba import njit
 
 from .dynamics import flight_accel, flight_accel_trig, swing_accel, swing_accel_trig
+from .intrinsics import combine_rows4, combine_rows8
 
 FM = {"contract"}
 # numpy's error model: no division-by-zero test before each division (a singular mass matrix
