@@ -57,24 +57,28 @@ def combine(lay, coeffs, prefix, rows=None) -> tuple[list[str], list[str]]:
     return code, names
 
 
-def stage_state(lay, coeffs, prefix, base="y") -> list[str]:
-    """``prefix_i = base_i + (sum_j coeffs_j K[j, i]) h`` for the components the field reads.
-
-    The older stages' part is one vector combination (off the critical path: those stages are
-    done); the newest stage's term is added in scalars, as the field has just left it there.
-    """
+def older_plus_newest(lay, coeffs, prefix) -> tuple[list[str], list[str]]:
+    """``sum_j coeffs_j K[j, :]``: the older stages' part as one vector combination (off the
+    critical path: those stages are done), the newest stage's term added in scalars, as the
+    field has just left it there. Returns (code, each component's sum as an expression)."""
     s = len(coeffs)
-    code, older = combine(lay, coeffs, "o", rows=range(s - 1))
+    code, older = combine(lay, coeffs, prefix, rows=range(s - 1))
     newest = float(coeffs[s - 1])
-    for i in needed(lay):
+    totals = []
+    for i in range(lay["n"]):
         if newest == 0.0:
-            total = older[i]
+            totals.append(older[i])
         elif older[i] == "0.0":
-            total = f"{newest!r} * K[{s - 1}, {i}]"
+            totals.append(f"{newest!r} * K[{s - 1}, {i}]")
         else:
-            total = f"{older[i]} + {newest!r} * K[{s - 1}, {i}]"
-        code.append(f"    {prefix}{i} = {base}[{i}] + ({total}) * h")
-    return code
+            totals.append(f"{older[i]} + {newest!r} * K[{s - 1}, {i}]")
+    return code, totals
+
+
+def stage_state(lay, coeffs, prefix, base="y") -> list[str]:
+    """``prefix_i = base_i + (sum_j coeffs_j K[j, i]) h`` for the components the field reads."""
+    code, totals = older_plus_newest(lay, coeffs, "o")
+    return code + [f"    {prefix}{i} = {base}[{i}] + ({totals[i]}) * h" for i in needed(lay)]
 
 
 def stage_eval(lay, prefix, dest, trig=False) -> list[str]:
@@ -109,14 +113,8 @@ def gen_step(name: str, A, B, ns: int) -> str:
         for s in range(1, ns):
             lines += stage_state(lay, A[s, :s], "z")
             lines += stage_eval(lay, "z", lambda i, s=s: f"K[{s}, {i}]")
-        code, older = combine(lay, B[:ns], "b", rows=range(ns - 1))
-        lines += code
-        last = float(B[ns - 1])
-        for i in range(n):
-            total = older[i] if last == 0.0 else (
-                f"{last!r} * K[{ns - 1}, {i}]" if older[i] == "0.0"
-                else f"{older[i]} + {last!r} * K[{ns - 1}, {i}]")
-            lines.append(f"    y_new[{i}] = y[{i}] + h * ({total})")
+        code, totals = older_plus_newest(lay, B[:ns], "b")
+        lines += code + [f"    y_new[{i}] = y[{i}] + h * ({totals[i]})" for i in range(n)]
         lines += [f"    z{i} = y_new[{i}]" for i in needed(lay)]
         # the last stage (first-same-as-last) also leaves the sines and cosines at the new point
         # for the guards (layout ``T_*``)

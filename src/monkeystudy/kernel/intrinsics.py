@@ -102,6 +102,9 @@ def combine_rows4(K, rows, coefs):
     vectors (numba leaves LLVM's straight-line vectoriser off, so the scalar sums of a stage
     cost four times the instructions). Interpreted: the same sums with a rounding per product
     and per sum, as the interpreter evaluates the scalar code around it.
+
+    ``K`` must be C-contiguous (a row is one vector load; other layouts are a typing error)
+    with at least 4 columns, and ``rows`` in range: like numba's indexing, neither is checked.
     """
     return _combine_rows(K, rows, coefs, 4)
 
