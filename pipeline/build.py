@@ -7,7 +7,7 @@
 
 For each study file:
 
-1. **datasets** - the study runner's own plan (``monkeystudy.study.runner.plan_study``) says
+1. **datasets** - the study runner's own plan (``monkeystudy.study.plan.plan_study``) says
    whether ``<out>/<study name>/<step>.nc`` exist and are current: same step key
    (``step_sha256``: the robot, gait, integrator, the step's settings and its dependencies'
    keys - editing one step reruns only it and what depends on it) and same simulation code
@@ -51,7 +51,7 @@ def study_files(args_studies: list[str] | None) -> list[Path]:
 def datasets_step(study: Path, out: Path, *, workers: int | None, dry_run: bool):
     """Bring the study's datasets up to date. Returns (study name, study dir, state, ok)."""
     from monkeystudy.study.loader import StudyError, load_study
-    from monkeystudy.study.runner import plan_study
+    from monkeystudy.study.plan import plan_study
 
     try:
         loaded = load_study(study)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import subprocess
 import sys
 
-import monkeystudy
 
 
 def _fresh(code: str) -> str:

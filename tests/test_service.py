@@ -15,7 +15,7 @@ import xarray as xr
 from typer.testing import CliRunner
 
 from monkeystudy import __main__ as entry
-from monkeystudy import service
+from monkeystudy.service import client as service
 from monkeystudy.cli import app
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -197,10 +197,7 @@ def test_interrupted_client_stops_the_run_and_a_rerun_resumes(server, tmp_path):
 
 
 def test_resident_pool_is_renewed_when_a_run_loads_new_kernels(monkeypatch):
-    import importlib
-
     from monkeystudy.study import runner
-    simulate = importlib.import_module("monkeystudy.simulate")   # the module, not the function
 
     class FakePool:
         renewed = aborted = 0
@@ -212,19 +209,19 @@ def test_resident_pool_is_renewed_when_a_run_loads_new_kernels(monkeypatch):
             self.aborted += 1
 
     loaded = [3]
-    monkeypatch.setattr(simulate, "loaded_kernels", lambda: loaded[0])
+    monkeypatch.setattr(runner, "loaded_kernels", lambda: loaded[0])
     pool = FakePool()
-    with runner._resident(pool, lambda: None):      # nothing new: the workers have it all
+    with runner.resident_pool(pool, lambda: None):      # nothing new: the workers have it all
         pass
     assert (pool.renewed, pool.aborted) == (0, 0)
 
     def load_more():
         loaded[0] += 2
-    with runner._resident(pool, load_more):
+    with runner.resident_pool(pool, load_more):
         pass
     assert (pool.renewed, pool.aborted) == (1, 0)
     with pytest.raises(KeyboardInterrupt):           # a run that does not finish stops them
-        with runner._resident(pool, lambda: None):
+        with runner.resident_pool(pool, lambda: None):
             raise KeyboardInterrupt
     assert pool.aborted == 1
 

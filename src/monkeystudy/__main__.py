@@ -50,7 +50,7 @@ def _served_run(argv: list[str]) -> int | None:
         return None
     from pathlib import Path
 
-    from .service import default_socket, submit_run
+    from .service.client import default_socket, submit_run
     from .study.provenance import run_command
     path = args.socket or default_socket()
     study = Path(args.study)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -24,162 +25,18 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 from numba import njit
 
+from .analysis.precision import best_of, kernel_gaits
 from .controllers import HorizontalSearch, Integrator, settings_vector
 from .kernel.dynamics import rhs_swing
+from .kernel.gait import (
+    R_ERROR, R_NFEV, R_REJECTED, R_STEPS, R_T_END, R_T_MOTOR, R_T_SWITCH,
+    horizontal_gait_batch,
+)
 from .kernel.trig import sincos
-from .kernel.gait import N_RESULT, R_ERROR, R_NFEV, R_REJECTED, R_STEPS, R_T_END, R_T_MOTOR, \
-    R_T_SWITCH, horizontal_gait_batch
+from .reference.scipy_gait import ScipyGait
 from .robot import SEED2009_TORQUE, Robot
-
-# ------------------------------------------------------------------------------------------
-# scipy baseline: the same gait with solve_ivp and terminal events (MODEL.md sections 2-4)
-# ------------------------------------------------------------------------------------------
-
-
-class ScipyGait:
-    """The horizontal gait with ``scipy.integrate.solve_ivp``; ``rhs`` 'scalar' or 'numpy'."""
-
-    def __init__(self, robot: Robot, torque: float, rhs: str = "scalar"):
-        l1, l2 = robot.link1, robot.link2
-        self.m1, self.m2, self.L1, self.L2 = l1.mass, l2.mass, l1.length, l2.length
-        self.r1, self.r2, self.I1, self.I2 = l1.com, l2.com, l1.inertia, l2.inertia
-        self.g = robot.gravity
-        self.torque = torque
-        self.rhs_kind = rhs
-
-    def params(self, flipped: bool):
-        if not flipped:
-            return (self.m1, self.m2, self.L1, self.L2, self.r1, self.r2, self.I1, self.I2)
-        return (self.m2, self.m1, self.L2, self.L1, self.L2 - self.r2, self.L1 - self.r1,
-                self.I2, self.I1)
-
-    def make_rhs(self, prm, tau):
-        m1, m2, L1, L2, r1, r2, I1, I2 = prm
-        g = self.g
-        a = m1 * r1 + m2 * L1
-        h = m2 * r2 * L1
-        k11 = I1 + I2 + m1 * r1 ** 2 + m2 * L1 ** 2 + m2 * r2 ** 2
-        k22 = I2 + m2 * r2 ** 2
-        sin, cos = math.sin, math.cos
-        if self.rhs_kind == "scalar":
-            def f(t, y):
-                th1, th2, w1, w2 = y
-                s2 = sin(th2)
-                c2 = cos(th2)
-                s12 = sin(th1 + th2)
-                m11 = k11 + 2 * h * c2
-                m12 = k22 + h * c2
-                q1 = h * s2 * (2 * w1 * w2 + w2 * w2) - g * (a * sin(th1) + m2 * r2 * s12)
-                q2 = -h * s2 * w1 * w1 - g * m2 * r2 * s12 + tau
-                det = m11 * k22 - m12 * m12
-                return [w1, w2, (k22 * q1 - m12 * q2) / det, (m11 * q2 - m12 * q1) / det]
-        else:
-            def f(t, y):
-                th1, th2, w1, w2 = y
-                c2 = np.cos(th2)
-                s2 = np.sin(th2)
-                s12 = np.sin(th1 + th2)
-                M = np.array([[k11 + 2 * h * c2, k22 + h * c2], [k22 + h * c2, k22]])
-                Cq = np.array([-h * s2 * (2 * w1 * w2 + w2 ** 2), h * s2 * w1 ** 2])
-                G = np.array([g * (a * np.sin(th1) + m2 * r2 * s12), g * m2 * r2 * s12])
-                acc = np.linalg.solve(M, np.array([0.0, tau]) - Cq - G)
-                return np.concatenate(([w1, w2], acc))
-        return f
-
-    def energy(self, prm, y_end, th1, th2, w1, w2):
-        m1, m2, L1, L2, r1, r2, I1, I2 = prm
-        c2 = math.cos(th2)
-        h = m2 * r2 * L1
-        k11 = I1 + I2 + m1 * r1 ** 2 + m2 * L1 ** 2 + m2 * r2 ** 2
-        k22 = I2 + m2 * r2 ** 2
-        kin = 0.5 * ((k11 + 2 * h * c2) * w1 ** 2 + 2 * (k22 + h * c2) * w1 * w2 + k22 * w2 ** 2)
-        pot = self.g * ((m1 + m2) * y_end - (m1 * r1 + m2 * L1) * math.cos(th1)
-                        - m2 * r2 * math.cos(th1 + th2))
-        return kin + pot
-
-    def swap(self, prm, y_end, th1, th2, w1, w2):
-        """Flip about the free end and project (MODEL.md section 3); returns the new state."""
-        m1, m2, L1, L2, r1, r2, I1, I2 = prm
-        s1, c1 = math.sin(th1), math.cos(th1)
-        s12, c12 = math.sin(th1 + th2), math.cos(th1 + th2)
-        vx = L1 * c1 * w1 + L2 * c12 * (w1 + w2)
-        vy = L1 * s1 * w1 + L2 * s12 * (w1 + w2)
-        y_new = y_end - L1 * c1 - L2 * c12
-        t1 = math.atan2(math.sin(math.pi + th1 + th2), math.cos(math.pi + th1 + th2))
-        t2 = math.atan2(math.sin(-th2), math.cos(-th2))
-        q = np.array([0.0, y_new, t1, t2])
-        dq = np.array([vx, vy, w1 + w2, -w2])
-        M = self.flight_mass(self.params(True), t1, t2)
-        Minv = np.linalg.inv(M)
-        J = np.array([[1.0, 0, 0, 0], [0, 1.0, 0, 0]])
-        P = np.eye(4) - Minv @ J.T @ np.linalg.solve(J @ Minv @ J.T, J)
-        dq = P @ dq
-        return q, dq
-
-    def flight_mass(self, prm, th1, th2):
-        m1, m2, L1, L2, r1, r2, I1, I2 = prm
-        a = m1 * r1 + m2 * L1
-        h = m2 * r2 * L1
-        c1, s1, c12, s12, c2 = (math.cos(th1), math.sin(th1), math.cos(th1 + th2),
-                                math.sin(th1 + th2), math.cos(th2))
-        k22 = I2 + m2 * r2 ** 2
-        M = np.zeros((4, 4))
-        M[0, 0] = M[1, 1] = m1 + m2
-        M[0, 2] = M[2, 0] = a * c1 + m2 * r2 * c12
-        M[0, 3] = M[3, 0] = m2 * r2 * c12
-        M[1, 2] = M[2, 1] = a * s1 + m2 * r2 * s12
-        M[1, 3] = M[3, 1] = m2 * r2 * s12
-        M[2, 2] = I1 + I2 + m1 * r1 ** 2 + m2 * L1 ** 2 + m2 * r2 ** 2 + 2 * h * c2
-        M[2, 3] = M[3, 2] = k22 + h * c2
-        M[3, 3] = k22
-        return M
-
-    def gait(self, d1, d2, rtol, atol, method="DOP853", max_time=3.0):
-        """(error, t_switch, t_motor, t_end, nfev) of the gait; NaNs when it fails."""
-        from scipy.integrate import solve_ivp
-        nan = (math.nan,) * 4
-        prm = self.params(False)
-        L1, L2 = prm[2], prm[3]
-        e0 = self.energy(prm, 0.0, 0.0, 0.0, d1, d2)
-
-        def b_height(t, y):
-            return -(L1 * math.cos(y[0]) + L2 * math.cos(y[0] + y[1]))
-        b_height.terminal, b_height.direction = True, 1
-        s1 = solve_ivp(self.make_rhs(prm, 0.0), (0.0, max_time), [0.0, 0.0, d1, d2],
-                       method=method, rtol=rtol, atol=atol, events=b_height)
-        nfev = s1.nfev
-        if not s1.t_events[0].size:
-            return nan + (nfev,)
-        ts = s1.t_events[0][0]
-        th1, th2, w1, w2 = s1.y_events[0][0]
-        q, dq = self.swap(prm, 0.0, th1, th2, w1, w2)
-        prm2 = self.params(True)
-        y_piv = q[1]
-
-        def restored(t, y):
-            return self.energy(prm2, y_piv, *y) - e0
-        restored.terminal, restored.direction = True, 1
-        s2 = solve_ivp(self.make_rhs(prm2, self.torque), (ts, ts + max_time),
-                       [q[2], q[3], dq[2], dq[3]], method=method, rtol=rtol, atol=atol,
-                       events=restored)
-        nfev += s2.nfev
-        if not s2.t_events[0].size:
-            return nan + (nfev,)
-        tm = s2.t_events[0][0]
-
-        def vertical(t, y):
-            return y[0]
-        vertical.terminal, vertical.direction = True, 0
-        s3 = solve_ivp(self.make_rhs(prm2, 0.0), (tm, tm + max_time), s2.y_events[0][0],
-                       method=method, rtol=rtol, atol=atol, events=vertical)
-        nfev += s3.nfev
-        if not s3.t_events[0].size:
-            return nan + (nfev,)
-        te = s3.t_events[0][0]
-        th1, th2, w1, w2 = s3.y_events[0][0]
-        err = th2 ** 2 + (d1 - w1) ** 2 + (d2 - w2) ** 2
-        return err, ts, tm - ts, te, nfev
-
+from .service.client import ServiceError, request
+from .simulate import initial_state, run_controller
 
 # ------------------------------------------------------------------------------------------
 # kernel timings
@@ -233,8 +90,6 @@ def _rhs_chain_states(p, reps, states):
 def gait_swing_states(pts) -> np.ndarray:
     """Packed swing states ``[theta1, theta2, dtheta1, dtheta2]`` the gaits from ``pts`` pass
     through (1 ms samples of the default integrator's trajectory)."""
-    from .simulate import initial_state, run_controller
-
     ctrl = HorizontalSearch(SEED2009_TORQUE)
     rows = []
     for a, b in pts:
@@ -254,16 +109,6 @@ def rhs_cost_gait_ns(par, states) -> float:
     _rhs_chain_states(par[0], 1, states[:4])
     reps = max(1, 200_000 // len(states))
     return best_of(lambda: _rhs_chain_states(par[0], reps, states)) / (reps * len(states)) * 1e9
-
-
-def best_of(fn, repeat=5):
-    """Smallest wall time of ``repeat`` calls [s] (the least disturbed one)."""
-    best = math.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def cost_split(nfev, seconds) -> tuple[float, float]:
@@ -347,12 +192,6 @@ def gait_points(n: int, seed: int = 0) -> np.ndarray:
     return np.column_stack([rng.uniform(0.5, 1.6, n), rng.uniform(10.0, 12.0, n)])
 
 
-def kernel_gaits(par, prog, settings, pts, floor):
-    out = np.empty((pts.shape[0], N_RESULT))
-    horizontal_gait_batch(par, prog, settings, pts, floor, True, out)
-    return out
-
-
 def _grid_block(args):
     """Process-pool task: evaluate a block of gait points (importable, no lambdas)."""
     pts, rtol = args
@@ -412,7 +251,6 @@ def _served_runs(tmp: str, study: str, workers: int, repeat: int) -> tuple[float
     server = subprocess.Popen([sys.executable, "-m", "monkeystudy", "serve", "--socket",
                                sock, "--workers", str(workers)], stdout=subprocess.DEVNULL,
                               stderr=subprocess.DEVNULL)
-    from .service import ServiceError, request
     try:
         while True:
             try:
@@ -440,8 +278,6 @@ def grid_run(n_points: int, rtol: float = 1e-8, served: int = 0) -> dict:
     """Run a ``n_points`` error map end to end (``monkeystudy run`` in a fresh process; with
     ``served`` > 0 also that many runs handed to a resident ``monkeystudy serve``) and time the
     kernel alone on a sample of the same grid in this process."""
-    import resource
-
     n1 = max(2, int(round(math.sqrt(n_points * 3.0 / 5.0))))
     n2 = max(2, int(round(n_points / n1)))
     workers = os.cpu_count() or 1
@@ -456,6 +292,7 @@ def grid_run(n_points: int, rtol: float = 1e-8, served: int = 0) -> dict:
                        capture_output=True, text=True)
         wall = time.perf_counter() - t0
         peak_kb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+        # xarray loads in ~0.5 s: only this optional measurement pays for it
         import xarray as xr
         with xr.open_dataset(os.path.join(tmp, "out", "error_map.nc")) as ds:
             status = ds["status"].values
@@ -491,9 +328,6 @@ def grid_run(n_points: int, rtol: float = 1e-8, served: int = 0) -> dict:
 
 def skipping() -> dict:
     """What skipping saves: unreachable starts (energy bound) and unrequested outputs."""
-    from .controllers import HorizontalSearch
-    from .simulate import initial_state, run_controller
-
     robot = Robot.preset("seed2009")
     par = robot.params()
     floor = robot.swap_energy_floor()
@@ -526,7 +360,7 @@ def skipping() -> dict:
             "t_unreachable_integrated": t_full, "t_eval": t_eval, "t_with_outputs": t_out}
 
 
-def main(argv=None) -> int:
+def parse_args(argv=None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(prog="monkeystudy bench", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="fewer points and repetitions")
@@ -538,84 +372,63 @@ def main(argv=None) -> int:
     ap.add_argument("--served", type=int, default=0, metavar="K",
                     help="with --grid: also start 'monkeystudy serve' and time K runs of the "
                          "same map handed to it ('run --server --socket')")
-    args = ap.parse_args(argv)
+    return ap.parse_args(argv)
 
-    robot = Robot.preset("seed2009")
-    par = robot.params()
-    floor = robot.swap_energy_floor()
-    npts = 8 if args.quick else 24
-    pts = gait_points(npts)
-    print(f"monkeystudy bench: seed2009 horizontal gait, {npts} points, "
-          f"{os.cpu_count()} cores; all ratios use baselines timed in this run")
 
-    # the baselines are timed before and after the kernel runs and the smaller of the two is
-    # used: a shared machine disturbs one short window now and then, and a disturbed baseline
-    # would flatter every ratio below
-    swing_states = gait_swing_states(pts)
-    chain_ns, indep_ns = rhs_cost_ns(par)
-    gait_ns = rhs_cost_gait_ns(par, swing_states)
-
-    # reference: scipy DOP853 at rtol 1e-13 (a different implementation)
-    ref = np.array([ScipyGait(robot, SEED2009_TORQUE).gait(a, b, 1e-13, 1e-13)[:4]
-                    for a, b in pts])
-    kernel_rows = {}
-    kernel_nfev = {}
-    kernel_rejected = {}
+def kernel_runs(robot: Robot, pts: np.ndarray, ref: np.ndarray, quick: bool) -> dict:
+    """Per kernel configuration and tolerance: ``(seconds per gait, error of the gait error,
+    error of the event times)``, mean RHS evaluations and the share of rejected steps."""
+    par, floor, npts = robot.params(), robot.swap_energy_floor(), len(pts)
+    rows, nfev, rejected = {}, {}, {}
     for label, (method, controller) in KERNEL_CONFIGS.items():
-        for rtol in ((1e-6, 1e-10) if args.quick else (1e-6, 1e-8, 1e-10, 1e-12)):
+        for rtol in ((1e-6, 1e-10) if quick else (1e-6, 1e-8, 1e-10, 1e-12)):
             if method == "rk45" and rtol < 1e-10:
                 continue
             integ = Integrator(method=method, rtol=rtol, atol=rtol * 1e-2, controller=controller)
             prog, _ = HorizontalSearch(SEED2009_TORQUE).program()
             st = settings_vector(integ)
             out = kernel_gaits(par, prog, st, pts, floor)
-            reps = 3 if args.quick else 10
+            reps = 3 if quick else 10
             dt = best_of(lambda: kernel_gaits(par, prog, st, pts, floor), reps) / npts
             e_err = np.nanmax(np.abs(out[:, R_ERROR] - ref[:, 0]))
             e_t = np.nanmax(np.abs(out[:, [R_T_SWITCH, R_T_MOTOR, R_T_END]] - ref[:, 1:4]))
-            kernel_rows[(label, rtol)] = (dt, e_err, e_t)
-            kernel_nfev[(label, rtol)] = out[:, R_NFEV].mean()
+            rows[(label, rtol)] = (dt, e_err, e_t)
+            nfev[(label, rtol)] = out[:, R_NFEV].mean()
             # share of attempted steps the controller rejected (each costs a full step)
-            kernel_rejected[(label, rtol)] = (out[:, R_REJECTED].sum()
-                                               / (out[:, R_STEPS] + out[:, R_REJECTED]).sum())
-    chain_before = chain_ns
-    chain_after, indep_after = rhs_cost_ns(par)
-    chain_ns, indep_ns = min(chain_ns, chain_after), min(indep_ns, indep_after)
-    gait_ns = min(gait_ns, rhs_cost_gait_ns(par, swing_states))
-    print(f"\nRHS (swing, compiled; best of a timing before and one after the kernel runs): "
-          f"{chain_ns:.1f} ns per evaluation as a dependent chain ({chain_before:.1f} / "
-          f"{chain_after:.1f}), {indep_ns:.1f} ns independent (both at small angles); "
-          f"{gait_ns:.1f} ns as a chain over the gaits' own states")
+            rejected[(label, rtol)] = (out[:, R_REJECTED].sum()
+                                       / (out[:, R_STEPS] + out[:, R_REJECTED]).sum())
+    return {"rows": rows, "nfev": nfev, "rejected": rejected}
 
-    trig_kernel, trig_libm = sincos_cost_ns()
-    print(f"sine and cosine of two angles as a dependent chain: {trig_kernel:.1f} ns with the "
-          f"kernel's own (kernel/trig.py), {trig_libm:.1f} ns with the C library's "
-          f"({trig_libm / trig_kernel:.2f}x)")
 
+def print_kernel_table(k: dict, chain_ns: float, indep_ns: float, gait_ns: float) -> None:
+    rows, nfev_of, rejected = k["rows"], k["nfev"], k["rejected"]
     print("\nkernel, per gait (errors: max |difference| of gait error and event times "
           "vs scipy DOP853 rtol 1e-13):")
     print(f"  {'method':9} {'rtol':>7} {'us/gait':>9} {'RHS/gait':>9} {'ns/RHS':>7} "
           f"{'x chain':>8} {'x indep':>8} {'x gait':>7} {'rejected':>9} {'err(error)':>11} "
           f"{'err(times)':>11}")
-    for (method, rtol), (dt, e_err, e_t) in kernel_rows.items():
-        nfev = kernel_nfev[(method, rtol)]
+    for (method, rtol), (dt, e_err, e_t) in rows.items():
+        nfev = nfev_of[(method, rtol)]
         print(f"  {method:9} {rtol:7.0e} {dt * 1e6:9.1f} {nfev:9.0f} {dt / nfev * 1e9:7.1f} "
               f"{dt / (nfev * chain_ns * 1e-9):8.2f} {dt / (nfev * indep_ns * 1e-9):8.2f} "
-              f"{dt / (nfev * gait_ns * 1e-9):7.2f} {kernel_rejected[(method, rtol)]:9.1%} "
+              f"{dt / (nfev * gait_ns * 1e-9):7.2f} {rejected[(method, rtol)]:9.1%} "
               f"{e_err:11.2e} {e_t:11.2e}")
     print("  cost split over the tolerances (us/gait = fixed + marginal x RHS/gait):")
     for method in KERNEL_CONFIGS:
-        keys = [k for k in kernel_rows if k[0] == method]
+        keys = [key for key in rows if key[0] == method]
         if len(keys) < 2:
             continue
-        fixed, marginal = cost_split([kernel_nfev[k] for k in keys],
-                                     [kernel_rows[k][0] for k in keys])
+        fixed, marginal = cost_split([nfev_of[key] for key in keys], [rows[key][0] for key in keys])
         print(f"    {method:9} marginal {marginal * 1e9:5.1f} ns per RHS "
               f"({marginal * 1e9 / chain_ns:.2f}x chain, {marginal * 1e9 / gait_ns:.2f}x gait "
               f"states), fixed {fixed * 1e6:4.1f} us per gait")
 
+
+def print_scipy_comparison(robot: Robot, pts: np.ndarray, ref: np.ndarray, quick: bool) -> None:
+    """scipy ``solve_ivp`` on the same gaits against the kernel's DOP853 at rtol 1e-10."""
+    par, floor = robot.params(), robot.swap_energy_floor()
     print("\nscipy solve_ivp, same gait (events, terminal), per gait (best of 3):")
-    nsub = min(npts, 4 if args.quick else 8)
+    nsub = min(len(pts), 4 if quick else 8)
     for rhs_kind in ("scalar", "numpy"):
         sg = ScipyGait(robot, SEED2009_TORQUE, rhs_kind)
         for method, rtol in (("DOP853", 1e-10), ("RK45", 1e-10), ("LSODA", 1e-10)):
@@ -626,7 +439,7 @@ def main(argv=None) -> int:
             # untimed first pass gives the results and warms scipy up
             res = [sg.gait(a, b, rtol, rtol * 1e-2, method=method) for a, b in pts[:nsub]]
             dt = best_of(lambda: [sg.gait(a, b, rtol, rtol * 1e-2, method=method)
-                                  for a, b in pts[:nsub]], 2 if args.quick else 3) / nsub
+                                  for a, b in pts[:nsub]], 2 if quick else 3) / nsub
             res = np.array([r[:4] for r in res])
             e_err = np.nanmax(np.abs(res[:, 0] - ref[:nsub, 0]))
             e_t = np.nanmax(np.abs(res[:, 1:4] - ref[:nsub, 1:4]))
@@ -643,13 +456,8 @@ def main(argv=None) -> int:
                   f"on the same points is {dt / mine[0]:.0f}x faster (its errors "
                   f"{mine[1]:.1e}, {mine[2]:.1e})")
 
-    if args.workers:
-        n = 2500 if args.quick else 20000
-        w1 = workers_throughput(n, 1, 1e-8)
-        wn = workers_throughput(n, os.cpu_count() or 1, 1e-8)
-        print(f"\nprocess pool, {n}-point grid (seed2009 map, rtol 1e-8): "
-              f"1 worker {w1:.0f} gaits/s, {os.cpu_count()} workers {wn:.0f} gaits/s, "
-              f"speed-up {wn / w1:.2f}x")
+
+def print_skipping() -> None:
     sk = skipping()
     print(f"\nskipping: {sk['unreachable_fraction']:.1%} of the study's error map provably "
           f"cannot reach the swap; marking one costs {sk['t_skip'] * 1e9:.0f} ns, integrating "
@@ -658,19 +466,66 @@ def main(argv=None) -> int:
           f"{sk['t_eval'] * 1e6:.1f} us/gait; the same gait with a 1 ms trajectory and event log "
           f"through the Python API {sk['t_with_outputs'] * 1e6:.0f} us "
           f"({sk['t_with_outputs'] / sk['t_eval']:.1f}x)")
+
+
+def print_grid_run(n: int, served: int) -> None:
+    g = grid_run(n, served=served)
+    print(f"\nend-to-end error map, {g['points']} points, {g['workers']} workers, "
+          f"DOP853 rtol 1e-8: {g['wall']:.2f} s wall; kernel alone "
+          f"{g['per_gait'] * 1e6:.1f} us/gait -> predicted {g['predicted']:.2f} s; ratio "
+          f"{g['ratio']:.2f}; peak RSS {g['peak_rss_mb']:.0f} MB; ok {g['ok_fraction']:.3f}, "
+          f"skipped (unreachable) {g['skipped_fraction']:.3f}")
+    if served:
+        print(f"  handed to a resident 'monkeystudy serve' (started in "
+              f"{g['serve_start']:.1f} s, once): "
+              + ", ".join(f"{w:.2f} s" for w in g["served"]) + " wall; ratio "
+              + ", ".join(f"{r:.2f}" for r in g["served_ratios"])
+              + " (same datasets as the direct run)")
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    robot = Robot.preset("seed2009")
+    par = robot.params()
+    npts = 8 if args.quick else 24
+    pts = gait_points(npts)
+    print(f"monkeystudy bench: seed2009 horizontal gait, {npts} points, "
+          f"{os.cpu_count()} cores; all ratios use baselines timed in this run")
+
+    # the baselines are timed before and after the kernel runs and the smaller of the two is
+    # used: a shared machine disturbs one short window now and then, and a disturbed baseline
+    # would flatter every ratio below
+    swing_states = gait_swing_states(pts)
+    chain_ns, indep_ns = rhs_cost_ns(par)
+    gait_ns = rhs_cost_gait_ns(par, swing_states)
+    # reference: scipy DOP853 at rtol 1e-13 (a different implementation)
+    ref = np.array([ScipyGait(robot, SEED2009_TORQUE).gait(a, b, 1e-13, 1e-13)[:4]
+                    for a, b in pts])
+    kernel = kernel_runs(robot, pts, ref, args.quick)
+    chain_before = chain_ns
+    chain_after, indep_after = rhs_cost_ns(par)
+    chain_ns, indep_ns = min(chain_ns, chain_after), min(indep_ns, indep_after)
+    gait_ns = min(gait_ns, rhs_cost_gait_ns(par, swing_states))
+    print(f"\nRHS (swing, compiled; best of a timing before and one after the kernel runs): "
+          f"{chain_ns:.1f} ns per evaluation as a dependent chain ({chain_before:.1f} / "
+          f"{chain_after:.1f}), {indep_ns:.1f} ns independent (both at small angles); "
+          f"{gait_ns:.1f} ns as a chain over the gaits' own states")
+    trig_kernel, trig_libm = sincos_cost_ns()
+    print(f"sine and cosine of two angles as a dependent chain: {trig_kernel:.1f} ns with the "
+          f"kernel's own (kernel/trig.py), {trig_libm:.1f} ns with the C library's "
+          f"({trig_libm / trig_kernel:.2f}x)")
+    print_kernel_table(kernel, chain_ns, indep_ns, gait_ns)
+    print_scipy_comparison(robot, pts, ref, args.quick)
+    if args.workers:
+        n = 2500 if args.quick else 20000
+        w1 = workers_throughput(n, 1, 1e-8)
+        wn = workers_throughput(n, os.cpu_count() or 1, 1e-8)
+        print(f"\nprocess pool, {n}-point grid (seed2009 map, rtol 1e-8): "
+              f"1 worker {w1:.0f} gaits/s, {os.cpu_count()} workers {wn:.0f} gaits/s, "
+              f"speed-up {wn / w1:.2f}x")
+    print_skipping()
     for n in args.grid or []:
-        g = grid_run(n, served=args.served)
-        print(f"\nend-to-end error map, {g['points']} points, {g['workers']} workers, "
-              f"DOP853 rtol 1e-8: {g['wall']:.2f} s wall; kernel alone "
-              f"{g['per_gait'] * 1e6:.1f} us/gait -> predicted {g['predicted']:.2f} s; ratio "
-              f"{g['ratio']:.2f}; peak RSS {g['peak_rss_mb']:.0f} MB; ok {g['ok_fraction']:.3f}, "
-              f"skipped (unreachable) {g['skipped_fraction']:.3f}")
-        if args.served:
-            print(f"  handed to a resident 'monkeystudy serve' (started in "
-                  f"{g['serve_start']:.1f} s, once): "
-                  + ", ".join(f"{w:.2f} s" for w in g["served"]) + " wall; ratio "
-                  + ", ".join(f"{r:.2f}" for r in g["served_ratios"])
-                  + " (same datasets as the direct run)")
+        print_grid_run(n, args.served)
     if args.startup:
         cached = startup_seconds(cold=False)
         cold = startup_seconds(cold=True)

@@ -29,6 +29,10 @@ def _err(message: str) -> None:
     typer.echo(message, err=True)
 
 
+# Each command imports what it needs when it runs (the imports inside the functions below):
+# --help, validate and the thin client of a served run start without numpy, numba or xarray.
+
+
 def _load(study: Path):
     from .study.loader import StudyError, load_study
     try:
@@ -75,7 +79,7 @@ def run(
 
 def _run(study: Path, out: Optional[Path], workers: Optional[int], scheduler: Optional[str],
          dry_run: bool) -> None:
-    from .service import sigterm_as_interrupt
+    from .service.client import sigterm_as_interrupt
     from .study.command import execute_run
     from .study.progress import make_reporter
     from .study.provenance import run_command
@@ -99,7 +103,7 @@ def _run(study: Path, out: Optional[Path], workers: Optional[int], scheduler: Op
 def _run_on_server(study: Path, out: Optional[Path], workers: Optional[int],
                    scheduler: Optional[str], dry_run: bool, socket_path: Optional[str]) -> None:
     """The thin client: no numpy, no numba; the server loads, validates and runs."""
-    from .service import default_socket, submit_run
+    from .service.client import default_socket, submit_run
     from .study.provenance import run_command
 
     if workers is not None or scheduler:
@@ -125,7 +129,7 @@ def serve(
     status: bool = typer.Option(False, "--status", help="is a server listening there?"),
 ) -> None:
     """Keep the kernels loaded and a worker pool warm; 'run --server' hands studies to it."""
-    from .service import Server, ServiceError, default_socket, request
+    from .service.client import ServiceError, default_socket, request
 
     path = socket_path or default_socket()
     if stop or status:
@@ -139,6 +143,9 @@ def serve(
             f"{msg.get('source_sha256', '')[:12]}")
         typer.echo(f"server pid {msg.get('pid')} at {path}: {state}")
         return
+    gc.disable()   # importing the server allocates ~10^6 long-lived objects: see run
+    from .service.server import Server
+
     srv = Server(path, workers)
     try:
         srv.start()
@@ -157,13 +164,13 @@ def serve(
 def validate(study: Path = typer.Argument(..., help="study file (YAML)",
                                           show_default=False)) -> None:
     """Check a study file (every problem, with file:line: key) without running it."""
-    from .study.schema import GridStep
+    from .study.steps import kind_of
     loaded = _load(study)
     st = loaded.study
-    blocks = sum(s.n_blocks for s in st.steps if isinstance(s, GridStep))
+    blocks = sum(len(kind_of(s).blocks(s)) for s in st.steps)
     typer.echo(f"{study}: ok - study {st.name!r}, {len(st.steps)} steps "
                f"({', '.join(f'{s.name} [{s.kind}]' for s in st.steps)}), "
-               f"{blocks} grid blocks")
+               f"{blocks} resumable blocks")
 
 
 @app.command()

@@ -132,7 +132,18 @@ class Robot:
         return -self.gravity * abs(k) * min(1.0, l2.length / l1.length)
 
     def to_dict(self) -> dict:
+        """Plain values (JSON-ready): ``link1``, ``link2`` (mass, length, com, inertia),
+        ``gravity``, ``pivot_friction``, ``joint_friction`` (viscous, coulomb), ``name``."""
         return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Robot":
+        """The robot of :meth:`to_dict`'s mapping (a dataset's ``robot`` attribute); missing
+        friction is zero, a missing name ``custom``, missing gravity 9.81 m s-2."""
+        return cls(Link(**d["link1"]), Link(**d["link2"]), gravity=float(d.get("gravity", 9.81)),
+                   pivot_friction=Friction(**d.get("pivot_friction") or {}),
+                   joint_friction=Friction(**d.get("joint_friction") or {}),
+                   name=str(d.get("name", "custom")))
 
 
 def _seed2009() -> Robot:

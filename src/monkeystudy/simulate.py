@@ -8,11 +8,13 @@ stability, ...) use :func:`evaluate_gaits` and :func:`run_controller`, which ret
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 from enum import IntEnum
 from typing import Union
 
 import numpy as np
+from numba.core.dispatcher import Dispatcher
 
 from .controllers import (
     HorizontalSearch, Integrator, OpenLoop, PhaseSequence, SequenceGait, settings_vector,
@@ -55,9 +57,6 @@ def loaded_kernels() -> int:
     """How many compiled kernel signatures this process has loaded (compiled or read from
     the cache): a resident pool compares it before and after a warm-up to see whether its
     workers, forked earlier, lack a kernel."""
-    import sys
-
-    from numba.core.dispatcher import Dispatcher
     count = 0
     for name, module in list(sys.modules.items()):
         if name.startswith(__package__ + ".kernel.") and module is not None:

@@ -5,7 +5,7 @@ import numpy as np
 
 from monkeystudy.analysis import cycle_return_map, solve_fixed_point
 from monkeystudy.controllers import Integrator, Segment, SequenceGait
-from monkeystudy.saltation import sequence_variational_jacobian
+from monkeystudy.analysis.variational import sequence_variational_jacobian
 
 TORQUE = 0.6354
 INTEG = Integrator(method="dop853", rtol=1e-12, atol=1e-13)

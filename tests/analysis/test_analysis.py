@@ -1,10 +1,9 @@
 """Gait analysis: exact fixed points, Floquet multipliers, and the controller-tick question."""
-import math
 
 import numpy as np
 import pytest
 
-from monkeystudy import Robot, Status
+from monkeystudy import Status
 from monkeystudy.analysis import (
     floquet, jacobian_fd, open_loop_cycles, open_loop_return_map, shoot_grazing,
 )

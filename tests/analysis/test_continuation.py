@@ -1,4 +1,4 @@
-"""Continuation of sequence gaits (monkeystudy.continuation): parameter plumbing, bifurcation
+"""Continuation of sequence gaits (monkeystudy.analysis.continuation): parameter plumbing, bifurcation
 bookkeeping, and branches checked against physics they must obey."""
 import dataclasses
 import math
@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from monkeystudy.analysis import cycle_return_map, jacobian_fd, solve_fixed_point
-from monkeystudy.continuation import (
-    _crossings, continue_cycle, fold_indices, motor_torque, parameter_of, with_parameter,
+from monkeystudy.analysis.continuation import (
+    crossings, continue_cycle, fold_indices, motor_torque, parameter_of, with_parameter,
 )
 from monkeystudy.controllers import Segment, SequenceGait
 from monkeystudy.robot import Robot
-from monkeystudy.saltation import sequence_variational_jacobian
+from monkeystudy.analysis.variational import sequence_variational_jacobian
 from monkeystudy.simulate import evaluate_cycle_gaits
 
 from sequencegaits import INTEG, TORQUE, two_step, two_swing
@@ -67,19 +67,19 @@ def test_friction_and_mirror_parameters():
 # --- bifurcation bookkeeping -----------------------------------------------------------------
 def test_crossings_classify_multipliers_leaving_the_circle():
     neutral = 1.0
-    pd, p1, ns = _crossings(np.array([neutral, -0.9, 0.3]), np.array([neutral, -1.1, 0.3]))
+    pd, p1, ns = crossings(np.array([neutral, -0.9, 0.3]), np.array([neutral, -1.1, 0.3]))
     assert (pd, p1, ns) == (True, False, False)
-    pd, p1, ns = _crossings(np.array([neutral, 0.9, 0.3]), np.array([neutral, 1.2, 0.3]))
+    pd, p1, ns = crossings(np.array([neutral, 0.9, 0.3]), np.array([neutral, 1.2, 0.3]))
     assert (pd, p1, ns) == (False, True, False)
-    pd, p1, ns = _crossings(np.array([neutral, 0.9 + 0.3j, 0.9 - 0.3j]),
+    pd, p1, ns = crossings(np.array([neutral, 0.9 + 0.3j, 0.9 - 0.3j]),
                             np.array([neutral, 1.0 + 0.3j, 1.0 - 0.3j]))
     assert (pd, p1, ns) == (False, False, True)
     # a stable complex pair that meets the real axis and leaves through +1
-    pd, p1, ns = _crossings(np.array([neutral, 0.98 + 0.1j, 0.98 - 0.1j]),
+    pd, p1, ns = crossings(np.array([neutral, 0.98 + 0.1j, 0.98 - 0.1j]),
                             np.array([neutral, 1.2, 0.7]))
     assert (pd, p1, ns) == (False, True, False)
     # the neutral multiplier is never a crossing, nor moving inside the circle
-    assert _crossings(np.array([1.0, 0.5, 0.2]), np.array([1.0, 0.6, -0.3])) == \
+    assert crossings(np.array([1.0, 0.5, 0.2]), np.array([1.0, 0.6, -0.3])) == \
         (False, False, False)
 
 

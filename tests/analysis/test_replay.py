@@ -1,4 +1,4 @@
-"""Many cycles of a sequence gait (monkeystudy.replay): its own controller and the open-loop
+"""Many cycles of a sequence gait (monkeystudy.analysis.replay): its own controller and the open-loop
 replay, checked against the return map, its linearisation and the controller tick."""
 import dataclasses
 import math
@@ -10,7 +10,7 @@ import pytest
 from monkeystudy.analysis import cycle_return_map, floquet
 from monkeystudy.controllers import Integrator, Segment
 from monkeystudy.kernel import layout as L
-from monkeystudy.replay import (
+from monkeystudy.analysis.replay import (
     cycle_times, open_loop_gait, section_error, sequence_basin, sequence_cycles,
 )
 from monkeystudy.simulate import evaluate_cycle_gaits

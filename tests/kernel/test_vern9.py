@@ -186,7 +186,7 @@ def test_dense_output_ends_on_the_step():
 def test_gait_agrees_with_scipy_dop853(d1, d2):
     """Vern9 at rtol 1e-12 against scipy's DOP853 at 1e-13 (a different method and code):
     event times located on the interpolant agree to the tolerances' level."""
-    from monkeystudy.bench import ScipyGait
+    from monkeystudy.reference.scipy_gait import ScipyGait
     from monkeystudy.robot import SEED2009_TORQUE, Robot
 
     ref = ScipyGait(Robot.preset("seed2009"), SEED2009_TORQUE).gait(d1, d2, 1e-13, 1e-13)

@@ -25,7 +25,7 @@ import xarray as xr
 import monkeystudy
 from monkeystudy import Robot
 from monkeystudy import analysis as A
-from monkeystudy import precision as P
+from monkeystudy.analysis import precision as P
 from monkeystudy.kernel import layout as L
 
 from plotdata import write_nc

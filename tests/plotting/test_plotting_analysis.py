@@ -95,8 +95,8 @@ def finite(y):
 # --- every figure ---------------------------------------------------------------------------
 def test_every_kind_has_a_figure_and_the_study_data_are_as_expected(ds):
     kinds = {d.attrs["step_kind"] for d in ds.values()}
-    assert kinds == set(PA.FIGURES) == {"shoot", "floquet", "tick_sweep", "basin",
-                                        "continuation", "work_precision"}
+    assert kinds == {k for k, _ in PA.DRAWINGS} == {"shoot", "floquet", "tick_sweep", "basin",
+                                                     "continuation", "work_precision"}
     # the physics the figures show (so a change in the data is noticed here)
     assert ds["shoot"]["converged"].values.tolist() == [1, 0]
     assert ds["floquet"]["stable"].values.tolist() == [0, 1]
@@ -107,8 +107,8 @@ def test_every_kind_has_a_figure_and_the_study_data_are_as_expected(ds):
 @pytest.mark.parametrize("step", list(STEMS))
 def test_axes_have_units_and_titles_say_what_was_run(ds, step):
     d = ds[step]
-    fn = PA.FIGURES[d.attrs["step_kind"]][0][1]
-    fig = fn(d)
+    (how,) = [v for (k, _), v in PA.DRAWINGS.items() if k == d.attrs["step_kind"]]
+    fig = how.draw([d])
     title, sub = titles(fig)
     assert title and sub
     assert "robot seed2009" in sub and f"study analysis_plot_test / {step}" in sub
@@ -137,7 +137,7 @@ def test_shoot_lines_are_the_newton_histories(ds):
         ratio = by_gid(fig, f"ratio_{i}")
         np.testing.assert_array_equal(ratio.get_xdata(), h[:-1])
         np.testing.assert_array_equal(ratio.get_ydata(), h[1:])
-        assert by_gid(fig, f"final_{i}").get_text() == f"e = {PA._sci(float(d['error'][i]))}"
+        assert by_gid(fig, f"final_{i}").get_text() == f"e = {PA.sci(float(d['error'][i]))}"
     assert ax_yscale(fig, "history_0") == "log"
     # the quadratic guide has slope 2 in log-log and passes near the converged iterates
     g = by_gid(fig, "quadratic_guide")
@@ -313,7 +313,7 @@ def test_work_precision_lines_are_time_against_error(ds):
                 assert not fig.findobj(lambda a, g=f"rtol_{m}_{j}": a.get_gid() == g)
                 continue
             lab = by_gid(fig, f"rtol_{m}_{j}")
-            assert lab.get_text() == PA._sci(r, 1)
+            assert lab.get_text() == PA.sci(r, 1)
             assert lab.xy == (d["error_value"].values[i, j], t[i, j])
     pi, pair = by_gid(fig, "kernel_dop853+pi_times"), by_gid(fig, "kernel_dop853_times")
     assert pi.get_color() == pair.get_color() and pi.get_linestyle() == ":"

@@ -17,7 +17,7 @@ from matplotlib.colors import to_rgba
 from PIL import Image
 
 from monkeystudy.kernel import layout as L
-from monkeystudy.plotting import FIGURES, plot_stress
+from monkeystudy.plotting import DRAWINGS, plot_stress
 from monkeystudy.plotting import stress as PS
 from monkeystudy.plotting.report import MANIFEST, plan, report_study
 
@@ -58,11 +58,12 @@ def ydata(line) -> np.ndarray:
     return np.ma.filled(np.ma.asarray(line.get_ydata(), float), np.nan)
 
 
-def test_stress_kind_is_registered_beside_the_analysis_kinds():
-    assert FIGURES["stress"] == PS.FIGURES["stress"]
-    assert FIGURES["stress"][0][:2] == ("stress", plot_stress)
+def test_stress_kind_is_registered_beside_the_analysis_kinds(ds):
+    assert DRAWINGS[("stress", "stress")] is PS.DRAWINGS[("stress", "stress")]
+    assert DRAWINGS[("stress", "stress")].draw([ds]).get_suptitle() == \
+        plot_stress(ds).get_suptitle()
     assert {"shoot", "floquet", "tick_sweep", "basin", "continuation",
-            "work_precision"} < set(FIGURES)
+            "work_precision"} < {k for k, _ in DRAWINGS}
 
 
 def test_drift_lines_are_the_dataset(ds, fig):

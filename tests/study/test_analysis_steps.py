@@ -14,12 +14,18 @@ from typer.testing import CliRunner
 
 from monkeystudy.cli import app
 from monkeystudy.study import StudyError, load_study, parse_study, plan_study, run_study
-from monkeystudy.study import analysis_steps as AS
-from monkeystudy.study import analysis_tasks as AT
-from monkeystudy.study import runner as R
-from monkeystudy.study.schema import (
-    BasinStep, ContinuationStep, FloquetStep, ShootStep, TickSweepStep, WorkPrecisionStep,
+from monkeystudy.analysis.replay import cycles_to_bound, growth_per_cycle
+from monkeystudy.study.blocks import shard_dir, write_shard
+from monkeystudy.study.errors import RunFailed
+from monkeystudy.study.steps import REGISTRY
+from monkeystudy.study.steps.basin import BasinStep
+from monkeystudy.study.steps.continuation import ContinuationStep
+from monkeystudy.study.steps.floquet import FloquetStep
+from monkeystudy.study.steps.shoot import (
+    METHOD_GAUSS_NEWTON, METHOD_GRAZING, ShootStep, dedup_solutions,
 )
+from monkeystudy.study.steps.tick_sweep import TickSweepStep
+from monkeystudy.study.steps.work_precision import WorkPrecisionStep
 
 from studyhelpers import assert_same_datasets, write_study
 
@@ -276,7 +282,7 @@ def test_smoke_runs_every_analysis_kind_through_the_cli(smoke):
 def test_shoot_finds_the_exact_grazing_gait_once(smoke):
     ds = _open(smoke[0], "shoot.nc")
     method = ds["method"].values
-    grazing = np.flatnonzero(method == AT.METHOD_GRAZING)
+    grazing = np.flatnonzero(method == METHOD_GRAZING)
     # both starts land on the same collisionless gait: merged into one solution
     assert grazing.size == 1
     g = int(grazing[0])
@@ -291,7 +297,7 @@ def test_shoot_finds_the_exact_grazing_gait_once(smoke):
     h = ds["history"].values[g]
     assert h[np.isfinite(h)][-1] < 1e-13
     # gauss_newton stalls on the grazing border (the error is not smooth there)
-    assert np.all(ds["error"].values[method == AT.METHOD_GAUSS_NEWTON] > 1e-8)
+    assert np.all(ds["error"].values[method == METHOD_GAUSS_NEWTON] > 1e-8)
     assert len(json.loads(ds.attrs["message"])) == ds.sizes["solution"]
 
 
@@ -427,10 +433,10 @@ def test_basin_resumes_from_saved_blocks(smoke, tmp_path):
     plan = plan_study(loaded, out)
     sp = next(s for s in plan.steps if s.name == "basin")
     assert [s.name for s in plan.steps if not s.up_to_date] == ["basin"]
-    folder = R.shard_dir(out, "basin", sp.key)
+    folder = shard_dir(out, "basin", sp.key)
     flat = ref["cycles"].values.ravel()
     for b in sp.blocks[:4]:
-        R.write_shard(folder, b, {"cycles": flat[b.lo:b.hi]})
+        write_shard(folder, b, {"cycles": flat[b.lo:b.hi]})
     summary = run_study(loaded, out, workers=2)
     assert summary.blocks_reused == 4 and summary.blocks_computed == len(sp.blocks) - 4
     assert [p.name for p in summary.written] == ["basin.nc"]
@@ -450,7 +456,7 @@ steps:
   - {name: family, kind: continuation, from: gn, parameter: gravity, ds: 0.1, steps: 2}
 """
     study = write_study(tmp_path, text, "nogait.yaml")
-    with pytest.raises(R.RunFailed, match="family: shoot step 'gn' produced no converged "
+    with pytest.raises(RunFailed, match="family: shoot step 'gn' produced no converged "
                                           "grazing gait"):
         run_study(load_study(study), tmp_path / "out", workers=1)
     assert (tmp_path / "out" / "gn.nc").exists()
@@ -466,7 +472,7 @@ def test_dedup_keeps_the_lower_error_and_every_start():
                 "failures": []},
                {"start": (1.4, 10.3), "candidates": [cand(1.5 + 1e-8, 1e-27)],
                 "failures": ["gauss_newton: no gait"]}]
-    sols, fails = AT.dedup_solutions(results, 1e-6)
+    sols, fails = dedup_solutions(results, 1e-6)
     assert [s["dtheta1"] for s in sols] == [1.5 + 1e-8, 1.2]
     assert sols[0]["error"] == 1e-27 and sols[0]["starts"] == [0, 1]
     assert sols[0]["start_index"] == 0
@@ -477,17 +483,17 @@ def test_dedup_keeps_the_lower_error_and_every_start():
 
 def test_growth_and_cycles_to_bound():
     e = (1e-9 * 1.5 ** np.arange(40)) ** 2
-    assert AT.growth_per_cycle(e) == pytest.approx(1.5, rel=1e-9)
-    assert np.isnan(AT.growth_per_cycle(np.array([1e-3, 1e-2])))
-    assert AT.cycles_to_bound(np.array([1e-5, 1e-3, 2e-2, 1.0]), 1e-2) == 3
-    assert AT.cycles_to_bound(np.array([1e-5, 1e-3]), 1e-2) == 2
+    assert growth_per_cycle(e) == pytest.approx(1.5, rel=1e-9)
+    assert np.isnan(growth_per_cycle(np.array([1e-3, 1e-2])))
+    assert cycles_to_bound(np.array([1e-5, 1e-3, 2e-2, 1.0]), 1e-2) == 3
+    assert cycles_to_bound(np.array([1e-5, 1e-3]), 1e-2) == 2
 
 
 def test_basin_blocks_are_whole_rows():
     st = parse_study(study_text(
         "{name: big, kind: basin, from: sh, offsets: {d_dtheta1: {start: 0.0, stop: 1.0, "
         "num: 30}, d_dtheta2: {start: 0.0, stop: 1.0, num: 21}}}")).study.step("big")
-    blocks = AS.basin_blocks(st)
+    blocks = REGISTRY["basin"].blocks(st)
     assert blocks[0].lo == 0 and blocks[-1].hi == 630
     assert all(b.lo % 21 == 0 and b.hi % 21 == 0 for b in blocks)
     assert all(blocks[i].hi == blocks[i + 1].lo for i in range(len(blocks) - 1))

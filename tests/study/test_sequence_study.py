@@ -8,12 +8,11 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from monkeystudy.analysis import cycle_return_map, jacobian_fd
+from monkeystudy.analysis import cycle_return_map
 from monkeystudy.controllers import Integrator
 from monkeystudy.simulate import evaluate_cycle_gaits
 from monkeystudy.study import load_study, run_study
-from monkeystudy.study.runner import study_spec
-from monkeystudy.study.drivers import spec_sequence
+from monkeystudy.study.spec import gait_spec
 
 from studyhelpers import assert_same_datasets, write_study
 
@@ -50,7 +49,7 @@ def flight_run(tmp_path_factory):
 def test_grid_holds_the_cycle_of_every_point(flight_run):
     study, folder = flight_run
     loaded = load_study(study)
-    seq = spec_sequence(study_spec(loaded.study))
+    seq = gait_spec(loaded.study).sequence
     with xr.open_dataset(folder / "one" / "map.nc") as ds:
         ds.load()
     assert ds["t_segment"].dims == ("dtheta1", "dtheta2", "segment")
@@ -95,7 +94,7 @@ def test_floquet_of_the_cycle(flight_run):
     assert np.abs(J - Jfd).max() / np.abs(J).max() < 1e-6
     # the fixed point is a fixed point of the map the study defines
     z = f["fixed_point"].values[0]
-    seq = spec_sequence(study_spec(load_study(folder / "flight.yaml").study))
+    seq = gait_spec(load_study(folder / "flight.yaml").study).sequence
     zn, st = cycle_return_map(z, seq, integrator=Integrator(rtol=1e-12, atol=1e-13))
     assert st == 0 and np.abs(zn - z).max() < 1e-9
 

@@ -16,12 +16,12 @@ import xarray as xr
 from typer.testing import CliRunner
 
 from monkeystudy import Robot
-from monkeystudy import stress as S
+from monkeystudy.analysis import stress as S
 from monkeystudy.cli import app
 from monkeystudy.kernel import layout as L
 from monkeystudy.study import StudyError, load_study, parse_study, run_study
-from monkeystudy.study.analysis_steps import n_tasks, stress_tasks
-from monkeystudy.study.schema import StressStep
+from monkeystudy.study.steps import REGISTRY
+from monkeystudy.study.steps.stress import StressStep, stress_tasks
 
 from studyhelpers import assert_same_datasets
 
@@ -85,7 +85,7 @@ def test_defaults_are_the_issue_scenarios():
     assert lr.max_drop is None
     assert ex.cases == list(S.EXTREME_CASES)
     # one task per drift run and per long run, one for the extreme cases
-    assert n_tasks(st) == 2 * 3 + 4 + 1
+    assert REGISTRY["stress"].n_tasks(st, "horizontal") == 2 * 3 + 4 + 1
     assert [t[0] for t in stress_tasks(st)] == ["drift"] * 6 + ["long"] * 4 + ["extreme"]
 
 

@@ -7,7 +7,10 @@ from pathlib import Path
 import pytest
 
 from monkeystudy.study import StudyError, load_study, parse_study
-from monkeystudy.study.schema import BestOfGrid, GridStep, RefineStep, StabilityStep, json_schema
+from monkeystudy.study.schema import json_schema
+from monkeystudy.study.steps.grid import GridStep
+from monkeystudy.study.steps.refine import BestOfGrid, RefineStep
+from monkeystudy.study.steps.stability import StabilityStep
 
 HERE = Path(__file__).parent
 ROOT = HERE.parents[1]

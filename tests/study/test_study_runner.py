@@ -14,8 +14,12 @@ import pytest
 import xarray as xr
 
 from monkeystudy.study import load_study, plan_study, run_study
+from monkeystudy.study import blocks as B
 from monkeystudy.study import datasets as D
 from monkeystudy.study import runner as R
+from monkeystudy.study.errors import RunFailed, RunInterrupted
+from monkeystudy.study.pool import Pool
+from monkeystudy.study.steps import grid
 
 from studyhelpers import TINY, TINY_FILES, assert_same_datasets, write_study
 
@@ -155,16 +159,16 @@ def test_description_and_robot_edits(tiny_reference, tmp_path):
 
 # --- atomic writes ------------------------------------------------------------------------------
 def test_shard_write_is_atomic(tmp_path, monkeypatch):
-    b = R.Block(3, 30, 40)
+    b = B.Block(3, 30, 40)
     arrays = {"error": np.arange(10.0)}
 
     def boom(fh, **kw):
         fh.write(b"partial")
         raise OSError("disk full")
 
-    monkeypatch.setattr(R.np, "savez", boom)
+    monkeypatch.setattr(B.np, "savez", boom)
     with pytest.raises(OSError):
-        R.write_shard(tmp_path, b, arrays)
+        B.write_shard(tmp_path, b, arrays)
     assert list(tmp_path.iterdir()) == []
 
 
@@ -183,9 +187,9 @@ def test_netcdf_write_is_atomic_and_keeps_the_old_file(tmp_path):
 
 def test_grid_consolidation_refuses_missing_blocks(tmp_path):
     a1, a2 = np.linspace(0, 1, 2), np.linspace(0, 1, 3)
-    blk = {k: np.zeros(3, dt) for k, dt in R.drivers.GRID_VARIABLES.items()}
+    blk = {k: np.zeros(3, dt) for k, dt in grid.HORIZONTAL_VARIABLES.items()}
     with pytest.raises(RuntimeError, match="3 of 6 points"):
-        D.write_grid(tmp_path / "g.nc", {}, axes=(a1, a2), blocks=[(0, blk)])
+        grid.write_grid(tmp_path / "g.nc", {}, axes=(a1, a2), blocks=[(0, blk)])
     assert list(tmp_path.iterdir()) == []
 
 
@@ -354,21 +358,21 @@ def _fake_pool(exc):
     def fake(workers=None, scheduler=None, warm_up=None):
         if warm_up is not None:
             warm_up()
-        yield R.Pool(_FakeExecutor(exc), 2, "fake", lambda: None)
+        yield Pool(_FakeExecutor(exc), 2, "fake", lambda: None)
     return fake
 
 
 def test_lost_worker_is_an_interruption(tmp_path, monkeypatch):
     from concurrent.futures.process import BrokenProcessPool
     monkeypatch.setattr(R, "open_pool", _fake_pool(BrokenProcessPool("worker died")))
-    with pytest.raises(R.RunInterrupted, match="rerun to resume"):
+    with pytest.raises(RunInterrupted, match="rerun to resume"):
         run_study(load_study(write_study(tmp_path)), tmp_path / "out")
     assert not list((tmp_path / "out").glob("*.nc"))
 
 
 def test_task_error_fails_the_run(tmp_path, monkeypatch):
     monkeypatch.setattr(R, "open_pool", _fake_pool(ValueError("a bug")))
-    with pytest.raises(R.RunFailed, match="ValueError: a bug"):
+    with pytest.raises(RunFailed, match="ValueError: a bug"):
         run_study(load_study(write_study(tmp_path)), tmp_path / "out")
 
 

@@ -22,4 +22,4 @@ from .analysis import (  # noqa: F401
     plot_tick_sweep, plot_work_precision,
 )
 from .stress import plot_stress  # noqa: F401
-from .report import FIGURES, ReportError, report_study  # noqa: F401
+from .report import DRAWINGS, ReportError, report_study  # noqa: F401

@@ -1,4 +1,4 @@
-"""Figures of the analysis datasets (docs/datasets.md, "Analysis steps"; issues #5 and #6).
+"""Figures of the analysis datasets (docs/datasets.md, "Analysis steps").
 
 One figure per dataset, each a :class:`matplotlib.figure.Figure` in the package style:
 
@@ -16,7 +16,7 @@ One figure per dataset, each a :class:`matplotlib.figure.Figure` in the package 
 * :func:`plot_work_precision` (``work_precision``) - wall time per gait against error for
   each integrator and tolerance, scipy beside the kernel.
 
-:data:`FIGURES` maps each ``step_kind`` to its figures (file suffix, function, description);
+:data:`DRAWINGS` registers each under the ``(step kind, suffix)`` its kind declares;
 :func:`monkeystudy.plotting.report.plan` draws them for every such dataset of a study.
 Artists carry ``gid`` s (listed in each docstring) so the tests can read back their data.
 """
@@ -25,7 +25,6 @@ from __future__ import annotations
 import json
 import math
 import re
-from typing import Callable
 
 import matplotlib
 import numpy as np
@@ -35,7 +34,8 @@ from matplotlib.patches import Circle
 from matplotlib.patheffects import withStroke
 from matplotlib.ticker import MaxNLocator
 
-from ._common import (
+from .drawing import Drawing
+from .common import (
     BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, fmt_tick, gait_settings, json_attr,
     new_figure, robot_name, status_name, style,
 )
@@ -71,19 +71,19 @@ SHOOT_METHODS = ("Gauss-Newton", "grazing")
 # ----------------------------------------------------------------------------------------------
 # shared pieces
 # ----------------------------------------------------------------------------------------------
-def _attr_float(ds, name: str, default=math.nan) -> float:
+def attr_float(ds, name: str, default=math.nan) -> float:
     try:
         return float(ds.attrs[name])
     except (KeyError, TypeError, ValueError):
         return default
 
 
-def _values(ds, name: str) -> np.ndarray:
+def values_of(ds, name: str) -> np.ndarray:
     return np.asarray(ds[name].values, dtype=float)
 
 
 def _complex(ds, name: str) -> np.ndarray:
-    return _values(ds, f"{name}_real") + 1j * _values(ds, f"{name}_imag")
+    return values_of(ds, f"{name}_real") + 1j * values_of(ds, f"{name}_imag")
 
 
 def run_line(ds, *, tick: bool = True, torque: float | None = None,
@@ -113,10 +113,10 @@ def run_line(ds, *, tick: bool = True, torque: float | None = None,
 
 def _gait_of(ds) -> str | None:
     """``gait (dtheta1, dtheta2) rad s-1`` from a dataset's gait attributes, or None."""
-    d1, d2 = _attr_float(ds, "dtheta1"), _attr_float(ds, "dtheta2")
+    d1, d2 = attr_float(ds, "dtheta1"), attr_float(ds, "dtheta2")
     if not (math.isfinite(d1) and math.isfinite(d2)):
         return None
-    th2 = _attr_float(ds, "start_theta2")
+    th2 = attr_float(ds, "start_theta2")
     if math.isfinite(th2):                       # a sequence gait: its section state
         s = f"gait (θ2 {th2:.3g} rad; {d1:.6g}, {d2:.6g} rad s⁻¹)"
         for key, what in (("floquet_step", "fixed point of floquet step"),
@@ -130,7 +130,7 @@ def _gait_of(ds) -> str | None:
 
 
 def _times_of(ds) -> str:
-    ts, tm = _attr_float(ds, "t_switch"), _attr_float(ds, "t_motor")
+    ts, tm = attr_float(ds, "t_switch"), attr_float(ds, "t_motor")
     if not math.isfinite(ts):
         return ""
     s = f"swap at {ts:.4g} s"
@@ -163,7 +163,7 @@ def _wrap(text: str, width: int) -> str:
     return "\n".join(out)
 
 
-def _titles(fig, title: str, subtitle: str):
+def two_titles(fig, title: str, subtitle: str):
     """Bold title and a smaller subtitle (what was run) above every panel, wrapped to the
     figure's width; returns the subfigure the panels go in."""
     usable = fig.get_figwidth() * 72.0 * 0.93          # [pt]
@@ -173,7 +173,7 @@ def _titles(fig, title: str, subtitle: str):
     return body
 
 
-def _sci(x: float, digits: int = 2) -> str:
+def sci(x: float, digits: int = 2) -> str:
     """Short scientific text: ``4.9e-27``; ``0``; ``nan`` as a dash."""
     if not math.isfinite(x):
         return "–"
@@ -218,16 +218,16 @@ def plot_shoot_convergence(ds):
     annotation), ``ratio_<i>`` (x ``r[:-1]``, y ``r[1:]``), ``quadratic_guide``,
     ``linear_guide``, ``tol``.
     """
-    hist = _values(ds, "history")
+    hist = values_of(ds, "history")
     n_sol = hist.shape[0]
     it = np.asarray(ds["iteration"].values, float) if "iteration" in ds.coords \
         else np.arange(hist.shape[1], dtype=float)
-    err = _values(ds, "error")
-    res = _values(ds, "residual_norm") if "residual_norm" in ds else np.full(n_sol, np.nan)
-    conv = _values(ds, "converged") if "converged" in ds else np.zeros(n_sol)
-    meth = _values(ds, "method").astype(int) if "method" in ds else np.zeros(n_sol, int)
-    d1, d2 = _values(ds, "dtheta1"), _values(ds, "dtheta2")
-    tol = _attr_float(ds, "tol")
+    err = values_of(ds, "error")
+    res = values_of(ds, "residual_norm") if "residual_norm" in ds else np.full(n_sol, np.nan)
+    conv = values_of(ds, "converged") if "converged" in ds else np.zeros(n_sol)
+    meth = values_of(ds, "method").astype(int) if "method" in ds else np.zeros(n_sol, int)
+    d1, d2 = values_of(ds, "dtheta1"), values_of(ds, "dtheta2")
+    tol = attr_float(ds, "tol")
     floor = 10.0 * tol if math.isfinite(tol) else 1e-13
     colours = [BLUE, VERMILLION, GREEN, PURPLE, ORANGE, SKY, BLACK]
     with style():
@@ -242,7 +242,7 @@ def plot_shoot_convergence(ds):
                  "Quadratic convergence: the number of correct digits doubles per iteration "
                  "(right: points on the slope-2 line)\n"
                + run_line(ds, tick=False))
-        body = _titles(fig, "Newton shooting for exact gaits: residual norm per iteration", sub)
+        body = two_titles(fig, "Newton shooting for exact gaits: residual norm per iteration", sub)
         ax, axr = body.subplots(1, 2, width_ratios=[1.5, 1.0])
         handles = []
         cs = []
@@ -257,10 +257,10 @@ def plot_shoot_convergence(ds):
                      else f"not converged, stopped after {y.size - 1}")
             handles.append(Line2D([], [], color=c, marker="o", ms=3.5, label=(
                 f"solution {i}: {m}, {state}: ({d1[i]:.6f}, {d2[i]:.6f}) rad s⁻¹, "
-                f"|r| = {_sci(res[i])}, e = {_sci(err[i])}")))
+                f"|r| = {sci(res[i])}, e = {sci(err[i])}")))
             if y.size:
                 ax.plot(x[-1], y[-1], marker="o", ms=8, mfc="none", mec=c, mew=1.5, ls="none")
-                ax.annotate(f"e = {_sci(err[i])}", (x[-1], y[-1]), xytext=(6, 6 if i % 2 == 0
+                ax.annotate(f"e = {sci(err[i])}", (x[-1], y[-1]), xytext=(6, 6 if i % 2 == 0
                                                                               else -14),
                             textcoords="offset points", fontsize=8.5, color=c,
                             path_effects=OUTLINE, gid=f"final_{i}")
@@ -272,7 +272,7 @@ def plot_shoot_convergence(ds):
         if math.isfinite(tol):
             ax.axhline(tol, color="0.4", ls=":", lw=1.0, gid="tol")
             handles.append(Line2D([], [], color="0.4", ls=":", label=f"Newton tolerance "
-                                                                     f"{_sci(tol, 1)}"))
+                                                                     f"{sci(tol, 1)}"))
         ax.set_yscale("log")
         ax.set_xlabel("Newton iteration (0: the start)")
         ax.set_ylabel("residual norm |r|  [1]")
@@ -360,7 +360,7 @@ def plot_floquet_multipliers(ds):
     ctrls = [str(c) for c in np.atleast_1d(ds["controller"].values)]
     lam_all = _complex(ds, "multipliers")
     fd_all = _complex(ds, "multipliers_fd") if "multipliers_fd_real" in ds else None
-    ntol = _attr_float(ds, "neutral_tol", NEUTRAL_TOL)
+    ntol = attr_float(ds, "neutral_tol", NEUTRAL_TOL)
     n = len(ctrls)
     with style():
         fig = new_figure(figsize=(max(7.0, 4.4 * n + 0.6), 6.8))
@@ -376,7 +376,7 @@ def plot_floquet_multipliers(ds):
         sub = (rf"Return map P on the section $\theta_1$ = {section:.4g} rad, state "
                r"($\theta_2$, " + D1 + ", " + D2 + "); a multiplier outside the unit circle "
                "makes the gait unstable\n" + what + run_line(ds, tick=False))
-        body = _titles(fig, "Floquet multipliers of the gait's return map", sub)
+        body = two_titles(fig, "Floquet multipliers of the gait's return map", sub)
         axes = np.atleast_1d(body.subplots(1, n, squeeze=False)[0])
         finite = np.abs(lam_all[np.isfinite(lam_all)])
         R = max(1.2, 1.18 * float(finite.max()) if finite.size else 1.2)   # one scale
@@ -421,9 +421,9 @@ def plot_floquet_multipliers(ds):
                                                     if "neutral" in cls else "")]
             if "agreement" in ds:
                 lines.append(f"var. eq. vs finite diff.: max|ΔJ| / max|J| = "
-                             f"{_sci(float(ds['agreement'].values[j]))}")
+                             f"{sci(float(ds['agreement'].values[j]))}")
             if "fixed_point" in ds:
-                z = _values(ds, "fixed_point")[j]
+                z = values_of(ds, "fixed_point")[j]
                 lines.append(rf"fixed point $\theta_2$ = {z[0]:.4g} rad, {D1} = {z[1]:.4g}, "
                              f"{D2} = {z[2]:.4g} rad s⁻¹")
             ax.set_title("\n".join(lines), loc="left", fontsize=8.5,
@@ -438,7 +438,7 @@ def plot_floquet_multipliers(ds):
             Line2D([], [], marker="o", ls="none", mfc=BLUE, mec="black", ms=7,
                    label="|λ| < 1: stable"),
             Line2D([], [], marker="o", ls="none", mfc="0.45", mec="black", ms=7,
-                   label=f"neutral, |λ − 1| < {_sci(ntol, 1)} (the energy level)"),
+                   label=f"neutral, |λ − 1| < {sci(ntol, 1)} (the energy level)"),
             Line2D([], [], color="0.3", label="unit circle |λ| = 1"),
         ]
         body.legend(handles=handles, loc="outside lower center", ncols=2, frameon=False)
@@ -489,14 +489,14 @@ def plot_tick_sweep(ds):
     ticks = np.asarray(ds["tick"].values, float)
     cyc = np.asarray(ds["cycle"].values, float) if "cycle" in ds.coords \
         else np.arange(1, ds.sizes["cycle"] + 1, dtype=float)
-    err = _values(ds, "error")
-    bound = _attr_float(ds, "error_bound", 1e-2)
-    lam = _attr_float(ds, "leading_multiplier")
-    to_bound = _values(ds, "cycles_to_bound").astype(int)
-    done = _values(ds, "cycles_completed").astype(int) if "cycles_completed" in ds \
+    err = values_of(ds, "error")
+    bound = attr_float(ds, "error_bound", 1e-2)
+    lam = attr_float(ds, "leading_multiplier")
+    to_bound = values_of(ds, "cycles_to_bound").astype(int)
+    done = values_of(ds, "cycles_completed").astype(int) if "cycles_completed" in ds \
         else np.sum(np.isfinite(err), axis=1)
-    status = _values(ds, "status").astype(int) if "status" in ds else np.zeros(len(ticks), int)
-    growth = _values(ds, "growth_per_cycle") if "growth_per_cycle" in ds \
+    status = values_of(ds, "status").astype(int) if "status" in ds else np.zeros(len(ticks), int)
+    growth = values_of(ds, "growth_per_cycle") if "growth_per_cycle" in ds \
         else np.full(len(ticks), np.nan)
     order = np.argsort(-ticks)          # coarsest tick first, exact timing last
     palette = [VERMILLION, ORANGE, PURPLE, GREEN, SKY, BLACK]
@@ -558,9 +558,9 @@ def plot_tick_sweep(ds):
                f"tick.\n{lam_txt}.\nVerdict: {verdict}.\n"
                + (("Running" if own else "Replaying") + f" the {gait}"
                   + (f", {_times_of(ds)}" if _times_of(ds) else "") + "\n" if gait else "")
-               + run_line(ds, tick=False, torque=_attr_float(ds, "motor_torque", None)
+               + run_line(ds, tick=False, torque=attr_float(ds, "motor_torque", None)
                           if "motor_torque" in ds.attrs else None))
-        body = _titles(fig, title, sub)
+        body = two_titles(fig, title, sub)
         ax = body.subplots()
         handles = []
         for i in order:
@@ -633,11 +633,11 @@ def plot_basin(ds, *, cmap: str = "viridis", numbers: int = 225):
     gids: ``cycles`` (the QuadMesh; its array is ``cycles`` transposed, ``[i_d2, i_d1]``),
     ``gait`` (the ring at zero offset), ``count_<i>_<j>`` (the numbers).
     """
-    o1, o2 = _values(ds, "d_dtheta1"), _values(ds, "d_dtheta2")
+    o1, o2 = values_of(ds, "d_dtheta1"), values_of(ds, "d_dtheta2")
     cyc = np.asarray(ds["cycles"].transpose("d_dtheta1", "d_dtheta2").values)
-    top = int(_attr_float(ds, "max_cycles", float(cyc.max())))
-    bound = _attr_float(ds, "error_bound")
-    tick = _attr_float(ds, "tick")
+    top = int(attr_float(ds, "max_cycles", float(cyc.max())))
+    bound = attr_float(ds, "error_bound")
+    tick = attr_float(ds, "tick")
     with style():
         fig = new_figure(figsize=(7.6, 6.8))
         gait = _gait_of(ds) or "the gait"
@@ -647,10 +647,10 @@ def plot_basin(ds, *, cmap: str = "viridis", numbers: int = 225):
                f"{top} = never failed in {top} cycles\n"
                + (f"{_times_of(ds)}, " if _times_of(ds) else "")
                + (f"{fmt_tick(tick)}, " if math.isfinite(tick) else "")
-               + run_line(ds, tick=False, torque=_attr_float(ds, "motor_torque", None)
+               + run_line(ds, tick=False, torque=attr_float(ds, "motor_torque", None)
                           if "motor_torque" in ds.attrs else None))
         own = ds.attrs.get("replay") == "gait"
-        body = _titles(fig, "Basin of the gait under its own controller: cycles survived from "
+        body = two_titles(fig, "Basin of the gait under its own controller: cycles survived from "
                             "perturbed starts" if own else "Basin of the open-loop gait: "
                             "cycles survived from perturbed starts", sub)
         ax = body.subplots()
@@ -714,7 +714,7 @@ def plot_continuation(ds):
     ``modulus_<k>`` (y ``|lambda_k|``), ``unit_level``, ``fold_<i>``, ``period_doubling_<i>``,
     ``through_plus_one_<i>``, ``neimark_sacker_<i>``, ``start``.
     """
-    mu = _values(ds, "parameter_value")
+    mu = values_of(ds, "parameter_value")
     par = str(ds.attrs.get("parameter", "parameter"))
     name, unit, sym, what = PARAMETERS.get(
         par, (par, f"[{ds['parameter_value'].attrs.get('units', '?')}]", par, par))
@@ -726,7 +726,7 @@ def plot_continuation(ds):
                 ("neimark_sacker", "neimark_sacker", ORANGE, (0, (5, 2, 1, 2)),
                  "Neimark-Sacker")]
     found = {key: _int_list(ds, attr) for key, attr, *_ in marks_of}
-    resid = _values(ds, "residual") if "residual" in ds else np.full(mu.size, np.nan)
+    resid = values_of(ds, "residual") if "residual" in ds else np.full(mu.size, np.nan)
     with style():
         fig = new_figure(figsize=(7.6, 9.6))
         marks = [f"{len(found[key])} {label}{'s' if len(found[key]) > 1 else ''}"
@@ -734,12 +734,12 @@ def plot_continuation(ds):
         u = unit.strip("[]")
         span = (f"{mu.size} points, {sym} = {mu[0]:.6g} → {mu[-1]:.6g}"
                 + (f" {u}" if u != "1" else "") if mu.size else "no points")
-        ds_step = _attr_float(ds, "ds")
+        ds_step = attr_float(ds, "ds")
         none = ("no folds or bifurcations on this branch" if sequence
                 else "no folds or period doublings on this branch")
         sub = (span + (f" (first arclength step {ds_step:g})" if math.isfinite(ds_step) else "")
                + "; " + (", ".join(marks) + " (marked)" if marks else none)
-               + (f"; max residual {_sci(float(np.nanmax(resid)))}"
+               + (f"; max residual {sci(float(np.nanmax(resid)))}"
                   if np.isfinite(resid).any() else "") + "\n")
         if sequence:
             stop = str(ds.attrs.get("stop_reason", ""))
@@ -747,9 +747,9 @@ def plot_continuation(ds):
                    "border": "the cycle's event sequence changes just ahead (the map jumps)",
                    "ds_min": "the corrector failed at the least step (the map is not smooth "
                              "ahead)"}.get(stop, stop)
-            th2 = _values(ds, "theta2")
+            th2 = values_of(ds, "theta2")
             pin = (f"θ2 held at {th2[0]:.4g} rad (a family: one neutral multiplier)"
-                   if int(_attr_float(ds, "theta2_pinned") or 0) else
+                   if int(attr_float(ds, "theta2_pinned") or 0) else
                    f"θ2 {th2[0]:.4g} → {th2[-1]:.4g} rad")
             sub += (f"{pin}, from floquet step {ds.attrs.get('floquet_step', '?')}; stopped: "
                     f"{why}\n"
@@ -759,15 +759,15 @@ def plot_continuation(ds):
             gait = _gait_of(ds)
             sub += (f"from the {gait}\n" if gait else "") + run_line(ds, tick=False, torque=0.0)
             title = f"Collisionless gait family continued in {what}"
-        body = _titles(fig, title, sub)
+        body = two_titles(fig, title, sub)
         axes = body.subplots(4, 1, sharex=True, height_ratios=[1, 1, 1, 1.4])
         if sequence:
             third = ("t_cycle", np.asarray(ds["t_segment"].values, float)[:, -1],
                      "cycle time  [s]")
         else:
-            third = ("t_switch", _values(ds, "t_switch"), "swap time  [s]")
-        rows = (("dtheta1", _values(ds, "dtheta1"), f"{D1}  {RATE}", BLUE),
-                ("dtheta2", _values(ds, "dtheta2"), f"{D2}  {RATE}", BLUE),
+            third = ("t_switch", values_of(ds, "t_switch"), "swap time  [s]")
+        rows = (("dtheta1", values_of(ds, "dtheta1"), f"{D1}  {RATE}", BLUE),
+                ("dtheta2", values_of(ds, "dtheta2"), f"{D2}  {RATE}", BLUE),
                 third + (GREEN,))
         for ax, (var, y, lab, c) in zip(axes, rows):
             ax.plot(mu, y, marker="o", ms=3.5, color=c, gid=var)
@@ -859,8 +859,8 @@ def plot_work_precision(ds):
     ``mismatch_<method>`` (points whose status differs from the reference).
     """
     methods = [str(m) for m in np.atleast_1d(ds["method"].values)]
-    rtols = _values(ds, "rtol")
-    t = _values(ds, "time_per_gait")
+    rtols = values_of(ds, "rtol")
+    t = values_of(ds, "time_per_gait")
     has_scipy = "scipy_time_per_gait" in ds and ds.sizes.get("scipy_method", 0) > 0
     ref = ds.attrs.get("reference", "?")
     npts = ds.attrs.get("n_points")
@@ -873,7 +873,7 @@ def plot_work_precision(ds):
                f"reference|, reference {ref}; time: wall time per gait"
                + (f", best of {rep}" if rep is not None else "")
                + " (machine-dependent)\n" + run_line(ds, tick=False, integrator=False))
-        body = _titles(fig, f"Work-precision: wall time per gait against error "
+        body = two_titles(fig, f"Work-precision: wall time per gait against error "
                             f"(reference: {ref})", sub)
         axv, axt = body.subplots(1, 2, sharey=True)
         handles = []
@@ -884,7 +884,7 @@ def plot_work_precision(ds):
         above = int(np.argmax(mean_t)) if len(mean_t) else -1
         for which, ax, xlabel in (("value", axv, "max error of the gait error value e  [1]"),
                                   ("times", axt, "max error of the event times  [s]")):
-            e = _values(ds, f"error_{which}")
+            e = values_of(ds, f"error_{which}")
             for i, m in enumerate(methods):
                 c, ls, mk = _kernel_style(m, i, kcol)
                 ax.plot(_positive(e[i]), t[i], marker=mk, ms=5, color=c, lw=1.6, ls=ls,
@@ -893,27 +893,27 @@ def plot_work_precision(ds):
                 labelled = "+" not in m
                 for j, r in enumerate(rtols if labelled else ()):
                     if np.isfinite(e[i, j]) and e[i, j] > 0 and np.isfinite(t[i, j]):
-                        ax.annotate(_sci(r, 1), (e[i, j], t[i, j]),
+                        ax.annotate(sci(r, 1), (e[i, j], t[i, j]),
                                     xytext=(0, 7 if i == above else -15), ha="center",
                                     textcoords="offset points", fontsize=7.5, color=c,
                                     path_effects=OUTLINE,
                                     gid=f"rtol_{m}_{j}" if which == "value" else None)
                 if "status_mismatch" in ds:
-                    mm = _values(ds, "status_mismatch")[i] > 0
+                    mm = values_of(ds, "status_mismatch")[i] > 0
                     if mm.any():
                         ax.plot(_positive(e[i][mm]), t[i][mm], marker="o", ms=12, mfc="none",
                                 mec=VERMILLION, mew=1.5, ls="none", gid=f"mismatch_{m}")
                 if which == "value":
                     handles.append(Line2D([], [], color=c, marker=mk, ms=5, ls=ls,
                                           label=f"kernel {m} (rtol "
-                                                f"{_sci(rtols.min(), 1)}…{_sci(rtols.max(), 1)}"
+                                                f"{sci(rtols.min(), 1)}…{sci(rtols.max(), 1)}"
                                                 + (", labelled)" if labelled else ")")))
             if has_scipy:
                 smeth = [str(m) for m in np.atleast_1d(ds["scipy_method"].values)]
-                srt = _values(ds, "scipy_rtol")
-                st = _values(ds, "scipy_time_per_gait")
-                se = _values(ds, f"scipy_error_{which}")
-                kt = _values(ds, "kernel_time_same_points") if "kernel_time_same_points" \
+                srt = values_of(ds, "scipy_rtol")
+                st = values_of(ds, "scipy_time_per_gait")
+                se = values_of(ds, f"scipy_error_{which}")
+                kt = values_of(ds, "kernel_time_same_points") if "kernel_time_same_points" \
                     in ds else None
                 for i, m in enumerate(smeth):
                     c = scol[i % len(scol)]
@@ -928,7 +928,7 @@ def plot_work_precision(ds):
                                      "time of the kernel's dop853 on the same gaits")
                         handles.append(Line2D([], [], color=c, marker=SCIPY_MARKERS[i % 5],
                                               ls="--", label=f"scipy solve_ivp {m} (rtol "
-                                              f"{', '.join(_sci(x, 1) for x in srt)}){ratio}"))
+                                              f"{', '.join(sci(x, 1) for x in srt)}){ratio}"))
             ax.set_xscale("log")
             ax.set_yscale("log")
             ax.margins(x=0.06, y=0.1)            # room for the rtol labels
@@ -936,7 +936,7 @@ def plot_work_precision(ds):
         axv.set_ylabel("wall time per gait  [s]")
         axv.set_title("gait error value", loc="left", **SUB)
         axt.set_title("event times (swap, motor off, vertical crossing)", loc="left", **SUB)
-        if "status_mismatch" in ds and (_values(ds, "status_mismatch") > 0).any():
+        if "status_mismatch" in ds and (values_of(ds, "status_mismatch") > 0).any():
             handles.append(Line2D([], [], marker="o", ms=10, mfc="none", mec=VERMILLION,
                                   ls="none", label="status differs from the reference at "
                                                    "some gaits"))
@@ -945,12 +945,12 @@ def plot_work_precision(ds):
 
 
 # ----------------------------------------------------------------------------------------------
-#: figures per step kind: (file-name suffix, function of the dataset, description)
-FIGURES: dict[str, list[tuple[str, Callable, str]]] = {
-    "shoot": [("newton", plot_shoot_convergence, "Newton convergence")],
-    "floquet": [("multipliers", plot_floquet_multipliers, "Floquet multipliers")],
-    "tick_sweep": [("error_growth", plot_tick_sweep, "error per cycle for each tick")],
-    "basin": [("cycles_map", plot_basin, "cycles to failure around the gait")],
-    "continuation": [("branch", plot_continuation, "gait family and its multipliers")],
-    "work_precision": [("work_precision", plot_work_precision, "time against error")],
+#: how the analysis steps' figures are drawn (one per dataset)
+DRAWINGS = {
+    ("shoot", "newton"): Drawing(lambda d: plot_shoot_convergence(d[0])),
+    ("floquet", "multipliers"): Drawing(lambda d: plot_floquet_multipliers(d[0])),
+    ("tick_sweep", "error_growth"): Drawing(lambda d: plot_tick_sweep(d[0])),
+    ("basin", "cycles_map"): Drawing(lambda d: plot_basin(d[0])),
+    ("continuation", "branch"): Drawing(lambda d: plot_continuation(d[0])),
+    ("work_precision", "work_precision"): Drawing(lambda d: plot_work_precision(d[0])),
 }

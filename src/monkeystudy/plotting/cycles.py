@@ -11,16 +11,19 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 from typing import Sequence
 
 import numpy as np
 from matplotlib.ticker import MaxNLocator
 
-from ._common import (
+from .common import (
     BLUE, GREEN, VERMILLION, link_lengths, new_figure, robot_object, run_label, status_name,
     style,
 )
 from ..kernel import layout as L
+from ..kernel.dynamics import kinetic_energy
+from .drawing import Drawing, Folder
 
 #: Statuses that mean "the run went as long as asked" (not worth a warning on the plot).
 NORMAL_END = (L.ST_OK, L.ST_END_TIME)
@@ -79,7 +82,7 @@ def matching_refine(stab, refines: Sequence):
     return None
 
 
-def _gait_text(stab, gait) -> str:
+def gait_text(stab, gait) -> str:
     if gait is None:
         gait = gait_point(stab)          # the run's own dtheta1/dtheta2, when it has them
     times = ""
@@ -92,7 +95,7 @@ def _gait_text(stab, gait) -> str:
     return times or "open-loop gait"
 
 
-def _stop_note(stab, who: str = "run") -> str | None:
+def stop_note(stab, who: str = "run") -> str | None:
     """Why the run stopped early, or None when it ran all its cycles."""
     if "status" not in stab:
         return None
@@ -121,7 +124,7 @@ def _annotate_stop(ax, stab, x, y, slot: int = 0, colour: str = VERMILLION,
                    who: str = "run"):
     """Mark the last cycle of a run that stopped early (cycles after it are NaN) with a cross
     whose legend entry says why."""
-    note = _stop_note(stab, who)
+    note = stop_note(stab, who)
     ok = np.flatnonzero(np.isfinite(y) & (y > 0 if ax.get_yscale() == "log" else True))
     if note and ok.size:
         i = ok[-1]
@@ -147,7 +150,7 @@ def _crossing(stab) -> str:
     return "section crossing" if "section_theta1" in stab.attrs else "vertical crossing"
 
 
-def _own(stab) -> bool:
+def own_controller(stab) -> bool:
     """A sequence gait run by its own controller (not replayed open loop)."""
     return stab.attrs.get("replay") == "gait"
 
@@ -182,8 +185,8 @@ def plot_error_comparison(stabs: Sequence, *, gaits: Sequence = (), labels: Sequ
             ax.plot(x, yplot, marker="o", color=colours[k % len(colours)],
                     gid="error" if _single else f"error_{step}",
                     label=lab or (f"error at the {_crossing(s)}" if _single
-                                  else f"{step}{' (own controller)' if _own(s) else ''}: "
-                                       f"{_gait_text(s, gait)}"))
+                                  else f"{step}{' (own controller)' if own_controller(s) else ''}: "
+                                       f"{gait_text(s, gait)}"))
         ax.set_yscale("log")
         for k, s in enumerate(stabs):
             _annotate_stop(ax, s, _cycle(s), np.asarray(s["error"].values, float), slot=k,
@@ -192,14 +195,14 @@ def plot_error_comparison(stabs: Sequence, *, gaits: Sequence = (), labels: Sequ
         _cycle_limits(ax, stabs)
         ax.set_ylabel(f"error e at the {_crossing(stabs[0])}  [1]")
         if _single:
-            title = ("Error per cycle of the gait under its own controller" if _own(stabs[0])
+            title = ("Error per cycle of the gait under its own controller" if own_controller(stabs[0])
                      else "Error per cycle of the open-loop repetition")
-            sub = f"Repeating {_gait_text(stabs[0], gaits[0])}"
+            sub = f"Repeating {gait_text(stabs[0], gaits[0])}"
         else:
-            title = ("Error per cycle of the multi-cycle runs" if any(_own(s) for s in stabs)
+            title = ("Error per cycle of the multi-cycle runs" if any(own_controller(s) for s in stabs)
                      else "Error per cycle of the open-loop runs")
             sub = ""
-        if len(stabs) > 1 or any(_stop_note(s) for s in stabs):
+        if len(stabs) > 1 or any(stop_note(s) for s in stabs):
             ax.legend(loc="best")
         _finish(fig, ax, stabs[0], title, sub, step=_single)
     return fig
@@ -228,7 +231,7 @@ def plot_kinetic_energy(stab, *, gait=None):
         ax.set_ylabel("kinetic energy  [J]")
         ax.legend(loc="lower left")
         _finish(fig, ax, stab, f"Kinetic energy at the {_crossing(stab)}, per cycle",
-                f"Repeating {_gait_text(stab, gait)}")
+                f"Repeating {gait_text(stab, gait)}")
     return fig
 
 
@@ -238,7 +241,6 @@ def _start_kinetic_energy(stab, gait) -> float | None:
     robot = robot_object(stab)
     if robot is None:
         return None
-    from ..kernel.dynamics import kinetic_energy
     p = robot.params()[0]
     th1 = float(stab.attrs.get("section_theta1", 0.0))   # a sequence gait's section state
     th2 = float(stab.attrs.get("start_theta2", 0.0))
@@ -284,13 +286,13 @@ def plot_pivot_height(stab, *, gait=None):
             ax2.set_ylabel("advance per cycle  [m]")
             ax.tick_params(labelbottom=False)
             _finish(fig, ax, stab, "Height of the attached end per cycle",
-                    f"Repeating {_gait_text(stab, gait)}")
+                    f"Repeating {gait_text(stab, gait)}")
             ax.set_xlabel("")
             ax2.set_xlabel("gait cycle")
             ax2.xaxis.set_major_locator(MaxNLocator(integer=True))
         else:
             _finish(fig, ax, stab, "Height of the attached end per cycle",
-                    f"Repeating {_gait_text(stab, gait)}")
+                    f"Repeating {gait_text(stab, gait)}")
         # one legend under the panels: inside, it would cover the data or the reference lines
         handles, labels = [], []
         for a in (ax, ax2):
@@ -300,3 +302,39 @@ def plot_pivot_height(stab, *, gait=None):
                 labels += lab
         fig.legend(handles, labels, loc="outside lower center", ncols=1, frameon=False)
     return fig
+
+
+# ----------------------------------------------------------------------------------------------
+def stability_inputs(path: Path, folder: Folder) -> list[Path]:
+    """The refine dataset a stability run needs for its gait's rates: none when the run names
+    them itself, else the refine step it names, else one whose times it replays."""
+    sds = folder.loaded(path)
+    if "dtheta1" in sds and "dtheta2" in sds:
+        return []
+    refines = list(folder.files.get("refine", []))
+    named = folder.path / f"{sds.attrs.get('refine_step', '')}.nc"
+    if named in refines:
+        return [named]
+    return [p for p in refines if matching_refine(sds, [folder.loaded(p)]) is not None][:1]
+
+
+def _gait(d) -> tuple[float, float] | None:
+    return gait_point(d[0], d[1:])
+
+
+def _comparison(groups):
+    return plot_error_comparison([g[0] for g in groups],
+                                 gaits=[gait_point(g[0], g[1:]) for g in groups])
+
+
+#: how the stability step's per-cycle figures are drawn
+DRAWINGS = {
+    ("stability", "error"): Drawing(lambda d: plot_error_per_cycle(d[0], gait=_gait(d)),
+                                    extra_inputs=stability_inputs),
+    ("stability", "kinetic_energy"): Drawing(
+        lambda d: plot_kinetic_energy(d[0], gait=_gait(d)), extra_inputs=stability_inputs),
+    ("stability", "height"): Drawing(lambda d: plot_pivot_height(d[0], gait=_gait(d)),
+                                     extra_inputs=stability_inputs),
+    ("stability", "error_comparison"): Drawing(_comparison, extra_inputs=stability_inputs,
+                                               across=True),
+}

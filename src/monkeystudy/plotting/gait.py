@@ -21,7 +21,9 @@ from matplotlib.animation import FFMpegWriter, PillowWriter
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-from ._common import (
+from .cycles import gait_point, gait_text, own_controller, stability_inputs, stop_note
+from .drawing import Drawing, Folder
+from .common import (
     BLUE, GREEN, PURPLE, VERMILLION, atomic_path, link_lengths, new_figure, run_label, style,
 )
 
@@ -287,10 +289,9 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
                     Line2D([], [], label="end B", **END_B),
                     Line2D([], [], label="attached end (magnet on)", **MAGNET)]
         fig.legend(handles=handles, loc="outside lower center", ncols=4, frameon=False)
-        from .cycles import _gait_text, _own
-        run = "run under the gait's own controller" if _own(stab) else "open-loop run"
+        run = "run under the gait's own controller" if own_controller(stab) else "open-loop run"
         fig.suptitle(f"Gait cycle {cycle} of the {run}, "
-                     f"{_gait_text(stab, gait)}", x=0.01, ha="left", fontweight="bold")
+                     f"{gait_text(stab, gait)}", x=0.01, ha="left", fontweight="bold")
         tl.set_title(run_label(stab), fontsize=8.5, fontweight="normal", loc="left")
     return fig
 
@@ -368,8 +369,7 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
                            bbox=dict(boxstyle="round,pad=0.3", fc="white", ec=VERMILLION))
         ax.set_xlabel("x  [m]")
         ax.set_ylabel("y  [m]")
-        from .cycles import _gait_text
-        fig.suptitle(f"Open-loop run, {_gait_text(stab, gait)}", fontsize=9, x=0.02,
+        fig.suptitle(f"Open-loop run, {gait_text(stab, gait)}", fontsize=9, x=0.02,
                      ha="left", fontweight="bold")
         ax.set_title(run_label(stab) + (f"; playback ×{speed:.1f}" if speed > 1 else ""),
                      fontsize=6.5, fontweight="normal", loc="left")
@@ -383,8 +383,7 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
         half_h = 0.5 * window * (fig.subplotpars.top - fig.subplotpars.bottom) * 4.0 / \
             ((fig.subplotpars.right - fig.subplotpars.left) * 6.4)
 
-        from .cycles import _stop_note
-        stop = _stop_note(stab)
+        stop = stop_note(stab)
         last = int(frames[-1])
 
         def update(i, final=False):
@@ -432,3 +431,23 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
                         writer.grab_frame()
             written.append(path)
     return written
+
+
+# ----------------------------------------------------------------------------------------------
+def _has_trajectory(path: Path, folder: Folder) -> bool:
+    return has_trajectory(folder.loaded(path))
+
+
+def _animation(d, base: Path, prov: dict, *, fps: float, max_frames: int) -> list[Path]:
+    return write_animation(d[0], base, prov, gait=gait_point(d[0], d[1:]), fps=fps,
+                           max_frames=max_frames)
+
+
+#: how the stability step's trajectory figures are drawn
+DRAWINGS = {
+    ("stability", "filmstrip"): Drawing(
+        lambda d: plot_filmstrip(d[0], gait=gait_point(d[0], d[1:])),
+        extra_inputs=stability_inputs, applies=_has_trajectory),
+    ("stability", "animation"): Drawing(_animation, extra_inputs=stability_inputs,
+                                        applies=_has_trajectory, animation=True),
+}

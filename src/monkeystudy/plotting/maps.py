@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -18,8 +19,9 @@ from matplotlib.patches import Patch, PathPatch
 from matplotlib.patheffects import withStroke
 from matplotlib.path import Path as MplPath
 
-from ._common import MINIMUM_COLOUR, new_figure, run_label, status_name, style
 from ..kernel import layout as L
+from .common import MINIMUM_COLOUR, new_figure, run_label, status_name, style
+from .drawing import Drawing, Folder
 
 D1_LABEL = r"initial $\dot\theta_1$  [rad s$^{-1}$]"
 D2_LABEL = r"initial $\dot\theta_2$  [rad s$^{-1}$]"
@@ -167,7 +169,6 @@ def _split_starts(refine) -> list[tuple[str, object]]:
 
 
 def _start_point(r, attrs) -> tuple[float, float] | None:
-    import json
     if "start_dtheta1" in r and "start_dtheta2" in r:
         return float(r["start_dtheta1"]), float(r["start_dtheta2"])
     try:
@@ -439,3 +440,21 @@ def plot_refine_convergence(refine):
         ax.set_title((note + "\n" if note else "") + run_label(refine), fontsize=8.5,
                      fontweight="normal", loc="left")
     return fig
+
+
+def _refines(path: Path, folder: Folder) -> list[Path]:
+    return list(folder.files.get("refine", []))
+
+
+def _has_iterations(path: Path, folder: Folder) -> bool:
+    ds = folder.loaded(path)
+    return ds.sizes.get("iteration", 0) > 0 and "iterate_error" in ds
+
+
+#: how the grid and refine steps' figures are drawn
+DRAWINGS = {
+    ("grid", "surface"): Drawing(lambda d: plot_error_surface(d[0])),
+    ("grid", "map"): Drawing(lambda d: plot_error_map(d[0], d[1:]), extra_inputs=_refines),
+    ("refine", "convergence"): Drawing(lambda d: plot_refine_convergence(d[0]),
+                                       applies=_has_iterations),
+}

@@ -30,9 +30,9 @@ file (``figures/``)                    what                                    s
 ``<stress>_stress``                    energy drift, long runs, extreme cases  -
 =====================================  ======================================  ==============
 
-The analysis figures (the six before the last) are drawn by
-:mod:`monkeystudy.plotting.analysis`, the stress figure by :mod:`monkeystudy.plotting.stress`,
-one per dataset of that ``step_kind`` (:data:`FIGURES`, merged from their ``FIGURES``).
+Which figures a dataset gets is what its step kind declares
+(:attr:`monkeystudy.study.steps.base.StepKind.figures`); how each is drawn is registered by the
+figure modules (their ``DRAWINGS``, merged in :data:`DRAWINGS`).
 """
 from __future__ import annotations
 
@@ -45,8 +45,10 @@ from typing import Callable, Sequence
 
 import xarray as xr
 
+from ..study.steps import REGISTRY
 from . import analysis, cycles, gait, maps, stress
-from ._common import STYLE_FILE, atomic_path, provenance, save_figure
+from .common import STYLE_FILE, atomic_path, provenance, save_figure
+from .drawing import Drawing, Folder
 
 MANIFEST = "manifest.json"
 MANIFEST_VERSION = 1
@@ -96,11 +98,10 @@ def code_hash() -> str:
     return h.hexdigest()
 
 
-#: one figure per dataset of these step kinds: (file-name suffix, function, description)
-FIGURES = {**analysis.FIGURES, **stress.FIGURES}
-
-#: step kinds with figures: the 2009 study's, then the analysis and stress steps'
-KINDS = ("grid", "refine", "stability") + tuple(FIGURES)
+#: how each declared figure is drawn, by (step kind, suffix), from every figure module
+DRAWINGS: dict[tuple[str, str], Drawing] = {
+    **maps.DRAWINGS, **cycles.DRAWINGS, **gait.DRAWINGS, **analysis.DRAWINGS, **stress.DRAWINGS,
+}
 
 
 def _kind(ds) -> str | None:
@@ -109,7 +110,7 @@ def _kind(ds) -> str | None:
     files without a ``step_kind`` attribute."""
     kind = ds.attrs.get("step_kind")
     if kind is not None:
-        return kind if kind in KINDS else None
+        return kind if kind in REGISTRY else None
     if "cycle" in ds.dims:
         return "stability"
     if "iteration" in ds.dims:
@@ -121,7 +122,7 @@ def _kind(ds) -> str | None:
 
 def _datasets(study_dir: Path) -> dict[str, list[Path]]:
     """Dataset files of the study folder by step kind (temporary and hidden files skipped)."""
-    out: dict[str, list[Path]] = {k: [] for k in KINDS}
+    out: dict[str, list[Path]] = {k: [] for k in REGISTRY}
     for p in sorted(study_dir.glob("*.nc")):
         if p.name.startswith("."):
             continue
@@ -142,85 +143,53 @@ def _load(path: Path) -> xr.Dataset:
 
 def plan(study_dir: Path, *, animation: bool = True, fps: float = 15.0,
          max_frames: int = 240) -> list[Job]:
-    """The figures the datasets in ``study_dir`` support (nothing is drawn)."""
+    """The figures the datasets in ``study_dir`` support (nothing is drawn): for every step
+    kind, in registry order, the figures it declares for each of its datasets."""
     study_dir = Path(study_dir)
-    files = _datasets(study_dir)
-    refines = {p: _load(p) for p in files["refine"]}
+    cache: dict[Path, xr.Dataset] = {}
+
+    def loaded(path: Path) -> xr.Dataset:
+        if path not in cache:
+            cache[path] = _load(path)
+        return cache[path]
+
+    folder = Folder(study_dir, _datasets(study_dir), loaded)
     jobs: list[Job] = []
-
-    for g in files["grid"]:
-        s = g.stem
-        jobs.append(Job(f"{s}_surface", [g], lambda d: maps.plot_error_surface(d[0]),
-                        f"{s}: sqrt(error) surface"))
-        jobs.append(Job(f"{s}_map", [g] + files["refine"],
-                        lambda d: maps.plot_error_map(d[0], d[1:]),
-                        f"{s}: error map with minima"))
-    for r, rds in refines.items():
-        if rds.sizes.get("iteration", 0) > 0 and "iterate_error" in rds:
-            jobs.append(Job(f"{r.stem}_convergence", [r],
-                            lambda d: maps.plot_refine_convergence(d[0]),
-                            f"{r.stem}: Nelder-Mead convergence"))
-
-    stab_inputs = []
-    for st in files["stability"]:
-        s = st.stem
-        with xr.open_dataset(st) as sds:
-            has_traj = gait.has_trajectory(sds)
-            own_rates = "dtheta1" in sds and "dtheta2" in sds
-            named = study_dir / f"{sds.attrs.get('refine_step', '')}.nc"
-            if own_rates:                       # the run names its gait: needs no refine
-                ref = []
-            elif named in refines:
-                ref = [named]
-            else:
-                ref = [p for p, rds in refines.items()
-                       if cycles.matching_refine(sds, [rds]) is not None][:1]
-        inputs = [st] + ref
-        stab_inputs.append(inputs)
-
-        def gp(d):
-            return cycles.gait_point(d[0], d[1:])
-
-        jobs.append(Job(f"{s}_error", inputs,
-                        lambda d: cycles.plot_error_per_cycle(d[0], gait=gp(d)),
-                        f"{s}: error per cycle"))
-        jobs.append(Job(f"{s}_kinetic_energy", inputs,
-                        lambda d: cycles.plot_kinetic_energy(d[0], gait=gp(d)),
-                        f"{s}: kinetic energy per cycle"))
-        jobs.append(Job(f"{s}_height", inputs,
-                        lambda d: cycles.plot_pivot_height(d[0], gait=gp(d)),
-                        f"{s}: attached-end height per cycle"))
-        if has_traj:
-            jobs.append(Job(f"{s}_filmstrip", inputs,
-                            lambda d: gait.plot_filmstrip(d[0], gait=gp(d)),
-                            f"{s}: one gait cycle"))
-            if animation:
-                def anim(d, base, prov):
-                    return gait.write_animation(d[0], base, prov, gait=gp(d), fps=fps,
-                                                max_frames=max_frames)
-                jobs.append(Job(f"{s}_animation", inputs, anim, f"{s}: animation",
-                                animation=True))
-    if len(stab_inputs) > 1:
-        n = [len(i) for i in stab_inputs]
-        flat = [p for i in stab_inputs for p in i]
-
-        def comparison(d, n=n):
-            stabs, gaits, k = [], [], 0
-            for m in n:
-                stabs.append(d[k])
-                gaits.append(cycles.gait_point(d[k], d[k + 1:k + m]))
-                k += m
-            return cycles.plot_error_comparison(stabs, gaits=gaits)
-
-        jobs.append(Job("stability_error_comparison", flat, comparison,
-                        "error per cycle of all multi-cycle runs"))
-
-    for kind, figures in FIGURES.items():                  # one figure per dataset each
-        for p in files[kind]:
-            for suffix, fn, what in figures:
-                jobs.append(Job(f"{p.stem}_{suffix}", [p], lambda d, fn=fn: fn(d[0]),
-                                f"{p.stem}: {what}"))
+    for kind in REGISTRY.values():
+        paths = folder.files[kind.name]
+        for fig in kind.figures:
+            how = DRAWINGS[(kind.name, fig.suffix)]
+            if how.animation and not animation:
+                continue
+            if fig.across:
+                groups = [[p] + how.extra_inputs(p, folder) for p in paths
+                          if how.applies(p, folder)]
+                if len(groups) > 1:
+                    sizes = [len(g) for g in groups]
+                    jobs.append(Job(f"{kind.name}_{fig.suffix}", [p for g in groups for p in g],
+                                    lambda d, how=how, sizes=sizes: how.draw(_split(d, sizes)),
+                                    fig.title))
+                continue
+            for p in paths:
+                if not how.applies(p, folder):
+                    continue
+                if how.animation:
+                    def draw(d, base, prov, how=how):
+                        return how.draw(d, base, prov, fps=fps, max_frames=max_frames)
+                else:
+                    draw = how.draw
+                jobs.append(Job(f"{p.stem}_{fig.suffix}", [p] + how.extra_inputs(p, folder),
+                                draw, f"{p.stem}: {fig.title}", animation=how.animation))
     return jobs
+
+
+def _split(datasets: list, sizes: list[int]) -> list[list]:
+    """``datasets`` cut into consecutive groups of ``sizes``."""
+    out, k = [], 0
+    for n in sizes:
+        out.append(datasets[k:k + n])
+        k += n
+    return out
 
 
 # ----------------------------------------------------------------------------------------------
@@ -365,7 +334,7 @@ def report_study(study_dir: Path, *, force: bool = False,
 
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m monkeystudy.plotting DIR [--force]``: draw the figures of study folders."""
-    import argparse
+    import argparse   # an entry point: only its own command line needs it
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("study_dir", type=Path, nargs="+")
     ap.add_argument("--force", action="store_true", help="redraw every figure")

@@ -1,4 +1,4 @@
-"""Figure of the ``stress`` dataset (docs/datasets.md, ``stress``; issue #5).
+"""Figure of the ``stress`` dataset (docs/datasets.md, ``stress``).
 
 :func:`plot_stress` draws, in one figure:
 
@@ -9,25 +9,24 @@
 * the extreme cases: how many runs of each case ended with each status, and whether every
   result marked ok was finite.
 
-:data:`FIGURES` maps the ``stress`` step kind to this figure (``<stress>_stress``), the way
-:data:`monkeystudy.plotting.analysis.FIGURES` does for the analysis kinds;
+:data:`DRAWINGS` registers it under ``("stress", "stress")`` (file ``<step>_stress``);
 :func:`monkeystudy.plotting.report.plan` draws it for every such dataset of a study.
 """
 from __future__ import annotations
 
 import math
-from typing import Callable
 
 import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 from matplotlib.ticker import MaxNLocator
 
-from ._common import (
+from .drawing import Drawing
+from .common import (
     BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, YELLOW, fmt_tick, json_attr,
     new_figure, style,
 )
-from .analysis import OUTLINE, SUB, _attr_float, _sci, _titles, _values, run_line
+from .analysis import OUTLINE, SUB, attr_float, sci, two_titles, values_of, run_line
 from ..kernel.layout import STATUS_NAMES
 
 #: colour of each status in the outcome panels
@@ -98,28 +97,28 @@ def plot_stress(ds):
     before it, width ``status_counts``), ``finite_<i>`` (the finite / non-finite label).
     """
     phases = _labels(ds, "drift_phase")
-    rtols = _values(ds, "drift_rtol")
-    t = _values(ds, "time")
-    drift = _values(ds, "energy_drift")
-    expo = _values(ds, "growth_exponent")
-    per = _values(ds, "drift_per_period")
-    floor = _attr_float(ds, "drift_floor", 100 * EPS)
+    rtols = values_of(ds, "drift_rtol")
+    t = values_of(ds, "time")
+    drift = values_of(ds, "energy_drift")
+    expo = values_of(ds, "growth_exponent")
+    per = values_of(ds, "drift_per_period")
+    floor = attr_float(ds, "drift_floor", 100 * EPS)
     runs = _labels(ds, "run")
-    cycles = _values(ds, "cycles_completed").astype(int)
-    rstat = _values(ds, "run_status").astype(int)
-    height = _values(ds, "final_pivot_height")
-    want = int(_attr_float(ds, "cycles", float(cycles.max()) if cycles.size else 0.0))
+    cycles = values_of(ds, "cycles_completed").astype(int)
+    rstat = values_of(ds, "run_status").astype(int)
+    height = values_of(ds, "final_pivot_height")
+    want = int(attr_float(ds, "cycles", float(cycles.max()) if cycles.size else 0.0))
     cases = _labels(ds, "case")
     counts = np.asarray(ds["status_counts"].transpose("case", "status").values, int)
     codes = np.asarray(ds["status"].values, int)
-    finite_ok = _values(ds, "finite_ok").astype(int)
-    periods = _attr_float(ds, "periods")
+    finite_ok = values_of(ds, "finite_ok").astype(int)
+    periods = attr_float(ds, "periods")
     order = np.argsort(-rtols)                     # loosest tolerance first
 
     def exps(ph: int) -> str:
         return " / ".join(_exp(expo[ph, j]) for j in order)
 
-    tol_txt = " / ".join(_sci(rtols[j], 1) for j in order)
+    tol_txt = " / ".join(sci(rtols[j], 1) for j in order)
     title = (f"Numerical stress tests. Energy drift growth exponents at rtol {tol_txt}:\n"
              + ", ".join(f"{p} {exps(i)} ({_verdict(expo[i])})"
                          for i, p in enumerate(phases)))
@@ -127,10 +126,10 @@ def plot_stress(ds):
         fig = new_figure(figsize=(12.0, 7.6))
         sub = ("Left: unforced, frictionless runs; relative drift |E − E0| / (|K| + |V|) "
                "at log-spaced checkpoints; growth exponent = log-log slope over the last "
-               f"decade, fitted above {_sci(floor, 1)} (round-off). Right: long runs of "
+               f"decade, fitted above {sci(floor, 1)} (round-off). Right: long runs of "
                f"{want} cycles and extreme cases, coloured by the status they ended with.\n"
                + run_line(ds, tick=False))
-        body = _titles(fig, title, sub)
+        body = two_titles(fig, title, sub)
         gs = body.add_gridspec(2, 2, width_ratios=[1.45, 1.0], height_ratios=[1.0, 1.25])
         axd = body.add_subplot(gs[:, 0])
         axr = body.add_subplot(gs[0, 1])
@@ -148,11 +147,11 @@ def plot_stress(ds):
                          mfc=c if ph == "swing" else "white", gid=f"drift_{ph}_{j}")
                 handles.append(Line2D([], [], ls=ls, marker=mk, ms=4, color=c,
                                       mfc=c if ph == "swing" else "white",
-                                      label=f"{ph}, rtol {_sci(rtols[j], 1)}: exponent "
+                                      label=f"{ph}, rtol {sci(rtols[j], 1)}: exponent "
                                             f"{_exp(expo[i, j])}"
                                             + (" (round-off)" if not np.isfinite(expo[i, j])
                                                else "")
-                                            + f", {_sci(per[i, j])} per period"))
+                                            + f", {sci(per[i, j])} per period"))
         pos = drift[np.isfinite(drift) & (drift > 0)]
         tpos = t[np.isfinite(t) & (t > 0)]
         if pos.size and tpos.size:
@@ -167,7 +166,7 @@ def plot_stress(ds):
                                         "drift"))
             lo = min(pos.min(), floor) / 4
             axd.axhspan(lo, floor, color="0.88", zorder=0, lw=0, gid="round_off")
-            handles.append(Patch(color="0.88", label=f"round-off: below {_sci(floor, 1)} = "
+            handles.append(Patch(color="0.88", label=f"round-off: below {sci(floor, 1)} = "
                                                      "100 ε (not fitted)"))
             axd.set_ylim(lo, pos.max() * 30)
         axd.set_xscale("log")
@@ -175,7 +174,7 @@ def plot_stress(ds):
         axd.set_xlabel("time  [s]")
         axd.set_ylabel("relative energy drift |E − E0| / (|K| + |V|)  [1]")
         per_txt = ", ".join(f"{p} {float(v):.3g} s" for p, v in
-                            zip(phases, _values(ds, "period"))) if "period" in ds else ""
+                            zip(phases, values_of(ds, "period"))) if "period" in ds else ""
         axd.set_title("Energy drift of unforced, frictionless runs"
                       + (f" ({periods:g} reference periods: {per_txt})"
                          if math.isfinite(periods) else ""), **SUB)
@@ -248,7 +247,7 @@ def plot_stress(ds):
 
 
 # ----------------------------------------------------------------------------------------------
-#: figures per step kind: (file-name suffix, function of the dataset, description)
-FIGURES: dict[str, list[tuple[str, Callable, str]]] = {
-    "stress": [("stress", plot_stress, "energy drift, long runs and extreme cases")],
+#: how the stress step's figure is drawn
+DRAWINGS = {
+    ("stress", "stress"): Drawing(lambda d: plot_stress(d[0])),
 }

@@ -1,10 +1,15 @@
 """Studies: YAML files in, netCDF datasets out (``monkeystudy run``).
 
-* :mod:`.schema` - the strict, versioned study schema (pydantic v2).
+* :mod:`.models`, :mod:`.schema` - the strict, versioned study schema (pydantic v2).
 * :mod:`.loader` - YAML 1.2 with line numbers; errors as ``file:line: key: message``.
-* :mod:`.drivers` - the task functions of grid, refine and stability steps (numpy only).
-* :mod:`.runner` - blocks, shards, resume, process pool or Dask, :func:`run_grid`.
-* :mod:`.datasets` - the netCDF datasets of ``docs/datasets.md``, written atomically.
+* :mod:`.steps` - the step kinds, one module each (model, checks, tasks, dataset, figures),
+  in a registry the layers above iterate over.
+* :mod:`.spec` - the study resolved into the plain values every task receives.
+* :mod:`.plan` - which steps and blocks a run has to do (resume, ``--dry-run``).
+* :mod:`.runner` - the run loop over the pool (:mod:`.pool`: processes or Dask), shards
+  (:mod:`.blocks`), :func:`run_grid`.
+* :mod:`.datasets` - the netCDF layer of ``docs/datasets.md``: atomic files, labelled
+  variables.
 * :mod:`.command` - ``monkeystudy run`` after loading (exit codes), shared with the service.
 
 The names below are imported on first use (PEP 562), so that importing a light submodule
@@ -18,15 +23,16 @@ from .._lazy import lazy_exports
 
 _EXPORTS = {
     "loader": ("Issue", "LoadedStudy", "StudyError", "load_study", "parse_study"),
-    "runner": ("RunFailed", "RunInterrupted", "RunSummary", "plan_study", "run_grid",
-               "run_study"),
+    "errors": ("RunFailed", "RunInterrupted"),
+    "plan": ("plan_study",),
+    "runner": ("RunSummary", "run_grid", "run_study"),
     "schema": ("Study", "json_schema"),
 }
 __getattr__, __dir__, __all__ = lazy_exports(__name__, globals(), _EXPORTS)
 
 if TYPE_CHECKING:
     from .loader import Issue, LoadedStudy, StudyError, load_study, parse_study  # noqa: F401
-    from .runner import (  # noqa: F401
-        RunFailed, RunInterrupted, RunSummary, plan_study, run_grid, run_study,
-    )
+    from .errors import RunFailed, RunInterrupted  # noqa: F401
+    from .plan import plan_study  # noqa: F401
+    from .runner import RunSummary, run_grid, run_study  # noqa: F401
     from .schema import Study, json_schema  # noqa: F401

@@ -12,8 +12,11 @@ import traceback
 from pathlib import Path
 from typing import Callable
 
+from .errors import RunFailed, RunInterrupted
 from .loader import LoadedStudy
+from .plan import plan_study
 from .progress import Reporter
+from .runner import run_study
 
 from ..exit_codes import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_INVALID, EXIT_OK
 
@@ -25,10 +28,8 @@ def execute_run(loaded: LoadedStudy, out: Path | None, *, echo: Callable[[str], 
     """Run (or with ``dry_run`` describe) ``loaded`` into ``out``; return the exit code.
 
     ``reporter`` makes the progress reporter (only when there is something to run);
-    ``pool`` is a resident :class:`~.runner.Pool`; ``shown`` renders written paths.
+    ``pool`` is a resident :class:`~.pool.Pool`; ``shown`` renders written paths.
     """
-    from .runner import RunFailed, RunInterrupted, plan_study, run_study
-
     if dry_run:
         plan = plan_study(loaded, out)
         echo(plan.describe())

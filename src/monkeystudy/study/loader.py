@@ -22,6 +22,7 @@ from ruamel.yaml.comments import CommentedMap, CommentedSeq
 from ruamel.yaml.error import MarkedYAMLError, YAMLError
 
 from . import schema as S
+from .models import SEEN_MODELS
 
 
 @dataclass(frozen=True)
@@ -79,14 +80,14 @@ def parse_study(text: str, shown: str = "<string>", path: Path | None = None) ->
     tree = _parse_yaml(text, shown)
     plain = _plain(tree)
     seen: dict[int, type] = {}
-    token = S._SEEN_MODELS.set(seen)
+    token = SEEN_MODELS.set(seen)
     try:
         study = S.Study.model_validate(plain)
     except ValidationError as exc:
         raise StudyError([_issue(shown, tree, plain, err, seen) for err in exc.errors()]) \
             from None
     finally:
-        S._SEEN_MODELS.reset(token)
+        SEEN_MODELS.reset(token)
     problems = S.cross_check(study)
     if problems:
         raise StudyError([Issue(shown, _line_of(tree, loc), _dotted(loc), msg)

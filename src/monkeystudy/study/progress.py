@@ -71,6 +71,7 @@ class RichReporter(Reporter):
     """A rich progress bar per step, with elapsed time and ETA (on a terminal)."""
 
     def __init__(self, stream: TextIO | None = None):
+        # rich loads in ~0.1 s: only a run on a terminal pays for it
         from rich.console import Console
         from rich.progress import (
             BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn,

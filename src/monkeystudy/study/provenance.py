@@ -1,16 +1,19 @@
 """Provenance of datasets: package version, git revision, code hash, library versions, history.
 
-``code_sha256`` hashes the source files that decide what a study computes (kernels, robot,
-controllers, simulation API, study schema, drivers, dataset layout, and the analysis
-computations and tasks) together with the package version. With the study text's hash it keys
-shards and datasets: change either and nothing old is reused. It does not depend on git, so
-an uncommitted edit counts too.
+``code_sha256`` hashes the source files that decide what a study computes, together with the
+package version: the step kinds (:mod:`monkeystudy.study.steps`: their models, tasks and
+dataset writers) and every module of the package they import, followed through the import
+graph (imports inside functions too) - the analysis, the simulation API, the kernels. The
+figures, the command line, the service and the benchmark are not among them: editing them
+reruns nothing. With the study text's hash it keys shards and datasets: change either and
+nothing old is reused. It does not depend on git, so an uncommitted edit counts too.
 """
 from __future__ import annotations
 
 import functools
 import hashlib
 import json
+import re
 import subprocess
 import sys
 from datetime import datetime, timezone
@@ -21,26 +24,114 @@ from .. import __version__
 
 _PKG = Path(__file__).resolve().parents[1]
 
-#: Sources (relative to the package) that decide the numbers and the layout of datasets.
-CODE_FILES = ("kernel/*.py", "robot.py", "controllers.py", "simulate.py", "study/schema.py",
-              "study/drivers.py", "study/datasets.py",
-              # the analysis steps: their computations, tasks and runner glue
-              "analysis.py", "precision.py", "bench.py", "study/analysis_tasks.py",
-              "study/analysis_steps.py", "saltation.py", "continuation.py", "replay.py",
-              # the stress scenarios
-              "stress.py")
+#: The package (relative to ``monkeystudy``) whose modules, and all they import, decide the
+#: numbers and the layout of datasets.
+RESULT_ROOT = "study/steps"
 
 LIBRARIES = ("numpy", "scipy", "numba", "xarray", "netCDF4")
 
 
 @functools.lru_cache(maxsize=None)
+def _package_modules() -> dict[tuple[str, ...], Path]:
+    """Every source of the package by module name (``("study", "steps")`` is the package
+    ``monkeystudy.study.steps``, its ``__init__.py``)."""
+    out = {}
+    for p in _PKG.rglob("*.py"):
+        parts = p.relative_to(_PKG).with_suffix("").parts
+        out[parts[:-1] if parts[-1] == "__init__" else parts] = p
+    return out
+
+
+#: an import statement's head: ``from <module> import <names...`` or ``import <names...``
+_IMPORT = re.compile(r"^(\s*)(?:from\s+(\.*)([\w.]*)\s+import\s+(.*)|import\s+(.*))$")
+
+
+def import_statements(text: str) -> list[tuple[int, str, list[str]]]:
+    """The import statements of a module's source as ``(level, module, names)`` (``import a.b``
+    as ``(0, "", ["a.b"])``), wherever they are, but those under ``if TYPE_CHECKING:`` (not
+    run). A line scan, not a parse: parsing the package's sources costs ~0.3 s, which every
+    run would pay; a test holds the scan to :mod:`ast`'s answer."""
+    out: list[tuple[int, str, list[str]]] = []
+    lines = text.splitlines()
+    skip_indent: int | None = None
+    k = 0
+    while k < len(lines):
+        line = lines[k]
+        k += 1
+        stripped = line.strip()
+        if not stripped or stripped.startswith("#"):
+            continue
+        indent = len(line) - len(line.lstrip())
+        if skip_indent is not None:
+            if indent > skip_indent:
+                continue
+            skip_indent = None
+        if stripped.startswith("if TYPE_CHECKING"):
+            skip_indent = indent
+            continue
+        m = _IMPORT.match(line)
+        if m is None:
+            continue
+        rest = m.group(4) if m.group(4) is not None else m.group(5)
+        if "(" in rest:                          # names continue up to the closing bracket
+            while ")" not in rest and k < len(lines):
+                rest += " " + lines[k]
+                k += 1
+        rest = rest.split("#")[0].replace("(", " ").replace(")", " ").replace("\\", " ")
+        names = [n.split(" as ")[0].strip() for n in rest.split(",")]
+        names = [n for n in names if n]
+        if m.group(5) is not None:
+            out.append((0, "", names))
+        else:
+            out.append((len(m.group(2)), m.group(3), names))
+    return out
+
+
+def _imported_files(path: Path) -> set[Path]:
+    """Sources of the package modules ``path`` imports (anywhere in the file), with the
+    ``__init__`` of every package on the way (Python runs them on import)."""
+    here = list(path.relative_to(_PKG).with_suffix("").parts)[:-1]   # its package
+    found: set[Path] = set()
+    for level, module, names in import_statements(path.read_text()):
+        if level:
+            base = here[:len(here) - (level - 1)]
+            mod = base + (module.split(".") if module else [])
+            targets = [mod] + [mod + [n] for n in names]
+        elif module:
+            targets = [module.split(".")[1:]] if module.split(".")[0] == "monkeystudy" else []
+            targets += [t + [n] for t in targets for n in names]
+        else:
+            targets = [n.split(".")[1:] for n in names if n.split(".")[0] == "monkeystudy"]
+        for target in targets:
+            for k in range(len(target) + 1):       # the packages on the way, then the module
+                p = _package_modules().get(tuple(target[:k]))
+                if p is not None:
+                    found.add(p)
+    return found
+
+
+@functools.lru_cache(maxsize=None)
+def result_sources() -> tuple[Path, ...]:
+    """Every source that decides what a study computes: the modules of :data:`RESULT_ROOT`
+    and the package modules they import, transitively (sorted)."""
+    todo = sorted((_PKG / RESULT_ROOT).rglob("*.py"))
+    seen: set[Path] = set(todo)
+    while todo:
+        for p in _imported_files(todo.pop()):
+            if p not in seen:
+                seen.add(p)
+                todo.append(p)
+    return tuple(sorted(seen))
+
+
+@functools.lru_cache(maxsize=None)
 def code_sha256() -> str:
+    """Hash of the package version and every source of :func:`result_sources`."""
     h = hashlib.sha256(f"monkeystudy {__version__}\n".encode())
-    for pattern in CODE_FILES:
-        for p in sorted(_PKG.glob(pattern)):
-            h.update(p.relative_to(_PKG).as_posix().encode() + b"\0")
-            h.update(p.read_bytes())
-            h.update(b"\0")
+    for p in result_sources():
+        h.update(p.relative_to(_PKG).as_posix().encode() + b"\0")
+        h.update(p.read_bytes())
+        h.update(b"\0")
     return h.hexdigest()
 
 

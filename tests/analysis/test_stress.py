@@ -10,7 +10,7 @@ import pytest
 
 from monkeystudy import (
     Friction, Integrator, Link, OpenLoop, PhaseSequence, Robot, Segment, Status,
-    evaluate_gaits, evaluate_horizontal_gait, initial_state, run_controller,
+    evaluate_gaits, initial_state, run_controller,
 )
 from monkeystudy.kernel import layout as L
 from monkeystudy.kernel.dynamics import total_energy8

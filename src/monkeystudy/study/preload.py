@@ -7,7 +7,7 @@ itself.
 """
 import numpy as np
 
-from . import drivers  # noqa: F401  (the tasks the workers run)
+from . import steps  # noqa: F401  (the tasks the workers run)
 from ..controllers import OpenLoop
 from ..simulate import evaluate_gaits, initial_state, run_controller
 

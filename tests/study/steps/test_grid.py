@@ -1,7 +1,6 @@
-"""Task functions (numpy in, numpy out) and the dataset writers' building blocks."""
+"""The grid step: its task, its streamed dataset, the starts it gives a refine step."""
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pytest
@@ -10,8 +9,10 @@ import xarray as xr
 from monkeystudy import Integrator, Robot, evaluate_gaits
 from monkeystudy.kernel.layout import ST_OK, ST_UNREACHABLE
 from monkeystudy.study import datasets as D
-from monkeystudy.study import drivers
-from monkeystudy.study.runner import make_blocks, run_grid
+from monkeystudy.study.blocks import make_blocks
+from monkeystudy.study.runner import load_kernels, run_grid
+from monkeystudy.study.spec import GaitSpec
+from monkeystudy.study.steps import grid
 
 TORQUE = 0.6354
 INTEG = Integrator(rtol=1e-8, atol=1e-10)
@@ -19,79 +20,20 @@ INTEG = Integrator(rtol=1e-8, atol=1e-10)
 
 @pytest.fixture(scope="module")
 def spec():
-    s = drivers.make_spec(Robot.preset("seed2009"), TORQUE, 0.001, INTEG)
-    drivers.warm_up(s, stability=True)
+    s = GaitSpec(Robot.preset("seed2009"), INTEG, TORQUE, 0.001)
+    load_kernels(s, runs=True)
     return s
 
 
 def test_grid_block_is_evaluate_gaits(spec):
     pts = np.array([[0.902, 10.935], [0.0, 9.0], [1.5, 12.0], [0.1, 5.0]])
-    got = drivers.grid_block(spec, pts)
+    got = grid.grid_block(spec, pts)
     ref = evaluate_gaits(pts, robot="seed2009", torque=TORQUE, tick=0.001, integrator=INTEG)
-    for k, dt in drivers.GRID_VARIABLES.items():
+    for k, dt in grid.HORIZONTAL_VARIABLES.items():
         assert got[k].dtype == dt
         np.testing.assert_array_equal(got[k], ref[k].astype(dt))
     assert got["status"][3] == ST_UNREACHABLE        # too little energy to reach the swap
     assert np.isnan(got["error"][got["status"] != ST_OK]).all()
-
-
-def test_refine_records_iterates_and_converges(spec):
-    r = drivers.refine_task(spec, (1.0, 12.0), xatol=1e-4, fatol=1e-4)
-    it = r["iterate_x"]
-    assert it.shape == (len(r["iterate_error"]), 2)
-    np.testing.assert_array_equal(it[0], [1.0, 12.0])          # iteration 0: the start
-    np.testing.assert_array_equal(it[-1], r["x"])
-    assert r["converged"] == 1 and r["status"] == ST_OK
-    assert r["error"] == pytest.approx(r["iterate_error"][-1])
-    finite = r["iterate_error"][np.isfinite(r["iterate_error"])]
-    assert np.all(np.diff(finite) <= 0)                   # the best vertex never gets worse
-    assert np.all(np.diff(r["iterate_nfev"]) > 0)
-    assert r["iterate_nfev"][-1] <= r["nfev"]
-    assert len(r["iterate_error"]) == r["nit"]
-    assert r["error"] < 1e-3                              # the study's gait, near (0.90, 10.93)
-    assert abs(r["x"][0] - 0.9) < 0.05 and abs(r["x"][1] - 10.93) < 0.05
-
-
-def test_refine_penalty_keeps_the_objective_finite(spec):
-    """From a start where the gait fails the simplex gets the penalty, not NaN."""
-    r = drivers.refine_task(spec, (0.05, 6.0), xatol=1e-4, fatol=1e-4, maxiter=20,
-                            penalty=1e6)
-    assert r["status"] != ST_OK and math.isnan(r["error"])
-    assert np.isnan(r["iterate_error"]).all()
-    assert r["nit"] <= 20
-
-
-def test_refine_limits(spec):
-    r = drivers.refine_task(spec, (1.0, 12.0), xatol=1e-4, fatol=1e-4, maxfev=15)
-    assert r["nfev"] <= 16 and r["converged"] == 0
-
-
-def test_stability_first_cycle_repeats_the_refined_gait(spec):
-    r = drivers.refine_task(spec, (1.0, 12.0), xatol=1e-4, fatol=1e-4)
-    gait = {"dtheta1": r["x"][0], "dtheta2": r["x"][1], "t_switch": r["t_switch"],
-            "t_motor": r["t_motor"], "t_end": r["t_end"], "status": r["status"]}
-    s = drivers.stability_task(spec, gait, cycles=5, tick=0.001, clock="reset_at_vertical",
-                               sample_dt=0.005, max_drop=0.61)
-    assert s["status"] == ST_OK and s["cycles_completed"] == 5
-    # the open-loop replay of the recorded times is the search controller's first cycle
-    assert s["error"][0] == pytest.approx(r["error"], rel=1e-6, abs=1e-12)
-    assert np.all(np.diff(s["t_swap"]) > 0) and np.all(s["t_cross"] > s["t_swap"])
-    assert np.all(np.abs(s["pivot_height"]) < 0.05)
-    assert np.all(np.abs(s["x_advance"] - 0.51) < 0.05)   # about L1 s1 + L2 s12 per step
-    assert np.all(s["kinetic_energy"] > 0)
-    n = len(s["time"])
-    assert n > 0 and s["A"].shape == s["B"].shape == s["joint"].shape == (n, 2)
-    assert np.all(np.diff(s["time"]) >= 0)
-    assert set(np.unique(s["phase"])) <= {0, 1, 2}
-
-
-def test_stability_of_a_failed_gait_is_not_run(spec):
-    gait = {"dtheta1": 0.1, "dtheta2": 5.0, "t_switch": math.nan, "t_motor": math.nan,
-            "t_end": math.nan, "status": ST_UNREACHABLE}
-    s = drivers.stability_task(spec, gait, cycles=3, tick=0.001, clock="reset_at_vertical",
-                               sample_dt=0.005, max_drop=0.61)
-    assert s["status"] == ST_UNREACHABLE and np.isnan(s["error"]).all()
-    assert len(s["time"]) == 0
 
 
 def test_best_grid_points_prefers_local_minima():
@@ -100,23 +42,23 @@ def test_best_grid_points_prefers_local_minima():
     e = np.add.outer((d1 - 0.25) ** 2, (d2 - 0.2) ** 2) + 1.0
     e[4, 5] = 0.5                     # a corner minimum, lower than the bowl
     e[0, 0] = np.nan                  # failed point: ignored
-    pts = D.best_grid_points(e, d1, d2, 3)
+    pts = grid.best_grid_points(e, d1, d2, 3)
     np.testing.assert_array_equal(pts[0], [1.0, 1.0])
     np.testing.assert_array_equal(pts[1], [0.25, 0.2])
     assert len(pts) == 3
     with pytest.raises(ValueError):
-        D.best_grid_points(np.full((2, 2), np.nan), d1[:2], d2[:2], 1)
+        grid.best_grid_points(np.full((2, 2), np.nan), d1[:2], d2[:2], 1)
 
 
 @pytest.mark.parametrize("block_size", [1, 4, 7, 9, 11, 40])
 def test_grid_streams_blocks_that_cut_rows(tmp_path, block_size):
     a1, a2 = np.linspace(0, 1, 4), np.linspace(5, 6, 9)
     n = a1.size * a2.size
-    flat = {k: (np.arange(n) * 1.5).astype(dt) for k, dt in drivers.GRID_VARIABLES.items()}
+    flat = {k: (np.arange(n) * 1.5).astype(dt) for k, dt in grid.HORIZONTAL_VARIABLES.items()}
     flat["status"] = (np.arange(n) % 6).astype(np.int8)
     blocks = [(b.lo, {k: v[b.lo:b.hi] for k, v in flat.items()})
               for b in make_blocks(n, block_size)]
-    info = D.write_grid(tmp_path / "g.nc", {"study_name": "t"}, axes=(a1, a2), blocks=blocks)
+    info = grid.write_grid(tmp_path / "g.nc", {"study_name": "t"}, axes=(a1, a2), blocks=blocks)
     assert info["skipped_fraction"] == pytest.approx(np.mean(flat["status"] == 5))
     with xr.open_dataset(tmp_path / "g.nc", engine="netcdf4") as ds:
         for k, v in flat.items():
@@ -128,7 +70,7 @@ def test_run_grid_serial_and_pool_agree():
     a1, a2 = np.linspace(0.5, 1.5, 5), np.linspace(10.0, 12.0, 7)
     serial = run_grid(a1, a2, tick=0.001, integrator=INTEG, workers=0, block_size=6)
     pooled = run_grid(a1, a2, tick=0.001, integrator=INTEG, workers=2, block_size=6)
-    for k in drivers.GRID_VARIABLES:
+    for k in grid.HORIZONTAL_VARIABLES:
         assert serial[k].shape == (5, 7)
         assert serial[k].tobytes() == pooled[k].tobytes()
     pts = np.stack(np.meshgrid(a1, a2, indexing="ij"), -1).reshape(-1, 2)
@@ -145,7 +87,7 @@ def test_coalesce_merges_contiguous_blocks_up_to_the_limit():
 
     # contiguous 0..30 in blocks of 10, then a gap (40..), then one block larger than the limit
     blocks = [block(0, 10), block(10, 10), block(20, 10), block(40, 10), block(50, 35)]
-    pieces = list(D._coalesce(iter(blocks), variables, limit=25))
+    pieces = list(grid.coalesce(iter(blocks), variables, limit=25))
     assert [(lo, len(a["status"])) for lo, a in pieces] == [(0, 20), (20, 10), (40, 10),
                                                             (50, 35)]
     for lo, a in pieces:
@@ -166,15 +108,15 @@ def test_grid_consolidation_memory_is_flat(tmp_path, monkeypatch):
     def blocks():
         for i in range(100):
             yield i * 1000, {k: np.full(1000, i % 100, dt)
-                             for k, dt in drivers.GRID_VARIABLES.items()}
+                             for k, dt in grid.HORIZONTAL_VARIABLES.items()}
 
     tracemalloc.start()
     try:
-        D.write_grid(tmp_path / "big.nc", {}, axes=(a1, a2), blocks=blocks())
+        grid.write_grid(tmp_path / "big.nc", {}, axes=(a1, a2), blocks=blocks())
         _, peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()
-    full = 100 * 1000 * sum(np.dtype(dt).itemsize for dt in drivers.GRID_VARIABLES.values())
+    full = 100 * 1000 * sum(np.dtype(dt).itemsize for dt in grid.HORIZONTAL_VARIABLES.values())
     assert peak < full / 5, (peak, full)
     with xr.open_dataset(tmp_path / "big.nc") as ds:
         assert int(ds["steps"][99, 999]) == 99

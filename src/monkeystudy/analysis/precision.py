@@ -1,4 +1,4 @@
-"""Work-precision measurements: run time against error for every integrator (issue #5).
+"""Work-precision measurements: run time against error for every integrator.
 
 For each method and relative tolerance, the horizontal gait is evaluated at a set of points;
 the wall time per gait (best of ``repeat`` runs, so that a noisy machine inflates nothing) and
@@ -15,11 +15,30 @@ import time
 
 import numpy as np
 
-from .bench import ScipyGait, best_of, kernel_gaits
-from .controllers import METHODS, HorizontalSearch, Integrator, settings_vector
-from .kernel.gait import R_ERROR, R_NFEV, R_STATUS, R_T_END, R_T_MOTOR, R_T_SWITCH
-from .robot import SEED2009_TORQUE
-from .simulate import RobotLike, as_robot
+from ..controllers import METHODS, HorizontalSearch, Integrator, settings_vector
+from ..kernel.gait import (
+    N_RESULT, R_ERROR, R_NFEV, R_STATUS, R_T_END, R_T_MOTOR, R_T_SWITCH, horizontal_gait_batch,
+)
+from ..reference.scipy_gait import ScipyGait
+from ..robot import SEED2009_TORQUE
+from ..simulate import RobotLike, as_robot
+
+def best_of(fn, repeat: int = 5) -> float:
+    """Smallest wall time of ``repeat`` calls [s] (the least disturbed one)."""
+    best = math.inf
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def kernel_gaits(par, prog, settings, pts, floor) -> np.ndarray:
+    """The kernel's batch gait results ``[n, N_RESULT]`` at ``pts`` (no Python per gait)."""
+    out = np.empty((pts.shape[0], N_RESULT))
+    horizontal_gait_batch(par, prog, settings, pts, floor, True, out)
+    return out
+
 
 #: the study's tolerance ladder
 RTOLS = (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13)

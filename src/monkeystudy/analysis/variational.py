@@ -1,11 +1,12 @@
-"""Variational-equation Jacobian of any phase-sequence gait's return map (saltation matrices).
+"""Jacobians of return maps by variational equations, with saltation matrices at the events.
 
-:func:`monkeystudy.analysis.variational_jacobian` is written out by hand for the study's two
-controllers (swing only). This module does the same for any
+:func:`variational_jacobian` is written out by hand for the horizontal gait's two controllers
+(swing only: the open-loop replay and the state-based search controller).
+:func:`sequence_variational_jacobian` does the same for any
 :class:`~monkeystudy.controllers.SequenceGait`: swings, flights, catches with either end,
 energy-latched and clock-timed guards, viscous friction.
 
-Method (the standard one for hybrid systems):
+Method for a sequence gait (the standard one for hybrid systems):
 
 1. One kernel run (:func:`~monkeystudy.simulate.run_controller`) gives the event sequence:
    which segments ran, and when. The kernel's times only seed the event location; the state
@@ -30,17 +31,22 @@ Method (the standard one for hybrid systems):
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from .analysis import TIGHT, check_cycle_frame, cycle_section_state
-from .controllers import Integrator, SequenceGait
-from .kernel import layout as L
-from .kernel.dynamics import total_energy8
-from .kernel.variational import (
+from ..controllers import HorizontalSearch, Integrator, OpenLoop, SequenceGait
+from ..kernel import layout as L
+from ..kernel.dynamics import total_energy8
+from ..kernel.variational import (
     energy8_gradient, entry_reset, field8, field8_jacobian, guard8, guard8_gradient,
+    swap_jacobian, swap_state, swing_energy_gradient, swing_field, swing_variational_rhs,
     variational_rhs8,
 )
-from .simulate import RobotLike, Status, as_robot, run_controller
+from ..robot import SEED2009_TORQUE
+from ..simulate import RobotLike, Status, as_robot, run_controller
+from .sections import TIGHT, check_cycle_frame, check_mirror_links, cycle_section_state, \
+    section_state
 
 #: rows/columns of the section coordinates ``z = (theta2, dtheta1, dtheta2)`` in the 8-state
 SECTION_INDEX = (L.TH2, L.DTH1, L.DTH2)
@@ -52,6 +58,98 @@ _STATE_TOL = 1e-7
 _THRESHOLD_MARGIN = 1e-9
 
 
+# --- the horizontal gait's two controllers ----------------------------------------------------
+def _integrate_variational(p, tau, y0, Phi0, t0, t1, rtol):
+    """State and transition matrix of the swing phase from ``t0`` to ``t1``."""
+    # scipy.integrate loads in ~0.2 s: only the callers that integrate variations pay it
+    from scipy.integrate import solve_ivp
+
+    fm = np.ones(2)
+    dY = np.empty(20)
+
+    def fun(t, Y):
+        swing_variational_rhs(p, tau, fm, Y, dY)
+        return dY.copy()
+
+    Y0 = np.concatenate([y0, Phi0.ravel()])
+    if t1 <= t0:
+        return y0.copy(), Phi0.copy()
+    sol = solve_ivp(fun, (t0, t1), Y0, method="DOP853", rtol=rtol, atol=rtol * 1e-2)
+    Y = sol.y[:, -1]
+    return Y[:4].copy(), Y[4:].reshape(4, 4).copy()
+
+
+def variational_jacobian(controller: str, z, *, t_switch: float = math.nan,
+                         t_motor: float = math.nan, torque: float = SEED2009_TORQUE,
+                         robot: RobotLike = "seed2009", integrator: Integrator = TIGHT,
+                         rtol: float = 1e-12) -> np.ndarray:
+    """Jacobian of the return map on ``theta1 = 0`` by variational equations.
+
+    ``controller`` is ``"open_loop"`` (exact times ``t_switch``, ``t_motor``, clock reset at
+    the vertical) or ``"search"`` (the state-based controller). Event times come from one
+    kernel run; the state and its transition matrix ``Phi`` are then integrated through each
+    phase (``dPhi/dt = A Phi``, ``A`` by complex step), and at each event
+
+    * a time-triggered swap maps ``Phi -> DR Phi`` (``DR`` the flip-and-impact Jacobian);
+    * a state-triggered swap (guard ``g``) uses the saltation matrix
+      ``S = DR + (f+ - DR f-) grad(g)^T / (grad(g) . f-)``;
+    * motor off when the energy is restored (``g = E(x) - E(x0)``, whose reference depends on
+      the start): ``Phi -> Phi + (f+ - f-)(grad E^T Phi - grad E0^T) / (grad E . f-)``;
+    * the section itself (``theta1 = 0``, free end time): ``(I - f e1^T / f_1) Phi``.
+    """
+    robot = as_robot(robot)
+    check_mirror_links(robot)
+    par = robot.params()
+    z = np.asarray(z, float)
+    if controller == "open_loop":
+        ctrl = OpenLoop(t_switch, t_motor, torque, clock="reset_at_vertical")
+        res = run_controller(ctrl, section_state(z), robot=robot, integrator=integrator,
+                             cycles=1, log_capacity=16)
+    elif controller == "search":
+        res = run_controller(HorizontalSearch(torque), section_state(z), robot=robot,
+                             integrator=integrator, log_capacity=16)
+    else:
+        raise ValueError(f"controller must be 'open_loop' or 'search', got {controller!r}")
+    if res.status != Status.OK:
+        raise RuntimeError(f"no cycle from z (status {res.status.name})")
+    t_sw, t_off, t_end = res.segment_times[:3]
+    L1, L2 = par[0][L.P_L1], par[0][L.P_L2]
+    y0 = np.array([0.0, z[0], z[1], z[2]])
+    fa, fb = np.empty(4), np.empty(4)
+    # swing about A until the swap
+    y, Phi = _integrate_variational(par[0], 0.0, y0, np.eye(4), 0.0, t_sw, rtol)
+    DR = np.empty((4, 4))
+    swap_jacobian(par[0], par[1], y, DR)
+    y_plus = swap_state(par[0], par[1], y)
+    if controller == "search":
+        swing_field(par[0], 0.0, np.ones(2), y, fa)
+        swing_field(par[1], torque, np.ones(2), y_plus, fb)
+        s1, s12 = math.sin(y[0]), math.sin(y[0] + y[1])
+        grad = np.array([L1 * s1 + L2 * s12, L2 * s12, 0.0, 0.0])
+        Phi = (DR + np.outer(fb - DR @ fa, grad) / (grad @ fa)) @ Phi
+    else:
+        Phi = DR @ Phi
+    y = y_plus
+    # motor on until it stops
+    y, Phi = _integrate_variational(par[1], torque, y, Phi, t_sw, t_off, rtol)
+    if controller == "search" and t_off > t_sw:
+        swing_field(par[1], torque, np.ones(2), y, fa)
+        swing_field(par[1], 0.0, np.ones(2), y, fb)
+        gE, gE0 = np.empty(4), np.empty(4)
+        swing_energy_gradient(par[1], 0.0, y, gE)
+        swing_energy_gradient(par[0], 0.0, y0, gE0)
+        Phi = Phi + np.outer(fb - fa, gE @ Phi - gE0) / (gE @ fa)
+    # to the vertical; the section's crossing time is free
+    y, Phi = _integrate_variational(par[1], 0.0, y, Phi, t_off, t_end, rtol)
+    swing_field(par[1], 0.0, np.ones(2), y, fa)
+    e1 = np.array([1.0, 0.0, 0.0, 0.0])
+    M = (np.eye(4) - np.outer(fa, e1) / fa[0]) @ Phi
+    return M[1:, 1:]
+
+
+
+
+# --- any sequence gait ------------------------------------------------------------------------
 def _field(phase: int, p: np.ndarray, tau: float, s: np.ndarray) -> np.ndarray:
     f = np.empty(8)
     field8(phase, p, tau, s, f)
@@ -63,6 +161,7 @@ def _flow(phase: int, p: np.ndarray, tau: float, s: np.ndarray, Phi: np.ndarray,
     """State and transition matrix carried from ``t0`` to ``t1`` [s] in one phase."""
     if t1 <= t0 or phase == L.PHASE_FIXED:
         return s.copy(), Phi.copy()
+    # scipy.integrate loads in ~0.2 s: only the callers that integrate variations pay it
     from scipy.integrate import solve_ivp
 
     m = Phi.shape[1]

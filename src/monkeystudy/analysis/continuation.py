@@ -1,11 +1,12 @@
-"""Gait families of sequence gaits: pseudo-arclength continuation of a cycle's fixed point
-in a robot or motor parameter, with its Floquet multipliers and bifurcations along the branch.
+"""Gait families: pseudo-arclength continuation in a robot or motor parameter, with the
+Floquet multipliers and bifurcations along the branch.
 
-The collisionless family of the horizontal gait has its own continuation
-(:func:`monkeystudy.analysis.continue_grazing`: a grazing swap is a border, not a smooth fixed
-point). Here the fixed point is that of a sequence gait's return map
-(:func:`monkeystudy.analysis.cycle_return_map`), whose Jacobian comes from the variational
-equations through every phase (:func:`monkeystudy.saltation.sequence_variational_jacobian`).
+The collisionless family of the horizontal gait (:func:`continue_grazing`) continues the
+grazing border's own equations (a grazing swap is a border, not a smooth fixed point of the
+return map). A sequence gait's family (:func:`continue_cycle`) continues the fixed point of
+its return map (:func:`monkeystudy.analysis.sections.cycle_return_map`), whose Jacobian comes
+from the variational equations through every phase
+(:func:`monkeystudy.analysis.variational.sequence_variational_jacobian`).
 
 Unknowns ``u = (theta2, dtheta1, dtheta2, mu)``; equations ``R(u) = P(z; mu) - z`` with
 ``z = (theta2, dtheta1, dtheta2)``. A gait that latches its energy at the cycle start and
@@ -23,10 +24,128 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .analysis import TIGHT, cycle_return_map, mirror_robot
-from .controllers import Integrator, SequenceGait
-from .simulate import RobotLike, Status, as_robot
+from ..controllers import Integrator, SequenceGait
+from ..robot import Robot
+from ..simulate import RobotLike, Status, as_robot
+from .sections import TIGHT, cycle_return_map
+from .shooting import GrazingResult, free_end_after
+from .variational import sequence_variational_jacobian, variational_jacobian
 
+# --- the horizontal gait's collisionless family -----------------------------------------------
+# ------------------------------------------------------------------------------------------
+# continuation of the collisionless gait family
+# ------------------------------------------------------------------------------------------
+def mirror_robot(base: RobotLike, parameter: str, value: float):
+    """The ``base`` robot with one mirror-symmetric parameter set to ``value``.
+
+    ``com``: link 1's CG at ``value`` from A, link 2's at ``L - value`` from the joint (both
+    links' CGs the same distance from the motor); ``inertia``: both inertias; ``gravity``.
+    Mirror images keep the one-cycle return map meaningful.
+    """
+    r = as_robot(base)
+    l1, l2 = r.link1, r.link2
+    if parameter == "com":
+        return replace(r, link1=replace(l1, com=value), link2=replace(l2, com=l2.length - value),
+                       name=f"{r.name}:com={value:.6g}")
+    if parameter == "inertia":
+        return replace(r, link1=replace(l1, inertia=value), link2=replace(l2, inertia=value),
+                       name=f"{r.name}:inertia={value:.6g}")
+    if parameter == "gravity":
+        return replace(r, gravity=value, name=f"{r.name}:g={value:.6g}")
+    raise ValueError(f"parameter must be 'com', 'inertia' or 'gravity', got {parameter!r}")
+
+
+@dataclass
+class Branch:
+    """A continued family of collisionless gaits: one row per point on the branch."""
+
+    parameter: str
+    value: np.ndarray          # the parameter along the branch
+    dtheta1: np.ndarray        # [rad s-1]
+    dtheta2: np.ndarray
+    t_switch: np.ndarray       # [s]
+    multipliers: np.ndarray    # (n, 3) complex, sorted by modulus
+    residual: np.ndarray       # |G| after correction
+    folds: list                # indices where the parameter turns back
+    period_doublings: list     # indices where a real multiplier crosses -1
+
+
+def continue_grazing(start: GrazingResult, parameter: str, value0: float, *,
+                     robot: RobotLike = "seed2009", ds: float = 0.01, steps: int = 20,
+                     bounds=(-math.inf, math.inf), integrator: Integrator = TIGHT,
+                     multipliers: bool = True) -> Branch:
+    """Pseudo-arclength continuation of ``G(dtheta1, dtheta2, t; mu) = 0`` (B at A's height
+    at rest after ``t``) in ``mu`` = ``parameter``, starting from a converged point at
+    ``value0``.
+
+    Tangent: the null vector of ``DG`` (3x4, by central differences), oriented along the
+    previous one; corrector: Newton on ``[G; tangent . (u - u_pred)]``. Along the branch the
+    open-loop return map's multipliers are computed by variational equations; a fold is where
+    ``d mu / ds`` changes sign, a period doubling where a real multiplier crosses -1.
+    """
+    base = as_robot(robot)
+
+    def G(u):
+        rb = mirror_robot(base, parameter, u[3])
+        return free_end_after(u[0], u[1], u[2], robot=rb, integrator=integrator)
+
+    def DG(u):
+        J = np.empty((3, 4))
+        for j in range(4):
+            h = 1e-7 * max(1.0, abs(u[j]))
+            e = np.zeros(4)
+            e[j] = h
+            J[:, j] = (G(u + e) - G(u - e)) / (2 * h)
+        return J
+
+    def tangent(J, prev):
+        _, _, vt = np.linalg.svd(J)
+        t = vt[-1]
+        if prev is None:
+            return t if t[3] >= 0 else -t
+        return t if t @ prev >= 0 else -t
+
+    u = np.array([start.dtheta1, start.dtheta2, start.t_switch, value0], float)
+    rows, res_norm, tau = [], [], None
+    for k in range(steps + 1):
+        J = DG(u)
+        tau = tangent(J, tau)
+        rows.append(u.copy())
+        res_norm.append(float(np.linalg.norm(G(u))))
+        if k == steps:
+            break
+        up = u + ds * tau
+        v = up.copy()
+        for _ in range(12):
+            F = np.concatenate([G(v), [tau @ (v - up)]])
+            if np.linalg.norm(F) < 1e-13:
+                break
+            A = np.vstack([DG(v), tau])
+            v = v - np.linalg.solve(A, F)
+        if not (bounds[0] <= v[3] <= bounds[1]) or not np.all(np.isfinite(v)):
+            break
+        u = v
+    U = np.array(rows)
+    mult = np.full((len(U), 3), np.nan, complex)
+    if multipliers:
+        for i, (d1, d2, ts, mu) in enumerate(U):
+            rb = mirror_robot(base, parameter, mu)
+            Jm = variational_jacobian("open_loop", np.array([0.0, d1, d2]), t_switch=ts,
+                                      t_motor=0.0, torque=0.0, robot=rb, integrator=integrator)
+            lam = np.linalg.eigvals(Jm)
+            mult[i] = lam[np.argsort(-np.abs(lam))]
+    dmu = np.diff(U[:, 3])
+    folds = [int(i + 1) for i in np.flatnonzero(np.sign(dmu[1:]) != np.sign(dmu[:-1]))]
+    pd = []
+    for i in range(1, len(U)):
+        for a, b in zip(mult[i - 1], mult[i]):
+            if abs(a.imag) < 1e-9 and abs(b.imag) < 1e-9 and (a.real + 1) * (b.real + 1) < 0:
+                pd.append(i)
+    return Branch(parameter, U[:, 3], U[:, 0], U[:, 1], U[:, 2], mult, np.array(res_norm),
+                  folds, sorted(set(pd)))
+
+
+# --- sequence gaits ---------------------------------------------------------------------------
 #: parameters a sequence gait can be continued in, with their units
 CYCLE_PARAMETERS = {
     "torque": "N m", "mass_ratio": "1", "com": "m", "inertia": "kg m2", "gravity": "m s-2",
@@ -160,7 +279,7 @@ def _unstable_counts(lam: np.ndarray) -> tuple[int, int, int]:
             int(np.sum(~real & (np.abs(m) > 1.0))))
 
 
-def _crossings(m0: np.ndarray, m1: np.ndarray) -> tuple[bool, bool, bool]:
+def crossings(m0: np.ndarray, m1: np.ndarray) -> tuple[bool, bool, bool]:
     """(period doubling, through +1, Neimark-Sacker) between two multiplier sets: the number of
     real multipliers beyond -1, real ones beyond +1, or complex ones outside the unit circle
     changed (a complex pair that meets the real axis and leaves through +1 counts as +1)."""
@@ -174,6 +293,147 @@ def fold_indices(values) -> list[int]:
     """Branch indices where the parameter turns back (``d mu`` changes sign after them)."""
     dmu = np.diff(np.asarray(values, float))
     return [int(i + 1) for i in np.flatnonzero(np.sign(dmu[1:]) * np.sign(dmu[:-1]) < 0)]
+
+
+#: index of the parameter in the unknowns ``u = (theta2, dtheta1, dtheta2, mu)``
+MU = 3
+
+
+@dataclass
+class CycleEquations:
+    """The equations of a sequence gait's fixed points in one parameter ``mu``.
+
+    Unknowns ``u = (theta2, dtheta1, dtheta2, mu)``; equations ``R(u) = P(z; mu) - z`` and,
+    for a family of fixed points (``pinned``: a neutral multiplier at the start), the phase
+    condition ``theta2 = theta2_0``. The state columns of their Jacobian come from the
+    variational equations, the ``mu`` column from central differences (one-sided at a floor
+    such as zero friction).
+    """
+
+    gait: SequenceGait
+    robot: Robot
+    parameter: str
+    integrator: Integrator
+    theta2_0: float
+    fd_step: float
+    floor: float
+    pinned: bool = False
+
+    def setup(self, mu: float):
+        return with_parameter(self.robot, self.gait, self.parameter, mu)
+
+    def residual(self, u) -> tuple[np.ndarray, Status]:
+        """``P(z) - z`` at ``u`` and the cycle's status."""
+        rb, g = self.setup(u[MU])
+        zn, st = cycle_return_map(u[:3], g, robot=rb, integrator=self.integrator)
+        return zn - u[:3], st
+
+    def state_jacobian(self, u) -> np.ndarray:
+        """``d P / d z`` at ``u`` by variational equations."""
+        rb, g = self.setup(u[MU])
+        return sequence_variational_jacobian(g, u[:3], robot=rb, integrator=self.integrator)
+
+    def equations(self, u) -> tuple[np.ndarray, Status]:
+        """The equations: ``P(z) - z`` and, for a family, the phase condition on theta2."""
+        r, st = self.residual(u)
+        return (np.append(r, u[0] - self.theta2_0) if self.pinned else r), st
+
+    def jacobian(self, u) -> tuple[np.ndarray, np.ndarray]:
+        """``(d F / d u, d P / d z)``: variational columns for the state, differences in
+        mu."""
+        J = self.state_jacobian(u)
+        D = np.empty((4 if self.pinned else 3, 4))
+        D[:3, :3] = J - np.eye(3)
+        if self.pinned:
+            D[3] = (1.0, 0.0, 0.0, 0.0)
+        h = self.fd_step * max(1.0, abs(u[MU]))
+        e = np.zeros(4)
+        e[MU] = h
+        if u[MU] - h < self.floor:
+            # friction cannot go negative: one-sided, second order
+            (r0, s0), (r1, s1), (r2, s2) = (self.residual(u), self.residual(u + e),
+                                            self.residual(u + 2 * e))
+            if Status.OK != s0 or Status.OK != s1 or Status.OK != s2:
+                raise RuntimeError("the parameter stencil left the gait")
+            D[:3, MU] = (-3.0 * r0 + 4.0 * r1 - r2) / (2 * h)
+            return D, J
+        rp, sp = self.residual(u + e)
+        rm, sm = self.residual(u - e)
+        if sp != Status.OK or sm != Status.OK:
+            raise RuntimeError("the parameter stencil left the gait")
+        D[:3, MU] = (rp - rm) / (2 * h)
+        return D, J
+
+    def correct(self, up, tau, *, tol: float, max_iter: int):
+        """Gauss-Newton on ``[F(v); tau . (v - up)] = 0`` from the predictor ``up``:
+        ``((v, iterations) or None, |F| at the predictor)``."""
+        v = up.copy()
+        prev = first = math.inf
+        for it in range(1, max_iter + 1):
+            if v[MU] < self.floor:
+                return None, first      # left the admissible parameters (e.g. friction < 0)
+            r, st = self.equations(v)
+            if st != Status.OK or not np.all(np.isfinite(r)):
+                return None, first
+            norm = float(np.linalg.norm(r))
+            if it == 1:
+                first = norm
+            if it > 2 and norm > prev:
+                return None, first      # diverging: a smaller step will do better
+            prev = norm
+            if norm <= tol * state_scale(v) and abs(tau @ (v - up)) <= tol:
+                return (v, it - 1), first
+            try:
+                D, _ = self.jacobian(v)
+            except (RuntimeError, ValueError):
+                return None, first
+            A = np.vstack([D, tau])
+            b = np.concatenate([r, [tau @ (v - up)]])
+            step, *_ = np.linalg.lstsq(A, -b, rcond=None)
+            v = v + step
+            if not np.all(np.isfinite(v)):
+                return None, first
+        r, st = self.equations(v)
+        if st == Status.OK and np.linalg.norm(r) <= tol * state_scale(v):
+            return (v, max_iter), first
+        return None, first
+
+
+def state_scale(u) -> float:
+    """``max(1, |z|)``: the scale of the fixed point's size the tolerances are relative to."""
+    return max(1.0, float(np.abs(u[:3]).max()))
+
+
+def branch_tangent(D: np.ndarray, prev: np.ndarray | None, sign: float) -> np.ndarray:
+    """The unit null vector of ``D``, oriented along ``prev`` (the first: ``sign`` of its
+    parameter component)."""
+    _, _, vt = np.linalg.svd(D)
+    t = vt[-1] / np.linalg.norm(vt[-1])
+    if prev is None:
+        return t if t[MU] * sign >= 0 else -t
+    return t if t @ prev >= 0 else -t
+
+
+def branch_events(mu: np.ndarray, lam: np.ndarray):
+    """Stability and bifurcations along a branch: ``(neutral, stable, folds, period
+    doublings, real multipliers through +1, Neimark-Sacker)`` from the parameter values and
+    the multipliers at each point (a fold may send a multiplier through +1: it is named as
+    the fold)."""
+    n = len(mu)
+    neutral = np.array([int(np.sum(np.abs(m - 1.0) < NEUTRAL_TOL)) for m in lam])
+    stable = np.array([int(np.all(np.isfinite(m)) and bool(np.all(np.abs(_nonneutral(m)) < 1.0)))
+                       for m in lam])
+    folds = fold_indices(mu)
+    pd, p1, ns = [], [], []
+    for i in range(1, n):
+        a, b, c = crossings(lam[i - 1], lam[i])
+        if a:
+            pd.append(i)
+        if b and i not in folds and (i - 1) not in folds and (i + 1) not in folds:
+            p1.append(i)
+        if c:
+            ns.append(i)
+    return neutral, stable, folds, pd, p1, ns
 
 
 def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike = "seed2009",
@@ -223,134 +483,42 @@ def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike =
     -------
     CycleBranch
     """
-    from .saltation import sequence_variational_jacobian
-
     if parameter not in CYCLE_PARAMETERS:
         raise ValueError(f"parameter must be one of {sorted(CYCLE_PARAMETERS)}, "
                          f"got {parameter!r}")
     if ds == 0.0 or not math.isfinite(ds):
         raise ValueError(f"ds must be finite and non-zero, got {ds!r}")
     base = as_robot(robot)
-    mu0 = parameter_of(base, gait, parameter)
     z0 = np.asarray(z0, float)
-    theta2_0 = float(z0[0])
     ds_min = abs(ds) / 256.0 if ds_min is None else float(ds_min)
     ds_max = abs(ds) if ds_max is None else float(ds_max)
-    MU = 3          # u = (theta2, dtheta1, dtheta2, mu)
-    floor = PARAMETER_FLOOR.get(parameter, -math.inf)
-
-    def setup(mu):
-        return with_parameter(base, gait, parameter, mu)
-
-    def R(u):
-        rb, g = setup(u[MU])
-        zn, st = cycle_return_map(u[:3], g, robot=rb, integrator=integrator)
-        return zn - u[:3], st
-
-    def jac_state(u):
-        rb, g = setup(u[MU])
-        return sequence_variational_jacobian(g, u[:3], robot=rb, integrator=integrator)
-
-    u = np.array([theta2_0, float(z0[1]), float(z0[2]), mu0])
-    r0, st0 = R(u)
+    eqs = CycleEquations(gait, base, parameter, integrator, float(z0[0]), fd_step,
+                         PARAMETER_FLOOR.get(parameter, -math.inf))
+    u = np.array([float(z0[0]), float(z0[1]), float(z0[2]), parameter_of(base, gait, parameter)])
+    r0, st0 = eqs.residual(u)
     if st0 != Status.OK:
         raise RuntimeError(f"no cycle from the start (status {Status(st0).name})")
     if np.linalg.norm(r0) > 1e3 * tol * max(1.0, float(np.abs(u[:3]).max())):
         raise ValueError(f"the start is not a fixed point: |P(z) - z| = "
                          f"{np.linalg.norm(r0):.3g} (polish it first, e.g. a floquet step)")
-    lam0 = np.linalg.eigvals(jac_state(u))
     # a free energy level makes the fixed points a family: pin theta2 to pick one member
-    pinned = bool(np.any(np.abs(lam0 - 1.0) < NEUTRAL_TOL))
-
-    def F(u):
-        """The equations: ``P(z) - z`` and, for a family, the phase condition on theta2."""
-        r, st = R(u)
-        return (np.append(r, u[0] - theta2_0) if pinned else r), st
-
-    def DF(u):
-        """``(d F / d u, d P / d z)``: variational columns for the state, differences in
-        mu."""
-        J = jac_state(u)
-        D = np.empty((4 if pinned else 3, 4))
-        D[:3, :3] = J - np.eye(3)
-        if pinned:
-            D[3] = (1.0, 0.0, 0.0, 0.0)
-        h = fd_step * max(1.0, abs(u[MU]))
-        e = np.zeros(4)
-        e[MU] = h
-        if u[MU] - h < floor:
-            # friction cannot go negative: one-sided, second order
-            (r0, s0), (r1, s1), (r2, s2) = R(u), R(u + e), R(u + 2 * e)
-            if Status.OK != s0 or Status.OK != s1 or Status.OK != s2:
-                raise RuntimeError("the parameter stencil left the gait")
-            D[:3, MU] = (-3.0 * r0 + 4.0 * r1 - r2) / (2 * h)
-            return D, J
-        rp, sp = R(u + e)
-        rm, sm = R(u - e)
-        if sp != Status.OK or sm != Status.OK:
-            raise RuntimeError("the parameter stencil left the gait")
-        D[:3, MU] = (rp - rm) / (2 * h)
-        return D, J
-
-    def tangent(D, prev, sign):
-        _, _, vt = np.linalg.svd(D)
-        t = vt[-1] / np.linalg.norm(vt[-1])
-        if prev is None:
-            return t if t[MU] * sign >= 0 else -t
-        return t if t @ prev >= 0 else -t
-
-    def scale_of(u):
-        return max(1.0, float(np.abs(u[:3]).max()))
-
-    def correct(up, tau):
-        """Gauss-Newton on ``[F(v); tau . (v - up)] = 0``: ``((v, iterations) or None,
-        |P(z) - z| at the predictor)``."""
-        v = up.copy()
-        prev = first = math.inf
-        for it in range(1, max_corrector + 1):
-            if v[MU] < floor:
-                return None, first      # left the admissible parameters (e.g. friction < 0)
-            r, st = F(v)
-            if st != Status.OK or not np.all(np.isfinite(r)):
-                return None, first
-            norm = float(np.linalg.norm(r))
-            if it == 1:
-                first = norm
-            if it > 2 and norm > prev:
-                return None, first      # diverging: a smaller step will do better
-            prev = norm
-            if norm <= tol * scale_of(v) and abs(tau @ (v - up)) <= tol:
-                return (v, it - 1), first
-            try:
-                D, _ = DF(v)
-            except (RuntimeError, ValueError):
-                return None, first
-            A = np.vstack([D, tau])
-            b = np.concatenate([r, [tau @ (v - up)]])
-            step, *_ = np.linalg.lstsq(A, -b, rcond=None)
-            v = v + step
-            if not np.all(np.isfinite(v)):
-                return None, first
-        r, st = F(v)
-        if st == Status.OK and np.linalg.norm(r) <= tol * scale_of(v):
-            return (v, max_corrector), first
-        return None, first
-
+    eqs.pinned = bool(np.any(np.abs(np.linalg.eigvals(eqs.state_jacobian(u)) - 1.0)
+                             < NEUTRAL_TOL))
     rows, res, iters = [u.copy()], [float(np.linalg.norm(r0))], [0]
-    D, J = DF(u)
+    D, J = eqs.jacobian(u)
     jacs = [J]      # each accepted point's Jacobian: the tangent's and the multipliers'
-    tau = tangent(D, None, math.copysign(1.0, ds))
+    tau = branch_tangent(D, None, math.copysign(1.0, ds))
     h = abs(ds)
     reason = "steps"
     while len(rows) <= steps:
-        got, predicted = correct(u + h * tau, tau)
+        got, predicted = eqs.correct(u + h * tau, tau, tol=tol, max_iter=max_corrector)
         if got is None:
             h /= 2.0
             if h < ds_min:
                 # a continuous map leaves a residual O(h^2) at the predictor; one that jumps
                 # there (or has no cycle) has reached a border where the cycle's event
                 # sequence changes, e.g. a guard met at a turning point
-                jump = not predicted <= 1e-3 * scale_of(u)
+                jump = not predicted <= 1e-3 * state_scale(u)
                 reason = "border" if jump else "ds_min"
                 break
             continue
@@ -359,42 +527,30 @@ def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike =
             reason = "bounds"
             break
         try:
-            D, J = DF(v)
+            D, J = eqs.jacobian(v)
         except (RuntimeError, ValueError):
             reason = "ds_min"     # converged onto a point where the map is not differentiable
             break
-        r, _ = R(v)
+        r, _ = eqs.residual(v)
         rows.append(v.copy())
         res.append(float(np.linalg.norm(r)))
         iters.append(it)
         jacs.append(J)
-        tau = tangent(D, tau, 1.0)
+        tau = branch_tangent(D, tau, 1.0)
         u = v
         if it <= 3:
             h = min(ds_max, 1.5 * h)
     U = np.array(rows)
-    n = len(U)
     arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(U, axis=0), axis=1))])
-    lam = np.full((n, 3), np.nan + 0j)
+    lam = np.full((len(U), 3), np.nan + 0j)
     if multipliers:
         for i, Ji in enumerate(jacs):
             ev = np.linalg.eigvals(Ji)
             lam[i] = ev[np.argsort(-np.abs(ev), kind="stable")]
-    neutral = np.array([int(np.sum(np.abs(m - 1.0) < NEUTRAL_TOL)) for m in lam])
-    stable = np.array([int(np.all(np.isfinite(m)) and bool(np.all(np.abs(_nonneutral(m)) < 1.0)))
-                       for m in lam])
-    folds = fold_indices(U[:, MU])
-    pd, p1, ns = [], [], []
-    for i in range(1, n):
-        a, b, c = _crossings(lam[i - 1], lam[i])
-        if a:
-            pd.append(i)
-        if b and i not in folds and (i - 1) not in folds and (i + 1) not in folds:
-            p1.append(i)  # a fold may send a multiplier through +1: named as the fold
-        if c:
-            ns.append(i)
-    return CycleBranch(parameter, pinned, U[:, MU], U[:, 0], U[:, 1], U[:, 2], np.array(res),
-                       np.array(iters), arc, lam, neutral, stable, folds, pd, p1, ns, reason)
+    neutral, stable, folds, pd, p1, ns = branch_events(U[:, MU], lam)
+    return CycleBranch(parameter, eqs.pinned, U[:, MU], U[:, 0], U[:, 1], U[:, 2],
+                       np.array(res), np.array(iters), arc, lam, neutral, stable, folds, pd, p1,
+                       ns, reason)
 
 
 __all__ = ["CYCLE_PARAMETERS", "CycleBranch", "continue_cycle", "fold_indices", "motor_torque",

@@ -1,4 +1,8 @@
-"""Many cycles of a sequence gait: its own controller or the 2009 study's open-loop replay.
+"""Many cycles of a gait: open-loop replays, a sequence gait's own controller, basins.
+
+:func:`open_loop_cycles` replays the horizontal gait as the 2009 study did (swap at
+``t_switch``, motor for ``t_motor``, on the controller's clock) and measures every cycle;
+:func:`basin` counts the cycles it survives from perturbed starts.
 
 The 2009 study replayed its gaits open-loop (swap and motor at fixed times after the vertical
 crossing) and watched them drift. A sequence gait (:class:`~monkeystudy.controllers.
@@ -21,16 +25,143 @@ the kinetic energy, the attached end's world position. Everything runs through
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .analysis import TIGHT, check_cycle_frame, cycle_section_state
-from .controllers import Integrator, SequenceGait
-from .kernel import layout as L
-from .simulate import RobotLike, RunResult, Status, as_robot, energies, evaluate_cycle_gaits, \
-    run_controller
+from ..controllers import Integrator, OpenLoop, SequenceGait
+from ..kernel import layout as L
+from ..robot import SEED2009_TORQUE
+from ..simulate import (
+    RobotLike, RunResult, Status, as_robot, energies, evaluate_cycle_gaits, gait_error,
+    initial_state, run_controller,
+)
+from .sections import TIGHT, check_cycle_frame, cycle_section_state
 
+# --- the horizontal gait, open loop -----------------------------------------------------------
+@dataclass
+class CycleRun:
+    """Per-cycle record of an open-loop run (MODEL.md section 4, the study's figs. 5-7)."""
+
+    error: np.ndarray            # at each vertical crossing, vs the gait start
+    kinetic_energy: np.ndarray   # [J] at each vertical crossing
+    pivot_height: np.ndarray     # [m] attached end after each swap
+    x_advance: np.ndarray        # [m] attached-end displacement per swap
+    t_cross: np.ndarray          # [s]
+    status: Status
+    crossing_state: np.ndarray = field(default_factory=lambda: np.zeros((0, 8)))
+
+    def error_vs(self, dtheta1: float, dtheta2: float) -> np.ndarray:
+        """Per-cycle error (MODEL.md section 4) against the rates of another gait."""
+        return gait_error(self.crossing_state, dtheta1, dtheta2)
+
+
+def open_loop_cycles(dtheta1: float, dtheta2: float, *, t_switch: float, t_motor: float,
+                     cycles: int, torque: float = SEED2009_TORQUE,
+                     robot: RobotLike = "seed2009", integrator: Integrator = TIGHT,
+                     tick: float = 0.0, tick_phase: float = 0.0,
+                     clock: str = "reset_at_vertical", period: float = math.nan,
+                     max_drop: float | None = None, theta2: float = 0.0) -> CycleRun:
+    """Replay a gait's times open-loop for ``cycles`` cycles and measure it per cycle."""
+    robot = as_robot(robot)
+    if max_drop is None:
+        max_drop = robot.link1.length
+    ctrl = OpenLoop(t_switch, t_motor, torque, tick=tick, tick_phase=tick_phase, clock=clock,
+                    period=period)
+    res = run_controller(ctrl, initial_state(dtheta1, dtheta2, theta2=theta2), robot=robot,
+                         integrator=integrator, cycles=cycles, max_drop=max_drop,
+                         log_capacity=8 * cycles + 16)
+    log = res.log
+    obs = log[log[:, L.L_KIND] == L.LOG_OBSERVER]
+    states = obs[:, L.L_STATE:L.L_STATE + 8]
+    flipped = obs[:, L.L_FLIPPED]
+    err = gait_error(states, dtheta1, dtheta2)
+    ke, _ = energies(res.params, states, flipped)
+    swaps = log[(log[:, L.L_KIND] == L.LOG_SEGMENT) & (log[:, L.L_ID] == 0)]
+    piv = swaps[:, L.L_STATE:L.L_STATE + 8]
+    x_prev = np.concatenate([[0.0], piv[:-1, L.X]])
+    return CycleRun(err, ke, piv[:, L.Y], piv[:, L.X] - x_prev, obs[:, L.L_T], res.status,
+                    states.copy())
+
+
+
+
+# ------------------------------------------------------------------------------------------
+# basins: cycles to failure around a gait
+# ------------------------------------------------------------------------------------------
+def basin(dtheta1: float, dtheta2: float, *, t_switch: float, t_motor: float, torque: float,
+          offsets1, offsets2, max_cycles: int = 60, error_bound: float = 1e-2,
+          robot: RobotLike = "seed2009", integrator: Integrator = TIGHT,
+          tick: float = 0.0) -> np.ndarray:
+    """Cycles an open-loop replay survives from perturbed starts (a basin map).
+
+    Start ``(dtheta1 + a, dtheta2 + b)`` for ``a`` in ``offsets1``, ``b`` in ``offsets2``
+    [rad s-1]; the run fails at the first vertical crossing whose error against the
+    *unperturbed* gait exceeds ``error_bound``, or when it falls or stops. Returns an int array
+    ``[len(offsets1), len(offsets2)]``; ``max_cycles`` means it never failed.
+    """
+    out = np.zeros((len(offsets1), len(offsets2)), np.int32)
+    for i, a in enumerate(offsets1):
+        for j, b in enumerate(offsets2):
+            run = open_loop_cycles(dtheta1 + a, dtheta2 + b, t_switch=t_switch,
+                                   t_motor=t_motor, cycles=max_cycles, torque=torque,
+                                   robot=robot, integrator=integrator, tick=tick)
+            err = run.error_vs(dtheta1, dtheta2)
+            bad = np.flatnonzero(~(err <= error_bound))
+            out[i, j] = int(bad[0]) if bad.size else len(err)
+    return out
+
+
+
+
+# --- per-cycle errors -------------------------------------------------------------------------
+#: the window of sqrt(error) [1] in which the growth per cycle is fitted (linear regime, above
+#: round-off)
+GROWTH_WINDOW = (1e-10, 1e-4)
+
+
+def growth_per_cycle(error: np.ndarray, window=GROWTH_WINDOW) -> float:
+    """``exp`` of the slope of ``log(sqrt(error))`` against the cycle number, fitted over the
+    cycles with ``window[0] < sqrt(error) < window[1]``; NaN if fewer than 3 such cycles."""
+    e = np.sqrt(np.asarray(error, float))
+    with np.errstate(invalid="ignore"):
+        lin = np.isfinite(e) & (e > window[0]) & (e < window[1])
+    if int(lin.sum()) < 3:
+        return math.nan
+    c = np.flatnonzero(lin) + 1.0
+    return float(np.exp(np.polyfit(c, np.log(e[lin]), 1)[0]))
+
+
+def cycles_to_bound(error: np.ndarray, bound: float) -> int:
+    """First cycle (1-based) whose error exceeds ``bound``; else the number of cycles run."""
+    e = np.asarray(error, float)
+    bad = np.flatnonzero(~(e <= bound))
+    return int(bad[0]) + 1 if bad.size else int(e.size)
+
+
+def sweep_ticks(ticks, cycles: int, error_bound: float, run_one) -> dict[str, np.ndarray]:
+    """The controller-tick question: one run per tick [s], ``run_one(tick) -> (error per
+    cycle, pivot height per cycle, status)``; per tick the errors and heights (NaN padded to
+    ``cycles``), :func:`cycles_to_bound`, the cycles completed, the status and
+    :func:`growth_per_cycle`."""
+    n = len(ticks)
+    out = {"error": np.full((n, cycles), np.nan), "pivot_height": np.full((n, cycles), np.nan),
+           "cycles_to_bound": np.zeros(n, np.int32), "cycles_completed": np.zeros(n, np.int32),
+           "status": np.zeros(n, np.int8), "growth_per_cycle": np.full(n, np.nan)}
+    for i, tick in enumerate(ticks):
+        error, pivot, status = run_one(tick)
+        e = np.asarray(error, float)[:cycles]
+        p = np.asarray(pivot, float)[:cycles]
+        out["error"][i, :e.size] = e
+        out["pivot_height"][i, :p.size] = p
+        out["cycles_to_bound"][i] = cycles_to_bound(e, error_bound)
+        out["cycles_completed"][i] = e.size
+        out["status"][i] = int(status)
+        out["growth_per_cycle"][i] = growth_per_cycle(e)
+    return out
+
+
+# --- sequence gaits ---------------------------------------------------------------------------
 #: the two ways of running a sequence gait for many cycles
 REPLAYS = ("gait", "open_loop")
 

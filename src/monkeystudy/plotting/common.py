@@ -23,6 +23,7 @@ from matplotlib.figure import Figure
 
 import monkeystudy
 from ..kernel.layout import STATUS_NAMES
+from ..robot import Robot
 
 #: The package's style file.
 STYLE_FILE = Path(str(resources.files("monkeystudy") / "monkeystudy.mplstyle"))
@@ -79,17 +80,11 @@ def link_lengths(ds) -> tuple[float, float] | None:
 
 def robot_object(ds):
     """The :class:`monkeystudy.Robot` described by the ``robot`` attribute, or None."""
-    from ..robot import Friction, Link, Robot
     r = json_attr(ds, "robot")
     if not isinstance(r, dict):
         return None
     try:
-        kw = {"link1": Link(**r["link1"]), "link2": Link(**r["link2"]),
-              "gravity": float(r.get("gravity", 9.81)), "name": str(r.get("name", "custom"))}
-        for key in ("pivot_friction", "joint_friction"):
-            if isinstance(r.get(key), dict):
-                kw[key] = Friction(**r[key])
-        return Robot(**kw)
+        return Robot.from_dict(r)
     except (TypeError, KeyError, ValueError):
         return None
 

@@ -1,4 +1,4 @@
-"""Generic variational Jacobian of sequence-gait return maps (monkeystudy.saltation).
+"""Generic variational Jacobian of sequence-gait return maps (monkeystudy.analysis.variational).
 
 Every case compares the variational Jacobian with fourth-order central differences of the
 return map itself (:func:`~monkeystudy.analysis.jacobian_fd`, step 1e-5), in the relative
@@ -20,7 +20,7 @@ from monkeystudy.analysis import (
 from monkeystudy.controllers import SequenceGait, Segment
 from monkeystudy.kernel import layout as L
 from monkeystudy.robot import Friction, Link, Robot
-from monkeystudy.saltation import sequence_variational_jacobian
+from monkeystudy.analysis.variational import sequence_variational_jacobian
 from monkeystudy.simulate import run_controller
 
 TORQUE = 0.6354

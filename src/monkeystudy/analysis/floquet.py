@@ -1,0 +1,133 @@
+"""Floquet multipliers and fixed points of return maps (finite differences and Newton).
+
+A return map is any callable ``fmap(z) -> (z_next, status)`` on a section
+(:mod:`monkeystudy.analysis.sections`). :func:`floquet` differentiates it by fourth-order
+central differences; :func:`solve_fixed_point` finds its fixed points by Newton's method with
+least-squares steps (a neutral multiplier makes fixed points come in families). The
+variational-equation Jacobians are in :mod:`monkeystudy.analysis.variational`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..simulate import Status
+
+
+def sorted_eigs(J: np.ndarray) -> np.ndarray:
+    """Eigenvalues of ``J`` sorted by decreasing modulus (stable for ties)."""
+    lam = np.linalg.eigvals(J)
+    return lam[np.argsort(-np.abs(lam), kind="stable")]
+
+
+def jacobian_fd(fmap, z, step: float = 1e-5) -> np.ndarray:
+    """Central-difference Jacobian of a return map ``fmap(z) -> (z', status)``.
+
+    Fourth-order (Richardson on steps ``h`` and ``2h``): truncation ~``h^4``, round-off
+    ~``delta / h`` with ``delta`` the map's accuracy (~1e-13 at the tight tolerance).
+    """
+    z = np.asarray(z, float)
+    n = z.size
+    J = np.empty((n, n))
+    for j in range(n):
+        h = step * max(1.0, abs(z[j]))
+        cols = []
+        for hh in (h, 2 * h):
+            e = np.zeros(n)
+            e[j] = hh
+            fp, sp = fmap(z + e)
+            fm, sm = fmap(z - e)
+            if sp != Status.OK or sm != Status.OK:
+                raise RuntimeError("the finite-difference stencil left the gait (status "
+                                   f"{Status(sp).name}/{Status(sm).name})")
+            cols.append((fp - fm) / (2 * hh))
+        J[:, j] = (4 * cols[0] - cols[1]) / 3
+    return J
+
+
+@dataclass
+class FloquetResult:
+    """Multipliers of a gait's return map on the section ``theta1 = 0``."""
+
+    fixed_point: np.ndarray
+    map_defect: float          # |P(z*) - z*|
+    jacobian: np.ndarray
+    multipliers: np.ndarray    # eigenvalues, sorted by decreasing modulus
+    stable: bool               # all |lambda| < 1 (neutral directions excluded, see below)
+    neutral: int               # multipliers within 1e-6 of 1 (the energy level for the
+                               # state-based controller)
+
+
+def floquet(fmap, z_star, *, step: float = 1e-5, neutral_tol: float = 1e-6) -> FloquetResult:
+    """Floquet multipliers of ``fmap`` at ``z_star`` by finite differences."""
+    z_star = np.asarray(z_star, float)
+    zn, st = fmap(z_star)
+    if st != Status.OK:
+        raise RuntimeError(f"no cycle from the fixed point (status {Status(st).name})")
+    J = jacobian_fd(fmap, z_star, step)
+    lam = np.linalg.eigvals(J)
+    lam = lam[np.argsort(-np.abs(lam))]
+    neutral = np.abs(lam - 1.0) < neutral_tol
+    stable = bool(np.all(np.abs(lam[~neutral]) < 1.0))
+    return FloquetResult(z_star, float(np.linalg.norm(zn - z_star)), J, lam, stable,
+                         int(neutral.sum()))
+
+
+
+@dataclass
+class FixedPointResult:
+    """Fixed point of a return map by Newton's method (residual history per iteration)."""
+
+    z: np.ndarray
+    defect: float
+    converged: bool
+    history: list
+    jacobian: np.ndarray
+
+
+def solve_fixed_point(fmap, z0, *, jacobian=None, rtol: float = 1e-12,
+                      max_iter: int = 30, rcond: float = 1e-7) -> FixedPointResult:
+    """Newton on ``P(z) - z = 0`` with a least-squares step.
+
+    A neutral multiplier (the energy level of the state-based controller, which restores
+    every cycle's start energy) makes ``DP - I`` singular: fixed points come in a family.
+    The minimum-norm step moves across the family, not along it, and still converges
+    quadratically to one of its members. ``jacobian(z)`` defaults to finite differences.
+    Converged when ``|P(z) - z| <= rtol * max(1, |z|)``: the map itself is only accurate to
+    about its integrator's tolerance times ``|z|`` (1e-13 for :data:`TIGHT`), so ``rtol``
+    sits one decade above that noise floor. ``rcond``: singular values of ``DP - I`` below
+    ``rcond`` times the largest are taken as zero. The neutral one is zero only to the
+    Jacobian's accuracy (~1e-9 by variational equations at rtol 1e-12); kept, it would turn
+    the part of ``P(z) - z`` that lies off the family's range into a step ~1e9 times too
+    long.
+    """
+    jac = jacobian or (lambda q: jacobian_fd(fmap, q))
+    z = np.asarray(z0, float).copy()
+    zn, st = fmap(z)
+    if st != Status.OK:
+        raise RuntimeError(f"no cycle from the start (status {Status(st).name})")
+    F = zn - z
+    history = [float(np.linalg.norm(F))]
+    J = np.full((z.size, z.size), np.nan)
+    converged = False
+    for _ in range(max_iter):
+        J = jac(z)
+        step, *_ = np.linalg.lstsq(J - np.eye(z.size), -F, rcond=rcond)
+        lam = 1.0
+        for _ in range(20):
+            zt = z + lam * step
+            zn, st = fmap(zt)
+            if st == Status.OK and np.linalg.norm(zn - zt) < history[-1]:
+                break
+            lam *= 0.5
+        else:
+            break
+        z = zt
+        F = zn - z
+        history.append(float(np.linalg.norm(F)))
+        if history[-1] <= rtol * max(1.0, float(np.abs(z).max())):
+            converged = True
+            break
+    return FixedPointResult(z, history[-1], converged, history, J)
+

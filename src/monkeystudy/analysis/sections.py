@@ -1,0 +1,104 @@
+"""Poincare sections and return maps of the horizontal and sequence gaits.
+
+Return maps live on the section "link 1 passes the vertical" (``theta1 = 0``; a sequence gait
+names its own ``theta1``). The section state is ``z = (theta2, dtheta1, dtheta2)``: ``theta1``
+is fixed by the section, the attached end's position is neutral (the gait is translation
+invariant, so height and x drop out), and after a cycle the frame has flipped to the other end,
+which plays the same role when the links are mirror images.
+
+Everything here asks the one simulation path (:func:`monkeystudy.simulate.run_controller`)
+for what it needs; nothing integrates on its own.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..controllers import HorizontalSearch, Integrator, OpenLoop, SequenceGait
+from ..kernel import layout as L
+from ..kernel.gait import wrapped_difference
+from ..robot import SEED2009_TORQUE
+from ..simulate import RobotLike, Status, as_robot, initial_state, run_controller
+
+#: Tight integrator for analysis: the return map must be far more accurate than the finite
+#: difference steps used on it.
+TIGHT = Integrator(method="dop853", rtol=1e-13, atol=1e-13)
+
+
+def section_state(z) -> np.ndarray:
+    """Hybrid state on the section: hanging from the frame's (x, y) end at the origin with
+    ``theta1 = 0`` and ``z = (theta2, dtheta1, dtheta2)``."""
+    th2, w1, w2 = (float(v) for v in z)
+    return initial_state(w1, w2, theta2=th2)
+
+
+def section_of(hyb) -> np.ndarray:
+    """Section coordinates of a hybrid state; theta2 modulo 2 pi, in [-pi, pi) (a gait may
+    turn link 2 a full revolution per cycle)."""
+    th2 = (hyb[L.TH2] + math.pi) % (2 * math.pi) - math.pi
+    return np.array([th2, hyb[L.DTH1], hyb[L.DTH2]])
+
+
+def open_loop_return_map(z, *, t_switch: float, t_motor: float,
+                         torque: float = SEED2009_TORQUE, robot: RobotLike = "seed2009",
+                         integrator: Integrator = TIGHT, tick: float = 0.0,
+                         tick_phase: float = 0.0) -> tuple[np.ndarray, Status]:
+    """One cycle of the open-loop controller with its clock reset at the vertical.
+
+    From ``z`` on the section: swap at ``t_switch``, motor ``torque`` for ``t_motor``, then on
+    to the next vertical crossing. Returns the next section state and the run status.
+    """
+    ctrl = OpenLoop(t_switch, t_motor, torque, tick=tick, tick_phase=tick_phase,
+                    clock="reset_at_vertical")
+    res = run_controller(ctrl, section_state(z), robot=robot, integrator=integrator, cycles=1,
+                         log_capacity=0)
+    return section_of(res.state), res.status
+
+
+def search_return_map(z, *, torque: float = SEED2009_TORQUE, robot: RobotLike = "seed2009",
+                      integrator: Integrator = TIGHT) -> tuple[np.ndarray, Status]:
+    """One cycle of the state-based search controller (swap at B height, motor until the
+    cycle-start energy is restored, stop at the vertical) from section state ``z``."""
+    res = run_controller(HorizontalSearch(torque), section_state(z), robot=robot,
+                         integrator=integrator, log_capacity=0)
+    return section_of(res.state), res.status
+
+
+def cycle_section_state(gait: SequenceGait, z) -> np.ndarray:
+    """Hybrid state on a sequence gait's section: hanging from A at the origin, ``theta1 =
+    gait.section_theta1``, ``z = (theta2 [rad], dtheta1, dtheta2 [rad s-1])``."""
+    th2, w1, w2 = (float(v) for v in z)
+    return initial_state(w1, w2, theta1=gait.section_theta1, theta2=th2)
+
+
+def check_cycle_frame(gait: SequenceGait, robot) -> None:
+    """A cycle ending on end B compares like with like only for mirror-image links."""
+    if gait.end_attached() == "B":
+        check_mirror_links(as_robot(robot))
+
+
+def cycle_return_map(z, gait: SequenceGait, *, robot: RobotLike = "seed2009",
+                     integrator: Integrator = TIGHT) -> tuple[np.ndarray, Status]:
+    """One cycle of a sequence gait from section state ``z = (theta2, dtheta1, dtheta2)``.
+
+    Returns the section state at the cycle's end (``theta2`` continued from ``z[0]`` across
+    whole turns, so the map is smooth) and the run status. A cycle that ends hanging from B
+    needs mirror-image links (``ValueError`` otherwise).
+    """
+    robot = as_robot(robot)
+    check_cycle_frame(gait, robot)
+    res = run_controller(gait.controller(), cycle_section_state(gait, z), robot=robot,
+                         integrator=integrator, cycles=1, log_capacity=0)
+    th2 = float(z[0]) + wrapped_difference(res.state[L.TH2], float(z[0]))
+    return np.array([th2, res.state[L.DTH1], res.state[L.DTH2]]), res.status
+
+
+
+
+def check_mirror_links(robot):
+    par = robot.params()
+    if not np.allclose(par[0], par[1], rtol=0, atol=1e-14):
+        raise ValueError("one-cycle return maps need mirror-image links (the frame flips at "
+                         "every swap); compose two cycles for this robot")
+

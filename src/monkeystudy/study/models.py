@@ -1,0 +1,308 @@
+"""Building blocks of the study schema: the strict base model, field types, and the robot, gait
+and integrator sections of a study file (schema version 1).
+
+Every model is a frozen pydantic v2 model with ``extra="forbid"`` and ``strict`` types: unknown
+keys, a quoted ``"1e-3"`` (text, not a number), ``no`` (text, not ``false``) and non-finite
+values are refused where they enter, with the key named. Units are SI and stated in every
+field's description (editors show them through the exported JSON Schema, ``monkeystudy
+schema``). The step models live with their step kinds (:mod:`monkeystudy.study.steps`); the
+study itself in :mod:`monkeystudy.study.schema`.
+"""
+from __future__ import annotations
+
+import contextvars
+from typing import Annotated, Any, Literal, Optional, Union
+
+import numpy as np
+from pydantic import (
+    BaseModel, ConfigDict, Discriminator, Field, Tag, ValidationInfo, field_validator,
+    model_validator,
+)
+
+from ..controllers import Integrator, Segment, SequenceGait
+from ..kernel.layout import STATUS_NAMES
+from ..robot import PRESETS, Friction, Link, Robot
+
+SCHEMA_VERSION = 1
+
+#: Names become file names (``<out>/<step>.nc``) and folder names (``outputs/<study>``).
+NAME_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_.-]*$"
+
+
+# Model classes seen by the "before" hook, keyed by the id of the mapping they validated, so an
+# unknown-key error can list the keys its mapping allows (see loader.format_errors).
+SEEN_MODELS: contextvars.ContextVar[dict | None] = contextvars.ContextVar("SEEN_MODELS",
+                                                                          default=None)
+
+
+class StrictModel(BaseModel):
+    """Base of every study model: unknown keys, loose types and non-finite values are errors;
+    instances are frozen."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False,
+                              populate_by_name=True, validate_default=False)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _remember(cls, data: Any) -> Any:
+        seen = SEEN_MODELS.get()
+        if seen is not None and isinstance(data, dict):
+            seen[id(data)] = cls
+        return data
+
+    @classmethod
+    def allowed_keys(cls) -> list[str]:
+        return [f.alias or name for name, f in cls.model_fields.items()]
+
+
+Name = Annotated[str, Field(pattern=NAME_PATTERN, max_length=100,
+                            description="letters, digits, '_', '-', '.'; used as a file name")]
+Rate = Annotated[float, Field(description="angular rate [rad s-1]")]
+Point = Annotated[list[float], Field(min_length=2, max_length=2,
+                                     description="(dtheta1, dtheta2) [rad s-1]")]
+
+
+SectionPoint = Annotated[list[float], Field(min_length=3, max_length=3,
+                                            description="(theta2 [rad], dtheta1 [rad s-1], "
+                                                        "dtheta2 [rad s-1]) on the section "
+                                                        "theta1 = 0")]
+
+
+def unique(v: list, what: str) -> list:
+    dup = sorted({repr(x) for x in v if v.count(x) > 1})
+    if dup:
+        raise ValueError(f"{what} must be distinct, repeated: {', '.join(dup)}")
+    return v
+
+
+class Axis(StrictModel):
+    """``num`` evenly spaced values from ``start`` to ``stop`` inclusive (numpy.linspace)."""
+
+    start: float = Field(description="first value [rad s-1]")
+    stop: float = Field(description="last value [rad s-1]")
+    num: int = Field(ge=1, le=1_000_000, description="number of values")
+
+    @model_validator(mode="after")
+    def _single(self) -> "Axis":
+        if self.num == 1 and self.start != self.stop:
+            raise ValueError("num: 1 needs start == stop")
+        return self
+
+    def values(self) -> np.ndarray:
+        return np.linspace(self.start, self.stop, self.num)
+
+
+# --- robot ------------------------------------------------------------------------------------
+class LinkParams(StrictModel):
+    """One link. Link 1 carries end A, link 2 end B; ``com`` is measured from the proximal end
+    (end A for link 1, the joint for link 2)."""
+
+    mass: float = Field(gt=0, description="mass [kg]")
+    length: float = Field(gt=0, description="length [m]")
+    com: float = Field(ge=0, description="centre of mass from the proximal end [m], "
+                                         "0 <= com <= length")
+    inertia: float = Field(gt=0, description="moment of inertia about the centre of mass "
+                                             "[kg m2]")
+
+    @field_validator("com")
+    @classmethod
+    def _on_link(cls, v: float, info: ValidationInfo) -> float:
+        length = info.data.get("length")
+        if length is not None and v > length:
+            raise ValueError(f"must lie on the link (<= length = {length} m), got {v}")
+        return v
+
+
+class JointFriction(StrictModel):
+    viscous: float = Field(0.0, ge=0, description="viscous coefficient [N m s]")
+    coulomb: float = Field(0.0, ge=0, description="Coulomb friction torque [N m]")
+
+
+class FrictionSettings(StrictModel):
+    pivot: JointFriction = Field(default_factory=JointFriction,
+                                 description="friction at the attached magnet (pivot)")
+    joint: JointFriction = Field(default_factory=JointFriction,
+                                 description="friction at the motor joint")
+
+
+class RobotParams(StrictModel):
+    """Explicit robot parameters (MODEL.md section 1)."""
+
+    name: Name = Field("custom", description="a label for the robot")
+    gravity: float = Field(9.81, gt=0, description="gravitational acceleration [m s-2]")
+    links: list[LinkParams] = Field(min_length=2, max_length=2,
+                                    description="[link 1 (end A), link 2 (end B)]")
+    friction: FrictionSettings = Field(default_factory=FrictionSettings)
+
+    def to_robot(self) -> Robot:
+        """The :class:`~monkeystudy.Robot` these parameters describe."""
+        links = [Link(lk.mass, lk.length, lk.com, lk.inertia) for lk in self.links]
+        f = self.friction
+        return Robot(links[0], links[1], gravity=self.gravity,
+                     pivot_friction=Friction(f.pivot.viscous, f.pivot.coulomb),
+                     joint_friction=Friction(f.joint.viscous, f.joint.coulomb), name=self.name)
+
+
+PresetName = Literal[tuple(sorted(PRESETS))]  # type: ignore[valid-type]
+
+
+def _robot_tag(v: Any) -> str | None:
+    if isinstance(v, str):
+        return "preset"
+    if isinstance(v, (dict, RobotParams)):
+        return "parameters"
+    return None
+
+
+RobotSpec = Annotated[
+    Union[Annotated[PresetName, Tag("preset")], Annotated[RobotParams, Tag("parameters")]],
+    Discriminator(_robot_tag, custom_error_type="robot_type",
+                  custom_error_message="must be a preset name ("
+                  + ", ".join(sorted(PRESETS)) + ") or a mapping with gravity, links, "
+                  "friction"),
+]
+
+
+def to_robot(spec: str | RobotParams) -> Robot:
+    """The robot of a study's ``robot`` field: a preset name or explicit parameters."""
+    return Robot.preset(spec) if isinstance(spec, str) else spec.to_robot()
+
+
+# --- gait, integrator -------------------------------------------------------------------------
+class Gait(StrictModel):
+    """The gait and its search controller (MODEL.md section 4)."""
+
+    kind: Literal["horizontal"] = Field(description="the gait: 'horizontal' (section 4)")
+    motor_torque: float = Field(description="motor torque [N m], signed, on theta2 of the "
+                                            "new attachment frame (seed2009: 0.6354)")
+    tick: float = Field(0.0, ge=0, le=1.0, description="controller tick [s]; 0 = exact "
+                                                       "event timing, 0.001 = the study")
+
+    @field_validator("motor_torque")
+    @classmethod
+    def _nonzero(cls, v: float) -> float:
+        if v == 0.0:
+            raise ValueError("must be non-zero (the motor restores the energy lost in the "
+                             "swap)")
+        return v
+
+
+GuardName = Literal["time", "free_end_height", "energy_restored", "coord", "energy",
+                    "free_end_y", "none"]
+CoordName = Literal["x", "y", "theta1", "theta2", "dx", "dy", "dtheta1", "dtheta2"]
+Direction = Literal["rising", "falling", "either"]
+
+#: the status a segment's horizon reports, by guard (the study's names where they fit)
+SEGMENT_FAIL = {"free_end_height": "no_switch", "energy_restored": "energy_not_restored"}
+
+
+class SegmentSpec(StrictModel):
+    """One segment of a phase-sequence gait (``monkeystudy.controllers.Segment``): entry
+    actions (magnets, motor torque, energy latch), then the guard that ends it."""
+
+    until: GuardName = Field(description="guard ending the segment: time (value [s] on the "
+                             "controller clock, which restarts at the section), "
+                             "free_end_height (free end value [m] above the attached end), "
+                             "energy_restored (energy back to the latched reference + value "
+                             "[J]), coord (coord crosses value), energy (total energy "
+                             "crosses value [J]), free_end_y (free end's world height "
+                             "crosses value [m]), none (only the horizon)")
+    value: float = Field(0.0, description="guard value, in the guard's units (s, m, J, rad, "
+                                          "rad s-1 or m s-1)")
+    coord: CoordName = Field("theta1", description="the coordinate of a coord guard (frame "
+                                                   "of the attached end)")
+    direction: Direction = Field("rising", description="crossing direction of the guard")
+    magnets: Literal["keep", "swap", "A", "B", "both", "none"] = Field(
+        "keep", description="entry action: keep, swap (attach the free end, release the "
+                            "other: a plastic impact), A, B (only that end on), both, none "
+                            "(release: free flight)")
+    torque: float = Field(0.0, description="motor torque from entry on [N m], on theta2 of "
+                                           "the frame after the entry action")
+    latch_energy: bool = Field(False, description="latch the total energy on entry as the "
+                                                  "reference of energy_restored guards")
+    ticked: bool = Field(True, description="act on the controller tick (when the gait has "
+                                           "one)")
+
+    def segment(self) -> Segment:
+        fail = STATUS_NAMES.index(SEGMENT_FAIL.get(self.until, "horizon"))
+        return Segment(self.until, value=self.value, coord=self.coord,
+                       direction=self.direction, magnets=self.magnets, torque=self.torque,
+                       latch_energy=self.latch_energy, ticked=self.ticked, fail_status=fail)
+
+
+class SectionSpec(StrictModel):
+    """The Poincare section closing a sequence gait's cycle, and the start on it."""
+
+    theta1: float = Field(0.0, ge=-3.2, le=3.2, description="link 1 angle of the section "
+                          "[rad], in the frame of the end attached there (0: vertical)")
+    direction: Direction = Field("either", description="crossing direction that ends the "
+                                                       "cycle")
+    torque: float = Field(0.0, description="motor torque on the last leg, up to the section "
+                                           "[N m]")
+    theta2: float = Field(0.0, ge=-3.2, le=3.2, description="link 2 angle at the cycle start "
+                          "[rad] (grid and refine vary dtheta1, dtheta2; floquet frees it)")
+
+
+class SequenceGaitSpec(StrictModel):
+    """A gait written as a phase sequence (``monkeystudy.controllers.SequenceGait``): from the
+    section hanging from A, the segments in order, then the section ends the cycle. Gait
+    error: the section error, wrap(theta2_f - theta2)^2 + (dtheta1_f - dtheta1)^2 +
+    (dtheta2_f - dtheta2)^2."""
+
+    kind: Literal["sequence"] = Field(description="the gait: 'sequence' (a phase sequence)")
+    segments: list[SegmentSpec] = Field(min_length=1, max_length=64,
+                                        description="the cycle's segments, in order")
+    section: SectionSpec = Field(default_factory=SectionSpec)
+    tick: float = Field(0.0, ge=0, le=1.0, description="controller tick [s]; 0 = exact "
+                                                       "event timing")
+
+    @model_validator(mode="after")
+    def _closes(self) -> "SequenceGaitSpec":
+        self.gait()  # a cycle that reaches its section in flight or pinned is refused here
+        return self
+
+    def gait(self) -> SequenceGait:
+        sec = self.section
+        return SequenceGait([s.segment() for s in self.segments], section_theta1=sec.theta1,
+                            section_direction=sec.direction, section_torque=sec.torque,
+                            theta2=sec.theta2, tick=self.tick)
+
+
+#: the study's ``gait``: the horizontal gait or a sequence gait
+StudyGait = Annotated[Union[Gait, SequenceGaitSpec], Field(discriminator="kind")]
+
+
+class IntegratorSettings(StrictModel):
+    """Integrator settings (scipy ``solve_ivp`` semantics for rtol/atol)."""
+
+    method: Literal["dop853", "rk45", "vern9"] = Field("dop853", description="Runge-Kutta pair")
+    rtol: float = Field(1e-10, ge=100 * np.finfo(float).eps, lt=1.0,
+                        description="relative tolerance [1]")
+    atol: float = Field(1e-12, gt=0, description="absolute tolerance [rad, rad s-1]")
+    max_time: float = Field(3.0, gt=0, le=1.0e4,
+                            description="horizon of one controller phase [s]")
+    controller: Literal["scipy", "pi"] = Field(
+        "scipy", description="step-size controller: scipy's (steps equal solve_ivp's) or "
+                             "Gustafsson's PI (fewer rejected steps)")
+
+    def to_integrator(self) -> Integrator:
+        """The :class:`~monkeystudy.Integrator` of these settings."""
+        return Integrator(method=self.method, rtol=self.rtol, atol=self.atol,
+                          max_time=self.max_time, controller=self.controller)
+
+
+#: how a multi-cycle step runs the gait (``monkeystudy.analysis.replay``)
+Replay = Annotated[Optional[Literal["gait", "open_loop"]], Field(
+    description="how the gait is run: open_loop (its recorded segment times, the clock "
+                "restarting at each section crossing; the horizontal gait's only replay and "
+                "its default) or gait (a sequence gait's own controller, guards and all; a "
+                "sequence gait's default)")]
+
+
+class OpenLoopSettings(StrictModel):
+    tick: Optional[float] = Field(None, ge=0, le=1.0,
+                                  description="controller tick [s] (default: the gait's)")
+    clock: Literal["reset_at_vertical", "run_on"] = Field(
+        "reset_at_vertical", description="restart the clock at each vertical crossing, or "
+                                         "let it run on with period = the gait's t_end")
+

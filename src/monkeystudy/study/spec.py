@@ -1,0 +1,82 @@
+"""A study resolved into plain values: the gait every task evaluates, and how datasets name it.
+
+The robot enters once, from the validated study model (:func:`gait_spec`); tasks receive it
+as a :class:`~monkeystudy.Robot` inside a :class:`GaitSpec` (picklable frozen dataclasses,
+nothing rebuilt on the workers), and datasets record it as ``Robot.to_dict()`` JSON.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..controllers import Integrator, SequenceGait
+from ..robot import Robot
+
+
+@dataclass(frozen=True)
+class GaitSpec:
+    """What every task needs to evaluate the study's gait.
+
+    Attributes
+    ----------
+    robot : Robot
+    integrator : Integrator
+    torque : float
+        Motor torque of the horizontal gait [N m]; NaN for a sequence gait (its segments
+        carry their own).
+    tick : float
+        Controller tick [s]; 0 = exact event timing.
+    sequence : SequenceGait or None
+        A sequence gait, or None for the horizontal gait (MODEL.md section 4).
+    """
+
+    robot: Robot
+    integrator: Integrator
+    torque: float
+    tick: float
+    sequence: SequenceGait | None = None
+
+    @property
+    def n_cycle_segments(self) -> int:
+        """Segments of a sequence gait's cycle, the section included (0: horizontal gait)."""
+        return 0 if self.sequence is None else len(self.sequence.segments) + 1
+
+
+def gait_spec(study) -> GaitSpec:
+    """The :class:`GaitSpec` of a validated :class:`~monkeystudy.study.schema.Study`."""
+    g = study.gait
+    robot, integ = study.to_robot(), study.integrator.to_integrator()
+    if g.kind == "sequence":
+        return GaitSpec(robot, integ, math.nan, float(g.tick), g.gait())
+    return GaitSpec(robot, integ, float(g.motor_torque), float(g.tick))
+
+
+def integrator_fields(integrator: Integrator) -> dict:
+    """The integrator settings a study can set, as datasets and step keys record them."""
+    return {"method": integrator.method, "rtol": integrator.rtol, "atol": integrator.atol,
+            "max_time": integrator.max_time, "controller": integrator.controller}
+
+
+def gait_json(study) -> dict:
+    """The study's gait as datasets and step keys record it."""
+    if study.gait.kind == "sequence":
+        return study.gait.model_dump(mode="json")
+    return {"kind": study.gait.kind, "motor_torque": study.gait.motor_torque,
+            "tick": study.gait.tick}
+
+
+def mirror_problem(robot: Robot) -> str | None:
+    """Why ``robot`` cannot have one-cycle return maps (``None`` if it can).
+
+    The frame flips to the other end at every swap, so a one-cycle return map compares like
+    with like only when the links are mirror images (:mod:`monkeystudy.analysis.sections`).
+    """
+    par = robot.params()
+    if np.allclose(par[0], par[1], rtol=0, atol=1e-14):
+        return None
+    return ("needs mirror-image links (same mass, length, inertia and friction; link 2's "
+            "com = its length - link 1's com): the frame flips at every swap, so a one-cycle "
+            "return map is defined only for them")
+

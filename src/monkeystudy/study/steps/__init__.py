@@ -1,0 +1,34 @@
+"""The step kinds of a study, one module each, registered here in schema order.
+
+Each kind (a :class:`~monkeystudy.study.steps.base.StepKind`) declares its study-file model,
+dependencies, cross-step checks, tasks, dataset, key numbers and figures; the schema, the
+planner, the runner, ``monkeystudy inspect`` and the report iterate over :data:`REGISTRY`.
+Adding a kind is a module here, a line below, and its figure in :mod:`monkeystudy.plotting`.
+"""
+from __future__ import annotations
+
+from .base import Dependency, Figure, StepContext, StepKind
+from .basin import BasinKind
+from .continuation import ContinuationKind
+from .floquet import FloquetKind
+from .grid import GridKind
+from .refine import RefineKind
+from .shoot import ShootKind
+from .stability import StabilityKind
+from .stress import StressKind
+from .tick_sweep import TickSweepKind
+from .work_precision import WorkPrecisionKind
+
+#: every step kind by its ``kind:`` name, in the order the schema lists them
+REGISTRY: dict[str, StepKind] = {k.name: k for k in (
+    GridKind(), RefineKind(), StabilityKind(), ShootKind(), FloquetKind(), TickSweepKind(),
+    BasinKind(), ContinuationKind(), WorkPrecisionKind(), StressKind(),
+)}
+
+
+def kind_of(step) -> StepKind:
+    """The kind of a step model (its ``kind`` field)."""
+    return REGISTRY[step.kind]
+
+
+__all__ = ["Dependency", "Figure", "REGISTRY", "StepContext", "StepKind", "kind_of"]

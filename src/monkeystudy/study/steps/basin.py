@@ -1,0 +1,210 @@
+"""The ``basin`` step: how many cycles a gait survives from perturbed starts (a basin map).
+
+A grid of offsets of the start's (dtheta1, dtheta2) around the gait; each start runs until its
+error against the unperturbed gait exceeds ``error_bound``, it falls, or ``max_cycles``. More
+than :data:`BASIN_TASK_POINTS` starts run as blocks of whole rows on the pool, each saved as
+a shard and resumed like grid blocks.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal, Optional
+
+import numpy as np
+from pydantic import Field
+
+from ...analysis.replay import basin, sequence_basin
+from .. import datasets as D
+from ..blocks import Block, Task
+from ..models import Axis, Name, Replay, StrictModel
+from ..spec import GaitSpec
+from .base import Figure, StepContext, StepKind, no_earlier
+from .floquet import check_sequence_replay, sequence_attrs, sequence_start, sequence_torque
+from .shoot import ShootStep, gait_attrs, gait_line, replay_torque, shoot_gait
+
+
+class BasinOffsets(StrictModel):
+    d_dtheta1: Axis = Field(description="offsets of the start's dtheta1 [rad s-1]")
+    d_dtheta2: Axis = Field(description="offsets of the start's dtheta2 [rad s-1]")
+
+
+#: a basin with more points than this runs as blocks of rows on the pool (else one task)
+BASIN_TASK_POINTS = 400
+
+#: points per basin block (whole rows of d_dtheta2, at least one row)
+BASIN_BLOCK_POINTS = 100
+
+
+class BasinStep(StrictModel):
+    """Cycles an open-loop replay of the gait (a sequence gait: ``replay``) survives from
+    perturbed starts. More than
+    ``BASIN_TASK_POINTS`` points are split into blocks of whole rows (about
+    ``BASIN_BLOCK_POINTS`` points each) on the pool, each saved as a shard (resumable)."""
+
+    name: Name
+    kind: Literal["basin"]
+    from_: Name = Field(alias="from", description="an earlier shoot step (a sequence gait: "
+                                                  "a floquet step, its fixed point)")
+    replay: Replay = None
+    offsets: BasinOffsets = Field(description="start offsets (d_dtheta1, d_dtheta2) [rad s-1]")
+    max_cycles: int = Field(60, ge=1, le=100_000, description="cycles per run (a start that "
+                            "never fails scores this)")
+    error_bound: float = Field(1e-2, gt=0, description="failure: error against the "
+                               "unperturbed gait above this [1]")
+    tick: Optional[float] = Field(None, ge=0, le=1.0, description="controller tick [s] "
+                                  "(default: the gait's)")
+    solution: Optional[int] = Field(None, ge=0, description="which solution of the shoot "
+                                    "step (default: the lowest error)")
+
+    @property
+    def n_points(self) -> int:
+        return self.offsets.d_dtheta1.num * self.offsets.d_dtheta2.num
+
+    @property
+    def rows_per_block(self) -> int:
+        """Rows of d_dtheta1 per task: all of them up to ``BASIN_TASK_POINTS`` points."""
+        n1, n2 = self.offsets.d_dtheta1.num, self.offsets.d_dtheta2.num
+        if self.n_points <= BASIN_TASK_POINTS:
+            return n1
+        return max(1, BASIN_BLOCK_POINTS // n2)
+
+
+# --- tasks (run on the workers) ------------------------------------------------------------------
+def basin_block(spec: GaitSpec, gait: dict, offsets1: np.ndarray, offsets2: np.ndarray, *,
+                max_cycles: int, error_bound: float, tick: float) -> dict[str, np.ndarray]:
+    """Cycles survived from starts ``gait + (a, b)`` for ``a`` in ``offsets1`` (rows of the
+    basin), ``b`` in ``offsets2`` [rad s-1] (:func:`~monkeystudy.analysis.replay.basin`); returns
+    ``{"cycles": int32 array [len(offsets1) * len(offsets2)]}`` in C order."""
+    robot, integ = spec.robot, spec.integrator
+    B = basin(float(gait["dtheta1"]), float(gait["dtheta2"]), t_switch=float(gait["t_switch"]),
+              t_motor=float(gait["t_motor"]), torque=replay_torque(spec, gait),
+              offsets1=np.asarray(offsets1, float), offsets2=np.asarray(offsets2, float),
+              max_cycles=int(max_cycles), error_bound=float(error_bound), robot=robot,
+              integrator=integ, tick=float(tick))
+    return {"cycles": np.ascontiguousarray(B, np.int32).ravel()}
+
+
+def sequence_basin_block(spec: GaitSpec, z_star, offsets1: np.ndarray, offsets2: np.ndarray,
+                         *, max_cycles: int, error_bound: float, tick: float,
+                         replay: str) -> dict[str, np.ndarray]:
+    """:func:`basin_block` for the spec's sequence gait around its fixed point ``z_star``
+    (:func:`monkeystudy.analysis.replay.sequence_basin`)."""
+    robot, integ = spec.robot, spec.integrator
+    B = sequence_basin(spec.sequence, np.asarray(z_star, float),
+                       np.asarray(offsets1, float), np.asarray(offsets2, float),
+                       max_cycles=int(max_cycles), error_bound=float(error_bound), robot=robot,
+                       integrator=integ, replay=replay, tick=float(tick))
+    return {"cycles": np.ascontiguousarray(B, np.int32).ravel()}
+
+
+# --- the dataset ---------------------------------------------------------------------------------
+def write_basin(path: Path, attrs: dict, offsets1: np.ndarray, offsets2: np.ndarray,
+                cycles: np.ndarray) -> None:
+    """Write a basin dataset: cycles survived ``[len(offsets1), len(offsets2)]``."""
+    with D.atomic_netcdf(path) as nc:
+        for dim, vals, what in (("d_dtheta1", offsets1, "dtheta1"),
+                                ("d_dtheta2", offsets2, "dtheta2")):
+            nc.createDimension(dim, len(vals))
+            D.add_variable(nc, dim, (dim,), np.float64, {"long_name": f"offset of the start's {what} "
+                                                            "from the gait", "units": D.RATE},
+                 np.asarray(vals, float))
+        D.add_variable(nc, "cycles", ("d_dtheta1", "d_dtheta2"), np.int32,
+             {"long_name": "cycles survived before the error against the gait exceeded "
+                           "error_bound, the run fell or stopped (max_cycles: never)",
+              "units": "1"}, np.asarray(cycles, np.int32))
+        D.set_global_attrs(nc, attrs)
+
+
+# --- the kind ------------------------------------------------------------------------------------
+class BasinKind(StepKind):
+    name = "basin"
+    model = BasinStep
+    gait_kinds = ("horizontal", "sequence")
+    unit = "blocks"
+    figures = (
+        Figure("cycles_map", "cycles to failure around the gait",
+               "Cycles survived from each perturbed start (colour), the gait at the centre: "
+               "a stable gait has a patch of starts that last max_cycles; an unstable one "
+               "only a thin band, or nothing."),
+    )
+
+    def check(self, study, index, step: BasinStep, seen) -> list:
+        if study.gait.kind == "sequence":
+            return check_sequence_replay(study, index, step, seen)
+        out = []
+        if not isinstance(seen.get(step.from_), ShootStep):
+            out.append((("steps", index, "from"), no_earlier(step.from_, "shoot",
+                                                             seen.get(step.from_))))
+        if step.replay == "gait":
+            out.append((("steps", index, "replay"), "the horizontal gait is replayed "
+                        "open-loop (replay: gait needs a sequence gait)"))
+        return out
+
+    def blocks(self, step: BasinStep) -> list[Block]:
+        """Blocks of whole rows of d_dtheta1 (flat C-order point indices ``lo..hi``)."""
+        n1, n2 = step.offsets.d_dtheta1.num, step.offsets.d_dtheta2.num
+        rows = step.rows_per_block
+        return [Block(i, r0 * n2, min(r0 + rows, n1) * n2)
+                for i, r0 in enumerate(range(0, n1, rows))]
+
+    def block_summary(self, step: BasinStep) -> str:
+        return f"{step.n_points} starts"
+
+    def n_tasks(self, step: BasinStep, gait_kind: str) -> int:
+        return len(self.blocks(step))
+
+    def start(self, ctx: StepContext) -> list[Task]:
+        st = ctx.step
+        if ctx.gait_kind == "sequence":
+            g = sequence_start(ctx)
+            replay = st.replay or "gait"
+            ctx.state.update(gait=g, replay=replay)
+            fn, gait, extra = sequence_basin_block, g["z"], {"replay": replay}
+        else:
+            g = shoot_gait(ctx, st.from_, st.solution)
+            ctx.state["gait"] = g
+            fn, gait, extra = basin_block, g, {}
+        tick = st.tick if st.tick is not None else ctx.study.gait.tick
+        ctx.state["tick"] = tick
+        o1, o2 = st.offsets.d_dtheta1.values(), st.offsets.d_dtheta2.values()
+        n2 = o2.size
+        kw = {"max_cycles": st.max_cycles, "error_bound": st.error_bound, "tick": tick,
+              **extra}
+        return [Task(b, fn, (ctx.spec, gait, o1[b.lo // n2:b.hi // n2], o2), kw)
+                for b in ctx.todo_blocks()]
+
+    def finish(self, ctx: StepContext, attrs: dict) -> str:
+        st = ctx.step
+        cycles = np.empty(st.n_points, np.int32)
+        for b in ctx.blocks:
+            cycles[b.lo:b.hi] = ctx.block_arrays(b)["cycles"]
+        cycles = cycles.reshape(st.offsets.d_dtheta1.num, st.offsets.d_dtheta2.num)
+        g = ctx.state["gait"]
+        if "replay" in ctx.state:
+            attrs.update(sequence_attrs(g, ctx.state["replay"]),
+                         motor_torque=sequence_torque(ctx.spec.sequence))
+        else:
+            attrs.update(gait_attrs(st.from_, g), replay="open_loop",
+                         motor_torque=replay_torque(ctx.spec, g))
+        attrs.update(max_cycles=st.max_cycles, error_bound=st.error_bound,
+                     tick=ctx.state["tick"], n_blocks=len(ctx.blocks))
+        write_basin(ctx.path, attrs, st.offsets.d_dtheta1.values(),
+                    st.offsets.d_dtheta2.values(), cycles)
+        i0 = int(np.argmin(np.abs(st.offsets.d_dtheta1.values())))
+        j0 = int(np.argmin(np.abs(st.offsets.d_dtheta2.values())))
+        return (f"{cycles.size} starts: cycles at the least offset {int(cycles[i0, j0])}, "
+                f"median {float(np.median(cycles)):g}, max {int(cycles.max())} of "
+                f"{st.max_cycles}")
+
+    def describe(self, ds) -> list[str]:
+        a = ds.attrs
+        c = ds["cycles"].values
+        o1, o2 = ds["d_dtheta1"].values, ds["d_dtheta2"].values
+        i0, j0 = int(np.argmin(np.abs(o1))), int(np.argmin(np.abs(o2)))
+        return [gait_line(a),
+                f"{c.size} starts, offsets d_dtheta1 {o1[0]:.3g}..{o1[-1]:.3g}, d_dtheta2 "
+                f"{o2[0]:.3g}..{o2[-1]:.3g} rad s-1; tick {a.get('tick')} s, error bound "
+                f"{a.get('error_bound')}",
+                f"cycles: at the least offset ({o1[i0]:.3g}, {o2[j0]:.3g}) {int(c[i0, j0])}, "
+                f"min {int(c.min())}, median {float(np.median(c)):g}, max {int(c.max())} of "
+                f"{a.get('max_cycles')}"]

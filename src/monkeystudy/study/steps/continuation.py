@@ -1,0 +1,348 @@
+"""The ``continuation`` step: a gait family continued in one parameter, with the Floquet
+multipliers along the branch and its folds and bifurcations
+(:mod:`monkeystudy.analysis.continuation`).
+
+Horizontal gait (``from:`` a shoot step): the collisionless (grazing) family in a
+mirror-symmetric parameter. Sequence gait (``from:`` a floquet step, its Newton-polished fixed
+point): any parameter, with an adaptive step.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Any, Literal, Optional
+
+import numpy as np
+from pydantic import Field, field_validator
+
+from ...analysis.continuation import continue_cycle, continue_grazing, with_parameter
+from ...analysis.shooting import GrazingResult
+from ...robot import Robot
+from ...simulate import evaluate_cycle_gaits
+from .. import datasets as D
+from ..blocks import Task
+from ..errors import RunFailed
+from ..models import Name, StrictModel
+from ..spec import GaitSpec, mirror_problem
+from .base import Figure, StepContext, StepKind, no_earlier
+from .floquet import FloquetStep, read_floquet_point
+from .shoot import ShootStep, gait_attrs, gait_line, shoot_gait
+
+
+#: continuation parameters of the horizontal gait's collisionless family (mirror-symmetric)
+GRAZING_PARAMETERS = ("com", "inertia", "gravity")
+
+
+class ContinuationStep(StrictModel):
+    """Pseudo-arclength continuation of a gait family in one parameter, with the Floquet
+    multipliers along the branch and its folds and bifurcations.
+
+    Horizontal gait (``from:`` a shoot step): the collisionless (grazing) family in a
+    mirror-symmetric parameter (com, inertia, gravity). Sequence gait (``from:`` a floquet
+    step, whose Newton-polished fixed point starts the branch at the section's theta2): any
+    parameter, ``monkeystudy.continuation``.
+    """
+
+    name: Name
+    kind: Literal["continuation"]
+    from_: Name = Field(alias="from", description="an earlier step: a shoot step (horizontal "
+                                                  "gait: its best grazing solution) or a "
+                                                  "floquet step (sequence gait: its fixed "
+                                                  "point)")
+    parameter: Literal["com", "inertia", "gravity", "torque", "mass_ratio", "joint_viscous",
+                       "pivot_viscous"] = Field(
+        description="com: link 1's CG from A [m] (link 2's mirrored); inertia: both links' "
+                    "[kg m2]; gravity [m s-2]; sequence gaits also: torque (the first motor "
+                    "segment's [N m], the others scaled with it), mass_ratio (link 2's mass "
+                    "over link 1's at the same total mass, inertias scaled with the masses "
+                    "[1]), joint_viscous, pivot_viscous (viscous friction [N m s])")
+    ds: float = Field(description="first arclength step in (dtheta1, dtheta2, [t_switch,] "
+                                  "parameter) [mixed units]; its sign picks the direction")
+    ds_max: Optional[float] = Field(None, gt=0, description="sequence gaits: largest |ds| "
+                                    "the adaptive step may grow to (default |ds|); a failed "
+                                    "corrector halves the step down to |ds| / 256")
+    steps: int = Field(20, ge=1, le=100_000, description="continuation steps")
+    bounds: Optional[list[float]] = Field(None, min_length=2, max_length=2,
+                                          description="[lo, hi]: stop when the parameter "
+                                                      "leaves them (units of the parameter)")
+
+    @field_validator("ds")
+    @classmethod
+    def _nonzero(cls, v: float) -> float:
+        if v == 0.0:
+            raise ValueError("must be non-zero")
+        return v
+
+    @field_validator("bounds")
+    @classmethod
+    def _ordered(cls, v):
+        if v is not None and not v[0] < v[1]:
+            raise ValueError(f"must be [lo, hi] with lo < hi, got {v}")
+        return v
+
+
+# --- tasks (run on the workers) ------------------------------------------------------------------
+def parameter_value(robot: Robot, parameter: str) -> float:
+    """The robot's current value of a continuation parameter (link 1's com [m], link 1's
+    inertia [kg m2], gravity [m s-2])."""
+    if parameter == "com":
+        return float(robot.link1.com)
+    if parameter == "inertia":
+        return float(robot.link1.inertia)
+    if parameter == "gravity":
+        return float(robot.gravity)
+    raise ValueError(f"parameter must be 'com', 'inertia' or 'gravity', got {parameter!r}")
+
+
+def continuation_task(spec: GaitSpec, gait: dict, *, parameter: str, ds: float, steps: int,
+                      bounds=(-math.inf, math.inf)) -> dict[str, Any]:
+    """Continue the collisionless gait family from a grazing solution in ``parameter``
+    (:func:`~monkeystudy.analysis.continuation.continue_grazing`), starting at the robot's own value."""
+    robot, integ = spec.robot, spec.integrator
+    value0 = parameter_value(robot, parameter)
+    start = GrazingResult(float(gait["dtheta1"]), float(gait["dtheta2"]),
+                          float(gait["t_switch"]), np.zeros(3), True, [])
+    b = continue_grazing(start, parameter, value0, robot=robot, ds=float(ds), steps=int(steps),
+                         bounds=tuple(bounds), integrator=integ)
+    return {"parameter": b.parameter, "value0": value0, "value": np.asarray(b.value, float),
+            "dtheta1": np.asarray(b.dtheta1, float), "dtheta2": np.asarray(b.dtheta2, float),
+            "t_switch": np.asarray(b.t_switch, float), "residual": np.asarray(b.residual, float),
+            "multipliers": np.asarray(b.multipliers, complex), "folds": list(b.folds),
+            "period_doublings": list(b.period_doublings)}
+
+
+def sequence_continuation_task(spec: GaitSpec, fixed_point, *, parameter: str, ds: float,
+                               steps: int, ds_max: float | None = None,
+                               bounds=(-math.inf, math.inf)) -> dict[str, Any]:
+    """Continue a sequence gait's fixed point ``(theta2, dtheta1, dtheta2)`` in ``parameter``
+    (:func:`~monkeystudy.analysis.continuation.continue_cycle`), starting at the study's own value;
+    with each branch point's segment end times and advance per cycle."""
+    robot, integ = spec.robot, spec.integrator
+    seq = spec.sequence
+    z0 = np.asarray(fixed_point, float)
+    b = continue_cycle(seq, z0, parameter, robot=robot, ds=float(ds), steps=int(steps),
+                       ds_max=ds_max, bounds=tuple(bounds), integrator=integ)
+    n = len(b.value)
+    t_seg = np.full((n, spec.n_cycle_segments), np.nan)
+    adv = np.full((n, 2), np.nan)
+    for i in range(n):
+        rb, g = with_parameter(robot, seq, parameter, b.value[i])
+        g = dataclasses.replace(g, theta2=float(b.theta2[i]))
+        r = evaluate_cycle_gaits(np.array([[b.dtheta1[i], b.dtheta2[i]]]), g, robot=rb,
+                                 integrator=integ)
+        t_seg[i] = r["t_segment"][0]
+        adv[i] = r["x_advance"][0], r["y_advance"][0]
+    return {"parameter": parameter, "value0": float(b.value[0]), "value": b.value,
+            "theta2": b.theta2, "theta2_pinned": int(b.theta2_pinned),
+            "dtheta1": b.dtheta1, "dtheta2": b.dtheta2,
+            "residual": b.residual, "iterations": b.iterations, "arclength": b.arclength,
+            "multipliers": b.multipliers, "neutral": b.neutral, "stable": b.stable,
+            "t_segment": t_seg, "x_advance": adv[:, 0], "y_advance": adv[:, 1],
+            "folds": list(b.folds), "period_doublings": list(b.period_doublings),
+            "through_plus_one": list(b.through_plus_one),
+            "neimark_sacker": list(b.neimark_sacker),
+            "stop_reason": b.stop_reason}
+
+
+# --- the dataset ---------------------------------------------------------------------------------
+def write_continuation(path: Path, attrs: dict, result: dict) -> None:
+    """Write a continuation dataset from a
+    :func:`continuation_task` (horizontal gait) or
+    :func:`sequence_continuation_task` result."""
+    n = len(result["value"])
+    par = result["parameter"]
+    sequence = "t_segment" in result
+    what = "sequence gait's fixed point" if sequence else "collisionless gait"
+    with D.atomic_netcdf(path) as nc:
+        D.add_index_coord(nc, "point", n, "point on the branch (0: the "
+                     + ("floquet step's fixed point)" if sequence else "shoot's gait)"))
+        D.add_index_coord(nc, "k", 3, "multiplier (by decreasing modulus)")
+        D.add_variable(nc, "parameter_value", ("point",), np.float64,
+             {"long_name": f"continuation parameter {par}", "units": D.PARAMETER_UNITS[par]},
+             result["value"])
+        D.add_variable(nc, "dtheta1", ("point",), np.float64, dict(D.DTHETA1, long_name=f"{what}, "
+                                                          + D.DTHETA1["long_name"]),
+             result["dtheta1"])
+        D.add_variable(nc, "dtheta2", ("point",), np.float64, dict(D.DTHETA2, long_name=f"{what}, "
+                                                          + D.DTHETA2["long_name"]),
+             result["dtheta2"])
+        if sequence:
+            D.add_index_coord(nc, "segment", np.shape(result["t_segment"])[1], D.SEGMENT_NOTE)
+            D.add_variable(nc, "residual", ("point",), np.float64,
+                 {"long_name": "|P(z) - z| of the return map after correction", "units": "1"},
+                 result["residual"])
+            D.add_variable(nc, "theta2", ("point",), np.float64,
+                 {"long_name": "theta2 of the fixed point on the section (held at the "
+                               "start's when theta2_pinned)", "units": "rad"},
+                 result["theta2"])
+            D.add_variable(nc, "corrector_iterations", ("point",), np.int32,
+                 {"long_name": "Gauss-Newton corrector iterations (0: the start)",
+                  "units": "1"}, np.asarray(result["iterations"], np.int32))
+            D.add_variable(nc, "arclength", ("point",), np.float64,
+                 {"long_name": "cumulative arclength in (theta2, dtheta1, dtheta2, parameter)",
+                  "units": "1"}, result["arclength"])
+            D.add_variable(nc, "stable", ("point",), np.int8,
+                 {"long_name": "1: every non-neutral multiplier inside the unit circle",
+                  "units": "1"}, np.asarray(result["stable"], np.int8))
+            D.add_variable(nc, "neutral", ("point",), np.int8,
+                 {"long_name": "multipliers within 1e-6 of 1 (the free energy level)",
+                  "units": "1"}, np.asarray(result["neutral"], np.int8))
+            D.add_variable(nc, "t_segment", ("point", "segment"), np.float64,
+                 D.GAIT_ATTRS["t_segment"], result["t_segment"])
+            for name in ("x_advance", "y_advance"):
+                D.add_variable(nc, name, ("point",), np.float64, D.GAIT_ATTRS[name], result[name])
+            D.add_complex(nc, "multipliers", ("point", "k"), result["multipliers"],
+                          "Floquet multipliers of the cycle's return map (variational "
+                          "equations)")
+            extra = {"theta2_pinned": int(result["theta2_pinned"]),
+                     "stop_reason": result["stop_reason"],
+                     "through_plus_one": list(result["through_plus_one"]),
+                     "neimark_sacker": list(result["neimark_sacker"])}
+        else:
+            D.add_variable(nc, "t_switch", ("point",), np.float64,
+                 {"long_name": "swap time (B at A's height at rest)", "units": "s"},
+                 result["t_switch"])
+            D.add_variable(nc, "residual", ("point",), np.float64,
+                 {"long_name": "|G| (B's height and velocity at t_switch) after correction",
+                  "units": "1"}, result["residual"])
+            D.add_complex(nc, "multipliers", ("point", "k"), result["multipliers"],
+                          "Floquet multipliers of the motorless open-loop map (variational "
+                          "equations)")
+            extra = {}
+        D.set_global_attrs(nc, dict(attrs, parameter=par, parameter_units=D.PARAMETER_UNITS[par],
+                               value0=float(result["value0"]), folds=list(result["folds"]),
+                               period_doublings=list(result["period_doublings"]), **extra))
+
+
+# --- the kind ------------------------------------------------------------------------------------
+def check_sequence_continuation(study, i: int, s: ContinuationStep, seen: dict) -> list:
+    """A sequence gait's continuation: from a floquet step, exact timing, a smooth flow, a
+    motor to continue in, mirror symmetry where the cycle needs it."""
+    out: list[tuple[tuple, str]] = []
+    if not isinstance(seen.get(s.from_), FloquetStep):
+        out.append((("steps", i, "from"), no_earlier(s.from_, "floquet", seen.get(s.from_))))
+    gait = study.gait.gait()
+    if gait.tick != 0.0:
+        out.append((("steps", i, "kind"), "continuation needs exact event timing (gait tick "
+                    "0): on a tick the return map is not differentiable"))
+    rb = study.to_robot()
+    if rb.pivot_friction.coulomb or rb.joint_friction.coulomb:
+        out.append((("steps", i, "kind"), "continuation needs a smooth flow: Coulomb "
+                    "friction is not (the variational equations refuse it)"))
+    if s.parameter == "torque" and all(seg.torque == 0.0 for seg in gait.segments) \
+            and gait.section_torque == 0.0:
+        out.append((("steps", i, "parameter"), "the gait never runs its motor (every torque "
+                    "is 0): the motor torque does not move its fixed points"))
+    if gait.end_attached() == "B":
+        if s.parameter == "mass_ratio":
+            out.append((("steps", i, "parameter"), "mass_ratio != 1 breaks the mirror "
+                        "symmetry a cycle ending on end B needs: continue a cycle with two "
+                        "swaps (ending on A) instead"))
+        problem = mirror_problem(rb)
+        if problem:
+            out.append((("steps", i, "kind"), f"a continuation of a cycle ending on end B "
+                        f"{problem}"))
+    return out
+
+
+class ContinuationKind(StepKind):
+    name = "continuation"
+    model = ContinuationStep
+    gait_kinds = ("horizontal", "sequence")
+    unit = "branches"
+    figures = (
+        Figure("branch", "gait family, |lambda| along it",
+               "The family's rates against the parameter (top) and the multipliers' moduli "
+               "along it (bottom): where a modulus crosses 1 the gait gains or loses "
+               "stability; folds and bifurcations are marked."),
+    )
+
+    def check(self, study, index, step: ContinuationStep, seen) -> list:
+        if study.gait.kind == "sequence":
+            return check_sequence_continuation(study, index, step, seen)
+        out = []
+        if not isinstance(seen.get(step.from_), ShootStep):
+            out.append((("steps", index, "from"), no_earlier(step.from_, "shoot",
+                                                             seen.get(step.from_))))
+        if step.parameter not in GRAZING_PARAMETERS:
+            out.append((("steps", index, "parameter"), f"the horizontal gait's collisionless "
+                        f"family is continued in {', '.join(GRAZING_PARAMETERS)} (it is "
+                        f"motorless and needs mirror-image links); {step.parameter} needs a "
+                        f"sequence gait"))
+        if step.ds_max is not None:
+            out.append((("steps", index, "ds_max"), "the collisionless family is continued "
+                        "with a fixed step; ds_max applies to sequence gaits"))
+        problem = mirror_problem(study.to_robot())
+        if problem:
+            out.append((("steps", index, "kind"), f"a {step.kind} step {problem}"))
+        return out
+
+    def needs_variational(self, step) -> bool:
+        return True
+
+    def start(self, ctx: StepContext) -> list[Task]:
+        st = ctx.step
+        bounds = tuple(st.bounds) if st.bounds is not None else (-math.inf, math.inf)
+        kw = {"parameter": st.parameter, "ds": st.ds, "steps": st.steps, "bounds": bounds}
+        if ctx.gait_kind == "sequence":
+            fp = read_floquet_point(ctx.deps[st.from_].path, "sequence")
+            if fp["newton_converged"] == 0 or not np.all(np.isfinite(fp["fixed_point"])):
+                raise RunFailed(f"{ctx.name}: floquet step {st.from_!r} did not converge to a "
+                                f"fixed point (map defect {fp['map_defect']:.3g}): nothing "
+                                f"to continue")
+            ctx.state["gait"] = fp
+            return [Task(0, sequence_continuation_task, (ctx.spec, fp["fixed_point"]),
+                         dict(kw, ds_max=st.ds_max))]
+        g = shoot_gait(ctx, st.from_, None, grazing=True)
+        ctx.state["gait"] = g
+        return [Task(0, continuation_task, (ctx.spec, g), kw)]
+
+    def finish(self, ctx: StepContext, attrs: dict) -> str:
+        st = ctx.step
+        r = ctx.results[0]
+        sequence = "t_segment" in r
+        if sequence:
+            fp = ctx.state["gait"]
+            attrs.update(floquet_step=st.from_, fixed_point=list(fp["fixed_point"]),
+                         map_defect=fp["map_defect"],
+                         ds_max=st.ds_max if st.ds_max is not None else abs(st.ds))
+        else:
+            attrs.update(gait_attrs(st.from_, ctx.state["gait"]))
+        attrs.update(ds=st.ds, steps=st.steps,
+                     bounds=list(st.bounds) if st.bounds is not None else [])
+        write_continuation(ctx.path, attrs, r)
+        v = r["value"]
+        msg = (f"{len(v)} points, {st.parameter} {v[0]:.6g} -> {v[-1]:.6g} "
+               f"{D.PARAMETER_UNITS[st.parameter]}, folds {r['folds']}, period doublings "
+               f"{r['period_doublings']}, max residual {float(np.max(r['residual'])):.2g}")
+        if sequence:
+            msg += (f", through +1 {r['through_plus_one']}, Neimark-Sacker "
+                    f"{r['neimark_sacker']}, stopped: {r['stop_reason']}")
+        return msg
+
+    def describe(self, ds) -> list[str]:
+        a = ds.attrs
+        v = ds["parameter_value"].values
+        lam = D.dataset_complex(ds, "multipliers")
+        if "t_segment" in ds:      # a sequence gait: leave the neutral multiplier out
+            rest = [np.abs(m[~(np.abs(m - 1.0) < 1e-6)]) for m in lam]
+            lead = np.array([r.max() if r.size else np.nan for r in rest])
+            th2 = ds["theta2"].values
+            head = (f"sequence gait, theta2 {th2[0]:.6g} -> {th2[-1]:.6g} rad (pinned: "
+                    f"{a.get('theta2_pinned')}), from floquet step {a.get('floquet_step')}; "
+                    f"stopped: {a.get('stop_reason')}")
+            marks = (f"folds {a.get('folds')}, period doublings {a.get('period_doublings')}, "
+                     f"through +1 {a.get('through_plus_one')}, Neimark-Sacker "
+                     f"{a.get('neimark_sacker')}; stable at {int(ds['stable'].sum())} of "
+                     f"{v.size} points")
+        else:
+            lead = np.abs(lam[:, 0])
+            head = gait_line(a)
+            marks = f"folds {a.get('folds')}, period doublings {a.get('period_doublings')}"
+        return [head,
+                f"{v.size} points, {a.get('parameter')} {v[0]:.8g} -> {v[-1]:.8g} "
+                f"{a.get('parameter_units')}; max residual {float(np.nanmax(ds['residual'])):.2g}",
+                f"dtheta1 {float(ds['dtheta1'][0]):.8g} -> {float(ds['dtheta1'][-1]):.8g}, dtheta2 "
+                f"{float(ds['dtheta2'][0]):.8g} -> {float(ds['dtheta2'][-1]):.8g} rad s-1",
+                f"leading |lambda| {lead[0]:.6g} -> {lead[-1]:.6g}; " + marks]

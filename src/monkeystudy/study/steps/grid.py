@@ -1,0 +1,336 @@
+"""The ``grid`` step: the gait at every point of a (dtheta1, dtheta2) grid, the study's error map.
+
+Points run in blocks of consecutive points (C order), each saved as a shard on the pool and
+resumed; the consolidated dataset is streamed block by block, so memory stays flat as the grid
+grows. Points that provably cannot reach the swap are marked ``unreachable`` without
+integrating them (``skip_unreachable``).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Iterable, Iterator, Literal, Optional
+
+import numpy as np
+from pydantic import Field, model_validator
+
+from ...kernel.layout import STATUS_NAMES
+from ...simulate import evaluate_cycle_gaits, evaluate_gaits
+from .. import datasets as D
+from ..blocks import Block, Task, make_blocks
+from ..models import Axis, Name, Point, StrictModel
+from ..spec import GaitSpec
+from .base import Figure, StepContext, StepKind
+
+#: Variables of a horizontal gait's grid block, with their dtype in blocks, shards and datasets.
+HORIZONTAL_VARIABLES = {
+    "error": np.float64, "status": np.int8, "t_switch": np.float64, "t_motor": np.float64,
+    "t_end": np.float64, "steps": np.int32, "nfev": np.int32, "rejected": np.int32,
+}
+
+#: Variables of a sequence gait's grid block (``t_segment`` has a trailing dim ``segment``).
+SEQUENCE_VARIABLES = {
+    "error": np.float64, "status": np.int8, "t_end": np.float64, "t_segment": np.float64,
+    "x_advance": np.float64, "y_advance": np.float64, "steps": np.int32, "nfev": np.int32,
+    "rejected": np.int32,
+}
+
+
+class GridStep(StrictModel):
+    """Evaluate the gait at every combination of the axes, or at an explicit list of points."""
+
+    name: Name
+    kind: Literal["grid"]
+    dtheta1: Optional[Axis] = Field(None, description="axis of initial dtheta1 [rad s-1]")
+    dtheta2: Optional[Axis] = Field(None, description="axis of initial dtheta2 [rad s-1]")
+    points: Optional[list[Point]] = Field(None, min_length=1,
+                                          description="explicit (dtheta1, dtheta2) points "
+                                                      "[rad s-1], instead of the axes")
+    block_size: Optional[int] = Field(
+        None, ge=1, le=1_000_000,
+        description="points per block (unit of work and of resume); default: about 64 blocks "
+                    "per grid, 512 to 8192 points each (fewer, larger shards on big grids)")
+    skip_unreachable: bool = Field(True, description="mark points that provably cannot reach "
+                                                     "the swap without integrating them")
+
+    @model_validator(mode="after")
+    def _axes_or_points(self) -> "GridStep":
+        axes = (self.dtheta1 is not None, self.dtheta2 is not None)
+        if self.points is not None:
+            if any(axes):
+                raise ValueError("give either the axes dtheta1 and dtheta2 or points, not both")
+        elif not all(axes):
+            raise ValueError("give both axes dtheta1 and dtheta2 (or points)")
+        return self
+
+    @property
+    def n_points(self) -> int:
+        if self.points is not None:
+            return len(self.points)
+        return self.dtheta1.num * self.dtheta2.num
+
+    @property
+    def points_per_block(self) -> int:
+        """``block_size`` if given, else ~64 blocks of 512..8192 points. Depends on the study
+        alone (never on the worker count), so block ids stay deterministic."""
+        if self.block_size is not None:
+            return self.block_size
+        return int(min(8192, max(512, -(-self.n_points // 64))))
+
+    @property
+    def n_blocks(self) -> int:
+        return -(-self.n_points // self.points_per_block)
+
+
+def grid_variables(spec: GaitSpec) -> dict[str, type]:
+    """The variables (name -> dtype) of the spec's grid blocks."""
+    return HORIZONTAL_VARIABLES if spec.sequence is None else SEQUENCE_VARIABLES
+
+
+def axes_points(a1: np.ndarray, a2: np.ndarray, lo: int, hi: int) -> np.ndarray:
+    """Points ``[hi - lo, 2]`` at flat C-order indices ``lo..hi`` of the grid ``a1 x a2``."""
+    idx = np.arange(lo, hi)
+    i, j = np.divmod(idx, a2.size)
+    return np.stack([a1[i], a2[j]], axis=1)
+
+
+def grid_points(step: GridStep, lo: int = 0, hi: int | None = None) -> np.ndarray:
+    """Points ``[n, 2]`` (dtheta1, dtheta2) at flat indices ``lo..hi`` of a grid step."""
+    hi = step.n_points if hi is None else hi
+    if step.points is not None:
+        return np.array(step.points[lo:hi], dtype=np.float64).reshape(-1, 2)
+    return axes_points(step.dtheta1.values(), step.dtheta2.values(), lo, hi)
+
+
+# --- tasks (run on the workers) ------------------------------------------------------------------
+def grid_block(spec: GaitSpec, points: np.ndarray, skip_unreachable: bool = True
+               ) -> dict[str, np.ndarray]:
+    """Evaluate the gait at ``points[n, 2]`` (dtheta1, dtheta2) [rad s-1].
+
+    Returns the arrays of :func:`grid_variables` (``error`` NaN unless status is ok): the
+    horizontal gait's, or one cycle of the spec's sequence gait.
+    """
+    if spec.sequence is None:
+        r = evaluate_gaits(points, robot=spec.robot, torque=spec.torque, tick=spec.tick,
+                           integrator=spec.integrator, skip_unreachable=skip_unreachable)
+    else:
+        # no energy bound here: a sequence's motor may act before its swap
+        r = evaluate_cycle_gaits(points, spec.sequence, robot=spec.robot,
+                                 integrator=spec.integrator)
+    return {name: np.asarray(r[name]).astype(dt, copy=False)
+            for name, dt in grid_variables(spec).items()}
+
+
+def grid_axes_block(spec: GaitSpec, a1: np.ndarray, a2: np.ndarray, lo: int, hi: int,
+                    skip_unreachable: bool = True) -> dict[str, np.ndarray]:
+    """:func:`grid_block` at flat indices ``lo..hi`` of the grid ``a1 x a2`` (the points are
+    made on the worker: a task carries the two axes, not its points)."""
+    return grid_block(spec, axes_points(a1, a2, lo, hi), skip_unreachable)
+
+
+# --- the dataset ---------------------------------------------------------------------------------
+def write_grid(path: Path, attrs: dict, *, axes: tuple[np.ndarray, np.ndarray] | None = None,
+               points: np.ndarray | None = None,
+               blocks: Iterable[tuple[int, dict[str, np.ndarray]]] = (),
+               variables: dict | None = None, n_segments: int = 0) -> dict:
+    """Write a grid dataset, streaming ``blocks`` of ``(first flat index, arrays)``.
+
+    ``axes`` (dtheta1, dtheta2 values) give dims ``dtheta1 x dtheta2`` (flat index in C order);
+    ``points[n, 2]`` give dim ``point``. ``variables`` (name -> dtype) default to the
+    horizontal gait's; ``n_segments > 0`` (a sequence gait) adds dim ``segment`` for
+    ``t_segment``. Returns ``{"skipped_fraction", "n_points"}``.
+    """
+    variables = HORIZONTAL_VARIABLES if variables is None else variables
+    sequence = n_segments > 0
+    with D.atomic_netcdf(path) as nc:
+        if axes is not None:
+            a1, a2 = (np.asarray(a, np.float64) for a in axes)
+            nc.createDimension("dtheta1", a1.size)
+            nc.createDimension("dtheta2", a2.size)
+            D.add_variable(nc, "dtheta1", ("dtheta1",), np.float64, D.DTHETA1, a1)
+            D.add_variable(nc, "dtheta2", ("dtheta2",), np.float64, D.DTHETA2, a2)
+            dims, shape, coords = ("dtheta1", "dtheta2"), (a1.size, a2.size), ""
+        else:
+            pts = np.asarray(points, np.float64).reshape(-1, 2)
+            nc.createDimension("point", pts.shape[0])
+            D.add_variable(nc, "point", ("point",), np.int32, {"long_name": "grid point index",
+                                                     "units": "1"}, np.arange(pts.shape[0]))
+            D.add_variable(nc, "dtheta1", ("point",), np.float64, D.DTHETA1, pts[:, 0])
+            D.add_variable(nc, "dtheta2", ("point",), np.float64, D.DTHETA2, pts[:, 1])
+            dims, shape, coords = ("point",), (pts.shape[0],), "dtheta1 dtheta2"
+        n = int(np.prod(shape))
+        if sequence:
+            D.add_index_coord(nc, "segment", n_segments, D.SEGMENT_NOTE)
+        vs = {name: D.add_variable(nc, name, dims + (("segment",) if name == "t_segment" else ()), dt,
+                         D.variable_attrs(name, sequence), coordinates=coords)
+              for name, dt in variables.items()}
+        written = skipped = 0
+        for lo, arrays in coalesce(blocks, variables):
+            for name, v in vs.items():
+                write_flat(v, shape, lo, arrays[name])
+            written += len(arrays["status"])
+            skipped += int(np.count_nonzero(arrays["status"] == STATUS_NAMES.index("unreachable")))
+        if written != n:
+            raise RuntimeError(f"grid {path.name}: {written} of {n} points written")
+        frac = skipped / n if n else 0.0
+        D.set_global_attrs(nc, dict(attrs, skipped_fraction=frac, n_points=n))
+    return {"skipped_fraction": frac, "n_points": n}
+
+
+def coalesce(blocks: Iterable[tuple[int, dict[str, np.ndarray]]], variables: dict,
+              limit: int | None = None) -> Iterator[tuple[int, dict[str, np.ndarray]]]:
+    """Merge runs of contiguous blocks ``(first flat index, arrays)`` into pieces of at most
+    ``limit`` points (default :data:`~monkeystudy.study.datasets.WRITE_BUFFER_POINTS`; a larger block is passed on
+    alone, never split), cast to the variables' dtypes."""
+    limit = D.WRITE_BUFFER_POINTS if limit is None else limit
+    pending: list[dict[str, np.ndarray]] = []
+    start = nxt = 0
+    count = 0
+
+    def merged():
+        return start, {name: np.concatenate([np.asarray(a[name], dt) for a in pending])
+                       if len(pending) > 1 else np.asarray(pending[0][name], dt)
+                       for name, dt in variables.items()}
+
+    for lo, arrays in blocks:
+        m = len(arrays["status"])
+        if pending and (lo != nxt or count + m > limit):
+            yield merged()
+            pending, count = [], 0
+        if not pending:
+            start = lo
+        pending.append(arrays)
+        count += m
+        nxt = lo + m
+    if pending:
+        yield merged()
+
+
+def write_flat(var, shape: tuple, lo: int, data: np.ndarray) -> None:
+    """Write ``data[m, ...]`` at flat (C-order) point indices ``lo..lo+m`` of a variable over
+    ``shape`` (1-D or 2-D) points, with any trailing dims of ``data`` (e.g. ``segment``)."""
+    count = data.shape[0]
+    if len(shape) == 1:
+        var[lo:lo + count] = data
+        return
+    n2 = shape[1]
+    trail = data.shape[1:]
+    pos, k = lo, 0
+    while k < count:
+        i, j = divmod(pos, n2)
+        if j == 0 and count - k >= n2:            # whole rows at once
+            rows = (count - k) // n2
+            var[i:i + rows, ...] = data[k:k + rows * n2].reshape((rows, n2) + trail)
+            pos += rows * n2
+            k += rows * n2
+        else:                                     # a partial row
+            m = min(n2 - j, count - k)
+            var[i, j:j + m, ...] = data[k:k + m]
+            pos += m
+            k += m
+
+
+def read_grid_error(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(error, dtheta1, dtheta2)`` of a grid dataset (2-D for axes, 1-D for points)."""
+    v = D.read_variables(path, ("error", "dtheta1", "dtheta2"))
+    return v["error"], v["dtheta1"], v["dtheta2"]
+
+
+def best_grid_points(error: np.ndarray, d1: np.ndarray, d2: np.ndarray, k: int) -> np.ndarray:
+    """The ``k`` best starts of a grid, ``[k, 2]``: local minima of the error map (no finite
+    8-neighbour lower), lowest first, then the lowest remaining points; ties by flat index."""
+    e = np.asarray(error, np.float64)
+    finite = np.isfinite(e)
+    if int(finite.sum()) < k:
+        raise ValueError(f"the grid has {int(finite.sum())} points with an error value, "
+                         f"{k} requested")
+    if e.ndim == 2:
+        big = np.where(finite, e, np.inf)
+        pad = np.pad(big, 1, constant_values=np.inf)
+        local = finite.copy()
+        n1, n2 = e.shape
+        for di in (-1, 0, 1):
+            for dj in (-1, 0, 1):
+                if di or dj:
+                    local &= big <= pad[1 + di:1 + di + n1, 1 + dj:1 + dj + n2]
+        g1, g2 = np.meshgrid(d1, d2, indexing="ij")
+        pts = np.stack([g1.ravel(), g2.ravel()], axis=1)
+        local = local.ravel()
+    else:
+        pts = np.stack([d1, d2], axis=1)
+        local = np.zeros(e.size, bool)
+    flat = e.ravel()
+    idx = np.arange(flat.size)
+    fin = np.isfinite(flat)
+    order_local = idx[local][np.lexsort((idx[local], flat[local]))]
+    rest = idx[fin & ~local]
+    order_rest = rest[np.lexsort((rest, flat[rest]))]
+    chosen = np.concatenate([order_local, order_rest])[:k]
+    return pts[chosen]
+
+
+# --- the kind ------------------------------------------------------------------------------------
+class GridKind(StepKind):
+    name = "grid"
+    model = GridStep
+    gait_kinds = ("horizontal", "sequence")
+    unit = "blocks"
+    figures = (
+        Figure("surface", "sqrt(error) surface",
+               "The study's figure 3: sqrt(error) over the grid; the flat floor is where no "
+               "gait reaches the swap. Look for the valley along the floor's border."),
+        Figure("map", "error map with minima",
+               "The study's figures 4, 9 and 10: the error truncated at 5, the refined minima "
+               "marked. Dark is a small error: the gaits lie in the dark valley."),
+    )
+
+    def blocks(self, step: GridStep) -> list[Block]:
+        return make_blocks(step.n_points, step.points_per_block)
+
+    def block_summary(self, step: GridStep) -> str:
+        return f"{step.n_points} points, {step.points_per_block} per block"
+
+    def n_tasks(self, step: GridStep, gait_kind: str) -> int:
+        return step.n_blocks
+
+    def needs_runs(self, step) -> bool:
+        return False
+
+    def start(self, ctx: StepContext) -> list[Task]:
+        st = ctx.step
+        skip = st.skip_unreachable
+        if st.points is not None:
+            pts = grid_points(st)
+            return [Task(b, grid_block, (ctx.spec, pts[b.lo:b.hi], skip))
+                    for b in ctx.todo_blocks()]
+        a1, a2 = st.dtheta1.values(), st.dtheta2.values()
+        return [Task(b, grid_axes_block, (ctx.spec, a1, a2, b.lo, b.hi, skip))
+                for b in ctx.todo_blocks()]
+
+    def finish(self, ctx: StepContext, attrs: dict) -> str:
+        st = ctx.step
+        attrs["block_size"] = st.points_per_block
+        where = ({"points": grid_points(st)} if st.points is not None else
+                 {"axes": (st.dtheta1.values(), st.dtheta2.values())})
+        blocks = ((b.lo, ctx.block_arrays(b)) for b in ctx.blocks)
+        info = write_grid(ctx.path, attrs, blocks=blocks, variables=grid_variables(ctx.spec),
+                          n_segments=ctx.spec.n_cycle_segments, **where)
+        return f"{info['n_points']} points, skipped_fraction {info['skipped_fraction']:.3f}"
+
+    def describe(self, ds) -> list[str]:
+        a = ds.attrs
+        lines = [f"points: {int(ds['status'].size)}, skipped_fraction "
+                 f"{float(a.get('skipped_fraction', np.nan)):.3f}",
+                 f"status: {D.status_counts(ds['status'].values)}"]
+        err = ds["error"].values
+        if np.isfinite(err).any():
+            k = int(np.nanargmin(err))
+            if ds["error"].ndim == 2:
+                i, j = np.unravel_index(k, err.shape)
+                d1, d2 = float(ds["dtheta1"][i]), float(ds["dtheta2"][j])
+            else:
+                d1, d2 = float(ds["dtheta1"][k]), float(ds["dtheta2"][k])
+            lines.append(f"least error {np.nanmin(err):.4g} at dtheta1 = {d1:.6g}, "
+                         f"dtheta2 = {d2:.6g} rad s-1")
+        else:
+            lines.append("no point with an error value")
+        return lines

@@ -1,0 +1,277 @@
+"""The ``refine`` step: Nelder-Mead on the gait error from one start, or from the k best minima
+of a grid's error map, every iterate recorded (the study's fminsearch)."""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Annotated, Any, Literal, Optional, Union
+
+import numpy as np
+from pydantic import Discriminator, Field, Tag
+
+from ...analysis.search import DEFAULT_PENALTY, FMINSEARCH_TOL, refine_gait
+from ...kernel.layout import STATUS_NAMES
+from ...simulate import evaluate_cycle_gaits, evaluate_gaits
+from .. import datasets as D
+from ..blocks import Task
+from ..errors import RunFailed
+from ..models import Name, Point, StrictModel
+from ..spec import GaitSpec
+from .base import Figure, StepContext, StepKind, no_earlier
+from .grid import GridStep, best_grid_points, read_grid_error
+
+
+class BestOfGrid(StrictModel):
+    """Start from the ``best`` lowest-error minima of an earlier grid step."""
+
+    from_: Name = Field(alias="from", description="an earlier grid step")
+    best: int = Field(1, ge=1, le=1000, description="number of grid minima to refine "
+                                                    "(one refinement each, dim 'start')")
+
+
+def _start_tag(v: Any) -> str | None:
+    if isinstance(v, list):
+        return "point"
+    if isinstance(v, (dict, BestOfGrid)):
+        return "grid"
+    return None
+
+
+StartSpec = Annotated[
+    Union[Annotated[Point, Tag("point")], Annotated[BestOfGrid, Tag("grid")]],
+    Discriminator(_start_tag, custom_error_type="start_type",
+                  custom_error_message="must be a point [dtheta1, dtheta2] or "
+                                       "{from: <grid step>, best: k}"),
+]
+
+
+class RefineStep(StrictModel):
+    """Nelder-Mead on the gait error (scipy.optimize.minimize), every iterate recorded."""
+
+    name: Name
+    kind: Literal["refine"]
+    method: Literal["nelder-mead"] = Field("nelder-mead", description="the minimizer")
+    start: StartSpec = Field(description="[dtheta1, dtheta2] [rad s-1], or {from: <grid "
+                                         "step>, best: k}")
+    xatol: float = Field(FMINSEARCH_TOL, gt=0, description="absolute tolerance on the point "
+                                                           "[rad s-1] (fminsearch TolX)")
+    fatol: float = Field(FMINSEARCH_TOL, gt=0, description="absolute tolerance on the error "
+                                                           "[1] (fminsearch TolFun)")
+    maxiter: Optional[int] = Field(None, ge=1, description="iteration limit (default 400)")
+    maxfev: Optional[int] = Field(None, ge=1, description="evaluation limit (default 400)")
+    penalty: float = Field(DEFAULT_PENALTY, gt=0,
+                           description="objective value where the gait fails [1]")
+
+    @property
+    def n_starts(self) -> int:
+        """How many refinements the step runs (one per start)."""
+        return self.start.best if isinstance(self.start, BestOfGrid) else 1
+
+
+# --- tasks (run on the workers) ------------------------------------------------------------------
+def refine_task(spec: GaitSpec, start: tuple[float, float], *, xatol: float, fatol: float,
+                maxiter: int | None = None, maxfev: int | None = None,
+                penalty: float = DEFAULT_PENALTY) -> dict[str, Any]:
+    """:func:`~monkeystudy.analysis.search.refine_gait` on the spec's gait from ``start``
+    (dtheta1, dtheta2) [rad s-1]: the horizontal gait (exact or ticked, unreachable starts
+    skipped) or one cycle of the spec's sequence gait."""
+    seq = spec.sequence
+
+    def gait(x: tuple[float, float]) -> dict[str, Any]:
+        if seq is None:
+            r = evaluate_gaits(np.array([x]), robot=spec.robot, torque=spec.torque,
+                               tick=spec.tick, integrator=spec.integrator,
+                               skip_unreachable=True)
+            keys = ("error", "status", "t_switch", "t_motor", "t_end")
+        else:
+            r = evaluate_cycle_gaits(np.array([x]), seq, robot=spec.robot,
+                                     integrator=spec.integrator)
+            keys = ("error", "status", "t_end", "t_segment", "x_advance", "y_advance")
+        return {k: (int(r[k][0]) if k == "status" else
+                    r[k][0].copy() if k == "t_segment" else float(r[k][0])) for k in keys}
+
+    return refine_gait(gait, start, xatol=xatol, fatol=fatol, maxiter=maxiter, maxfev=maxfev,
+                       penalty=penalty)
+
+
+# --- the dataset ---------------------------------------------------------------------------------
+def write_refine(path: Path, attrs: dict, results: list[dict], multi: bool) -> None:
+    """Write a refine dataset from :func:`refine_task` results.
+
+    ``multi`` (a ``{from: grid, best: k}`` start): every variable gains a leading dim ``start``
+    and the iterations are padded with NaN (``iterate_nfev`` with -1); ``n_iterations(start)``
+    says how many are real.
+    """
+    n_it = max(len(r["iterate_error"]) for r in results)
+    with D.atomic_netcdf(path) as nc:
+        nc.createDimension("iteration", n_it)
+        sdim: tuple = ()
+        if multi:
+            nc.createDimension("start", len(results))
+            sdim = ("start",)
+            D.add_variable(nc, "start", ("start",), np.int32,
+                 {"long_name": "start index (grid minima, lowest error first)", "units": "1"},
+                 np.arange(len(results)))
+        D.add_variable(nc, "iteration", ("iteration",), np.int32,
+             {"long_name": "Nelder-Mead iteration (0: the start)", "units": "1"},
+             np.arange(n_it))
+
+        def col(key, dtype=np.float64, index=None):
+            vals = [r[key] if index is None else r[key][index] for r in results]
+            arr = np.array(vals, dtype=dtype)
+            return arr if multi else arr[0]
+
+        D.add_variable(nc, "dtheta1", sdim, np.float64, dict(D.DTHETA1, long_name="refined " +
+                                                    D.DTHETA1["long_name"]), col("x", index=0))
+        D.add_variable(nc, "dtheta2", sdim, np.float64, dict(D.DTHETA2, long_name="refined " +
+                                                    D.DTHETA2["long_name"]), col("x", index=1))
+        sequence = "t_segment" in results[0]
+        if sequence:
+            D.add_index_coord(nc, "segment", len(results[0]["t_segment"]), D.SEGMENT_NOTE)
+            D.add_variable(nc, "t_segment", sdim + ("segment",), np.float64, D.GAIT_ATTRS["t_segment"],
+                 col("t_segment"))
+        keys = (("error", "t_end", "x_advance", "y_advance") if sequence
+                else ("error", "t_switch", "t_motor", "t_end"))
+        for key in keys:
+            D.add_variable(nc, key, sdim, np.float64, D.variable_attrs(key, sequence), col(key))
+        D.add_variable(nc, "status", sdim, np.int8, D.STATUS_ATTRS, col("status", np.int8))
+        D.add_variable(nc, "start_dtheta1", sdim, np.float64, dict(D.DTHETA1, long_name="start of the "
+                                                          "refinement, dtheta1"),
+             col("start", index=0))
+        D.add_variable(nc, "start_dtheta2", sdim, np.float64, dict(D.DTHETA2, long_name="start of the "
+                                                          "refinement, dtheta2"),
+             col("start", index=1))
+        D.add_variable(nc, "converged", sdim, np.int8, {"long_name": "Nelder-Mead met xatol and fatol "
+                                                           "(1) or hit a limit (0)",
+                                               "units": "1"}, col("converged", np.int8))
+        D.add_variable(nc, "nit", sdim, np.int32, {"long_name": "Nelder-Mead iterations", "units": "1"},
+             col("nit", np.int32))
+        D.add_variable(nc, "n_iterations", sdim, np.int32, {"long_name": "recorded iterates (start "
+                                                               "included)", "units": "1"},
+             np.array([len(r["iterate_error"]) for r in results], np.int32)
+             if multi else len(results[0]["iterate_error"]))
+        idim = sdim + ("iteration",)
+
+        def padded(key, index=None, fill=np.nan, dtype=np.float64):
+            arr = np.full((len(results), n_it), fill, dtype=dtype)
+            for i, r in enumerate(results):
+                v = r[key] if index is None else r[key][:, index]
+                arr[i, :len(v)] = v
+            return arr if multi else arr[0]
+
+        D.add_variable(nc, "iterate_dtheta1", idim, np.float64, dict(D.DTHETA1, long_name="best vertex per "
+                                                            "iteration, dtheta1"),
+             padded("iterate_x", 0))
+        D.add_variable(nc, "iterate_dtheta2", idim, np.float64, dict(D.DTHETA2, long_name="best vertex per "
+                                                            "iteration, dtheta2"),
+             padded("iterate_x", 1))
+        D.add_variable(nc, "iterate_error", idim, np.float64,
+             {"long_name": "gait error of the best vertex per iteration (NaN: gait failed)",
+              "units": "1"}, padded("iterate_error"))
+        D.add_variable(nc, "iterate_nfev", idim, np.int32,
+             {"long_name": "objective evaluations so far (-1: padding)", "units": "1"},
+             padded("iterate_nfev", fill=-1, dtype=np.int32))
+        conv = [r["converged"] for r in results]
+        msgs = [r["message"] for r in results]
+        D.set_global_attrs(nc, dict(
+            attrs, converged=int(all(conv)),
+            message=json.dumps(msgs) if multi else msgs[0],
+            nfev=json.dumps([r["nfev"] for r in results]) if multi else results[0]["nfev"],
+        ))
+
+
+def read_refined(path: Path, start_index: int | None = None) -> tuple[dict, int]:
+    """The refined gait of a refine dataset: ``({dtheta1, dtheta2, t_switch, t_motor, t_end,
+    status}, start index)``; for a multi-start dataset the given start or the lowest error."""
+    keys = ("dtheta1", "dtheta2", "t_switch", "t_motor", "t_end", "error", "status")
+    vals = D.read_variables(path, keys)       # a sequence gait's has no t_switch, t_motor
+    if start_index is None:
+        err = np.where(np.isfinite(vals["error"]), vals["error"], np.inf)
+        start_index = int(np.argmin(err))
+    g = {k: float(v[start_index]) for k, v in vals.items()}
+    g["status"] = int(g["status"])
+    return g, start_index
+
+
+# --- the kind ------------------------------------------------------------------------------------
+class RefineKind(StepKind):
+    name = "refine"
+    model = RefineStep
+    gait_kinds = ("horizontal", "sequence")
+    unit = "refinements"
+    figures = (
+        Figure("convergence", "Nelder-Mead convergence",
+               "The best vertex's error per Nelder-Mead iteration, one line per start: a line "
+               "that flattens above the tolerance stalled; one that ends at the iteration "
+               "limit did not converge."),
+    )
+
+    def deps(self, step: RefineStep) -> tuple[str, ...]:
+        return (step.start.from_,) if isinstance(step.start, BestOfGrid) else ()
+
+    def check(self, study, index, step: RefineStep, seen) -> list:
+        if not isinstance(step.start, BestOfGrid):
+            return []
+        ref = seen.get(step.start.from_)
+        if not isinstance(ref, GridStep):
+            return [(("steps", index, "start", "from"), no_earlier(step.start.from_, "grid", ref))]
+        if step.start.best > ref.n_points:
+            return [(("steps", index, "start", "best"),
+                     f"must be <= the {ref.n_points} points of {ref.name!r}")]
+        return []
+
+    def n_tasks(self, step: RefineStep, gait_kind: str) -> int:
+        return step.n_starts
+
+    def needs_runs(self, step) -> bool:
+        return False
+
+    def start(self, ctx: StepContext) -> list[Task]:
+        st = ctx.step
+        if isinstance(st.start, BestOfGrid):
+            err, d1, d2 = read_grid_error(ctx.deps[st.start.from_].path)
+            try:
+                starts = best_grid_points(err, d1, d2, st.start.best)
+            except ValueError as exc:
+                raise RunFailed(f"{ctx.name}: {exc}") from None
+        else:
+            starts = np.array([st.start], dtype=np.float64)
+        kw = {"xatol": st.xatol, "fatol": st.fatol, "maxiter": st.maxiter,
+              "maxfev": st.maxfev, "penalty": st.penalty}
+        return [Task(i, refine_task, (ctx.spec, (float(x0[0]), float(x0[1]))), kw)
+                for i, x0 in enumerate(starts)]
+
+    def finish(self, ctx: StepContext, attrs: dict) -> str:
+        st = ctx.step
+        results = ctx.task_results()
+        multi = isinstance(st.start, BestOfGrid)
+        attrs.update(method=st.method, xatol=st.xatol, fatol=st.fatol,
+                     maxiter=st.maxiter if st.maxiter is not None else -1,
+                     maxfev=st.maxfev if st.maxfev is not None else -1,
+                     penalty=st.penalty,
+                     start=st.start.model_dump(mode="json", by_alias=True)
+                     if multi else list(st.start))
+        write_refine(ctx.path, attrs, results, multi)
+        best = min(results, key=lambda r: r["error"] if math.isfinite(r["error"]) else math.inf)
+        return (f"error {best['error']:.3g} at ({best['x'][0]:.6g}, {best['x'][1]:.6g}), "
+                f"{sum(r['nit'] for r in results)} iterations")
+
+    def describe(self, ds) -> list[str]:
+        a = ds.attrs
+        lines = []
+        d1, d2 = np.atleast_1d(ds["dtheta1"].values), np.atleast_1d(ds["dtheta2"].values)
+        err = np.atleast_1d(ds["error"].values)
+        st = np.atleast_1d(ds["status"].values)
+        conv = np.atleast_1d(ds["converged"].values)
+        nit = np.atleast_1d(ds["nit"].values)
+        for k in range(d1.size):
+            lines.append(f"start {k}: ({float(np.atleast_1d(ds['start_dtheta1'].values)[k]):.6g}, "
+                         f"{float(np.atleast_1d(ds['start_dtheta2'].values)[k]):.6g}) -> "
+                         f"({d1[k]:.6g}, {d2[k]:.6g}) rad s-1, error {err[k]:.4g}, "
+                         f"{STATUS_NAMES[int(st[k])]}, {'converged' if conv[k] else 'stopped'}"
+                         f" after {int(nit[k])} iterations")
+        lines.append(f"t_switch {np.atleast_1d(ds['t_switch'].values)[0]:.6g} s, t_motor "
+                     f"{np.atleast_1d(ds['t_motor'].values)[0]:.6g} s (first start)")
+        lines.append(f"message: {a.get('message', '')}")
+        return lines

@@ -1,0 +1,390 @@
+"""The ``shoot`` step: exact fixed points of the horizontal gait by Newton shooting, from given
+starts or from a refine step's result (:mod:`monkeystudy.analysis.shooting`).
+
+Later steps (floquet, tick_sweep, basin, continuation) take their gait from a shoot step's
+dataset: :func:`shoot_gait` picks the lowest-error usable solution (or ``solution: i``).
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any, Literal, Optional
+
+import numpy as np
+from pydantic import Field, model_validator
+
+from ...analysis.sections import open_loop_return_map, section_state
+from ...analysis.shooting import shoot_grazing, shoot_horizontal
+from ...controllers import OpenLoop
+from ...kernel import layout as L
+from ...kernel.layout import STATUS_NAMES
+from ...simulate import evaluate_horizontal_gait, run_controller
+from .. import datasets as D
+from ..blocks import Task
+from ..errors import RunFailed
+from ..models import Name, Point, StrictModel
+from ..spec import GaitSpec
+from .base import Figure, StepContext, StepKind, no_earlier
+from .refine import RefineStep, read_refined
+
+#: shoot ``method`` flag values (dataset variable ``method``)
+METHOD_GAUSS_NEWTON, METHOD_GRAZING = 0, 1
+METHOD_NAMES = ("gauss_newton", "grazing")
+
+#: shoot ``method`` flags
+SHOOT_METHOD_ATTRS = {
+    "long_name": "how the fixed point was found", "units": "1",
+    "flag_values": np.array([0, 1], dtype=np.int8),
+    "flag_meanings": "gauss_newton grazing",
+}
+
+
+class ShootStep(StrictModel):
+    """Exact fixed points of the horizontal gait (Newton shooting, ``monkeystudy.analysis``).
+
+    ``grazing``: Newton on (dtheta1, dtheta2, t) for end B at end A's height at rest (the
+    collisionless swap on the grazing border; an exact, motorless fixed point for mirror-image
+    links), from the swap time of the gait at the start (exact events). ``gauss_newton``:
+    Gauss-Newton on the gait's repeatability residual. One task per start; solutions closer
+    than ``dedup_tol`` are merged (the lower error kept).
+    """
+
+    name: Name
+    kind: Literal["shoot"]
+    starts: Optional[list[Point]] = Field(None, min_length=1,
+                                          description="start points (dtheta1, dtheta2) "
+                                                      "[rad s-1]")
+    from_: Optional[Name] = Field(None, alias="from",
+                                  description="an earlier refine step: its lowest-error "
+                                              "result is the start (instead of starts)")
+    method: Literal["grazing", "gauss_newton", "both"] = Field(
+        "both", description="grazing (collisionless swap), gauss_newton (gait residual) or "
+                            "both from every start")
+    dedup_tol: float = Field(1e-6, gt=0, description="solutions closer than this in "
+                                                     "(dtheta1, dtheta2) are one [rad s-1]")
+    tol: float = Field(1e-14, gt=0, lt=1.0, description="Newton stops when the residual "
+                                                        "norm or the step falls below this "
+                                                        "[1]")
+    max_iter: int = Field(40, ge=1, le=1000, description="Newton iteration limit")
+
+    @model_validator(mode="after")
+    def _starts_or_from(self) -> "ShootStep":
+        if (self.starts is None) == (self.from_ is None):
+            raise ValueError("give either starts: [[dtheta1, dtheta2], ...] or from: <refine "
+                             "step>, not both" if self.starts is not None else
+                             "give starts: [[dtheta1, dtheta2], ...] or from: <refine step>")
+        return self
+
+
+# --- tasks (run on the workers) ------------------------------------------------------------------
+def replay_torque(spec: GaitSpec, gait: dict) -> float:
+    """Motor torque [N m] of an open-loop replay of ``gait``: 0 if it has no motor phase."""
+    return 0.0 if float(gait["t_motor"]) == 0.0 else float(spec.torque)
+
+
+def _norm_or_nan(v) -> float:
+    v = np.asarray(v, float)
+    return float(np.linalg.norm(v)) if np.all(np.isfinite(v)) else math.nan
+
+
+# --- shoot -----------------------------------------------------------------------------------
+def open_loop_cycle_times(z, t_switch, t_motor, torque, robot, integ) -> tuple[float, int]:
+    """``(t_end [s], status)`` of one open-loop cycle from section state ``z``."""
+    res = run_controller(OpenLoop(t_switch, t_motor, torque, clock="reset_at_vertical"),
+                         section_state(z), robot=robot, integrator=integ, cycles=1,
+                         log_capacity=16)
+    return float(res.segment_times[2]), int(res.status)
+
+
+def shoot_task(spec: GaitSpec, start: tuple[float, float], *, method: str = "both",
+               tol: float = 1e-14, max_iter: int = 40) -> dict[str, Any]:
+    """Shoot for exact gaits from one ``start`` (dtheta1, dtheta2) [rad s-1].
+
+    Returns ``{"start", "candidates": [...], "failures": [...]}``; a candidate is a dict
+    ``dtheta1, dtheta2, t_switch, t_motor, t_end, error, residual_norm, converged, method,
+    status, history, message``. ``grazing``: :func:`~monkeystudy.analysis.shooting.shoot_grazing` from
+    the swap time of the gait at the start (exact events); its error is that of the open-loop
+    return map with no motor, ``|P(z) - z|^2``, ``t_motor = 0``. ``gauss_newton``:
+    :func:`~monkeystudy.analysis.shooting.shoot_horizontal` (its error, times and history as found).
+    """
+    robot, integ = spec.robot, spec.integrator
+    torque = spec.torque
+    d1, d2 = float(start[0]), float(start[1])
+    cands: list[dict] = []
+    failures: list[str] = []
+    if method in ("grazing", "both"):
+        g = evaluate_horizontal_gait(d1, d2, robot=robot, torque=torque, tick=0.0,
+                                     integrator=integ)
+        if g.status != L.ST_OK or not math.isfinite(g.t_switch):
+            failures.append(f"grazing: no gait at the start (status "
+                            f"{L.STATUS_NAMES[int(g.status)]}), no swap time to start from")
+        else:
+            gr = shoot_grazing((d1, d2), g.t_switch, robot=robot, integrator=integ, tol=tol,
+                               max_iter=max_iter)
+            z = np.array([0.0, gr.dtheta1, gr.dtheta2])
+            if not np.all(np.isfinite(z)) or not math.isfinite(gr.t_switch):
+                failures.append("grazing: Newton diverged (non-finite iterate)")
+            else:
+                zn, st = open_loop_return_map(z, t_switch=gr.t_switch, t_motor=0.0, torque=0.0,
+                                              robot=robot, integrator=integ)
+                t_end, _ = open_loop_cycle_times(z, gr.t_switch, 0.0, 0.0, robot, integ)
+                ok = int(st) == L.ST_OK
+                cands.append({
+                    "dtheta1": gr.dtheta1, "dtheta2": gr.dtheta2, "t_switch": gr.t_switch,
+                    "t_motor": 0.0, "t_end": t_end if ok else math.nan,
+                    "error": float(np.sum((zn - z) ** 2)) if ok else math.nan,
+                    "residual_norm": _norm_or_nan(gr.residual),
+                    "converged": int(bool(gr.converged)), "method": METHOD_GRAZING,
+                    "status": int(st), "history": np.asarray(gr.history, float),
+                    "message": (f"grazing from t_guess {g.t_switch:.6g} s: "
+                                + ("converged" if gr.converged else "not converged")
+                                + f" after {len(gr.history) - 1} iterations"),
+                })
+    if method in ("gauss_newton", "both"):
+        sh = shoot_horizontal((d1, d2), robot=robot, torque=torque, integrator=integ, tol=tol,
+                              max_iter=max_iter)
+        if not (math.isfinite(sh.dtheta1) and math.isfinite(sh.dtheta2)) or not sh.history:
+            failures.append(f"gauss_newton: {sh.message} (status {sh.status.name.lower()})")
+        else:
+            cands.append({
+                "dtheta1": sh.dtheta1, "dtheta2": sh.dtheta2, "t_switch": sh.t_switch,
+                "t_motor": sh.t_motor, "t_end": sh.t_end, "error": sh.error,
+                "residual_norm": _norm_or_nan(sh.residual),
+                "converged": int(bool(sh.converged)), "method": METHOD_GAUSS_NEWTON,
+                "status": int(sh.status), "history": np.asarray(sh.history, float),
+                "message": f"gauss_newton: {sh.message} after {sh.iterations} iterations",
+            })
+    return {"start": (d1, d2), "candidates": cands, "failures": failures}
+
+
+def dedup_solutions(results: list[dict], tol: float) -> tuple[list[dict], list[str]]:
+    """Merge the candidates of :func:`shoot_task` results (one per start, in start order).
+
+    Candidates closer than ``tol`` [rad s-1] (Euclidean, in (dtheta1, dtheta2)) are one
+    solution: the lower error is kept (NaN counts as worst), with ``start_index`` the first
+    start that found it and ``starts`` every start that did; the kept solution's ``message``
+    notes each merged candidate (its swap time and error: the same rates may be reached with
+    another swap time, e.g. on a later swing). Returns ``(solutions, failure messages)``; the
+    order is that of discovery (start by start, grazing before gauss_newton).
+    """
+    sols: list[dict] = []
+    failures: list[str] = []
+
+    def key(c):
+        return c["error"] if math.isfinite(c["error"]) else math.inf
+
+    for i, r in enumerate(results):
+        failures += [f"start {i} {list(r['start'])}: {m}" for m in r["failures"]]
+        for c in r["candidates"]:
+            hit = None
+            for s in sols:
+                if math.hypot(s["dtheta1"] - c["dtheta1"], s["dtheta2"] - c["dtheta2"]) < tol:
+                    hit = s
+                    break
+            c = dict(c, found_by=i, merged=[])
+            if hit is None:
+                sols.append(dict(c, start_index=i, starts=[i]))
+                continue
+            if i not in hit["starts"]:
+                hit["starts"].append(i)
+            worse = hit if key(c) < key(hit) else c
+            notes = hit["merged"] + [
+                f"merged: start {worse['found_by']} {METHOD_NAMES[worse['method']]}, t_switch "
+                f"{worse['t_switch']:.6g} s, error {worse['error']:.3g}"]
+            if worse is hit:
+                keep = {k: hit[k] for k in ("start_index", "starts")}
+                hit.clear()
+                hit.update(c, **keep)
+            hit["merged"] = notes
+    for sol in sols:
+        sol["message"] = "; ".join([sol["message"]] + sol.pop("merged"))
+        del sol["found_by"]
+    return sols, failures
+
+
+# --- the dataset ---------------------------------------------------------------------------------
+def write_shoot(path: Path, attrs: dict, solutions: list[dict]) -> None:
+    """Write a shoot dataset from the deduplicated solutions of
+    :func:`dedup_solutions` (discovery order)."""
+    n = len(solutions)
+    n_it = max(1, max(len(s["history"]) for s in solutions))
+    with D.atomic_netcdf(path) as nc:
+        D.add_index_coord(nc, "solution", n, "solution index (discovery order)")
+        D.add_index_coord(nc, "iteration", n_it, "Newton iteration (0: the start)")
+
+        def col(key, dtype=np.float64):
+            return np.array([s[key] for s in solutions], dtype=dtype)
+
+        D.add_variable(nc, "dtheta1", ("solution",), np.float64, dict(D.DTHETA1, long_name="fixed point, "
+                                                             + D.DTHETA1["long_name"]),
+             col("dtheta1"))
+        D.add_variable(nc, "dtheta2", ("solution",), np.float64, dict(D.DTHETA2, long_name="fixed point, "
+                                                             + D.DTHETA2["long_name"]),
+             col("dtheta2"))
+        for key in ("t_switch", "t_motor", "t_end"):
+            D.add_variable(nc, key, ("solution",), np.float64, D.GAIT_ATTRS[key], col(key))
+        D.add_variable(nc, "error", ("solution",), np.float64,
+             {"long_name": "gait error of the solution (MODEL.md section 4): grazing: "
+                           "|P(z) - z|^2 of the motorless open-loop map; gauss_newton: the "
+                           "study's gait error", "units": "1"}, col("error"))
+        D.add_variable(nc, "residual_norm", ("solution",), np.float64,
+             {"long_name": "norm of the Newton residual at the solution (grazing: B's height "
+                           "and velocity; gauss_newton: the gait residual)", "units": "1"},
+             col("residual_norm"))
+        D.add_variable(nc, "converged", ("solution",), np.int8,
+             {"long_name": "Newton met its tolerance (1) or stopped (0)", "units": "1"},
+             col("converged", np.int8))
+        D.add_variable(nc, "method", ("solution",), np.int8, SHOOT_METHOD_ATTRS, col("method", np.int8))
+        D.add_variable(nc, "status", ("solution",), np.int8, dict(D.STATUS_ATTRS, long_name="outcome of "
+                                                        "the solution's gait cycle"),
+             col("status", np.int8))
+        D.add_variable(nc, "start_index", ("solution",), np.int32,
+             {"long_name": "first start that found the solution", "units": "1"},
+             col("start_index", np.int32))
+        hist = np.full((n, n_it), np.nan)
+        for i, s in enumerate(solutions):
+            hist[i, :len(s["history"])] = s["history"]
+        D.add_variable(nc, "history", ("solution", "iteration"), np.float64,
+             {"long_name": "residual norm per Newton iteration (NaN: padding)", "units": "1"},
+             hist)
+        D.set_global_attrs(nc, dict(attrs, message=[s["message"] for s in solutions],
+                               solution_starts=[s["starts"] for s in solutions]))
+
+
+def read_shoot(path: Path) -> list[dict]:
+    """The solutions of a shoot dataset: ``[{dtheta1, dtheta2, t_switch, t_motor, t_end,
+    error, residual_norm, converged, method, status}, ...]`` (solution order)."""
+    keys = ("dtheta1", "dtheta2", "t_switch", "t_motor", "t_end", "error", "residual_norm",
+            "converged", "method", "status")
+    vals = D.read_variables(path, keys)
+    n = len(vals["dtheta1"])
+    out = []
+    for i in range(n):
+        d = {k: float(vals[k][i]) for k in keys}
+        for k in ("converged", "method", "status"):
+            d[k] = int(d[k])
+        d["index"] = i
+        out.append(d)
+    return out
+
+
+# --- the gait later steps use --------------------------------------------------------------------
+def usable(g: dict, grazing: bool) -> bool:
+    keys = ("dtheta1", "dtheta2", "t_switch", "t_motor", "error")
+    ok = g["status"] == 0 and all(math.isfinite(g[k]) for k in keys)
+    if grazing:
+        ok = ok and g["method"] == METHOD_GRAZING and g["converged"] == 1
+    return ok
+
+
+def shoot_gait(ctx: StepContext, source: str, solution: int | None, grazing: bool = False) -> dict:
+    """The gait a step uses from shoot step ``source`` (its dataset must exist)."""
+    sols = read_shoot(ctx.deps[source].path)
+    what = "converged grazing gait" if grazing else "usable gait"
+    if solution is not None:
+        if solution >= len(sols):
+            raise RunFailed(f"{ctx.name}: solution {solution} requested, shoot step {source!r} "
+                            f"found {len(sols)}")
+        g = sols[solution]
+        if not usable(g, grazing):
+            raise RunFailed(f"{ctx.name}: solution {solution} of shoot step {source!r} is not a "
+                            f"{what} (status {g['status']}, error {g['error']:.3g}, method "
+                            f"{METHOD_NAMES[g['method']]}, converged {g['converged']})")
+        return g
+    good = [g for g in sols if usable(g, grazing)]
+    if not good:
+        found = "; ".join(f"{METHOD_NAMES[g['method']]} error {g['error']:.3g} status "
+                          f"{g['status']}" for g in sols) or "nothing"
+        raise RunFailed(f"{ctx.name}: shoot step {source!r} produced no {what} (found: {found})")
+    return min(good, key=lambda g: (g["error"], g["index"]))
+
+
+def gait_attrs(source: str, g: dict | None) -> dict:
+    if g is None:
+        return {"shoot_step": source or "", "solution": -1}
+    return {"shoot_step": source, "solution": int(g["index"]), "dtheta1": g["dtheta1"],
+            "dtheta2": g["dtheta2"], "t_switch": g["t_switch"], "t_motor": g["t_motor"],
+            "gait_error": g["error"], "gait_method": METHOD_NAMES[g["method"]]}
+
+
+def gait_line(a) -> str:
+    """One line naming the shoot gait a dataset's attributes say it used."""
+    if int(a.get("solution", -1)) < 0:
+        return "no shoot gait used"
+    return (f"gait: solution {a.get('solution')} of {a.get('shoot_step')!r} "
+            f"({a.get('gait_method')}), ({float(a['dtheta1']):.10g}, "
+            f"{float(a['dtheta2']):.10g}) rad s-1, t_switch {float(a['t_switch']):.6g} s, "
+            f"t_motor {float(a['t_motor']):.6g} s, error {float(a['gait_error']):.3g}")
+
+
+# --- the kind ------------------------------------------------------------------------------------
+class ShootKind(StepKind):
+    name = "shoot"
+    model = ShootStep
+    unit = "starts"
+    figures = (
+        Figure("newton", "residual norm per Newton iteration",
+               "Each solution's residual norm per Newton iteration on a log scale: quadratic "
+               "convergence shows as the exponent doubling; a line that stalls did not "
+               "converge."),
+    )
+
+    def check(self, study, index, step: ShootStep, seen) -> list:
+        if step.from_ is not None and not isinstance(seen.get(step.from_), RefineStep):
+            return [(("steps", index, "from"), no_earlier(step.from_, "refine",
+                                                          seen.get(step.from_)))]
+        return []
+
+    def n_tasks(self, step: ShootStep, gait_kind: str) -> int:
+        return len(step.starts) if step.starts is not None else 1
+
+    def start(self, ctx: StepContext) -> list[Task]:
+        st = ctx.step
+        if st.from_ is not None:
+            g, idx = read_refined(ctx.deps[st.from_].path)
+            if not (math.isfinite(g["dtheta1"]) and math.isfinite(g["dtheta2"])):
+                raise RunFailed(f"{ctx.name}: refine step {st.from_!r} produced no usable start")
+            starts = [(g["dtheta1"], g["dtheta2"])]
+        else:
+            starts = [(float(p[0]), float(p[1])) for p in st.starts]
+        ctx.state["starts"] = starts
+        kw = {"method": st.method, "tol": st.tol, "max_iter": st.max_iter}
+        return [Task(i, shoot_task, (ctx.spec, x0), kw) for i, x0 in enumerate(starts)]
+
+    def finish(self, ctx: StepContext, attrs: dict) -> str:
+        st = ctx.step
+        sols, failures = dedup_solutions(ctx.task_results(), st.dedup_tol)
+        if not sols:
+            raise RunFailed(f"{ctx.name}: no start produced a solution: " + "; ".join(failures))
+        errs = [x["error"] if math.isfinite(x["error"]) else math.inf for x in sols]
+        best = int(np.argmin(errs))
+        attrs.update(method=st.method, dedup_tol=st.dedup_tol, tol=st.tol,
+                     max_iter=st.max_iter, starts=[list(x) for x in ctx.state["starts"]],
+                     refine_step=st.from_ or "", failures=failures, best_solution=best)
+        write_shoot(ctx.path, attrs, sols)
+        b = sols[best]
+        return (f"{len(sols)} solution(s); best: error {b['error']:.3g} at "
+                f"({b['dtheta1']:.10g}, {b['dtheta2']:.10g}) rad s-1, "
+                f"{METHOD_NAMES[b['method']]}, t_switch {b['t_switch']:.6g} s")
+
+    def describe(self, ds) -> list[str]:
+        a = ds.attrs
+        out = []
+        msgs = json.loads(a.get("message", "[]"))
+        for i in range(ds.sizes["solution"]):
+            out.append(f"solution {i}{' (best)' if i == int(a.get('best_solution', -1)) else ''}: "
+                       f"({float(ds['dtheta1'][i]):.10g}, {float(ds['dtheta2'][i]):.10g}) rad s-1, "
+                       f"error {float(ds['error'][i]):.3g}, "
+                       f"{METHOD_NAMES[int(ds['method'][i])]}, "
+                       f"{'converged' if int(ds['converged'][i]) else 'not converged'}, "
+                       f"t_switch {float(ds['t_switch'][i]):.6g} s, t_motor "
+                       f"{float(ds['t_motor'][i]):.6g} s, status "
+                       f"{STATUS_NAMES[int(ds['status'][i])]}")
+            if i < len(msgs):
+                out.append(f"  {msgs[i]}")
+        fails = json.loads(a.get("failures", "[]"))
+        if fails:
+            out.append("failed attempts: " + "; ".join(fails))
+        out.append(f"starts: {a.get('starts')}")
+        return out

@@ -1,0 +1,308 @@
+"""The ``stability`` step: a gait run for many cycles from its start, the study's figures 5-8.
+
+Horizontal gait: the refined gait replayed open-loop from its recorded ``t_switch``,
+``t_motor`` (the clock restarted at each vertical crossing, or running on with the gait's
+period). Sequence gait: from a floquet step's fixed point or a refine step's start, as its own
+controller or replayed open-loop (:mod:`monkeystudy.analysis.replay`). Per cycle: the error
+against the start, the kinetic energy and the attached end's height; and a sampled trajectory.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Any, Literal, Optional
+
+import numpy as np
+from pydantic import Field
+
+from ...analysis.replay import sequence_cycles
+from ...controllers import OpenLoop
+from ...kernel import layout as L
+from ...kernel.layout import STATUS_NAMES
+from ...simulate import (
+    energies, evaluate_cycle_gaits, gait_error, initial_state, physical_points, run_controller,
+)
+from .. import datasets as D
+from ..blocks import Task
+from ..models import Name, OpenLoopSettings, Replay, StrictModel
+from ..spec import GaitSpec
+from .base import Figure, StepContext, StepKind, max_drop_of, no_earlier
+from .floquet import check_sequence_replay, sequence_attrs, sequence_start
+from .refine import RefineStep, read_refined
+
+
+class StabilityStep(StrictModel):
+    """Repeat a refined gait open-loop from its recorded times for ``cycles`` cycles."""
+
+    name: Name
+    kind: Literal["stability"]
+    from_: Name = Field(alias="from", description="an earlier refine step (a sequence gait: "
+                                                  "or a floquet step, its fixed point)")
+    cycles: int = Field(ge=1, le=100_000, description="number of cycles")
+    controller: OpenLoopSettings = Field(default_factory=OpenLoopSettings)
+    replay: Replay = None
+    start_index: Optional[int] = Field(None, ge=0, description="which start of a multi-start "
+                                       "refine step (default: the lowest error)")
+    sample_dt: float = Field(0.005, gt=0, le=1.0,
+                             description="trajectory sampling interval [s]")
+    max_drop: Optional[float] = Field(None, gt=0, description="stop ('fell') when the "
+                                      "attached end sinks this far [m] (default: link 1's "
+                                      "length)")
+
+
+# --- tasks (run on the workers) ------------------------------------------------------------------
+def run_record(res) -> dict[str, Any]:
+    """A multi-cycle run's status, counts and sampled trajectory (world positions [m] of A,
+    the joint and B; phase; motor torque [N m]) for a stability dataset."""
+    pts = physical_points(res.params, res.sample_state, res.sample_mode[:, L.M_FLIPPED])
+    return {
+        "status": int(res.status), "cycles_completed": int(res.counts[L.K_CYCLES]),
+        "time": res.sample_t.copy(), "A": pts["A"], "joint": pts["joint"], "B": pts["B"],
+        "phase": res.sample_mode[:, L.M_PHASE].astype(np.int8),
+        "motor_torque": res.sample_mode[:, L.M_TORQUE].copy(),
+        "steps": int(res.counts[L.K_STEPS]), "nfev": int(res.counts[L.K_NFEV]),
+    }
+
+
+def stability_task(spec: GaitSpec, gait: dict[str, float], *, cycles: int, tick: float,
+                   clock: str, sample_dt: float, max_drop: float) -> dict[str, Any]:
+    """Replay a refined gait open-loop (swap at ``t_switch``, motor for ``t_motor`` [s]).
+
+    ``gait`` holds the refined ``dtheta1``, ``dtheta2`` [rad s-1], ``t_switch``, ``t_motor``,
+    ``t_end`` [s] and ``status``. With ``clock='run_on'`` the period is ``t_end``. Per cycle
+    c = 1..N (from the run's log): the swap (segment 0 exit) starting it, the first vertical
+    crossing (observer) after that swap, and there the error against the initial rates
+    (MODEL.md section 4, with the frame's theta2, dtheta1, dtheta2) and the kinetic energy;
+    ``pivot_height`` and the world position of the attached end after the swap.
+    A gait that is not ok is not run: ``status`` is its status and every cycle is NaN.
+    """
+    robot, integ = spec.robot, spec.integrator
+    nan = np.full(cycles, np.nan)
+    out: dict[str, Any] = {
+        "status": int(gait["status"]), "cycles_completed": 0,
+        "error": nan.copy(), "kinetic_energy": nan.copy(), "pivot_height": nan.copy(),
+        "x_advance": nan.copy(), "t_cross": nan.copy(), "t_swap": nan.copy(),
+        "time": np.empty(0), "A": np.empty((0, 2)), "joint": np.empty((0, 2)),
+        "B": np.empty((0, 2)), "phase": np.empty(0, np.int8), "motor_torque": np.empty(0),
+        "steps": 0, "nfev": 0,
+    }
+    times = (gait["t_switch"], gait["t_motor"], gait["t_end"])
+    if gait["status"] != L.ST_OK or not all(math.isfinite(t) for t in times):
+        return out
+    d1, d2 = float(gait["dtheta1"]), float(gait["dtheta2"])
+    ctrl = OpenLoop(gait["t_switch"], gait["t_motor"], spec.torque, tick=tick, clock=clock,
+                    period=gait["t_end"] if clock == "run_on" else math.nan)
+    res = run_controller(ctrl, initial_state(d1, d2), robot=robot, integrator=integ,
+                         cycles=cycles, sample_dt=sample_dt, max_drop=max_drop)
+    log = res.log
+    swaps = log[(log[:, L.L_KIND] == L.LOG_SEGMENT) & (log[:, L.L_ID] == 0)]
+    cross = log[log[:, L.L_KIND] == L.LOG_OBSERVER]
+    x_prev = 0.0                                  # the gait starts hanging from A at x = 0
+    for c in range(min(cycles, swaps.shape[0])):
+        s = swaps[c, L.L_STATE:L.L_STATE + 8]
+        out["t_swap"][c] = swaps[c, L.L_T]
+        out["pivot_height"][c] = s[L.Y]
+        out["x_advance"][c] = s[L.X] - x_prev
+        x_prev = s[L.X]
+        t0 = swaps[c, L.L_T]
+        t1 = swaps[c + 1, L.L_T] if c + 1 < swaps.shape[0] else math.inf
+        k = np.flatnonzero((cross[:, L.L_T] > t0) & (cross[:, L.L_T] < t1))
+        if k.size == 0:
+            continue
+        row = cross[k[0]]
+        f = row[L.L_STATE:L.L_STATE + 8]
+        out["t_cross"][c] = row[L.L_T]
+        out["error"][c] = gait_error(f, d1, d2)
+        ke, _ = energies(res.params, f[None, :], np.array([row[L.L_FLIPPED]]))
+        out["kinetic_energy"][c] = ke[0]
+    out.update(run_record(res))
+    return out
+
+
+def sequence_stability_task(spec: GaitSpec, z0, *, cycles: int, tick: float | None,
+                            sample_dt: float, max_drop: float, replay: str) -> dict[str, Any]:
+    """Run the spec's sequence gait for ``cycles`` cycles from section state ``z0 = (theta2
+    [rad], dtheta1, dtheta2 [rad s-1])`` (:func:`monkeystudy.analysis.replay.sequence_cycles`: its own
+    controller or its open-loop replay, ``tick`` [s] or the gait's).
+
+    Returns the keys of :func:`stability_task`, measured at each section crossing (``t_cross``)
+    with ``t_swap`` the cycle's first magnet action [s], plus ``t_segment`` (the replayed
+    segment times of an open-loop replay, else the recorded cycle's) [s]. A start whose cycle
+    does not close is not run: ``status`` is its status and every cycle is NaN.
+    """
+    robot, integ = spec.robot, spec.integrator
+    gait = spec.sequence
+    nan = np.full(cycles, np.nan)
+    out: dict[str, Any] = {
+        "status": L.ST_OK, "cycles_completed": 0,
+        "error": nan.copy(), "kinetic_energy": nan.copy(), "pivot_height": nan.copy(),
+        "x_advance": nan.copy(), "t_cross": nan.copy(), "t_swap": nan.copy(),
+        "time": np.empty(0), "A": np.empty((0, 2)), "joint": np.empty((0, 2)),
+        "B": np.empty((0, 2)), "phase": np.empty(0, np.int8), "motor_torque": np.empty(0),
+        "steps": 0, "nfev": 0, "t_segment": np.full(len(gait.all_segments()), np.nan),
+    }
+    z0 = np.asarray(z0, float)
+    one = evaluate_cycle_gaits([[z0[1], z0[2]]], dataclasses.replace(gait, theta2=z0[0]),
+                               robot=robot, integrator=integ)
+    if int(one["status"][0]) != L.ST_OK:
+        out["status"] = int(one["status"][0])
+        return out
+    times = one["t_segment"][0].copy()
+    out["t_segment"] = times
+    r = sequence_cycles(gait, z0, cycles=cycles, robot=robot, integrator=integ,
+                        replay=replay, times=times, tick=tick, max_drop=max_drop,
+                        sample_dt=sample_dt)
+    n = min(cycles, len(r.error))
+    for key in ("error", "kinetic_energy", "pivot_height", "x_advance", "t_cross", "t_swap"):
+        out[key][:n] = getattr(r, key)[:n]
+    res = r.run
+    out.update(run_record(res))
+    return out
+
+
+# --- the dataset ---------------------------------------------------------------------------------
+def write_stability(path: Path, attrs: dict, result: dict, gait: dict) -> None:
+    """Write a stability dataset from a :func:`stability_task`
+    result; ``gait`` is the replayed refined gait (rates [rad s-1], times [s])."""
+    n = len(result["error"])
+    ns = len(result["time"])
+    at = "section crossing" if attrs.get("replay") in ("gait", "open_loop") and \
+        "section_theta1" in attrs else "vertical crossing"
+    with D.atomic_netcdf(path) as nc:
+        nc.createDimension("cycle", n)
+        nc.createDimension("sample", ns)
+        nc.createDimension("xy", 2)
+        D.add_variable(nc, "cycle", ("cycle",), np.int32, {"long_name": "cycle number", "units": "1"},
+             np.arange(1, n + 1))
+        D.add_variable(nc, "xy", ("xy",), str, {"long_name": "world axis", "units": "1"}, np.array(["x", "y"], object))
+        section = at == "section crossing"
+        per_cycle = {
+            "error": (f"error against the initial state at the {at} ending the cycle "
+                      f"(MODEL.md section 4{'; the section error' if section else ''})", "1"),
+            "kinetic_energy": (f"kinetic energy at that {at}", "J"),
+            "pivot_height": ("world height of the attached end at that section crossing"
+                             if section else "world height of the attached end after the "
+                             "cycle's swap", "m"),
+            "x_advance": ("horizontal displacement of the attached end in the cycle", "m"),
+            "t_cross": (f"time of the {at} ending the cycle", "s"),
+            "t_swap": ("time of the cycle's first magnet action (NaN: none)" if section
+                       else "time of the cycle's swap", "s"),
+        }
+        for key, (long_name, units) in per_cycle.items():
+            D.add_variable(nc, key, ("cycle",), np.float64, {"long_name": long_name, "units": units},
+                 result[key])
+        D.add_variable(nc, "status", (), np.int8, dict(D.STATUS_ATTRS, long_name="why the run stopped "
+                                             "(ok: all cycles ran)"), result["status"])
+        D.add_variable(nc, "dtheta1", (), np.float64, dict(D.DTHETA1, long_name="replayed " +
+                                                 D.DTHETA1["long_name"]), gait["dtheta1"])
+        D.add_variable(nc, "dtheta2", (), np.float64, dict(D.DTHETA2, long_name="replayed " +
+                                                 D.DTHETA2["long_name"]), gait["dtheta2"])
+        D.add_variable(nc, "time", ("sample",), np.float64, {"long_name": "time", "units": "s"},
+             result["time"])
+        for key, what in (("A", "end A"), ("joint", "the joint"), ("B", "end B")):
+            D.add_variable(nc, key, ("sample", "xy"), np.float64,
+                 {"long_name": f"world position of {what}", "units": "m"}, result[key],
+                 coordinates="time")
+        D.add_variable(nc, "phase", ("sample",), np.int8, D.PHASE_ATTRS, result["phase"],
+             coordinates="time")
+        D.add_variable(nc, "motor_torque", ("sample",), np.float64,
+             {"long_name": "motor torque on theta2 of the frame", "units": "N m"},
+             result["motor_torque"], coordinates="time")
+        times = {k: float(gait[k]) for k in ("t_switch", "t_motor") if k in gait}
+        D.set_global_attrs(nc, dict(attrs, **times,
+                               cycles_completed=int(result["cycles_completed"]),
+                               steps=int(result["steps"]), nfev=int(result["nfev"])))
+
+
+# --- the kind ------------------------------------------------------------------------------------
+class StabilityKind(StepKind):
+    name = "stability"
+    model = StabilityStep
+    gait_kinds = ("horizontal", "sequence")
+    unit = "runs"
+    figures = (
+        Figure("error", "error per cycle",
+               "The study's figures 5 and 8: the error against the start at each cycle's end, "
+               "on a log scale. A straight rise is exponential growth: the gait is unstable."),
+        Figure("kinetic_energy", "kinetic energy per cycle",
+               "The study's figure 6: the kinetic energy where each cycle ends; it drifts "
+               "once the gait degrades."),
+        Figure("height", "attached-end height per cycle",
+               "The study's figure 7: the height of the attached end per cycle; a falling "
+               "line is the robot sinking down the wall."),
+        Figure("filmstrip", "one gait cycle",
+               "The study's figure 2, from data: one cycle frame by frame."),
+        Figure("animation", "animation",
+               "The whole run as a video (MP4; GIF when ffmpeg is missing)."),
+        Figure("error_comparison", "error per cycle of all multi-cycle runs",
+               "Every multi-cycle run's error per cycle on one axis: which gait lasts "
+               "longest, and whether they grow at the same rate.", across=True),
+    )
+
+    def check(self, study, index, step: StabilityStep, seen) -> list:
+        if study.gait.kind == "sequence":
+            return check_sequence_replay(study, index, step, seen)
+        out = []
+        if step.replay == "gait":
+            out.append((("steps", index, "replay"), "the horizontal gait is replayed "
+                        "open-loop (replay: gait needs a sequence gait)"))
+        ref = seen.get(step.from_)
+        if not isinstance(ref, RefineStep):
+            out.append((("steps", index, "from"), no_earlier(step.from_, "refine", ref)))
+        elif step.start_index is not None and step.start_index >= ref.n_starts:
+            out.append((("steps", index, "start_index"),
+                        f"must be < {ref.n_starts} (the starts of {ref.name!r})"))
+        return out
+
+    def start(self, ctx: StepContext) -> list[Task]:
+        st = ctx.step
+        tick = st.controller.tick if st.controller.tick is not None else ctx.study.gait.tick
+        max_drop = max_drop_of(st, ctx.spec)
+        if ctx.gait_kind == "sequence":
+            gait = sequence_start(ctx)
+            kw = {"cycles": st.cycles, "tick": tick, "sample_dt": st.sample_dt,
+                  "max_drop": max_drop, "replay": st.replay or "gait"}
+            ctx.state.update(gait=gait, options=kw)
+            return [Task(0, sequence_stability_task, (ctx.spec, gait["z"]), kw)]
+        gait, idx = read_refined(ctx.deps[st.from_].path, st.start_index)
+        gait["start_index"] = idx
+        kw = {"cycles": st.cycles, "tick": tick, "clock": st.controller.clock,
+              "sample_dt": st.sample_dt, "max_drop": max_drop}
+        ctx.state.update(gait=gait, options=kw)
+        return [Task(0, stability_task, (ctx.spec, gait), kw)]
+
+    def finish(self, ctx: StepContext, attrs: dict) -> str:
+        st = ctx.step
+        gait, kw = ctx.state["gait"], ctx.state["options"]
+        r = ctx.results[0]
+        if "replay" in kw:   # a sequence gait
+            attrs.update(sequence_attrs(gait, kw["replay"]),
+                         controller={"tick": kw["tick"], "clock": "reset_at_section"},
+                         sample_dt=kw["sample_dt"], max_drop=kw["max_drop"],
+                         cycles=kw["cycles"], t_segment=list(r["t_segment"]))
+            gait = {"dtheta1": gait["z"][1], "dtheta2": gait["z"][2]}
+        else:
+            attrs.update(controller={"tick": kw["tick"], "clock": kw["clock"]},
+                         sample_dt=kw["sample_dt"], max_drop=kw["max_drop"],
+                         cycles=kw["cycles"], refine_step=st.from_,
+                         refine_start=gait["start_index"], replay="open_loop")
+        write_stability(ctx.path, attrs, r, gait)
+        return f"{r['cycles_completed']} cycles, status {STATUS_NAMES[r['status']]}"
+
+    def describe(self, ds) -> list[str]:
+        a = ds.attrs
+        lines = []
+        err = ds["error"].values
+        n_ok = int(np.isfinite(err).sum())
+        lines.append(f"status {STATUS_NAMES[int(ds['status'])]}, "
+                     f"{a.get('cycles_completed', '?')} of {err.size} cycles completed, "
+                     f"{n_ok} vertical crossings")
+        if n_ok:
+            lines.append(f"error: first {err[0]:.4g}, last {err[np.isfinite(err)][-1]:.4g}")
+            ph = ds["pivot_height"].values
+            lines.append(f"pivot height: first {ph[0]:.4g} m, last "
+                         f"{ph[np.isfinite(ph)][-1]:.4g} m")
+        lines.append(f"replayed t_switch {a.get('t_switch')} s, t_motor {a.get('t_motor')} "
+                     f"s, controller {a.get('controller')}")
+        return lines

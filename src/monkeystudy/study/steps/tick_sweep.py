@@ -1,0 +1,274 @@
+"""The ``tick_sweep`` step: was it the controller grid? The gait replayed for many cycles once
+per controller tick, error per cycle, cycles until it leaves the gait, growth per cycle against
+the leading Floquet multiplier.
+
+Horizontal gait: a shoot step's exact gait replayed open-loop with its times on each tick.
+Sequence gait: from a floquet step's fixed point, as its own controller (guards acted on at the
+ticks) or open-loop (``replay``).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from functools import partial
+from pathlib import Path
+from typing import Annotated, Any, Literal, Optional
+
+import numpy as np
+from pydantic import Field, field_validator
+
+from ...analysis.floquet import floquet
+from ...analysis.replay import (
+    cycle_times, open_loop_cycles, open_loop_gait, sequence_cycles, sweep_ticks,
+)
+from ...analysis.sections import cycle_return_map, open_loop_return_map
+from ...kernel.layout import STATUS_NAMES
+from .. import datasets as D
+from ..blocks import Task
+from ..models import Name, Replay, StrictModel, unique
+from ..spec import GaitSpec
+from .base import Figure, StepContext, StepKind, max_drop_of, no_earlier
+from .floquet import (
+    FloquetStep, check_sequence_replay, read_floquet_multipliers, sequence_attrs,
+    sequence_start, sequence_torque,
+)
+from .shoot import ShootStep, gait_attrs, gait_line, replay_torque, shoot_gait
+
+
+class TickSweepStep(StrictModel):
+    """The controller-tick question: the exact gait replayed open-loop with its times
+    rounded to a controller tick, one run per tick, error per cycle. A sequence gait runs from
+    its floquet step's fixed point, as its own controller (its guards acted on at the ticks)
+    or open-loop (``replay``)."""
+
+    name: Name
+    kind: Literal["tick_sweep"]
+    from_: Name = Field(alias="from", description="an earlier shoot step (a sequence gait: "
+                                                  "a floquet step, its fixed point)")
+    replay: Replay = None
+    ticks: list[Annotated[float, Field(ge=0, le=1.0)]] = Field(
+        [1e-3, 1e-4, 1e-5, 0.0], min_length=1, description="controller ticks [s]; 0 = exact "
+                                                            "timing")
+    cycles: int = Field(80, ge=1, le=100_000, description="cycles per run")
+    error_bound: float = Field(1e-2, gt=0, description="a run has left the gait at the "
+                                                       "first cycle whose error exceeds "
+                                                       "this [1]")
+    floquet: Optional[Name] = Field(None, description="an earlier floquet step (open_loop) "
+                                    "of the same shoot step: its leading multiplier instead "
+                                    "of a finite-difference one")
+    solution: Optional[int] = Field(None, ge=0, description="which solution of the shoot "
+                                    "step (default: the lowest error)")
+    max_drop: Optional[float] = Field(None, gt=0, description="stop ('fell') when the "
+                                      "attached end sinks this far [m] (default: link 1's "
+                                      "length)")
+
+    @field_validator("ticks")
+    @classmethod
+    def _distinct(cls, v: list) -> list:
+        return unique(v, "ticks")
+
+
+# --- tasks (run on the workers) ------------------------------------------------------------------
+def tick_sweep_task(spec: GaitSpec, gait: dict, *, ticks, cycles: int, error_bound: float,
+                    max_drop: float, leading_multiplier: bool = True,
+                    fd_step: float = 1e-5) -> dict[str, Any]:
+    """The gait replayed open-loop from its fixed point once per controller tick [s].
+
+    Per tick: the error per cycle (against the gait's start, MODEL.md section 4) and the pivot
+    height per swap (NaN padded to ``cycles``), ``cycles_to_bound``, ``cycles_completed``
+    (vertical crossings reached), the run's status and the fitted growth of sqrt(error) per
+    cycle. ``leading_multiplier``: also |lambda_max| of the exact-timing open-loop map by
+    finite differences (:func:`~monkeystudy.analysis.floquet.floquet`); NaN otherwise.
+    """
+    robot, integ = spec.robot, spec.integrator
+    torque = replay_torque(spec, gait)
+    d1, d2 = float(gait["dtheta1"]), float(gait["dtheta2"])
+    t_switch, t_motor = float(gait["t_switch"]), float(gait["t_motor"])
+
+    def run_one(tick):
+        run = open_loop_cycles(d1, d2, t_switch=t_switch, t_motor=t_motor, cycles=cycles,
+                               torque=torque, robot=robot, integrator=integ,
+                               tick=float(tick), max_drop=max_drop)
+        return run.error, run.pivot_height, run.status
+
+    out = sweep_ticks(ticks, cycles, error_bound, run_one)
+    lead = math.nan
+    if leading_multiplier:
+        fmap = partial(open_loop_return_map, t_switch=t_switch, t_motor=t_motor, torque=torque,
+                       robot=robot, integrator=integ)
+        fl = floquet(fmap, np.array([0.0, d1, d2]), step=fd_step)
+        lead = float(np.abs(fl.multipliers[0]))
+    return dict(out, leading_multiplier=lead, torque=torque)
+
+
+def sequence_tick_sweep_task(spec: GaitSpec, z_star, *, ticks, cycles: int,
+                             error_bound: float, max_drop: float, replay: str,
+                             leading_multiplier: bool, fd_step: float = 1e-5) -> dict[str, Any]:
+    """:func:`tick_sweep_task` for the spec's sequence gait from its fixed point ``z_star =
+    (theta2 [rad], dtheta1, dtheta2 [rad s-1])``, run as its own controller or open-loop
+    (``replay``; :func:`monkeystudy.analysis.replay.sequence_cycles`). ``pivot_height`` is the attached
+    end's height at each section crossing. ``leading_multiplier``: |lambda_max| of the
+    replayed exact-timing map by finite differences (NaN otherwise); also returns all three
+    (``multipliers``) and the replayed segment times (``t_segment`` [s])."""
+    robot, integ = spec.robot, spec.integrator
+    gait = spec.sequence
+    z_star = np.asarray(z_star, float)
+    times = cycle_times(gait, z_star, robot=robot, integrator=integ)
+
+    def run_one(tick):
+        r = sequence_cycles(gait, z_star, cycles=cycles, robot=robot, integrator=integ,
+                            replay=replay, times=times, tick=float(tick), max_drop=max_drop)
+        return r.error, r.pivot_height, r.status
+
+    out = sweep_ticks(ticks, cycles, error_bound, run_one)
+    lead, lam = math.nan, np.full(3, np.nan + 0j)
+    if leading_multiplier:
+        g = open_loop_gait(gait, times) if replay == "open_loop" else gait
+        fl = floquet(partial(cycle_return_map, gait=dataclasses.replace(g, tick=0.0),
+                             robot=robot, integrator=integ), z_star, step=fd_step)
+        lam = np.asarray(fl.multipliers, complex)
+        lead = float(np.abs(lam[0]))
+    return dict(out, leading_multiplier=lead, multipliers=lam, torque=sequence_torque(gait),
+                t_segment=times)
+
+
+# --- the dataset ---------------------------------------------------------------------------------
+def write_tick_sweep(path: Path, attrs: dict, ticks, result: dict) -> None:
+    """Write a tick_sweep dataset from a
+    :func:`tick_sweep_task` result."""
+    err = np.asarray(result["error"], float)
+    section = "section_theta1" in attrs
+    at = "section crossing" if section else "vertical crossing"
+    with D.atomic_netcdf(path) as nc:
+        nc.createDimension("tick", len(ticks))
+        D.add_variable(nc, "tick", ("tick",), np.float64,
+             {"long_name": "controller tick (0: exact event timing)", "units": "s"},
+             np.asarray(ticks, float))
+        D.add_index_coord(nc, "cycle", err.shape[1], "cycle number", start=1)
+        D.add_variable(nc, "error", ("tick", "cycle"), np.float64,
+             {"long_name": f"error against the gait start at the {at} ending the cycle "
+                           "(MODEL.md section 4; NaN: not reached)", "units": "1"}, err)
+        D.add_variable(nc, "pivot_height", ("tick", "cycle"), np.float64,
+             {"long_name": "world height of the attached end at the section crossing ending "
+                           "the cycle" if section else "world height of the attached end "
+                           "after the cycle's swap", "units": "m"}, result["pivot_height"])
+        D.add_variable(nc, "cycles_to_bound", ("tick",), np.int32,
+             {"long_name": "first cycle whose error exceeds error_bound (else the cycles "
+                           "reached)", "units": "1"}, result["cycles_to_bound"])
+        D.add_variable(nc, "cycles_completed", ("tick",), np.int32,
+             {"long_name": f"cycles that reached their {at}", "units": "1"},
+             result["cycles_completed"])
+        D.add_variable(nc, "status", ("tick",), np.int8, dict(D.STATUS_ATTRS, long_name="why the run "
+                                                    "stopped (ok: all cycles ran)"),
+             result["status"])
+        D.add_variable(nc, "growth_per_cycle", ("tick",), np.float64,
+             {"long_name": "fitted geometric growth of sqrt(error) per cycle where 1e-10 < "
+                           "sqrt(error) < 1e-4 (NaN: fewer than 3 such cycles)", "units": "1"},
+             result["growth_per_cycle"])
+        D.set_global_attrs(nc, attrs)
+
+
+# --- the kind ------------------------------------------------------------------------------------
+class TickSweepKind(StepKind):
+    name = "tick_sweep"
+    model = TickSweepStep
+    gait_kinds = ("horizontal", "sequence")
+    unit = "runs"
+    figures = (
+        Figure("error_growth", "error per cycle per tick, |lambda|^2n",
+               "The error per cycle for each controller tick beside the growth the leading "
+               "multiplier predicts (dashed): a finer tick only delays the fall when the "
+               "lines run parallel to the prediction."),
+    )
+
+    def deps(self, step: TickSweepStep) -> tuple[str, ...]:
+        return (step.from_,) + ((step.floquet,) if step.floquet is not None else ())
+
+    def check(self, study, index, step: TickSweepStep, seen) -> list:
+        if study.gait.kind == "sequence":
+            return check_sequence_replay(study, index, step, seen)
+        out = []
+        if not isinstance(seen.get(step.from_), ShootStep):
+            out.append((("steps", index, "from"), no_earlier(step.from_, "shoot",
+                                                             seen.get(step.from_))))
+        if step.replay == "gait":
+            out.append((("steps", index, "replay"), "the horizontal gait is replayed "
+                        "open-loop (replay: gait needs a sequence gait)"))
+        if step.floquet is not None:
+            ref = seen.get(step.floquet)
+            if not isinstance(ref, FloquetStep):
+                out.append((("steps", index, "floquet"), no_earlier(step.floquet, "floquet",
+                                                                    ref)))
+            elif "open_loop" not in ref.controllers:
+                out.append((("steps", index, "floquet"),
+                            f"{ref.name!r} has no open_loop controller"))
+            elif ref.from_ != step.from_:
+                out.append((("steps", index, "floquet"),
+                            f"{ref.name!r} analyses shoot step {ref.from_!r}, this step "
+                            f"{step.from_!r}: they must be the same"))
+        return out
+
+    def start(self, ctx: StepContext) -> list[Task]:
+        st = ctx.step
+        max_drop = max_drop_of(st, ctx.spec)
+        ctx.state["max_drop"] = max_drop
+        kw = {"ticks": list(st.ticks), "cycles": st.cycles, "error_bound": st.error_bound,
+              "max_drop": max_drop}
+        if ctx.gait_kind == "sequence":
+            g = sequence_start(ctx)
+            replay = st.replay or "gait"
+            ctx.state.update(gait=g, replay=replay)
+            if replay == "gait":
+                lam = read_floquet_multipliers(ctx.deps[st.from_].path, "sequence")
+                ctx.state["leading"] = float(np.abs(lam[0]))
+            return [Task(0, sequence_tick_sweep_task, (ctx.spec, g["z"]),
+                         dict(kw, replay=replay, leading_multiplier=replay == "open_loop"))]
+        g = shoot_gait(ctx, st.from_, st.solution)
+        ctx.state["gait"] = g
+        if st.floquet is not None:
+            lam = read_floquet_multipliers(ctx.deps[st.floquet].path, "open_loop")
+            ctx.state["leading"] = float(np.abs(lam[0]))
+        return [Task(0, tick_sweep_task, (ctx.spec, g),
+                     dict(kw, leading_multiplier=st.floquet is None))]
+
+    def finish(self, ctx: StepContext, attrs: dict) -> str:
+        st = ctx.step
+        r = ctx.results[0]
+        g = ctx.state["gait"]
+        sequence = "replay" in ctx.state
+        if sequence and "leading" in ctx.state:
+            lead, source = ctx.state["leading"], (f"floquet step {st.from_} (variational "
+                                                  "equations of the gait's own controller)")
+        elif "leading" in ctx.state:
+            lead, source = ctx.state["leading"], (f"floquet step {st.floquet} (variational "
+                                                  "equations)")
+        else:
+            lead, source = r["leading_multiplier"], "finite differences of the exact-timing " \
+                                                    "open-loop map"
+        if sequence:
+            attrs.update(sequence_attrs(g, ctx.state["replay"]), t_segment=list(r["t_segment"]))
+            if ctx.state["replay"] == "open_loop":
+                lam = np.asarray(r["multipliers"], complex)
+                attrs.update(open_loop_multipliers_real=lam.real.tolist(),
+                             open_loop_multipliers_imag=lam.imag.tolist())
+        else:
+            attrs.update(gait_attrs(st.from_, g), replay="open_loop")
+        attrs.update(leading_multiplier=lead, leading_multiplier_source=source,
+                     error_bound=st.error_bound, cycles=st.cycles, motor_torque=r["torque"],
+                     max_drop=ctx.state["max_drop"])
+        write_tick_sweep(ctx.path, attrs, st.ticks, r)
+        rows = ", ".join(f"{t:g} s: {int(c)}" for t, c in zip(st.ticks, r["cycles_to_bound"]))
+        return f"cycles to bound {rows}; leading multiplier {lead:.4g}"
+
+    def describe(self, ds) -> list[str]:
+        a = ds.attrs
+        out = [gait_line(a),
+               f"leading multiplier {float(a.get('leading_multiplier', np.nan)):.6g} "
+               f"({a.get('leading_multiplier_source', '')}); error bound "
+               f"{a.get('error_bound')}"]
+        for i, t in enumerate(ds["tick"].values):
+            out.append(f"tick {t:g} s: {int(ds['cycles_to_bound'][i])} cycles to bound, "
+                       f"{int(ds['cycles_completed'][i])} completed, status "
+                       f"{STATUS_NAMES[int(ds['status'][i])]}, growth per cycle "
+                       f"{float(ds['growth_per_cycle'][i]):.4g}")
+        return out

@@ -1,0 +1,54 @@
+"""The refine step's task: Nelder-Mead from one start, every iterate recorded."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from monkeystudy import Integrator, Robot
+from monkeystudy.kernel.layout import ST_OK
+from monkeystudy.study.runner import load_kernels
+from monkeystudy.study.spec import GaitSpec
+from monkeystudy.study.steps import refine
+
+TORQUE = 0.6354
+INTEG = Integrator(rtol=1e-8, atol=1e-10)
+
+
+@pytest.fixture(scope="module")
+def spec():
+    s = GaitSpec(Robot.preset("seed2009"), INTEG, TORQUE, 0.001)
+    load_kernels(s, runs=True)
+    return s
+
+
+def test_refine_records_iterates_and_converges(spec):
+    r = refine.refine_task(spec, (1.0, 12.0), xatol=1e-4, fatol=1e-4)
+    it = r["iterate_x"]
+    assert it.shape == (len(r["iterate_error"]), 2)
+    np.testing.assert_array_equal(it[0], [1.0, 12.0])          # iteration 0: the start
+    np.testing.assert_array_equal(it[-1], r["x"])
+    assert r["converged"] == 1 and r["status"] == ST_OK
+    assert r["error"] == pytest.approx(r["iterate_error"][-1])
+    finite = r["iterate_error"][np.isfinite(r["iterate_error"])]
+    assert np.all(np.diff(finite) <= 0)                   # the best vertex never gets worse
+    assert np.all(np.diff(r["iterate_nfev"]) > 0)
+    assert r["iterate_nfev"][-1] <= r["nfev"]
+    assert len(r["iterate_error"]) == r["nit"]
+    assert r["error"] < 1e-3                              # the study's gait, near (0.90, 10.93)
+    assert abs(r["x"][0] - 0.9) < 0.05 and abs(r["x"][1] - 10.93) < 0.05
+
+
+def test_refine_penalty_keeps_the_objective_finite(spec):
+    """From a start where the gait fails the simplex gets the penalty, not NaN."""
+    r = refine.refine_task(spec, (0.05, 6.0), xatol=1e-4, fatol=1e-4, maxiter=20,
+                            penalty=1e6)
+    assert r["status"] != ST_OK and math.isnan(r["error"])
+    assert np.isnan(r["iterate_error"]).all()
+    assert r["nit"] <= 20
+
+
+def test_refine_limits(spec):
+    r = refine.refine_task(spec, (1.0, 12.0), xatol=1e-4, fatol=1e-4, maxfev=15)
+    assert r["nfev"] <= 16 and r["converged"] == 0

@@ -1,0 +1,51 @@
+"""The stability step's task: a refined gait replayed open-loop for many cycles."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from monkeystudy import Integrator, Robot
+from monkeystudy.kernel.layout import ST_OK, ST_UNREACHABLE
+from monkeystudy.study.runner import load_kernels
+from monkeystudy.study.spec import GaitSpec
+from monkeystudy.study.steps import refine, stability
+
+TORQUE = 0.6354
+INTEG = Integrator(rtol=1e-8, atol=1e-10)
+
+
+@pytest.fixture(scope="module")
+def spec():
+    s = GaitSpec(Robot.preset("seed2009"), INTEG, TORQUE, 0.001)
+    load_kernels(s, runs=True)
+    return s
+
+
+def test_stability_first_cycle_repeats_the_refined_gait(spec):
+    r = refine.refine_task(spec, (1.0, 12.0), xatol=1e-4, fatol=1e-4)
+    gait = {"dtheta1": r["x"][0], "dtheta2": r["x"][1], "t_switch": r["t_switch"],
+            "t_motor": r["t_motor"], "t_end": r["t_end"], "status": r["status"]}
+    s = stability.stability_task(spec, gait, cycles=5, tick=0.001, clock="reset_at_vertical",
+                               sample_dt=0.005, max_drop=0.61)
+    assert s["status"] == ST_OK and s["cycles_completed"] == 5
+    # the open-loop replay of the recorded times is the search controller's first cycle
+    assert s["error"][0] == pytest.approx(r["error"], rel=1e-6, abs=1e-12)
+    assert np.all(np.diff(s["t_swap"]) > 0) and np.all(s["t_cross"] > s["t_swap"])
+    assert np.all(np.abs(s["pivot_height"]) < 0.05)
+    assert np.all(np.abs(s["x_advance"] - 0.51) < 0.05)   # about L1 s1 + L2 s12 per step
+    assert np.all(s["kinetic_energy"] > 0)
+    n = len(s["time"])
+    assert n > 0 and s["A"].shape == s["B"].shape == s["joint"].shape == (n, 2)
+    assert np.all(np.diff(s["time"]) >= 0)
+    assert set(np.unique(s["phase"])) <= {0, 1, 2}
+
+
+def test_stability_of_a_failed_gait_is_not_run(spec):
+    gait = {"dtheta1": 0.1, "dtheta2": 5.0, "t_switch": math.nan, "t_motor": math.nan,
+            "t_end": math.nan, "status": ST_UNREACHABLE}
+    s = stability.stability_task(spec, gait, cycles=3, tick=0.001, clock="reset_at_vertical",
+                               sample_dt=0.005, max_drop=0.61)
+    assert s["status"] == ST_UNREACHABLE and np.isnan(s["error"]).all()
+    assert len(s["time"]) == 0

@@ -1,0 +1,180 @@
+"""The package's structure: layers that point down (import-linter contracts in pyproject.toml,
+imports inside functions included), no private name used across modules, imports inside
+functions only with a stated reason, and a step-kind registry in which every kind is
+documented and has its figures."""
+from __future__ import annotations
+
+import ast
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from monkeystudy.plotting.report import DRAWINGS
+from monkeystudy.study.schema import Study
+from monkeystudy.study.steps import REGISTRY
+
+ROOT = Path(__file__).resolve().parents[1]
+PKG = ROOT / "src" / "monkeystudy"
+LINT = shutil.which("lint-imports")
+
+#: modules that are entry points: their imports inside functions keep --help fast
+ENTRY_POINTS = {"__main__.py", "cli.py"}
+
+
+def _lint(root: Path) -> subprocess.CompletedProcess:
+    env = dict(os.environ, PYTHONPATH=str(root / "src"))
+    return subprocess.run([LINT, "--no-cache", str(root / "pyproject.toml")], cwd=root, env=env,
+                          capture_output=True, text=True)
+
+
+@pytest.mark.skipif(LINT is None, reason="import-linter is not installed")
+def test_import_contracts_are_kept():
+    res = _lint(ROOT)
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert "broken" not in res.stdout.split("Contracts:")[-1].replace("0 broken", "")
+
+
+@pytest.mark.skipif(LINT is None, reason="import-linter is not installed")
+@pytest.mark.parametrize("file, code, contract", [
+    # the kernel imports the study layer at module level
+    ("kernel/layout.py", "from ..study import models  # noqa\n", "The package's layers"),
+    # the same inside a function: imports inside functions count
+    ("kernel/gait.py", "\n\ndef _f():\n    from ..analysis import sections  # noqa\n",
+     "The package's layers"),
+    # a cycle between siblings, hidden in a function
+    ("analysis/sections.py", "\n\ndef _f():\n    from . import replay  # noqa\n",
+     "No cycle among the modules"),
+    # the thin client loads numpy
+    ("service/client.py", "import numpy  # noqa\n", "The thin client"),
+    # the kernel loads scipy
+    ("kernel/roots.py", "import scipy  # noqa\n", "The kernel imports nothing"),
+])
+def test_a_violation_breaks_a_contract(tmp_path, file, code, contract):
+    """A copy of the package with one deliberate violation fails the check, naming it."""
+    shutil.copytree(PKG, tmp_path / "src" / "monkeystudy",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy(ROOT / "pyproject.toml", tmp_path / "pyproject.toml")
+    target = tmp_path / "src" / "monkeystudy" / file
+    target.write_text(target.read_text() + code)
+    res = _lint(tmp_path)
+    assert res.returncode != 0
+    broken = [line for line in res.stdout.splitlines() if line.endswith("BROKEN")]
+    assert len(broken) >= 1 and any(line.startswith(contract) for line in broken), res.stdout
+
+
+def _modules():
+    for path in sorted(PKG.rglob("*.py")):
+        yield path, ast.parse(path.read_text())
+
+
+def test_no_private_name_is_used_across_modules():
+    """``from monkeystudy.x import _name`` and ``module._name`` for a package module are
+    refused (dunder names aside): a name used by another module is public."""
+    bad = []
+    for path, tree in _modules():
+        modules = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom):
+                inside = node.level > 0 or (node.module or "").startswith("monkeystudy")
+                for a in node.names:
+                    if inside and a.name.startswith("_") and not a.name.startswith("__"):
+                        bad.append(f"{path.relative_to(PKG)}:{node.lineno}: imports {a.name}")
+                    if inside:
+                        modules.add(a.asname or a.name)
+            elif isinstance(node, ast.Import):
+                modules |= {a.asname or a.name.split(".")[0] for a in node.names
+                            if a.name.startswith("monkeystudy")}
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and \
+                    node.value.id in modules and node.attr.startswith("_") and \
+                    not node.attr.startswith("__"):
+                bad.append(f"{path.relative_to(PKG)}:{node.lineno}: uses "
+                           f"{node.value.id}.{node.attr}")
+    assert not bad, "\n".join(bad)
+
+
+def test_imports_inside_functions_say_why():
+    """Outside the entry points, an import inside a function has a comment saying why (it
+    keeps start-up fast): on its line, or above the block of imports it starts; never a
+    silent cycle-dodge."""
+    bad = []
+    for path, tree in _modules():
+        if path.name in ENTRY_POINTS:
+            continue
+        lines = path.read_text().splitlines()
+        for fn in ast.walk(tree):
+            if not isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            explained_until = -1         # last line of a block of imports with a reason
+            for node in sorted((n for n in ast.walk(fn)
+                                if isinstance(n, (ast.Import, ast.ImportFrom))),
+                               key=lambda n: n.lineno):
+                here = lines[node.lineno - 1]
+                above = lines[node.lineno - 2].strip()
+                if "#" in here or above.startswith("#") or node.lineno == explained_until + 1:
+                    explained_until = node.end_lineno
+                else:
+                    bad.append(f"{path.relative_to(PKG)}:{node.lineno}: {here.strip()}")
+    assert not bad, "\n".join(bad)
+
+
+# --- the step-kind registry ----------------------------------------------------------------------
+def test_every_step_kind_is_registered_in_the_schema():
+    names = [k.name for k in REGISTRY.values()]
+    assert len(set(names)) == len(names)
+    models = Study.model_fields["steps"].annotation.__args__[0].__origin__.__args__
+    assert [m.model_fields["kind"].annotation.__args__[0] for m in models] == names
+    for kind in REGISTRY.values():
+        assert kind.summary, kind.name                   # its model says what it does
+        assert kind.gait_kinds and set(kind.gait_kinds) <= {"horizontal", "sequence"}
+
+
+def test_every_step_kind_is_documented():
+    """Each kind has a section in docs/datasets.md and is named in the README or docs."""
+    datasets = (ROOT / "docs" / "datasets.md").read_text()
+    text = datasets + (ROOT / "README.md").read_text() + "".join(
+        p.read_text() for p in (ROOT / "docs").glob("*.md"))
+    for name in REGISTRY:
+        assert re.search(rf"`{name}`", datasets), f"{name}: no section in docs/datasets.md"
+        assert name in text
+
+
+def test_every_step_kind_has_its_figures_or_says_why():
+    declared = set()
+    for kind in REGISTRY.values():
+        assert kind.figures or kind.no_figures, f"{kind.name}: no figure and no reason"
+        for fig in kind.figures:
+            assert fig.title and fig.caption, (kind.name, fig.suffix)
+            assert re.fullmatch(r"[a-z0-9_]+", fig.suffix), fig.suffix
+            declared.add((kind.name, fig.suffix))
+    assert declared == set(DRAWINGS), "declared figures and their drawings differ: " \
+        f"{declared ^ set(DRAWINGS)}"
+    for (kind, suffix), how in DRAWINGS.items():
+        fig = next(f for f in REGISTRY[kind].figures if f.suffix == suffix)
+        assert how.across == fig.across, (kind, suffix)
+
+
+def test_the_kernel_package_imports_only_numpy_numba_and_the_standard_library():
+    """The same rule as the contract, checked without import-linter: every import of the
+    kernel's modules names the standard library, numpy, numba, llvmlite or the kernel."""
+    allowed = set(sys.stdlib_module_names) | {"numpy", "numba", "llvmlite"}
+    bad = []
+    for path in sorted((PKG / "kernel").glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0:
+                names = [node.module]
+            elif isinstance(node, ast.ImportFrom):
+                if node.level > 1:
+                    bad.append(f"{path.name}: from {'.' * node.level}{node.module or ''}")
+                continue
+            else:
+                continue
+            bad += [f"{path.name}: {n}" for n in names if n.split(".")[0] not in allowed]
+    assert not bad, bad
