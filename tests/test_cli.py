@@ -129,24 +129,13 @@ def test_schema_command_prints_the_shipped_schema(runner):
     assert json.loads(result.stdout) == json.loads(shipped.read_text())
 
 
-def test_report_without_the_figure_code_exits_1(runner, tmp_path, monkeypatch):
-    monkeypatch.setitem(sys.modules, "monkeystudy.plotting.report", None)  # not importable
-    result = runner.invoke(app, ["report", str(tmp_path)])
-    assert result.exit_code == 1
-    assert "report_study cannot be imported" in result.output
-
-
-def test_report_calls_report_study(runner, tmp_path, monkeypatch):
-    calls = []
-    fake = types.ModuleType("monkeystudy.plotting.report")
-
-    def report_study(path: Path) -> list[Path]:
-        calls.append(path)
-        return [path / "figure.png"]
-
-    fake.report_study = report_study
-    monkeypatch.setitem(sys.modules, "monkeystudy.plotting.report", fake)
-    result = runner.invoke(app, ["report", str(tmp_path)])
-    assert result.exit_code == 0, result.output
-    assert calls == [tmp_path] and "figure.png" in result.stdout
-    assert runner.invoke(app, ["report", str(tmp_path / "missing")]).exit_code == 2
+def test_report_refuses_what_it_cannot_draw(runner, tmp_path):
+    """A missing folder, a folder without datasets, an unknown format: exit 2, a clear line,
+    nothing written."""
+    res = runner.invoke(app, ["report", str(tmp_path / "missing")])
+    assert res.exit_code == 2 and "no such folder" in res.output
+    res = runner.invoke(app, ["report", str(tmp_path)])
+    assert res.exit_code == 2 and "holds no study datasets" in res.output
+    res = runner.invoke(app, ["report", str(tmp_path), "--formats", "png,bmp"])
+    assert res.exit_code == 2 and "bmp not among png, pdf, svg" in res.output
+    assert list(tmp_path.iterdir()) == []

@@ -18,7 +18,7 @@ from .exit_codes import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_INVALID
 
 app = typer.Typer(
     name="monkeystudy", add_completion=False, no_args_is_help=True,
-    pretty_exceptions_enable=False,
+    pretty_exceptions_enable=False, rich_markup_mode=None,
     help="Batch gait studies of the MonkeyBot: YAML studies in, netCDF datasets out.\n\n"
          "Exit codes: 0 done, 1 run failed, 2 invalid input, 3 interrupted/partial "
          "(rerun resumes).",
@@ -44,7 +44,8 @@ def _load(study: Path):
 
 @app.command()
 def run(
-    study: Path = typer.Argument(..., help="study file (YAML)", show_default=False),
+    study: Path = typer.Argument(..., help="study file (YAML)", show_default=False,
+                                 metavar="STUDY"),
     out: Optional[Path] = typer.Option(None, "--out", "-o",
                                        help="output folder [default: outputs/<study name>]"),
     workers: Optional[int] = typer.Option(None, "--workers", "-j", min=1,
@@ -161,8 +162,8 @@ def serve(
 
 
 @app.command()
-def validate(study: Path = typer.Argument(..., help="study file (YAML)",
-                                          show_default=False)) -> None:
+def validate(study: Path = typer.Argument(..., help="study file (YAML)", show_default=False,
+                                          metavar="STUDY")) -> None:
     """Check a study file (every problem, with file:line: key) without running it."""
     from .study.steps import kind_of
     loaded = _load(study)
@@ -182,7 +183,7 @@ def schema() -> None:
 
 @app.command()
 def inspect(path: Path = typer.Argument(..., help="a dataset written by 'run' (.nc)",
-                                        show_default=False)) -> None:
+                                        show_default=False, metavar="DATASET")) -> None:
     """Print a readable summary of a dataset."""
     from .study.inspect import summarize
     if not path.is_file():
@@ -196,26 +197,44 @@ def inspect(path: Path = typer.Argument(..., help="a dataset written by 'run' (.
     typer.echo(text)
 
 
+#: still-figure formats ``report --formats`` takes
+FIGURE_FORMATS = ("png", "pdf", "svg")
+
+
 @app.command()
-def report(path: Path = typer.Argument(..., help="a study output folder (outputs/<name>)",
-                                       show_default=False)) -> None:
-    """Make the figures of a study's datasets (monkeystudy.plotting.report)."""
+def report(
+    path: Path = typer.Argument(..., help="a study's output folder (outputs/<name>)",
+                                show_default=False, metavar="FOLDER"),
+    force: bool = typer.Option(False, "--force", help="redraw every figure, even those up "
+                                                       "to date"),
+    formats: str = typer.Option("png,pdf", "--formats", metavar="LIST",
+                                help="still-figure formats, comma-separated: png, pdf, svg "
+                                     "(png is always drawn: the page shows it)"),
+    no_animation: bool = typer.Option(False, "--no-animation",
+                                      help="skip the animations (the slowest figures)"),
+) -> None:
+    """Draw a study's figures and its page (figures/index.html) from its datasets."""
+    fmts = [f.strip().lower() for f in formats.split(",") if f.strip()]
+    bad = [f for f in fmts if f not in FIGURE_FORMATS]
+    if bad or not fmts:
+        _err(f"--formats: {', '.join(bad) or 'nothing'} not among {', '.join(FIGURE_FORMATS)}")
+        raise typer.Exit(EXIT_INVALID)
     if not path.is_dir():
         _err(f"{path}: no such folder")
         raise typer.Exit(EXIT_INVALID)
+    from .plotting.report import NoStudyDatasets, ReportError, report_study
     try:
-        from .plotting.report import report_study
-    except ImportError as exc:
-        _err("monkeystudy report: the figure code is not available "
-             f"(monkeystudy.plotting.report.report_study cannot be imported: {exc})")
+        report_study(path, force=force, formats=fmts, animation=not no_animation,
+                     progress=typer.echo)
+    except NoStudyDatasets as exc:
+        _err(f"monkeystudy report: {exc}")
+        raise typer.Exit(EXIT_INVALID) from None
+    except ReportError as exc:
+        _err(f"monkeystudy report: {exc}")
         raise typer.Exit(EXIT_FAILED) from None
-    try:
-        made = report_study(path)
     except Exception as exc:  # the report code's failure is a failed run, not a crash
         _err(f"monkeystudy report: failed: {type(exc).__name__}: {exc}")
         raise typer.Exit(EXIT_FAILED) from None
-    for p in made or []:
-        typer.echo(f"wrote {p}")
 
 
 @app.command(context_settings={"allow_extra_args": True, "ignore_unknown_options": True})

@@ -17,6 +17,7 @@ from matplotlib.figure import Figure
 from PIL import Image
 
 from monkeystudy.plotting import analysis as PA
+from monkeystudy.plotting.page import PAGE
 from monkeystudy.plotting.report import MANIFEST, plan, report_study
 
 from analysisdata import BASIN_CYCLES, ERROR_BOUND, TICKS, build_analysis_study
@@ -343,7 +344,7 @@ def assert_pdf(path: Path, sha: str):
 def test_report_draws_every_analysis_figure_with_provenance(reported):
     figs = reported / "figures"
     expected = {f"{s}.{e}" for s in STEMS.values() for e in ("png", "pdf")}
-    assert expected | {MANIFEST} == set(os.listdir(figs))
+    assert expected | {MANIFEST, PAGE} == set(os.listdir(figs))
     sha = xr.open_dataset(reported / "shoot.nc").attrs["study_sha256"]
     for name in expected:
         (assert_png if name.endswith(".png") else assert_pdf)(figs / name, sha)
@@ -373,9 +374,9 @@ def test_a_changed_dataset_redraws_its_figure_only(reported_copy):
     changed["cycles"] = changed["cycles"] + 1
     write_nc(changed, reported_copy / "basin.nc")
     written = {p.name for p in report_study(reported_copy)}
-    assert written == {"basin_cycles_map.png", "basin_cycles_map.pdf"}
+    assert written == {"basin_cycles_map.png", "basin_cycles_map.pdf", PAGE}  # + its numbers
     after = {p.name: p.stat().st_mtime_ns for p in figs.iterdir()}
     assert all(after[n] == before[n] for n in before if n not in written and n != MANIFEST)
     (reported_copy / "timing.nc").unlink()                 # its figure goes with it
-    assert report_study(reported_copy) == []
+    assert report_study(reported_copy) == [figs / PAGE]    # and its section of the page
     assert not [n for n in os.listdir(figs) if n.startswith("timing_")]

@@ -1,6 +1,8 @@
 """Each figure function draws the dataset's numbers: checked on the artists' data, not pixels."""
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from matplotlib.figure import Figure
@@ -203,16 +205,36 @@ def test_attached_end_inferred_from_the_trajectory_matches_the_simulator():
     assert len(traj.swaps()) == 3
 
 
-def test_animation_is_a_gif_of_the_run(datasets, tmp_path):
+def test_animation_gif_fallback_is_the_run(datasets, tmp_path):
     s = datasets["stability_1"]
     paths = write_animation(s, tmp_path / "anim", {"study_sha256": "abc123"}, max_frames=6,
-                            fps=2, mp4=False)
+                            fps=2, fmt="gif")
     assert paths == [tmp_path / "anim.gif"]
     with Image.open(paths[0]) as im:
         assert im.format == "GIF" and im.n_frames >= 6  # Pillow merges identical frames
+        assert im.size[0] >= 960                        # readable: 960 x 600 by default
         total = 0
         for k in range(im.n_frames):
             im.seek(k)
             total += im.info["duration"]
         assert total == (6 + 2) * 500                  # 6 frames + the end held 1 s, at 2 fps
         assert b"study_sha256=abc123" in im.info.get("comment", b"")
+
+
+def test_animation_is_an_mp4_a_person_can_watch(datasets, tmp_path):
+    """With ffmpeg (the imageio-ffmpeg wheel's) the animation is an MP4 at least 960 px wide,
+    one frame per sample plus the end held for a second."""
+    import subprocess
+
+    from monkeystudy.plotting.gait import animation_format, ffmpeg_path
+    assert animation_format() == "mp4", "imageio-ffmpeg is a dependency: ffmpeg must be found"
+    s = datasets["stability_1"]
+    paths = write_animation(s, tmp_path / "anim", {"study_sha256": "abc123"}, max_frames=6,
+                            fps=2)
+    assert paths == [tmp_path / "anim.mp4"]
+    probe = subprocess.run([ffmpeg_path(), "-i", str(paths[0])], capture_output=True,
+                           text=True).stderr
+    w, h = (int(v) for v in re.search(r"Video: .*?, (\d+)x(\d+)", probe).groups())
+    assert w >= 960 and (w, h) == (960, 600), probe
+    assert re.search(r"Duration: 00:00:0(3\.9|4\.0)", probe), probe   # (6 + 2) frames at 2 fps
+    assert "study_sha256=abc123" in probe

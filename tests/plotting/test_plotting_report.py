@@ -1,6 +1,8 @@
 """report_study: every figure the datasets support, valid files with provenance, incremental."""
 from __future__ import annotations
 
+import re
+
 import os
 import subprocess
 import sys
@@ -11,14 +13,15 @@ import pytest
 import xarray as xr
 from PIL import Image
 
-from monkeystudy.plotting.report import MANIFEST, ReportError, report_study
+from monkeystudy.plotting.page import PAGE
+from monkeystudy.plotting.report import MANIFEST, NoStudyDatasets, ReportError, report_study
 
 from plotdata import FAST, write_nc
 
 REPO = Path(__file__).resolve().parents[2]
 
-STILLS = ["error_map_surface", "error_map_map", "refine_1_convergence", "refine_2_convergence",
-          "stability_error_comparison"] + [
+STILLS = ["error_map_surface", "error_map_map", "error_map_swap_time", "refine_1_convergence",
+          "refine_2_convergence", "stability_error_comparison"] + [
     f"stability_{i}_{what}" for i in (1, 2)
     for what in ("error", "kinetic_energy", "height", "filmstrip")]
 ANIMATIONS = ["stability_1_animation", "stability_2_animation"]
@@ -48,7 +51,7 @@ def assert_pdf(path: Path, sha: str):
 def test_report_writes_every_figure_with_provenance(reported_study):
     figs = reported_study / "figures"
     expected = {f"{n}.{e}" for n in STILLS for e in ("png", "pdf")}
-    expected |= {f"{n}.gif" for n in ANIMATIONS}
+    expected |= {f"{n}.mp4" for n in ANIMATIONS}
     assert expected <= set(os.listdir(figs))
     sha = xr.open_dataset(reported_study / "error_map.nc").attrs["study_sha256"]
     for name in expected:
@@ -59,8 +62,7 @@ def test_report_writes_every_figure_with_provenance(reported_study):
         elif p.suffix == ".pdf":
             assert_pdf(p, sha)
         else:
-            with Image.open(p) as im:
-                assert im.format == "GIF" and im.n_frames >= FAST["max_frames"]
+            assert p.read_bytes()[4:8] == b"ftyp"                # an MP4 container
     assert (figs / MANIFEST).exists()
 
 
@@ -87,7 +89,8 @@ def test_only_figures_of_a_changed_dataset_are_redrawn(reported_copy):
     changed["error"] = changed["error"] * 2.0
     write_nc(changed, reported_copy / "error_map.nc")
     written = {p.name for p in report_study(reported_copy, **FAST)}
-    assert written == {f"error_map_{w}.{e}" for w in ("surface", "map") for e in ("png", "pdf")}
+    assert written == {f"error_map_{w}.{e}" for w in ("surface", "map", "swap_time")
+                       for e in ("png", "pdf")} | {PAGE}   # the page: its key numbers changed
     after = mtimes(figs)
     untouched = [n for n in before if n not in written and n != MANIFEST]
     assert len(untouched) > 20 and all(after[n] == before[n] for n in untouched)
@@ -109,8 +112,7 @@ def test_a_missing_figure_file_is_redrawn_alone(reported_copy):
 
 def test_force_redraws_everything(reported_copy):
     would = report_study(reported_copy, force=True, dry_run=True, **FAST)
-    assert len(would) == 2 * len(STILLS) + len(ANIMATIONS) + sum(
-        1 for p in (reported_copy / "figures").glob("*.mp4"))
+    assert len(would) == 2 * len(STILLS) + len(ANIMATIONS) + 1     # + the page
 
 
 def test_a_broken_dataset_fails_alone(reported_copy):
@@ -120,13 +122,19 @@ def test_a_broken_dataset_fails_alone(reported_copy):
     before = mtimes(reported_copy / "figures")
     with pytest.raises(ReportError) as exc:
         report_study(reported_copy, **FAST)
-    assert set(exc.value.failures) == {"error_map_surface", "error_map_map"}
-    assert exc.value.written == []                  # nothing else read that dataset
-    assert mtimes(reported_copy / "figures") == before
+    assert set(exc.value.failures) == {"error_map_surface", "error_map_map",
+                                       "error_map_swap_time"}
+    # nothing else read that dataset; the page says its key numbers are unavailable
+    assert exc.value.written == [reported_copy / "figures" / PAGE]
+    assert "key numbers unavailable" in (reported_copy / "figures" / PAGE).read_text()
+    after = mtimes(reported_copy / "figures")
+    assert {n: t for n, t in after.items() if n != PAGE} == \
+        {n: t for n, t in before.items() if n != PAGE}
     # the failed figures are retried next time (and fail again), nothing else is redone
     with pytest.raises(ReportError) as again:
         report_study(reported_copy, **FAST)
-    assert set(again.value.failures) == {"error_map_surface", "error_map_map"}
+    assert set(again.value.failures) == {"error_map_surface", "error_map_map",
+                                         "error_map_swap_time"}
 
 
 def test_datasets_of_other_step_kinds_are_left_alone(reported_copy):
@@ -146,12 +154,21 @@ def test_figures_of_a_deleted_dataset_are_removed(reported_copy):
     report_study(reported_copy, animation=False, **FAST)   # animations: kept, not redrawn
     names = set(os.listdir(figs))
     assert not {n for n in names if n.startswith(("refine_1_", "stability_1_"))}
-    assert {"refine_2_convergence.png", "stability_2_animation.gif"} <= names
+    assert {"refine_2_convergence.png", "stability_2_animation.mp4"} <= names
     assert "stability_error_comparison.png" not in names    # one run left: no comparison
 
 
-def test_empty_folder_draws_nothing(tmp_path):
-    assert report_study(tmp_path) == []
+def test_empty_folder_is_refused_and_names_the_study_folders_below(tmp_path, reported_copy):
+    """Nothing to report is an error, not a silent success; on the parent of study folders
+    (an easy mistake) the message names them."""
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(NoStudyDatasets, match="holds no study datasets") as err:
+        report_study(empty)
+    assert "below it" not in str(err.value)
+    with pytest.raises(NoStudyDatasets, match=re.escape(str(reported_copy))):
+        report_study(reported_copy.parent)
+    assert not (empty / "figures").exists()
 
 
 # --- datasets written by the real study runner ---------------------------------------------
@@ -163,7 +180,7 @@ def test_report_on_runner_datasets(runner_study_dir):
                  "gait1_cycles_kinetic_energy", "gait1_cycles_filmstrip",
                  "minima_cycles_error", "minima_cycles_filmstrip", "stability_error_comparison"):
         assert f"{stem}.png" in names, stem
-    assert {"gait1_cycles_animation.gif", "minima_cycles_animation.gif"} <= names
+    assert {"gait1_cycles_animation.mp4", "minima_cycles_animation.mp4"} <= names
     assert report_study(runner_study_dir, formats=("png",), **FAST) == []
 
 
@@ -223,3 +240,56 @@ def test_pipeline_builds_then_has_nothing_to_do(tmp_path):
     assert "all 3 up to date" in second.stdout and "wrote 0 file(s)" in second.stdout
     after = mtimes(figs) | {p.name: p.stat().st_mtime_ns for p in (out / "tiny").glob("*.nc")}
     assert after == before
+
+
+def test_report_command_says_what_it_did(reported_copy, monkeypatch):
+    """``monkeystudy report``: a line per figure, then "up to date" when nothing changed;
+    --force redraws; a figure that fails exits 1 and names it, the others are kept."""
+    from typer.testing import CliRunner
+
+    from monkeystudy.cli import app
+    from monkeystudy.plotting import report as R
+
+    runner = CliRunner()
+    res = runner.invoke(app, ["report", str(reported_copy), "--no-animation"])
+    assert res.exit_code == 0, res.output
+    assert "error_map_map: up to date" in res.output
+    assert res.output.strip().splitlines()[-1].endswith(f"up to date ({len(R.plan(reported_copy, animation=False))} figures, {reported_copy / 'figures' / PAGE})")
+    res = runner.invoke(app, ["report", str(reported_copy), "--force", "--no-animation",
+                              "--formats", "png"])
+    assert res.exit_code == 0, res.output
+    assert "error_map_map: drawing" in res.output and "drew" in res.output.splitlines()[-1]
+
+    def broken(d):
+        raise RuntimeError("a broken figure")
+    monkeypatch.setitem(R.DRAWINGS, ("grid", "surface"),
+                        R.Drawing(broken))
+    res = runner.invoke(app, ["report", str(reported_copy), "--force", "--no-animation",
+                              "--formats", "png"])
+    assert res.exit_code == 1
+    assert "error_map_surface: RuntimeError: a broken figure" in res.output
+    assert (reported_copy / "figures" / "error_map_map.png").exists()
+
+
+def test_the_page_links_only_to_files_that_exist(reported_study):
+    """Every ``href`` and ``src`` of figures/index.html resolves to a file of the study folder
+    (figures beside the page, datasets one folder up) or to an anchor of the page; every
+    figure on disk is on the page, with its kind's caption."""
+    from monkeystudy.study.steps import REGISTRY
+
+    figs = reported_study / "figures"
+    text = (figs / PAGE).read_text()
+    links = re.findall(r'(?:href|src)="([^"]+)"', text)
+    assert links
+    anchors = set(re.findall(r'id="([^"]+)"', text))
+    for link in links:
+        if link.startswith("#"):
+            assert link[1:] in anchors, link
+            continue
+        assert "://" not in link and not link.startswith("/"), link   # self-contained
+        assert (figs / link).resolve().is_file(), link
+    assert {f"../{p.name}" for p in reported_study.glob("*.nc")} <= set(links)
+    for p in figs.glob("*.png"):
+        assert p.name in links, p.name
+    captions = [f.caption for k in REGISTRY.values() for f in k.figures]
+    assert sum(c in text.replace("&#x27;", "'") for c in captions) >= 5

@@ -167,7 +167,7 @@ def test_report_draws_the_stress_figure_once(built, tmp_path):
     study = tmp_path / built.name
     shutil.copytree(built, study)
     written = {p.name for p in report_study(study)}
-    assert written == {"stress_stress.png", "stress_stress.pdf"}
+    assert written == {"stress_stress.png", "stress_stress.pdf", "index.html"}
     figs = study / "figures"
     sha = xr.open_dataset(study / "stress.nc").attrs["study_sha256"]
     with Image.open(figs / "stress_stress.png") as im:

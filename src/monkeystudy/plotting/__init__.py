@@ -11,7 +11,9 @@ tick_sweep ``_error_growth`` (:func:`plot_tick_sweep`), basin ``_cycles_map``
 ``_work_precision`` (:func:`plot_work_precision`); of the stress step: ``_stress``
 (:func:`plot_stress`).
 """
-from .maps import plot_error_map, plot_error_surface, plot_refine_convergence  # noqa: F401
+from .maps import (  # noqa: F401
+    plot_error_map, plot_error_surface, plot_refine_convergence, plot_swap_time_map,
+)
 from .cycles import (  # noqa: F401
     gait_point, plot_error_comparison, plot_error_per_cycle, plot_kinetic_energy,
     plot_pivot_height,

@@ -21,6 +21,7 @@ from .common import (
     BLUE, GREEN, VERMILLION, link_lengths, new_figure, robot_object, run_label, status_name,
     style,
 )
+from ..analysis.gait_kind import gait_kind_text
 from ..kernel import layout as L
 from ..kernel.dynamics import kinetic_energy
 from .drawing import Drawing, Folder
@@ -89,6 +90,9 @@ def gait_text(stab, gait) -> str:
     if "t_switch" in stab.attrs and "t_motor" in stab.attrs:
         times = (f"swap at {float(stab.attrs['t_switch']):.3f} s, "
                  f"motor {float(stab.attrs['t_motor']):.3f} s")
+    passes = int(stab.attrs.get("vertical_passes_before_swap", -1))
+    if passes > 0:      # say so when the gait is not the study's first-swing kind
+        times += f" ({gait_kind_text(passes)})"
     if gait is not None:
         g = f"gait ({gait[0]:.3f}, {gait[1]:.3f})"
         return f"{g}: {times}" if times else g

@@ -12,6 +12,7 @@ from the trajectory itself: while swinging, the attached end is the one that doe
 """
 from __future__ import annotations
 
+import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -321,16 +322,34 @@ def animation_frames(traj: Trajectory, fps: float, max_frames: int) -> tuple[np.
     return np.clip(idx, 0, traj.t.size - 1), speed
 
 
+def ffmpeg_path() -> str | None:
+    """The ffmpeg executable: the one the imageio-ffmpeg wheel ships, else one on the PATH;
+    None when there is neither."""
+    try:
+        # imageio-ffmpeg locates its bundled binary on import: only animations need it
+        import imageio_ffmpeg
+        return imageio_ffmpeg.get_ffmpeg_exe()
+    except (ImportError, RuntimeError):
+        return shutil.which("ffmpeg")
+
+
+def animation_format() -> str:
+    """``mp4`` when ffmpeg is available, else ``gif``."""
+    return "mp4" if ffmpeg_path() is not None else "gif"
+
+
 def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_frames: int = 300,
-                    dpi: float = 80.0, window: float = 3.2, gait=None,
-                    mp4: bool | None = None) -> list[Path]:
-    """Animate the whole run of a stability dataset; write ``base.gif`` (and ``base.mp4``).
+                    dpi: float = 150.0, window: float = 3.2, gait=None,
+                    fmt: str | None = None) -> list[Path]:
+    """Animate the whole run of a stability dataset; write ``base.mp4`` (``base.gif`` when
+    there is no ffmpeg, or with ``fmt="gif"``). The frames are 6.4 x 4 in at ``dpi``: 960 x
+    600 pixels by default.
 
     Real time at ``fps`` frames per second unless that needs more than ``max_frames`` frames,
     then sped up (the speed-up is shown); the last frame is held for a second (with the reason
     when the run stopped early). The view (``window`` metres wide) follows the robot;
     the start height and the points where a magnet attached are drawn fixed in the world.
-    ``mp4`` None: write MP4 only when ffmpeg is available. Returns the written paths.
+    Returns the written paths.
     """
     traj = trajectory(stab)
     frames, speed = animation_frames(traj, fps, max_frames)
@@ -414,12 +433,16 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
             end_note.set_text(stop.replace(": ", ":\n", 1) if final and stop else "")
             end_note.set_visible(bool(final and stop))
 
-        targets = [("gif", _PillowWriterWithComment(fps=fps, comment=comment))]
-        want_mp4 = FFMpegWriter.isAvailable() if mp4 is None else mp4
-        if want_mp4:
-            targets.append(("mp4", FFMpegWriter(fps=fps, metadata={"comment": comment,
-                                                                   "title": base.name})))
-        for ext, writer in targets:
+        fmt = fmt or animation_format()
+        if fmt == "mp4":
+            matplotlib.rcParams["animation.ffmpeg_path"] = ffmpeg_path()
+            writer = FFMpegWriter(fps=fps, metadata={"comment": comment, "title": base.name},
+                                  extra_args=["-pix_fmt", "yuv420p"])
+        elif fmt == "gif":
+            writer = _PillowWriterWithComment(fps=fps, comment=comment)
+        else:
+            raise ValueError(f"animation format must be mp4 or gif, got {fmt!r}")
+        for ext, writer in ((fmt, writer),):
             path = base.with_name(f"{base.name}.{ext}")
             with atomic_path(path) as tmp:
                 with writer.saving(fig, str(tmp), dpi):

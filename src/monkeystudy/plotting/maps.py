@@ -305,6 +305,58 @@ def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str
     return fig
 
 
+def plot_swap_time_map(grid, refines: Sequence = (), *, cmap: str = "viridis"):
+    """The swap time ``t_switch`` over the grid, beside the error map: where it jumps, the
+    swap comes on a later swing (link 1 swings back through the vertical first), and a small
+    error there is a gait of another kind than the study's first-swing gait.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Artists with ``gid``: ``t_switch`` (the QuadMesh; its array ``[i_dtheta2,
+        i_dtheta1]``, masked where there is no gait), ``minimum_<step>`` markers.
+    """
+    g = grid_arrays(grid)
+    e1, e2 = cell_edges(g.dtheta1), cell_edges(g.dtheta2)
+    if "point" in grid.dims:
+        ts = np.full(g.error.shape, np.nan)
+        i1 = np.searchsorted(g.dtheta1, np.asarray(grid["dtheta1"].values, float))
+        i2 = np.searchsorted(g.dtheta2, np.asarray(grid["dtheta2"].values, float))
+        ts[i1, i2] = np.asarray(grid["t_switch"].values, float)
+    else:
+        ts = np.asarray(grid["t_switch"].transpose("dtheta1", "dtheta2").values, float)
+    ts = np.where(g.status == L.ST_OK, ts, np.nan)
+    with style():
+        fig = new_figure(figsize=(7.4, 6.4))
+        ax = fig.add_subplot()
+        ax.grid(False)
+        mesh = ax.pcolormesh(e1, e2, np.ma.masked_invalid(ts).T, cmap=cmap, shading="flat",
+                             gid="t_switch", rasterized=True, zorder=1)
+        cb = fig.colorbar(mesh, ax=ax, pad=0.02, shrink=0.9)
+        cb.set_label("swap time t_switch  [s]")
+        handles = []
+        for key, mask, colour, hatch, label in g.category_masks():
+            ax.add_patch(_hatch_patch(mask_path(mask, e1, e2), colour, hatch, f"nogait_{key}"))
+            handles.append(_legend_patch(colour, hatch, label))
+        for m in minima_from(refines):
+            if e1[0] <= m.dtheta1 <= e1[-1] and e2[0] <= m.dtheta2 <= e2[-1]:
+                ax.plot(m.dtheta1, m.dtheta2, marker="s", ms=8, mfc=MINIMUM_COLOUR,
+                        mec="black", mew=1.0, ls="none", zorder=6, gid=f"minimum_{m.label}")
+        if any(m for m in minima_from(refines)):
+            handles.append(Line2D([], [], marker="s", ms=8, mfc=MINIMUM_COLOUR, mec="black",
+                                  ls="none", label="refined minima (as on the error map)"))
+        ax.set_xlim(e1[0], e1[-1])
+        ax.set_ylim(e2[0], e2[-1])
+        ax.set_xlabel(D1_LABEL)
+        ax.set_ylabel(D2_LABEL)
+        if handles:
+            fig.legend(handles=handles, loc="outside lower center", ncols=1, frameon=False)
+        fig.suptitle("Swap time over the grid: a jump means a later swing", x=0.02, ha="left",
+                     fontweight="bold")
+        ax.set_title(run_label(grid), fontsize=8.5, fontweight="normal", loc="left")
+    return fig
+
+
 def _label_offsets(points, fig_size, min_sep: float = 13.0) -> list[tuple[int, int]]:
     """Offsets [points] for the number labels of markers at ``points`` (axes fractions):
     beside the marker, moved around it when that would overlap an earlier label or marker."""
@@ -446,6 +498,10 @@ def _refines(path: Path, folder: Folder) -> list[Path]:
     return list(folder.files.get("refine", []))
 
 
+def _has_swap_times(path: Path, folder: Folder) -> bool:
+    return "t_switch" in folder.loaded(path)
+
+
 def _has_iterations(path: Path, folder: Folder) -> bool:
     ds = folder.loaded(path)
     return ds.sizes.get("iteration", 0) > 0 and "iterate_error" in ds
@@ -455,6 +511,8 @@ def _has_iterations(path: Path, folder: Folder) -> bool:
 DRAWINGS = {
     ("grid", "surface"): Drawing(lambda d: plot_error_surface(d[0])),
     ("grid", "map"): Drawing(lambda d: plot_error_map(d[0], d[1:]), extra_inputs=_refines),
+    ("grid", "swap_time"): Drawing(lambda d: plot_swap_time_map(d[0], d[1:]),
+                                   extra_inputs=_refines, applies=_has_swap_times),
     ("refine", "convergence"): Drawing(lambda d: plot_refine_convergence(d[0]),
                                        applies=_has_iterations),
 }

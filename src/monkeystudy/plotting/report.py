@@ -49,6 +49,7 @@ from ..study.steps import REGISTRY
 from . import analysis, cycles, gait, maps, stress
 from .common import STYLE_FILE, atomic_path, provenance, save_figure
 from .drawing import Drawing, Folder
+from .page import PAGE, render_page
 
 MANIFEST = "manifest.json"
 MANIFEST_VERSION = 1
@@ -227,11 +228,33 @@ def _prune(fig_dir: Path, manifest: dict, planned: set[str], study_dir: Path,
         _write_manifest(fig_dir / MANIFEST, manifest)
 
 
+class NoStudyDatasets(ValueError):
+    """A folder without study datasets (``*.nc`` written by ``monkeystudy run``)."""
+
+
+def study_datasets(study_dir: Path) -> list[Path]:
+    """The study datasets in ``study_dir`` (``*.nc`` with a known ``step_kind``)."""
+    return [p for paths in _datasets(Path(study_dir)).values() for p in paths]
+
+
+def no_datasets_message(study_dir: Path) -> str:
+    """Why ``study_dir`` cannot be reported, naming the study folders below it, if any."""
+    below = sorted(p.parent for p in Path(study_dir).glob("*/*.nc")
+                   if not p.name.startswith(".") and study_datasets(p.parent))
+    below = sorted(set(below))
+    msg = f"{study_dir} holds no study datasets (the *.nc files 'monkeystudy run' writes)"
+    if below:
+        msg += ("; the study folders below it are " + ", ".join(str(b) for b in below)
+                + f": report one of them, e.g. 'monkeystudy report {below[0]}'")
+    return msg
+
+
 def report_study(study_dir: Path, *, force: bool = False,
                  formats: Sequence[str] = ("png", "pdf"), animation: bool = True,
                  fps: float = 15.0, max_frames: int = 240, dry_run: bool = False,
                  progress: Progress | None = None) -> list[Path]:
-    """Draw every figure the datasets in ``study_dir`` support into ``study_dir/figures``.
+    """Draw every figure the datasets in ``study_dir`` support into ``study_dir/figures``, and
+    the study's page ``figures/index.html`` (:mod:`monkeystudy.plotting.page`).
 
     Parameters
     ----------
@@ -240,36 +263,39 @@ def report_study(study_dir: Path, *, force: bool = False,
     force : bool
         Redraw every figure even when its inputs are unchanged.
     formats : sequence of str
-        Still-figure formats (PNG and PDF by default).
+        Still-figure formats (PNG and PDF by default; PNG is always drawn: the page shows it).
     animation : bool
-        Also write each stability run's animation (GIF; MP4 too when ffmpeg exists).
+        Also write each stability run's animation (MP4 with ffmpeg, else GIF).
     fps, max_frames : float, int
         Animation frame rate and frame budget (longer runs play faster than real time).
     dry_run : bool
         Draw nothing; return the files that would be written.
     progress : callable, optional
-        Called with one line of text per figure (drawn or up to date).
+        Called with one line of text per figure (drawn or up to date) and a last line that
+        sums up.
 
     Returns
     -------
     list of Path
-        The files written by this call (empty when every figure was up to date); with
+        The files written by this call (empty when everything was up to date); with
         ``dry_run``, the files that would be written.
 
     Raises
     ------
+    NoStudyDatasets
+        ``study_dir`` holds no study dataset (the message names study folders below it).
     ReportError
         When some figures failed; the others are written (and listed in ``.written``).
     """
     study_dir = Path(study_dir)
     if not study_dir.is_dir():
         raise FileNotFoundError(f"no study folder {study_dir}")
-    fig_dir = study_dir / FIGURES_DIR
+    formats = list(dict.fromkeys(["png"] + [f.lower() for f in formats]))
     jobs = plan(study_dir, animation=animation, fps=fps, max_frames=max_frames)
-    if not jobs:
-        if progress:
-            progress(f"{study_dir}: no datasets to draw from")
-        return []
+    files = study_datasets(study_dir)
+    if not files:
+        raise NoStudyDatasets(no_datasets_message(study_dir))
+    fig_dir = study_dir / FIGURES_DIR
     if not dry_run:
         fig_dir.mkdir(parents=True, exist_ok=True)
     manifest_path = fig_dir / MANIFEST
@@ -279,30 +305,34 @@ def report_study(study_dir: Path, *, force: bool = False,
     loaded: dict[Path, xr.Dataset] = {}
     written: list[Path] = []
     failures: dict[str, str] = {}
-    options = {"formats": list(formats), "fps": fps, "max_frames": max_frames}
+    options = {"formats": formats, "fps": fps, "max_frames": max_frames}
+    if animation and any(j.animation for j in jobs) and gait.ffmpeg_path() is None \
+            and progress:
+        progress("animations as GIF: no ffmpeg (install imageio-ffmpeg for MP4)")
+    drawn = 0
+
+    def say(k: int, job: Job, what: str) -> None:
+        if progress:
+            progress(f"[{k}/{len(jobs)}] {job.name}: {what}")
 
     for k, job in enumerate(jobs, 1):
         for p in job.inputs:
             if p not in hashes:
                 hashes[p] = file_sha256(p)
         entry = {"inputs": {p.name: hashes[p] for p in job.inputs}, "code": code,
-                 "options": options if job.animation else {"formats": list(formats)}}
+                 "options": options if job.animation else {"formats": formats}}
         old = manifest["figures"].get(job.name, {})
         outputs_ok = bool(old.get("outputs")) and all((fig_dir / o).exists()
                                                       for o in old["outputs"])
         if not force and outputs_ok and all(old.get(key) == entry[key] for key in entry):
-            if progress:
-                progress(f"[{k}/{len(jobs)}] {job.name}: up to date")
+            say(k, job, "up to date")
             continue
         if dry_run:
-            exts = (["gif"] + (["mp4"] if gait.FFMpegWriter.isAvailable() else [])
-                    if job.animation else list(formats))
+            exts = ([gait.animation_format()] if job.animation else formats)
             written += [fig_dir / f"{job.name}.{e}" for e in exts]
-            if progress:
-                progress(f"[{k}/{len(jobs)}] {job.name}: would draw ({job.title})")
+            say(k, job, f"would draw ({job.title})")
             continue
-        if progress:
-            progress(f"[{k}/{len(jobs)}] {job.name}: drawing ({job.title})")
+        say(k, job, f"drawing ({job.title})")
         try:
             for p in job.inputs:
                 if p not in loaded:
@@ -321,26 +351,45 @@ def report_study(study_dir: Path, *, force: bool = False,
             if progress:
                 progress(f"    failed: {failures[job.name].strip().splitlines()[-1]}")
             continue
+        drawn += 1
         written += paths
         entry["outputs"] = [p.name for p in paths]
         manifest["figures"][job.name] = entry
         _write_manifest(manifest_path, manifest)
     if not dry_run:
         _prune(fig_dir, manifest, {j.name for j in jobs}, study_dir, progress)
+        page = _write_page(study_dir, files, manifest, loaded)
+        if page is not None:
+            written.append(page)
+    elif written or not (fig_dir / PAGE).exists():
+        written.append(fig_dir / PAGE)
+    if progress:
+        up = len(jobs) - drawn - len(failures) if not dry_run else 0
+        page_path = fig_dir / PAGE
+        if dry_run:
+            progress(f"{study_dir}: {len(written)} file(s) would be written")
+        elif not written:
+            progress(f"{study_dir}: up to date ({len(jobs)} figures, {page_path})")
+        else:
+            progress(f"{study_dir}: drew {drawn} figure(s), {up} up to date"
+                     + (f", {len(failures)} failed" if failures else "")
+                     + f"; page {page_path}")
     if failures:
         raise ReportError(failures, written)
     return written
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m monkeystudy.plotting DIR [--force]``: draw the figures of study folders."""
-    import argparse   # an entry point: only its own command line needs it
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("study_dir", type=Path, nargs="+")
-    ap.add_argument("--force", action="store_true", help="redraw every figure")
-    ap.add_argument("--no-animation", action="store_true")
-    a = ap.parse_args(argv)
-    for d in a.study_dir:
-        written = report_study(d, force=a.force, animation=not a.no_animation, progress=print)
-        print(f"{d}: wrote {len(written)} file(s)")
-    return 0
+def _write_page(study_dir: Path, files: list[Path], manifest: dict,
+                loaded: dict[Path, xr.Dataset]) -> Path | None:
+    """Write ``figures/index.html`` if its content changed; return its path if written. The
+    page shows every figure the manifest holds (those not drawn this time, e.g. animations
+    with ``animation=False``, are still there)."""
+    datasets = {p.stem: loaded[p] if p in loaded else _load(p) for p in files}
+    figures = {name: e.get("outputs", []) for name, e in manifest["figures"].items()}
+    text = render_page(study_dir, datasets, figures)
+    path = study_dir / FIGURES_DIR / PAGE
+    if path.exists() and path.read_text() == text:
+        return None
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)
+    return path

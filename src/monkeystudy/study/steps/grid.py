@@ -281,6 +281,10 @@ class GridKind(StepKind):
         Figure("map", "error map with minima",
                "The study's figures 4, 9 and 10: the error truncated at 5, the refined minima "
                "marked. Dark is a small error: the gaits lie in the dark valley."),
+        Figure("swap_time", "swap time over the grid",
+               "When the swap comes: a jump in colour is a start whose swap comes on a later "
+               "swing. A minimum on the far side of such a jump is a gait of another kind "
+               "than the study's first-swing gait."),
     )
 
     def blocks(self, step: GridStep) -> list[Block]:

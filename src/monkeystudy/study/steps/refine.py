@@ -10,8 +10,9 @@ from typing import Annotated, Any, Literal, Optional, Union
 import numpy as np
 from pydantic import Discriminator, Field, Tag
 
+from ...analysis.gait_kind import gait_kind_text, vertical_passes_before_swap
 from ...analysis.search import DEFAULT_PENALTY, FMINSEARCH_TOL, refine_gait
-from ...kernel.layout import STATUS_NAMES
+from ...kernel.layout import ST_OK, STATUS_NAMES
 from ...simulate import evaluate_cycle_gaits, evaluate_gaits
 from .. import datasets as D
 from ..blocks import Task
@@ -91,8 +92,24 @@ def refine_task(spec: GaitSpec, start: tuple[float, float], *, xatol: float, fat
         return {k: (int(r[k][0]) if k == "status" else
                     r[k][0].copy() if k == "t_segment" else float(r[k][0])) for k in keys}
 
-    return refine_gait(gait, start, xatol=xatol, fatol=fatol, maxiter=maxiter, maxfev=maxfev,
-                       penalty=penalty)
+    r = refine_gait(gait, start, xatol=xatol, fatol=fatol, maxiter=maxiter, maxfev=maxfev,
+                    penalty=penalty)
+    # what kind of gait the result is: a late swap, after several swings, is another gait
+    r["vertical_passes"] = -1 if seq is not None or r["status"] != ST_OK else \
+        vertical_passes_before_swap(float(r["x"][0]), float(r["x"][1]), robot=spec.robot,
+                                    torque=spec.torque, tick=spec.tick,
+                                    integrator=spec.integrator)
+    return r
+
+
+def outcome_text(converged: int, message: str, nit: int) -> str:
+    """``converged after 30 iterations`` or why Nelder-Mead stopped without converging."""
+    after = f" after {nit} iterations" if nit >= 0 else ""
+    if converged:
+        return f"converged{after}"
+    why = ("the iteration limit" if "iterations" in message else
+           "the evaluation limit" if "evaluations" in message else message.rstrip("."))
+    return f"NOT converged: stopped at {why}{after}"
 
 
 # --- the dataset ---------------------------------------------------------------------------------
@@ -142,6 +159,11 @@ def write_refine(path: Path, attrs: dict, results: list[dict], multi: bool) -> N
         D.add_variable(nc, "start_dtheta2", sdim, np.float64, dict(D.DTHETA2, long_name="start of the "
                                                           "refinement, dtheta2"),
              col("start", index=1))
+        D.add_variable(nc, "vertical_passes", sdim, np.int32,
+                       {"long_name": "times link 1 passed the vertical before the swap of the "
+                                     "refined gait (0: the swap comes on the first swing; -1: "
+                                     "no swap, or a sequence gait)", "units": "1"},
+                       col("vertical_passes", np.int32))
         D.add_variable(nc, "converged", sdim, np.int8, {"long_name": "Nelder-Mead met xatol and fatol "
                                                            "(1) or hit a limit (0)",
                                                "units": "1"}, col("converged", np.int8))
@@ -184,7 +206,8 @@ def write_refine(path: Path, attrs: dict, results: list[dict], multi: bool) -> N
 def read_refined(path: Path, start_index: int | None = None) -> tuple[dict, int]:
     """The refined gait of a refine dataset: ``({dtheta1, dtheta2, t_switch, t_motor, t_end,
     status}, start index)``; for a multi-start dataset the given start or the lowest error."""
-    keys = ("dtheta1", "dtheta2", "t_switch", "t_motor", "t_end", "error", "status")
+    keys = ("dtheta1", "dtheta2", "t_switch", "t_motor", "t_end", "error", "status",
+            "vertical_passes")
     vals = D.read_variables(path, keys)       # a sequence gait's has no t_switch, t_motor
     if start_index is None:
         err = np.where(np.isfinite(vals["error"]), vals["error"], np.inf)
@@ -253,25 +276,40 @@ class RefineKind(StepKind):
                      start=st.start.model_dump(mode="json", by_alias=True)
                      if multi else list(st.start))
         write_refine(ctx.path, attrs, results, multi)
-        best = min(results, key=lambda r: r["error"] if math.isfinite(r["error"]) else math.inf)
-        return (f"error {best['error']:.3g} at ({best['x'][0]:.6g}, {best['x'][1]:.6g}), "
-                f"{sum(r['nit'] for r in results)} iterations")
+        best = min(range(len(results)), key=lambda i: results[i]["error"]
+                   if math.isfinite(results[i]["error"]) else math.inf)
+        b = results[best]
+        kind = (f", {gait_kind_text(b['vertical_passes'])}" if ctx.gait_kind == "horizontal"
+                else "")
+        msg = (f"best error {b['error']:.3g} at ({b['x'][0]:.6g}, {b['x'][1]:.6g}){kind}, "
+               f"{outcome_text(b['converged'], b['message'], b['nit'])}")
+        if len(results) > 1:
+            n_conv = sum(r["converged"] for r in results)
+            msg += f" (start {best}); {n_conv} of {len(results)} starts converged"
+        return msg
 
     def describe(self, ds) -> list[str]:
-        a = ds.attrs
+        def col(name, default=np.nan):
+            return np.atleast_1d(ds[name].values) if name in ds else \
+                np.full(ds["dtheta1"].size, default)
+
+        d1, d2, err, st = col("dtheta1"), col("dtheta2"), col("error"), col("status", 0)
+        conv, nit, passes = col("converged", 0), col("nit", -1), col("vertical_passes", -2)
+        ts, tm, s1, s2 = col("t_switch"), col("t_motor"), col("start_dtheta1"), \
+            col("start_dtheta2")
+        msgs = [m for m in (ds.attrs.get("message", ""),)]
+        try:
+            msgs = json.loads(msgs[0]) if d1.size > 1 else msgs
+        except ValueError:
+            pass
         lines = []
-        d1, d2 = np.atleast_1d(ds["dtheta1"].values), np.atleast_1d(ds["dtheta2"].values)
-        err = np.atleast_1d(ds["error"].values)
-        st = np.atleast_1d(ds["status"].values)
-        conv = np.atleast_1d(ds["converged"].values)
-        nit = np.atleast_1d(ds["nit"].values)
         for k in range(d1.size):
-            lines.append(f"start {k}: ({float(np.atleast_1d(ds['start_dtheta1'].values)[k]):.6g}, "
-                         f"{float(np.atleast_1d(ds['start_dtheta2'].values)[k]):.6g}) -> "
-                         f"({d1[k]:.6g}, {d2[k]:.6g}) rad s-1, error {err[k]:.4g}, "
-                         f"{STATUS_NAMES[int(st[k])]}, {'converged' if conv[k] else 'stopped'}"
-                         f" after {int(nit[k])} iterations")
-        lines.append(f"t_switch {np.atleast_1d(ds['t_switch'].values)[0]:.6g} s, t_motor "
-                     f"{np.atleast_1d(ds['t_motor'].values)[0]:.6g} s (first start)")
-        lines.append(f"message: {a.get('message', '')}")
+            kind = f", {gait_kind_text(int(passes[k]))}" if passes[k] > -2 and \
+                "t_switch" in ds else ""
+            times = (f"; swap at {ts[k]:.6g} s, motor {tm[k]:.6g} s" if np.isfinite(ts[k])
+                     else "")
+            lines.append(f"start {k}: ({s1[k]:.6g}, {s2[k]:.6g}) -> ({d1[k]:.6g}, {d2[k]:.6g}) "
+                         f"rad s-1, error {err[k]:.4g}, {STATUS_NAMES[int(st[k])]}{kind}; "
+                         f"{outcome_text(int(conv[k]), str(msgs[min(k, len(msgs) - 1)]), int(nit[k]))}"
+                         f"{times}")
         return lines

@@ -16,6 +16,7 @@ from typing import Any, Literal, Optional
 import numpy as np
 from pydantic import Field
 
+from ...analysis.gait_kind import gait_kind_text
 from ...analysis.replay import sequence_cycles
 from ...controllers import OpenLoop
 from ...kernel import layout as L
@@ -286,7 +287,8 @@ class StabilityKind(StepKind):
             attrs.update(controller={"tick": kw["tick"], "clock": kw["clock"]},
                          sample_dt=kw["sample_dt"], max_drop=kw["max_drop"],
                          cycles=kw["cycles"], refine_step=st.from_,
-                         refine_start=gait["start_index"], replay="open_loop")
+                         refine_start=gait["start_index"], replay="open_loop",
+                         vertical_passes_before_swap=int(gait.get("vertical_passes", -1)))
         write_stability(ctx.path, attrs, r, gait)
         return f"{r['cycles_completed']} cycles, status {STATUS_NAMES[r['status']]}"
 
@@ -305,4 +307,6 @@ class StabilityKind(StepKind):
                          f"{ph[np.isfinite(ph)][-1]:.4g} m")
         lines.append(f"replayed t_switch {a.get('t_switch')} s, t_motor {a.get('t_motor')} "
                      f"s, controller {a.get('controller')}")
+        if int(a.get("vertical_passes_before_swap", -1)) >= 0:
+            lines.append(f"the replayed gait {gait_kind_text(int(a['vertical_passes_before_swap']))}")
         return lines

@@ -1,0 +1,177 @@
+"""One HTML page per study (``figures/index.html``), self-contained next to its images.
+
+The page says what was run and what came out: the study's description and file, the robot,
+gait and integrator, then every step in the study's order with its key numbers (what its step
+kind reports of its dataset, :meth:`~monkeystudy.study.steps.base.StepKind.describe`), a link
+to its dataset and its figures, each with the caption its kind declares (what to look at);
+last, the provenance of every dataset. It links only to files beside it (the figures) and
+one folder up (the datasets), so the study folder can be moved or zipped whole.
+"""
+from __future__ import annotations
+
+import html
+import json
+from pathlib import Path
+from typing import Mapping, Sequence
+
+from .. import __version__
+from ..study.loader import StudyError, parse_study
+from ..study.steps import REGISTRY
+
+PAGE = "index.html"
+
+STYLE = """
+body { font: 15px/1.45 system-ui, -apple-system, "Segoe UI", sans-serif; color: #1b1b1b;
+       max-width: 1100px; margin: 2em auto; padding: 0 1.5em; }
+h1 { font-size: 1.7em; margin-bottom: 0.1em; } h2 { margin-top: 2em; border-bottom: 1px solid #ccc; }
+h3 { margin-top: 1.6em; } h3 small { color: #666; font-weight: normal; }
+table { border-collapse: collapse; margin: 0.5em 0; } td, th { padding: 0.2em 0.8em;
+       border-bottom: 1px solid #e4e4e4; text-align: left; vertical-align: top; }
+th { color: #555; font-weight: 600; }
+pre { background: #f6f6f6; padding: 0.8em; overflow-x: auto; font-size: 13px; }
+ul.numbers { font-family: ui-monospace, "DejaVu Sans Mono", monospace; font-size: 13px;
+             padding-left: 1.2em; }
+figure { margin: 1.2em 0 2em; } figure img, figure video { max-width: 100%; border: 1px solid #ddd; }
+figcaption { font-size: 14px; color: #333; margin-top: 0.3em; }
+nav a { margin-right: 1em; } .muted { color: #666; font-size: 13px; }
+"""
+
+
+def _e(text) -> str:
+    return html.escape(str(text), quote=True)
+
+
+def _json(attrs: Mapping, name: str):
+    try:
+        return json.loads(attrs.get(name, ""))
+    except (TypeError, ValueError):
+        return None
+
+
+def step_order(datasets: Mapping[str, object]) -> list[str]:
+    """Step names in the study file's order (from a dataset's ``study_text``), then any other
+    datasets by name."""
+    names: list[str] = []
+    for ds in datasets.values():
+        text = ds.attrs.get("study_text")
+        if not text:
+            continue
+        try:
+            names = [s.name for s in parse_study(text).study.steps]
+        except StudyError:
+            continue
+        break
+    return [n for n in names if n in datasets] + sorted(set(datasets) - set(names))
+
+
+def _robot_table(robot: Mapping) -> str:
+    rows = []
+    for key, label in (("link1", "link 1 (end A)"), ("link2", "link 2 (end B)")):
+        lk = robot.get(key, {})
+        rows.append(f"<tr><td>{_e(label)}</td><td>{lk.get('mass')} kg</td>"
+                    f"<td>{lk.get('length')} m</td><td>{lk.get('com')} m</td>"
+                    f"<td>{lk.get('inertia')} kg m²</td></tr>")
+    friction = []
+    for key, label in (("pivot_friction", "pivot"), ("joint_friction", "joint")):
+        f = robot.get(key) or {}
+        if f.get("viscous") or f.get("coulomb"):
+            friction.append(f"{label}: viscous {f.get('viscous')} N m s, Coulomb "
+                            f"{f.get('coulomb')} N m")
+    return ("<table><tr><th></th><th>mass</th><th>length</th><th>CG from its proximal end</th>"
+            "<th>inertia about the CG</th></tr>" + "".join(rows) + "</table>"
+            f"<p>gravity {robot.get('gravity')} m s⁻²; friction: "
+            f"{_e('; '.join(friction) or 'none')}</p>")
+
+
+def _figure_html(name: str, outputs: Sequence[str], title: str, caption: str) -> str:
+    stills = [o for o in outputs if o.endswith((".png", ".svg"))]
+    videos = [o for o in outputs if o.endswith(".mp4")]
+    gifs = [o for o in outputs if o.endswith(".gif")]
+    others = [o for o in outputs if o not in stills + videos + gifs]
+    if stills:
+        body = f'<a href="{_e(stills[0])}"><img src="{_e(stills[0])}" alt="{_e(title)}"></a>'
+    elif videos:
+        body = f'<video controls preload="metadata" src="{_e(videos[0])}"></video>'
+    elif gifs:
+        body = f'<img src="{_e(gifs[0])}" alt="{_e(title)}">'
+    else:
+        body = ""
+    links = " ".join(f'<a href="{_e(o)}">{_e(Path(o).suffix[1:].upper())}</a>'
+                     for o in stills[1:] + videos + gifs + others if o)
+    return (f'<figure id="{_e(name)}">{body}<figcaption><b>{_e(title)}.</b> {_e(caption)}'
+            + (f' <span class="muted">({links})</span>' if links else "")
+            + "</figcaption></figure>")
+
+
+def render_page(study_dir: Path, datasets: Mapping[str, object],
+                figures: Mapping[str, Sequence[str]]) -> str:
+    """The page's HTML for the datasets of a study folder (``{step name: xarray Dataset}``)
+    and the figures drawn from them (``{figure name: [file names]}``)."""
+    order = step_order(datasets)
+    first = datasets[order[0]].attrs if order else {}
+    study = first.get("study_name", Path(study_dir).name)
+    robot = _json(first, "robot") or {}
+    gait = _json(first, "gait") or {}
+    integ = _json(first, "integrator") or {}
+    out = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'>"
+           f"<title>{_e(study)}: monkeystudy</title><style>{STYLE}</style></head><body>",
+           f"<h1>Study <code>{_e(study)}</code></h1>",
+           f"<p>{_e(first.get('study_description', ''))}</p>",
+           "<nav>" + "".join(f'<a href="#step-{_e(n)}">{_e(n)}</a>' for n in order)
+           + '<a href="#provenance">provenance</a></nav>',
+           "<h2>Set-up</h2>",
+           f"<p>Robot <code>{_e(robot.get('name', '?'))}</code>:</p>", _robot_table(robot),
+           "<p>Gait: " + _e(", ".join(f"{k} {v}" for k, v in gait.items()
+                                      if not isinstance(v, (list, dict)))) + "; integrator: "
+           + _e(", ".join(f"{k} {v}" for k, v in integ.items())) + "</p>",
+           "<details><summary>study file</summary><pre>"
+           + _e(first.get("study_text", "")) + "</pre></details>",
+           "<h2>Steps</h2>"]
+    used: set[str] = set()
+    for name in order:
+        ds = datasets[name]
+        kind = REGISTRY.get(ds.attrs.get("step_kind"))
+        kind_name = kind.name if kind else ds.attrs.get("step_kind", "?")
+        out.append(f'<h3 id="step-{_e(name)}">{_e(name)} <small>[{_e(kind_name)}]'
+                   f'</small></h3>')
+        if kind is not None:
+            out.append(f"<p>{_e(kind.summary)}</p>")
+            try:
+                lines = kind.describe(ds)
+            except Exception as exc:   # a dataset of another version: still show the rest
+                lines = [f"(key numbers unavailable: {type(exc).__name__}: {exc})"]
+            if lines:
+                out.append('<ul class="numbers">' + "".join(f"<li>{_e(x)}</li>" for x in lines)
+                           + "</ul>")
+        out.append(f'<p class="muted">dataset <a href="../{_e(name)}.nc">{_e(name)}.nc</a>'
+                   "</p>")
+        for fig in (kind.figures if kind else ()):
+            key = f"{name}_{fig.suffix}"
+            if key in figures:
+                out.append(_figure_html(key, figures[key], fig.title, fig.caption))
+                used.add(key)
+    across = [(kind, fig) for kind in REGISTRY.values() for fig in kind.figures if fig.across
+              and f"{kind.name}_{fig.suffix}" in figures]
+    if across:
+        out.append("<h2>Across steps</h2>")
+        for kind, fig in across:
+            key = f"{kind.name}_{fig.suffix}"
+            out.append(_figure_html(key, figures[key], fig.title, fig.caption))
+            used.add(key)
+    rest = sorted(set(figures) - used)
+    if rest:
+        out.append("<h2>Other figures</h2>")
+        out += [_figure_html(k, figures[k], k, "") for k in rest]
+    out.append('<h2 id="provenance">Provenance</h2><table><tr><th>dataset</th><th>monkeystudy'
+               "</th><th>git revision</th><th>code sha256</th><th>made</th></tr>")
+    for name in order:
+        a = datasets[name].attrs
+        out.append(f"<tr><td>{_e(name)}.nc</td><td>{_e(a.get('monkeystudy_version', ''))}</td>"
+                   f"<td><code>{_e(str(a.get('git_revision', ''))[:14])}</code></td>"
+                   f"<td><code>{_e(str(a.get('code_sha256', ''))[:12])}</code></td>"
+                   f"<td>{_e(a.get('history', ''))}</td></tr>")
+    libs = _json(first, "library_versions") or {}
+    out.append("</table><p class='muted'>libraries: "
+               + _e(", ".join(f"{k} {v}" for k, v in sorted(libs.items())))
+               + f"; page drawn by monkeystudy {_e(__version__)}</p></body></html>\n")
+    return "\n".join(out)
