@@ -72,12 +72,15 @@ def import_statements(text: str) -> list[tuple[int, str, list[str]]]:
         m = _IMPORT.match(line)
         if m is None:
             continue
-        rest = m.group(4) if m.group(4) is not None else m.group(5)
+        rest = (m.group(4) if m.group(4) is not None else m.group(5)).split("#")[0]
         if "(" in rest:                          # names continue up to the closing bracket
             while ")" not in rest and k < len(lines):
-                rest += " " + lines[k]
+                rest += " " + lines[k].split("#")[0]
                 k += 1
-        rest = rest.split("#")[0].replace("(", " ").replace(")", " ").replace("\\", " ")
+        while rest.rstrip().endswith("\\") and k < len(lines):     # a continued line
+            rest = rest.rstrip()[:-1] + " " + lines[k].split("#")[0]
+            k += 1
+        rest = rest.replace("(", " ").replace(")", " ")
         names = [n.split(" as ")[0].strip() for n in rest.split(",")]
         names = [n for n in names if n]
         if m.group(5) is not None:
