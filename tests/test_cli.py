@@ -3,8 +3,6 @@ validate, inspect, schema, report, dry run."""
 from __future__ import annotations
 
 import json
-import sys
-import types
 from pathlib import Path
 
 import numpy as np

@@ -283,7 +283,12 @@ def test_continuation_marks_folds_and_period_doublings(ds):
     fig = PA.plot_continuation(d)
     mu = d["parameter_value"].values
     assert by_gid(fig, "fold_2").get_xdata()[0] == mu[2]
-    assert by_gid(fig, "period_doubling_3").get_xdata()[0] == mu[3]
+    span = by_gid(fig, "period_doubling_3").get_path().vertices    # a band, not a line:
+    x = by_gid(fig, "period_doubling_3").get_transform().transform(span)[:, 0]   # the
+    ax = by_gid(fig, "period_doubling_3").axes                     # crossing lies between
+    x = ax.transData.inverted().transform(np.column_stack([x, x]))[:, 0]       # two points
+    assert min(x) == pytest.approx(min(mu[2], mu[3])) and \
+        max(x) == pytest.approx(max(mu[2], mu[3]))
     assert "1 fold, 1 period doubling (marked)" in titles(fig)[1]
     leg = legend_texts(fig)
     assert any(t.startswith("fold at point 2") for t in leg)

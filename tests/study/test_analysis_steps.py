@@ -44,7 +44,7 @@ GLOBAL_ATTRS = ("study_name", "step_name", "step_kind", "study_text", "study_sha
 CONTRACT = {
     "shoot": {"dtheta1": ("rad s-1", ("solution",)), "dtheta2": ("rad s-1", ("solution",)),
               "t_switch": ("s", ("solution",)), "t_motor": ("s", ("solution",)),
-              "t_end": ("s", ("solution",)), "error": ("1", ("solution",)),
+              "t_end": ("s", ("solution",)), "error": ("rad2 + rad2 s-2", ("solution",)),
               "residual_norm": ("1", ("solution",)), "converged": ("1", ("solution",)),
               "method": ("1", ("solution",)), "history": ("1", ("solution", "iteration"))},
     "floquet": {"multipliers_real": ("1", ("controller", "k")),
@@ -56,7 +56,7 @@ CONTRACT = {
                 "fixed_point": ("1", ("controller", "k")), "map_defect": ("1", ("controller",)),
                 "stable": ("1", ("controller",)), "agreement": ("1", ("controller",)),
                 "t_switch": ("s", ("controller",)), "t_motor": ("s", ("controller",))},
-    "tick_sweep": {"tick": ("s", ("tick",)), "error": ("1", ("tick", "cycle")),
+    "tick_sweep": {"tick": ("s", ("tick",)), "error": ("rad2 + rad2 s-2", ("tick", "cycle")),
                    "pivot_height": ("m", ("tick", "cycle")),
                    "cycles_to_bound": ("1", ("tick",)), "cycles_completed": ("1", ("tick",)),
                    "status": ("1", ("tick",)), "growth_per_cycle": ("1", ("tick",))},
@@ -69,11 +69,11 @@ CONTRACT = {
                      "multipliers_imag": ("1", ("point", "k"))},
     "work_precision": {"time_per_gait": ("s", ("method", "rtol")),
                        "rhs_per_gait": ("1", ("method", "rtol")),
-                       "error_value": ("1", ("method", "rtol")),
+                       "error_value": ("rad2 + rad2 s-2", ("method", "rtol")),
                        "error_times": ("s", ("method", "rtol")),
                        "status_mismatch": ("1", ("method", "rtol")),
                        "scipy_time_per_gait": ("s", ("scipy_method", "scipy_rtol")),
-                       "scipy_error_value": ("1", ("scipy_method", "scipy_rtol")),
+                       "scipy_error_value": ("rad2 + rad2 s-2", ("scipy_method", "scipy_rtol")),
                        "scipy_error_times": ("s", ("scipy_method", "scipy_rtol")),
                        "kernel_time_same_points": ("s", ("scipy_rtol",))},
 }
@@ -476,7 +476,9 @@ def test_dedup_keeps_the_lower_error_and_every_start():
     assert [s["dtheta1"] for s in sols] == [1.5 + 1e-8, 1.2]
     assert sols[0]["error"] == 1e-27 and sols[0]["starts"] == [0, 1]
     assert sols[0]["start_index"] == 0
-    assert sols[0]["message"] == "found 1e-27; merged: start 0 grazing, t_switch 0.4 s, error 400"
+    assert sols[0]["message"] == ("found 1e-27; the same rates were also reached from start 0 "
+                                  "by grazing with the swap at 0.4 s and gait error 400; the "
+                                  "lower error is kept")
     assert sols[1]["message"] == "found 0.001"
     assert fails == ["start 1 [1.4, 10.3]: gauss_newton: no gait"]
 

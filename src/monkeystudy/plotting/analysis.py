@@ -737,10 +737,11 @@ def plot_continuation(ds):
         ds_step = attr_float(ds, "ds")
         none = ("no folds or bifurcations on this branch" if sequence
                 else "no folds or period doublings on this branch")
+        # one fact per line: a wrapped line would read as the next fact
         sub = (span + (f" (first arclength step {ds_step:g})" if math.isfinite(ds_step) else "")
-               + "; " + (", ".join(marks) + " (marked)" if marks else none)
                + (f"; max residual {sci(float(np.nanmax(resid)))}"
-                  if np.isfinite(resid).any() else "") + "\n")
+                  if np.isfinite(resid).any() else "") + "\n"
+               + (", ".join(marks) + " (marked)" if marks else none) + "\n")
         if sequence:
             stop = str(ds.attrs.get("stop_reason", ""))
             why = {"steps": "all steps taken", "bounds": "the parameter reached its bound",
@@ -751,9 +752,8 @@ def plot_continuation(ds):
             pin = (f"θ2 held at {th2[0]:.4g} rad (a family: one neutral multiplier)"
                    if int(attr_float(ds, "theta2_pinned") or 0) else
                    f"θ2 {th2[0]:.4g} → {th2[-1]:.4g} rad")
-            sub += (f"{pin}, from floquet step {ds.attrs.get('floquet_step', '?')}; stopped: "
-                    f"{why}\n"
-                    + run_line(ds, tick=False))
+            sub += (f"{pin}, from floquet step {ds.attrs.get('floquet_step', '?')}\n"
+                    f"stopped: {why}\n" + run_line(ds, tick=False))
             title = f"Sequence-gait family continued in {what}"
         else:
             gait = _gait_of(ds)
@@ -803,14 +803,20 @@ def plot_continuation(ds):
         axl.ticklabel_format(axis="x", useOffset=False)
         for key, _attr, color, ls, label in marks_of:
             for i in found[key]:
-                if 0 <= i < mu.size:
+                if key == "fold" and 0 <= i < mu.size:        # the branch turns at a point
                     for a in axes:
                         a.axvline(mu[i], color=color, ls=ls, lw=1.4,
                                   gid=f"{key}_{i}" if a is axl else None)
-                    where = (f"between points {i - 1} and {i}" if key != "fold"
-                             else f"at point {i}")
                     axl.plot([], [], color=color, ls=ls,
-                             label=f"{label} {where} ({sym} ≈ {mu[i]:.6g})")
+                             label=f"{label} at point {i} ({sym} ≈ {mu[i]:.6g})")
+                elif 1 <= i < mu.size:          # a crossing lies between two points
+                    lo, hi = sorted((mu[i - 1], mu[i]))
+                    for a in axes:
+                        a.axvspan(lo, hi, color=color, alpha=0.25, lw=0,
+                                  gid=f"{key}_{i}" if a is axl else None)
+                    axl.fill_between([], [], color=color, alpha=0.25,
+                                     label=f"{label} between points {i - 1} and {i} "
+                                           f"({sym} from {mu[i - 1]:.6g} to {mu[i]:.6g})")
         body.legend(*axl.get_legend_handles_labels(), loc="outside lower center", ncols=2,
                    frameon=False)
         if sequence:

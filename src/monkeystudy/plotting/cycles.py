@@ -125,13 +125,20 @@ def _finish(fig, ax, stab, title, subtitle="", step=True):
 
 
 def _annotate_stop(ax, stab, x, y, slot: int = 0, colour: str = VERMILLION,
-                   who: str = "run"):
+                   who: str = "run", at_swap: bool = False):
     """Mark the last cycle of a run that stopped early (cycles after it are NaN) with a cross
-    whose legend entry says why."""
+    whose legend entry says why. ``at_swap``: ``y`` is measured at each cycle's swap, so the
+    last point can belong to a cycle that began (its swap) but never ended; the note says
+    so."""
     note = stop_note(stab, who)
     ok = np.flatnonzero(np.isfinite(y) & (y > 0 if ax.get_yscale() == "log" else True))
     if note and ok.size:
         i = ok[-1]
+        done = stab.attrs.get("cycles_completed")
+        if at_swap and done is not None and x[i] > int(done):
+            why = status_name(int(stab["status"])).replace("_", " ")
+            note = (f"{who} {why}: cycle {int(x[i])}'s swap attached {abs(y[i]):.2f} m below "
+                    f"the start\n({int(done)} cycles completed)")
         ax.plot([x[i]], [y[i]], marker="X", ms=11, mfc=colour, mec="black", mew=0.8,
                 ls="none", zorder=5, gid="stop_note" if slot == 0 else f"stop_note_{slot}",
                 label=note)
@@ -233,7 +240,9 @@ def plot_kinetic_energy(stab, *, gait=None):
         _annotate_stop(ax, stab, x, y)
         _cycle_limits(ax, [stab])
         ax.set_ylabel("kinetic energy  [J]")
-        ax.legend(loc="lower left")
+        # under the axes: inside, it would cover the last cycles, where a run falls
+        fig.legend(*ax.get_legend_handles_labels(), loc="outside lower center", ncols=1,
+                   frameon=False)
         _finish(fig, ax, stab, f"Kinetic energy at the {_crossing(stab)}, per cycle",
                 f"Repeating {gait_text(stab, gait)}")
     return fig
@@ -278,7 +287,7 @@ def plot_pivot_height(stab, *, gait=None):
             L1 = lengths[0]
             ax.axhline(-L1, ls=":", color=VERMILLION, lw=1.2, gid="link_length",
                        label=f"one link length ({L1:g} m) below the start")
-        _annotate_stop(ax, stab, x, y)
+        _annotate_stop(ax, stab, x, y, at_swap="section_theta1" not in stab.attrs)
         _cycle_limits(ax, [stab])
         ax.set_ylabel("height of the attached end  [m]")
         if ax2 is not None:

@@ -275,7 +275,7 @@ def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str
             # the square marks the minimum; its number keys the value in the legend (labels
             # beside close minima would cover each other's markers)
             ax.plot(m.dtheta1, m.dtheta2, marker="s", ms=8, mfc=MINIMUM_COLOUR, mec="black",
-                    mew=1.0, ls="none", zorder=6, gid=f"minimum_{m.label}")
+                    mew=1.0, ls="none", zorder=6, gid=f"minimum_{m.label}", clip_on=False)
             ax.annotate(str(k), (m.dtheta1, m.dtheta2), xytext=off,
                         textcoords="offset points", fontsize=9, fontweight="bold",
                         color="white", path_effects=outline, zorder=7, gid=f"label_{m.label}",
@@ -362,18 +362,26 @@ def _label_offsets(points, fig_size, min_sep: float = 13.0) -> list[tuple[int, i
     beside the marker, moved around it when that would overlap an earlier label or marker."""
     w, h = 0.7 * fig_size[0] * 72.0, 0.7 * fig_size[1] * 72.0    # axes size, roughly [pt]
     markers = [(x * w, y * h) for x, y in points]
-    candidates = [(6, 5), (6, -15), (-15, 5), (-15, -15), (6, 20), (-15, 20), (20, -5),
-                  (-28, -5), (6, -30), (-15, -30)]
+    # beside the marker first (right, left), then above and below it
+    candidates = [(6, 5), (-15, 5), (12, -5), (-22, -5), (6, -15), (-15, -15), (6, 20),
+                  (-15, 20), (20, 14), (-28, 14), (6, -30), (-15, -30), (20, 28), (-28, 28)]
     placed, out = [], []
     for mx, my in markers:
+        choice = None
         for dx, dy in candidates:
             cx, cy = mx + dx + 3, my + dy + 4                 # centre of the digit
+            inside = 6.0 <= cx <= w - 6.0 and 6.0 <= cy <= h - 6.0
             clear = all(np.hypot(cx - px, cy - py) >= min_sep for px, py in placed) and \
-                all(np.hypot(cx - ox, cy - oy) >= 7.0 for ox, oy in markers)
-            if clear:
+                all(np.hypot(cx - ox, cy - oy) >= 9.0 for ox, oy in markers)
+            if inside and clear:
+                choice = (dx, dy)
                 break
-        out.append((dx, dy))
-        placed.append((cx, cy))
+        if choice is None:          # crowded: the first position inside the axes
+            choice = next(((dx, dy) for dx, dy in candidates
+                           if 6.0 <= mx + dx + 3 <= w - 6.0 and 6.0 <= my + dy + 4 <= h - 6.0),
+                          candidates[0])
+        out.append(choice)
+        placed.append((mx + choice[0] + 3, my + choice[1] + 4))
     return out
 
 
@@ -405,27 +413,32 @@ def plot_error_surface(grid, *, max_cells: int = 150, cmap: str = "magma",
 
     Points without a gait form a flat floor at 0 in their category colours (the study's flat
     "not enough energy" region), with a legend; the surface itself is only drawn where there is
-    a gait. Grids with more than ``max_cells`` points along an axis are drawn with every n-th
-    point (a uniform stride, no averaging), so the surface keeps the data's own values.
+    a gait, and not across a jump of sqrt(e) by more than a tenth of its range between
+    neighbours (the gait's event sequence changes there: a gap, not a wall of teeth). Grids
+    with more than ``max_cells`` points along an axis are drawn with every n-th point (a
+    uniform stride, no averaging), so the surface keeps the data's own values.
 
     Returns a Figure whose surface has ``gid`` ``sqrt_error`` and floors ``floor_<category>``.
     """
     g = grid_arrays(grid)
-    X, Y = np.meshgrid(g.dtheta1, g.dtheta2, indexing="ij")
-    Z = np.sqrt(g.error)
-    zmax = float(np.nanmax(Z)) if np.isfinite(Z).any() else 1.0
     rs = -(-g.dtheta1.size // max_cells)          # uniform strides (ceil division)
     cs = -(-g.dtheta2.size // max_cells)
+    X, Y = np.meshgrid(g.dtheta1[::rs], g.dtheta2[::cs], indexing="ij")
+    Z = np.sqrt(g.error[::rs, ::cs])
+    zmax = float(np.nanmax(Z)) if np.isfinite(Z).any() else 1.0
+    # a surface drawn across a jump of the error is a wall of thin teeth; leave a gap there
+    # instead: the higher side of every jump is not drawn
+    Z = np.where(jump_points(Z, 0.1 * zmax), np.nan, Z)
     with style():
         fig = new_figure(figsize=(7.6, 6.2))
         ax = fig.add_subplot(projection="3d", computed_zorder=False)
         handles = []
         for key, mask, colour, hatch, label in g.category_masks():
-            Zf = np.where(mask, 0.0, np.nan)
-            ax.plot_surface(X, Y, Zf, color=colour, rstride=rs, cstride=cs, linewidth=0,
+            Zf = np.where(mask[::rs, ::cs], 0.0, np.nan)
+            ax.plot_surface(X, Y, Zf, color=colour, rstride=1, cstride=1, linewidth=0,
                             antialiased=False, shade=False, gid=f"floor_{key}", zorder=1)
             handles.append(Patch(facecolor=colour, edgecolor="#42526e", label=label))
-        surf = ax.plot_surface(X, Y, Z, cmap=cmap, vmin=0.0, vmax=zmax, rstride=rs, cstride=cs,
+        surf = ax.plot_surface(X, Y, Z, cmap=cmap, vmin=0.0, vmax=zmax, rstride=1, cstride=1,
                                linewidth=0.15, edgecolor=(0, 0, 0, 0.15), antialiased=True,
                                gid="sqrt_error", zorder=2)
         cb = fig.colorbar(surf, ax=ax, shrink=0.6, pad=0.08)
@@ -445,6 +458,21 @@ def plot_error_surface(grid, *, max_cells: int = 150, cmap: str = "magma",
                      ha="left", fontweight="bold")
         ax.set_title(run_label(grid), fontsize=8.5, fontweight="normal", loc="left")
     return fig
+
+
+def jump_points(z: np.ndarray, jump: float) -> np.ndarray:
+    """Points of ``z`` that exceed a 4-neighbour by more than ``jump``: the high side of a
+    discontinuity."""
+    out = np.zeros(z.shape, bool)
+    with np.errstate(invalid="ignore"):
+        for axis in (0, 1):
+            d = np.diff(z, axis=axis)
+            lo = [slice(None)] * 2
+            hi = [slice(None)] * 2
+            lo[axis], hi[axis] = slice(None, -1), slice(1, None)
+            out[tuple(hi)] |= d > jump          # the later point is higher
+            out[tuple(lo)] |= -d > jump         # the earlier point is higher
+    return out
 
 
 # ----------------------------------------------------------------------------------------------

@@ -40,11 +40,17 @@ PHASE_ATTRS = {
 
 RATE = "rad s-1"
 
+#: units of the gait error: theta2_f^2 is in rad2, the squared rate differences in rad2 s-2 -
+#: a sum of mixed units, as the 2009 study defines it (docs/model.md)
+ERROR_UNITS = "rad2 + rad2 s-2"
+ERROR_COMMENT = ("a sum of mixed units, as the 2009 study defines the error: theta2_f^2 [rad2] "
+                 "plus two squared rate differences [rad2 s-2]")
+
 #: units and long_name of a gait evaluation's variables (grid, refine, shoot, floquet, ...)
 GAIT_ATTRS = {
     "error": {"long_name": "gait error: theta2_f^2 + (dtheta1 - dtheta1_f)^2 + "
-                           "(dtheta2 - dtheta2_f)^2 (MODEL.md section 4); NaN unless ok",
-              "units": "1"},
+                           "(dtheta2 - dtheta2_f)^2 (docs/model.md); NaN unless ok",
+              "units": ERROR_UNITS, "comment": ERROR_COMMENT},
     "status": STATUS_ATTRS,
     "t_switch": {"long_name": "time of the swap after the gait start", "units": "s"},
     "t_motor": {"long_name": "motor-on duration after the swap", "units": "s"},
@@ -65,7 +71,7 @@ GAIT_ATTRS = {
 SEQUENCE_ATTRS = {
     "error": {"long_name": "section error: wrap(theta2_f - theta2_0)^2 + (dtheta1_f - "
                            "dtheta1_0)^2 + (dtheta2_f - dtheta2_0)^2 after one cycle; NaN "
-                           "unless ok", "units": "1"},
+                           "unless ok", "units": ERROR_UNITS, "comment": ERROR_COMMENT},
     "t_end": {"long_name": "time of the section crossing ending the cycle", "units": "s"},
 }
 

@@ -86,6 +86,9 @@ class Axis(StrictModel):
     def _single(self) -> "Axis":
         if self.num == 1 and self.start != self.stop:
             raise ValueError("num: 1 needs start == stop")
+        if self.start > self.stop:
+            raise ValueError(f"start must not exceed stop (got start {self.start:g} > stop "
+                             f"{self.stop:g}): an axis runs from start up to stop")
         return self
 
     def values(self) -> np.ndarray:

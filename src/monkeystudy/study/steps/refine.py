@@ -190,7 +190,7 @@ def write_refine(path: Path, attrs: dict, results: list[dict], multi: bool) -> N
              padded("iterate_x", 1))
         D.add_variable(nc, "iterate_error", idim, np.float64,
              {"long_name": "gait error of the best vertex per iteration (NaN: gait failed)",
-              "units": "1"}, padded("iterate_error"))
+              "units": D.ERROR_UNITS, "comment": D.ERROR_COMMENT}, padded("iterate_error"))
         D.add_variable(nc, "iterate_nfev", idim, np.int32,
              {"long_name": "objective evaluations so far (-1: padding)", "units": "1"},
              padded("iterate_nfev", fill=-1, dtype=np.int32))

@@ -158,6 +158,23 @@ def shoot_task(spec: GaitSpec, start: tuple[float, float], *, method: str = "bot
     return {"start": (d1, d2), "candidates": cands, "failures": failures}
 
 
+def solutions_summary(sols: list[dict], failures: list[str]) -> str:
+    """``2 converged solutions (grazing, gauss_newton), 1 search that did not converge
+    (gauss_newton, error 36)``: what the searches found, converged or not."""
+    conv = [s for s in sols if s["converged"]]
+    rest = [s for s in sols if not s["converged"]]
+    out = f"{len(conv)} converged solution{'s' if len(conv) != 1 else ''}"
+    if conv:
+        out += f" ({', '.join(METHOD_NAMES[s['method']] for s in conv)})"
+    if rest:
+        out += (f", {len(rest)} search{'es' if len(rest) > 1 else ''} that did not converge ("
+                + "; ".join(f"{METHOD_NAMES[s['method']]}, error {s['error']:.3g}"
+                            for s in rest) + ")")
+    if failures:
+        out += f", {len(failures)} without a result"
+    return out
+
+
 def dedup_solutions(results: list[dict], tol: float) -> tuple[list[dict], list[str]]:
     """Merge the candidates of :func:`shoot_task` results (one per start, in start order).
 
@@ -190,8 +207,9 @@ def dedup_solutions(results: list[dict], tol: float) -> tuple[list[dict], list[s
                 hit["starts"].append(i)
             worse = hit if key(c) < key(hit) else c
             notes = hit["merged"] + [
-                f"merged: start {worse['found_by']} {METHOD_NAMES[worse['method']]}, t_switch "
-                f"{worse['t_switch']:.6g} s, error {worse['error']:.3g}"]
+                f"the same rates were also reached from start {worse['found_by']} by "
+                f"{METHOD_NAMES[worse['method']]} with the swap at {worse['t_switch']:.6g} s "
+                f"and gait error {worse['error']:.3g}; the lower error is kept"]
             if worse is hit:
                 keep = {k: hit[k] for k in ("start_index", "starts")}
                 hit.clear()
@@ -225,9 +243,10 @@ def write_shoot(path: Path, attrs: dict, solutions: list[dict]) -> None:
         for key in ("t_switch", "t_motor", "t_end"):
             D.add_variable(nc, key, ("solution",), np.float64, D.GAIT_ATTRS[key], col(key))
         D.add_variable(nc, "error", ("solution",), np.float64,
-             {"long_name": "gait error of the solution (MODEL.md section 4): grazing: "
+             {"long_name": "gait error of the solution (docs/model.md): grazing: "
                            "|P(z) - z|^2 of the motorless open-loop map; gauss_newton: the "
-                           "study's gait error", "units": "1"}, col("error"))
+                           "study's gait error", "units": D.ERROR_UNITS,
+              "comment": D.ERROR_COMMENT}, col("error"))
         D.add_variable(nc, "residual_norm", ("solution",), np.float64,
              {"long_name": "norm of the Newton residual at the solution (grazing: B's height "
                            "and velocity; gauss_newton: the gait residual)", "units": "1"},
@@ -364,9 +383,10 @@ class ShootKind(StepKind):
                      refine_step=st.from_ or "", failures=failures, best_solution=best)
         write_shoot(ctx.path, attrs, sols)
         b = sols[best]
-        return (f"{len(sols)} solution(s); best: error {b['error']:.3g} at "
-                f"({b['dtheta1']:.10g}, {b['dtheta2']:.10g}) rad s-1, "
-                f"{METHOD_NAMES[b['method']]}, t_switch {b['t_switch']:.6g} s")
+        return solutions_summary(sols, failures) + (
+            f"; best: error {b['error']:.3g} at ({b['dtheta1']:.10g}, {b['dtheta2']:.10g}) "
+            f"rad s-1, {METHOD_NAMES[b['method']]}"
+            f"{'' if b['converged'] else ' (NOT converged)'}, t_switch {b['t_switch']:.6g} s")
 
     def describe(self, ds) -> list[str]:
         a = ds.attrs

@@ -53,16 +53,39 @@ class StabilityStep(StrictModel):
 
 
 # --- tasks (run on the workers) ------------------------------------------------------------------
+#: the frame's angles and rates a stability dataset samples: (name, index in the 8-state)
+TRAJECTORY_ANGLES = (("theta1", L.TH1), ("theta2", L.TH2), ("theta1_dot", L.DTH1),
+                     ("theta2_dot", L.DTH2))
+
+
 def run_record(res) -> dict[str, Any]:
-    """A multi-cycle run's status, counts and sampled trajectory (world positions [m] of A,
-    the joint and B; phase; motor torque [N m]) for a stability dataset."""
-    pts = physical_points(res.params, res.sample_state, res.sample_mode[:, L.M_FLIPPED])
+    """A multi-cycle run's status, counts and sampled trajectory for a stability dataset:
+    world positions [m] of A, the joint and B; the frame's angles [rad] and rates [rad s-1];
+    which end the frame hangs from; the phase; the motor torque [N m]."""
+    flipped = res.sample_mode[:, L.M_FLIPPED]
+    pts = physical_points(res.params, res.sample_state, flipped)
     return {
         "status": int(res.status), "cycles_completed": int(res.counts[L.K_CYCLES]),
         "time": res.sample_t.copy(), "A": pts["A"], "joint": pts["joint"], "B": pts["B"],
+        **{name: res.sample_state[:, i].copy() for name, i in TRAJECTORY_ANGLES},
+        "attached_end": flipped.astype(np.int8),
         "phase": res.sample_mode[:, L.M_PHASE].astype(np.int8),
         "motor_torque": res.sample_mode[:, L.M_TORQUE].copy(),
         "steps": int(res.counts[L.K_STEPS]), "nfev": int(res.counts[L.K_NFEV]),
+    }
+
+
+def empty_record(cycles: int) -> dict[str, Any]:
+    """The record of a run that was not run: every cycle NaN, no samples."""
+    nan = np.full(cycles, np.nan)
+    return {
+        "status": L.ST_OK, "cycles_completed": 0,
+        "error": nan.copy(), "kinetic_energy": nan.copy(), "pivot_height": nan.copy(),
+        "x_advance": nan.copy(), "t_cross": nan.copy(), "t_swap": nan.copy(),
+        "time": np.empty(0), "A": np.empty((0, 2)), "joint": np.empty((0, 2)),
+        "B": np.empty((0, 2)), **{name: np.empty(0) for name, _ in TRAJECTORY_ANGLES},
+        "attached_end": np.empty(0, np.int8), "phase": np.empty(0, np.int8),
+        "motor_torque": np.empty(0), "steps": 0, "nfev": 0,
     }
 
 
@@ -79,15 +102,7 @@ def stability_task(spec: GaitSpec, gait: dict[str, float], *, cycles: int, tick:
     A gait that is not ok is not run: ``status`` is its status and every cycle is NaN.
     """
     robot, integ = spec.robot, spec.integrator
-    nan = np.full(cycles, np.nan)
-    out: dict[str, Any] = {
-        "status": int(gait["status"]), "cycles_completed": 0,
-        "error": nan.copy(), "kinetic_energy": nan.copy(), "pivot_height": nan.copy(),
-        "x_advance": nan.copy(), "t_cross": nan.copy(), "t_swap": nan.copy(),
-        "time": np.empty(0), "A": np.empty((0, 2)), "joint": np.empty((0, 2)),
-        "B": np.empty((0, 2)), "phase": np.empty(0, np.int8), "motor_torque": np.empty(0),
-        "steps": 0, "nfev": 0,
-    }
+    out = dict(empty_record(cycles), status=int(gait["status"]))
     times = (gait["t_switch"], gait["t_motor"], gait["t_end"])
     if gait["status"] != L.ST_OK or not all(math.isfinite(t) for t in times):
         return out
@@ -134,15 +149,7 @@ def sequence_stability_task(spec: GaitSpec, z0, *, cycles: int, tick: float | No
     """
     robot, integ = spec.robot, spec.integrator
     gait = spec.sequence
-    nan = np.full(cycles, np.nan)
-    out: dict[str, Any] = {
-        "status": L.ST_OK, "cycles_completed": 0,
-        "error": nan.copy(), "kinetic_energy": nan.copy(), "pivot_height": nan.copy(),
-        "x_advance": nan.copy(), "t_cross": nan.copy(), "t_swap": nan.copy(),
-        "time": np.empty(0), "A": np.empty((0, 2)), "joint": np.empty((0, 2)),
-        "B": np.empty((0, 2)), "phase": np.empty(0, np.int8), "motor_torque": np.empty(0),
-        "steps": 0, "nfev": 0, "t_segment": np.full(len(gait.all_segments()), np.nan),
-    }
+    out = dict(empty_record(cycles), t_segment=np.full(len(gait.all_segments()), np.nan))
     z0 = np.asarray(z0, float)
     one = evaluate_cycle_gaits([[z0[1], z0[2]]], dataclasses.replace(gait, theta2=z0[0]),
                                robot=robot, integrator=integ)
@@ -180,7 +187,8 @@ def write_stability(path: Path, attrs: dict, result: dict, gait: dict) -> None:
         section = at == "section crossing"
         per_cycle = {
             "error": (f"error against the initial state at the {at} ending the cycle "
-                      f"(MODEL.md section 4{'; the section error' if section else ''})", "1"),
+                      f"(docs/model.md{'; the section error' if section else ''})",
+                      D.ERROR_UNITS),
             "kinetic_energy": (f"kinetic energy at that {at}", "J"),
             "pivot_height": ("world height of the attached end at that section crossing"
                              if section else "world height of the attached end after the "
@@ -205,6 +213,18 @@ def write_stability(path: Path, attrs: dict, result: dict, gait: dict) -> None:
             D.add_variable(nc, key, ("sample", "xy"), np.float64,
                  {"long_name": f"world position of {what}", "units": "m"}, result[key],
                  coordinates="time")
+        for name, _ in TRAJECTORY_ANGLES:
+            rate = name.endswith("_dot")
+            D.add_variable(nc, name, ("sample",), np.float64,
+                           {"long_name": ("rate of " if rate else "") + (
+                               "link 1's angle from the downward vertical" if "1" in name
+                               else "link 2's angle relative to link 1")
+                            + " in the frame of the attached end", "units": D.RATE if rate
+                            else "rad"}, result[name], coordinates="time")
+        D.add_variable(nc, "attached_end", ("sample",), np.int8,
+                       {"long_name": "the end the frame hangs from (its x, y end)", "units": "1",
+                        "flag_values": np.array([0, 1], np.int8), "flag_meanings": "A B"},
+                       result["attached_end"], coordinates="time")
         D.add_variable(nc, "phase", ("sample",), np.int8, D.PHASE_ATTRS, result["phase"],
              coordinates="time")
         D.add_variable(nc, "motor_torque", ("sample",), np.float64,

@@ -147,7 +147,8 @@ def write_tick_sweep(path: Path, attrs: dict, ticks, result: dict) -> None:
         D.add_index_coord(nc, "cycle", err.shape[1], "cycle number", start=1)
         D.add_variable(nc, "error", ("tick", "cycle"), np.float64,
              {"long_name": f"error against the gait start at the {at} ending the cycle "
-                           "(MODEL.md section 4; NaN: not reached)", "units": "1"}, err)
+                           "(docs/model.md; NaN: not reached)", "units": D.ERROR_UNITS,
+              "comment": D.ERROR_COMMENT}, err)
         D.add_variable(nc, "pivot_height", ("tick", "cycle"), np.float64,
              {"long_name": "world height of the attached end at the section crossing ending "
                            "the cycle" if section else "world height of the attached end "

@@ -129,7 +129,8 @@ def write_work_precision(path: Path, attrs: dict, result: dict) -> None:
              {"long_name": "right-hand-side evaluations per gait (mean)", "units": "1"},
              result["nfev"])
         D.add_variable(nc, "error_value", mr, np.float64,
-             {"long_name": "max |gait error - reference gait error|", "units": "1"},
+             {"long_name": "max |gait error - reference gait error|",
+              "units": D.ERROR_UNITS},
              result["error_value"])
         D.add_variable(nc, "error_times", mr, np.float64,
              {"long_name": "max |event time - reference| (t_switch, t_motor, t_end)",
@@ -141,7 +142,8 @@ def write_work_precision(path: Path, attrs: dict, result: dict) -> None:
              {"long_name": "wall time per gait evaluation, scipy solve_ivp with events",
               "units": "s"}, result["scipy_time"])
         D.add_variable(nc, "scipy_error_value", sr, np.float64,
-             {"long_name": "max |gait error - reference gait error|, scipy", "units": "1"},
+             {"long_name": "max |gait error - reference gait error|, scipy",
+              "units": D.ERROR_UNITS},
              result["scipy_error_value"])
         D.add_variable(nc, "scipy_error_times", sr, np.float64,
              {"long_name": "max |event time - reference|, scipy", "units": "s"},
