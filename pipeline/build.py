@@ -87,9 +87,9 @@ def datasets_step(study: Path, out: Path, *, workers: int | None, dry_run: bool)
 def figures_step(study_dir: Path, *, force: bool, animation: bool, dry_run: bool,
                  formats: list[str]):
     """Redraw the figures whose inputs changed. Returns (state, ok)."""
-    from monkeystudy.plotting.report import ReportError, report_study
+    from monkeystudy.plotting.report import ReportError, report_study, study_datasets
 
-    if not study_dir.is_dir():
+    if not study_dir.is_dir() or not study_datasets(study_dir):
         log("  figures: no datasets yet")
         return "no datasets yet", dry_run
 
@@ -118,11 +118,12 @@ def main(argv: list[str] | None = None) -> int:
                     help="output root; each study goes to OUT/<study name> (default: outputs)")
     ap.add_argument("--workers", "-j", type=int, default=None,
                     help="local worker processes for the study runs (default: all cores)")
-    ap.add_argument("--force-figures", action="store_true",
+    # the figure options are 'monkeystudy report's own
+    ap.add_argument("--force", action="store_true",
                     help="redraw every figure even if its inputs are unchanged")
-    ap.add_argument("--no-animation", action="store_true", help="skip the GIF/MP4 animations")
-    ap.add_argument("--formats", nargs="+", default=["png", "pdf"], metavar="FMT",
-                    help="still-figure formats (default: png pdf)")
+    ap.add_argument("--no-animation", action="store_true", help="skip the animations")
+    ap.add_argument("--formats", default="png,pdf", metavar="LIST",
+                    help="still-figure formats, comma-separated (default: png,pdf)")
     ap.add_argument("--dry-run", action="store_true",
                     help="say what would run and what would be drawn; change nothing")
     args = ap.parse_args(argv)
@@ -138,9 +139,10 @@ def main(argv: list[str] | None = None) -> int:
         all_ok &= ok
         fig_state = "-"
         if study_dir is not None:
-            fig_state, fok = figures_step(study_dir, force=args.force_figures,
+            fig_state, fok = figures_step(study_dir, force=args.force,
                                           animation=not args.no_animation,
-                                          dry_run=args.dry_run, formats=args.formats)
+                                          dry_run=args.dry_run,
+                                          formats=[f for f in args.formats.split(",") if f])
             all_ok &= fok
         summary.append((name or study.stem, ds_state, fig_state))
 

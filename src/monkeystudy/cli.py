@@ -46,11 +46,11 @@ def _load(study: Path):
 def run(
     study: Path = typer.Argument(..., help="study file (YAML)", show_default=False,
                                  metavar="STUDY"),
-    out: Optional[Path] = typer.Option(None, "--out", "-o",
+    out: Optional[Path] = typer.Option(None, "--out", "-o", metavar="DIR",
                                        help="output folder [default: outputs/<study name>]"),
-    workers: Optional[int] = typer.Option(None, "--workers", "-j", min=1,
+    workers: Optional[int] = typer.Option(None, "--workers", "-j", min=1, metavar="N",
                                           help="local worker processes [default: all cores]"),
-    scheduler: Optional[str] = typer.Option(None, "--scheduler",
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", metavar="ADDRESS",
                                             help="Dask scheduler address, tcp://host:port"),
     dry_run: bool = typer.Option(False, "--dry-run",
                                  help="list the steps and blocks to do; run nothing"),
@@ -124,7 +124,7 @@ def serve(
         None, "--socket", metavar="PATH",
         help="the Unix socket to listen on [default: $MONKEYSTUDY_SERVER or "
              "~/.cache/monkeystudy/serve.sock]"),
-    workers: Optional[int] = typer.Option(None, "--workers", "-j", min=1,
+    workers: Optional[int] = typer.Option(None, "--workers", "-j", min=1, metavar="N",
                                           help="local worker processes [default: all cores]"),
     stop: bool = typer.Option(False, "--stop", help="stop the server listening there"),
     status: bool = typer.Option(False, "--status", help="is a server listening there?"),
@@ -237,19 +237,25 @@ def report(
         raise typer.Exit(EXIT_FAILED) from None
 
 
-@app.command(context_settings={"allow_extra_args": True, "ignore_unknown_options": True})
-def bench(ctx: typer.Context,
-          quick: bool = typer.Option(False, "--quick", help="fewer points and repetitions"),
+@app.command()
+def bench(quick: bool = typer.Option(False, "--quick", help="fewer points and repetitions"),
           startup: bool = typer.Option(False, "--startup",
                                        help="also time cold and cached start-up"),
           workers: bool = typer.Option(False, "--workers",
-                                       help="also time 1 worker against all cores")) -> None:
+                                       help="also time 1 worker against all cores"),
+          grid: Optional[list[int]] = typer.Option(
+              None, "--grid", metavar="N", help="also run an N-point error map end to end "
+                                                "(repeatable)"),
+          served: int = typer.Option(0, "--served", metavar="K", min=0,
+                                     help="with --grid: also time K runs of the same map "
+                                          "handed to a resident 'monkeystudy serve'")) -> None:
     """Benchmark the simulator: ratios to the bare RHS and to scipy, measured in one run."""
     from .bench import main as bench_main
 
     argv = [a for a, on in (("--quick", quick), ("--startup", startup), ("--workers", workers))
-            if on]
-    raise typer.Exit(bench_main(argv + list(ctx.args)))
+            if on] + [x for n in grid or [] for x in ("--grid", str(n))] + \
+        (["--served", str(served)] if served else [])
+    raise typer.Exit(bench_main(argv))
 
 
 def main() -> None:  # pragma: no cover - the console script

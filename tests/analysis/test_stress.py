@@ -120,10 +120,9 @@ def test_state_based_controller_runs_a_thousand_cycles_onto_one_attractor():
 def test_state_based_controller_on_the_1ms_grid_is_sensitive_and_ends_with_a_status():
     """The same controller acting on the study's 1 ms grid is *not* attracting: starts 1e-14
     apart wander apart (the joint winds hundreds of radians one way or the other), and some runs
-    stop swapping before 1000 cycles (measured: 2 of 8 such starts ended ``NO_SWITCH`` at
-    cycles 690 and 714 with the kernel of session 8, 2 of 8 at 809 and 831 with session 9's,
-    whose step sizes differ from it by ulps; the test uses the first four). Whatever the outcome, it is a status with a
-    finite state, never a crash."""
+    stop swapping before 1000 cycles (2 of 8 such starts ended ``NO_SWITCH`` between cycles 690
+    and 831, the cycle moving with ulp-level changes of the step sizes; the test uses the
+    first four). Whatever the outcome, it is a status with a finite state, never a crash."""
     joint = []
     for d1 in NUDGED:
         res = _looped_search(0.001, d1)
