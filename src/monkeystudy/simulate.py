@@ -291,6 +291,18 @@ def energies(params: np.ndarray, states: np.ndarray, flipped: np.ndarray):
     return k, v
 
 
+#: the hybrid state's components as dataset variables: (name, index, units, what)
+STATE_VARIABLES = (
+    ("x", L.X, "m", "x of the attached end"), ("y", L.Y, "m", "y of the attached end"),
+    ("theta1", L.TH1, "rad", "link 1's angle from the downward vertical"),
+    ("theta2", L.TH2, "rad", "link 2's angle relative to link 1"),
+    ("x_dot", 4, "m s-1", "rate of x of the attached end (0 unless flying)"),
+    ("y_dot", 5, "m s-1", "rate of y of the attached end (0 unless flying)"),
+    ("theta1_dot", L.DTH1, "rad s-1", "rate of link 1's angle"),
+    ("theta2_dot", L.DTH2, "rad s-1", "rate of link 2's relative angle"),
+)
+
+
 def simulate(controller: Controller, *, robot: RobotLike = "seed2009",
              dtheta1: float = 0.0, dtheta2: float = 0.0, state: np.ndarray | None = None,
              t_end: float = math.inf, cycles: int = 0, sample_dt: float = 1e-3,
@@ -299,12 +311,21 @@ def simulate(controller: Controller, *, robot: RobotLike = "seed2009",
 
     Samples every ``sample_dt`` [s] on the dense output plus the states just before and after
     every controller transition (so ``time`` may repeat at an impact: it is a coordinate on
-    dim ``sample``, not an index). Variables: frame coordinates ``q``/``dq`` (dim ``coord``:
-    x, y, theta1, theta2), ``phase``, ``flipped``, ``motor_torque``, ``kinetic_energy``,
-    ``potential_energy``, ``total_energy``, world positions of ``A``, ``joint``, ``B``, and the
-    event log on dim ``event``.
+    dim ``sample``, not an index). Every variable carries ``units`` and ``long_name``:
+
+    * on dim ``sample``: the state in the frame of the attached end, ``x``, ``y`` [m],
+      ``theta1``, ``theta2`` [rad], ``x_dot``, ``y_dot`` [m s-1], ``theta1_dot``,
+      ``theta2_dot`` [rad s-1]; ``attached_end`` (0: A, 1: B), ``phase`` (swing, flight,
+      fixed), ``segment`` (controller program row), ``motor_torque`` [N m],
+      ``kinetic_energy``, ``potential_energy``, ``total_energy`` [J]; world positions of
+      ``A``, ``joint``, ``B`` (dims ``sample``, ``xy``) [m];
+    * on dim ``event`` (the run's event log): ``event_time`` [s], ``event_kind``,
+      ``event_id``, the state after the event as ``event_x`` ... ``event_theta2_dot``,
+      ``event_attached_end``, ``event_energy_before``, ``event_energy_after`` [J].
+
+    Attributes: the robot, controller, status, step counts, integrator settings, tick, cycles.
     """
-    import xarray as xr  # xarray at the edge only
+    import xarray as xr  # xarray at the edge only: it loads in ~0.5 s
 
     robot = as_robot(robot)
     if not sample_dt > 0:
@@ -316,47 +337,59 @@ def simulate(controller: Controller, *, robot: RobotLike = "seed2009",
     pts = physical_points(res.params, res.sample_state, flipped)
     ke, pe = energies(res.params, res.sample_state, flipped)
     log = res.log
-    coords = ["x", "y", "theta1", "theta2"]
+    end = {"units": "1", "flag_values": np.array([0, 1], np.int8), "flag_meanings": "A B"}
+    data = {
+        name: ("sample", res.sample_state[:, i], {"long_name": what + " (frame of the "
+                                                  "attached end)", "units": units})
+        for name, i, units, what in STATE_VARIABLES}
+    data.update({
+        "attached_end": ("sample", flipped.astype(np.int8),
+                         dict(end, long_name="the end the frame hangs from")),
+        "phase": ("sample", res.sample_mode[:, L.M_PHASE].astype(np.int8),
+                  {"long_name": "phase of motion", "units": "1",
+                   "flag_values": np.array([0, 1, 2], np.int8),
+                   "flag_meanings": "swing flight fixed"}),
+        "segment": ("sample", res.sample_mode[:, L.M_SEGMENT].astype(np.int16),
+                    {"long_name": "controller program row", "units": "1"}),
+        "motor_torque": ("sample", res.sample_mode[:, L.M_TORQUE],
+                         {"long_name": "motor torque on theta2 of the frame", "units": "N m"}),
+        "kinetic_energy": ("sample", ke, {"long_name": "kinetic energy", "units": "J"}),
+        "potential_energy": ("sample", pe, {"long_name": "potential energy (world frame)",
+                                            "units": "J"}),
+        "total_energy": ("sample", ke + pe, {"long_name": "total energy", "units": "J"}),
+        "A": (("sample", "xy"), pts["A"], {"long_name": "world position of end A",
+                                           "units": "m"}),
+        "joint": (("sample", "xy"), pts["joint"], {"long_name": "world position of the joint",
+                                                   "units": "m"}),
+        "B": (("sample", "xy"), pts["B"], {"long_name": "world position of end B",
+                                           "units": "m"}),
+        "event_time": ("event", log[:, L.L_T], {"long_name": "time of the event",
+                                                "units": "s"}),
+        "event_kind": ("event", log[:, L.L_KIND].astype(np.int8),
+                       {"long_name": "kind of the event", "units": "1",
+                        "flag_values": np.array([0, 1, 2], np.int8),
+                        "flag_meanings": "segment_exit observer friction"}),
+        "event_id": ("event", log[:, L.L_ID].astype(np.int16),
+                     {"long_name": "the segment row, observer or friction DOF of the event",
+                      "units": "1"}),
+        "event_attached_end": ("event", log[:, L.L_FLIPPED].astype(np.int8),
+                               dict(end, long_name="the end the frame hangs from after the "
+                                                   "event")),
+        "event_energy_before": ("event", log[:, L.L_E_BEFORE],
+                                {"long_name": "total energy just before the event",
+                                 "units": "J"}),
+        "event_energy_after": ("event", log[:, L.L_E_AFTER],
+                               {"long_name": "total energy just after the event",
+                                "units": "J"}),
+    })
+    data.update({
+        f"event_{name}": ("event", log[:, L.L_STATE + i],
+                          {"long_name": what + " after the event", "units": units})
+        for name, i, units, what in STATE_VARIABLES})
     ds = xr.Dataset(
-        {
-            "q": (("sample", "coord"), res.sample_state[:, :4],
-                  {"long_name": "frame coordinates (x, y of the attached end; angles)",
-                   "units": "m or rad"}),
-            "dq": (("sample", "coord"), res.sample_state[:, 4:],
-                   {"long_name": "frame velocities", "units": "m s-1 or rad s-1"}),
-            "phase": ("sample", res.sample_mode[:, L.M_PHASE].astype(np.int8),
-                      {"long_name": "phase of motion", "flag_values": np.array([0, 1, 2], np.int8),
-                       "flag_meanings": "swing flight fixed"}),
-            "flipped": ("sample", flipped.astype(np.int8),
-                        {"long_name": "frame hangs from end B (1) or end A (0)"}),
-            "segment": ("sample", res.sample_mode[:, L.M_SEGMENT].astype(np.int16),
-                        {"long_name": "controller program row"}),
-            "motor_torque": ("sample", res.sample_mode[:, L.M_TORQUE],
-                             {"long_name": "motor torque on theta2 of the frame", "units": "N m"}),
-            "kinetic_energy": ("sample", ke, {"long_name": "kinetic energy", "units": "J"}),
-            "potential_energy": ("sample", pe, {"long_name": "potential energy", "units": "J"}),
-            "total_energy": ("sample", ke + pe, {"long_name": "total energy", "units": "J"}),
-            "A": (("sample", "xy"), pts["A"], {"long_name": "position of end A", "units": "m"}),
-            "joint": (("sample", "xy"), pts["joint"], {"long_name": "position of the joint",
-                                                       "units": "m"}),
-            "B": (("sample", "xy"), pts["B"], {"long_name": "position of end B", "units": "m"}),
-            "event_time": ("event", log[:, L.L_T], {"long_name": "event time", "units": "s"}),
-            "event_kind": ("event", log[:, L.L_KIND].astype(np.int8),
-                           {"long_name": "event kind", "flag_values": np.array([0, 1, 2], np.int8),
-                            "flag_meanings": "segment_exit observer friction"}),
-            "event_id": ("event", log[:, L.L_ID].astype(np.int16),
-                         {"long_name": "segment row, observer or friction DOF"}),
-            "event_state": (("event", "state"), log[:, L.L_STATE:L.L_STATE + 8],
-                            {"long_name": "frame state after the event"}),
-            "event_flipped": ("event", log[:, L.L_FLIPPED].astype(np.int8)),
-            "event_energy_before": ("event", log[:, L.L_E_BEFORE], {"units": "J"}),
-            "event_energy_after": ("event", log[:, L.L_E_AFTER], {"units": "J"}),
-        },
-        coords={
-            "time": ("sample", res.sample_t, {"long_name": "time", "units": "s"}),
-            "coord": coords, "xy": ["x", "y"],
-            "state": coords + ["dx", "dy", "dtheta1", "dtheta2"],
-        },
+        data,
+        coords={"time": ("sample", res.sample_t, {"long_name": "time", "units": "s"}),
+                "xy": ("xy", ["x", "y"], {"long_name": "world axis", "units": "1"})},
         attrs={"robot": robot.name, "controller": type(controller).__name__,
                "status": Status(res.status).name.lower(), "steps": int(res.counts[L.K_STEPS]),
                "nfev": int(res.counts[L.K_NFEV]), "rejected": int(res.counts[L.K_REJECTED]),

@@ -196,12 +196,12 @@ def test_attached_end_inferred_from_the_trajectory_matches_the_simulator():
     g = evaluate_horizontal_gait(0.902, 10.935, tick=0.001)
     ds = simulate(OpenLoop(g.t_switch, g.t_motor, 0.6354, tick=0.001),
                   dtheta1=0.902, dtheta2=10.935, cycles=3, sample_dt=0.01)
-    truth = np.where(ds["flipped"].values != 0, "B", "A")
-    inferred = trajectory(ds.drop_vars("flipped")).attached
+    truth = np.where(ds["attached_end"].values != 0, "B", "A")
+    inferred = trajectory(ds.drop_vars("attached_end")).attached
     assert np.mean(inferred == truth) > 0.995
     # every swap is found at the right sample
     traj = trajectory(ds)
-    np.testing.assert_array_equal(trajectory(ds.drop_vars("flipped")).swaps(), traj.swaps())
+    np.testing.assert_array_equal(trajectory(ds.drop_vars("attached_end")).swaps(), traj.swaps())
     assert len(traj.swaps()) == 3
 
 

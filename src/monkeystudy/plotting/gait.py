@@ -87,8 +87,8 @@ def trajectory(ds) -> Trajectory:
              else np.full(n, PHASE_SWING))
     torque = (np.asarray(ds["motor_torque"].values, float) if "motor_torque" in ds
               else np.zeros(n))
-    if "flipped" in ds and ds["flipped"].dims == ("sample",):
-        swing_end = np.where(np.asarray(ds["flipped"].values) != 0, "B", "A")
+    if "attached_end" in ds and ds["attached_end"].dims == ("sample",):
+        swing_end = np.where(np.asarray(ds["attached_end"].values) != 0, "B", "A")
     else:
         swing_end = _stationary_end(t, A, B)
     attached = np.where(phase == PHASE_FLIGHT, "none",
