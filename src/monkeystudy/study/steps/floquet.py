@@ -256,7 +256,8 @@ def write_floquet(path: Path, attrs: dict, results: list[dict]) -> None:
 
 def read_floquet_point(path: Path, controller: str = "sequence") -> dict:
     """One controller's analysed point of a floquet dataset: ``{fixed_point (3,), map_defect,
-    newton_converged}`` (``newton_converged`` -1 when the dataset has none)."""
+    newton_converged, t_switch, t_motor [s], motor_torque [N m]}`` (``newton_converged`` -1
+    when the dataset has none; the times NaN for a sequence gait)."""
     with netCDF4.Dataset(path, "r") as nc:
         nc.set_auto_mask(False)
         labels = [str(x) for x in np.atleast_1d(nc.variables["controller"][...])]
@@ -267,6 +268,8 @@ def read_floquet_point(path: Path, controller: str = "sequence") -> dict:
                "map_defect": float(nc.variables["map_defect"][i])}
         nc_conv = nc.variables.get("newton_converged")
         out["newton_converged"] = int(nc_conv[i]) if nc_conv is not None else -1
+        for key in ("t_switch", "t_motor", "motor_torque"):
+            out[key] = float(nc.variables[key][i]) if key in nc.variables else math.nan
     return out
 
 
