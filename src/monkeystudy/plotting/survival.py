@@ -183,7 +183,7 @@ def plot_mfpt(ds):
     gids: ``mfpt`` (the error bars), ``mfpt_bound`` (lower bounds), ``mfpt_open`` (estimates
     whose interval has no upper end).
     """
-    source, x, xlabel = noise_axis(ds)
+    _, x, xlabel = noise_axis(ds)
     with style():
         fig = new_figure(figsize=(7.4, 5.4))
         body = two_titles(fig, f"Mean first-passage time to failure: "
@@ -255,7 +255,7 @@ def plot_mfpt_comparison(datasets: Sequence):
         labels = set()
         any_open = any_bound = False
         for k, ds in enumerate(datasets):
-            source, x, xlabel = noise_axis(ds)
+            _, x, xlabel = noise_axis(ds)
             labels.add(xlabel)
             name = ds.attrs.get("step_name", f"step {k}")
             est_open, bound = _mfpt_points(ax, x, ds, colours[k % len(colours)],
