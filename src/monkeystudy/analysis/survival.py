@@ -186,7 +186,8 @@ class SurvivalRuns:
     """Outcome of a block of runs (arrays over the runs).
 
     ``cycles`` completed within bounds; ``failure`` the failing cycle's status (``ok``: the
-    run completed ``max_cycles`` and is censored; ``ST_ERROR_BOUND``: the error bound);
+    run completed ``max_cycles`` and is censored; ``ST_ERROR_BOUND``: the error bound;
+    ``ST_STALLED``: the minimum advance);
     ``distance`` the attached end's horizontal travel to the last completed cycle [m];
     ``time`` of that cycle's end [s]; ``error`` there [rad2 + rad2 s-2]; ``nfev`` the
     right-hand-side evaluations.
@@ -203,7 +204,8 @@ class SurvivalRuns:
 def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles: int,
                   noise: Noise, seed: int, robot: RobotLike = "seed2009",
                   integrator: Integrator = Integrator(), error_bound: float = math.inf,
-                  max_drop: float = math.inf, section: Observer | None = None) -> SurvivalRuns:
+                  min_advance: float = -math.inf, max_drop: float = math.inf,
+                  section: Observer | None = None) -> SurvivalRuns:
     """Run ``controller`` (a looping program: each cycle ends on a ``cycle_end`` row) from the
     hybrid state ``start`` for each run number in ``runs``.
 
@@ -218,6 +220,9 @@ def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles:
         The noise sources; ``seed`` keys every draw with the run number and the cycle.
     error_bound : float
         A cycle ending with a larger error fails the run [rad2 + rad2 s-2].
+    min_advance : float
+        A cycle whose attached end advances horizontally less than this fails the run
+        (stalled) [m].
     max_drop : float
         A run fails when the attached end sinks this far below its start [m].
     section : Observer, optional
@@ -240,7 +245,7 @@ def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles:
     out = np.zeros((len(runs), L.N_SV_COLS))
     run_block(par_runs, prog, obs, settings, np.asarray(start, float), noise_roles(prog),
               noise.vector(), int(seed), runs, np.asarray(reference, float), int(max_cycles),
-              float(error_bound), out)
+              float(error_bound), float(min_advance), out)
     return SurvivalRuns(out[:, L.SV_CYCLES].astype(np.int64),
                         out[:, L.SV_FAILURE].astype(np.int8), out[:, L.SV_DISTANCE].copy(),
                         out[:, L.SV_TIME].copy(), out[:, L.SV_ERROR].copy(),

@@ -142,6 +142,7 @@ N_HYB = 19
 
 # --- survival runs (kernel.survival) ---------------------------------------------------------------
 ST_ERROR_BOUND = 11      # a survival run's cycle ended farther than the error bound from the gait
+ST_STALLED = 12          # a survival run's cycle advanced less than the minimum advance
 # noise vector: the scale of each source (0: off)
 NZ_UNIFORM = 0      # 1: uniform on [-scale, scale); 0: Gaussian with standard deviation scale
 NZ_TIMING = 1       # actuation timing jitter [s]

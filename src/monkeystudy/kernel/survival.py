@@ -21,8 +21,9 @@ Program row ``k`` of cycle ``c`` draws slots ``3k`` (jitter), ``3k + 1`` (sensor
 
 A cycle is measured where it ends: at the last observer crossing it logged (the exact
 section, e.g. link 1 at the vertical), else at the exit of its cycle-ending row. A run fails
-at the first cycle whose call stops with a status other than ok (fell, no swap, ...), or
-whose error against the reference exceeds the bound (``ST_ERROR_BOUND``).
+at the first cycle whose call stops with a status other than ok (fell, no swap, ...), whose
+error against the reference exceeds the bound (``ST_ERROR_BOUND``), or whose horizontal
+advance of the attached end is less than the minimum (``ST_STALLED``: it stopped travelling).
 """
 import math
 
@@ -34,7 +35,7 @@ from .layout import (
     C_MAX_CYCLES, DTH1, DTH2, H_CYCLES, H_SEG, H_T, JITTER_LATENCY, JITTER_NONE, K_LOG, K_NFEV,
     L_KIND, L_STATE, L_T, LOG_OBSERVER, N_COUNTS, N_LOG_COLS, N_MODE_COLS, NZ_DTHETA1,
     NZ_DTHETA2, NZ_THETA2, NZ_TIMING, NZ_TORQUE, NZ_UNIFORM, RL_JITTER, RL_PULSE, RL_SENSOR,
-    S_DELAY, S_GVALUE, S_NEXT, S_TORQUE, ST_ERROR_BOUND, ST_OK, SV_CYCLES, SV_DISTANCE,
+    S_DELAY, S_GVALUE, S_NEXT, S_TORQUE, ST_ERROR_BOUND, ST_OK, ST_STALLED, SV_CYCLES, SV_DISTANCE,
     SV_ERROR, SV_FAILURE, SV_NFEV, SV_TIME, TH2, X,
 )
 from .noise import PER_RUN_CYCLE, standard_draw
@@ -76,12 +77,14 @@ def noisy_program(prog, roles, noise, seed, run, cycle, out):
 
 @njit(cache=True, error_model="numpy")
 def survival_run(par, prog, obs, settings, hyb0, roles, noise, seed, run, z_ref, max_cycles,
-                 error_bound, out):
+                 error_bound, min_advance, out):
     """One run of up to ``max_cycles`` cycles from the hybrid state ``hyb0`` (a section
     state: the reference ``z_ref`` plus the run's initial-state noise); writes its outcome
     (layout ``SV_*``) into ``out``.
 
-    ``par`` are the run's robot parameters (its own draw of the uncertain ones),
+    ``error_bound`` [rad2 + rad2 s-2] and ``min_advance`` [m per cycle] are the failure
+    bounds (inf, -inf: off). ``par`` are the run's robot parameters (its own draw of the
+    uncertain ones),
     ``settings`` the run settings (``C_MAX_CYCLES`` is set per cycle here), ``roles`` the
     noise role of each program row (layout ``RL_*``), ``noise`` the scales (``NZ_*``).
     """
@@ -127,6 +130,9 @@ def survival_run(par, prog, obs, settings, hyb0, roles, noise, seed, run, z_ref,
         if not err <= error_bound:
             out[SV_FAILURE] = ST_ERROR_BOUND
             break
+        if not s8[X] - x_start - out[SV_DISTANCE] >= min_advance:
+            out[SV_FAILURE] = ST_STALLED
+            break
         out[SV_CYCLES] = c + 1.0
         out[SV_DISTANCE] = s8[X] - x_start
         out[SV_TIME] = log[row, L_T]
@@ -138,10 +144,10 @@ def survival_run(par, prog, obs, settings, hyb0, roles, noise, seed, run, z_ref,
 
 @njit(cache=True, error_model="numpy")
 def survival_runs(par_runs, prog, obs, settings, hyb0, roles, noise, seed, runs, z_ref,
-                  max_cycles, error_bound, out):
+                  max_cycles, error_bound, min_advance, out):
     """:func:`survival_run` for run numbers ``runs[i]`` with parameters ``par_runs[i]``;
     outcomes in ``out[i]`` (layout ``SV_*``). The run number keys the noise, so a run's
     outcome does not depend on the block it is in."""
     for i in range(runs.shape[0]):
         survival_run(par_runs[i], prog, obs, settings, hyb0, roles, noise, seed,
-                     int(runs[i]), z_ref, max_cycles, error_bound, out[i])
+                     int(runs[i]), z_ref, max_cycles, error_bound, min_advance, out[i])

@@ -44,7 +44,7 @@ SOURCES = {
 }
 FAILURE_COLOURS = {"survived": GREEN, "fell": VERMILLION, "no_switch": ORANGE,
                    "energy_not_restored": PURPLE, "no_return_to_vertical": SKY,
-                   "error_bound": BLUE}
+                   "error_bound": BLUE, "stalled": "#999999"}
 METHOD_MEAN, METHOD_TAIL, METHOD_LOWER_BOUND = 0, 1, 2
 
 
@@ -61,7 +61,13 @@ def noise_axis(ds) -> tuple[str, np.ndarray, str]:
         (k for k, (v, *_rest) in SOURCES.items() if v in ds and np.any(ds[v].values > 0)),
         "timing")
     var, label, unit, scale = SOURCES[source]
-    return source, np.asarray(ds[var].values, float) * scale, f"{label}  [{unit}]"
+    x = np.asarray(ds[var].values, float) * scale
+    # sources swept together with the same values share the axis (e.g. mass, CG, inertia)
+    same = [s for s in swept if s != source and SOURCES[s][2] == unit
+            and np.array_equal(np.asarray(ds[SOURCES[s][0]].values, float) * scale, x)]
+    if same:
+        label = ", ".join([label] + [SOURCES[s][1] for s in same])
+    return source, x, f"{label}  [{unit}]"
 
 
 def level_text(ds, i: int) -> str:
@@ -97,7 +103,11 @@ def fixed_noise(ds) -> str:
 def _subtitle(ds) -> str:
     a = ds.attrs
     bound = float(a.get("error_bound", math.inf))
-    fail = "fell, missed an event" + (f" or error > {bound:g}" if math.isfinite(bound) else "")
+    advance = float(a.get("min_advance", -math.inf))
+    fail = ", ".join(["fell", "missed an event"]
+                     + ([f"error > {bound:g}"] if math.isfinite(bound) else [])
+                     + ([f"advanced < {advance:g} m in a cycle"] if math.isfinite(advance)
+                        else []))
     fixed = fixed_noise(ds)
     return (f"{gait_text(ds)}; {int(a['runs'])} runs per level, up to {int(a['max_cycles'])} "
             f"cycles; failure: {fail}\n{fmt_tick(a.get('tick'))}, {a.get('noise_distribution')} "
@@ -149,8 +159,11 @@ def plot_survival(ds):
         ax.set_xlim(1, max(float(ds.attrs["max_cycles"]), 2))
         ax.set_xlabel("cycles completed  c")
         ax.set_ylabel("fraction of runs with ≥ c cycles")
-        ax.legend(loc="outside lower center" if n > 4 else "best", title="noise level",
-                  fontsize=8.5)
+        if n > 4:
+            body.legend(loc="outside lower center", title="noise level", fontsize=8.5,
+                        ncols=min(n, 4), frameon=False)
+        else:
+            ax.legend(loc="best", title="noise level", fontsize=8.5)
     return fig
 
 
@@ -240,34 +253,45 @@ def plot_failure_modes(ds):
 
 
 def plot_mfpt_comparison(datasets: Sequence):
-    """Every survival step's MFPT against its swept noise on one log-log axis.
+    """Every survival step's MFPT against its swept noise, log-log; one panel per swept
+    source (steps sweeping the same noise share an axis).
 
-    gids: ``mfpt_<step name>`` (and ``..._bound`` for lower bounds).
+    gids: ``mfpt_<step name>`` (and ``..._bound``, ``..._open``).
     """
     colours = [BLUE, VERMILLION, GREEN, PURPLE, ORANGE, SKY]
+    groups: dict[str, list] = {}
+    for ds in datasets:
+        groups.setdefault(noise_axis(ds)[2], []).append(ds)
     with style():
-        fig = new_figure(figsize=(7.6, 5.6))
+        fig = new_figure(figsize=(7.6, 2.2 + 3.6 * len(groups)))
         first = datasets[0]
         body = two_titles(fig, "Mean first-passage time to failure of every gait",
                           f"study {first.attrs.get('study_name')}; " +
                           run_line(first, tick=False).split(", study")[0])
-        ax = body.subplots()
-        labels = set()
+        axes = np.atleast_1d(body.subplots(len(groups), 1, squeeze=False)[:, 0])
         any_open = any_bound = False
-        for k, ds in enumerate(datasets):
-            _, x, xlabel = noise_axis(ds)
-            labels.add(xlabel)
-            name = ds.attrs.get("step_name", f"step {k}")
-            est_open, bound = _mfpt_points(ax, x, ds, colours[k % len(colours)],
-                                           f"{name}: {gait_text(ds)}", f"mfpt_{name}")
-            any_open, any_bound = any_open or est_open, any_bound or bound
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel(" / ".join(sorted(labels)))
-        ax.set_ylabel("mean cycles before failure")
-        handles, _ = ax.get_legend_handles_labels()
-        body.legend(handles=handles + marker_handles(any_open, any_bound),
-                    loc="outside lower center", fontsize=8, frameon=False)
+        k = 0
+        for ax, (xlabel, members) in zip(axes, groups.items()):
+            for ds in members:
+                _, x, _ = noise_axis(ds)
+                name = ds.attrs.get("step_name", f"step {k}")
+                fixed = fixed_noise(ds)
+                est_open, bound = _mfpt_points(
+                    ax, x, ds, colours[k % len(colours)],
+                    f"{name}: {gait_text(ds)}, {fmt_tick(ds.attrs.get('tick'))}"
+                    + (f"; also {fixed}" if fixed else ""), f"mfpt_{name}")
+                any_open, any_bound = any_open or est_open, any_bound or bound
+                k += 1
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+            ax.set_xlabel(xlabel)
+            ax.set_ylabel("mean cycles before failure")
+            ax.legend(handles=ax.get_legend_handles_labels()[0], loc="upper right",
+                      fontsize=7.5)
+        handles = marker_handles(any_open, any_bound)
+        if handles:
+            body.legend(handles=handles, loc="outside lower center", fontsize=8,
+                        frameon=False)
     return fig
 
 

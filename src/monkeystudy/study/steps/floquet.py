@@ -287,10 +287,11 @@ def read_floquet_multipliers(path: Path, controller: str = "open_loop") -> np.nd
 
 
 # --- the fixed point later steps of a sequence gait use ------------------------------------------
-def sequence_start(ctx: StepContext) -> dict:
+def sequence_start(ctx: StepContext, max_map_defect: float | None = None) -> dict:
     """Where a sequence gait's multi-cycle step starts: ``{z: (theta2, dtheta1, dtheta2),
     source, source_kind, ...}`` from its ``from:`` floquet step (the fixed point) or refine
-    step (the refined rates at the section's theta2)."""
+    step (the refined rates at the section's theta2). A floquet point whose Newton polish
+    stopped short is refused, unless the map moves it less than ``max_map_defect`` [1]."""
     st = ctx.step
     src = ctx.deps[st.from_]
     section_theta1 = ctx.study.gait.section.theta1
@@ -304,7 +305,8 @@ def sequence_start(ctx: StepContext) -> dict:
                 "source_kind": "refine", "index": idx, "gait_error": g["error"],
                 "section_theta1": section_theta1}
     fp = read_floquet_point(src.path, "sequence")
-    if fp["newton_converged"] == 0 or not np.all(np.isfinite(fp["fixed_point"])):
+    close = max_map_defect is not None and fp["map_defect"] <= max_map_defect
+    if (fp["newton_converged"] == 0 and not close) or not np.all(np.isfinite(fp["fixed_point"])):
         raise RunFailed(f"{ctx.name}: floquet step {st.from_!r} did not converge to a fixed "
                         f"point (map defect {fp['map_defect']:.3g}): nothing to run")
     return {"z": np.asarray(fp["fixed_point"], float), "source": st.from_,

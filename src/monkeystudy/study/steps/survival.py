@@ -65,9 +65,9 @@ BLOCK_CYCLES = 200_000
 #: why a run stopped: its failing cycle's status, ``ok`` when it completed max_cycles
 FAILURE_CODES = (L.ST_OK, L.ST_NO_SWITCH, L.ST_ENERGY_NOT_RESTORED, L.ST_NO_RETURN,
                  L.ST_NONFINITE, L.ST_STEP_FAILURE, L.ST_BUFFER_FULL, L.ST_HORIZON,
-                 L.ST_FELL, L.ST_ERROR_BOUND)
-FAILURE_NAMES = tuple("survived" if c == L.ST_OK else
-                      "error_bound" if c == L.ST_ERROR_BOUND else STATUS_NAMES[c]
+                 L.ST_FELL, L.ST_ERROR_BOUND, L.ST_STALLED)
+FAILURE_NAMES = tuple({L.ST_OK: "survived", L.ST_ERROR_BOUND: "error_bound",
+                       L.ST_STALLED: "stalled"}.get(c) or STATUS_NAMES[c]
                       for c in FAILURE_CODES)
 MFPT_METHODS = ("mean", "tail", "lower_bound", "none")
 
@@ -201,6 +201,10 @@ class SurvivalStep(StrictModel):
                                          "larger error against the gait fails the run "
                                          "[rad2 + rad2 s-2] (default: only falls and "
                                          "missed events fail)")
+    min_advance: Optional[float] = Field(None, description="a cycle whose attached end "
+                                         "advances horizontally less than this fails the "
+                                         "run ('stalled': it stopped travelling) [m] "
+                                         "(default: no minimum)")
     max_drop: Optional[float] = Field(None, gt=0, description="a run fails ('fell') when "
                                       "the attached end sinks this far [m] (default: link "
                                       "1's length)")
@@ -230,7 +234,7 @@ def survival_gait(ctx: StepContext) -> dict:
     st = ctx.step
     src = ctx.deps[st.from_]
     if ctx.gait_kind == "sequence":
-        g = sequence_start(ctx)
+        g = sequence_start(ctx, MAX_MAP_DEFECT)
         replay = st.replay or "gait"
         out = {"replay": replay, "z": [float(v) for v in g["z"]],
                "source": sequence_attrs(g, replay)}
@@ -296,8 +300,8 @@ def survival_controller(spec: GaitSpec, gait: dict, *, tick: float, clock: str):
 
 # --- tasks (run on the workers) ------------------------------------------------------------------
 def survival_block(spec: GaitSpec, gait: dict, runs: np.ndarray, *, noise: dict,
-                   max_cycles: int, error_bound: float, max_drop: float, tick: float,
-                   clock: str, seed: int) -> dict[str, np.ndarray]:
+                   max_cycles: int, error_bound: float, min_advance: float, max_drop: float,
+                   tick: float, clock: str, seed: int) -> dict[str, np.ndarray]:
     """Runs number ``runs`` of the gait under ``noise`` (a :class:`~monkeystudy.analysis.
     survival.Noise` as a mapping): per run the cycles completed, why it stopped, the distance
     travelled [m], the time [s] and error at its last completed cycle, its RHS evaluations."""
@@ -305,7 +309,7 @@ def survival_block(spec: GaitSpec, gait: dict, runs: np.ndarray, *, noise: dict,
     r = survival_runs(controller, start, gait["z"], runs=runs, max_cycles=max_cycles,
                       noise=Noise(**noise), seed=seed, robot=spec.robot,
                       integrator=spec.integrator, error_bound=error_bound,
-                      max_drop=max_drop, section=section)
+                      min_advance=min_advance, max_drop=max_drop, section=section)
     return {"cycles": r.cycles.astype(np.int64), "failure": r.failure.astype(np.int8),
             "distance": r.distance, "time": r.time, "error": r.error, "nfev": r.nfev}
 
@@ -494,6 +498,7 @@ class SurvivalKind(StepKind):
         tick = st.controller.tick if st.controller.tick is not None else ctx.study.gait.tick
         kw = {"max_cycles": st.max_cycles,
               "error_bound": st.error_bound if st.error_bound is not None else math.inf,
+              "min_advance": st.min_advance if st.min_advance is not None else -math.inf,
               "max_drop": max_drop_of(st, ctx.spec), "tick": float(tick),
               "clock": st.controller.clock, "seed": st.seed}
         ctx.state.update(gait=gait, options=kw)
@@ -521,6 +526,7 @@ class SurvivalKind(StepKind):
                      start_theta2=gait["z"][0], dtheta1=gait["z"][1], dtheta2=gait["z"][2],
                      tick=kw["tick"], clock=kw["clock"], seed=st.seed, runs=st.runs,
                      max_cycles=st.max_cycles, error_bound=kw["error_bound"],
+                     min_advance=kw["min_advance"],
                      max_drop=kw["max_drop"], noise_distribution=st.noise.distribution,
                      swept=st.noise.swept(), n_blocks=len(ctx.blocks))
         for key in ("t_switch", "t_motor", "torque"):
