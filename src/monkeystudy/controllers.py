@@ -51,6 +51,10 @@ class Segment:
         Entry action: ``keep``, ``swap``, ``A``, ``B``, ``both`` or ``none`` (which ends are on).
     torque : float
         Motor torque from entry on [N m], on theta2 of the frame after the entry action.
+    delay : float
+        The exit (and the next row's entry actions) comes this long after the guard fires
+        [s]: a time guard's instant moves by it (either sign); a state guard's action waits
+        for it (>= 0, an actuation latency). Survival runs set it per cycle (timing jitter).
     """
 
     until: str
@@ -65,6 +69,7 @@ class Segment:
     cycle_end: bool = False
     next: int | None = None      # default: the following row; -1 stops
     fail_status: int = L.ST_HORIZON
+    delay: float = 0.0
 
     def row(self, index: int, n_rows: int) -> np.ndarray:
         r = np.zeros(L.N_SEG_COLS)
@@ -80,8 +85,12 @@ class Segment:
             raise ValueError(f"segment {index}: direction must be one of {sorted(DIRECTIONS)}")
         if self.coord not in COORD_INDEX:
             raise ValueError(f"segment {index}: coord must be one of {sorted(COORD_INDEX)}")
-        if not (math.isfinite(self.value) and math.isfinite(self.torque)):
-            raise ValueError(f"segment {index}: value and torque must be finite")
+        if not (math.isfinite(self.value) and math.isfinite(self.torque)
+                and math.isfinite(self.delay)):
+            raise ValueError(f"segment {index}: value, torque and delay must be finite")
+        if self.delay < 0 and self.until != "time":
+            raise ValueError(f"segment {index}: a state guard's delay is a latency, >= 0 "
+                             f"(got {self.delay!r})")
         r[L.S_MAG_A], r[L.S_MAG_B], r[L.S_SWAP] = mags[self.magnets]
         r[L.S_TORQUE] = self.torque
         r[L.S_SET_EREF] = 1.0 if self.latch_energy else 0.0
@@ -95,6 +104,7 @@ class Segment:
         r[L.S_CLOCK] = {"keep": 0, "reset": 1, "advance": 2}[self.clock]
         r[L.S_FAIL] = self.fail_status
         r[L.S_CYCLE] = 1.0 if self.cycle_end else 0.0
+        r[L.S_DELAY] = self.delay
         return r
 
 

@@ -15,6 +15,9 @@ Semantics worth knowing (MODEL.md section 4, issue #2):
   (the study's controller samples its conditions on a 1 ms loop). Time guards on a tick fire
   at the first tick at or after their time.
 * Time guards are integration bounds: steps end exactly on them (no interpolation).
+* ``S_DELAY`` moves a segment's exit: a time guard's instant (after the tick) by the delay,
+  either sign (never before the segment's start); a state guard's exit waits the delay after
+  the guard fires (the segment's torque and magnets stay), a latency. Zero: no change.
 * ``G_ENERGY_RESTORED`` is a level condition: already restored at entry (a collisionless
   swap) fires at once, with zero motor time. Other guards are crossings; one exactly zero at a
   segment start (within the relative band ``C_ZERO_BAND``) does not fire there.
@@ -57,7 +60,7 @@ from .layout import (
     L_ID, L_KIND, L_PHASE, L_STATE, L_T, LOG_FRICTION, LOG_OBSERVER, LOG_SEGMENT, M_FLIPPED,
     M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, METHOD_VERN9, O_GDIR,
     O_GINDEX, O_GUARD, O_GVALUE, O_SEGMENT, P_C_JOINT, P_C_PIVOT, PHASE_FIXED, PHASE_FLIGHT,
-    PHASE_SWING, S_CLOCK, S_CYCLE, S_FAIL, S_GDIR, S_GINDEX, S_GUARD, S_GVALUE, S_MAG_A,
+    PHASE_SWING, S_CLOCK, S_CYCLE, S_DELAY, S_FAIL, S_GDIR, S_GINDEX, S_GUARD, S_GVALUE, S_MAG_A,
     S_MAG_B, S_NEXT, S_SET_EREF, S_SWAP, S_TICKED, S_TORQUE, ST_BUFFER_FULL, ST_END_TIME,
     ST_FELL, ST_HORIZON, ST_NONFINITE, ST_OK, ST_STEP_FAILURE,
 )
@@ -300,6 +303,7 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
     seg_start = t
     pending = np.inf      # tick at which a located ticked guard will be acted on
     pending_sign = 0.0    # guard sign before that crossing ("either" direction)
+    delayed_exit = np.inf  # a state guard fired: the exit waits until then (S_DELAY)
     n = 4
 
     while status < 0:
@@ -338,10 +342,17 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
         horizon = seg_start + max_seg_time
         t_limit = min(horizon, t_end)
         t_target = np.inf
-        if gkind == G_TIME:
+        if delayed_exit < np.inf:
+            # the guard has fired; only the latency is left: a time leg without a guard
+            state_guard = False
+            gkind = G_TIME
+            t_target = delayed_exit
+        elif gkind == G_TIME:
             t_target = clock0 + gvalue
             if ticked:
                 t_target = next_tick(t_target, tick, tick_phase)
+            if prog[seg, S_DELAY] != 0.0:
+                t_target += prog[seg, S_DELAY]
             if t_target < t:
                 t_target = t
         t_stop = min(t_limit, t_target)
@@ -690,7 +701,12 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
             elif log_cap > 0:
                 status = ST_BUFFER_FULL
             continue
+        if fired and delayed_exit == np.inf and int(prog[seg, S_GUARD]) != G_TIME and \
+                prog[seg, S_DELAY] > 0.0:
+            delayed_exit = t + prog[seg, S_DELAY]
+            continue
         if fired:
+            delayed_exit = np.inf
             counts[K_EVENTS] += 1
             seg_times[seg] = t
             e_before = total_energy8(par[flipped], s8)

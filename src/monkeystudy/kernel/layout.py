@@ -62,7 +62,10 @@ S_NEXT = 10        # next segment row, -1 to stop
 S_CLOCK = 11       # on exit: 0 nothing, 1 clock origin = exit time, 2 clock origin += value
 S_FAIL = 12        # status returned if the segment's horizon is reached
 S_CYCLE = 13       # 1: leaving this segment completes one cycle
-N_SEG_COLS = 14
+S_DELAY = 14       # the exit (and the next row's entry actions) comes this long after the
+#                    guard fires [s]: a time guard's instant moves by it (either sign), a
+#                    state guard's action waits for it (>= 0; an actuation latency)
+N_SEG_COLS = 15
 
 # --- observer table: non-terminal guards whose crossings are logged -----------------------------
 O_GUARD, O_GINDEX, O_GVALUE, O_GDIR = 0, 1, 2, 3
@@ -136,3 +139,33 @@ H_FMODE1 = 16      # joint friction mode
 H_CYCLES = 17      # completed cycles
 H_Y_REF = 18       # reference height of the attached end for ST_FELL [m] (NaN: set at start)
 N_HYB = 19
+
+# --- survival runs (kernel.survival) ---------------------------------------------------------------
+ST_ERROR_BOUND = 11      # a survival run's cycle ended farther than the error bound from the gait
+ST_STALLED = 12          # a survival run's cycle advanced less than the minimum advance
+# noise vector: the scale of each source (0: off)
+NZ_UNIFORM = 0      # 1: uniform on [-scale, scale); 0: Gaussian with standard deviation scale
+NZ_TIMING = 1       # actuation timing jitter [s]
+NZ_ANGLE = 2        # sensed angle of an angle guard [rad]
+NZ_RATE = 3         # sensed rate of a rate guard [rad s-1]
+NZ_HEIGHT = 4       # sensed height of a height guard [m]
+NZ_ENERGY = 5       # sensed energy of an energy guard [J]
+NZ_TORQUE = 6       # relative error of a motor pulse's torque [1]
+NZ_THETA2 = 7       # initial theta2 [rad]
+NZ_DTHETA1 = 8      # initial dtheta1 [rad s-1]
+NZ_DTHETA2 = 9      # initial dtheta2 [rad s-1]
+N_NOISE = 10
+# noise role of each program row
+RL_JITTER = 0       # JITTER_*: how timing jitter moves the row's exit
+RL_SENSOR = 1       # the NZ_* source read by the row's guard (0: none)
+RL_PULSE = 2        # 1: the row's torque is a motor pulse, scaled by (1 + torque error)
+N_ROLE_COLS = 3
+JITTER_NONE, JITTER_SHIFT, JITTER_LATENCY = 0, 1, 2
+# one survival run's outcome
+SV_CYCLES = 0       # cycles completed within the bounds
+SV_FAILURE = 1      # ST_OK: ran max_cycles (censored); else the failing cycle's ST_*
+SV_DISTANCE = 2     # attached end's x at the last completed cycle's end - at the start [m]
+SV_TIME = 3         # time of the last completed cycle's end [s]
+SV_ERROR = 4        # error at the last completed cycle's end [rad2 + rad2 s-2]
+SV_NFEV = 5         # right-hand-side evaluations of the run
+N_SV_COLS = 6

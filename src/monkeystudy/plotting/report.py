@@ -46,7 +46,7 @@ from typing import Callable, Sequence
 import xarray as xr
 
 from ..study.steps import REGISTRY
-from . import analysis, cycles, gait, maps, stress
+from . import analysis, cycles, gait, maps, stress, survival
 from .common import STYLE_FILE, atomic_path, provenance, save_figure
 from .drawing import Drawing, Folder
 from .page import PAGE, render_page
@@ -102,6 +102,7 @@ def code_hash() -> str:
 #: how each declared figure is drawn, by (step kind, suffix), from every figure module
 DRAWINGS: dict[tuple[str, str], Drawing] = {
     **maps.DRAWINGS, **cycles.DRAWINGS, **gait.DRAWINGS, **analysis.DRAWINGS, **stress.DRAWINGS,
+    **survival.DRAWINGS,
 }
 
 

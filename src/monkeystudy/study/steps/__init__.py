@@ -16,13 +16,14 @@ from .refine import RefineKind
 from .shoot import ShootKind
 from .stability import StabilityKind
 from .stress import StressKind
+from .survival import SurvivalKind
 from .tick_sweep import TickSweepKind
 from .work_precision import WorkPrecisionKind
 
 #: every step kind by its ``kind:`` name, in the order the schema lists them
 REGISTRY: dict[str, StepKind] = {k.name: k for k in (
     GridKind(), RefineKind(), StabilityKind(), ShootKind(), FloquetKind(), TickSweepKind(),
-    BasinKind(), ContinuationKind(), WorkPrecisionKind(), StressKind(),
+    BasinKind(), ContinuationKind(), WorkPrecisionKind(), StressKind(), SurvivalKind(),
 )}
 
 

@@ -256,7 +256,8 @@ def write_floquet(path: Path, attrs: dict, results: list[dict]) -> None:
 
 def read_floquet_point(path: Path, controller: str = "sequence") -> dict:
     """One controller's analysed point of a floquet dataset: ``{fixed_point (3,), map_defect,
-    newton_converged}`` (``newton_converged`` -1 when the dataset has none)."""
+    newton_converged, t_switch, t_motor [s], motor_torque [N m]}`` (``newton_converged`` -1
+    when the dataset has none; the times NaN for a sequence gait)."""
     with netCDF4.Dataset(path, "r") as nc:
         nc.set_auto_mask(False)
         labels = [str(x) for x in np.atleast_1d(nc.variables["controller"][...])]
@@ -267,6 +268,8 @@ def read_floquet_point(path: Path, controller: str = "sequence") -> dict:
                "map_defect": float(nc.variables["map_defect"][i])}
         nc_conv = nc.variables.get("newton_converged")
         out["newton_converged"] = int(nc_conv[i]) if nc_conv is not None else -1
+        for key in ("t_switch", "t_motor", "motor_torque"):
+            out[key] = float(nc.variables[key][i]) if key in nc.variables else math.nan
     return out
 
 
@@ -284,10 +287,11 @@ def read_floquet_multipliers(path: Path, controller: str = "open_loop") -> np.nd
 
 
 # --- the fixed point later steps of a sequence gait use ------------------------------------------
-def sequence_start(ctx: StepContext) -> dict:
+def sequence_start(ctx: StepContext, max_map_defect: float | None = None) -> dict:
     """Where a sequence gait's multi-cycle step starts: ``{z: (theta2, dtheta1, dtheta2),
     source, source_kind, ...}`` from its ``from:`` floquet step (the fixed point) or refine
-    step (the refined rates at the section's theta2)."""
+    step (the refined rates at the section's theta2). A floquet point whose Newton polish
+    stopped short is refused, unless the map moves it less than ``max_map_defect`` [1]."""
     st = ctx.step
     src = ctx.deps[st.from_]
     section_theta1 = ctx.study.gait.section.theta1
@@ -301,7 +305,8 @@ def sequence_start(ctx: StepContext) -> dict:
                 "source_kind": "refine", "index": idx, "gait_error": g["error"],
                 "section_theta1": section_theta1}
     fp = read_floquet_point(src.path, "sequence")
-    if fp["newton_converged"] == 0 or not np.all(np.isfinite(fp["fixed_point"])):
+    close = max_map_defect is not None and fp["map_defect"] <= max_map_defect
+    if (fp["newton_converged"] == 0 and not close) or not np.all(np.isfinite(fp["fixed_point"])):
         raise RunFailed(f"{ctx.name}: floquet step {st.from_!r} did not converge to a fixed "
                         f"point (map defect {fp['map_defect']:.3g}): nothing to run")
     return {"z": np.asarray(fp["fixed_point"], float), "source": st.from_,

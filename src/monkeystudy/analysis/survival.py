@@ -1,0 +1,373 @@
+"""Survival under noise: how many cycles a gait lasts on a noisy robot, and the mean
+first-passage time (MFPT) to failure.
+
+A Floquet multiplier says whether a gait returns to itself; a real robot swaps magnets a few
+milliseconds early or late, senses angles with noise and never has its nominal masses.
+Legged-robot research measures how long a gait lasts under such noise as *metastability*
+(Byl & Tedrake, "Metastable walking machines", IJRR 28(8), 2009): the expected number of
+steps before a fall. Here:
+
+* :class:`Noise` - the noise sources, each optional, in SI units;
+* :func:`noise_roles` - which row of a controller program each source acts on;
+* :func:`survival_runs` - independent runs of up to ``max_cycles`` cycles (compiled, one
+  call per block of runs; :mod:`monkeystudy.kernel.survival`), each run's noise keyed by
+  ``(seed, run, cycle)`` so any worker count gives the same numbers;
+* :func:`survival_curve`, :func:`mfpt` - the survival fraction per cycle and the MFPT with a
+  95 % confidence interval from the runs' cycles to failure, right-censored runs included.
+
+The MFPT estimator
+------------------
+Let ``T`` be the cycles a run completes before it fails (a run that fails in its first cycle
+has ``T = 0``) and ``M = max_cycles``; a run that completes ``M`` cycles is right-censored.
+The survival fraction ``S(c) = P(T >= c)`` is the fraction of runs with ``T >= c`` for
+``c <= M`` (every run is censored at the same ``M``, so this is the Kaplan-Meier estimate).
+``MFPT = E[T] = sum_{c >= 1} S(c)``:
+
+* up to ``M`` the sum is the restricted mean ``sum_{c=1..M} S(c) = mean(min(T, M))``;
+* beyond ``M`` the failure rate is taken as constant (a metastable gait's first-passage time
+  is exponential once its transient is over, Byl & Tedrake): the per-cycle hazard ``h`` is
+  estimated over the window's second half, ``h = failures / cycles at risk`` there, and the
+  tail adds ``S(M) (1 - h) / h``. With no censored run the tail is zero and the estimate is
+  the sample mean, whatever the distribution.
+
+The interval is a percentile bootstrap over runs (2000 resamples, a fixed generator), which
+carries the censoring and the tail fit along. When no run fails in the window's second half
+while some are censored, the tail cannot be fitted: ``mfpt`` is NaN, ``mfpt_low`` is the
+restricted mean plus the tail at the hazard's 97.5 % Poisson upper bound, and ``mfpt_high``
+is infinite. The hazards in the window's two halves are reported, so a user can see whether
+the constant-rate tail is plausible.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, fields
+
+import numpy as np
+
+from ..controllers import Integrator, Observer, settings_vector
+from ..kernel import layout as L
+from ..kernel.noise import PER_RUN_CYCLE, standard_draw
+from ..kernel.survival import survival_runs as run_block
+from ..robot import Link, Robot
+from ..simulate import RobotLike, as_robot
+
+#: noise distributions: name -> the kernel's NZ_UNIFORM flag
+DISTRIBUTIONS = {"gaussian": 0.0, "uniform": 1.0}
+
+#: per-run draws (cycle word PER_RUN_CYCLE): slots 0-2 are the initial state's (kernel);
+#: the robot's uncertain parameters take these
+PARAMETER_SLOTS = {("link1", "mass"): 16, ("link2", "mass"): 17, ("link1", "com"): 18,
+                   ("link2", "com"): 19, ("link1", "inertia"): 20, ("link2", "inertia"): 21}
+
+
+@dataclass(frozen=True)
+class Noise:
+    """Noise sources of a survival run, each 0 (off) by default.
+
+    ``distribution`` gives each draw's shape: ``gaussian`` (the value is the standard
+    deviation) or ``uniform`` (the value is the half-width).
+
+    Parameters
+    ----------
+    timing : float
+        Actuation timing jitter [s], per magnet or motor action: a scheduled action (a time
+        guard) happens that much early or late; an action triggered by a sensed state waits
+        the draw's magnitude (a latency).
+    angle, rate, height, energy : float
+        Sensor noise on what state guards read: an angle [rad], an angular rate [rad s-1],
+        a height [m], an energy [J]; one draw per guarded action.
+    torque : float
+        Relative error of each motor pulse's torque [1].
+    mass, com, inertia : float
+        Relative uncertainty of each link's mass, CG position and inertia [1], drawn once
+        per run (the CG is kept on the link).
+    theta2, dtheta1, dtheta2 : float
+        Perturbation of the starting section state [rad, rad s-1, rad s-1], once per run.
+    """
+
+    distribution: str = "gaussian"
+    timing: float = 0.0
+    angle: float = 0.0
+    rate: float = 0.0
+    height: float = 0.0
+    energy: float = 0.0
+    torque: float = 0.0
+    mass: float = 0.0
+    com: float = 0.0
+    inertia: float = 0.0
+    theta2: float = 0.0
+    dtheta1: float = 0.0
+    dtheta2: float = 0.0
+
+    def __post_init__(self):
+        if self.distribution not in DISTRIBUTIONS:
+            raise ValueError(f"distribution must be one of {sorted(DISTRIBUTIONS)}, "
+                             f"got {self.distribution!r}")
+        for f in fields(self):
+            if f.name != "distribution":
+                v = float(getattr(self, f.name))
+                if not (math.isfinite(v) and v >= 0.0):
+                    raise ValueError(f"noise {f.name} must be finite and >= 0, got {v!r}")
+
+    def vector(self) -> np.ndarray:
+        """The kernel's noise vector (layout ``NZ_*``)."""
+        v = np.zeros(L.N_NOISE)
+        v[L.NZ_UNIFORM] = DISTRIBUTIONS[self.distribution]
+        v[L.NZ_TIMING], v[L.NZ_ANGLE], v[L.NZ_RATE] = self.timing, self.angle, self.rate
+        v[L.NZ_HEIGHT], v[L.NZ_ENERGY], v[L.NZ_TORQUE] = self.height, self.energy, self.torque
+        v[L.NZ_THETA2], v[L.NZ_DTHETA1], v[L.NZ_DTHETA2] = (self.theta2, self.dtheta1,
+                                                            self.dtheta2)
+        return v
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+#: the sensor each guard reads: guard kind -> noise source (coordinate guards by index)
+_GUARD_SOURCE = {L.G_FREE_END_HEIGHT: L.NZ_HEIGHT, L.G_FREE_END_Y: L.NZ_HEIGHT,
+                 L.G_ENERGY_RESTORED: L.NZ_ENERGY, L.G_ENERGY: L.NZ_ENERGY}
+_COORD_SOURCE = {L.X: L.NZ_HEIGHT, L.Y: L.NZ_HEIGHT, L.TH1: L.NZ_ANGLE, L.TH2: L.NZ_ANGLE,
+                 L.DTH1: L.NZ_RATE, L.DTH2: L.NZ_RATE}
+
+
+def noise_roles(prog: np.ndarray) -> np.ndarray:
+    """The noise role of each program row (layout ``RL_*``).
+
+    A row's exit is an *actuation* when the row it leads to switches a magnet or changes the
+    motor torque: its timing jitters (a time guard's instant shifts either way, a state
+    guard's action waits, ``JITTER_LATENCY``). A state guard reads a sensor: coordinates by
+    their kind (angles, rates; positions as heights), heights and energies (``RL_SENSOR``).
+    A row with a non-zero torque is a motor pulse (``RL_PULSE``).
+    """
+    prog = np.asarray(prog, float)
+    roles = np.zeros((prog.shape[0], L.N_ROLE_COLS))
+    for k, row in enumerate(prog):
+        nxt = int(row[L.S_NEXT])
+        if nxt >= 0:
+            to = prog[nxt]
+            actuation = (to[L.S_SWAP] > 0 or to[L.S_MAG_A] >= 0 or to[L.S_MAG_B] >= 0
+                         or to[L.S_TORQUE] != row[L.S_TORQUE])
+            if actuation:
+                roles[k, L.RL_JITTER] = (L.JITTER_SHIFT if int(row[L.S_GUARD]) == L.G_TIME
+                                         else L.JITTER_LATENCY)
+        guard = int(row[L.S_GUARD])
+        if guard == L.G_COORD:
+            roles[k, L.RL_SENSOR] = _COORD_SOURCE.get(int(row[L.S_GINDEX]), 0)
+        else:
+            roles[k, L.RL_SENSOR] = _GUARD_SOURCE.get(guard, 0)
+        roles[k, L.RL_PULSE] = 1.0 if row[L.S_TORQUE] != 0.0 else 0.0
+    return roles
+
+
+def run_robot(robot: Robot, noise: Noise, seed: int, run: int) -> Robot:
+    """The robot of run ``run``: each link's mass, CG and inertia times ``1 + s z`` (``s``
+    the noise's relative scale, ``z`` the run's draw), the CG clipped onto the link."""
+    if noise.mass == 0.0 and noise.com == 0.0 and noise.inertia == 0.0:
+        return robot
+    uniform = noise.distribution == "uniform"
+    links = {}
+    for name in ("link1", "link2"):
+        link = getattr(robot, name)
+        vals = {}
+        for what in ("mass", "com", "inertia"):
+            scale = getattr(noise, what)
+            z = standard_draw(int(seed), int(run), PER_RUN_CYCLE, PARAMETER_SLOTS[(name, what)],
+                              uniform) if scale > 0.0 else 0.0
+            vals[what] = getattr(link, what) * (1.0 + scale * z)
+        vals["com"] = min(max(vals["com"], 0.0), link.length)
+        links[name] = Link(vals["mass"], link.length, vals["com"], vals["inertia"])
+    return Robot(links["link1"], links["link2"], gravity=robot.gravity,
+                 pivot_friction=robot.pivot_friction, joint_friction=robot.joint_friction,
+                 name=robot.name)
+
+
+@dataclass
+class SurvivalRuns:
+    """Outcome of a block of runs (arrays over the runs).
+
+    ``cycles`` completed within bounds; ``failure`` the failing cycle's status (``ok``: the
+    run completed ``max_cycles`` and is censored; ``ST_ERROR_BOUND``: the error bound;
+    ``ST_STALLED``: the minimum advance);
+    ``distance`` the attached end's horizontal travel to the last completed cycle [m];
+    ``time`` of that cycle's end [s]; ``error`` there [rad2 + rad2 s-2]; ``nfev`` the
+    right-hand-side evaluations.
+    """
+
+    cycles: np.ndarray
+    failure: np.ndarray
+    distance: np.ndarray
+    time: np.ndarray
+    error: np.ndarray
+    nfev: np.ndarray
+
+
+def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles: int,
+                  noise: Noise, seed: int, robot: RobotLike = "seed2009",
+                  integrator: Integrator = Integrator(), error_bound: float = math.inf,
+                  min_advance: float = -math.inf, max_drop: float = math.inf,
+                  section: Observer | None = None) -> SurvivalRuns:
+    """Run ``controller`` (a looping program: each cycle ends on a ``cycle_end`` row) from the
+    hybrid state ``start`` for each run number in ``runs``.
+
+    Parameters
+    ----------
+    reference : array_like
+        The gait's section state ``(theta2 [rad], dtheta1, dtheta2 [rad s-1])`` the error of
+        each cycle is measured against (and ``start``'s noiseless section state).
+    max_cycles : int
+        Cycles after which a run stops as censored.
+    noise : Noise
+        The noise sources; ``seed`` keys every draw with the run number and the cycle.
+    error_bound : float
+        A cycle ending with a larger error fails the run [rad2 + rad2 s-2].
+    min_advance : float
+        A cycle whose attached end advances horizontally less than this fails the run
+        (stalled) [m].
+    max_drop : float
+        A run fails when the attached end sinks this far below its start [m].
+    section : Observer, optional
+        An exact observer of the section, watched in the cycle's last row, where each cycle
+        is measured (default: the controller's own observers, else the cycle's end).
+    """
+    robot = as_robot(robot)
+    prog, obs = controller.program()
+    if section is not None:
+        obs = np.vstack([obs, section.row()[None, :]])
+    if not np.any(prog[:, L.S_CYCLE] > 0):
+        raise ValueError("the controller's program has no cycle-ending row")
+    if int(max_cycles) < 1:
+        raise ValueError(f"max_cycles must be >= 1, got {max_cycles}")
+    runs = np.asarray(runs, dtype=np.int64).ravel()
+    settings = settings_vector(integrator, tick=controller.tick,
+                               tick_phase=controller.tick_phase, max_drop=max_drop)
+    par_runs = np.stack([run_robot(robot, noise, seed, r).params() for r in runs]) \
+        if len(runs) else np.empty((0, 2, L.N_PARAMS))
+    out = np.zeros((len(runs), L.N_SV_COLS))
+    run_block(par_runs, prog, obs, settings, np.asarray(start, float), noise_roles(prog),
+              noise.vector(), int(seed), runs, np.asarray(reference, float), int(max_cycles),
+              float(error_bound), float(min_advance), out)
+    return SurvivalRuns(out[:, L.SV_CYCLES].astype(np.int64),
+                        out[:, L.SV_FAILURE].astype(np.int8), out[:, L.SV_DISTANCE].copy(),
+                        out[:, L.SV_TIME].copy(), out[:, L.SV_ERROR].copy(),
+                        out[:, L.SV_NFEV].astype(np.int64))
+
+
+# ------------------------------------------------------------------------------------------
+# estimators
+# ------------------------------------------------------------------------------------------
+#: bootstrap resamples of the MFPT interval, and its generator's fixed seed
+BOOTSTRAP_SAMPLES = 2000
+BOOTSTRAP_SEED = 20090917
+#: the two-sided 97.5 % Poisson upper bound on a mean with no event observed (-ln 0.025)
+POISSON_UPPER_ZERO = -math.log(0.025)
+
+
+def survival_curve(cycles, max_cycles: int, at) -> np.ndarray:
+    """``S(c)``: the fraction of runs that completed at least ``c`` cycles, for each ``c`` in
+    ``at`` (``c <= max_cycles``; every run is censored at ``max_cycles``)."""
+    t = np.sort(np.asarray(cycles, np.int64))
+    at = np.asarray(at, np.int64)
+    if np.any(at > max_cycles):
+        raise ValueError("the survival fraction is known up to max_cycles only")
+    if t.size == 0:
+        return np.full(at.shape, np.nan)
+    return (t.size - np.searchsorted(t, at, side="left")) / t.size
+
+
+def hazard(cycles, failed, first: int, last: int) -> tuple[int, int]:
+    """Failures and cycles at risk over cycles ``first + 1 .. last`` (1-based): a run that
+    completed ``T`` cycles was at risk in cycles ``1 .. T + 1`` if it failed (the last one
+    failing), ``1 .. T`` if censored."""
+    t = np.asarray(cycles, np.int64)
+    f = np.asarray(failed, bool)
+    attempted = np.where(f, t + 1, t)
+    at_risk = np.clip(attempted, first, last) - first
+    failures = int(np.sum(f & (t + 1 > first) & (t + 1 <= last)))
+    return failures, int(at_risk.sum())
+
+
+@dataclass(frozen=True)
+class MFPT:
+    """Mean first-passage time in cycles with its 95 % interval; see the module docstring.
+
+    ``method``: ``mean`` (no censored run), ``tail`` (restricted mean plus a constant-hazard
+    tail), ``lower_bound`` (no failure to fit the tail on: ``value`` NaN) or ``none`` (no
+    run). ``hazard_early``, ``hazard_late``: failures per cycle at risk in the window's first
+    and second halves (NaN when no cycle was at risk).
+    """
+
+    value: float
+    low: float
+    high: float
+    method: str
+    restricted_mean: float
+    censored: int
+    failures: int
+    hazard_early: float
+    hazard_late: float
+
+
+def _mfpt_points(t: np.ndarray, failed: np.ndarray, max_cycles: int,
+                 samples: np.ndarray) -> np.ndarray:
+    """The MFPT point estimate [cycles] of each resample of the runs (rows of run indices
+    ``samples``; inf where the tail cannot be fitted)."""
+    half = max_cycles // 2
+    attempted = np.where(failed, t + 1, t)
+    restricted = np.minimum(t, max_cycles).astype(float)
+    censored = (~failed).astype(float)
+    tail_failures = (failed & (t + 1 > half) & (t + 1 <= max_cycles)).astype(float)
+    tail_exposure = (np.clip(attempted, half, max_cycles) - half).astype(float)
+    rmst = restricted[samples].mean(axis=1)
+    s_end = censored[samples].mean(axis=1)
+    d = tail_failures[samples].sum(axis=1)
+    e = tail_exposure[samples].sum(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tail = np.where(d > 0, s_end * (e - d) / d, np.inf)   # S(M) (1 - h) / h, h = d / e
+    return np.where(s_end > 0, rmst + tail, rmst)
+
+
+def mfpt(cycles, failed, max_cycles: int) -> MFPT:
+    """MFPT [cycles] of runs that completed ``cycles`` each (``failed``: False for a run
+    censored at ``max_cycles``), with a 95 % percentile-bootstrap interval."""
+    t = np.asarray(cycles, np.int64)
+    f = np.asarray(failed, bool)
+    n = t.size
+    half = max_cycles // 2
+    d1, e1 = hazard(t, f, 0, half)
+    d2, e2 = hazard(t, f, half, max_cycles)
+    rates = (d1 / e1 if e1 else math.nan, d2 / e2 if e2 else math.nan)
+    if n == 0:
+        return MFPT(math.nan, math.nan, math.nan, "none", math.nan, 0, 0, *rates)
+    rmst = float(np.mean(np.minimum(t, max_cycles)))
+    censored = int(np.sum(~f))
+    point = float(_mfpt_points(t, f, max_cycles, np.arange(n)[None, :])[0])
+    rng = np.random.default_rng(BOOTSTRAP_SEED)
+    boot = np.empty(BOOTSTRAP_SAMPLES)
+    rows = max(1, (1 << 22) // n)         # resamples per batch: bounded memory
+    for lo in range(0, BOOTSTRAP_SAMPLES, rows):
+        hi = min(lo + rows, BOOTSTRAP_SAMPLES)
+        boot[lo:hi] = _mfpt_points(t, f, max_cycles, rng.integers(0, n, size=(hi - lo, n)))
+    low, high = (float(v) for v in np.quantile(boot, [0.025, 0.975], method="lower"))
+    if censored == 0:
+        method = "mean"
+    elif math.isfinite(point):
+        method = "tail"
+    else:
+        method = "lower_bound"
+        s_end = float(np.mean(t >= max_cycles))
+        h_up = POISSON_UPPER_ZERO / e2
+        point = math.nan
+        low = rmst + s_end * (1.0 - h_up) / h_up
+        high = math.inf
+    return MFPT(point, low, high, method, rmst, censored, int(np.sum(f)), *rates)
+
+
+def cycle_grid(max_cycles: int, points: int = 160) -> np.ndarray:
+    """Cycles at which a survival curve is stored: 0, 1, 2, ... then logarithmically spaced
+    up to ``max_cycles`` (``S`` is a step function; its values at these cycles are exact)."""
+    g = np.unique(np.round(np.logspace(0.0, math.log10(max(max_cycles, 1)), points)))
+    return np.unique(np.concatenate([[0], g.astype(np.int64), [max_cycles]]))
+
+
+__all__ = ["DISTRIBUTIONS", "MFPT", "Noise", "SurvivalRuns", "cycle_grid", "hazard", "mfpt",
+           "noise_roles", "run_robot", "survival_curve", "survival_runs"]

@@ -1,0 +1,153 @@
+"""Survival runs (compiled): a gait run cycle after cycle under noise until it fails.
+
+:func:`survival_runs` runs a block of independent runs of one controller program. Each cycle
+of each run is one call of :func:`~monkeystudy.kernel.hybrid.simulate` on a copy of the
+program whose rows carry that cycle's noise; the run goes on from the hybrid state the call
+leaves, so with zero noise a run is bit for bit the deterministic multi-cycle run.
+
+Noise (scales in the vector layout ``NZ_*``, each 0 when off), drawn per action and per
+cycle from :mod:`~monkeystudy.kernel.noise` under the key ``(seed, run, cycle, slot)``:
+
+* timing jitter [s]: a row whose exit is an actuation (``RL_JITTER``) exits ``d`` later:
+  a time guard's instant moves by ``d`` (either sign), a state guard's action waits ``|d|``
+  after the guard fires (a latency cannot be negative);
+* sensor noise: a row's guard value moves by a draw of the source it reads (``RL_SENSOR``:
+  an angle [rad], a rate [rad s-1], a height [m] or an energy [J]), held for that action;
+* torque error: a motor pulse's torque is multiplied by ``1 + e`` (``RL_PULSE``);
+* initial state: the section state's ``theta2``, ``dtheta1``, ``dtheta2`` once per run.
+
+Program row ``k`` of cycle ``c`` draws slots ``3k`` (jitter), ``3k + 1`` (sensor), ``3k + 2``
+(torque); the initial state draws slots 0-2 on the cycle word ``PER_RUN_CYCLE``.
+
+A cycle is measured where it ends: at the last observer crossing it logged (the exact
+section, e.g. link 1 at the vertical), else at the exit of its cycle-ending row. A run fails
+at the first cycle whose call stops with a status other than ok (fell, no swap, ...), whose
+error against the reference exceeds the bound (``ST_ERROR_BOUND``), or whose horizontal
+advance of the attached end is less than the minimum (``ST_STALLED``: it stopped travelling).
+"""
+import math
+
+import numpy as np
+from numba import njit
+
+from .hybrid import simulate
+from .layout import (
+    C_MAX_CYCLES, DTH1, DTH2, H_CYCLES, H_SEG, H_T, JITTER_LATENCY, JITTER_NONE, K_LOG, K_NFEV,
+    L_KIND, L_STATE, L_T, LOG_OBSERVER, N_COUNTS, N_LOG_COLS, N_MODE_COLS, NZ_DTHETA1,
+    NZ_DTHETA2, NZ_THETA2, NZ_TIMING, NZ_TORQUE, NZ_UNIFORM, RL_JITTER, RL_PULSE, RL_SENSOR,
+    S_DELAY, S_GVALUE, S_NEXT, S_TORQUE, ST_ERROR_BOUND, ST_OK, ST_STALLED, SV_CYCLES, SV_DISTANCE,
+    SV_ERROR, SV_FAILURE, SV_NFEV, SV_TIME, TH2, X,
+)
+from .noise import PER_RUN_CYCLE, standard_draw
+
+#: event-log rows one cycle may use (segment exits, observer crossings, friction changes)
+CYCLE_LOG_ROWS = 256
+
+
+@njit(cache=True, error_model="numpy")
+def wrapped_error(s8, z_ref):
+    """Section error of a frame state against ``z_ref = (theta2, dtheta1, dtheta2)``:
+    ``wrap(theta2 - theta2_ref)^2 + (dtheta1 - dtheta1_ref)^2 + (dtheta2 - dtheta2_ref)^2``."""
+    d = (s8[TH2] - z_ref[0] + math.pi) % (2.0 * math.pi) - math.pi
+    return d * d + (s8[DTH1] - z_ref[1]) ** 2 + (s8[DTH2] - z_ref[2]) ** 2
+
+
+@njit(cache=True, error_model="numpy")
+def noisy_program(prog, roles, noise, seed, run, cycle, out):
+    """Write cycle ``cycle``'s program of run ``run`` into ``out`` (rows as ``prog`` with the
+    cycle's delays, guard values and torques)."""
+    uniform = noise[NZ_UNIFORM] > 0.0
+    timing = noise[NZ_TIMING]
+    torque = noise[NZ_TORQUE]
+    for k in range(prog.shape[0]):
+        for j in range(prog.shape[1]):
+            out[k, j] = prog[k, j]
+        jitter = int(roles[k, RL_JITTER])
+        if jitter != JITTER_NONE and timing > 0.0:
+            d = timing * standard_draw(seed, run, cycle, 3 * k, uniform)
+            out[k, S_DELAY] = abs(d) if jitter == JITTER_LATENCY else d
+        source = int(roles[k, RL_SENSOR])
+        if source > 0 and noise[source] > 0.0:
+            out[k, S_GVALUE] = prog[k, S_GVALUE] + noise[source] * standard_draw(
+                seed, run, cycle, 3 * k + 1, uniform)
+        if roles[k, RL_PULSE] > 0.0 and torque > 0.0:
+            out[k, S_TORQUE] = prog[k, S_TORQUE] * (1.0 + torque * standard_draw(
+                seed, run, cycle, 3 * k + 2, uniform))
+
+
+@njit(cache=True, error_model="numpy")
+def survival_run(par, prog, obs, settings, hyb0, roles, noise, seed, run, z_ref, max_cycles,
+                 error_bound, min_advance, out):
+    """One run of up to ``max_cycles`` cycles from the hybrid state ``hyb0`` (a section
+    state: the reference ``z_ref`` plus the run's initial-state noise); writes its outcome
+    (layout ``SV_*``) into ``out``.
+
+    ``error_bound`` [rad2 + rad2 s-2] and ``min_advance`` [m per cycle] are the failure
+    bounds (inf, -inf: off). ``par`` are the run's robot parameters (its own draw of the
+    uncertain ones),
+    ``settings`` the run settings (``C_MAX_CYCLES`` is set per cycle here), ``roles`` the
+    noise role of each program row (layout ``RL_*``), ``noise`` the scales (``NZ_*``).
+    """
+    uniform = noise[NZ_UNIFORM] > 0.0
+    hyb = hyb0.copy()
+    for i, source in ((TH2, NZ_THETA2), (DTH1, NZ_DTHETA1), (DTH2, NZ_DTHETA2)):
+        if noise[source] > 0.0:
+            hyb[i] += noise[source] * standard_draw(seed, run, PER_RUN_CYCLE, i - TH2, uniform)
+    x_start = hyb[X]
+    run_settings = settings.copy()
+    cycle_prog = np.empty_like(prog)
+    counts = np.zeros(N_COUNTS, dtype=np.int64)
+    seg_times = np.empty(prog.shape[0])
+    log = np.empty((CYCLE_LOG_ROWS, N_LOG_COLS))
+    no_t = np.empty(0)
+    no_y = np.empty((0, 8))
+    no_mode = np.empty((0, N_MODE_COLS))
+    out[SV_CYCLES] = 0.0
+    out[SV_FAILURE] = ST_OK
+    out[SV_DISTANCE] = 0.0
+    out[SV_TIME] = hyb[H_T]
+    out[SV_ERROR] = wrapped_error(hyb, z_ref)
+    nfev = 0
+    for c in range(max_cycles):
+        noisy_program(prog, roles, noise, seed, run, c, cycle_prog)
+        run_settings[C_MAX_CYCLES] = hyb[H_CYCLES] + 1.0
+        counts[K_LOG] = 0
+        status = simulate(par, cycle_prog, obs, run_settings, hyb, counts, seg_times, log,
+                          no_t, no_y, no_mode)
+        nfev += counts[K_NFEV]
+        counts[K_NFEV] = 0
+        if status != ST_OK:
+            out[SV_FAILURE] = status
+            break
+        n_log = int(counts[K_LOG])
+        row = n_log - 1                      # the cycle-ending exit
+        for r in range(n_log - 1, -1, -1):
+            if log[r, L_KIND] == LOG_OBSERVER:
+                row = r
+                break
+        s8 = log[row, L_STATE:L_STATE + 8]
+        err = wrapped_error(s8, z_ref)
+        if not err <= error_bound:
+            out[SV_FAILURE] = ST_ERROR_BOUND
+            break
+        if not s8[X] - x_start - out[SV_DISTANCE] >= min_advance:
+            out[SV_FAILURE] = ST_STALLED
+            break
+        out[SV_CYCLES] = c + 1.0
+        out[SV_DISTANCE] = s8[X] - x_start
+        out[SV_TIME] = log[row, L_T]
+        out[SV_ERROR] = err
+        # the call stopped on the cycle-ending row, before the next row's entry actions
+        hyb[H_SEG] = prog[int(hyb[H_SEG]), S_NEXT]
+    out[SV_NFEV] = nfev
+
+
+@njit(cache=True, error_model="numpy")
+def survival_runs(par_runs, prog, obs, settings, hyb0, roles, noise, seed, runs, z_ref,
+                  max_cycles, error_bound, min_advance, out):
+    """:func:`survival_run` for run numbers ``runs[i]`` with parameters ``par_runs[i]``;
+    outcomes in ``out[i]`` (layout ``SV_*``). The run number keys the noise, so a run's
+    outcome does not depend on the block it is in."""
+    for i in range(runs.shape[0]):
+        survival_run(par_runs[i], prog, obs, settings, hyb0, roles, noise, seed,
+                     int(runs[i]), z_ref, max_cycles, error_bound, min_advance, out[i])

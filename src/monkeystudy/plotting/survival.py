@@ -1,0 +1,305 @@
+"""Figures of survival datasets (docs/datasets.md, "survival"): how long gaits last under
+noise.
+
+* :func:`plot_survival` - the fraction of runs still going against the cycles completed, one
+  line per noise level (log cycles);
+* :func:`plot_mfpt` - the mean first-passage time against the swept noise (log-log), 95 %
+  intervals, lower bounds as arrows; the right axis in metres;
+* :func:`plot_failure_modes` - for each level, the share of runs by how they ended;
+* :func:`plot_mfpt_comparison` - every survival step of a study on one MFPT axis.
+
+:data:`DRAWINGS` registers them under ``("survival", suffix)``. Artists carry ``gid`` s (in
+each docstring) so the tests can read back their data.
+"""
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import matplotlib
+import numpy as np
+from matplotlib.lines import Line2D
+
+from .analysis import run_line, two_titles
+from .common import (
+    BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, fmt_tick, json_attr, new_figure,
+    style,
+)
+from .drawing import Drawing
+
+#: each noise source: (variable, label, unit text, scale to the label's unit)
+SOURCES = {
+    "timing": ("noise_timing", "timing jitter", "ms", 1e3),
+    "angle": ("noise_angle", "angle-sensor noise", "rad", 1.0),
+    "rate": ("noise_rate", "rate-sensor noise", "rad/s", 1.0),
+    "height": ("noise_height", "height-sensor noise", "mm", 1e3),
+    "energy": ("noise_energy", "energy-sensor noise", "J", 1.0),
+    "torque": ("noise_torque", "torque error", "%", 100.0),
+    "mass": ("noise_mass", "mass uncertainty", "%", 100.0),
+    "com": ("noise_com", "CG uncertainty", "%", 100.0),
+    "inertia": ("noise_inertia", "inertia uncertainty", "%", 100.0),
+    "theta2": ("noise_theta2", "start θ2 perturbation", "rad", 1.0),
+    "dtheta1": ("noise_dtheta1", "start θ̇1 perturbation", "rad/s", 1.0),
+    "dtheta2": ("noise_dtheta2", "start θ̇2 perturbation", "rad/s", 1.0),
+}
+FAILURE_COLOURS = {"survived": GREEN, "fell": VERMILLION, "no_switch": ORANGE,
+                   "energy_not_restored": PURPLE, "no_return_to_vertical": SKY,
+                   "error_bound": BLUE, "stalled": "#999999"}
+METHOD_MEAN, METHOD_TAIL, METHOD_LOWER_BOUND = 0, 1, 2
+
+
+def _swept(ds) -> list[str]:
+    s = json_attr(ds, "swept", [])
+    return [x for x in s if x in SOURCES] if isinstance(s, list) else []
+
+
+def noise_axis(ds) -> tuple[str, np.ndarray, str]:
+    """The noise the levels sweep: ``(source, values in the label's unit, axis label)``; the
+    first swept source (else the first non-zero one, else timing)."""
+    swept = _swept(ds)
+    source = swept[0] if swept else next(
+        (k for k, (v, *_rest) in SOURCES.items() if v in ds and np.any(ds[v].values > 0)),
+        "timing")
+    var, label, unit, scale = SOURCES[source]
+    x = np.asarray(ds[var].values, float) * scale
+    # sources swept together with the same values share the axis (e.g. mass, CG, inertia)
+    same = [s for s in swept if s != source and SOURCES[s][2] == unit
+            and np.array_equal(np.asarray(ds[SOURCES[s][0]].values, float) * scale, x)]
+    if same:
+        label = ", ".join([label] + [SOURCES[s][1] for s in same])
+    return source, x, f"{label}  [{unit}]"
+
+
+def level_text(ds, i: int) -> str:
+    """The non-zero noise of level ``i``, short (``timing 1 ms, angle 1e-4 rad``)."""
+    parts = []
+    for source, (var, label, unit, scale) in SOURCES.items():
+        if var in ds and float(ds[var].values[i]) > 0:
+            parts.append(f"{source} {float(ds[var].values[i]) * scale:.3g} {unit}")
+    return ", ".join(parts) or "no noise"
+
+
+def gait_text(ds) -> str:
+    a = ds.attrs
+    replay = ("open-loop replay" if a.get("replay") == "open_loop"
+              else "state-based controller")
+    start = f"({float(a['dtheta1']):.4g}, {float(a['dtheta2']):.4g}) rad/s"
+    times = ""
+    if "t_switch" in a and math.isfinite(float(a["t_switch"])) and a.get("replay") == "open_loop":
+        times = f", swap {float(a['t_switch']) * 1e3:.4g} ms, motor {float(a['t_motor']) * 1e3:.4g} ms"
+    return f"{replay} from {start}{times}"
+
+
+def fixed_noise(ds) -> str:
+    """The noise sources that are the same at every level (``angle 0.0001 rad``), short."""
+    swept = set(_swept(ds))
+    parts = []
+    for source, (var, label, unit, scale) in SOURCES.items():
+        if source not in swept and var in ds and float(ds[var].values[0]) > 0:
+            parts.append(f"{source} {float(ds[var].values[0]) * scale:.3g} {unit}")
+    return ", ".join(parts)
+
+
+def _subtitle(ds) -> str:
+    a = ds.attrs
+    bound = float(a.get("error_bound", math.inf))
+    advance = float(a.get("min_advance", -math.inf))
+    fail = ", ".join(["fell", "missed an event"]
+                     + ([f"error > {bound:g}"] if math.isfinite(bound) else [])
+                     + ([f"advanced < {advance:g} m in a cycle"] if math.isfinite(advance)
+                        else []))
+    fixed = fixed_noise(ds)
+    return (f"{gait_text(ds)}; {int(a['runs'])} runs per level, up to {int(a['max_cycles'])} "
+            f"cycles; failure: {fail}\n{fmt_tick(a.get('tick'))}, {a.get('noise_distribution')} "
+            f"noise{' (at every level: ' + fixed + ')' if fixed else ''}, seed "
+            f"{a.get('seed')}; " + run_line(ds, tick=False))
+
+
+#: legend entries of the interval markers
+LOWER_BOUND_LABEL = "lower bound (no failure late in the window)"
+OPEN_ABOVE_LABEL = "interval open above (no late failure in some resamples)"
+
+
+def marker_handles(est_open: bool, bound: bool, colour=BLACK) -> list:
+    out = []
+    if est_open:
+        out.append(Line2D([], [], ls="none", marker=r"$\uparrow$", ms=14, color=colour,
+                          label=OPEN_ABOVE_LABEL))
+    if bound:
+        out.append(Line2D([], [], ls="none", marker=r"$\Uparrow$", ms=14, color=colour,
+                          label=LOWER_BOUND_LABEL))
+    return out
+
+
+def _colours(n: int):
+    cmap = matplotlib.colormaps["viridis"]
+    return [cmap(0.1 + 0.8 * k / max(n - 1, 1)) for k in range(n)]
+
+
+def plot_survival(ds):
+    """Survival fraction against cycles completed, one step line per noise level.
+
+    gids: ``survival_<level>``.
+    """
+    c = np.asarray(ds["cycle"].values, float)
+    s = np.asarray(ds["survival"].values, float)
+    n = ds.sizes["level"]
+    with style():
+        fig = new_figure(figsize=(7.4, 5.4))
+        body = two_titles(fig, f"Survival under noise: {ds.attrs.get('step_name')}",
+                          _subtitle(ds))
+        ax = body.subplots()
+        for i, col in enumerate(_colours(n)):
+            # cycle 0 cannot sit on a log axis: the curve starts at cycle 1
+            keep = c >= 1
+            ax.step(c[keep], s[i, keep], where="post", color=col, lw=2,
+                    gid=f"survival_{i}", label=level_text(ds, i))
+        ax.set_xscale("log")
+        ax.set_ylim(-0.03, 1.03)
+        ax.set_xlim(1, max(float(ds.attrs["max_cycles"]), 2))
+        ax.set_xlabel("cycles completed  c")
+        ax.set_ylabel("fraction of runs with ≥ c cycles")
+        if n > 4:
+            body.legend(loc="outside lower center", title="noise level", fontsize=8.5,
+                        ncols=min(n, 4), frameon=False)
+        else:
+            ax.legend(loc="best", title="noise level", fontsize=8.5)
+    return fig
+
+
+def _mfpt_points(ax, x, ds, colour, label, gid, metres: bool = False):
+    """MFPT with its interval against ``x``; lower bounds as upward arrows."""
+    pre = "mfpt_distance" if metres else "mfpt"
+    y, lo, hi = (np.asarray(ds[f"{pre}{s}"].values, float) for s in ("", "_low", "_high"))
+    method = np.asarray(ds["mfpt_method"].values, int)
+    bound = method == METHOD_LOWER_BOUND
+    est = ~bound & np.isfinite(y)
+    if est.any():
+        top = np.where(np.isfinite(hi[est]), hi[est] - y[est], 0.0)
+        ax.errorbar(x[est], y[est], yerr=[y[est] - lo[est], top], color=colour, marker="o",
+                    capsize=3, lw=1.8, label=label, gid=gid)
+        open_top = est & ~np.isfinite(hi)
+        if open_top.any():
+            ax.plot(x[open_top], y[open_top] * 3.0, ls="none", marker=r"$\uparrow$", ms=14,
+                    color=colour, gid=f"{gid}_open")
+    if bound.any():
+        ax.plot(x[bound], lo[bound], ls="none", marker=r"$\Uparrow$", ms=16, color=colour,
+                gid=f"{gid}_bound", label=None if est.any() else label)
+    return bool((est & ~np.isfinite(hi)).any()), bool(bound.any())
+
+
+def plot_mfpt(ds):
+    """MFPT [cycles] against the swept noise, log-log, with 95 % intervals; lower bounds
+    (no failure late in the window) as double arrows at the bound. The right axis converts
+    cycles to metres at the runs' mean advance per cycle.
+
+    gids: ``mfpt`` (the error bars), ``mfpt_bound`` (lower bounds), ``mfpt_open`` (estimates
+    whose interval has no upper end).
+    """
+    _, x, xlabel = noise_axis(ds)
+    with style():
+        fig = new_figure(figsize=(7.4, 5.4))
+        body = two_titles(fig, f"Mean first-passage time to failure: "
+                          f"{ds.attrs.get('step_name')}", _subtitle(ds))
+        ax = body.subplots()
+        est_open, bound = _mfpt_points(ax, x, ds, BLUE, "MFPT, 95 % interval", "mfpt")
+        ax.set_xscale("log" if np.all(x > 0) else "linear")
+        ax.set_yscale("log")
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel("mean cycles before failure")
+        adv = np.asarray(ds["advance_per_cycle"].values, float)
+        adv = adv[np.isfinite(adv)]
+        if adv.size and float(np.mean(adv)) > 0:
+            a = float(np.mean(adv))
+            sec = ax.secondary_yaxis("right", functions=(lambda v: v * a, lambda v: v / a))
+            sec.set_ylabel(f"metres before failure (at {a:.3g} m per cycle)")
+        handles, _ = ax.get_legend_handles_labels()
+        ax.legend(handles=handles + marker_handles(est_open, bound, BLUE), loc="best",
+                  fontsize=8.5)
+        if x.size > 1 and np.all(x > 0):
+            ax.set_xlim(x.min() / 2, x.max() * 2)
+    return fig
+
+
+def plot_failure_modes(ds):
+    """For each noise level a horizontal bar split by how the runs ended (their share).
+
+    gids: ``mode_<failure mode>``.
+    """
+    counts = np.asarray(ds["failure_count"].values, float)
+    modes = [str(m) for m in ds["failure_mode"].values]
+    n = counts.shape[0]
+    share = counts / np.maximum(counts.sum(axis=1, keepdims=True), 1)
+    used = [k for k in range(len(modes)) if counts[:, k].any()]
+    with style():
+        fig = new_figure(figsize=(7.4, 1.9 + 0.5 * n))
+        body = two_titles(fig, f"How the runs ended: {ds.attrs.get('step_name')}",
+                          _subtitle(ds))
+        ax = body.subplots()
+        left = np.zeros(n)
+        extra = [BLACK, "#999999", "#F0E442"]
+        for j, k in enumerate(used):
+            col = FAILURE_COLOURS.get(modes[k], extra[j % len(extra)])
+            ax.barh(np.arange(n), share[:, k], left=left, color=col, label=modes[k],
+                    gid=f"mode_{modes[k]}", height=0.6)
+            left += share[:, k]
+        ax.set_yticks(np.arange(n), [level_text(ds, i) for i in range(n)])
+        ax.invert_yaxis()
+        ax.set_xlim(0, 1)
+        ax.set_xlabel("share of runs")
+        ax.grid(False, axis="y")
+        body.legend(loc="outside lower center", ncols=min(len(used), 4), frameon=False)
+    return fig
+
+
+def plot_mfpt_comparison(datasets: Sequence):
+    """Every survival step's MFPT against its swept noise, log-log; one panel per swept
+    source (steps sweeping the same noise share an axis).
+
+    gids: ``mfpt_<step name>`` (and ``..._bound``, ``..._open``).
+    """
+    colours = [BLUE, VERMILLION, GREEN, PURPLE, ORANGE, SKY]
+    groups: dict[str, list] = {}
+    for ds in datasets:
+        groups.setdefault(noise_axis(ds)[2], []).append(ds)
+    with style():
+        fig = new_figure(figsize=(7.6, 2.2 + 3.6 * len(groups)))
+        first = datasets[0]
+        body = two_titles(fig, "Mean first-passage time to failure of every gait",
+                          f"study {first.attrs.get('study_name')}; " +
+                          run_line(first, tick=False).split(", study")[0])
+        axes = np.atleast_1d(body.subplots(len(groups), 1, squeeze=False)[:, 0])
+        any_open = any_bound = False
+        k = 0
+        for ax, (xlabel, members) in zip(axes, groups.items()):
+            for ds in members:
+                _, x, _ = noise_axis(ds)
+                name = ds.attrs.get("step_name", f"step {k}")
+                fixed = fixed_noise(ds)
+                est_open, bound = _mfpt_points(
+                    ax, x, ds, colours[k % len(colours)],
+                    f"{name}: {gait_text(ds)}, {fmt_tick(ds.attrs.get('tick'))}"
+                    + (f"; also {fixed}" if fixed else ""), f"mfpt_{name}")
+                any_open, any_bound = any_open or est_open, any_bound or bound
+                k += 1
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+            ax.set_xlabel(xlabel)
+            ax.set_ylabel("mean cycles before failure")
+            ax.legend(handles=ax.get_legend_handles_labels()[0], loc="upper right",
+                      fontsize=7.5)
+        handles = marker_handles(any_open, any_bound)
+        if handles:
+            body.legend(handles=handles, loc="outside lower center", fontsize=8,
+                        frameon=False)
+    return fig
+
+
+#: how the survival step's figures are drawn
+DRAWINGS = {
+    ("survival", "survival"): Drawing(lambda d: plot_survival(d[0])),
+    ("survival", "mfpt"): Drawing(lambda d: plot_mfpt(d[0])),
+    ("survival", "failure_modes"): Drawing(lambda d: plot_failure_modes(d[0])),
+    ("survival", "mfpt_comparison"): Drawing(lambda groups: plot_mfpt_comparison(
+        [g[0] for g in groups]), across=True),
+}

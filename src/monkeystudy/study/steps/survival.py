@@ -1,0 +1,573 @@
+"""The ``survival`` step: how many cycles a gait lasts under noise, and its mean first-passage
+time (MFPT) to failure, for one or more noise levels.
+
+From a gait's start (a shoot, refine or floquet step; a sequence gait's floquet or refine
+step), ``runs`` independent runs of up to ``max_cycles`` cycles, each with its own noise
+(:mod:`monkeystudy.analysis.survival`): actuation timing jitter, sensor noise on the guards,
+torque error per pulse, robot parameters drawn per run, a perturbed start. Every noise value
+may be a list: the step then runs each level (the lists' common length) with the same runs'
+draws, scaled (common random numbers: the levels differ by the noise, not by luck). Runs are
+blocks on the pool, saved as shards; the noise of a run depends only on ``(seed, run,
+cycle)``, so the dataset is the same for any number of workers and after a resume.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+from typing import Annotated, Literal, Optional, Union
+
+import numpy as np
+from pydantic import BeforeValidator, Field, model_validator
+
+from ...analysis.replay import cycle_times, open_loop_gait
+from ...analysis.sections import cycle_section_state, section_state
+from ...analysis.survival import (
+    MFPT, Noise, cycle_grid, mfpt, survival_curve, survival_runs,
+)
+from ...controllers import HorizontalSearch, Observer, OpenLoop
+from ...kernel import layout as L
+from ...kernel.layout import STATUS_NAMES
+from .. import datasets as D
+from ..blocks import Block, Task
+from ..errors import RunFailed
+from ..models import Name, OpenLoopSettings, Replay, StrictModel
+from ..spec import GaitSpec
+from .base import Figure, StepContext, StepKind, max_drop_of, no_earlier
+from .floquet import (
+    FloquetStep, check_sequence_replay, read_floquet_point, sequence_attrs, sequence_start,
+)
+from .refine import RefineStep, read_refined
+from .shoot import ShootStep, replay_torque, shoot_gait
+
+def _level(v):
+    """A noise value: a number >= 0, or a non-empty list of them (one per level)."""
+    def number(x, where=""):
+        if isinstance(x, bool) or not isinstance(x, (int, float)):
+            raise ValueError(f"must be a number >= 0 or a list of them, got {x!r}{where}")
+        if not (math.isfinite(x) and x >= 0):
+            raise ValueError(f"must be finite and >= 0, got {x!r}{where}")
+        return float(x)
+    if isinstance(v, list):
+        if not v:
+            raise ValueError("an empty list (give a value, or one per noise level)")
+        return [number(x, f" (entry {i})") for i, x in enumerate(v)]
+    return number(v)
+
+
+#: a noise value: one level, or one per level (all lists of a step have the same length)
+Level = Annotated[Union[float, list[float]], BeforeValidator(_level)]
+
+#: simulated cycles a block of runs may take at most (a run that never fails costs
+#: max_cycles): blocks of about this much work keep the shards small and the pool busy
+BLOCK_CYCLES = 200_000
+
+#: why a run stopped: its failing cycle's status, ``ok`` when it completed max_cycles
+FAILURE_CODES = (L.ST_OK, L.ST_NO_SWITCH, L.ST_ENERGY_NOT_RESTORED, L.ST_NO_RETURN,
+                 L.ST_NONFINITE, L.ST_STEP_FAILURE, L.ST_BUFFER_FULL, L.ST_HORIZON,
+                 L.ST_FELL, L.ST_ERROR_BOUND, L.ST_STALLED)
+FAILURE_NAMES = tuple({L.ST_OK: "survived", L.ST_ERROR_BOUND: "error_bound",
+                       L.ST_STALLED: "stalled"}.get(c) or STATUS_NAMES[c]
+                      for c in FAILURE_CODES)
+MFPT_METHODS = ("mean", "tail", "lower_bound", "none")
+
+#: a floquet step's point is run when the return map moves it less than this [1]
+MAX_MAP_DEFECT = 1e-8
+
+#: every noise source: (path in the step's ``noise``, Noise field, units, what it is)
+SOURCES = (
+    (("timing",), "timing", "s", "actuation timing jitter"),
+    (("sensor", "angle"), "angle", "rad", "sensor noise on angle guards"),
+    (("sensor", "rate"), "rate", "rad s-1", "sensor noise on rate guards"),
+    (("sensor", "height"), "height", "m", "sensor noise on height guards"),
+    (("sensor", "energy"), "energy", "J", "sensor noise on energy guards"),
+    (("torque",), "torque", "1", "relative torque error of each motor pulse"),
+    (("parameters", "mass"), "mass", "1", "relative uncertainty of each link's mass"),
+    (("parameters", "com"), "com", "1", "relative uncertainty of each link's CG position"),
+    (("parameters", "inertia"), "inertia", "1", "relative uncertainty of each link's inertia"),
+    (("initial_state", "theta2"), "theta2", "rad", "perturbation of the start's theta2"),
+    (("initial_state", "dtheta1"), "dtheta1", "rad s-1",
+     "perturbation of the start's dtheta1"),
+    (("initial_state", "dtheta2"), "dtheta2", "rad s-1",
+     "perturbation of the start's dtheta2"),
+)
+
+
+def _level_field(description: str, bound: float | None = None):
+    return Field(0.0, description=description + " (one value, or a list: one per noise "
+                 "level)" + (f"; at most {bound}" if bound is not None else ""))
+
+
+class SensorNoise(StrictModel):
+    """Sensor noise on what the controller's state guards read, one draw per guarded
+    action (a Gaussian's standard deviation, a uniform's half-width)."""
+
+    angle: Level = _level_field("angles (coordinate guards on theta1, theta2) [rad]")
+    rate: Level = _level_field("angular rates (guards on dtheta1, dtheta2) [rad s-1]")
+    height: Level = _level_field("heights (free-end height guards, x or y guards) [m]")
+    energy: Level = _level_field("energies (energy and energy-restored guards) [J]")
+
+
+class ParameterNoise(StrictModel):
+    """Robot parameters drawn once per run, relative to the study's robot."""
+
+    mass: Level = _level_field("relative uncertainty of each link's mass [1]", 0.5)
+    com: Level = _level_field("relative uncertainty of each link's CG position [1] (the CG "
+                              "is kept on the link)", 0.5)
+    inertia: Level = _level_field("relative uncertainty of each link's inertia [1]", 0.5)
+
+
+class InitialNoise(StrictModel):
+    """Perturbation of the start on the section, once per run."""
+
+    theta2: Level = _level_field("theta2 [rad]")
+    dtheta1: Level = _level_field("dtheta1 [rad s-1]")
+    dtheta2: Level = _level_field("dtheta2 [rad s-1]")
+
+
+class NoiseSpec(StrictModel):
+    """The noise sources of a survival step, each off (0) by default."""
+
+    distribution: Literal["gaussian", "uniform"] = Field(
+        "gaussian", description="shape of every draw: gaussian (the value is the standard "
+                                "deviation) or uniform (the value is the half-width)")
+    timing: Level = _level_field("actuation timing jitter per magnet or motor action [s]: a "
+                                 "scheduled action moves early or late, an action triggered "
+                                 "by a sensed state waits the draw's magnitude", 1.0)
+    sensor: SensorNoise = Field(default_factory=SensorNoise)
+    torque: Level = _level_field("relative torque error of each motor pulse [1]", 1.0)
+    parameters: ParameterNoise = Field(default_factory=ParameterNoise)
+    initial_state: InitialNoise = Field(default_factory=InitialNoise)
+
+    def value(self, path: tuple) -> Level:
+        node = self
+        for key in path:
+            node = getattr(node, key)
+        return node
+
+    @model_validator(mode="after")
+    def _levels(self) -> "NoiseSpec":
+        lengths = {}
+        for path, _, _, _ in SOURCES:
+            v = self.value(path)
+            if isinstance(v, list):
+                lengths[".".join(path)] = len(v)
+        for path, _, _, _ in SOURCES:
+            bound = {"timing": 1.0, "torque": 1.0, "mass": 0.5, "com": 0.5,
+                     "inertia": 0.5}.get(path[-1])
+            v = self.value(path)
+            if bound is not None and max(v if isinstance(v, list) else [v]) > bound:
+                raise ValueError(f"noise.{'.'.join(path)} must be <= {bound}")
+        if len(set(lengths.values())) > 1:
+            listed = ", ".join(f"noise.{k} has {n}" for k, n in lengths.items())
+            raise ValueError(f"every list of noise levels must have the same length: {listed}")
+        return self
+
+    @property
+    def n_levels(self) -> int:
+        for path, _, _, _ in SOURCES:
+            v = self.value(path)
+            if isinstance(v, list):
+                return len(v)
+        return 1
+
+    def level(self, i: int) -> Noise:
+        """The :class:`~monkeystudy.analysis.survival.Noise` of level ``i``."""
+        kw = {}
+        for path, name, _, _ in SOURCES:
+            v = self.value(path)
+            kw[name] = float(v[i] if isinstance(v, list) else v)
+        return Noise(distribution=self.distribution, **kw)
+
+    def swept(self) -> list[str]:
+        """The sources given as lists (the ones the levels sweep), by Noise field name."""
+        return [name for path, name, _, _ in SOURCES if isinstance(self.value(path), list)]
+
+
+class SurvivalStep(StrictModel):
+    """Runs of a gait under noise until each fails or completes ``max_cycles``: survival per
+    cycle and the mean first-passage time (MFPT) to failure with a 95 % interval."""
+
+    name: Name
+    kind: Literal["survival"]
+    from_: Name = Field(alias="from", description="the gait: an earlier shoot, refine or "
+                        "floquet step (a sequence gait: a floquet or refine step)")
+    replay: Replay = None
+    controller: OpenLoopSettings = Field(default_factory=OpenLoopSettings)
+    runs: int = Field(ge=1, le=1_000_000, description="independent runs per noise level")
+    max_cycles: int = Field(ge=2, le=100_000_000, description="cycles after which a run "
+                            "stops as a survivor (right-censored)")
+    error_bound: Optional[float] = Field(None, gt=0, description="a cycle that ends with a "
+                                         "larger error against the gait fails the run "
+                                         "[rad2 + rad2 s-2] (default: only falls and "
+                                         "missed events fail)")
+    min_advance: Optional[float] = Field(None, description="a cycle whose attached end "
+                                         "advances horizontally less than this fails the "
+                                         "run ('stalled': it stopped travelling) [m] "
+                                         "(default: no minimum)")
+    max_drop: Optional[float] = Field(None, gt=0, description="a run fails ('fell') when "
+                                      "the attached end sinks this far [m] (default: link "
+                                      "1's length)")
+    seed: int = Field(0, ge=0, le=2**63 - 1, description="the noise's seed: with the run "
+                      "and the cycle it keys every draw")
+    noise: NoiseSpec = Field(default_factory=NoiseSpec)
+    solution: Optional[int] = Field(None, ge=0, description="which solution of a shoot step "
+                                    "(default: the lowest error)")
+    start_index: Optional[int] = Field(None, ge=0, description="which start of a refine step "
+                                       "(default: the lowest error)")
+
+    @property
+    def n_levels(self) -> int:
+        return self.noise.n_levels
+
+    @property
+    def runs_per_block(self) -> int:
+        return max(1, min(self.runs, BLOCK_CYCLES // self.max_cycles))
+
+
+# --- the gait a survival step runs ---------------------------------------------------------------
+def survival_gait(ctx: StepContext) -> dict:
+    """The gait of a survival step as plain values: ``replay``, the section state ``z``, and
+    what its controller needs (``t_switch``, ``t_motor``, ``t_end``, ``torque`` for an
+    open-loop replay of the horizontal gait; ``t_segment`` for a sequence gait's), with the
+    attributes naming where it came from (``source``)."""
+    st = ctx.step
+    src = ctx.deps[st.from_]
+    if ctx.gait_kind == "sequence":
+        g = sequence_start(ctx, MAX_MAP_DEFECT)
+        replay = st.replay or "gait"
+        out = {"replay": replay, "z": [float(v) for v in g["z"]],
+               "source": sequence_attrs(g, replay)}
+        if replay == "open_loop":
+            out["t_segment"] = [float(t) for t in cycle_times(
+                ctx.spec.sequence, g["z"], robot=ctx.spec.robot,
+                integrator=ctx.spec.integrator)]
+        return out
+    replay = st.replay or "open_loop"
+    if src.kind == "floquet":
+        controller = "search" if replay == "gait" else "open_loop"
+        fp = read_floquet_point(src.path, controller)
+        z = fp["fixed_point"]
+        # a neutral multiplier (the search controller's family) leaves Newton short of its
+        # tolerance on a point that is a fixed point to the map's accuracy: judge the defect
+        if not (np.all(np.isfinite(z)) and fp["map_defect"] <= MAX_MAP_DEFECT):
+            raise RunFailed(f"{ctx.name}: floquet step {st.from_!r} has no {controller} fixed "
+                            f"point to run (map defect {fp['map_defect']:.3g})")
+        out = {"replay": replay, "z": [float(v) for v in z],
+               "t_switch": fp["t_switch"], "t_motor": fp["t_motor"],
+               "torque": fp["motor_torque"], "t_end": math.nan,
+               "source": {"floquet_step": st.from_, "floquet_controller": controller,
+                          "map_defect": fp["map_defect"],
+                          "newton_converged": fp["newton_converged"]}}
+        if replay == "gait":
+            out["torque"] = float(ctx.spec.torque)
+        return out
+    if src.kind == "shoot":
+        g = shoot_gait(ctx, st.from_, st.solution)
+        source = {"shoot_step": st.from_, "solution": int(g["index"]),
+                  "gait_error": float(g["error"])}
+    else:
+        g, idx = read_refined(src.path, st.start_index)
+        if g["status"] != L.ST_OK:
+            raise RunFailed(f"{ctx.name}: refine step {st.from_!r} found no gait to run "
+                            f"(status {STATUS_NAMES[g['status']]})")
+        source = {"refine_step": st.from_, "refine_start": idx, "gait_error": g["error"]}
+    return {"replay": replay, "z": [0.0, float(g["dtheta1"]), float(g["dtheta2"])],
+            "t_switch": float(g["t_switch"]), "t_motor": float(g["t_motor"]),
+            "t_end": float(g.get("t_end", math.nan)), "torque": replay_torque(ctx.spec, g),
+            "source": source}
+
+
+def survival_controller(spec: GaitSpec, gait: dict, *, tick: float, clock: str):
+    """``(controller, start hybrid state, section observer or None)`` of a survival gait."""
+    z = np.asarray(gait["z"], float)
+    if spec.sequence is not None:
+        seq = spec.sequence
+        if gait["replay"] == "open_loop":
+            seq = open_loop_gait(seq, gait["t_segment"])
+        seq = replace(seq, theta2=float(z[0]), tick=float(tick))
+        n_rows = len(seq.all_segments())
+        section = Observer("coord", "theta1", seq.section_theta1, seq.section_direction,
+                           segment=n_rows - 1)
+        return seq.controller(), cycle_section_state(seq, z), section
+    if gait["replay"] == "gait":
+        return (HorizontalSearch(gait["torque"], tick=tick, loop=True), section_state(z),
+                None)
+    period = gait["t_end"] if clock == "run_on" else math.nan
+    return (OpenLoop(gait["t_switch"], gait["t_motor"], gait["torque"], tick=tick,
+                     clock=clock, period=period), section_state(z), None)
+
+
+# --- tasks (run on the workers) ------------------------------------------------------------------
+def survival_block(spec: GaitSpec, gait: dict, runs: np.ndarray, *, noise: dict,
+                   max_cycles: int, error_bound: float, min_advance: float, max_drop: float,
+                   tick: float, clock: str, seed: int) -> dict[str, np.ndarray]:
+    """Runs number ``runs`` of the gait under ``noise`` (a :class:`~monkeystudy.analysis.
+    survival.Noise` as a mapping): per run the cycles completed, why it stopped, the distance
+    travelled [m], the time [s] and error at its last completed cycle, its RHS evaluations."""
+    controller, start, section = survival_controller(spec, gait, tick=tick, clock=clock)
+    r = survival_runs(controller, start, gait["z"], runs=runs, max_cycles=max_cycles,
+                      noise=Noise(**noise), seed=seed, robot=spec.robot,
+                      integrator=spec.integrator, error_bound=error_bound,
+                      min_advance=min_advance, max_drop=max_drop, section=section)
+    return {"cycles": r.cycles.astype(np.int64), "failure": r.failure.astype(np.int8),
+            "distance": r.distance, "time": r.time, "error": r.error, "nfev": r.nfev}
+
+
+# --- the dataset ---------------------------------------------------------------------------------
+def level_summary(cycles: np.ndarray, failure: np.ndarray, distance: np.ndarray,
+                  max_cycles: int) -> dict:
+    """One noise level's estimates from its runs (:func:`~monkeystudy.analysis.survival.mfpt`)."""
+    failed = failure != L.ST_OK
+    m: MFPT = mfpt(cycles, failed, max_cycles)
+    total = int(cycles.sum())
+    advance = float(distance.sum() / total) if total else math.nan
+    return {"mfpt": m, "advance": advance,
+            "counts": np.array([int(np.sum(failure == c)) for c in FAILURE_CODES], np.int64)}
+
+
+def write_survival(path: Path, attrs: dict, step: SurvivalStep, arrays: dict) -> None:
+    """Write a survival dataset (dims ``level``, ``run``, ``cycle``, ``failure_mode``)."""
+    n_levels, runs = arrays["cycles"].shape
+    grid = cycle_grid(step.max_cycles)
+    summaries = [level_summary(arrays["cycles"][i], arrays["failure"][i],
+                               arrays["distance"][i], step.max_cycles)
+                 for i in range(n_levels)]
+    cyc = "cycles (completed before failure)"
+    with D.atomic_netcdf(path) as nc:
+        D.add_index_coord(nc, "level", n_levels, "noise level (every noise value of the "
+                          "level below)")
+        D.add_index_coord(nc, "run", runs, "run number (keys its noise with the seed)")
+        nc.createDimension("cycle", grid.size)
+        D.add_variable(nc, "cycle", ("cycle",), np.int64,
+                       {"long_name": "cycles completed", "units": "1"}, grid)
+        D.add_label_coord(nc, "failure_mode", list(FAILURE_NAMES),
+                          "why a run stopped (survived: it completed max_cycles)")
+        for i, (path_, name, units, what) in enumerate(SOURCES):
+            D.add_variable(nc, f"noise_{name}", ("level",), np.float64,
+                           {"long_name": what + (" (standard deviation)" if
+                                                 step.noise.distribution == "gaussian"
+                                                 else " (half-width of a uniform)"),
+                            "units": units, "key": "noise." + ".".join(path_)},
+                           [step.noise.level(k).to_dict()[name] for k in range(n_levels)])
+        D.add_variable(nc, "cycles_completed", ("level", "run"), np.int64,
+                       {"long_name": "cycles the run completed within the bounds", "units": "1"},
+                       arrays["cycles"])
+        D.add_variable(nc, "failure", ("level", "run"), np.int8,
+                       {"long_name": "why the run stopped (survived: completed max_cycles, "
+                                     "right-censored)", "units": "1",
+                        "flag_values": np.array(FAILURE_CODES, np.int8),
+                        "flag_meanings": " ".join(FAILURE_NAMES)}, arrays["failure"])
+        D.add_variable(nc, "distance", ("level", "run"), np.float64,
+                       {"long_name": "horizontal travel of the attached end up to the last "
+                                     "completed cycle", "units": "m"}, arrays["distance"])
+        D.add_variable(nc, "time_survived", ("level", "run"), np.float64,
+                       {"long_name": "time of the last completed cycle's end", "units": "s"},
+                       arrays["time"])
+        D.add_variable(nc, "final_error", ("level", "run"), np.float64,
+                       {"long_name": "section error against the gait at the last completed "
+                                     "cycle's end (at the start when none completed)",
+                        "units": D.ERROR_UNITS, "comment": D.ERROR_COMMENT}, arrays["error"])
+        D.add_variable(nc, "survival", ("level", "cycle"), np.float64,
+                       {"long_name": "fraction of runs that completed at least this many "
+                                     "cycles (Kaplan-Meier; every run censored at max_cycles)",
+                        "units": "1"},
+                       np.array([survival_curve(arrays["cycles"][i], step.max_cycles, grid)
+                                 for i in range(n_levels)]))
+        ms = [s["mfpt"] for s in summaries]
+        for key, what in (("mfpt", "mean first-passage time to failure"),
+                          ("mfpt_low", "lower end of the MFPT's 95 % interval"),
+                          ("mfpt_high", "upper end of the MFPT's 95 % interval")):
+            attr = {"mfpt": "value", "mfpt_low": "low", "mfpt_high": "high"}[key]
+            D.add_variable(nc, key, ("level",), np.float64,
+                           {"long_name": f"{what} [{cyc}]", "units": "1",
+                            "comment": "restricted mean up to max_cycles plus a constant-"
+                                       "hazard tail fitted on the window's second half; 95 % "
+                                       "percentile bootstrap over runs (see mfpt_method)"},
+                           [getattr(m, attr) for m in ms])
+            D.add_variable(nc, key.replace("mfpt", "mfpt_distance"), ("level",), np.float64,
+                           {"long_name": f"{what} as distance travelled (MFPT times the mean "
+                                         "advance per completed cycle)", "units": "m"},
+                           [getattr(m, attr) * s["advance"] for m, s in zip(ms, summaries)])
+        D.add_variable(nc, "mfpt_method", ("level",), np.int8,
+                       {"long_name": "how the MFPT was estimated", "units": "1",
+                        "flag_values": np.arange(len(MFPT_METHODS), dtype=np.int8),
+                        "flag_meanings": " ".join(MFPT_METHODS)},
+                       [MFPT_METHODS.index(m.method) for m in ms])
+        D.add_variable(nc, "restricted_mean", ("level",), np.float64,
+                       {"long_name": f"mean of min(cycles completed, max_cycles) [{cyc}]: a "
+                                     "lower bound of the MFPT", "units": "1"},
+                       [m.restricted_mean for m in ms])
+        for key, half in (("hazard_early", "first"), ("hazard_late", "second")):
+            D.add_variable(nc, key, ("level",), np.float64,
+                           {"long_name": f"failures per cycle at risk in the {half} half of "
+                                         "the max_cycles window", "units": "1"},
+                           [getattr(m, key) for m in ms])
+        D.add_variable(nc, "advance_per_cycle", ("level",), np.float64,
+                       {"long_name": "mean horizontal advance of the attached end per "
+                                     "completed cycle", "units": "m"},
+                       [s["advance"] for s in summaries])
+        D.add_variable(nc, "failure_count", ("level", "failure_mode"), np.int64,
+                       {"long_name": "runs that stopped this way", "units": "1"},
+                       np.array([s["counts"] for s in summaries]))
+        D.set_global_attrs(nc, dict(attrs, total_cycles=int(arrays["cycles"].sum()),
+                                    total_nfev=int(arrays["nfev"].sum())))
+
+
+# --- the kind ------------------------------------------------------------------------------------
+class SurvivalKind(StepKind):
+    name = "survival"
+    model = SurvivalStep
+    gait_kinds = ("horizontal", "sequence")
+    unit = "blocks"
+    figures = (
+        Figure("survival", "survival per cycle",
+               "The fraction of runs still going after each number of cycles, one line per "
+               "noise level: a curve that drops at a fixed cycle count is an unstable gait "
+               "drifting off; one that decays steadily over decades is metastable."),
+        Figure("mfpt", "mean first-passage time against noise",
+               "Mean cycles (and metres) before failure against the noise level, with 95 % "
+               "intervals; arrows are lower bounds (no failure to fit the tail on). The "
+               "Byl-Tedrake plot: a stable gait's MFPT grows steeply as the noise shrinks."),
+        Figure("failure_modes", "how the runs ended",
+               "For each noise level, the share of runs by the way they stopped: fell, no "
+               "swap, missed return, error bound, or survived all cycles."),
+        Figure("mfpt_comparison", "MFPT of every gait against noise",
+               "Every survival step of the study on one axis: which gait lasts longest at "
+               "each noise level.", across=True),
+    )
+
+    def check(self, study, index, step: SurvivalStep, seen) -> list:
+        out = []
+        ref = seen.get(step.from_)
+        if study.gait.kind == "sequence":
+            out += [p for p in check_sequence_replay(study, index, step, seen)
+                    if p[0][-1] != "from"]
+            if not isinstance(ref, (FloquetStep, RefineStep)):
+                out.append((("steps", index, "from"),
+                            no_earlier(step.from_, "floquet or refine", ref)))
+            if step.controller.clock != "reset_at_vertical":
+                out.append((("steps", index, "controller", "clock"), "a sequence gait's clock "
+                            "restarts at each section crossing (reset_at_vertical)"))
+        else:
+            if not isinstance(ref, (ShootStep, RefineStep, FloquetStep)):
+                out.append((("steps", index, "from"),
+                            no_earlier(step.from_, "shoot, refine or floquet", ref)))
+            elif step.replay == "gait":
+                if not isinstance(ref, FloquetStep) or "search" not in ref.controllers:
+                    out.append((("steps", index, "replay"), "replay: gait runs the state-based "
+                                "search controller from its fixed point: from: a floquet step "
+                                "with the search controller"))
+            elif isinstance(ref, FloquetStep) and "open_loop" not in ref.controllers:
+                out.append((("steps", index, "from"), f"floquet step {ref.name!r} has no "
+                            "open_loop fixed point to replay"))
+            if step.replay == "gait" and step.controller.clock != "reset_at_vertical":
+                out.append((("steps", index, "controller", "clock"), "the search controller "
+                            "has no clock to run on"))
+        if step.solution is not None and not isinstance(ref, ShootStep):
+            out.append((("steps", index, "solution"), "solution picks a shoot step's solution"))
+        if step.start_index is not None:
+            if not isinstance(ref, RefineStep):
+                out.append((("steps", index, "start_index"), "start_index picks a refine "
+                            "step's start"))
+            elif step.start_index >= ref.n_starts:
+                out.append((("steps", index, "start_index"),
+                            f"must be < {ref.n_starts} (the starts of {ref.name!r})"))
+        return out
+
+    def blocks(self, step: SurvivalStep) -> list[Block]:
+        """Blocks of consecutive runs of one level (flat index ``level * runs + run``)."""
+        size = step.runs_per_block
+        out = []
+        for level in range(step.n_levels):
+            for r0 in range(0, step.runs, size):
+                lo = level * step.runs + r0
+                out.append(Block(len(out), lo, lo + min(size, step.runs - r0)))
+        return out
+
+    def block_summary(self, step: SurvivalStep) -> str:
+        return (f"{step.n_levels} noise level(s) x {step.runs} runs of up to "
+                f"{step.max_cycles} cycles")
+
+    def n_tasks(self, step: SurvivalStep, gait_kind: str) -> int:
+        return len(self.blocks(step))
+
+    def start(self, ctx: StepContext) -> list[Task]:
+        st = ctx.step
+        gait = survival_gait(ctx)
+        tick = st.controller.tick if st.controller.tick is not None else ctx.study.gait.tick
+        kw = {"max_cycles": st.max_cycles,
+              "error_bound": st.error_bound if st.error_bound is not None else math.inf,
+              "min_advance": st.min_advance if st.min_advance is not None else -math.inf,
+              "max_drop": max_drop_of(st, ctx.spec), "tick": float(tick),
+              "clock": st.controller.clock, "seed": st.seed}
+        ctx.state.update(gait=gait, options=kw)
+        tasks = []
+        for b in ctx.todo_blocks():
+            level, r0 = divmod(b.lo, st.runs)
+            runs = np.arange(r0, r0 + b.size, dtype=np.int64)
+            tasks.append(Task(b, survival_block, (ctx.spec, gait, runs),
+                              dict(kw, noise=st.noise.level(level).to_dict())))
+        return tasks
+
+    def finish(self, ctx: StepContext, attrs: dict) -> str:
+        st = ctx.step
+        n = st.n_levels * st.runs
+        arrays = {"cycles": np.empty(n, np.int64), "failure": np.empty(n, np.int8),
+                  "distance": np.empty(n), "time": np.empty(n), "error": np.empty(n),
+                  "nfev": np.empty(n, np.int64)}
+        for b in ctx.blocks:
+            got = ctx.block_arrays(b)
+            for k in arrays:
+                arrays[k][b.lo:b.hi] = got[k]
+        arrays = {k: v.reshape(st.n_levels, st.runs) for k, v in arrays.items()}
+        gait, kw = ctx.state["gait"], ctx.state["options"]
+        attrs.update(gait["source"], replay=gait["replay"],
+                     start_theta2=gait["z"][0], dtheta1=gait["z"][1], dtheta2=gait["z"][2],
+                     tick=kw["tick"], clock=kw["clock"], seed=st.seed, runs=st.runs,
+                     max_cycles=st.max_cycles, error_bound=kw["error_bound"],
+                     min_advance=kw["min_advance"],
+                     max_drop=kw["max_drop"], noise_distribution=st.noise.distribution,
+                     swept=st.noise.swept(), n_blocks=len(ctx.blocks))
+        for key in ("t_switch", "t_motor", "torque"):
+            if key in gait:
+                attrs["motor_torque" if key == "torque" else key] = gait[key]
+        if "t_segment" in gait:
+            attrs["t_segment"] = gait["t_segment"]
+        write_survival(ctx.path, attrs, st, arrays)
+        parts = []
+        for i in range(st.n_levels):
+            s = level_summary(arrays["cycles"][i], arrays["failure"][i],
+                              arrays["distance"][i], st.max_cycles)
+            parts.append(mfpt_text(s["mfpt"]))
+        return f"{st.runs} runs x {st.n_levels} level(s); MFPT " + "; ".join(parts)
+
+    def describe(self, ds) -> list[str]:
+        a = ds.attrs
+        swept = a.get("swept", "[]")
+        lines = [f"{a.get('replay')} replay from ({float(a['start_theta2']):.6g}, "
+                 f"{float(a['dtheta1']):.8g}, {float(a['dtheta2']):.8g}); tick "
+                 f"{a.get('tick')} s; {a.get('runs')} runs of up to {a.get('max_cycles')} "
+                 f"cycles, seed {a.get('seed')}; swept: {swept}"]
+        modes = [str(x) for x in ds["failure_mode"].values]
+        for i in range(ds.sizes["level"]):
+            noise = ", ".join(f"{v[6:]} {float(ds[v][i]):.3g} {ds[v].attrs['units']}"
+                              for v in ds.data_vars if v.startswith("noise_")
+                              and float(ds[v][i]) > 0) or "no noise"
+            m = MFPT(float(ds["mfpt"][i]), float(ds["mfpt_low"][i]), float(ds["mfpt_high"][i]),
+                     MFPT_METHODS[int(ds["mfpt_method"][i])], float(ds["restricted_mean"][i]),
+                     0, 0, math.nan, math.nan)
+            counts = ds["failure_count"].values[i]
+            ended = ", ".join(f"{modes[k]} {int(c)}" for k, c in enumerate(counts) if c)
+            lines.append(f"level {i} ({noise}): MFPT {mfpt_text(m)}, "
+                         f"{float(ds['mfpt_distance'][i]):.4g} m; {ended}")
+        return lines
+
+
+def mfpt_text(m: MFPT) -> str:
+    """An MFPT with its interval, in cycles, as logs and ``inspect`` print it."""
+    if m.method == "lower_bound":
+        return f"> {m.low:.4g} cycles (no failure late in the window)"
+    if m.method == "none":
+        return "none (no run)"
+    return f"{m.value:.4g} cycles [{m.low:.4g}, {m.high:.4g}]"

@@ -1,0 +1,121 @@
+"""The survival step kind end to end: the smoke study through the command line, its dataset
+contract, bit-identical results for one and two workers and after a resume."""
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+from typer.testing import CliRunner
+
+from monkeystudy.cli import app
+from monkeystudy.kernel import layout as L
+from monkeystudy.study import load_study, plan_study, run_study
+from monkeystudy.study.blocks import shard_dir, write_shard
+from monkeystudy.study.steps.survival import FAILURE_NAMES, SurvivalStep
+
+from studyhelpers import assert_same_datasets
+
+ROOT = Path(__file__).resolve().parents[2]
+SMOKE = ROOT / "studies" / "survival_smoke.yaml"
+
+#: the survival dataset's variables (docs/datasets.md), with units and dims
+CONTRACT = {
+    "noise_timing": ("s", ("level",)), "noise_angle": ("rad", ("level",)),
+    "mfpt": ("1", ("level",)), "mfpt_low": ("1", ("level",)), "mfpt_high": ("1", ("level",)),
+    "mfpt_distance": ("m", ("level",)), "mfpt_method": ("1", ("level",)),
+    "restricted_mean": ("1", ("level",)), "hazard_early": ("1", ("level",)),
+    "hazard_late": ("1", ("level",)), "advance_per_cycle": ("m", ("level",)),
+    "cycles_completed": ("1", ("level", "run")), "failure": ("1", ("level", "run")),
+    "distance": ("m", ("level", "run")), "time_survived": ("s", ("level", "run")),
+    "final_error": ("rad2 + rad2 s-2", ("level", "run")),
+    "survival": ("1", ("level", "cycle")), "failure_count": ("1", ("level", "failure_mode")),
+}
+
+
+@pytest.fixture(scope="module")
+def smoke(tmp_path_factory):
+    out = tmp_path_factory.mktemp("survival") / "out"
+    result = CliRunner().invoke(app, ["run", str(SMOKE), "--out", str(out), "--workers", "2"])
+    assert result.exit_code == 0, result.output
+    return out, result.output
+
+
+def _open(folder, name):
+    with xr.open_dataset(folder / name) as ds:
+        return ds.load()
+
+
+def test_the_smoke_study_writes_the_contract(smoke):
+    out, log = smoke
+    assert "open_loop: done" in log and "MFPT" in log
+    for name in ("open_loop.nc", "state_based.nc"):
+        ds = _open(out, name)
+        for v, (units, dims) in CONTRACT.items():
+            assert ds[v].attrs["units"] == units, (name, v)
+            assert ds[v].dims == dims, (name, v)
+        for v in ds.variables:
+            assert ds[v].attrs.get("units") and ds[v].attrs.get("long_name"), (name, v)
+        assert list(ds["failure_mode"].values) == list(FAILURE_NAMES)
+        # the bookkeeping adds up: every run ended one way, and the curve starts at 1
+        counts = ds["failure_count"].values
+        assert np.all(counts.sum(axis=1) == ds.sizes["run"])
+        assert np.all(ds["survival"].values[:, 0] == 1.0)
+        assert np.all(np.diff(ds["survival"].values, axis=1) <= 0)
+        for i in range(ds.sizes["level"]):
+            done = ds["cycles_completed"].values[i]
+            survived = ds["failure"].values[i] == L.ST_OK
+            assert np.all(done[survived] == ds.attrs["max_cycles"])
+            assert np.all(done[~survived] < ds.attrs["max_cycles"])
+
+
+def test_the_open_loop_gait_fails_within_tens_of_cycles_and_sooner_with_more_jitter(smoke):
+    ds = _open(smoke[0], "open_loop.nc")
+    assert list(ds["noise_timing"].values) == [1e-5, 1e-3]
+    assert np.all(ds["failure"].values != L.ST_OK)             # none survives 100 cycles
+    mean = ds["mfpt"].values
+    assert np.all(ds["mfpt_method"].values == 0)               # uncensored: the sample mean
+    np.testing.assert_array_equal(mean, ds["cycles_completed"].values.mean(axis=1))
+    assert 10 < mean[1] < mean[0] < 60
+
+
+def test_one_worker_equals_two_and_a_resume_equals_both(smoke, tmp_path):
+    out, _ = smoke
+    run_study(load_study(SMOKE), tmp_path / "one", workers=1)
+    assert_same_datasets(out, tmp_path / "one")
+    # a run interrupted after some blocks: its shards are reused, the dataset is the same
+    resumed = tmp_path / "resumed"
+    shutil.copytree(out, resumed)
+    ref = _open(out, "state_based.nc")
+    (resumed / "state_based.nc").unlink()
+    loaded = load_study(SMOKE)
+    sp = next(s for s in plan_study(loaded, resumed).steps if s.name == "state_based")
+    assert len(sp.blocks) >= 2
+    flat = {"cycles": ref["cycles_completed"].values.ravel(),
+            "failure": ref["failure"].values.ravel(), "distance": ref["distance"].values.ravel(),
+            "time": ref["time_survived"].values.ravel(), "error": ref["final_error"].values.ravel()}
+    b = sp.blocks[0]
+    # nfev is not in the dataset per run: only its total; a shard carries what a block computed
+    nfev = np.full(b.size, int(ref.attrs["total_nfev"]) // ref["cycles_completed"].size)
+    write_shard(shard_dir(resumed, "state_based", sp.key), b,
+                {k: v[b.lo:b.hi] for k, v in flat.items()} | {"nfev": nfev})
+    summary = run_study(loaded, resumed, workers=2)
+    assert summary.blocks_reused == 1
+    got = _open(resumed, "state_based.nc")
+    for v in CONTRACT:
+        np.testing.assert_array_equal(got[v].values, ref[v].values, err_msg=v)
+
+
+def test_levels_come_from_the_lists_and_scalars_apply_to_every_level():
+    step = SurvivalStep.model_validate({
+        "name": "s", "kind": "survival", "from": "g", "runs": 3, "max_cycles": 10,
+        "noise": {"timing": [1e-4, 1e-3], "sensor": {"angle": 1e-3},
+                  "parameters": {"mass": [0.0, 0.01]}}})
+    assert step.n_levels == 2 and step.noise.swept() == ["timing", "mass"]
+    assert step.noise.level(1).timing == 1e-3 and step.noise.level(1).mass == 0.01
+    assert step.noise.level(0).angle == step.noise.level(1).angle == 1e-3
+    blocks = [(b.lo, b.hi) for b in __import__("monkeystudy.study.steps", fromlist=["REGISTRY"])
+              .REGISTRY["survival"].blocks(step)]
+    assert blocks == [(0, 3), (3, 6)]                          # no block spans two levels
