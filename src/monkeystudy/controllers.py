@@ -1,6 +1,6 @@
 """Controllers as data: each one compiles to a program table the hybrid kernel runs.
 
-* :class:`HorizontalSearch` - the study's state-based search controller (MODEL.md section 4):
+* :class:`HorizontalSearch` - the study's state-based search controller (docs/model.md section 4):
   swap when the free end rises to the attached end's height, motor on with torque ``tau``
   until the gait-start energy is restored, stop when link 1 passes the vertical.
 * :class:`OpenLoop` - the time-based controller that replays recorded times (swap at ``t_switch``,
@@ -164,7 +164,7 @@ def _check_tick(tick: float) -> float:
 
 @dataclass(frozen=True)
 class HorizontalSearch:
-    """The study's state-based search controller (MODEL.md section 4, steps 1-4).
+    """The study's state-based search controller (docs/model.md section 4, steps 1-4).
 
     ``torque`` [N m] is signed, on theta2 of the new attachment frame. With ``cycles`` > 1 the
     program loops (each cycle latches its own start energy).
@@ -203,7 +203,7 @@ CLOCK_MODES = ("reset_at_vertical", "run_on")
 
 @dataclass(frozen=True)
 class OpenLoop:
-    """Time-based open-loop controller replaying a gait's recorded times (MODEL.md sec. 4).
+    """Time-based open-loop controller replaying a gait's recorded times (docs/model.md section 4).
 
     Each cycle: swap at ``t_switch`` on the controller clock with motor torque ``torque``,
     motor off at ``t_switch + t_motor``. With ``clock="reset_at_vertical"`` the clock restarts
@@ -271,7 +271,7 @@ class SequenceGait:
     ``segments`` in order, then a last segment (motor torque ``section_torque`` [N m]) that
     ends the cycle when link 1 crosses ``section_theta1`` in ``section_direction``, in the
     frame of the end attached then. The controller clock restarts at the section, so time
-    guards count from the cycle start. The section error generalises MODEL.md section 4:
+    guards count from the cycle start. The section error generalises docs/model.md section 4:
     ``wrap(theta2_f - theta2)^2 + (dtheta1_f - dtheta1)^2 + (dtheta2_f - dtheta2)^2``.
     """
 

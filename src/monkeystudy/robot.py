@@ -34,7 +34,7 @@ def _check_nonnegative(name: str, value: float) -> float:
 @dataclass(frozen=True)
 class Link:
     """One link: mass [kg], length [m], CG distance from its proximal end [m], inertia about
-    the CG [kg m^2] (MODEL.md section 1). Link 1 carries end A (proximal end = A), link 2
+    the CG [kg m^2] (docs/model.md section 1). Link 1 carries end A (proximal end = A), link 2
     carries end B (proximal end = the joint)."""
 
     mass: float
@@ -147,7 +147,7 @@ class Robot:
 
 
 def _seed2009() -> Robot:
-    """The 2009 study's robot as fitted in MODEL.md section 4 (two identical links)."""
+    """The 2009 study's robot as fitted in docs/model.md section 4 (two identical links)."""
     return Robot(Link(1.0, 0.61, 0.543754, 0.01808704), Link(1.0, 0.61, 0.066246, 0.01808704),
                  gravity=9.81, name="seed2009")
 
@@ -161,5 +161,5 @@ def _uniform_rod() -> Robot:
 
 PRESETS = {"seed2009": _seed2009, "uniform_rod": _uniform_rod}
 
-#: The study's motor torque for ``seed2009`` [N m] (MODEL.md section 4).
+#: The study's motor torque for ``seed2009`` [N m] (docs/model.md section 4).
 SEED2009_TORQUE = 0.6354

@@ -78,7 +78,7 @@ def _finite(name: str, value: float) -> float:
 
 @dataclass(frozen=True)
 class GaitResult:
-    """One horizontal-gait evaluation (MODEL.md section 4).
+    """One horizontal-gait evaluation (docs/model.md section 4).
 
     ``error`` is NaN unless ``status`` is OK. Times [s]: ``t_switch`` the swap after the gait
     start, ``t_motor`` the motor-on duration, ``t_end`` the vertical crossing ending the gait.
@@ -270,7 +270,7 @@ def physical_points(params: np.ndarray, states: np.ndarray, flipped: np.ndarray)
 
 
 def gait_error(states, dtheta1: float, dtheta2: float) -> np.ndarray:
-    """The study's repeatability error (MODEL.md section 4) of frame states at a vertical
+    """The study's repeatability error (docs/model.md section 4) of frame states at a vertical
     crossing: ``theta2^2 + (dtheta1 - dtheta1_f)^2 + (dtheta2 - dtheta2_f)^2``.
 
     ``states[..., 8]`` are ``[x, y, th1, th2, dx, dy, dth1, dth2]``; the compiled gait

@@ -1,4 +1,4 @@
-"""Numerical stress tests (issue #5): long runs, grazing, extreme parameters, friction.
+"""Numerical stress tests: long runs, grazing, extreme parameters, friction.
 
 Divergence must come back as a status, never as an exception, a NaN in a result marked ok,
 or a hang (every run here is bounded by a step budget or a horizon).

@@ -1,4 +1,4 @@
-"""Conservation laws over long unforced runs (MODEL.md section 3, "Identities").
+"""Conservation laws over long unforced runs (docs/model.md section 3, "Identities").
 
 Torque 0 and no friction: total energy (world frame) is conserved in swing and in flight; in
 flight the total linear momentum changes only by ``-(m1 + m2) g t`` along y and the angular
@@ -50,7 +50,7 @@ def test_swing_energy_conserved(name, start):
     scale = abs(e[0]) + k.max()
     drift = np.max(np.abs(e - e[0])) / scale
     assert drift < DRIFT, f"relative energy drift {drift:.2e}"
-    # the kernel's energies are the MODEL.md ones (independent formula on a subset)
+    # the kernel's energies are the docs/model.md ones (independent formula on a subset)
     s8 = np.column_stack([ds[v].values for v in ("x", "y", "theta1", "theta2", "x_dot", "y_dot",
                                                   "theta1_dot", "theta2_dot")])
     for i in range(0, len(s8), 97):

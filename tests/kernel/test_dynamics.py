@@ -1,6 +1,6 @@
-"""Equations of motion against a symbolic Euler-Lagrange derivation (MODEL.md sections 1-2).
+"""Equations of motion against a symbolic Euler-Lagrange derivation (docs/model.md sections 1-2).
 
-The reference (``tests/reference/symbolic.py``) types in only the *positions* of MODEL.md
+The reference (``tests/reference/symbolic.py``) types in only the *positions* of docs/model.md
 section 1 and derives ``M``, ``C qdot`` and ``G`` with sympy, for flight (4-DOF) and swing
 (2-DOF) separately. Here the kernel's matrices, vector fields, energies, holding torques and
 kinematics are compared with the lambdified derivation at random states of random (generally
@@ -52,10 +52,10 @@ def _close(got, want, scale, what):
 
 
 # ----------------------------------------------------------------------------------------------
-# the documented closed forms (MODEL.md section 2) are the Euler-Lagrange equations
+# the documented closed forms (docs/model.md section 2) are the Euler-Lagrange equations
 # ----------------------------------------------------------------------------------------------
 def test_model_md_closed_forms_equal_derivation(sym):
-    """MODEL.md section 2, typed in, minus the derivation simplifies to zero (both systems)."""
+    """docs/model.md section 2, typed in, minus the derivation simplifies to zero (both systems)."""
     x, y, th1, th2 = sym.symbols.q
     dx, dy, w1, w2 = sym.symbols.qd
     m1, m2, L1, L2, r1, r2, I1, I2, g = sym.symbols.prm
@@ -107,7 +107,7 @@ def test_flight_matrices(sym):
         worst = max(worst, _close(Cq, Cr, np.max(np.abs(Cr)), f"C qdot {robot}"))
         worst = max(worst, _close(G, Gr, np.max(np.abs(Gr)), f"G {robot}"))
         assert np.array_equal(M, M.T)
-        # the lower-right block is the swing system (MODEL.md section 2)
+        # the lower-right block is the swing system (docs/model.md section 2)
         Ms, Cs, Gs = ref.swing_matrices(s[2:4], s[6:8])
         _close(M[2:, 2:], Ms, np.max(np.abs(Ms)), "swing block of M")
         _close(Cq[2:], Cs, np.max(np.abs(Cs)), "swing block of C qdot")
@@ -252,7 +252,7 @@ def test_derived_parameters():
 
 
 def test_flipped_params_are_the_robot_seen_from_b():
-    """MODEL.md section 3: links swap, CGs re-measured from the new proximal ends; friction
+    """docs/model.md section 3: links swap, CGs re-measured from the new proximal ends; friction
     stays with the pivot and the joint. Row 1 of ``Robot.params()`` is that robot."""
     rng = np.random.default_rng(11)
     for robot in [*ROBOTS.values(), *(random_robot(rng, True) for _ in range(10))]:

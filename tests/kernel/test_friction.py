@@ -1,4 +1,4 @@
-"""Friction at the pivot and the joint (MODEL.md section 2, "Generalized forces").
+"""Friction at the pivot and the joint (docs/model.md section 2, "Generalized forces").
 
 Viscous friction dissipates exactly ``b1 w1^2 + b2 w2^2`` (swing; only the joint in flight).
 Coulomb friction is a stick-slip hybrid system: a slipping DOF stops (an event) and sticks if

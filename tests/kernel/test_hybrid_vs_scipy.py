@@ -1,4 +1,4 @@
-"""The hybrid gait against an independent scipy implementation (MODEL.md section 4).
+"""The hybrid gait against an independent scipy implementation (docs/model.md section 4).
 
 The reference (``tests/reference/model.py``) derives the equations of motion with sympy, applies
 the impact with the explicit projection matrix and runs the horizontal gait as chained
@@ -67,7 +67,7 @@ def _compare(name, tau, d1, d2, tick=0.0, ref_kw=None):
 # (robot, torque [N m], dtheta1, dtheta2): successful gaits, both torque signs, the study's
 # point ...
 OK_POINTS = [
-    ("seed2009", 0.6354, 0.902, 10.935),       # the study's point (MODEL.md section 4)
+    ("seed2009", 0.6354, 0.902, 10.935),       # the study's point (docs/model.md section 4)
     ("seed2009", 0.6354, -1.0, 15.0),
     ("seed2009", 0.6354, 4.5, 1.0),
     ("seed2009", -0.6354, 1.0, -15.0),
@@ -103,7 +103,7 @@ def test_gait_matches_reference(name, tau, d1, d2):
 
 @pytest.mark.nojit
 def test_study_point():
-    """MODEL.md section 4's numbers for seed2009 at (0.902, 10.935), tau = 0.6354."""
+    """docs/model.md section 4's numbers for seed2009 at (0.902, 10.935), tau = 0.6354."""
     g, k = _compare("seed2009", 0.6354, 0.902, 10.935)
     assert k.status == ST_OK
     assert k.t_switch == pytest.approx(0.42766, abs=5e-6)
@@ -185,7 +185,7 @@ def test_ticked_gait_matches_reference(name, tau, d1, d2):
     # acted on at the first tick at or after the exact crossing
     exact = evaluate_horizontal_gait(d1, d2, robot=ROBOTS[name], torque=tau, integrator=KERNEL)
     assert exact.t_switch <= ts < exact.t_switch + TICK
-    if name == "seed2009" and d1 == 0.902:   # the numbers of MODEL.md section 4 / README
+    if name == "seed2009" and d1 == 0.902:   # the numbers of docs/model.md section 4 / README
         assert ts == pytest.approx(0.428, abs=1e-12)
         assert k.t_motor == pytest.approx(0.025, abs=1e-12)
 

@@ -1,4 +1,4 @@
-"""Plastic impacts and the flip (MODEL.md section 3).
+"""Plastic impacts and the flip (docs/model.md section 3).
 
 Identities at random states of random robots: the projection is a projection that pins the
 attached end, never creates kinetic energy (and loses exactly Carnot's ``1/2 dq^T M dq``),
@@ -129,7 +129,7 @@ def test_flip_twice_is_identity():
 
 def test_flip_preserves_physics():
     """Same energies (world frame), same positions of both ends, the joint and both CGs (roles
-    swapped), same velocity of the former (x, y) end (now the free end); and the MODEL.md
+    swapped), same velocity of the former (x, y) end (now the free end); and the docs/model.md
     formulas of the independent model."""
     for robot, p, s in _cases(25):
         fp = dyn.flipped_params(p)
@@ -156,7 +156,7 @@ def test_flip_preserves_physics():
 
 
 def test_flip_keeps_theta2_continuous():
-    """``theta2' = -theta2`` exactly (MODEL.md section 3), with no 2 pi jump: at a swap with the
+    """``theta2' = -theta2`` exactly (docs/model.md section 3), with no 2 pi jump: at a swap with the
     links folded (theta2 = +-pi, B at A: for equal links always "at A's height") a wrap into
     [-pi, pi) would pick the branch by round-off, and the gait error ``theta2_f^2 + ...``
     with it (it jumped between ~0.01 and ~40 along d2 at d1 = -1, seed2009). theta1' is
@@ -190,7 +190,7 @@ def _transition(res, t):
 
 @pytest.mark.parametrize("name", list(ROBOTS))
 def test_swap_from_swing(name):
-    """Swap = embed (dx = dy = 0), flip, project (MODEL.md section 3); the new pivot is B's
+    """Swap = embed (dx = dy = 0), flip, project (docs/model.md section 3); the new pivot is B's
     world position; energy does not increase; the log row shows the post-impact state."""
     robot = ROBOTS[name]
     ref = RefRobot.from_robot(robot)

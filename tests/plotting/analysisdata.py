@@ -161,7 +161,7 @@ def shoot_dataset(sols: list[dict], attrs: dict) -> xr.Dataset:
             "t_switch": _v(S, col("t_switch"), "time of the swap after the gait start", "s"),
             "t_motor": _v(S, col("t_motor"), "motor-on duration after the swap", "s"),
             "t_end": _v(S, col("t_end"), "time of the vertical crossing ending the gait", "s"),
-            "error": _v(S, col("error"), "gait error of the solution (MODEL.md section 4)",
+            "error": _v(S, col("error"), "gait error of the solution (docs/model.md section 4)",
                         "1"),
             "residual_norm": _v(S, col("residual_norm"), "norm of the Newton residual at the "
                                 "solution", "1"),

@@ -95,7 +95,7 @@ def grid_dataset(d1: np.ndarray, d2: np.ndarray, attrs: dict) -> xr.Dataset:
 
     ds = xr.Dataset(
         {
-            "error": var("error", float, "horizontal-gait error (MODEL.md section 4)", "1"),
+            "error": var("error", float, "horizontal-gait error (docs/model.md section 4)", "1"),
             "status": (dims, r["status"].reshape(shape).astype(np.int8), _flags()),
             "t_switch": var("t_switch", float, "time of the magnet swap", "s"),
             "t_motor": var("t_motor", float, "motor-on duration", "s"),

@@ -1,10 +1,10 @@
 """A plain numpy/scipy MonkeyBot: the reference the kernel tests compare against.
 
 * Equations of motion: the sympy-derived ``M``, ``C qdot``, ``G`` of :mod:`.symbolic`, solved
-  with ``numpy.linalg.solve``; generalized forces as MODEL.md section 2 (motor on the theta2
+  with ``numpy.linalg.solve``; generalized forces as docs/model.md section 2 (motor on the theta2
   row, viscous + Coulomb friction on theta1 (swing only) and theta2).
 * Impact: ``qdot+ = P qdot-`` with the explicit projection ``P = I - M^-1 J^T (J M^-1 J^T)^-1 J``
-  (MODEL.md section 3); the flip as MODEL.md section 3.
+  (docs/model.md section 3); the flip as docs/model.md section 3.
 * Hybrid runs: chained ``solve_ivp(method="DOP853")`` calls, one per segment, each ending on a
   terminal event with its direction (scipy locates events with ``brentq`` to 4 eps).
 
@@ -20,7 +20,7 @@ from scipy.integrate import solve_ivp
 
 from .symbolic import derivation
 
-# status codes of MODEL.md section 4 (the same meaning as the kernel's, written out here)
+# status codes of docs/model.md section 4 (the same meaning as the kernel's, written out here)
 OK, NO_SWITCH, ENERGY_NOT_RESTORED, NO_RETURN = 0, 1, 2, 3
 
 
@@ -60,7 +60,7 @@ class RefRobot:
         return (self.m1, self.m2, self.L1, self.L2, self.r1, self.r2, self.I1, self.I2, self.g)
 
     def flipped(self) -> "RefRobot":
-        """The same robot seen from end B (MODEL.md section 3); friction stays with its joint."""
+        """The same robot seen from end B (docs/model.md section 3); friction stays with its joint."""
         return replace(self, m1=self.m2, m2=self.m1, L1=self.L2, L2=self.L1, I1=self.I2,
                        I2=self.I1, r1=self.L2 - self.r2, r2=self.L1 - self.r1)
 
@@ -149,7 +149,7 @@ class RefRobot:
     def free_end_height(self, th1, th2):
         return -self.L1 * math.cos(th1) - self.L2 * math.cos(th1 + th2)
 
-    # -- impact and flip (MODEL.md section 3) -----------------------------------------------------
+    # -- impact and flip (docs/model.md section 3) -----------------------------------------------------
     def projection(self, s8):
         M, _, _ = self.flight_matrices(s8)
         Minv = np.linalg.inv(M)
@@ -165,7 +165,7 @@ class RefRobot:
     def flip8(self, s8, wrap_theta1=True):
         """State about the free end; ``self`` is the robot of the frame before the flip.
 
-        MODEL.md section 3 verbatim, except that ``theta1' = pi + theta1 + theta2`` is taken
+        docs/model.md section 3 verbatim, except that ``theta1' = pi + theta1 + theta2`` is taken
         into [-pi, pi) (so that "theta1 crosses 0" means the new link 1 passes the downward
         vertical). ``theta2' = -theta2`` is *not* wrapped: the joint angle stays a continuous
         function of the motion, so the gait error ``theta2_final^2 + ...`` is too.
@@ -299,7 +299,7 @@ class GaitRef:
 
 def horizontal_gait(robot: RefRobot, d1, d2, tau, *, tick=0.0, rtol=1e-13, atol=1e-13,
                     max_time=3.0, max_step=np.inf):
-    """The horizontal gait of MODEL.md section 4, as three chained solve_ivp calls.
+    """The horizontal gait of docs/model.md section 4, as three chained solve_ivp calls.
 
     1. swing about A (at the origin) from theta = 0 until B rises to A's height;
     2. swap (flip + projection), motor torque ``tau`` until the energy is back to E0;
@@ -387,7 +387,7 @@ def grazing_point(robot: RefRobot, u1, u2, delta, s_lo, s_hi):
 
 
 # ----------------------------------------------------------------------------------------------
-# Coulomb stick-slip (MODEL.md section 2: "treat sticking properly (an event)")
+# Coulomb stick-slip (docs/model.md section 2: "treat sticking properly (an event)")
 # ----------------------------------------------------------------------------------------------
 @dataclass
 class FrictionRun:

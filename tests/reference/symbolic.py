@@ -1,6 +1,6 @@
-"""Euler-Lagrange equations of the MonkeyBot derived with sympy from MODEL.md section 1.
+"""Euler-Lagrange equations of the MonkeyBot derived with sympy from docs/model.md section 1.
 
-Only the *positions* of section 1 are typed in (with ``cos`` in the y coordinates, MODEL.md
+Only the *positions* of section 1 are typed in (with ``cos`` in the y coordinates, docs/model.md
 section 5); the mass matrix, Coriolis/centrifugal vector and gravity vector are derived:
 
     K = 1/2 (m1 |v_CG1|^2 + m2 |v_CG2|^2 + I1 w1^2 + I2 (w1 + w2)^2),  V = g (m1 y_CG1 + m2 y_CG2)
@@ -22,7 +22,7 @@ PARAM_NAMES = ("m1", "m2", "L1", "L2", "r1", "r2", "I1", "I2", "g")
 
 
 def _positions(x, y, th1, th2, L1, r1, L2, r2):
-    """MODEL.md section 1, typed in verbatim."""
+    """docs/model.md section 1, typed in verbatim."""
     cg1 = sp.Matrix([x + r1 * sp.sin(th1), y - r1 * sp.cos(th1)])
     joint = sp.Matrix([x + L1 * sp.sin(th1), y - L1 * sp.cos(th1)])
     cg2 = sp.Matrix([x + L1 * sp.sin(th1) + r2 * sp.sin(th1 + th2),

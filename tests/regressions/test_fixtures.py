@@ -34,13 +34,13 @@ def test_observer_on_the_same_guard_as_the_segment_event_is_never_lost():
 
 
 def test_model_md_tick_error_claim_is_not_reproduced():
-    """MODEL.md section 4 says the gait (0.902, 10.935) of seed2009 has error "of order 1e-5
+    """docs/model.md section 4 says the gait (0.902, 10.935) of seed2009 has error "of order 1e-5
     on the 1 ms tick". Two independent implementations - the kernel and the plain scipy
-    reference of tests/reference (chained solve_ivp, MODEL.md's flip and projection, the same
+    reference of tests/reference (chained solve_ivp, docs/model.md's flip and projection, the same
     tick semantics: act at the first tick at/after the located crossing) - agree on 1.2472e-4,
     an order of magnitude larger, while reproducing the study's swap (0.428 s) and motor time
-    (0.025 s) exactly. The claim in MODEL.md is wrong for this robot fit (or for a tick
-    semantics MODEL.md does not state); this test records the disagreement."""
+    (0.025 s) exactly. The claim in docs/model.md is wrong for this robot fit (or for a tick
+    semantics docs/model.md does not state); this test records the disagreement."""
     from reference.model import RefRobot, horizontal_gait as ref_gait
 
     from monkeystudy import evaluate_horizontal_gait

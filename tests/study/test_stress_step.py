@@ -1,4 +1,4 @@
-"""The stress step kind (issue #5): validation with file:line: key, an end-to-end run of
+"""The stress step kind: validation with file:line: key, an end-to-end run of
 studies/stress_smoke.yaml through the CLI, the dataset contract of docs/datasets.md
 (``stress``), bit-reproducibility, and the numerical behaviour the dataset must show.
 
@@ -75,7 +75,7 @@ def text(body: str = "") -> str:
     return BASE.format(body=body)
 
 
-def test_defaults_are_the_issue_scenarios():
+def test_defaults_are_the_documented_scenarios():
     st = parse_study(text()).study.step("st")
     assert isinstance(st, StressStep)
     d, lr, ex = st.energy_drift, st.long_runs, st.extreme

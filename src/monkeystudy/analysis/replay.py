@@ -41,7 +41,7 @@ from .sections import TIGHT, check_cycle_frame, cycle_section_state
 # --- the horizontal gait, open loop -----------------------------------------------------------
 @dataclass
 class CycleRun:
-    """Per-cycle record of an open-loop run (MODEL.md section 4, the study's figs. 5-7)."""
+    """Per-cycle record of an open-loop run (docs/model.md section 4, the study's figs. 5-7)."""
 
     error: np.ndarray            # at each vertical crossing, vs the gait start
     kinetic_energy: np.ndarray   # [J] at each vertical crossing
@@ -52,7 +52,7 @@ class CycleRun:
     crossing_state: np.ndarray = field(default_factory=lambda: np.zeros((0, 8)))
 
     def error_vs(self, dtheta1: float, dtheta2: float) -> np.ndarray:
-        """Per-cycle error (MODEL.md section 4) against the rates of another gait."""
+        """Per-cycle error (docs/model.md section 4) against the rates of another gait."""
         return gait_error(self.crossing_state, dtheta1, dtheta2)
 
 
@@ -169,7 +169,7 @@ REPLAYS = ("gait", "open_loop")
 def section_error(states: np.ndarray, z) -> np.ndarray:
     """Section error of frame states ``[..., 8]`` against ``z = (theta2 [rad], dtheta1,
     dtheta2 [rad s-1])``: ``wrap(theta2_f - theta2)^2 + (dtheta1_f - dtheta1)^2 + (dtheta2_f -
-    dtheta2)^2`` (MODEL.md section 4 generalised; :class:`SequenceGait`) [1]."""
+    dtheta2)^2`` (docs/model.md section 4 generalised; :class:`SequenceGait`) [1]."""
     s = np.asarray(states, float)
     th2, w1, w2 = (float(v) for v in z)
     d = (s[..., L.TH2] - th2 + math.pi) % (2.0 * math.pi) - math.pi  # kernel's wrap

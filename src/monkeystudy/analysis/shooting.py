@@ -1,4 +1,4 @@
-"""Exact fixed points of the horizontal gait by shooting (MODEL.md section 4).
+"""Exact fixed points of the horizontal gait by shooting (docs/model.md section 4).
 
 :func:`shoot_horizontal` solves the study's repeatability residual by Gauss-Newton;
 :func:`shoot_grazing` solves the grazing border's own equations (end B at end A's height at
@@ -20,7 +20,7 @@ from .sections import TIGHT
 
 @dataclass
 class ShootResult:
-    """Fixed point of the horizontal gait (MODEL.md section 4) found by shooting.
+    """Fixed point of the horizontal gait (docs/model.md section 4) found by shooting.
 
     ``residual`` is ``(theta2_f, dtheta1_f - dtheta1, dtheta2_f - dtheta2)`` [rad, rad s-1,
     rad s-1]; the study's error is its squared norm. ``history`` holds the residual norm per

@@ -1,11 +1,11 @@
-"""Numerical stress scenarios (issue #5): energy drift, long runs, extreme parameters.
+"""Numerical stress scenarios: energy drift, long runs, extreme parameters.
 
 Plain numpy in, plain numpy out, like :mod:`monkeystudy.analysis` and
 :mod:`monkeystudy.precision`; the study step ``stress`` (:mod:`monkeystudy.study`) runs them
 as tasks and labels the results (docs/datasets.md, ``stress``). Everything here is
 deterministic: no wall-clock time is measured, so the results are bit-reproducible.
 
-* :func:`energy_drift` - relative energy error of an unforced, frictionless run (MODEL.md
+* :func:`energy_drift` - relative energy error of an unforced, frictionless run (docs/model.md
   section 3: energy is conserved in swing and in flight) at log-spaced checkpoints, its
   growth exponent (:func:`growth_exponent`) and the drift per reference period
   (:func:`reference_period`).
@@ -95,7 +95,7 @@ def drift_start(phase: str) -> np.ndarray:
 
 
 def energy_parts(par: np.ndarray, hyb: np.ndarray) -> tuple[float, float]:
-    """Kinetic and potential energy [J] (world frame, MODEL.md section 1) of a hybrid state."""
+    """Kinetic and potential energy [J] (world frame, docs/model.md section 1) of a hybrid state."""
     p = par[int(hyb[L.H_FLIPPED])]
     s = hyb
     return (kinetic_energy(p, s[2], s[3], s[4], s[5], s[6], s[7]),

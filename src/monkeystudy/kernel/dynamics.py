@@ -6,7 +6,7 @@ accepts complex arguments: :mod:`.variational` differentiates the vector fields,
 and impact by complex step, exactly to round-off.
 
 Pure ``@njit(cache=True)`` functions on float64 arrays; parameter rows follow
-:mod:`monkeystudy.kernel.layout`. Equation references are to ``shared/MODEL.md``.
+:mod:`monkeystudy.kernel.layout`. Equation references are to docs/model.md.
 
 Integration vectors are packed per phase:
 
@@ -14,7 +14,7 @@ Integration vectors are packed per phase:
   carried beside the vector;
 * flight (4-DOF): ``[x, y, theta1, theta2, dx, dy, dtheta1, dtheta2]``.
 
-Friction (MODEL.md section 2, "Generalized forces") is viscous ``-b w`` plus Coulomb
+Friction (docs/model.md section 2, "Generalized forces") is viscous ``-b w`` plus Coulomb
 ``-c sgn(w)``. The Coulomb sign is *not* evaluated from the state: it is the slip direction
 ``fmode[k]`` held constant by the hybrid loop between located zero-speed events, so the vector
 field is smooth inside every integration step. ``fmode[k] == 0`` means the DOF is stuck
@@ -40,7 +40,7 @@ TWO_PI = 2.0 * math.pi
 # ----------------------------------------------------------------------------------------------
 @njit(cache=True, error_model="numpy", _nrt=False)
 def derive_params(p):
-    """Fill the derived slots of a parameter row in place (MODEL.md section 2 shorthand)."""
+    """Fill the derived slots of a parameter row in place (docs/model.md section 2 shorthand)."""
     m1, m2, L1, r1, r2 = p[P_M1], p[P_M2], p[P_L1], p[P_R1], p[P_R2]
     p[P_A] = m1 * r1 + m2 * L1
     p[P_H] = m2 * r2 * L1
@@ -52,7 +52,7 @@ def derive_params(p):
 
 @njit(cache=True, error_model="numpy")
 def flipped_params(p):
-    """Parameters of the same robot described from the other end (MODEL.md section 3).
+    """Parameters of the same robot described from the other end (docs/model.md section 3).
 
     Links swap roles; CG distances are re-measured from the new proximal ends
     (``r1' = L2 - r2``, ``r2' = L1 - r1``). Friction belongs to the pivot and the joint,
@@ -102,7 +102,7 @@ def angle_trig(th1, th2):
 
 @njit(cache=True, inline="always", error_model="numpy")
 def _swing_terms(p, tau, fmode, th1, th2, w1, w2):
-    """Swing mass matrix entries and right-hand side ``F - C qdot - G`` (MODEL.md sec. 2)."""
+    """Swing mass matrix entries and right-hand side ``F - C qdot - G`` (docs/model.md section 2)."""
     s1, _, s2, c2, s12, _ = _field_trig(th1, th2)
     return _swing_terms_t(p, tau, fmode, s1, s2, c2, s12, w1, w2)
 
@@ -157,7 +157,7 @@ def _flight_coupling_t(p, c1, s1, c12, s12):
 
 @njit(cache=True, inline="always", error_model="numpy")
 def swing_accel(p, tau, fmode, th1, th2, w1, w2):
-    """Swing (2-DOF) accelerations ``(ddtheta1, ddtheta2)`` [rad s-2], MODEL.md section 2."""
+    """Swing (2-DOF) accelerations ``(ddtheta1, ddtheta2)`` [rad s-2], docs/model.md section 2."""
     m11, m12, m22, r1, r2 = _swing_terms(p, tau, fmode, th1, th2, w1, w2)
     return _solve2(m11, m12, m22, r1, r2, fmode[0] == 0.0, fmode[1] == 0.0)
 
@@ -180,7 +180,7 @@ def swing_accel_trig(p, tau, fmode, th1, th2, w1, w2):
 
 @njit(cache=True, inline="always", error_model="numpy")
 def flight_accel(p, tau, fmode, th1, th2, w1, w2):
-    """Free-flight (4-DOF) accelerations ``(ddx, ddy, ddtheta1, ddtheta2)``, MODEL.md sec. 2.
+    """Free-flight (4-DOF) accelerations ``(ddx, ddy, ddtheta1, ddtheta2)``, docs/model.md section 2.
 
     Solved by a Schur complement on the (x, y) block, whose mass block is ``(m1+m2) I``:
     exact, and cheaper than a general 4x4 factorisation. The position of the (x, y) end and
@@ -230,7 +230,7 @@ def _flight_accel_t(p, tau, fmode, s1, c1, s2, c2, s12, c12, w1, w2):
 
 @njit(cache=True, error_model="numpy", _nrt=False)
 def rhs_swing(p, tau, fmode, y, dy):
-    """Swing (2-DOF) vector field, MODEL.md section 2. ``y`` packed swing state."""
+    """Swing (2-DOF) vector field, docs/model.md section 2. ``y`` packed swing state."""
     a1, a2 = swing_accel(p, tau, fmode, y[0], y[1], y[2], y[3])
     dy[0] = y[2]
     dy[1] = y[3]
@@ -240,7 +240,7 @@ def rhs_swing(p, tau, fmode, y, dy):
 
 @njit(cache=True, error_model="numpy", _nrt=False)
 def rhs_flight(p, tau, fmode, y, dy):
-    """Free-flight (4-DOF) vector field, MODEL.md section 2. ``y`` packed flight state."""
+    """Free-flight (4-DOF) vector field, docs/model.md section 2. ``y`` packed flight state."""
     ax, ay, a1, a2 = flight_accel(p, tau, fmode, y[2], y[3], y[6], y[7])
     dy[0] = y[4]
     dy[1] = y[5]
@@ -313,11 +313,11 @@ def holding_torque(phase, p, tau, fmode, y, k):
 
 
 # ----------------------------------------------------------------------------------------------
-# energy and kinematics (world frame, MODEL.md section 1)
+# energy and kinematics (world frame, docs/model.md section 1)
 # ----------------------------------------------------------------------------------------------
 @njit(cache=True, error_model="numpy", _nrt=False)
 def kinetic_energy(p, th1, th2, vx, vy, w1, w2):
-    """Kinetic energy K [J], MODEL.md section 1 (``vx = vy = 0`` while swinging)."""
+    """Kinetic energy K [J], docs/model.md section 1 (``vx = vy = 0`` while swinging)."""
     _, c2 = sincos(th2)
     k = kinetic_energy_rot(p, c2, w1, w2)
     if vx != 0.0 or vy != 0.0:
@@ -361,7 +361,7 @@ def kinetic_trans_s(a, m2r2, mt, c1, s1, c12, s12, vx, vy, w1, w2):
 
 @njit(cache=True, error_model="numpy", _nrt=False)
 def potential_energy(p, y_end, th1, th2):
-    """Potential energy V [J] with the (x, y) end at world height ``y_end`` (MODEL.md sec. 1)."""
+    """Potential energy V [J] with the (x, y) end at world height ``y_end`` (docs/model.md section 1)."""
     _, c1 = sincos(th1)
     _, c12 = sincos(th1 + th2)
     return potential_energy_t(p, y_end, c1, c12)
@@ -388,7 +388,7 @@ def total_energy8(p, s):
 
 @njit(cache=True, error_model="numpy", _nrt=False)
 def free_end_offset(p, th1, th2):
-    """Position of the free end relative to the (x, y) end [m] (MODEL.md section 1, B)."""
+    """Position of the free end relative to the (x, y) end [m] (docs/model.md section 1, B)."""
     s1, c1 = sincos(th1)
     s12, c12 = sincos(th1 + th2)
     return p[P_L1] * s1 + p[P_L2] * s12, -p[P_L1] * c1 - p[P_L2] * c12
@@ -413,7 +413,7 @@ def points8(p, s, out):
 # ----------------------------------------------------------------------------------------------
 @njit(cache=True, error_model="numpy")
 def flight_matrices(p, s):
-    """Flight ``M`` (4x4), ``C qdot`` (4) and ``G`` (4) at a full 8-state, MODEL.md sec. 2."""
+    """Flight ``M`` (4x4), ``C qdot`` (4) and ``G`` (4) at a full 8-state, docs/model.md section 2."""
     th1, th2, w1, w2 = s[2], s[3], s[6], s[7]
     b02, b03, b12, b13, c1, s1, c12, s12 = _flight_coupling(p, th1, th2)
     h = p[P_H]
@@ -443,7 +443,7 @@ def flight_matrices(p, s):
 
 @njit(cache=True, error_model="numpy")
 def impact_projection(p, s):
-    """The plastic-impact projection ``P = I - M^-1 J^T (J M^-1 J^T)^-1 J`` (MODEL.md sec. 3)."""
+    """The plastic-impact projection ``P = I - M^-1 J^T (J M^-1 J^T)^-1 J`` (docs/model.md section 3)."""
     M, Cq, G = flight_matrices(p, s)
     Minv = np.linalg.inv(M)
     J = np.zeros((2, 4))
@@ -454,11 +454,11 @@ def impact_projection(p, s):
 
 
 # ----------------------------------------------------------------------------------------------
-# impact and flip (MODEL.md section 3)
+# impact and flip (docs/model.md section 3)
 # ----------------------------------------------------------------------------------------------
 @njit(cache=True, error_model="numpy", _nrt=False)
 def attach_xy_end(p, s):
-    """Plastic impact that pins the (x, y) end: ``qdot+ = P qdot-`` (MODEL.md eq. for P).
+    """Plastic impact that pins the (x, y) end: ``qdot+ = P qdot-`` (docs/model.md section 3).
 
     The impulse acts only on the (x, y) rows, so the (theta1, theta2) rows of ``M qdot`` are
     conserved; with ``dx+ = dy+ = 0`` that gives ``Ms dth+ = Ms dth- + B^T v-``, which is
@@ -488,7 +488,7 @@ def wrap_angle(a):
 
 @njit(cache=True, error_model="numpy", _nrt=False)
 def flip_state(p, s):
-    """Re-express a full 8-state about the free end, in place (MODEL.md section 3, "flip").
+    """Re-express a full 8-state about the free end, in place (docs/model.md section 3, "flip").
 
     ``p`` are the parameters of the frame *before* the flip. ``theta1'`` is wrapped to
     [-pi, pi) so that "theta1 crosses 0" keeps meaning "link 1 passes the downward vertical".

@@ -1,4 +1,4 @@
-"""Compiled gait evaluations: the horizontal gait of MODEL.md section 4 and the cycle of any
+"""Compiled gait evaluations: the horizontal gait of docs/model.md section 4 and the cycle of any
 phase-sequence gait, one point or a batch.
 
 All call :func:`monkeystudy.kernel.hybrid.simulate` with the zero-size log and trajectory of
@@ -67,7 +67,7 @@ def horizontal_gait(par, prog, settings, dtheta1, dtheta2, energy_floor, skip_un
                     out):
     """Evaluate the horizontal gait at ``(dtheta1, dtheta2)`` [rad s-1] into ``out``.
 
-    The error (MODEL.md section 4) is ``theta2_f^2 + (dtheta1 - dtheta1_f)^2 +
+    The error (docs/model.md section 4) is ``theta2_f^2 + (dtheta1 - dtheta1_f)^2 +
     (dtheta2 - dtheta2_f)^2`` at the vertical crossing ending the gait; NaN unless the status
     is ``ST_OK``. With ``skip_unreachable``, a start whose total energy is below
     ``energy_floor`` (the least potential energy on the swap surface, :meth:`Robot.
@@ -147,7 +147,7 @@ def cycle_gait(par, prog, obs, settings, theta1, theta2, dtheta1, dtheta2, out, 
 
     Starts hanging from A at the origin with ``(theta1, theta2)`` [rad] and rates
     ``(dtheta1, dtheta2)`` [rad s-1]; runs ``prog`` until it completes one cycle (the caller
-    sets ``C_MAX_CYCLES = 1``). The section error generalises MODEL.md section 4's:
+    sets ``C_MAX_CYCLES = 1``). The section error generalises docs/model.md section 4's:
     ``wrap(theta2_f - theta2)^2 + (dtheta1_f - dtheta1)^2 + (dtheta2_f - dtheta2)^2`` in the
     frame of the end attached at the cycle's end (NaN unless ``ST_OK``); ``seg_out[k]`` is the
     time segment ``k`` was left [s] (NaN if never).

@@ -8,7 +8,7 @@ attached end's height, energy restored, a coordinate or the energy crossing a va
 phase, which end the frame hangs from, segment, torque, clock, latched energy, friction modes)
 is a float vector (layout ``H_*``) that goes in and comes out, so a run can be continued.
 
-Semantics worth knowing (MODEL.md section 4, issue #2):
+Semantics worth knowing (docs/model.md sections 4 and 6):
 
 * A segment guard with ``S_TICKED`` on a tick ``h > 0`` is located exactly, then acted on at
   the first tick ``phase + k h`` at or after the crossing *if its condition still holds there*
@@ -80,7 +80,7 @@ def next_tick(t, tick, tick_phase):
 def apply_magnets(par, s8, phase, flipped, mag_a, mag_b, swap):
     """Entry magnet actions; returns the new ``(phase, flipped)``; ``s8`` changed in place.
 
-    Attaching an end that was free is a plastic impact (MODEL.md section 3): the frame is first
+    Attaching an end that was free is a plastic impact (docs/model.md section 3): the frame is first
     flipped if that end is not the frame's (x, y) end, then projected. Both magnets on stops all
     motion; releasing every magnet starts a flight with the current velocities.
     """
@@ -212,7 +212,7 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
     Parameters
     ----------
     par : float64[2, N_PARAMS]
-        Robot parameters, row 0 as given, row 1 flipped (MODEL.md section 3).
+        Robot parameters, row 0 as given, row 1 flipped (docs/model.md section 3).
     prog : float64[n_seg, N_SEG_COLS]
         Controller program (layout ``S_*``).
     obs : float64[n_obs, N_OBS_COLS]

@@ -7,7 +7,7 @@ holds, so no Python object ever crosses into the kernel layer.
 # --- robot parameter vector (one row per frame: row 0 normal, row 1 flipped) -----------------
 P_M1, P_M2, P_L1, P_L2, P_R1, P_R2, P_I1, P_I2, P_G = 0, 1, 2, 3, 4, 5, 6, 7, 8
 P_B_PIVOT, P_C_PIVOT, P_B_JOINT, P_C_JOINT = 9, 10, 11, 12  # viscous [N m s], Coulomb [N m]
-# derived, precomputed once (MODEL.md section 2 shorthand)
+# derived, precomputed once (docs/model.md section 2 shorthand)
 P_A = 13        # a = m1 r1 + m2 L1                      [kg m]
 P_H = 14        # h = m2 r2 L1                           [kg m^2]
 P_M2R2 = 15     # m2 r2                                  [kg m]
@@ -16,7 +16,7 @@ P_K22 = 17      # I2 + m2 r2^2                           [kg m^2]
 P_MTOT = 18     # m1 + m2                                [kg]
 N_PARAMS = 19
 
-# --- full state in the current frame (flight coordinates, MODEL.md section 1) --------------
+# --- full state in the current frame (flight coordinates, docs/model.md section 1) --------------
 # [x, y, theta1, theta2, dx, dy, dtheta1, dtheta2]; (x, y) is the "attached" end of the frame.
 X, Y, TH1, TH2, DX, DY, DTH1, DTH2 = 0, 1, 2, 3, 4, 5, 6, 7
 N_STATE = 8
@@ -36,7 +36,7 @@ METHOD_RK45 = 0
 METHOD_DOP853 = 1
 METHOD_VERN9 = 2
 
-# --- guard kinds (MODEL.md section 4 and issue #2) ----------------------------------------------
+# --- guard kinds (docs/model.md sections 4 and 6) ----------------------------------------------
 G_NONE = -1             # segment ends only by its horizon
 G_TIME = 0              # t - (clock origin + value)                            [s]
 G_FREE_END_HEIGHT = 1   # free end's height above the attached end - value: -(L1 c1 + L2 c12) - value [m]

@@ -65,7 +65,7 @@ def swing_variational_rhs(p, tau, fmode, Y, dY):
 
 @njit(cache=True, error_model="numpy")
 def _swap(p_before, p_after, y):
-    """Swing state after a magnet swap (embed, flip, project; MODEL.md section 3)."""
+    """Swing state after a magnet swap (embed, flip, project; docs/model.md section 3)."""
     s8 = np.zeros(8, dtype=y.dtype)
     s8[2] = y[0]
     s8[3] = y[1]

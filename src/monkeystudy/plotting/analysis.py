@@ -238,7 +238,7 @@ def plot_shoot_convergence(ds):
                + (f" from {n_starts} start{'s' if n_starts != 1 else ''}" if n_starts else "")
                + "; grazing: Newton on B at A's height at rest (collisionless swap); "
                  "Gauss-Newton: on the gait's repeatability residual; e: the gait error "
-                 "(MODEL.md section 4) of the solution\n"
+                 "(docs/model.md section 4) of the solution\n"
                  "Quadratic convergence: the number of correct digits doubles per iteration "
                  "(right: points on the slope-2 line)\n"
                + run_line(ds, tick=False))

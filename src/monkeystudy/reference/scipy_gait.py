@@ -1,6 +1,6 @@
 """The horizontal gait with ``scipy.integrate.solve_ivp``: an independent baseline.
 
-The same gait as the kernel (MODEL.md sections 2-4: swing about A to the swap guard, flip and
+The same gait as the kernel (docs/model.md sections 2-4: swing about A to the swap guard, flip and
 plastic impact, motor until the energy is restored, swing to the vertical), written with
 chained ``solve_ivp`` calls and terminal events, a hand-written right-hand side (scalar or
 numpy) and no code shared with :mod:`monkeystudy.kernel`. The benchmark and the
@@ -77,7 +77,7 @@ class ScipyGait:
         return kin + pot
 
     def swap(self, prm, y_end, th1, th2, w1, w2):
-        """Flip about the free end and project (MODEL.md section 3); returns the new state."""
+        """Flip about the free end and project (docs/model.md section 3); returns the new state."""
         m1, m2, L1, L2, r1, r2, I1, I2 = prm
         s1, c1 = math.sin(th1), math.cos(th1)
         s12, c12 = math.sin(th1 + th2), math.cos(th1 + th2)

@@ -129,7 +129,7 @@ class FrictionSettings(StrictModel):
 
 
 class RobotParams(StrictModel):
-    """Explicit robot parameters (MODEL.md section 1)."""
+    """Explicit robot parameters (docs/model.md section 1)."""
 
     name: Name = Field("custom", description="a label for the robot")
     gravity: float = Field(9.81, gt=0, description="gravitational acceleration [m s-2]")
@@ -173,7 +173,7 @@ def to_robot(spec: str | RobotParams) -> Robot:
 
 # --- gait, integrator -------------------------------------------------------------------------
 class Gait(StrictModel):
-    """The gait and its search controller (MODEL.md section 4)."""
+    """The gait and its search controller (docs/model.md section 4)."""
 
     kind: Literal["horizontal"] = Field(description="the gait: 'horizontal' (section 4)")
     motor_torque: float = Field(description="motor torque [N m], signed, on theta2 of the "

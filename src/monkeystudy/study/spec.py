@@ -29,7 +29,7 @@ class GaitSpec:
     tick : float
         Controller tick [s]; 0 = exact event timing.
     sequence : SequenceGait or None
-        A sequence gait, or None for the horizontal gait (MODEL.md section 4).
+        A sequence gait, or None for the horizontal gait (docs/model.md section 4).
     """
 
     robot: Robot

@@ -97,7 +97,7 @@ def stability_task(spec: GaitSpec, gait: dict[str, float], *, cycles: int, tick:
     ``t_end`` [s] and ``status``. With ``clock='run_on'`` the period is ``t_end``. Per cycle
     c = 1..N (from the run's log): the swap (segment 0 exit) starting it, the first vertical
     crossing (observer) after that swap, and there the error against the initial rates
-    (MODEL.md section 4, with the frame's theta2, dtheta1, dtheta2) and the kinetic energy;
+    (docs/model.md section 4, with the frame's theta2, dtheta1, dtheta2) and the kinetic energy;
     ``pivot_height`` and the world position of the attached end after the swap.
     A gait that is not ok is not run: ``status`` is its status and every cycle is NaN.
     """

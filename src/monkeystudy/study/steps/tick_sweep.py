@@ -74,7 +74,7 @@ def tick_sweep_task(spec: GaitSpec, gait: dict, *, ticks, cycles: int, error_bou
                     fd_step: float = 1e-5) -> dict[str, Any]:
     """The gait replayed open-loop from its fixed point once per controller tick [s].
 
-    Per tick: the error per cycle (against the gait's start, MODEL.md section 4) and the pivot
+    Per tick: the error per cycle (against the gait's start, docs/model.md section 4) and the pivot
     height per swap (NaN padded to ``cycles``), ``cycles_to_bound``, ``cycles_completed``
     (vertical crossings reached), the run's status and the fitted growth of sqrt(error) per
     cycle. ``leading_multiplier``: also |lambda_max| of the exact-timing open-loop map by
