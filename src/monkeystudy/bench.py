@@ -25,9 +25,12 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 from numba import njit
 
+from .analysis.design import DesignSpace, evaluate_design
 from .analysis.precision import best_of, kernel_gaits
 from .controllers import HorizontalSearch, Integrator, settings_vector
+from .kernel.design import MAP_SECTION, cycle_map
 from .kernel.dynamics import rhs_swing
+from .kernel.layout import C_MAX_CYCLES, N_COUNTS, N_LOG_COLS, N_OBS_COLS
 from .kernel.gait import (
     R_ERROR, R_NFEV, R_REJECTED, R_STEPS, R_T_END, R_T_MOTOR, R_T_SWITCH,
     horizontal_gait_batch,
@@ -360,6 +363,47 @@ def skipping() -> dict:
             "t_unreachable_integrated": t_full, "t_eval": t_eval, "t_with_outputs": t_out}
 
 
+def design_cost(repeat: int = 5) -> dict:
+    """One design evaluation of the design step (the gait re-solved by Newton with the swap
+    time balanced, multipliers by finite differences; then also by variational equations),
+    from a start 1e-3 off the fixed point as a grid neighbour gives it, against one cycle of
+    the same gait at the same tolerance (DOP853 rtol 1e-13)."""
+    space = DesignSpace(Robot.preset("seed2009"), base={"t_switch": 0.4187},
+                        balance="t_switch", integrator=Integrator(rtol=1e-13, atol=1e-13))
+    free = {"motor_start": -0.3125, "t_motor": 0.36, "torque": -0.57186}
+    res = evaluate_design(space, free, [-0.40, 5.0, 5.3])
+    if not res.ok:
+        raise RuntimeError(f"bench design did not solve: {res.message}")
+    near = res.z + 1e-3
+    start = dict(free, t_switch=res.values["t_switch"] + 1e-3)
+    # the baseline: one compiled cycle of the same gait (what Newton evaluates ~70 times)
+    prog, _ = space.gait(res.values).program()
+    par = space.robot_for(res.values).params()
+    st = settings_vector(space.integrator)
+    st[C_MAX_CYCLES] = 1.0
+    obs, log = np.empty((0, N_OBS_COLS)), np.empty((0, N_LOG_COLS))
+    w_next, counts = np.empty(3), np.zeros(N_COUNTS, np.int64)
+
+    def one_cycle():
+        cycle_map(par, prog, obs, st, MAP_SECTION, 0.0, res.z, w_next, log, counts)
+    one_cycle()
+    t_cycle = best_of(one_cycle, repeat)
+    t_design = best_of(lambda: evaluate_design(space, start, near), repeat)
+    t_var = best_of(lambda: evaluate_design(space, start, near, variational=True), repeat)
+    again = evaluate_design(space, start, near)
+    return {"t_cycle": t_cycle, "t_design": t_design, "t_variational": t_var,
+            "iterations": again.iterations, "nfev": again.nfev}
+
+
+def print_design_cost(quick: bool) -> None:
+    d = design_cost(3 if quick else 7)
+    print(f"\ndesign evaluation (Newton with the swap time balanced, {d['iterations']} "
+          f"iterations, {d['nfev']} RHS evaluations; DOP853 rtol 1e-13): "
+          f"{d['t_design'] * 1e3:.2f} ms = {d['t_design'] / d['t_cycle']:.0f} gait cycles "
+          f"({d['t_cycle'] * 1e6:.0f} us each, compiled); with variational multipliers "
+          f"{d['t_variational'] * 1e3:.2f} ms ({d['t_variational'] / d['t_cycle']:.0f} cycles)")
+
+
 def parse_args(argv=None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(prog="monkeystudy bench", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -524,6 +568,7 @@ def main(argv=None) -> int:
               f"1 worker {w1:.0f} gaits/s, {os.cpu_count()} workers {wn:.0f} gaits/s, "
               f"speed-up {wn / w1:.2f}x")
     print_skipping()
+    print_design_cost(args.quick)
     for n in args.grid or []:
         print_grid_run(n, args.served)
     if args.startup:

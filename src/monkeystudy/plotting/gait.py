@@ -280,8 +280,12 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
                         bbox=dict(boxstyle="round,pad=0.12", fc="white", ec="none", alpha=0.8))
             tl.axvline(traj.t[i], ymin=0.8, ymax=0.86, color="0.3", lw=0.8)
         tl.set_xlim(t[0], t[-1])
-        tmax = float(np.nanmax(np.abs(traj.torque[i0:i1]))) if i1 > i0 else 0.0
-        tl.set_ylim(-0.1 * max(tmax, 1e-3), 1.45 * max(tmax, 1e-3))
+        seg = traj.torque[i0:i1]
+        tmax = max(float(np.nanmax(seg)) if i1 > i0 else 0.0, 0.0)
+        tmin = min(float(np.nanmin(seg)) if i1 > i0 else 0.0, 0.0)
+        span = max(tmax - tmin, 1e-3)
+        # room above for the frame numbers; negative torques (a pulse the other way) shown
+        tl.set_ylim(tmin - 0.1 * span, tmax + 0.45 * span)
         tl.set_xlabel("time  [s]")
         tl.set_ylabel("motor torque\n[N m]")
         handles = [Patch(color=STAGES[k][0], alpha=0.5, label=STAGES[k][1]) for k in seen]

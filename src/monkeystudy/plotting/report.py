@@ -28,6 +28,10 @@ file (``figures/``)                    what                                    s
 ``<continuation>_branch``              gait family, |lambda| along it          -
 ``<work_precision>_work_precision``    wall time per gait against error        -
 ``<stress>_stress``                    energy drift, long runs, extreme cases  -
+``<design>_map``                       spectral radius over the design grid    -
+``<design>_multipliers``               the best design's multipliers           -
+``<design>_replay``                    the best design's open-loop replays     5-7
+``<design>_filmstrip``                 the best design's cycle                 2 (from data)
 =====================================  ======================================  ==============
 
 Which figures a dataset gets is what its step kind declares
@@ -46,7 +50,7 @@ from typing import Callable, Sequence
 import xarray as xr
 
 from ..study.steps import REGISTRY
-from . import analysis, cycles, gait, maps, stress, survival
+from . import analysis, cycles, design, gait, maps, stress, survival
 from .common import STYLE_FILE, atomic_path, provenance, save_figure
 from .drawing import Drawing, Folder
 from .page import PAGE, render_page
@@ -102,7 +106,7 @@ def code_hash() -> str:
 #: how each declared figure is drawn, by (step kind, suffix), from every figure module
 DRAWINGS: dict[tuple[str, str], Drawing] = {
     **maps.DRAWINGS, **cycles.DRAWINGS, **gait.DRAWINGS, **analysis.DRAWINGS, **stress.DRAWINGS,
-    **survival.DRAWINGS,
+    **survival.DRAWINGS, **design.DRAWINGS,
 }
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 from .base import Dependency, Figure, StepContext, StepKind
 from .basin import BasinKind
 from .continuation import ContinuationKind
+from .design import DesignKind
 from .floquet import FloquetKind
 from .grid import GridKind
 from .refine import RefineKind
@@ -24,6 +25,7 @@ from .work_precision import WorkPrecisionKind
 REGISTRY: dict[str, StepKind] = {k.name: k for k in (
     GridKind(), RefineKind(), StabilityKind(), ShootKind(), FloquetKind(), TickSweepKind(),
     BasinKind(), ContinuationKind(), WorkPrecisionKind(), StressKind(), SurvivalKind(),
+    DesignKind(),
 )}
 
 

@@ -1,0 +1,461 @@
+"""Open-loop gait design: the spectral radius of the return map over schedule and robot.
+
+A *design* is an open-loop schedule and a robot. The schedule runs on a clock that restarts
+each time link 1 passes the vertical: the magnets swap at ``t_switch`` [s], a motor pulse of
+``torque`` [N m] starts ``motor_start`` [s] after the swap and lasts ``t_motor`` [s], and an
+optional second pulse (``pulse2_start`` after the swap, ``pulse2_duration``,
+``pulse2_torque``) follows. The robot is the base robot reshaped by ``com``, ``inertia``,
+``mass_ratio`` and ``length_ratio`` (:data:`PARAMETERS` gives units, meanings and the
+bounds of what can be built).
+
+For each design, :func:`evaluate_design` solves the gait as a fixed point of the return map
+on ``theta1 = 0`` (Newton in compiled code, :func:`monkeystudy.kernel.design.fixed_point`),
+optionally together with one schedule value (``balance``) chosen so the gait returns to its
+height each cycle (an open-loop schedule fixes no height), and returns the multipliers by
+finite differences and, on request, by variational equations with saltation matrices.
+Stability is the spectral radius ``rho`` per step: ``max |lambda|`` of the cycle's map, to
+the power ``1 / steps`` when a cycle takes two steps (links that are not mirror images make
+the frame's flip at each swap compare unlike links, so a cycle is two steps then).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Mapping
+
+import numpy as np
+
+from ..controllers import Integrator, Segment, SequenceGait, settings_vector
+from ..kernel import layout as L
+from ..kernel.design import (
+    DESIGN_STATUS_NAMES, DS_OK, I_ADVANCE, I_DEFECT, I_ERROR, I_ITERATIONS, I_LOSS, I_NFEV,
+    I_PERIOD, I_RISE, MAP_SECTION, N_INFO, fixed_point,
+)
+from ..robot import Link, Robot
+from ..simulate import run_controller
+from .floquet import sorted_eigs
+from .replay import cycles_to_bound, growth_per_cycle, sequence_basin, sequence_cycles
+from .sections import TIGHT, cycle_section_state
+from .variational import sequence_variational_jacobian
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A design parameter: unit, buildable bounds, what it is, and whether it shapes the
+    schedule or the robot."""
+
+    unit: str
+    lower: float
+    upper: float
+    meaning: str
+    part: str   # "schedule" | "robot"
+
+
+#: Every design parameter, with the bounds of what can be built and run. Schedule times are
+#: on the controller clock, which restarts when link 1 passes the vertical; pulse starts count
+#: from the swap (negative: before it). Torques act on theta2 of the frame of the end
+#: attached at the time. Robot values describe link 1 of a robot of the base's total mass and
+#: length; link 2 mirrors it (CG at the same distance from the joint).
+PARAMETERS: dict[str, Parameter] = {
+    "t_switch": Parameter("s", 0.05, 1.5, "magnet swap, after the vertical", "schedule"),
+    "motor_start": Parameter("s", -0.5, 0.5, "motor pulse start, after the swap", "schedule"),
+    "t_motor": Parameter("s", 0.0, 0.5, "motor pulse duration", "schedule"),
+    "torque": Parameter("N m", -2.0, 2.0, "motor pulse torque (the 2009 motor gives 0.6354)",
+                        "schedule"),
+    "pulse2_start": Parameter("s", -0.5, 1.0, "second pulse start, after the swap",
+                              "schedule"),
+    "pulse2_duration": Parameter("s", 0.0, 0.5, "second pulse duration", "schedule"),
+    "pulse2_torque": Parameter("N m", -2.0, 2.0, "second pulse torque", "schedule"),
+    "com": Parameter("m", 0.05, 0.60, "link 1's CG from end A (link 2's from the joint "
+                     "mirrors it), at the base link length", "robot"),
+    "inertia": Parameter("kg m2", 0.001, 0.05, "inertia of a link about its CG, at the base "
+                         "mass and length; at most m c (L - c) (all mass at the two ends)",
+                         "robot"),
+    "mass_ratio": Parameter("1", 0.5, 2.0, "link 2 mass over link 1 mass, total mass fixed",
+                            "robot"),
+    "length_ratio": Parameter("1", 0.67, 1.5, "link 2 length over link 1 length, total "
+                              "length fixed", "robot"),
+}
+
+#: schedule values solved so that the gait returns to its height (or none)
+BALANCES = ("t_switch", "torque", "t_motor", "none")
+#: what a design search minimises
+OBJECTIVES = ("spectral_radius", "spectral_radius_energy")
+#: status of a design that breaks a bound (not simulated)
+OUT_OF_BOUNDS = len(DESIGN_STATUS_NAMES)
+STATUS_NAMES = (*DESIGN_STATUS_NAMES, "out_of_bounds")
+
+
+def check_values(values: Mapping[str, float]) -> str:
+    """Why a set of design values cannot be built ('' if it can)."""
+    for name, v in values.items():
+        p = PARAMETERS[name]
+        if not (p.lower <= v <= p.upper):
+            return f"{name} = {v!r} {p.unit} outside [{p.lower}, {p.upper}]"
+    return ""
+
+
+@dataclass(frozen=True)
+class DesignSpace:
+    """The base of a design search: the robot (mirror-image links), the base value of every
+    parameter, the balance, and the solver's settings.
+
+    Parameters
+    ----------
+    robot : Robot
+        The base robot; ``com``, ``inertia``, ``mass_ratio`` and ``length_ratio`` reshape it.
+    base : mapping
+        Values of the parameters that are not searched (missing: :meth:`defaults`).
+    balance : {"t_switch", "torque", "t_motor", "none"}
+        The schedule value solved so the gait returns to its height (its value in a design
+        is the Newton start). The swap time sets where the free end attaches, so
+        ``t_switch`` is the natural choice: the motor program barely moves the height.
+    two_step : bool
+        A cycle is two steps (needed when the links may differ: ``mass_ratio`` or
+        ``length_ratio`` free or not 1).
+    integrator : Integrator
+        The return map's integrator (tight: the finite differences divide its error by
+        ``fd_step``).
+    tol : float
+        Newton's tolerance on ``|P(z) - z|`` (and the height) [rad, rad s-1, m].
+    max_iter : int
+        Newton iterations (from a start near the gait it converges in 4-8; more are spent
+        on starts that lead nowhere).
+    fd_step : float
+        Relative finite-difference step.
+    """
+
+    robot: Robot
+    base: Mapping[str, float] = field(default_factory=dict)
+    balance: str = "t_switch"
+    two_step: bool = False
+    integrator: Integrator = TIGHT
+    tol: float = 1e-11
+    max_iter: int = 12
+    fd_step: float = 1e-5
+
+    def __post_init__(self):
+        if self.balance not in BALANCES:
+            raise ValueError(f"balance must be one of {BALANCES}, got {self.balance!r}")
+        unknown = set(self.base) - set(PARAMETERS)
+        if unknown:
+            raise ValueError(f"unknown design parameters {sorted(unknown)}; known: "
+                             f"{sorted(PARAMETERS)}")
+        par = self.robot.params()
+        if not np.allclose(par[0], par[1], rtol=0, atol=1e-14):
+            raise ValueError("the base robot of a design search needs mirror-image links")
+
+    @property
+    def steps(self) -> int:
+        """Steps per cycle of the return map."""
+        return 2 if self.two_step else 1
+
+    def defaults(self) -> dict[str, float]:
+        """The base robot's values of the robot parameters, and a schedule without pulses
+        (``t_switch`` must be given)."""
+        link = self.robot.link1
+        return {"motor_start": 0.0, "t_motor": 0.0, "torque": 0.0, "pulse2_start": 0.0,
+                "pulse2_duration": 0.0, "pulse2_torque": 0.0, "com": link.com,
+                "inertia": link.inertia, "mass_ratio": 1.0, "length_ratio": 1.0}
+
+    def values(self, free: Mapping[str, float] | None = None) -> dict[str, float]:
+        """Every parameter's value: the defaults, the base, then ``free``."""
+        out = self.defaults()
+        out.update({k: float(v) for k, v in self.base.items()})
+        out.update({k: float(v) for k, v in (free or {}).items()})
+        if "t_switch" not in out:
+            raise ValueError("a design needs t_switch (in the base or the free parameters)")
+        return out
+
+    # --- the robot ----------------------------------------------------------------------
+    def robot_for(self, values: Mapping[str, float]) -> Robot:
+        """The robot of a design: total mass and length of the base, link 1's CG at
+        ``com`` (scaled with its length), inertia ``inertia`` (scaled with mass and length
+        squared), link 2 the mirror image of link 1 reshaped by the two ratios."""
+        b = self.robot.link1
+        mass, length = 2.0 * b.mass, 2.0 * b.length
+        mu, lam = values["mass_ratio"], values["length_ratio"]
+        m1, l1 = mass / (1.0 + mu), length / (1.0 + lam)
+        m2, l2 = mass - m1, length - l1
+        frac = values["com"] / b.length                 # CG from A, in link lengths
+        gyr2 = values["inertia"] / (b.mass * b.length ** 2)
+        return replace(self.robot, name="design",
+                       link1=Link(m1, l1, frac * l1, m1 * gyr2 * l1 ** 2),
+                       link2=Link(m2, l2, (1.0 - frac) * l2, m2 * gyr2 * l2 ** 2))
+
+    def buildable(self, values: Mapping[str, float]) -> str:
+        """Why a design cannot be built or run ('' if it can): a value out of bounds, an
+        inertia no mass distribution on the link gives, or a pulse before the vertical."""
+        why = check_values(values)
+        if why:
+            return why
+        c, length = values["com"], self.robot.link1.length
+        if values["inertia"] > self.robot.link1.mass * c * (length - c) * (1 + 1e-12):
+            return (f"inertia {values['inertia']:.4g} kg m2 above m c (L - c) = "
+                    f"{self.robot.link1.mass * c * (length - c):.4g}: no mass distribution "
+                    "on the link has it")
+        for name in ("motor_start", "pulse2_start"):
+            if values["t_switch"] + values[name] < 0.0:
+                return f"{name} puts a pulse before the vertical (t_switch + {name} < 0)"
+        return ""
+
+    # --- the schedule -------------------------------------------------------------------
+    def step_rows(self, values: Mapping[str, float]) -> tuple[list[Segment], list[str], float]:
+        """The rows of one step before its closing vertical crossing, the schedule event
+        each row's guard is (``swap``, ``pulse1_on``, ``pulse1_off``, ``pulse2_on``,
+        ``pulse2_off``; ``actions``: a zero-length row that applies the last event's
+        actions), and the torque left on until the vertical [N m]."""
+        ts = values["t_switch"]
+        on1 = ts + values["motor_start"]
+        on2 = ts + values["pulse2_start"]
+        events = [(ts, "swap"), (on1, "pulse1_on"), (on1 + values["t_motor"], "pulse1_off"),
+                  (on2, "pulse2_on"), (on2 + values["pulse2_duration"], "pulse2_off")]
+        order = sorted(range(len(events)), key=lambda k: (events[k][0], k))
+        torque = {"pulse1": values["torque"], "pulse2": values["pulse2_torque"]}
+        active: set[str] = set()
+        rows, kinds = [], []
+        magnets, tau = "keep", 0.0
+        for k in order:
+            t, what = events[k]
+            rows.append(Segment("time", value=t, magnets=magnets, torque=tau,
+                                fail_status=L.ST_NO_SWITCH if not rows else L.ST_HORIZON))
+            kinds.append(what)
+            magnets = "swap" if what == "swap" else "keep"
+            if what.endswith("_on"):
+                active.add(what[:-3])
+            elif what.endswith("_off"):
+                active.discard(what[:-4])
+            tau = sum(torque[p] for p in sorted(active))
+        if magnets != "keep":
+            # the swap is the last event: a row that ends as it starts applies it, so the
+            # vertical row that follows carries no action of its own
+            rows.append(Segment("time", value=events[order[-1]][0], magnets=magnets,
+                                torque=tau))
+            kinds.append("actions")
+        return rows, kinds, tau
+
+    def gait(self, values: Mapping[str, float]) -> SequenceGait:
+        """The design's cycle as a sequence gait (one or two steps, section at the
+        vertical, the clock restarting at each vertical crossing)."""
+        rows, _, tau = self.step_rows(values)
+        if self.two_step:
+            vertical = Segment("coord", coord="theta1", value=0.0, direction="either",
+                               torque=tau, ticked=False, clock="reset",
+                               fail_status=L.ST_NO_RETURN)
+            rows = [*rows, vertical, *rows]
+        return SequenceGait(rows, section_theta1=0.0, section_direction="either",
+                            section_torque=tau)
+
+    def row_kinds(self, values: Mapping[str, float]) -> list[str]:
+        """What each row of :meth:`gait`'s program is (``vertical``, ``section`` or a
+        schedule event, see :meth:`step_rows`)."""
+        _, kinds, _ = self.step_rows(values)
+        rows = [*kinds, "vertical", *kinds] if self.two_step else kinds
+        return [*rows, "section"]
+
+    def programs(self, values: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+        """``(prog0, dprog)``: the design's program is ``prog0 + q * dprog`` for the balance
+        value ``q`` (``dprog`` is zero without a balance). ``t_switch`` moves every event of
+        the schedule, ``t_motor`` the end of pulse 1, ``torque`` the torque of the rows where
+        pulse 1 is on; the row order of the design is kept (it holds near the design)."""
+        prog, _ = self.gait(values).program()
+        dprog = np.zeros_like(prog)
+        if self.balance == "none":
+            return prog, dprog
+        kinds = self.row_kinds(values)
+        if self.balance == "torque":
+            unit = dict(values, torque=1.0, pulse2_torque=0.0)
+            dprog[:, L.S_TORQUE] = self.gait(unit).program()[0][:, L.S_TORQUE]
+        else:
+            moves = ({"swap", "pulse1_on", "pulse1_off", "pulse2_on", "pulse2_off", "actions"}
+                     if self.balance == "t_switch" else {"pulse1_off"})
+            for r, what in enumerate(kinds):
+                if what in moves:
+                    dprog[r, L.S_GVALUE] = 1.0
+        q = values[self.balance]
+        base = prog - q * dprog
+        # equal to round-off (the sums are grouped differently): ~1e-16 s or N m
+        if not np.allclose(base + q * dprog, prog, rtol=1e-14, atol=1e-14):
+            raise RuntimeError(f"the program is not affine in {self.balance} at this design")
+        return base, dprog
+
+
+@dataclass
+class DesignResult:
+    """One design's gait and its stability (see :func:`evaluate_design`)."""
+
+    values: dict[str, float]
+    status: int                      # DS_* or OUT_OF_BOUNDS
+    z: np.ndarray                    # fixed point (theta2 [rad], dtheta1, dtheta2 [rad s-1])
+    jacobian_fd: np.ndarray          # dP/dz by finite differences
+    multipliers_fd: np.ndarray       # eigenvalues, decreasing modulus
+    spectral_radius_fd: float        # per step
+    jacobian: np.ndarray             # dP/dz by variational equations (NaN: not computed)
+    multipliers: np.ndarray
+    spectral_radius: float           # per step, by variational equations (NaN: not computed)
+    error: float                     # squared section error |P(z) - z|^2
+    rise: float                      # height change per cycle [m]
+    advance: float                   # horizontal advance per cycle [m]
+    energy_lost: float               # at the cycle's impacts [J]
+    period: float                    # [s]
+    iterations: int
+    nfev: int
+    message: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return self.status == DS_OK
+
+    @property
+    def energy_per_metre(self) -> float:
+        """Energy the motor restores per metre travelled [J m-1] (= impact losses at a
+        horizontal gait)."""
+        return self.energy_lost / self.advance if self.advance > 0 else math.nan
+
+    def objective(self, kind: str = "spectral_radius", energy_weight: float = 0.0) -> float:
+        """The search's objective: ``rho`` (finite differences), plus ``energy_weight`` [m
+        J-1] times the energy per metre for ``spectral_radius_energy``; inf if the design
+        has no gait."""
+        if not self.ok or not math.isfinite(self.spectral_radius_fd):
+            return math.inf
+        if kind == "spectral_radius":
+            return self.spectral_radius_fd
+        return self.spectral_radius_fd + energy_weight * self.energy_per_metre
+
+
+def spectral_radius(J: np.ndarray, steps: int) -> float:
+    """``max |eig J|`` per step (to the power ``1 / steps``)."""
+    if not np.all(np.isfinite(J)):
+        return math.nan
+    return float(np.max(np.abs(np.linalg.eigvals(J)))) ** (1.0 / steps)
+
+
+def evaluate_design(space: DesignSpace, free: Mapping[str, float], z0,
+                    *, variational: bool = False) -> DesignResult:
+    """Solve a design's gait from the section-state guess ``z0`` and measure its stability.
+
+    Parameters
+    ----------
+    space : DesignSpace
+    free : mapping
+        The searched parameters' values (the rest from ``space``).
+    z0 : array_like, shape (3,)
+        Newton's start ``(theta2 [rad], dtheta1, dtheta2 [rad s-1])``.
+    variational : bool
+        Also compute the Jacobian by variational equations (a few milliseconds more).
+
+    Returns
+    -------
+    DesignResult
+        With ``values`` holding the solved balance value.
+    """
+    values = space.values(free)
+    n = 3
+    nan3 = np.full((n, n), np.nan)
+    why = space.buildable(values)
+    if why:
+        return DesignResult(values, OUT_OF_BOUNDS, np.full(n, np.nan), nan3, np.full(n, np.nan),
+                            math.nan, nan3, np.full(n, np.nan), math.nan, math.nan, math.nan,
+                            math.nan, math.nan, math.nan, 0, 0, why)
+    robot = space.robot_for(values)
+    prog0, dprog = space.programs(values)
+    balance = space.balance != "none"
+    u0 = np.empty(n + 1 if balance else n)
+    u0[:n] = np.asarray(z0, float)
+    if balance:
+        u0[n] = values[space.balance]
+    settings = settings_vector(space.integrator)
+    u = np.empty_like(u0)
+    DP = np.empty((n, n))
+    info = np.empty(N_INFO)
+    status = fixed_point(robot.params(), prog0, dprog, np.empty((0, L.N_OBS_COLS)), settings,
+                         MAP_SECTION, 0.0, balance, u0, space.tol, space.max_iter,
+                         space.fd_step, u, DP, info)
+    if balance:
+        values[space.balance] = float(u[n])
+        why = check_values({space.balance: values[space.balance]})
+        if why and status == DS_OK:
+            status = OUT_OF_BOUNDS
+    z = u[:n].copy()
+    res = DesignResult(values, int(status), z, DP.copy(), sorted_eigs(DP) if status == DS_OK
+                       else np.full(n, np.nan), spectral_radius(DP, space.steps), nan3,
+                       np.full(n, np.nan), math.nan, float(info[I_ERROR]),
+                       float(info[I_RISE]), float(info[I_ADVANCE]), float(info[I_LOSS]),
+                       float(info[I_PERIOD]), int(info[I_ITERATIONS]), int(info[I_NFEV]),
+                       why if status == OUT_OF_BOUNDS else "")
+    if status != DS_OK:
+        res.spectral_radius_fd = math.nan
+        if not res.message:
+            res.message = f"{STATUS_NAMES[status]} (|F| = {info[I_DEFECT]:.3g})"
+        return res
+    if variational:
+        J = sequence_variational_jacobian(space.gait(values), z, robot=robot,
+                                          integrator=space.integrator)
+        res.jacobian = J
+        res.multipliers = sorted_eigs(J)
+        res.spectral_radius = spectral_radius(J, space.steps)
+    return res
+
+
+# --- verification of a design ------------------------------------------------------------------
+@dataclass
+class Replay:
+    """A design's gait run open loop for many cycles from its fixed point (per cycle)."""
+
+    tick: float              # [s] (0: exact timing)
+    error: np.ndarray        # section error against the fixed point
+    kinetic_energy: np.ndarray   # [J] at each section crossing
+    pivot_height: np.ndarray     # [m]
+    cycles_completed: int    # cycles before it fell, stopped, or left the error bound
+    status: int
+
+
+def replay_design(space: DesignSpace, result: DesignResult, *, cycles: int,
+                  tick: float = 0.0, error_bound: float = 1e-2, start=None) -> Replay:
+    """Run the design's schedule open loop (clock reset at each vertical crossing, actions on
+    the ``tick`` grid [s]) for up to ``cycles`` cycles from ``start`` (default: the fixed
+    point); ``cycles_completed`` counts the cycles before the run fell or stopped, or its
+    error against the fixed point first exceeded ``error_bound``."""
+    robot = space.robot_for(result.values)
+    gait = space.gait(result.values)
+    z0 = result.z if start is None else np.asarray(start, float)
+    run = sequence_cycles(gait, z0, cycles=cycles, robot=robot, integrator=space.integrator,
+                          reference=result.z, tick=tick)
+    bound = cycles_to_bound(run.error, error_bound)
+    completed = bound - 1 if run.error.size and not run.error[bound - 1] <= error_bound else bound
+    return Replay(tick, run.error, run.kinetic_energy, run.pivot_height, int(completed),
+                  int(run.status))
+
+
+def perturbation_decay(space: DesignSpace, result: DesignResult, *, size: float = 1e-3,
+                       cycles: int = 60) -> tuple[np.ndarray, float]:
+    """The distance ``|z_k - z*|`` per cycle from a start ``size`` away from the fixed point
+    along the leading eigenvector (real part, unit length), exact timing, and the growth per
+    cycle fitted to it (:func:`~monkeystudy.analysis.replay.growth_per_cycle`; compare with
+    ``rho ** steps``)."""
+    lam, vec = np.linalg.eig(result.jacobian_fd)
+    v = np.real(vec[:, int(np.argmax(np.abs(lam)))])
+    v /= np.linalg.norm(v)
+    rep = replay_design(space, result, cycles=cycles, start=result.z + size * v,
+                        error_bound=math.inf)
+    dist = np.sqrt(rep.error)
+    return dist, growth_per_cycle(rep.error, window=(1e-9, 10 * size))
+
+
+def design_basin(space: DesignSpace, result: DesignResult, offsets1, offsets2, *,
+                 max_cycles: int, error_bound: float = 1e-2) -> np.ndarray:
+    """Cycles survived from the fixed point offset by ``(d dtheta1, d dtheta2)`` [rad s-1]
+    (:func:`~monkeystudy.analysis.replay.sequence_basin`, exact timing)."""
+    robot = space.robot_for(result.values)
+    return sequence_basin(space.gait(result.values), result.z, offsets1, offsets2,
+                          max_cycles=max_cycles, error_bound=error_bound, robot=robot,
+                          integrator=space.integrator)
+
+
+def design_cycle_run(space: DesignSpace, result: DesignResult, *, sample_dt: float):
+    """One cycle of the design's gait from its fixed point, sampled every ``sample_dt`` [s]
+    (a :class:`~monkeystudy.simulate.RunResult`, for the filmstrip)."""
+    gait = space.gait(result.values)
+    return run_controller(gait.controller(), cycle_section_state(gait, result.z),
+                          robot=space.robot_for(result.values), integrator=space.integrator,
+                          cycles=1, sample_dt=sample_dt)

@@ -1,0 +1,240 @@
+"""Figures of design datasets (docs/datasets.md, "design"): where an open-loop gait is stable.
+
+* :func:`plot_design_map` - the spectral radius per step over the two most influential free
+  parameters (the least over the others), the rho = 1 contour, failures blank, the grid's and
+  the refined best designs marked;
+* :func:`plot_design_multipliers` - the best design's multipliers on the unit circle,
+  variational equations (filled) and finite differences (open);
+* :func:`plot_design_replay` - the best design's open-loop replays (exact timing and the
+  controller tick): section error, kinetic energy and pivot height per cycle, and the decay of
+  a perturbation against the leading multiplier;
+* the filmstrip of the best design's cycle is :func:`monkeystudy.plotting.gait.plot_filmstrip`
+  on the dataset's ``sample`` variables.
+
+:data:`DRAWINGS` registers them under ``("design", suffix)``. Artists carry ``gid`` s (in each
+docstring) so the tests can read back their data.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from matplotlib.colors import LogNorm
+from matplotlib.patches import Circle
+
+from .analysis import attr_float, run_line, two_titles
+from .common import BLACK, BLUE, GREEN, ORANGE, VERMILLION, json_attr, new_figure, style
+from .drawing import Drawing
+from .gait import plot_filmstrip
+
+#: axis labels of the design parameters (name -> label with units)
+LABELS = {
+    "t_switch": "swap time after the vertical  [s]",
+    "motor_start": "motor start after the swap  [s]",
+    "t_motor": "motor pulse duration  [s]",
+    "torque": "motor torque  [N m]",
+    "pulse2_start": "second pulse start after the swap  [s]",
+    "pulse2_duration": "second pulse duration  [s]",
+    "pulse2_torque": "second pulse torque  [N m]",
+    "com": "CG of link 1 from end A  [m]",
+    "inertia": "link inertia about its CG  [kg m²]",
+    "mass_ratio": "mass ratio m2 / m1",
+    "length_ratio": "length ratio L2 / L1",
+}
+
+
+def influence(rho: np.ndarray, dims: list[str]) -> list[str]:
+    """The free parameters ordered by influence on ``log rho``: the spread (max - min) of
+    the least ``log rho`` over the others, along each parameter."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        logr = np.log(rho)
+    spread = {}
+    for k, d in enumerate(dims):
+        others = tuple(j for j in range(len(dims)) if j != k)
+        profile = np.nanmin(np.where(np.isfinite(logr), logr, np.nan), axis=others) \
+            if others and np.any(np.isfinite(logr)) else logr
+        fin = profile[np.isfinite(profile)]
+        spread[d] = float(fin.max() - fin.min()) if fin.size else -1.0
+    return sorted(dims, key=lambda d: -spread[d])
+
+
+def _best_text(ds) -> str:
+    names = json_attr(ds, "parameters", [])
+    # the pulse always, then the searched parameters
+    shown = [n for n in ("torque", "motor_start", "t_motor") if n not in names] + names
+    parts = [f"{n} {attr_float(ds, 'best_' + n):.4g}" for n in shown]
+    bal = ds.attrs.get("balance", "none")
+    if bal != "none":
+        parts.append(f"{bal} {attr_float(ds, 'best_' + bal):.4g} (balance)")
+    return ", ".join(parts)
+
+
+def plot_design_map(ds):
+    """Spectral radius per step over the two most influential parameters.
+
+    gids: ``rho_map`` (the mesh), ``rho_one`` (the rho = 1 contour, when the map crosses 1),
+    ``grid_best``, ``best`` (the markers).
+    """
+    rho = np.asarray(ds["spectral_radius"].transpose(*ds["status"].dims).values, float)
+    dims = list(ds["status"].dims)
+    order = influence(rho, dims)
+    shown = order[:2]
+    with np.errstate(invalid="ignore"):
+        others = tuple(k for k, d in enumerate(dims) if d not in shown)
+        r = np.nanmin(rho, axis=others) if others and np.any(np.isfinite(rho)) else rho
+    kept = [d for d in dims if d in shown]
+    n_ok = int(ds.attrs.get("designs_with_gait", 0))
+    more = f"; least over {', '.join(d for d in dims if d not in shown)}" \
+        if len(dims) > 2 else ""
+    with style():
+        fig = new_figure(figsize=(8.0, 7.0))
+        body = two_titles(fig, "Spectral radius of the open-loop return map over the design "
+                          "grid", f"{int(ds.attrs.get('designs', r.size))} designs, {n_ok} with "
+                          f"a gait{more}; balance: {ds.attrs.get('balance')}; ρ = 1 contour "
+                          f"in red. {ds.attrs.get('verdict', '')}. {run_line(ds, tick=False)}")
+        ax = body.add_subplot()
+        if len(kept) == 1:
+            x = ds[kept[0]].values
+            ax.plot(x, r, "o-", color=BLUE, gid="rho_map")
+            ax.axhline(1.0, color=VERMILLION, ls="--", lw=1.2, label="ρ = 1", gid="rho_one")
+            ax.set_xlabel(LABELS.get(kept[0], kept[0]))
+            ax.set_ylabel("spectral radius ρ per step")
+            ax.set_yscale("log")
+        else:
+            xd, yd = kept[1], kept[0]          # C order: rows are the first kept dim
+            x, y = ds[xd].values, ds[yd].values
+            mesh = ax.pcolormesh(x, y, r, shading="nearest", cmap="viridis_r", gid="rho_map",
+                                 norm=_log_norm(r))
+            cb = body.colorbar(mesh, ax=ax)
+            cb.set_label("spectral radius ρ per step (blank: no gait)")
+            fin = np.isfinite(r)
+            if fin.sum() >= 4 and np.nanmin(r) < 1.0 < np.nanmax(r):
+                cs = ax.contour(x, y, np.where(fin, r, np.nan), levels=[1.0],
+                                colors=VERMILLION, linewidths=2.0)
+                cs.set_gid("rho_one")
+            ax.set_xlabel(LABELS.get(xd, xd))
+            ax.set_ylabel(LABELS.get(yd, yd))
+            gb = np.unravel_index(np.nanargmin(np.where(fin, r, np.inf)), r.shape) \
+                if fin.any() else None
+            if gb is not None:
+                ax.plot([x[gb[1]]], [y[gb[0]]], "s", ms=11, mfc="none", mec=ORANGE, mew=2,
+                        gid="grid_best", label=f"best of the grid, ρ = {r[gb]:.4g}")
+            bx, by = attr_float(ds, "best_" + xd), attr_float(ds, "best_" + yd)
+            ax.plot([bx], [by], "*", ms=16, color=VERMILLION, mec=BLACK, gid="best",
+                    label=f"best design, ρ = {attr_float(ds, 'best_spectral_radius'):.4g}")
+            ax.legend(loc="best", fontsize=8.5)
+    return fig
+
+
+def _log_norm(r):
+    fin = r[np.isfinite(r) & (r > 0)]
+    if fin.size == 0:
+        return None
+    lo, hi = float(fin.min()), float(fin.max())
+    if hi <= lo * 1.0001:
+        hi = lo * 1.01
+    return LogNorm(lo, hi)
+
+
+def plot_design_multipliers(ds):
+    """The best design's multipliers and the unit circle.
+
+    gids: ``multipliers`` (variational, filled), ``multipliers_fd`` (finite differences,
+    open), ``unit_circle``.
+    """
+    lam = ds["best_multipliers_real"].values + 1j * ds["best_multipliers_imag"].values
+    lam_fd = ds["best_multipliers_fd_real"].values + 1j * ds["best_multipliers_fd_imag"].values
+    steps = int(ds.attrs.get("steps_per_cycle", 1))
+    with style():
+        fig = new_figure(figsize=(7.0, 7.2))
+        body = two_titles(fig, "Multipliers of the best open-loop design",
+                          f"{_best_text(ds)}; ρ per step "
+                          f"{attr_float(ds, 'best_spectral_radius'):.6g} (fd "
+                          f"{attr_float(ds, 'best_spectral_radius_fd'):.6g})"
+                          f"{'; a cycle is two steps' if steps == 2 else ''}. "
+                          f"{run_line(ds, tick=False)}")
+        ax = body.add_subplot()
+        ax.add_patch(Circle((0, 0), 1.0, fill=False, color="0.4", lw=1.2, ls="--",
+                            gid="unit_circle"))
+        ax.plot(lam.real, lam.imag, "o", ms=10, color=BLUE, gid="multipliers",
+                label="variational equations")
+        ax.plot(lam_fd.real, lam_fd.imag, "o", ms=15, mfc="none", mec=VERMILLION, mew=1.5,
+                gid="multipliers_fd", label="finite differences")
+        for v in lam:
+            ax.annotate(f"|λ| = {abs(v):.4g}", (v.real, v.imag), xytext=(8, 8),
+                        textcoords="offset points", fontsize=9)
+        m = max(1.2, 1.15 * float(np.max(np.abs(np.concatenate([lam, lam_fd])))))
+        ax.set_xlim(-m, m)
+        ax.set_ylim(-m, m)
+        ax.set_aspect("equal")
+        ax.axhline(0, color="0.8", lw=0.6)
+        ax.axvline(0, color="0.8", lw=0.6)
+        ax.set_xlabel("Re λ")
+        ax.set_ylabel("Im λ")
+        ax.legend(loc="lower left", fontsize=9)
+    return fig
+
+
+def plot_design_replay(ds):
+    """The best design's replays per cycle and the decay of a perturbation.
+
+    gids: ``error_<i>``, ``kinetic_energy_<i>``, ``pivot_height_<i>`` (replay ``i``),
+    ``decay`` (the perturbed run's distance), ``predicted`` (``rho^steps`` per cycle).
+    """
+    ticks = ds["replay_tick"].values
+    cycle = ds["cycle"].values
+    colours = [BLUE, VERMILLION, GREEN, ORANGE]
+    with style():
+        fig = new_figure(figsize=(11.0, 8.6))
+        body = two_titles(fig, "Open-loop replay of the best design from its fixed point",
+                          f"{_best_text(ds)}; ρ per step "
+                          f"{attr_float(ds, 'best_spectral_radius'):.6g}. "
+                          f"{ds.attrs.get('verdict', '')}. {run_line(ds, tick=False)}")
+        axs = body.subplots(2, 2)
+        done = ds["cycles_completed"].values
+        for i, t in enumerate(ticks):
+            label = (f"{'exact timing' if t == 0 else f'{t * 1e3:g} ms tick'}: "
+                     f"{int(done[i])} cycles")
+            c = colours[i % len(colours)]
+            for ax, key in zip((axs[0, 0], axs[0, 1], axs[1, 0]),
+                               ("error", "kinetic_energy", "pivot_height")):
+                y = ds[f"replay_{key}"].values[i]
+                ax.plot(cycle, y, "-", color=c, lw=1.3, gid=f"{key}_{i}", label=label)
+        axs[0, 0].set_yscale("log")
+        axs[0, 0].axhline(attr_float(ds, "error_bound"), color="0.5", ls=":",
+                          label="error bound")
+        axs[0, 0].set_ylabel("section error vs the fixed point\n[rad² + rad² s⁻²]")
+        axs[0, 1].set_ylabel("kinetic energy at the vertical  [J]")
+        axs[1, 0].set_ylabel("height of the attached end  [m]")
+        for ax in (axs[0, 0], axs[0, 1], axs[1, 0]):
+            ax.set_xlabel("gait cycle")
+            ax.set_xscale("log")
+        axs[0, 0].legend(fontsize=8.5, loc="lower right")
+        d = ds["perturbation_distance"].values
+        k = ds["decay_cycle"].values
+        ax = axs[1, 1]
+        ax.semilogy(k, d, "o-", ms=3, color=BLUE, gid="decay",
+                    label=f"perturbed run (fitted {attr_float(ds, 'decay_growth'):.4g} / cycle)")
+        lam = attr_float(ds, "multiplier_power")
+        if d.size and math.isfinite(lam):
+            ax.semilogy(k, d[0] * lam ** (k - 1.0), "--", color=VERMILLION, gid="predicted",
+                        label=f"leading multiplier: {lam:.4g} per cycle")
+        ax.set_xlabel("cycle")
+        ax.set_ylabel("distance from the fixed point  |z_k − z*|")
+        ax.legend(fontsize=8.5)
+        ax.set_title("decay of a perturbation along the leading eigenvector", fontsize=9)
+    return fig
+
+
+def has_film(ds) -> bool:
+    return all(v in ds for v in ("A", "joint", "B")) and ds.sizes.get("sample", 0) > 1
+
+
+DRAWINGS = {
+    ("design", "map"): Drawing(lambda d: plot_design_map(d[0])),
+    ("design", "multipliers"): Drawing(lambda d: plot_design_multipliers(d[0])),
+    ("design", "replay"): Drawing(lambda d: plot_design_replay(d[0])),
+    ("design", "filmstrip"): Drawing(lambda d: plot_filmstrip(d[0]),
+                                     applies=lambda path, folder: has_film(
+                                         folder.loaded(path))),
+}

@@ -1,0 +1,717 @@
+"""The ``design`` step: search open-loop schedules and robot designs for the most stable gait.
+
+From a horizontal gait (a shoot, refine or floquet step: its start and schedule), the step
+evaluates a grid over up to four free design parameters (:data:`monkeystudy.analysis.design.
+PARAMETERS`, with the bounds of what can be built). At each design the gait is re-solved as
+a fixed point of the open-loop return map (clock restarted at each vertical crossing), with
+one schedule value (``balance``) solved so that the gait stays horizontal, and its spectral
+radius is measured by finite differences and by variational equations. The grid runs in
+blocks on the pool, saved as shards (resumable); along the last axis each design starts its
+Newton solve from its converged neighbour, so blocks hold whole lines of that axis and the
+numbers do not depend on the workers.
+
+Then, in the main process: Nelder-Mead from the best grid designs (in coordinates scaled to
+the axes' ranges, kept inside them), and for the best design found, the verification: the
+spectral radius both ways, open-loop replays with exact timing and on the ``tick`` grid for
+``cycles`` cycles or until it falls, the decay of a perturbation per cycle against the
+multipliers, and a basin map.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Literal, Optional
+
+import numpy as np
+from pydantic import Field, field_validator, model_validator
+
+from ...analysis.design import (
+    BALANCES, OBJECTIVES, PARAMETERS, STATUS_NAMES, DesignResult, DesignSpace, design_basin,
+    design_cycle_run, evaluate_design, perturbation_decay, replay_design,
+)
+from ...kernel.design import DS_OK
+from .. import datasets as D
+from ..blocks import Block, Task
+from ..errors import RunFailed
+from ..models import Name, StrictModel
+from .base import Figure, StepContext, StepKind, no_earlier
+from .floquet import FloquetStep
+from .refine import RefineStep
+from .shoot import ShootStep
+from .stability import run_record
+from .survival import survival_gait
+
+#: designs per block at most (whole lines of the last axis; a design costs ~10 ms)
+BLOCK_DESIGNS = 400
+
+
+class DesignAxis(StrictModel):
+    """``num`` evenly spaced values of a design parameter from ``start`` to ``stop``
+    inclusive, in the parameter's units."""
+
+    start: float
+    stop: float
+    num: int = Field(ge=1, le=10_000)
+
+    @model_validator(mode="after")
+    def _order(self) -> "DesignAxis":
+        if self.start > self.stop or (self.num == 1 and self.start != self.stop):
+            raise ValueError("an axis runs from start up to stop (num: 1 needs start == stop)")
+        return self
+
+    def values(self) -> np.ndarray:
+        return np.linspace(self.start, self.stop, self.num)
+
+
+class DesignRefine(StrictModel):
+    """Nelder-Mead from the best grid designs."""
+
+    starts: int = Field(3, ge=0, le=50, description="grid designs to refine from (the best, "
+                        "no two neighbours on the grid); 0: none")
+    max_evaluations: int = Field(300, ge=1, le=100_000, description="designs per start")
+    xatol: float = Field(1e-4, gt=0, description="simplex size at convergence, as a "
+                         "fraction of each axis's range")
+    fatol: float = Field(1e-6, gt=0, description="objective spread at convergence")
+
+
+class DesignVerify(StrictModel):
+    """The checks run on the best design."""
+
+    cycles: int = Field(1000, ge=1, le=1_000_000, description="open-loop replay length")
+    tick: float = Field(0.001, gt=0, le=0.1, description="controller tick of the second "
+                        "replay [s] (the first has exact timing)")
+    error_bound: float = Field(1e-2, gt=0, description="a replay ends when its section error "
+                               "against the fixed point exceeds this [rad2 + rad2 s-2]")
+    perturbation: float = Field(1e-3, gt=0, le=0.1, description="size of the start offset "
+                                "whose decay is measured [rad, rad s-1]")
+    decay_cycles: int = Field(60, ge=3, le=10_000, description="cycles of the decay run")
+    basin_offset: float = Field(1e-2, gt=0, description="half-width of the basin map in "
+                                "dtheta1 and dtheta2 [rad s-1]")
+    basin_num: int = Field(11, ge=1, le=201, description="basin points per axis")
+    basin_cycles: int = Field(60, ge=1, le=100_000, description="cycles per basin start")
+
+
+class DesignStep(StrictModel):
+    """Search open-loop schedules and robot designs for the smallest spectral radius of the
+    return map: a grid, Nelder-Mead from its best designs, and checks of the best."""
+
+    name: Name
+    kind: Literal["design"]
+    from_: Name = Field(alias="from", description="the starting gait: an earlier shoot, "
+                        "refine or floquet step (its open-loop fixed point)")
+    parameters: dict[str, DesignAxis] = Field(description="free design parameters, 1 to 4, "
+                                              "each a grid axis (see docs/model.md for "
+                                              "names, units and bounds)")
+    fixed: dict[str, float] = Field(default_factory=dict, description="values of other "
+                                    "design parameters (default: the starting gait's "
+                                    "schedule and the study's robot)")
+    balance: Literal[BALANCES] = Field("t_switch", description="schedule value solved so the "
+                                       "gait returns to its height each step (its grid or "
+                                       "fixed value is Newton's start); none: free")
+    objective: Literal[OBJECTIVES] = Field("spectral_radius", description="what Nelder-Mead "
+                                           "minimises: the spectral radius per step, or plus "
+                                           "energy_weight times the energy per metre")
+    energy_weight: float = Field(0.0, ge=0, description="weight of the energy per metre "
+                                 "[m J-1] in spectral_radius_energy")
+    starts: list[list[float]] = Field(default_factory=list, description="more Newton starts "
+                                      "for every design, each [theta2 (rad), dtheta1, "
+                                      "dtheta2 (rad s-1)] with an optional 4th entry, the "
+                                      "balance value; a design keeps its most stable gait")
+    refine: DesignRefine = Field(default_factory=DesignRefine)
+    verify: DesignVerify = Field(default_factory=DesignVerify)
+    solution: Optional[int] = Field(None, ge=0, description="which solution of a shoot step "
+                                    "(default: the lowest error)")
+    start_index: Optional[int] = Field(None, ge=0, description="which start of a refine step "
+                                       "(default: the lowest error)")
+
+    @field_validator("parameters")
+    @classmethod
+    def _parameters(cls, v):
+        if not 1 <= len(v) <= 4:
+            raise ValueError(f"give 1 to 4 free parameters, got {len(v)}")
+        for name, axis in v.items():
+            _check_parameter(name, (axis.start, axis.stop))
+        return v
+
+    @field_validator("starts")
+    @classmethod
+    def _starts(cls, v):
+        for i, x in enumerate(v):
+            if len(x) not in (3, 4) or not all(math.isfinite(y) for y in x):
+                raise ValueError(f"start {i}: give 3 or 4 finite numbers, got {x!r}")
+        return v
+
+    @field_validator("fixed")
+    @classmethod
+    def _fixed(cls, v):
+        for name, value in v.items():
+            _check_parameter(name, (value,))
+        return v
+
+    @model_validator(mode="after")
+    def _consistent(self) -> "DesignStep":
+        both = set(self.parameters) & set(self.fixed)
+        if both:
+            raise ValueError(f"{sorted(both)} both free and fixed")
+        if self.balance != "none" and self.balance in self.parameters:
+            raise ValueError(f"balance {self.balance!r} is solved, not a free parameter")
+        return self
+
+    @property
+    def replay(self) -> str:
+        """How the starting gait is read: its open-loop replay (schedule and fixed point)."""
+        return "open_loop"
+
+    @property
+    def names(self) -> list[str]:
+        return list(self.parameters)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(a.num for a in self.parameters.values())
+
+    @property
+    def two_step(self) -> bool:
+        return any(k in self.parameters or self.fixed.get(k, 1.0) != 1.0
+                   for k in ("mass_ratio", "length_ratio"))
+
+    @property
+    def designs_per_block(self) -> int:
+        line = self.shape[-1]
+        return line * max(1, BLOCK_DESIGNS // line)
+
+
+def _check_parameter(name: str, values) -> None:
+    if name not in PARAMETERS:
+        raise ValueError(f"unknown design parameter {name!r}; known: {sorted(PARAMETERS)}")
+    p = PARAMETERS[name]
+    for v in values:
+        if not (p.lower <= v <= p.upper):
+            raise ValueError(f"{name}: {v!r} {p.unit} is outside what can be built "
+                             f"[{p.lower}, {p.upper}]")
+
+
+# --- the starting gait and the design space ------------------------------------------------------
+def design_space(ctx: StepContext, gait: dict) -> DesignSpace:
+    """The step's :class:`~monkeystudy.analysis.design.DesignSpace`: the study's robot, the
+    starting gait's schedule (swap at ``t_switch``, motor ``torque`` from the swap for
+    ``t_motor``) under the step's ``fixed`` values."""
+    st = ctx.step
+    base = {"t_switch": gait["t_switch"], "t_motor": gait["t_motor"], "torque": gait["torque"]}
+    base.update(st.fixed)
+    for name in st.parameters:
+        base.pop(name, None)
+    return DesignSpace(ctx.spec.robot, base=base, balance=st.balance, two_step=st.two_step,
+                       integrator=ctx.spec.integrator)
+
+
+# --- tasks (run on the workers) ------------------------------------------------------------------
+#: what a block returns per design (besides the multipliers)
+FIELDS = ("status", "spectral_radius", "spectral_radius_fd", "theta2", "dtheta1", "dtheta2",
+          "balance_value", "error", "rise", "advance", "energy_lost", "period", "iterations",
+          "nfev")
+
+
+def record(res: DesignResult, space: DesignSpace) -> dict:
+    """One design's numbers as the block arrays hold them."""
+    return {"status": res.status, "spectral_radius": res.spectral_radius,
+            "spectral_radius_fd": res.spectral_radius_fd, "theta2": res.z[0],
+            "dtheta1": res.z[1], "dtheta2": res.z[2],
+            "balance_value": (res.values[space.balance] if space.balance != "none"
+                              else math.nan),
+            "error": res.error, "rise": res.rise, "advance": res.advance,
+            "energy_lost": res.energy_lost, "period": res.period,
+            "iterations": res.iterations, "nfev": res.nfev}
+
+
+def design_block(space: DesignSpace, names: list[str], axes: list[np.ndarray], starts,
+                 lo: int, hi: int) -> dict[str, np.ndarray]:
+    """Designs ``lo..hi`` (flat C-order indices of the grid over ``axes``) with their gait,
+    spectral radius both ways and multipliers.
+
+    Each design's gait is solved by Newton from every start, and the converged gait with
+    the smallest spectral radius is kept (one design may have several gaits): the previous
+    converged design along the last axis (a continuation; none at a line's start), then each
+    of ``starts``, pairs ``(z, balance value or None)`` (the step's gait first).
+    """
+    shape = tuple(len(a) for a in axes)
+    n = hi - lo
+    out = {k: np.full(n, np.nan) for k in FIELDS}
+    out["status"] = np.zeros(n, np.int8)
+    out["multiplier_modulus"] = np.full((n, 3), np.nan)
+    prev = None
+    for i, flat in enumerate(range(lo, hi)):
+        idx = np.unravel_index(flat, shape)
+        free = {name: float(axes[k][idx[k]]) for k, name in enumerate(names)}
+        if idx[-1] == 0:
+            prev = None
+        res = solve_design(space, free, ([(prev.z, prev.values[space.balance] if
+                                           space.balance != "none" else None)]
+                                         if prev is not None else []) + list(starts))
+        prev = res if res.ok else prev
+        for k, v in record(res, space).items():
+            out[k][i] = v
+        out["multiplier_modulus"][i] = np.abs(res.multipliers_fd)
+    return out
+
+
+def solve_design(space: DesignSpace, free: dict, starts, *, variational: bool = True):
+    """The design's gait with the smallest spectral radius from Newton at each start
+    ``(z, balance value or None)``; the last failure when none converges."""
+    best, last = None, None
+    for z, q in starts:
+        values = free if q is None or space.balance == "none" else dict(
+            free, **{space.balance: float(q)})
+        res = evaluate_design(space, values, z)
+        last = res
+        if res.ok and (best is None or res.spectral_radius_fd < best.spectral_radius_fd):
+            best = res
+    if best is None:
+        return last
+    if variational:
+        best = evaluate_design(space, dict(free, **({space.balance: best.values[
+            space.balance]} if space.balance != "none" else {})), best.z, variational=True)
+    return best
+
+
+def _with_balance(free: dict, values: dict, space: DesignSpace) -> dict:
+    """``free`` with the balance's Newton start taken from a neighbour's solved ``values``."""
+    if space.balance == "none":
+        return free
+    return dict(free, **{space.balance: values[space.balance]})
+
+
+# --- refinement and verification (main process) --------------------------------------------------
+def refine_starts(objective: np.ndarray, k: int) -> list[int]:
+    """Flat indices of the ``k`` best finite grid designs, no two neighbours (Chebyshev
+    distance 1 on the grid)."""
+    flat = objective.ravel()
+    order = [i for i in np.argsort(flat, kind="stable") if np.isfinite(flat[i])]
+    chosen: list[int] = []
+    for i in order:
+        if len(chosen) == k:
+            break
+        ii = np.array(np.unravel_index(i, objective.shape))
+        if all(np.max(np.abs(ii - np.array(np.unravel_index(j, objective.shape)))) > 1
+               for j in chosen):
+            chosen.append(int(i))
+    return chosen
+
+
+def nelder_mead(space: DesignSpace, st: DesignStep, axes, start: dict) -> tuple:
+    """Nelder-Mead on the objective from the design ``start`` (a grid design's values and
+    gait), in coordinates scaled to the axes' ranges and clipped to them; returns ``(best
+    DesignResult, evaluations, history of the best objective)``."""
+    from scipy.optimize import minimize   # scipy loads in ~0.2 s: only this step needs it
+
+    names = st.names
+    lo = np.array([a[0] for a in axes])
+    span = np.array([max(a[-1] - a[0], 1e-12) for a in axes])
+    x0 = (np.array([start["values"][n] for n in names]) - lo) / span
+    state = {"z": np.asarray(start["z"], float), "balance": start["values"], "best": None,
+             "history": [], "n": 0}
+
+    def f(x):
+        state["n"] += 1
+        xc = np.clip(x, 0.0, 1.0)
+        free = {n: float(lo[k] + span[k] * xc[k]) for k, n in enumerate(names)}
+        res = evaluate_design(space, _with_balance(free, state["balance"], space), state["z"])
+        value = res.objective(st.objective, st.energy_weight)
+        # leaving the box costs the distance outside: the simplex comes back in
+        value += 10.0 * float(np.sum(np.abs(x - xc)))
+        if res.ok:
+            state["z"], state["balance"] = res.z, res.values
+            if state["best"] is None or value < state["best"][0]:
+                state["best"] = (value, res)
+        state["history"].append(state["best"][0] if state["best"] else math.inf)
+        return value if math.isfinite(value) else 1e3
+
+    steps = np.array([1.0 / max(a.size - 1, 4) for a in axes])
+    simplex = np.vstack([x0] + [x0 + np.eye(len(x0))[k] * steps[k] *
+                                (1 if x0[k] + steps[k] <= 1 else -1) for k in range(len(x0))])
+    minimize(f, x0, method="Nelder-Mead",
+             options={"maxfev": st.refine.max_evaluations, "xatol": st.refine.xatol,
+                      "fatol": st.refine.fatol, "initial_simplex": simplex})
+    best = state["best"][1] if state["best"] else None
+    return best, state["n"], state["history"]
+
+
+def verify(space: DesignSpace, res: DesignResult, v: DesignVerify) -> dict:
+    """The checks of one design: variational against finite differences, replays (exact and
+    ticked), the decay of a perturbation, the basin."""
+    full = res
+    exact = replay_design(space, full, cycles=v.cycles, tick=0.0, error_bound=v.error_bound)
+    ticked = replay_design(space, full, cycles=v.cycles, tick=v.tick,
+                           error_bound=v.error_bound)
+    dist, growth = perturbation_decay(space, full, size=v.perturbation, cycles=v.decay_cycles)
+    offsets = np.linspace(-v.basin_offset, v.basin_offset, v.basin_num)
+    basin = design_basin(space, full, offsets, offsets, max_cycles=v.basin_cycles,
+                         error_bound=v.error_bound)
+    return {"replays": [exact, ticked], "decay": dist, "growth": growth, "offsets": offsets,
+            "basin": basin}
+
+
+def refine_and_verify(space: DesignSpace, st: DesignStep, axes, grid: dict, starts) -> dict:
+    """Nelder-Mead from the best grid designs, then the checks of the best design found
+    (the best grid design when no refinement improves on it)."""
+    shape = st.shape
+    objective = grid["objective"].reshape(shape)
+    starts = refine_starts(objective, st.refine.starts)
+    refined = []
+    for flat in starts:
+        idx = np.unravel_index(flat, shape)
+        free = {n: float(axes[k][idx[k]]) for k, n in enumerate(st.names)}
+        start = evaluate_design(space, _with_balance(
+            free, {space.balance: grid["balance_value"].reshape(shape)[idx]}, space),
+            [grid[c].reshape(shape)[idx] for c in ("theta2", "dtheta1", "dtheta2")])
+        if not start.ok:
+            continue
+        best, n_eval, history = nelder_mead(space, st, axes, {"values": start.values,
+                                                              "z": start.z})
+        found = best or start
+        # every refined design's replays too: the smallest rho is not always the one that
+        # survives the controller tick
+        reps = [replay_design(space, found, cycles=st.verify.cycles, tick=t,
+                              error_bound=st.verify.error_bound)
+                for t in (0.0, st.verify.tick)]
+        refined.append({"start": flat, "start_objective": float(objective[idx]),
+                        "result": found, "evaluations": n_eval,
+                        "cycles_completed": [r.cycles_completed for r in reps]})
+    candidates = [r["result"] for r in refined]
+    ok = np.flatnonzero(np.isfinite(objective.ravel()))
+    if ok.size:
+        flat = int(ok[np.argmin(objective.ravel()[ok])])
+        idx = np.unravel_index(flat, shape)
+        free = {n: float(axes[k][idx[k]]) for k, n in enumerate(st.names)}
+        g = evaluate_design(space, _with_balance(
+            free, {space.balance: grid["balance_value"][flat]}, space),
+            [grid[c][flat] for c in ("theta2", "dtheta1", "dtheta2")])
+        if g.ok:
+            candidates.append(g)
+    if not candidates:
+        raise RunFailed(f"{st.name}: no design of the grid has a gait (statuses: "
+                        f"{_status_text(grid['status'])})")
+    best = min(candidates, key=lambda r: r.objective(st.objective, st.energy_weight))
+    free = {n: best.values[n] for n in st.names}
+    best = evaluate_design(space, _with_balance(free, best.values, space), best.z,
+                           variational=True)
+    if not best.ok:
+        raise RunFailed(f"{st.name}: the best design's gait did not re-solve ({best.message})")
+    return {"refined": refined, "best": best, "checks": verify(space, best, st.verify),
+            "film": design_cycle_run(space, best, sample_dt=0.005)}
+
+
+def _status_text(status: np.ndarray) -> str:
+    vals, counts = np.unique(np.asarray(status, int), return_counts=True)
+    return ", ".join(f"{STATUS_NAMES[v]} {c}" for v, c in zip(vals, counts))
+
+
+# --- the dataset ---------------------------------------------------------------------------------
+GRID_VARIABLES = {
+    "status": ("how the design's gait solve ended", "1"),
+    "spectral_radius": ("spectral radius of the return map per step, by variational "
+                        "equations with saltation matrices", "1"),
+    "spectral_radius_fd": ("spectral radius of the return map per step, by finite "
+                           "differences", "1"),
+    "theta2": ("fixed point: theta2 on the section", "rad"),
+    "dtheta1": ("fixed point: dtheta1 on the section", D.RATE),
+    "dtheta2": ("fixed point: dtheta2 on the section", D.RATE),
+    "balance_value": ("solved value of the balance parameter", ""),
+    "error": ("squared section error |P(z) - z|^2 at the solution", D.ERROR_UNITS),
+    "rise": ("height gained by the attached end per cycle", "m"),
+    "advance": ("horizontal advance of the attached end per cycle", "m"),
+    "energy_lost": ("energy lost at the cycle's impacts (restored by the motor)", "J"),
+    "period": ("duration of a cycle", "s"),
+    "iterations": ("Newton iterations", "1"),
+    "nfev": ("right-hand-side evaluations of the solve", "1"),
+    "objective": ("the search's objective", "1"),
+    "energy_per_metre": ("energy restored per metre travelled", "J m-1"),
+}
+
+
+def write_design(path: Path, attrs: dict, st: DesignStep, space: DesignSpace, axes,
+                 grid: dict, found: dict) -> None:
+    """Write a design dataset (dims: one per free parameter, ``k``, ``start``, ``replay``,
+    ``cycle``, ``decay_cycle``, ``basin_d_dtheta1``, ``basin_d_dtheta2``, ``sample``)."""
+    names, shape = st.names, st.shape
+    best, checks = found["best"], found["checks"]
+    units = {n: PARAMETERS[n].unit for n in names}
+    with D.atomic_netcdf(path) as nc:
+        for n, a in zip(names, axes):
+            nc.createDimension(n, len(a))
+            D.add_variable(nc, n, (n,), np.float64, {"long_name": PARAMETERS[n].meaning,
+                                                     "units": units[n]}, a)
+        D.add_index_coord(nc, "k", 3, "multiplier, by decreasing modulus")
+        for key, (what, unit) in GRID_VARIABLES.items():
+            if key == "balance_value":
+                unit = PARAMETERS[space.balance].unit if space.balance != "none" else "1"
+                what += f" ({space.balance})"
+            data = grid[key].reshape(shape)
+            extra = {}
+            if key == "status":
+                extra = {"flag_values": np.arange(len(STATUS_NAMES), dtype=np.int8),
+                         "flag_meanings": " ".join(STATUS_NAMES)}
+            D.add_variable(nc, key, tuple(names), np.int8 if key == "status" else np.float64,
+                           {"long_name": what, "units": unit, **extra}, data)
+        D.add_variable(nc, "multiplier_modulus", (*names, "k"), np.float64,
+                       {"long_name": "|multiplier| of the cycle's return map (finite "
+                                     "differences)", "units": "1"},
+                       grid["multiplier_modulus"].reshape(*shape, 3))
+        refined = found["refined"]
+        D.add_index_coord(nc, "start", len(refined), "Nelder-Mead start (a grid design)")
+        for n in names:
+            D.add_variable(nc, f"refined_{n}", ("start",), np.float64,
+                           {"long_name": f"refined design: {n}", "units": units[n]},
+                           [r["result"].values[n] for r in refined])
+        D.add_variable(nc, "refined_objective", ("start",), np.float64,
+                       {"long_name": "objective of the refined design", "units": "1"},
+                       [r["result"].objective(st.objective, st.energy_weight)
+                        for r in refined])
+        D.add_variable(nc, "start_objective", ("start",), np.float64,
+                       {"long_name": "objective of the grid design it started from",
+                        "units": "1"}, [r["start_objective"] for r in refined])
+        D.add_variable(nc, "refine_evaluations", ("start",), np.int32,
+                       {"long_name": "designs evaluated by Nelder-Mead", "units": "1"},
+                       [r["evaluations"] for r in refined])
+        D.add_variable(nc, "refined_spectral_radius_fd", ("start",), np.float64,
+                       {"long_name": "spectral radius per step of the refined design (finite "
+                                     "differences)", "units": "1"},
+                       [r["result"].spectral_radius_fd for r in refined])
+        nc.createDimension("replay", 2)
+        D.add_variable(nc, "replay_tick", ("replay",), np.float64,
+                       {"long_name": "controller tick of the replay (0: exact timing)",
+                        "units": "s"}, [0.0, st.verify.tick])
+        D.add_variable(nc, "refined_cycles_completed", ("start", "replay"), np.int64,
+                       {"long_name": "cycles the refined design's open-loop replay completed "
+                                     "before it fell, stopped or left the error bound",
+                        "units": "1"},
+                       np.array([r["cycles_completed"] for r in refined],
+                                np.int64).reshape(len(refined), 2))
+        D.add_index_coord(nc, "row", 3, "row of dP/dz")
+        D.add_index_coord(nc, "col", 3, "column of dP/dz")
+        D.add_variable(nc, "best_jacobian", ("row", "col"), np.float64,
+                       {"long_name": "best design: dP/dz by variational equations",
+                        "units": "1"}, best.jacobian)
+        D.add_variable(nc, "best_jacobian_fd", ("row", "col"), np.float64,
+                       {"long_name": "best design: dP/dz by finite differences", "units": "1"},
+                       best.jacobian_fd)
+        D.add_complex(nc, "best_multipliers", ("k",), best.multipliers,
+                      "best design: multipliers of the cycle (variational equations)")
+        D.add_complex(nc, "best_multipliers_fd", ("k",), best.multipliers_fd,
+                      "best design: multipliers of the cycle (finite differences)")
+        replays = checks["replays"]
+        n_cyc = st.verify.cycles
+        D.add_index_coord(nc, "cycle", n_cyc, "replay cycle", start=1)
+        for key, what, unit in (("error", "section error against the fixed point",
+                                 D.ERROR_UNITS),
+                                ("kinetic_energy", "kinetic energy at the section", "J"),
+                                ("pivot_height", "height of the attached end at the section",
+                                 "m")):
+            data = np.full((len(replays), n_cyc), np.nan)
+            for i, r in enumerate(replays):
+                v = getattr(r, key)[:n_cyc]
+                data[i, :v.size] = v
+            D.add_variable(nc, f"replay_{key}", ("replay", "cycle"), np.float64,
+                           {"long_name": f"open-loop replay: {what}", "units": unit}, data)
+        D.add_variable(nc, "cycles_completed", ("replay",), np.int64,
+                       {"long_name": "cycles the replay completed before it fell, stopped "
+                                     "or left the error bound", "units": "1"},
+                       [r.cycles_completed for r in replays])
+        D.add_variable(nc, "replay_status", ("replay",), np.int8,
+                       {"long_name": "how the replay's run ended", **D.STATUS_ATTRS},
+                       [r.status for r in replays])
+        decay = checks["decay"]
+        D.add_index_coord(nc, "decay_cycle", decay.size, "cycle of the perturbed run",
+                          start=1)
+        D.add_variable(nc, "perturbation_distance", ("decay_cycle",), np.float64,
+                       {"long_name": "distance |z_k - z*| of the perturbed run from the fixed "
+                                     "point (exact timing)", "units": "1"}, decay)
+        offsets = checks["offsets"]
+        for dim in ("basin_d_dtheta1", "basin_d_dtheta2"):
+            nc.createDimension(dim, offsets.size)
+            D.add_variable(nc, dim, (dim,), np.float64,
+                           {"long_name": f"start offset in {dim[8:]}", "units": D.RATE},
+                           offsets)
+        D.add_variable(nc, "basin_cycles", ("basin_d_dtheta1", "basin_d_dtheta2"), np.int32,
+                       {"long_name": "cycles survived from the offset start (exact timing; "
+                                     f"{st.verify.basin_cycles}: never failed)",
+                        "units": "1"}, checks["basin"])
+        rec = run_record(found["film"])
+        nc.createDimension("sample", rec["time"].size)
+        nc.createDimension("xy", 2)
+        D.add_variable(nc, "time", ("sample",), np.float64,
+                       {"long_name": "time of the best design's cycle", "units": "s"},
+                       rec["time"])
+        for key in ("A", "joint", "B"):
+            D.add_variable(nc, key, ("sample", "xy"), np.float64,
+                           {"long_name": f"world position of {key}", "units": "m"}, rec[key])
+        D.add_variable(nc, "attached_end", ("sample",), np.int8,
+                       {"long_name": "end the frame hangs from (0: A, 1: B)", "units": "1"},
+                       rec["attached_end"])
+        D.add_variable(nc, "phase", ("sample",), np.int8,
+                       {"long_name": "phase (0 swing, 1 flight, 2 fixed)", "units": "1"},
+                       rec["phase"])
+        D.add_variable(nc, "motor_torque", ("sample",), np.float64,
+                       {"long_name": "motor torque", "units": "N m"}, rec["motor_torque"])
+        D.set_global_attrs(nc, attrs)
+
+
+def best_attrs(space: DesignSpace, st: DesignStep, found: dict) -> dict:
+    """The best design's numbers and the verdict, as global attributes."""
+    best, checks = found["best"], found["checks"]
+    exact, ticked = checks["replays"]
+    rho, rho_fd = best.spectral_radius, best.spectral_radius_fd
+    stable = rho < 1.0
+    n = st.verify.cycles
+    if not stable:
+        verdict = f"unstable: rho = {rho:.6g} per step (no design with rho < 1 found)"
+    elif ticked.cycles_completed >= n:
+        verdict = (f"stable: rho = {rho:.6g}; the open-loop replay completes {n} cycles "
+                   f"with exact timing and on the {st.verify.tick * 1e3:g} ms tick")
+    elif exact.cycles_completed >= n:
+        verdict = (f"stable with exact timing only: rho = {rho:.6g}; on the "
+                   f"{st.verify.tick * 1e3:g} ms tick the replay lasts "
+                   f"{ticked.cycles_completed} cycles")
+    else:
+        verdict = (f"linearly stable (rho = {rho:.6g}) but the replay lasts "
+                   f"{exact.cycles_completed} cycles with exact timing")
+    out = {f"best_{n_}": float(best.values[n_]) for n_ in PARAMETERS}
+    out.update(best_spectral_radius=rho, best_spectral_radius_fd=rho_fd,
+               spectral_radius_agreement=abs(rho - rho_fd),
+               best_theta2=float(best.z[0]), best_dtheta1=float(best.z[1]),
+               best_dtheta2=float(best.z[2]), best_error=best.error, best_rise=best.rise,
+               best_advance=best.advance, best_energy_per_metre=best.energy_per_metre,
+               best_period=best.period, best_objective=best.objective(st.objective,
+                                                                      st.energy_weight),
+               decay_growth=checks["growth"], multiplier_power=rho ** space.steps,
+               steps_per_cycle=space.steps, balance=space.balance, objective=st.objective,
+               energy_weight=st.energy_weight, parameters=list(st.names),
+               stable=bool(stable), stable_exact=bool(stable and exact.cycles_completed >= n),
+               stable_tick=bool(stable and ticked.cycles_completed >= n),
+               verify_tick=st.verify.tick, verify_cycles=n, error_bound=st.verify.error_bound, verdict=verdict,
+               t_switch=float(best.values["t_switch"]), t_motor=float(best.values["t_motor"]))
+    return out
+
+
+# --- the kind ------------------------------------------------------------------------------------
+class DesignKind(StepKind):
+    name = "design"
+    model = DesignStep
+    gait_kinds = ("horizontal",)
+    unit = "blocks"
+    figures = (
+        Figure("map", "spectral radius over the design grid",
+               "The spectral radius per step over the two most influential free parameters "
+               "(the smallest over the others), the rho = 1 contour drawn, the grid's "
+               "failures blank and the best design marked: where, if anywhere, an open-loop "
+               "gait is stable."),
+        Figure("multipliers", "multipliers of the best design",
+               "The best design's multipliers on the unit circle, by variational equations "
+               "and by finite differences (they coincide): a design is stable when all lie "
+               "inside."),
+        Figure("replay", "open-loop replay of the best design",
+               "The best design run open loop from its fixed point, with exact timing and on "
+               "the controller tick: section error, kinetic energy and pivot height per cycle "
+               "(the 2009 study's figures 5-7), and the decay of a small perturbation against "
+               "the leading multiplier."),
+        Figure("filmstrip", "one cycle of the best design",
+               "The best design's gait cycle frame by frame, with its schedule below."),
+    )
+
+    def check(self, study, index, step: DesignStep, seen) -> list:
+        out = []
+        ref = seen.get(step.from_)
+        if not isinstance(ref, (ShootStep, RefineStep, FloquetStep)):
+            out.append((("steps", index, "from"),
+                        no_earlier(step.from_, "shoot, refine or floquet", ref)))
+        elif isinstance(ref, FloquetStep) and "open_loop" not in ref.controllers:
+            out.append((("steps", index, "from"), f"floquet step {ref.name!r} has no "
+                        "open_loop fixed point"))
+        if study.gait.tick != 0.0:
+            out.append((("gait", "tick"), "a design step solves gaits with exact timing "
+                        "(gait tick 0); verify.tick sets the replay's tick"))
+        if step.solution is not None and not isinstance(ref, ShootStep):
+            out.append((("steps", index, "solution"), "solution picks a shoot step's solution"))
+        if step.start_index is not None and not isinstance(ref, RefineStep):
+            out.append((("steps", index, "start_index"), "start_index picks a refine step's "
+                        "start"))
+        return out
+
+    def blocks(self, step: DesignStep) -> list[Block]:
+        n = int(np.prod(step.shape))
+        size = step.designs_per_block
+        return [Block(i, lo, min(lo + size, n)) for i, lo in enumerate(range(0, n, size))]
+
+    def block_summary(self, step: DesignStep) -> str:
+        return " x ".join(f"{n} {a.num}" for n, a in step.parameters.items()) + " designs"
+
+    def n_tasks(self, step: DesignStep, gait_kind: str) -> int:
+        return len(self.blocks(step))
+
+    def needs_variational(self, step) -> bool:
+        return True
+
+    def start(self, ctx: StepContext) -> list[Task]:
+        st = ctx.step
+        gait = survival_gait(ctx)
+        space = design_space(ctx, gait)
+        axes = [a.values() for a in st.parameters.values()]
+        ctx.state.update(gait=gait, space=space, axes=axes)
+        starts = [(list(gait["z"]), None)] + [
+            (list(x[:3]), x[3] if len(x) == 4 else None) for x in st.starts]
+        ctx.state["starts"] = starts
+        return [Task(b, design_block, (space, st.names, axes, starts, b.lo, b.hi))
+                for b in ctx.todo_blocks()]
+
+    def finish(self, ctx: StepContext, attrs: dict) -> str:
+        st = ctx.step
+        gait, space, axes = ctx.state["gait"], ctx.state["space"], ctx.state["axes"]
+        n = int(np.prod(st.shape))
+        grid = {k: np.full(n, np.nan) for k in FIELDS}
+        grid["status"] = np.zeros(n, np.int8)
+        grid["multiplier_modulus"] = np.full((n, 3), np.nan)
+        for b in ctx.blocks:
+            got = ctx.block_arrays(b)
+            for k in grid:
+                grid[k][b.lo:b.hi] = got[k]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            grid["energy_per_metre"] = np.where(grid["advance"] > 0,
+                                                grid["energy_lost"] / grid["advance"], np.nan)
+        rho = grid["spectral_radius_fd"]
+        grid["objective"] = (rho if st.objective == "spectral_radius"
+                             else rho + st.energy_weight * grid["energy_per_metre"])
+        found = refine_and_verify(space, st, axes, grid, ctx.state["starts"])
+        attrs.update(gait["source"], start_theta2=gait["z"][0], start_dtheta1=gait["z"][1],
+                     start_dtheta2=gait["z"][2], start_t_switch=gait["t_switch"],
+                     start_t_motor=gait["t_motor"], motor_torque=gait["torque"],
+                     n_blocks=len(ctx.blocks), designs=n,
+                     designs_with_gait=int(np.sum(grid["status"] == DS_OK)),
+                     grid_min_spectral_radius=float(np.nanmin(rho)) if np.any(
+                         np.isfinite(rho)) else math.nan,
+                     total_nfev=int(np.nansum(grid["nfev"])))
+        attrs.update(best_attrs(space, st, found))
+        write_design(ctx.path, attrs, st, space, axes, grid, found)
+        return (f"{n} designs ({attrs['designs_with_gait']} with a gait); best rho "
+                f"{attrs['best_spectral_radius']:.6g} per step (fd "
+                f"{attrs['best_spectral_radius_fd']:.6g}); {attrs['verdict']}")
+
+    def describe(self, ds) -> list[str]:
+        a = ds.attrs
+        names = [str(x) for x in json_list(a.get("parameters", "[]"))]
+        best = ", ".join(f"{n} {float(a['best_' + n]):.6g} {PARAMETERS[n].unit}"
+                         for n in names)
+        return [f"{int(a['designs'])} designs over {', '.join(names)} "
+                f"({int(a['designs_with_gait'])} with a gait); balance {a.get('balance')}; "
+                f"{int(a['steps_per_cycle'])} step(s) per cycle",
+                f"best: {best}; rho {float(a['best_spectral_radius']):.6g} (variational), "
+                f"{float(a['best_spectral_radius_fd']):.6g} (fd); grid min "
+                f"{float(a['grid_min_spectral_radius']):.6g}",
+                f"replays: {', '.join(str(int(c)) for c in ds['cycles_completed'].values)} "
+                f"cycles (tick {', '.join(f'{float(t):g}' for t in ds['replay_tick'].values)} "
+                f"s); {a.get('verdict')}"]
+
+
+def json_list(text) -> list:
+    """A list attribute (stored as JSON text)."""
+    return json.loads(text) if isinstance(text, str) and text else list(text or [])
