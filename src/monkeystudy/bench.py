@@ -27,7 +27,9 @@ from numba import njit
 
 from .analysis.design import DesignSpace, evaluate_design
 from .analysis.precision import best_of, kernel_gaits
-from .controllers import HorizontalSearch, Integrator, settings_vector
+from .analysis.sections import cycle_section_state
+from .analysis.survival import Noise, survival_runs
+from .controllers import HorizontalSearch, Integrator, Observer, settings_vector
 from .kernel.design import MAP_SECTION, cycle_map
 from .kernel.dynamics import rhs_swing
 from .kernel.layout import C_MAX_CYCLES, N_COUNTS, N_LOG_COLS, N_OBS_COLS
@@ -395,6 +397,44 @@ def design_cost(repeat: int = 5) -> dict:
             "iterations": again.iterations, "nfev": again.nfev}
 
 
+def survival_rate(quick: bool) -> dict:
+    """Cycles per second of compiled survival runs (one core): the as-built design's gait
+    (docs/findings.md section 6) under 10 us timing jitter, DOP853 rtol 1e-10, against one
+    horizontal gait evaluation at the same tolerance."""
+    space = DesignSpace(Robot.preset("seed2009"), base={"t_switch": 0.4187},
+                        balance="t_switch", integrator=Integrator(rtol=1e-13, atol=1e-13))
+    free = {"motor_start": -0.3125, "t_motor": 0.36, "torque": -0.57186}
+    res = evaluate_design(space, free, [-0.40, 5.0, 5.3])
+    seq = space.gait(res.values)
+    n_rows = len(seq.all_segments())
+    section = Observer("coord", "theta1", 0.0, "either", segment=n_rows - 1)
+    runs, cycles = (4, 200) if quick else (10, 500)
+
+    def go():
+        return survival_runs(seq.controller(), cycle_section_state(seq, res.z), res.z,
+                             runs=np.arange(runs), max_cycles=cycles, noise=Noise(timing=1e-5),
+                             seed=0, robot=space.robot_for(res.values), section=section,
+                             min_advance=0.6)
+    out = go()
+    t = best_of(go, 2 if quick else 3)
+    done = int(out.cycles.sum())
+    par, pts = Robot.preset("seed2009").params(), gait_points(16)
+    prog, _ = HorizontalSearch(SEED2009_TORQUE).program()
+    floor = Robot.preset("seed2009").swap_energy_floor()
+    t_gait = best_of(lambda: kernel_gaits(par, prog, settings_vector(Integrator()), pts,
+                                          floor), 5) / len(pts)
+    return {"cycles": done, "seconds": t, "t_gait": t_gait, "runs": runs}
+
+
+def print_survival_rate(quick: bool) -> None:
+    r = survival_rate(quick)
+    per = r["seconds"] / r["cycles"]
+    print(f"\nsurvival runs (compiled, cycle after cycle; the as-built design under 10 us "
+          f"jitter, {r['runs']} runs, {r['cycles']} cycles): {1 / per:.0f} cycles/s on one core "
+          f"({per * 1e6:.0f} us per cycle = {per / r['t_gait']:.1f} horizontal gait "
+          f"evaluations of {r['t_gait'] * 1e6:.1f} us), {60 / per:.2g} cycles/min per core")
+
+
 def print_design_cost(quick: bool) -> None:
     d = design_cost(3 if quick else 7)
     print(f"\ndesign evaluation (Newton with the swap time balanced, {d['iterations']} "
@@ -569,6 +609,7 @@ def main(argv=None) -> int:
               f"speed-up {wn / w1:.2f}x")
     print_skipping()
     print_design_cost(args.quick)
+    print_survival_rate(args.quick)
     for n in args.grid or []:
         print_grid_run(n, args.served)
     if args.startup:

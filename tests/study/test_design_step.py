@@ -74,6 +74,19 @@ def test_the_best_design_is_checked_as_the_issue_asks(smoke):
     assert np.nanmax(ds["perturbation_distance"].values[-5:]) < 1e-3 * rho ** 10
 
 
+def test_a_survival_step_runs_the_best_design(smoke):
+    out, ds, log = smoke
+    assert "schedule_survival: done" in log
+    with xr.open_dataset(out / "schedule_survival.nc") as sv:
+        assert sv.attrs["design_step"] == "schedule"
+        assert sv.attrs["replay"] == "open_loop"
+        # it starts from the best design's fixed point, with its own schedule
+        assert float(sv.attrs["dtheta1"]) == float(ds.attrs["best_dtheta1"])
+        assert float(sv.attrs["t_switch"]) == float(ds.attrs["best_t_switch"])
+        assert sv["cycles_completed"].shape == (2, 8)
+        assert np.all(sv["cycles_completed"].values >= 1)
+
+
 def test_one_worker_equals_two(smoke, tmp_path):
     out, _, _ = smoke
     run_study(load_study(SMOKE), tmp_path / "one", workers=1)

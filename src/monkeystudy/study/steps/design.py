@@ -40,7 +40,7 @@ from .floquet import FloquetStep
 from .refine import RefineStep
 from .shoot import ShootStep
 from .stability import run_record
-from .survival import survival_gait
+from .gaits import step_gait
 
 #: designs per block at most (whole lines of the last axis; a design costs ~10 ms)
 BLOCK_DESIGNS = 400
@@ -654,7 +654,7 @@ class DesignKind(StepKind):
 
     def start(self, ctx: StepContext) -> list[Task]:
         st = ctx.step
-        gait = survival_gait(ctx)
+        gait = step_gait(ctx)
         space = design_space(ctx, gait)
         axes = [a.values() for a in st.parameters.values()]
         ctx.state.update(gait=gait, space=space, axes=axes)

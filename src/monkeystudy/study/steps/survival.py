@@ -20,7 +20,8 @@ from typing import Annotated, Literal, Optional, Union
 import numpy as np
 from pydantic import BeforeValidator, Field, model_validator
 
-from ...analysis.replay import cycle_times, open_loop_gait
+from ...analysis.design import PARAMETERS, DesignSpace
+from ...analysis.replay import open_loop_gait
 from ...analysis.sections import cycle_section_state, section_state
 from ...analysis.survival import (
     MFPT, Noise, cycle_grid, mfpt, survival_curve, survival_runs,
@@ -30,15 +31,14 @@ from ...kernel import layout as L
 from ...kernel.layout import STATUS_NAMES
 from .. import datasets as D
 from ..blocks import Block, Task
-from ..errors import RunFailed
 from ..models import Name, OpenLoopSettings, Replay, StrictModel
 from ..spec import GaitSpec
 from .base import Figure, StepContext, StepKind, max_drop_of, no_earlier
-from .floquet import (
-    FloquetStep, check_sequence_replay, read_floquet_point, sequence_attrs, sequence_start,
-)
-from .refine import RefineStep, read_refined
-from .shoot import ShootStep, replay_torque, shoot_gait
+from .design import DesignStep
+from .gaits import MAX_MAP_DEFECT, step_gait
+from .floquet import FloquetStep, check_sequence_replay
+from .refine import RefineStep
+from .shoot import ShootStep
 
 def _level(v):
     """A noise value: a number >= 0, or a non-empty list of them (one per level)."""
@@ -71,8 +71,6 @@ FAILURE_NAMES = tuple({L.ST_OK: "survived", L.ST_ERROR_BOUND: "error_bound",
                       for c in FAILURE_CODES)
 MFPT_METHODS = ("mean", "tail", "lower_bound", "none")
 
-#: a floquet step's point is run when the return map moves it less than this [1]
-MAX_MAP_DEFECT = 1e-8
 
 #: every noise source: (path in the step's ``noise``, Noise field, units, what it is)
 SOURCES = (
@@ -190,8 +188,9 @@ class SurvivalStep(StrictModel):
 
     name: Name
     kind: Literal["survival"]
-    from_: Name = Field(alias="from", description="the gait: an earlier shoot, refine or "
-                        "floquet step (a sequence gait: a floquet or refine step)")
+    from_: Name = Field(alias="from", description="the gait: an earlier shoot, refine, "
+                        "floquet or design step (its best design; a sequence gait: a floquet "
+                        "or refine step)")
     replay: Replay = None
     controller: OpenLoopSettings = Field(default_factory=OpenLoopSettings)
     runs: int = Field(ge=1, le=1_000_000, description="independent runs per noise level")
@@ -227,60 +226,44 @@ class SurvivalStep(StrictModel):
 
 # --- the gait a survival step runs ---------------------------------------------------------------
 def survival_gait(ctx: StepContext) -> dict:
-    """The gait of a survival step as plain values: ``replay``, the section state ``z``, and
-    what its controller needs (``t_switch``, ``t_motor``, ``t_end``, ``torque`` for an
-    open-loop replay of the horizontal gait; ``t_segment`` for a sequence gait's), with the
-    attributes naming where it came from (``source``)."""
+    """The gait of a survival step as plain values (:func:`~monkeystudy.study.steps.gaits.
+    step_gait`); from a design step, its best design: the schedule and robot values
+    (``design``), the cycle's steps and the fixed point."""
     st = ctx.step
     src = ctx.deps[st.from_]
-    if ctx.gait_kind == "sequence":
-        g = sequence_start(ctx, MAX_MAP_DEFECT)
-        replay = st.replay or "gait"
-        out = {"replay": replay, "z": [float(v) for v in g["z"]],
-               "source": sequence_attrs(g, replay)}
-        if replay == "open_loop":
-            out["t_segment"] = [float(t) for t in cycle_times(
-                ctx.spec.sequence, g["z"], robot=ctx.spec.robot,
-                integrator=ctx.spec.integrator)]
-        return out
-    replay = st.replay or "open_loop"
-    if src.kind == "floquet":
-        controller = "search" if replay == "gait" else "open_loop"
-        fp = read_floquet_point(src.path, controller)
-        z = fp["fixed_point"]
-        # a neutral multiplier (the search controller's family) leaves Newton short of its
-        # tolerance on a point that is a fixed point to the map's accuracy: judge the defect
-        if not (np.all(np.isfinite(z)) and fp["map_defect"] <= MAX_MAP_DEFECT):
-            raise RunFailed(f"{ctx.name}: floquet step {st.from_!r} has no {controller} fixed "
-                            f"point to run (map defect {fp['map_defect']:.3g})")
-        out = {"replay": replay, "z": [float(v) for v in z],
-               "t_switch": fp["t_switch"], "t_motor": fp["t_motor"],
-               "torque": fp["motor_torque"], "t_end": math.nan,
-               "source": {"floquet_step": st.from_, "floquet_controller": controller,
-                          "map_defect": fp["map_defect"],
-                          "newton_converged": fp["newton_converged"]}}
-        if replay == "gait":
-            out["torque"] = float(ctx.spec.torque)
-        return out
-    if src.kind == "shoot":
-        g = shoot_gait(ctx, st.from_, st.solution)
-        source = {"shoot_step": st.from_, "solution": int(g["index"]),
-                  "gait_error": float(g["error"])}
-    else:
-        g, idx = read_refined(src.path, st.start_index)
-        if g["status"] != L.ST_OK:
-            raise RunFailed(f"{ctx.name}: refine step {st.from_!r} found no gait to run "
-                            f"(status {STATUS_NAMES[g['status']]})")
-        source = {"refine_step": st.from_, "refine_start": idx, "gait_error": g["error"]}
-    return {"replay": replay, "z": [0.0, float(g["dtheta1"]), float(g["dtheta2"])],
-            "t_switch": float(g["t_switch"]), "t_motor": float(g["t_motor"]),
-            "t_end": float(g.get("t_end", math.nan)), "torque": replay_torque(ctx.spec, g),
-            "source": source}
+    if src.kind != "design":
+        return step_gait(ctx, MAX_MAP_DEFECT)
+    a = D.read_attrs(src.path) or {}
+    values = {n: float(a[f"best_{n}"]) for n in PARAMETERS}
+    return {"replay": "open_loop", "design": values, "two_step": int(a["steps_per_cycle"]) == 2,
+            "z": [float(a["best_theta2"]), float(a["best_dtheta1"]), float(a["best_dtheta2"])],
+            "t_switch": values["t_switch"], "t_motor": values["t_motor"],
+            "torque": values["torque"],
+            "source": {"design_step": st.from_,
+                       "design_spectral_radius": float(a["best_spectral_radius"]),
+                       "gait_error": float(a["best_error"])}}
+
+
+def design_of(spec: GaitSpec, gait: dict) -> DesignSpace:
+    """The design space a design gait's values are read in (the study's robot as base)."""
+    return DesignSpace(spec.robot, two_step=gait["two_step"], balance="none")
+
+
+def gait_robot(spec: GaitSpec, gait: dict):
+    """The robot a survival gait runs on: a design's own, else the study's."""
+    return design_of(spec, gait).robot_for(gait["design"]) if "design" in gait else spec.robot
 
 
 def survival_controller(spec: GaitSpec, gait: dict, *, tick: float, clock: str):
     """``(controller, start hybrid state, section observer or None)`` of a survival gait."""
     z = np.asarray(gait["z"], float)
+    if "design" in gait:
+        seq = replace(design_of(spec, gait).gait(gait["design"]), theta2=float(z[0]),
+                      tick=float(tick))
+        n_rows = len(seq.all_segments())
+        section = Observer("coord", "theta1", seq.section_theta1, seq.section_direction,
+                           segment=n_rows - 1)
+        return seq.controller(), cycle_section_state(seq, z), section
     if spec.sequence is not None:
         seq = spec.sequence
         if gait["replay"] == "open_loop":
@@ -307,7 +290,7 @@ def survival_block(spec: GaitSpec, gait: dict, runs: np.ndarray, *, noise: dict,
     travelled [m], the time [s] and error at its last completed cycle, its RHS evaluations."""
     controller, start, section = survival_controller(spec, gait, tick=tick, clock=clock)
     r = survival_runs(controller, start, gait["z"], runs=runs, max_cycles=max_cycles,
-                      noise=Noise(**noise), seed=seed, robot=spec.robot,
+                      noise=Noise(**noise), seed=seed, robot=gait_robot(spec, gait),
                       integrator=spec.integrator, error_bound=error_bound,
                       min_advance=min_advance, max_drop=max_drop, section=section)
     return {"cycles": r.cycles.astype(np.int64), "failure": r.failure.astype(np.int8),
@@ -449,10 +432,17 @@ class SurvivalKind(StepKind):
             if step.controller.clock != "reset_at_vertical":
                 out.append((("steps", index, "controller", "clock"), "a sequence gait's clock "
                             "restarts at each section crossing (reset_at_vertical)"))
+        elif isinstance(ref, DesignStep):
+            if step.replay == "gait":
+                out.append((("steps", index, "replay"), "a design's gait is open loop: replay "
+                            "open_loop"))
+            if step.controller.clock != "reset_at_vertical":
+                out.append((("steps", index, "controller", "clock"), "a design's clock "
+                            "restarts at each vertical crossing (reset_at_vertical)"))
         else:
             if not isinstance(ref, (ShootStep, RefineStep, FloquetStep)):
                 out.append((("steps", index, "from"),
-                            no_earlier(step.from_, "shoot, refine or floquet", ref)))
+                            no_earlier(step.from_, "shoot, refine, floquet or design", ref)))
             elif step.replay == "gait":
                 if not isinstance(ref, FloquetStep) or "search" not in ref.controllers:
                     out.append((("steps", index, "replay"), "replay: gait runs the state-based "
