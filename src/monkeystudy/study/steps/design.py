@@ -93,8 +93,10 @@ class DesignVerify(StrictModel):
 
 
 class DesignStep(StrictModel):
-    """Search open-loop schedules and robot designs for the smallest spectral radius of the
-    return map: a grid, Nelder-Mead from its best designs, and checks of the best."""
+    """Search schedules and robots for the open-loop gait with the smallest spectral radius.
+
+    A grid over the free parameters, Nelder-Mead from its best designs, and checks of the best
+    (docs/model.md section 9)."""
 
     name: Name
     kind: Literal["design"]

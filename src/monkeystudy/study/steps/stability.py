@@ -325,8 +325,17 @@ class StabilityKind(StepKind):
             ph = ds["pivot_height"].values
             lines.append(f"pivot height: first {ph[0]:.4g} m, last "
                          f"{ph[np.isfinite(ph)][-1]:.4g} m")
-        lines.append(f"replayed t_switch {a.get('t_switch')} s, t_motor {a.get('t_motor')} "
-                     f"s, controller {a.get('controller')}")
+        # times on a tick are differences of tick instants: 12 digits hide the last-bit noise
+        lines.append(f"replayed t_switch {_seconds(a.get('t_switch'))} s, t_motor "
+                     f"{_seconds(a.get('t_motor'))} s, controller {a.get('controller')}")
         if int(a.get("vertical_passes_before_swap", -1)) >= 0:
             lines.append(f"the replayed gait {gait_kind_text(int(a['vertical_passes_before_swap']))}")
         return lines
+
+
+def _seconds(value) -> str:
+    """A time attribute [s] to 12 significant digits (or as stored when not a number)."""
+    try:
+        return f"{float(value):.12g}"
+    except (TypeError, ValueError):
+        return str(value)
