@@ -25,11 +25,11 @@ import math
 import numpy as np
 from numba import njit
 
+from .gait import start_state, wrapped_difference
 from .hybrid import simulate
 from .layout import (
-    C_MAX_CYCLES, DTH1, DTH2, H_CLOCK, H_EREF, H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG,
-    H_T, H_Y_REF, K_LOG, K_NFEV, L_E_AFTER, L_E_BEFORE, L_KIND, LOG_SEGMENT, N_COUNTS, N_HYB,
-    N_LOG_COLS, N_MODE_COLS, PHASE_SWING, ST_OK, TH1, TH2, X, Y,
+    C_MAX_CYCLES, DTH1, DTH2, H_T, K_LOG, K_NFEV, L_E_AFTER, L_E_BEFORE, L_KIND, LOG_SEGMENT,
+    N_COUNTS, N_HYB, N_LOG_COLS, N_MODE_COLS, ST_OK, TH1, TH2, X, Y,
 )
 
 #: return maps: on the section ``theta1 = c`` (clock reset there), or once per clock period
@@ -72,26 +72,15 @@ def cycle_map(par, prog, obs, settings, mode, theta1_section, w, w_next, log, co
     ``settings[C_MAX_CYCLES]`` must be 1. ``log`` (capacity 0: none) receives the cycle's
     events (for the energy lost at resets).
     """
-    hyb = np.zeros(N_HYB)
+    hyb = np.empty(N_HYB)
     if mode == MAP_SECTION:
+        start_state(w[1], w[2], hyb)
         hyb[TH1] = theta1_section
         hyb[TH2] = w[0]
-        hyb[DTH1] = w[1]
-        hyb[DTH2] = w[2]
     else:
+        start_state(w[2], w[3], hyb)
         hyb[TH1] = w[0]
         hyb[TH2] = w[1]
-        hyb[DTH1] = w[2]
-        hyb[DTH2] = w[3]
-    hyb[H_T] = 0.0
-    hyb[H_PHASE] = PHASE_SWING
-    hyb[H_FLIPPED] = 0
-    hyb[H_SEG] = 0
-    hyb[H_EREF] = np.nan
-    hyb[H_CLOCK] = 0.0
-    hyb[H_FMODE0] = 1.0
-    hyb[H_FMODE1] = 1.0
-    hyb[H_Y_REF] = np.nan
     counts[K_LOG] = 0
     seg_times = np.empty(prog.shape[0])
     status = simulate(par, prog, obs, settings, hyb, counts, seg_times, log, np.empty(0),
@@ -101,20 +90,15 @@ def cycle_map(par, prog, obs, settings, mode, theta1_section, w, w_next, log, co
         if log[r, L_KIND] == LOG_SEGMENT:
             loss += log[r, L_E_BEFORE] - log[r, L_E_AFTER]
     if mode == MAP_SECTION:
-        w_next[0] = w[0] + _wrap(hyb[TH2] - w[0])
+        w_next[0] = w[0] + wrapped_difference(hyb[TH2], w[0])
         w_next[1] = hyb[DTH1]
         w_next[2] = hyb[DTH2]
     else:
-        w_next[0] = w[0] + _wrap(hyb[TH1] - w[0])
-        w_next[1] = w[1] + _wrap(hyb[TH2] - w[1])
+        w_next[0] = w[0] + wrapped_difference(hyb[TH1], w[0])
+        w_next[1] = w[1] + wrapped_difference(hyb[TH2], w[1])
         w_next[2] = hyb[DTH1]
         w_next[3] = hyb[DTH2]
     return status, hyb[Y], hyb[X], loss, hyb[H_T]
-
-
-@njit(cache=True, error_model="numpy", _nrt=False)
-def _wrap(d):
-    return (d + math.pi) % (2.0 * math.pi) - math.pi
 
 
 @njit(cache=True, error_model="numpy")
