@@ -30,7 +30,7 @@ from .analysis.precision import best_of, kernel_gaits
 from .analysis.sections import cycle_section_state
 from .analysis.survival import Noise, survival_runs
 from .controllers import HorizontalSearch, Integrator, Observer, settings_vector
-from .kernel.design import MAP_SECTION, cycle_map
+from .kernel.design import cycle_map
 from .kernel.dynamics import rhs_swing
 from .kernel.layout import C_MAX_CYCLES, N_COUNTS, N_LOG_COLS, N_OBS_COLS
 from .kernel.gait import (
@@ -387,7 +387,7 @@ def design_cost(repeat: int = 5) -> dict:
     w_next, counts = np.empty(3), np.zeros(N_COUNTS, np.int64)
 
     def one_cycle():
-        cycle_map(par, prog, obs, st, MAP_SECTION, 0.0, res.z, w_next, log, counts)
+        cycle_map(par, prog, obs, st, 0.0, res.z, w_next, log, counts)
     one_cycle()
     t_cycle = best_of(one_cycle, repeat)
     t_design = best_of(lambda: evaluate_design(space, start, near), repeat)

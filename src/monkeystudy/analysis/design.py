@@ -29,7 +29,7 @@ from ..controllers import Integrator, Segment, SequenceGait, settings_vector
 from ..kernel import layout as L
 from ..kernel.design import (
     DESIGN_STATUS_NAMES, DS_OK, I_ADVANCE, I_DEFECT, I_ERROR, I_ITERATIONS, I_LOSS, I_NFEV,
-    I_PERIOD, I_RISE, MAP_SECTION, N_INFO, fixed_point,
+    I_PERIOD, I_RISE, N_INFO, fixed_point,
 )
 from ..robot import Link, Robot
 from ..simulate import run_controller
@@ -369,7 +369,7 @@ def evaluate_design(space: DesignSpace, free: Mapping[str, float], z0,
     DP = np.empty((n, n))
     info = np.empty(N_INFO)
     status = fixed_point(robot.params(), prog0, dprog, np.empty((0, L.N_OBS_COLS)), settings,
-                         MAP_SECTION, 0.0, balance, u0, space.tol, space.max_iter,
+                         0.0, balance, u0, space.tol, space.max_iter,
                          space.fd_step, u, DP, info)
     if balance:
         values[space.balance] = float(u[n])
@@ -388,12 +388,18 @@ def evaluate_design(space: DesignSpace, free: Mapping[str, float], z0,
         if not res.message:
             res.message = f"{STATUS_NAMES[status]} (|F| = {info[I_DEFECT]:.3g})"
         return res
-    if variational:
-        J = sequence_variational_jacobian(space.gait(values), z, robot=robot,
-                                          integrator=space.integrator)
-        res.jacobian = J
-        res.multipliers = sorted_eigs(J)
-        res.spectral_radius = spectral_radius(J, space.steps)
+    return with_variational(space, res) if variational else res
+
+
+def with_variational(space: DesignSpace, res: DesignResult) -> DesignResult:
+    """A solved design's Jacobian, multipliers and spectral radius by variational equations
+    with saltation matrices (in place; returns ``res``)."""
+    J = sequence_variational_jacobian(space.gait(res.values), res.z,
+                                      robot=space.robot_for(res.values),
+                                      integrator=space.integrator)
+    res.jacobian = J
+    res.multipliers = sorted_eigs(J)
+    res.spectral_radius = spectral_radius(J, space.steps)
     return res
 
 

@@ -10,12 +10,10 @@ the section. :func:`fixed_point` finds it by Newton's method on ``F(u) = 0`` wit
   the attached end after the cycle, so that the solved gait stays horizontal (an open-loop
   schedule fixes no height: its fixed points generally climb or sink a little every cycle).
 
-The section state is ``w = (theta2, dtheta1, dtheta2)`` on ``theta1 = theta1_section``
-(``MAP_SECTION``, the clock restarting at the section), or ``w = (theta1, theta2, dtheta1,
-dtheta2)`` at the instant the clock completes a period (``MAP_STROBE``, a clock that runs on
-and never looks at the state). Either way the cycle starts hanging from end A at the origin
-and ends in the frame of the end attached then, with ``theta2`` continued across whole turns
-so the map is smooth.
+The section state is ``w = (theta2, dtheta1, dtheta2)`` on ``theta1 = theta1_section`` (the
+program's clock restarts there). The cycle starts hanging from end A at the origin and ends in
+the frame of the end attached then, with ``theta2`` continued across whole turns so the map is
+smooth.
 
 The Jacobian is fourth-order central differences (Richardson on ``h`` and ``2h``), so the
 whole solve, and the multipliers' matrix ``DP = dP/dw`` it returns, stay in compiled code.
@@ -32,8 +30,8 @@ from .layout import (
     N_COUNTS, N_HYB, N_LOG_COLS, N_MODE_COLS, ST_OK, TH1, TH2, X, Y,
 )
 
-#: return maps: on the section ``theta1 = c`` (clock reset there), or once per clock period
-MAP_SECTION, MAP_STROBE = 0, 1
+#: dimension of the section state ``(theta2, dtheta1, dtheta2)``
+N_SECTION = 3
 
 #: outcomes of :func:`fixed_point`
 DS_OK = 0             # converged: |F| within the tolerance
@@ -59,13 +57,7 @@ LOG_ROWS = 64
 
 
 @njit(cache=True, error_model="numpy")
-def state_size(mode):
-    """Dimension of the section state: 3 on a section, 4 stroboscopically."""
-    return 3 if mode == MAP_SECTION else 4
-
-
-@njit(cache=True, error_model="numpy")
-def cycle_map(par, prog, obs, settings, mode, theta1_section, w, w_next, log, counts):
+def cycle_map(par, prog, obs, settings, theta1_section, w, w_next, log, counts):
     """One cycle of ``prog`` from the section state ``w``; writes the next section state into
     ``w_next`` and returns ``(status, y', x', energy lost [J], duration [s])``.
 
@@ -73,14 +65,9 @@ def cycle_map(par, prog, obs, settings, mode, theta1_section, w, w_next, log, co
     events (for the energy lost at resets).
     """
     hyb = np.empty(N_HYB)
-    if mode == MAP_SECTION:
-        start_state(w[1], w[2], hyb)
-        hyb[TH1] = theta1_section
-        hyb[TH2] = w[0]
-    else:
-        start_state(w[2], w[3], hyb)
-        hyb[TH1] = w[0]
-        hyb[TH2] = w[1]
+    start_state(w[1], w[2], hyb)
+    hyb[TH1] = theta1_section
+    hyb[TH2] = w[0]
     counts[K_LOG] = 0
     seg_times = np.empty(prog.shape[0])
     status = simulate(par, prog, obs, settings, hyb, counts, seg_times, log, np.empty(0),
@@ -89,29 +76,23 @@ def cycle_map(par, prog, obs, settings, mode, theta1_section, w, w_next, log, co
     for r in range(int(counts[K_LOG])):
         if log[r, L_KIND] == LOG_SEGMENT:
             loss += log[r, L_E_BEFORE] - log[r, L_E_AFTER]
-    if mode == MAP_SECTION:
-        w_next[0] = w[0] + wrapped_difference(hyb[TH2], w[0])
-        w_next[1] = hyb[DTH1]
-        w_next[2] = hyb[DTH2]
-    else:
-        w_next[0] = w[0] + wrapped_difference(hyb[TH1], w[0])
-        w_next[1] = w[1] + wrapped_difference(hyb[TH2], w[1])
-        w_next[2] = hyb[DTH1]
-        w_next[3] = hyb[DTH2]
+    w_next[0] = w[0] + wrapped_difference(hyb[TH2], w[0])
+    w_next[1] = hyb[DTH1]
+    w_next[2] = hyb[DTH2]
     return status, hyb[Y], hyb[X], loss, hyb[H_T]
 
 
 @njit(cache=True, error_model="numpy")
-def residual(par, prog0, dprog, obs, settings, mode, theta1_section, balance, u, prog, F, counts):
+def residual(par, prog0, dprog, obs, settings, theta1_section, balance, u, prog, F, counts):
     """``F(u)`` into ``F`` (see the module docstring); returns the kernel status of the run.
     ``prog`` is work space for ``prog0 + u[n] * dprog``."""
-    n = state_size(mode)
+    n = N_SECTION
     q = u[n] if balance else 0.0
     for i in range(prog.shape[0]):
         for j in range(prog.shape[1]):
             prog[i, j] = prog0[i, j] + q * dprog[i, j]
     w_next = np.empty(n)
-    status, rise, _, _, _ = cycle_map(par, prog, obs, settings, mode, theta1_section, u[:n],
+    status, rise, _, _, _ = cycle_map(par, prog, obs, settings, theta1_section, u[:n],
                                       w_next, np.empty((0, N_LOG_COLS)), counts)
     for i in range(n):
         F[i] = w_next[i] - u[i]
@@ -121,7 +102,7 @@ def residual(par, prog0, dprog, obs, settings, mode, theta1_section, balance, u,
 
 
 @njit(cache=True, error_model="numpy")
-def jacobian(par, prog0, dprog, obs, settings, mode, theta1_section, balance, u, h, prog, J,
+def jacobian(par, prog0, dprog, obs, settings, theta1_section, balance, u, h, prog, J,
              counts):
     """``dF/du`` by fourth-order central differences (steps ``h * max(1, |u_j|)`` and twice
     that) into ``J``; returns ``ST_OK`` or the status of the first stencil run that failed."""
@@ -135,10 +116,10 @@ def jacobian(par, prog0, dprog, obs, settings, mode, theta1_section, balance, u,
         for k in range(2):
             step = hj * (k + 1)
             up[j] = u[j] + step
-            sp = residual(par, prog0, dprog, obs, settings, mode, theta1_section, balance, up,
+            sp = residual(par, prog0, dprog, obs, settings, theta1_section, balance, up,
                           prog, Fp, counts)
             up[j] = u[j] - step
-            sm = residual(par, prog0, dprog, obs, settings, mode, theta1_section, balance, up,
+            sm = residual(par, prog0, dprog, obs, settings, theta1_section, balance, up,
                           prog, Fm, counts)
             up[j] = u[j]
             if sp != ST_OK:
@@ -161,12 +142,12 @@ def _norm(v):
 
 
 @njit(cache=True, error_model="numpy")
-def balance_start(par, prog0, dprog, obs, settings, mode, theta1_section, u, prog, F, counts):
+def balance_start(par, prog0, dprog, obs, settings, theta1_section, u, prog, F, counts):
     """Secant steps on the balance value ``u[n]`` alone (the state ``u[:n]`` held) towards
     zero height change per cycle; ``u[n]`` is kept unchanged unless the height shrinks."""
-    n = state_size(mode)
+    n = N_SECTION
     q0 = u[n]
-    s0 = residual(par, prog0, dprog, obs, settings, mode, theta1_section, True, u, prog, F,
+    s0 = residual(par, prog0, dprog, obs, settings, theta1_section, True, u, prog, F,
                   counts)
     if s0 != ST_OK:
         return
@@ -175,7 +156,7 @@ def balance_start(par, prog0, dprog, obs, settings, mode, theta1_section, u, pro
     q1 = q0 + 1e-3 * max(1.0, abs(q0))
     for _ in range(12):
         u[n] = q1
-        s1 = residual(par, prog0, dprog, obs, settings, mode, theta1_section, True, u, prog,
+        s1 = residual(par, prog0, dprog, obs, settings, theta1_section, True, u, prog,
                       F, counts)
         if s1 != ST_OK:
             break
@@ -191,7 +172,7 @@ def balance_start(par, prog0, dprog, obs, settings, mode, theta1_section, u, pro
 
 
 @njit(cache=True, error_model="numpy")
-def fixed_point(par, prog0, dprog, obs, settings, mode, theta1_section, balance, u0, tol,
+def fixed_point(par, prog0, dprog, obs, settings, theta1_section, balance, u0, tol,
                 max_iter, h, u, DP, info):
     """Newton's method on ``F(u) = 0`` from ``u0``; the solution in ``u``, the map's Jacobian
     ``dP/dw`` at fixed program parameter in ``DP``, the record in ``info`` (``I_*``).
@@ -201,7 +182,7 @@ def fixed_point(par, prog0, dprog, obs, settings, mode, theta1_section, balance,
     until ``|F|`` decreases. Converged when ``|F| <= tol``; ``h`` is the relative
     finite-difference step. ``DP`` is re-evaluated at the solution (NaN if it failed).
     """
-    n = state_size(mode)
+    n = N_SECTION
     m = n + 1 if balance else n
     settings1 = settings.copy()
     settings1[C_MAX_CYCLES] = 1.0
@@ -220,9 +201,9 @@ def fixed_point(par, prog0, dprog, obs, settings, mode, theta1_section, balance,
     if balance:
         # the balance first, the state held: a secant on the height alone puts Newton's start
         # near the gait's energy level (an open-loop schedule far from it falls or stalls)
-        balance_start(par, prog0, dprog, obs, settings1, mode, theta1_section, u, prog, F,
+        balance_start(par, prog0, dprog, obs, settings1, theta1_section, u, prog, F,
                       counts)
-    status = residual(par, prog0, dprog, obs, settings1, mode, theta1_section, balance, u,
+    status = residual(par, prog0, dprog, obs, settings1, theta1_section, balance, u,
                       prog, F, counts)
     if status != ST_OK:
         info[I_MAP_STATUS] = status
@@ -234,7 +215,7 @@ def fixed_point(par, prog0, dprog, obs, settings, mode, theta1_section, balance,
         if norm <= tol:
             result = DS_OK
             break
-        status = jacobian(par, prog0, dprog, obs, settings1, mode, theta1_section, balance, u,
+        status = jacobian(par, prog0, dprog, obs, settings1, theta1_section, balance, u,
                           h, prog, J, counts)
         if status != ST_OK:
             info[I_MAP_STATUS] = status
@@ -246,7 +227,7 @@ def fixed_point(par, prog0, dprog, obs, settings, mode, theta1_section, balance,
         for _ in range(20):
             for i in range(m):
                 ut[i] = u[i] + lam * du[i]
-            status = residual(par, prog0, dprog, obs, settings1, mode, theta1_section,
+            status = residual(par, prog0, dprog, obs, settings1, theta1_section,
                               balance, ut, prog, Ft, counts)
             if status == ST_OK and _norm(Ft) < norm:
                 improved = True
@@ -269,8 +250,8 @@ def fixed_point(par, prog0, dprog, obs, settings, mode, theta1_section, balance,
             prog[i, j] = prog0[i, j] + q * dprog[i, j]
     w_next = np.empty(n)
     log = np.empty((LOG_ROWS, N_LOG_COLS))
-    status, rise, advance, loss, period = cycle_map(par, prog, obs, settings1, mode,
-                                                    theta1_section, u[:n], w_next, log, counts)
+    status, rise, advance, loss, period = cycle_map(par, prog, obs, settings1, theta1_section,
+                                                    u[:n], w_next, log, counts)
     err = 0.0
     for i in range(n):
         err += (w_next[i] - u[i]) ** 2
@@ -283,7 +264,7 @@ def fixed_point(par, prog0, dprog, obs, settings, mode, theta1_section, balance,
         # dP/dw at the fixed program: the state columns of dF/du, plus the identity
         prog_q = prog.copy()
         Jw = np.empty((n, n))
-        status = jacobian(par, prog_q, dprog, obs, settings1, mode, theta1_section, False,
+        status = jacobian(par, prog_q, dprog, obs, settings1, theta1_section, False,
                           u[:n].copy(), h, prog, Jw, counts)
         if status != ST_OK:
             info[I_MAP_STATUS] = status

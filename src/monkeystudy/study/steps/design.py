@@ -28,7 +28,7 @@ from pydantic import Field, field_validator, model_validator
 
 from ...analysis.design import (
     BALANCES, OBJECTIVES, PARAMETERS, STATUS_NAMES, DesignResult, DesignSpace, design_basin,
-    design_cycle_run, evaluate_design, perturbation_decay, replay_design,
+    design_cycle_run, evaluate_design, perturbation_decay, replay_design, with_variational,
 )
 from ...kernel.design import DS_OK
 from .. import datasets as D
@@ -258,9 +258,10 @@ def design_block(space: DesignSpace, names: list[str], axes: list[np.ndarray], s
     return out
 
 
-def solve_design(space: DesignSpace, free: dict, starts, *, variational: bool = True):
+def solve_design(space: DesignSpace, free: dict, starts) -> DesignResult:
     """The design's gait with the smallest spectral radius from Newton at each start
-    ``(z, balance value or None)``; the last failure when none converges."""
+    ``(z, balance value or None)``, with its variational multipliers; the last failure when
+    none converges."""
     best, last = None, None
     for z, q in starts:
         values = free if q is None or space.balance == "none" else dict(
@@ -269,12 +270,7 @@ def solve_design(space: DesignSpace, free: dict, starts, *, variational: bool = 
         last = res
         if res.ok and (best is None or res.spectral_radius_fd < best.spectral_radius_fd):
             best = res
-    if best is None:
-        return last
-    if variational:
-        best = evaluate_design(space, dict(free, **({space.balance: best.values[
-            space.balance]} if space.balance != "none" else {})), best.z, variational=True)
-    return best
+    return last if best is None else with_variational(space, best)
 
 
 def _with_balance(free: dict, values: dict, space: DesignSpace) -> dict:
@@ -304,7 +300,7 @@ def refine_starts(objective: np.ndarray, k: int) -> list[int]:
 def nelder_mead(space: DesignSpace, st: DesignStep, axes, start: dict) -> tuple:
     """Nelder-Mead on the objective from the design ``start`` (a grid design's values and
     gait), in coordinates scaled to the axes' ranges and clipped to them; returns ``(best
-    DesignResult, evaluations, history of the best objective)``."""
+    DesignResult or None, evaluations)``."""
     from scipy.optimize import minimize   # scipy loads in ~0.2 s: only this step needs it
 
     names = st.names
@@ -312,7 +308,7 @@ def nelder_mead(space: DesignSpace, st: DesignStep, axes, start: dict) -> tuple:
     span = np.array([max(a[-1] - a[0], 1e-12) for a in axes])
     x0 = (np.array([start["values"][n] for n in names]) - lo) / span
     state = {"z": np.asarray(start["z"], float), "balance": start["values"], "best": None,
-             "history": [], "n": 0}
+             "n": 0}
 
     def f(x):
         state["n"] += 1
@@ -326,7 +322,6 @@ def nelder_mead(space: DesignSpace, st: DesignStep, axes, start: dict) -> tuple:
             state["z"], state["balance"] = res.z, res.values
             if state["best"] is None or value < state["best"][0]:
                 state["best"] = (value, res)
-        state["history"].append(state["best"][0] if state["best"] else math.inf)
         return value if math.isfinite(value) else 1e3
 
     steps = np.array([1.0 / max(a.size - 1, 4) for a in axes])
@@ -336,19 +331,18 @@ def nelder_mead(space: DesignSpace, st: DesignStep, axes, start: dict) -> tuple:
              options={"maxfev": st.refine.max_evaluations, "xatol": st.refine.xatol,
                       "fatol": st.refine.fatol, "initial_simplex": simplex})
     best = state["best"][1] if state["best"] else None
-    return best, state["n"], state["history"]
+    return best, state["n"]
 
 
 def verify(space: DesignSpace, res: DesignResult, v: DesignVerify) -> dict:
-    """The checks of one design: variational against finite differences, replays (exact and
-    ticked), the decay of a perturbation, the basin."""
-    full = res
-    exact = replay_design(space, full, cycles=v.cycles, tick=0.0, error_bound=v.error_bound)
-    ticked = replay_design(space, full, cycles=v.cycles, tick=v.tick,
+    """The checks of one design: replays (exact and ticked), the decay of a perturbation, the
+    basin."""
+    exact = replay_design(space, res, cycles=v.cycles, tick=0.0, error_bound=v.error_bound)
+    ticked = replay_design(space, res, cycles=v.cycles, tick=v.tick,
                            error_bound=v.error_bound)
-    dist, growth = perturbation_decay(space, full, size=v.perturbation, cycles=v.decay_cycles)
+    dist, growth = perturbation_decay(space, res, size=v.perturbation, cycles=v.decay_cycles)
     offsets = np.linspace(-v.basin_offset, v.basin_offset, v.basin_num)
-    basin = design_basin(space, full, offsets, offsets, max_cycles=v.basin_cycles,
+    basin = design_basin(space, res, offsets, offsets, max_cycles=v.basin_cycles,
                          error_bound=v.error_bound)
     return {"replays": [exact, ticked], "decay": dist, "growth": growth, "offsets": offsets,
             "basin": basin}
@@ -369,7 +363,7 @@ def refine_and_verify(space: DesignSpace, st: DesignStep, axes, grid: dict, star
             [grid[c].reshape(shape)[idx] for c in ("theta2", "dtheta1", "dtheta2")])
         if not start.ok:
             continue
-        best, n_eval, history = nelder_mead(space, st, axes, {"values": start.values,
+        best, n_eval = nelder_mead(space, st, axes, {"values": start.values,
                                                               "z": start.z})
         found = best or start
         # every refined design's replays too: the smallest rho is not always the one that
@@ -394,12 +388,8 @@ def refine_and_verify(space: DesignSpace, st: DesignStep, axes, grid: dict, star
     if not candidates:
         raise RunFailed(f"{st.name}: no design of the grid has a gait (statuses: "
                         f"{_status_text(grid['status'])})")
-    best = min(candidates, key=lambda r: r.objective(st.objective, st.energy_weight))
-    free = {n: best.values[n] for n in st.names}
-    best = evaluate_design(space, _with_balance(free, best.values, space), best.z,
-                           variational=True)
-    if not best.ok:
-        raise RunFailed(f"{st.name}: the best design's gait did not re-solve ({best.message})")
+    best = with_variational(space, min(
+        candidates, key=lambda r: r.objective(st.objective, st.energy_weight)))
     return {"refined": refined, "best": best, "checks": verify(space, best, st.verify),
             "film": design_cycle_run(space, best, sample_dt=0.005)}
 
