@@ -43,7 +43,7 @@ def _wait_ready(sock: str, proc: subprocess.Popen, timeout: float = 600.0) -> di
     t0 = time.monotonic()
     while time.monotonic() - t0 < timeout:
         if proc.poll() is not None:
-            raise AssertionError(f"server exited {proc.returncode}: {proc.stderr.read()}")
+            raise AssertionError(f"server exited {proc.returncode}: {proc.log.read_text()}")
         try:
             return service.request(sock, "ping", timeout=5.0)
         except (service.ServiceError, OSError):
@@ -55,14 +55,18 @@ def _wait_ready(sock: str, proc: subprocess.Popen, timeout: float = 600.0) -> di
 def server(tmp_path_factory):
     folder = tmp_path_factory.mktemp("serve")
     sock = str(folder / "s.sock")
+    # the server's (and its workers') output goes to a file: a pipe nobody reads until the
+    # end would block them once full
+    log = open(folder / "serve.log", "w+")
     proc = subprocess.Popen([sys.executable, "-m", "monkeystudy", "serve", "--socket", sock,
-                             "--workers", "2"], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                             "--workers", "2"], stdout=log, stderr=subprocess.STDOUT, text=True)
+    proc.log = folder / "serve.log"
     info = _wait_ready(sock, proc)
     yield sock, proc, info
     if proc.poll() is None:
         proc.terminate()
         proc.wait(timeout=60)
+    log.close()
 
 
 def _same_datasets(a: Path, b: Path) -> None:
@@ -261,7 +265,12 @@ def test_stop_removes_the_socket_and_ends_the_server(server):
     assert res.returncode == 0 and f"server pid {proc.pid}" in res.stdout
     res = _client("serve", "--stop", "--socket", sock)
     assert res.returncode == 0 and "stopping" in res.stdout
-    assert proc.wait(timeout=60) == 0
+    try:
+        code = proc.wait(timeout=60)
+    except subprocess.TimeoutExpired:
+        raise AssertionError(f"the server did not exit; its log:\n{proc.log.read_text()}") \
+            from None
+    assert code == 0, proc.log.read_text()
     assert not os.path.exists(sock)
-    assert "stopped" in proc.stderr.read()
+    assert "stopped" in proc.log.read_text()
     np.testing.assert_equal(_client("serve", "--status", "--socket", sock).returncode, 1)

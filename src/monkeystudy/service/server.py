@@ -69,6 +69,7 @@ class Server:
         self.sock: socket.socket | None = None
         self.code = ""
         self._stop = False
+        self._stop_asked = False   # by a ``stop`` request (the pool is idle then)
 
     def _say(self, text: str) -> None:
         print(f"[monkeystudy serve] {text}", file=self.log, flush=True)
@@ -151,9 +152,11 @@ class Server:
         finally:
             for s, h in previous.items():
                 signal.signal(s, h)
-            self.close()
+            self.close(idle=self._stop_asked)
 
-    def close(self) -> None:
+    def close(self, idle: bool = False) -> None:
+        """Unlink the socket and stop the workers: at once (``abort``), or, when ``idle``
+        (a ``stop`` request, answered between runs), by letting them exit."""
         if self.sock is not None:
             self.sock.close()
             self.sock = None
@@ -162,7 +165,10 @@ class Server:
             except FileNotFoundError:
                 pass
         if self.pool is not None:
-            self.pool.abort()
+            if idle and self.pool.usable:
+                self.pool.close()
+            else:
+                self.pool.abort()
             self.pool = None
         self._say("stopped")
 
@@ -186,6 +192,7 @@ class Server:
         elif op == "stop":
             send_message(conn, {"pid": os.getpid(), "stopping": True})
             self._stop = True
+            self._stop_asked = True
         elif op == "run":
             self._run(conn, req)
         else:

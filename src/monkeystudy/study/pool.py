@@ -116,12 +116,19 @@ class Pool:
         ex = self.executor
         if isinstance(ex, ProcessPoolExecutor):
             procs = list((getattr(ex, "_processes", None) or {}).values())
+            manager = getattr(ex, "_executor_manager_thread", None)
             ex.shutdown(wait=False, cancel_futures=True)
             for p in procs:
                 if p.is_alive():
                     p.terminate()
             for p in procs:
                 p.join(timeout=5)
+            # the executor's manager thread now sees its workers gone, fails their futures
+            # and closes the queues' pipes. Wait for it: a pool forked while it runs would
+            # inherit a pipe's read end (which keeps its writer blocked for ever), and the
+            # interpreter joins that thread at exit, so a stuck one hangs the process there.
+            if manager is not None and manager.is_alive():
+                manager.join(timeout=30)
         else:
             ex.shutdown(wait=False)
         self._closer()
