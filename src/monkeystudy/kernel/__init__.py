@@ -47,8 +47,8 @@ try:
     # every kernel module is decorated now, while the cache directory is ours; then the
     # global setting goes back to what it was, so other numba users are unaffected
     from . import (  # noqa: F401
-        dynamics, events, gait, hybrid, integrate, intrinsics, layout, rk_explicit, roots,
-        tableaux, trig, variational,
+        design, dynamics, entries, events, gait, hybrid, integrate, intrinsics, layout, noise,
+        rk_explicit, roots, survival, tableaux, trig, variational,
     )
 finally:
     _numba_config.CACHE_DIR = _saved_cache_dir
