@@ -30,16 +30,18 @@ from .analysis.precision import best_of, kernel_gaits
 from .analysis.sections import cycle_section_state
 from .analysis.survival import Noise, survival_runs
 from .controllers import HorizontalSearch, Integrator, Observer, settings_vector
+from .kernel.design import cycle_map
 from .kernel.dynamics import rhs_swing
 from .kernel.layout import C_MAX_CYCLES, N_COUNTS, N_LOG_COLS, N_OBS_COLS
 from .kernel.gait import (
     R_ERROR, R_NFEV, R_REJECTED, R_STEPS, R_T_END, R_T_MOTOR, R_T_SWITCH,
+    horizontal_gait_batch,
 )
 from .kernel.trig import sincos
 from .reference.scipy_gait import ScipyGait
 from .robot import SEED2009_TORQUE, Robot
 from .service.client import ServiceError, request
-from .simulate import hybrid_kernel, initial_state, run_controller
+from .simulate import initial_state, run_controller
 
 # ------------------------------------------------------------------------------------------
 # kernel timings
@@ -342,10 +344,9 @@ def skipping() -> dict:
     probe = kernel_gaits(par, prog, st, grid[::7], floor)
     unreachable = grid[::7][probe[:, 1] == 5]
     out = np.empty((len(unreachable), 16))
-    gaits = hybrid_kernel("horizontal_gait_batch", st, prog)
 
     def run(skip):
-        gaits(par, prog, st, unreachable, floor, skip, out)
+        horizontal_gait_batch(par, prog, st, unreachable, floor, skip, out)
     run(True)
     run(False)
     t_skip = best_of(lambda: run(True), 3) / len(unreachable)
@@ -384,7 +385,6 @@ def design_cost(repeat: int = 5) -> dict:
     st[C_MAX_CYCLES] = 1.0
     obs, log = np.empty((0, N_OBS_COLS)), np.empty((0, N_LOG_COLS))
     w_next, counts = np.empty(3), np.zeros(N_COUNTS, np.int64)
-    cycle_map = hybrid_kernel("cycle_map", st, prog)
 
     def one_cycle():
         cycle_map(par, prog, obs, st, 0.0, res.z, w_next, log, counts)

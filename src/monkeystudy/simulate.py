@@ -1,8 +1,7 @@
 """The hybrid-simulation API: evaluate gaits and simulate controllers.
 
 Thin wrappers that validate arguments, build the kernel's arrays, call the one compiled
-:func:`~monkeystudy.kernel.hybrid.simulate` (through the entry point compiled for the run's
-integration method and phase set: :func:`hybrid_kernel`), and label what comes back. Drivers (grid, refine,
+:func:`~monkeystudy.kernel.hybrid.simulate`, and label what comes back. Drivers (grid, refine,
 stability, ...) use :func:`evaluate_gaits` and :func:`run_controller`, which return plain numpy;
 :func:`simulate` builds an :class:`xarray.Dataset` for people.
 """
@@ -22,14 +21,15 @@ from .controllers import (
 )
 from .kernel import layout as L
 from .kernel.dynamics import kinetic_energy, points8, potential_energy
-from .kernel.entries import entry_point
 from .kernel.gait import (
     N_RESULT, R_ERROR, R_FINAL, R_NFEV, R_REJECTED, R_STATUS, R_STEPS, R_T_END, R_T_MOTOR,
-    R_T_SWITCH, start_state,
+    R_T_SWITCH, horizontal_gait_batch, start_state,
 )
 from .kernel.gait import (
     N_CYCLE_RESULT, Q_ERROR, Q_FINAL, Q_FLIPPED, Q_NFEV, Q_REJECTED, Q_STATUS, Q_STEPS, Q_T_END,
+    cycle_gait_batch,
 )
+from .kernel.hybrid import simulate as _simulate
 from .robot import SEED2009_TORQUE, Robot
 
 
@@ -47,38 +47,10 @@ class Status(IntEnum):
     END_TIME = L.ST_END_TIME
     HORIZON = L.ST_HORIZON
     FELL = L.ST_FELL
-    NO_FLIGHT_KERNEL = L.ST_NO_FLIGHT_KERNEL
 
 
 RobotLike = Union[Robot, str]
 Controller = Union[HorizontalSearch, OpenLoop, PhaseSequence]
-
-
-def program_phases(prog: np.ndarray, start_phase: int = L.PHASE_SWING) -> int:
-    """The phase set a controller program can reach from ``start_phase``: ``PHASES_SWING``
-    unless it can fly (``PHASES_ANY``).
-
-    A segment's magnet actions can start a flight only if neither magnet is switched on and
-    not both are left as they are (a swap never flies; both unchanged keeps the phase).
-    Conservative: a program that could fly from some state counts as flying.
-    """
-    if start_phase == L.PHASE_FLIGHT:
-        return L.PHASES_ANY
-    for row in np.asarray(prog):
-        if row[L.S_SWAP] > 0:
-            continue
-        mag_a, mag_b = row[L.S_MAG_A], row[L.S_MAG_B]
-        if not (mag_a > 0 or mag_b > 0 or (mag_a < 0 and mag_b < 0)):
-            return L.PHASES_ANY
-    return L.PHASES_SWING
-
-
-def hybrid_kernel(name: str, settings: np.ndarray, prog: np.ndarray,
-                  start_phase: int = L.PHASE_SWING) -> Dispatcher:
-    """The compiled kernel ``name`` (see :mod:`monkeystudy.kernel.entries`) for the integration
-    method of ``settings`` and the phase set of ``prog`` (:func:`program_phases`): a study
-    compiles only what its runs use."""
-    return entry_point(name, int(settings[L.C_METHOD]), program_phases(prog, start_phase))
 
 
 def loaded_kernels() -> int:
@@ -144,8 +116,8 @@ def evaluate_gaits(points, *, robot: RobotLike = "seed2009", torque: float | Non
     prog, _ = HorizontalSearch(torque, tick=tick, tick_phase=tick_phase).program()
     settings = settings_vector(integrator, tick=tick, tick_phase=tick_phase)
     out = np.empty((pts.shape[0], N_RESULT))
-    hybrid_kernel("horizontal_gait_batch", settings, prog)(
-        robot.params(), prog, settings, pts, robot.swap_energy_floor(), skip_unreachable, out)
+    horizontal_gait_batch(robot.params(), prog, settings, pts, robot.swap_energy_floor(),
+                          skip_unreachable, out)
     return {
         "error": out[:, R_ERROR].copy(),
         "status": out[:, R_STATUS].astype(np.int8),
@@ -180,8 +152,8 @@ def evaluate_cycle_gaits(points, gait: SequenceGait, *, robot: RobotLike = "seed
                                max_cycles=1)
     out = np.empty((pts.shape[0], N_CYCLE_RESULT))
     seg = np.empty((pts.shape[0], prog.shape[0]))
-    hybrid_kernel("cycle_gait_batch", settings, prog)(
-        robot.params(), prog, obs, settings, gait.section_theta1, gait.theta2, pts, out, seg)
+    cycle_gait_batch(robot.params(), prog, obs, settings, gait.section_theta1, gait.theta2,
+                     pts, out, seg)
     final = out[:, Q_FINAL:Q_FINAL + 8].copy()
     return {
         "error": out[:, Q_ERROR].copy(),
@@ -256,7 +228,6 @@ def run_controller(controller: Controller, state: np.ndarray, *,
     state = np.asarray(state, dtype=np.float64)
     if state.shape != (L.N_HYB,):
         raise ValueError(f"state must be a hybrid state vector of length {L.N_HYB}")
-    run = hybrid_kernel("simulate", settings, prog, int(state[L.H_PHASE]))
     n_samp = 0
     if sample_dt > 0:
         horizon = t_end if math.isfinite(t_end) else max(cycles, 1) * 2.0 * integrator.max_time
@@ -269,7 +240,7 @@ def run_controller(controller: Controller, state: np.ndarray, *,
         st = np.empty(n_samp)
         sy = np.empty((n_samp, 8))
         sm = np.empty((n_samp, L.N_MODE_COLS))
-        status = run(par, prog, obs, settings, hyb, counts, seg_times, log, st, sy, sm)
+        status = _simulate(par, prog, obs, settings, hyb, counts, seg_times, log, st, sy, sm)
         if status != L.ST_BUFFER_FULL:
             break
         if counts[L.K_LOG] >= log_capacity:

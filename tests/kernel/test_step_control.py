@@ -10,12 +10,11 @@ import pytest
 
 from monkeystudy.controllers import HorizontalSearch, Integrator, settings_vector
 from monkeystudy.kernel.gait import (
-    N_RESULT, R_ERROR, R_REJECTED, R_STATUS, R_STEPS, R_T_END, R_T_SWITCH,
+    N_RESULT, R_ERROR, R_REJECTED, R_STATUS, R_STEPS, R_T_END, R_T_SWITCH, horizontal_gait_batch,
 )
 from monkeystudy.kernel.integrate import MAX_FACTOR, SAFETY, pi_factor
 from monkeystudy.kernel.layout import ST_OK
 from monkeystudy.robot import SEED2009_TORQUE, Robot
-from monkeystudy.simulate import hybrid_kernel
 
 ROBOT = Robot.preset("seed2009")
 PROG, _ = HorizontalSearch(SEED2009_TORQUE).program()
@@ -27,8 +26,8 @@ def _gaits(controller, rtol, method="dop853"):
     out = np.empty((len(POINTS), N_RESULT))
     st = settings_vector(Integrator(method=method, rtol=rtol, atol=rtol * 1e-2,
                                     controller=controller))
-    hybrid_kernel("horizontal_gait_batch", st, PROG)(
-        ROBOT.params(), PROG, st, POINTS, ROBOT.swap_energy_floor(), True, out)
+    horizontal_gait_batch(ROBOT.params(), PROG, st, POINTS, ROBOT.swap_energy_floor(), True,
+                          out)
     return out
 
 

@@ -420,3 +420,30 @@ def test_integrator_controller_reaches_the_workers(tmp_path):
     assert np.array_equal(got, want["pi"]["error"])
     assert np.array_equal(rejected, want["pi"]["rejected"])
     assert not np.array_equal(got, want["scipy"]["error"])
+
+
+class _Lines(R.Reporter):
+    def __init__(self):
+        self.lines = []
+
+    def log(self, message: str) -> None:
+        self.lines.append(message)
+
+
+def test_first_run_says_it_compiles_and_a_cached_run_does_not(tmp_path):
+    """The compile line depends on the marker :func:`load_kernels` leaves in the kernel
+    cache: without it (a first run with this code) the run says it compiles, once."""
+    loaded = load_study(write_study(tmp_path))
+    spec = R.gait_spec(loaded.study)
+    marker = R.kernels_marker(spec)
+    assert marker is not None and marker.parent.is_dir()
+    for old in marker.parent.glob("loaded*"):
+        old.unlink()
+    first = _Lines()
+    run_study(loaded, tmp_path / "a", workers=1, reporter=first)
+    assert any(line.startswith("compiling the kernels this study uses (dop853")
+               for line in first.lines), first.lines
+    assert list(marker.parent.glob("loaded*"))
+    again = _Lines()
+    run_study(loaded, tmp_path / "b", workers=1, reporter=again)
+    assert not any("compiling" in line for line in again.lines), again.lines

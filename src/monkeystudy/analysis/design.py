@@ -29,10 +29,10 @@ from ..controllers import Integrator, Segment, SequenceGait, settings_vector
 from ..kernel import layout as L
 from ..kernel.design import (
     DESIGN_STATUS_NAMES, DS_OK, I_ADVANCE, I_DEFECT, I_ERROR, I_ITERATIONS, I_LOSS, I_NFEV,
-    I_PERIOD, I_RISE, N_INFO,
+    I_PERIOD, I_RISE, N_INFO, fixed_point,
 )
 from ..robot import Link, Robot
-from ..simulate import hybrid_kernel, run_controller
+from ..simulate import run_controller
 from .floquet import sorted_eigs
 from .replay import cycles_to_bound, growth_per_cycle, sequence_basin, sequence_cycles
 from .sections import TIGHT, cycle_section_state
@@ -368,9 +368,9 @@ def evaluate_design(space: DesignSpace, free: Mapping[str, float], z0,
     u = np.empty_like(u0)
     DP = np.empty((n, n))
     info = np.empty(N_INFO)
-    solve = hybrid_kernel("fixed_point", settings, prog0)
-    status = solve(robot.params(), prog0, dprog, np.empty((0, L.N_OBS_COLS)), settings,
-                   0.0, balance, u0, space.tol, space.max_iter, space.fd_step, u, DP, info)
+    status = fixed_point(robot.params(), prog0, dprog, np.empty((0, L.N_OBS_COLS)), settings,
+                         0.0, balance, u0, space.tol, space.max_iter,
+                         space.fd_step, u, DP, info)
     if balance:
         values[space.balance] = float(u[n])
         why = check_values({space.balance: values[space.balance]})

@@ -17,11 +17,11 @@ import numpy as np
 
 from ..controllers import METHODS, HorizontalSearch, Integrator, settings_vector
 from ..kernel.gait import (
-    N_RESULT, R_ERROR, R_NFEV, R_STATUS, R_T_END, R_T_MOTOR, R_T_SWITCH,
+    N_RESULT, R_ERROR, R_NFEV, R_STATUS, R_T_END, R_T_MOTOR, R_T_SWITCH, horizontal_gait_batch,
 )
 from ..reference.scipy_gait import ScipyGait
 from ..robot import SEED2009_TORQUE
-from ..simulate import RobotLike, as_robot, hybrid_kernel
+from ..simulate import RobotLike, as_robot
 
 def best_of(fn, repeat: int = 5) -> float:
     """Smallest wall time of ``repeat`` calls [s] (the least disturbed one)."""
@@ -36,8 +36,7 @@ def best_of(fn, repeat: int = 5) -> float:
 def kernel_gaits(par, prog, settings, pts, floor) -> np.ndarray:
     """The kernel's batch gait results ``[n, N_RESULT]`` at ``pts`` (no Python per gait)."""
     out = np.empty((pts.shape[0], N_RESULT))
-    hybrid_kernel("horizontal_gait_batch", settings, prog)(par, prog, settings, pts, floor,
-                                                           True, out)
+    horizontal_gait_batch(par, prog, settings, pts, floor, True, out)
     return out
 
 

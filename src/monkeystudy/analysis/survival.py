@@ -47,8 +47,9 @@ import numpy as np
 from ..controllers import Integrator, Observer, settings_vector
 from ..kernel import layout as L
 from ..kernel.noise import PER_RUN_CYCLE, standard_draw
+from ..kernel.survival import survival_runs as run_block
 from ..robot import Link, Robot
-from ..simulate import RobotLike, as_robot, hybrid_kernel
+from ..simulate import RobotLike, as_robot
 
 #: noise distributions: name -> the kernel's NZ_UNIFORM flag
 DISTRIBUTIONS = {"gaussian": 0.0, "uniform": 1.0}
@@ -242,9 +243,7 @@ def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles:
     par_runs = np.stack([run_robot(robot, noise, seed, r).params() for r in runs]) \
         if len(runs) else np.empty((0, 2, L.N_PARAMS))
     out = np.zeros((len(runs), L.N_SV_COLS))
-    start = np.asarray(start, float)
-    run_block = hybrid_kernel("survival_runs", settings, prog, int(start[L.H_PHASE]))
-    run_block(par_runs, prog, obs, settings, start, noise_roles(prog),
+    run_block(par_runs, prog, obs, settings, np.asarray(start, float), noise_roles(prog),
               noise.vector(), int(seed), runs, np.asarray(reference, float), int(max_cycles),
               float(error_bound), float(min_advance), out)
     return SurvivalRuns(out[:, L.SV_CYCLES].astype(np.int64),

@@ -47,7 +47,7 @@ try:
     # every kernel module is decorated now, while the cache directory is ours; then the
     # global setting goes back to what it was, so other numba users are unaffected
     from . import (  # noqa: F401
-        design, dynamics, entries, events, gait, hybrid, integrate, intrinsics, layout, noise,
+        design, dynamics, events, gait, hybrid, integrate, intrinsics, layout, noise,
         rk_explicit, roots, survival, tableaux, trig, variational,
     )
 finally:

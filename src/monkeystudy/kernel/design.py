@@ -21,7 +21,7 @@ whole solve, and the multipliers' matrix ``DP = dP/dw`` it returns, stay in comp
 import math
 
 import numpy as np
-from numba import literally, njit
+from numba import njit
 
 from .gait import start_state, wrapped_difference
 from .hybrid import simulate
@@ -57,22 +57,20 @@ LOG_ROWS = 64
 
 
 @njit(cache=True, error_model="numpy")
-def cycle_map(method, phases, par, prog, obs, settings, theta1_section, w, w_next, log, counts):
+def cycle_map(par, prog, obs, settings, theta1_section, w, w_next, log, counts):
     """One cycle of ``prog`` from the section state ``w``; writes the next section state into
     ``w_next`` and returns ``(status, y', x', energy lost [J], duration [s])``.
 
     ``settings[C_MAX_CYCLES]`` must be 1. ``log`` (capacity 0: none) receives the cycle's
     events (for the energy lost at resets).
     """
-    literally(method)
-    literally(phases)
     hyb = np.empty(N_HYB)
     start_state(w[1], w[2], hyb)
     hyb[TH1] = theta1_section
     hyb[TH2] = w[0]
     counts[K_LOG] = 0
     seg_times = np.empty(prog.shape[0])
-    status = simulate(method, phases, par, prog, obs, settings, hyb, counts, seg_times, log, np.empty(0),
+    status = simulate(par, prog, obs, settings, hyb, counts, seg_times, log, np.empty(0),
                       np.empty((0, 8)), np.empty((0, N_MODE_COLS)))
     loss = 0.0
     for r in range(int(counts[K_LOG])):
@@ -85,18 +83,16 @@ def cycle_map(method, phases, par, prog, obs, settings, theta1_section, w, w_nex
 
 
 @njit(cache=True, error_model="numpy")
-def residual(method, phases, par, prog0, dprog, obs, settings, theta1_section, balance, u, prog, F, counts):
+def residual(par, prog0, dprog, obs, settings, theta1_section, balance, u, prog, F, counts):
     """``F(u)`` into ``F`` (see the module docstring); returns the kernel status of the run.
     ``prog`` is work space for ``prog0 + u[n] * dprog``."""
-    literally(method)
-    literally(phases)
     n = N_SECTION
     q = u[n] if balance else 0.0
     for i in range(prog.shape[0]):
         for j in range(prog.shape[1]):
             prog[i, j] = prog0[i, j] + q * dprog[i, j]
     w_next = np.empty(n)
-    status, rise, _, _, _ = cycle_map(method, phases, par, prog, obs, settings, theta1_section, u[:n],
+    status, rise, _, _, _ = cycle_map(par, prog, obs, settings, theta1_section, u[:n],
                                       w_next, np.empty((0, N_LOG_COLS)), counts)
     for i in range(n):
         F[i] = w_next[i] - u[i]
@@ -106,12 +102,10 @@ def residual(method, phases, par, prog0, dprog, obs, settings, theta1_section, b
 
 
 @njit(cache=True, error_model="numpy")
-def jacobian(method, phases, par, prog0, dprog, obs, settings, theta1_section, balance, u, h, prog, J,
+def jacobian(par, prog0, dprog, obs, settings, theta1_section, balance, u, h, prog, J,
              counts):
     """``dF/du`` by fourth-order central differences (steps ``h * max(1, |u_j|)`` and twice
     that) into ``J``; returns ``ST_OK`` or the status of the first stencil run that failed."""
-    literally(method)
-    literally(phases)
     m = u.shape[0]
     up = u.copy()
     Fp = np.empty(m)
@@ -122,10 +116,10 @@ def jacobian(method, phases, par, prog0, dprog, obs, settings, theta1_section, b
         for k in range(2):
             step = hj * (k + 1)
             up[j] = u[j] + step
-            sp = residual(method, phases, par, prog0, dprog, obs, settings, theta1_section, balance, up,
+            sp = residual(par, prog0, dprog, obs, settings, theta1_section, balance, up,
                           prog, Fp, counts)
             up[j] = u[j] - step
-            sm = residual(method, phases, par, prog0, dprog, obs, settings, theta1_section, balance, up,
+            sm = residual(par, prog0, dprog, obs, settings, theta1_section, balance, up,
                           prog, Fm, counts)
             up[j] = u[j]
             if sp != ST_OK:
@@ -148,14 +142,12 @@ def _norm(v):
 
 
 @njit(cache=True, error_model="numpy")
-def balance_start(method, phases, par, prog0, dprog, obs, settings, theta1_section, u, prog, F, counts):
+def balance_start(par, prog0, dprog, obs, settings, theta1_section, u, prog, F, counts):
     """Secant steps on the balance value ``u[n]`` alone (the state ``u[:n]`` held) towards
     zero height change per cycle; ``u[n]`` is kept unchanged unless the height shrinks."""
-    literally(method)
-    literally(phases)
     n = N_SECTION
     q0 = u[n]
-    s0 = residual(method, phases, par, prog0, dprog, obs, settings, theta1_section, True, u, prog, F,
+    s0 = residual(par, prog0, dprog, obs, settings, theta1_section, True, u, prog, F,
                   counts)
     if s0 != ST_OK:
         return
@@ -164,7 +156,7 @@ def balance_start(method, phases, par, prog0, dprog, obs, settings, theta1_secti
     q1 = q0 + 1e-3 * max(1.0, abs(q0))
     for _ in range(12):
         u[n] = q1
-        s1 = residual(method, phases, par, prog0, dprog, obs, settings, theta1_section, True, u, prog,
+        s1 = residual(par, prog0, dprog, obs, settings, theta1_section, True, u, prog,
                       F, counts)
         if s1 != ST_OK:
             break
@@ -180,7 +172,7 @@ def balance_start(method, phases, par, prog0, dprog, obs, settings, theta1_secti
 
 
 @njit(cache=True, error_model="numpy")
-def fixed_point(method, phases, par, prog0, dprog, obs, settings, theta1_section, balance, u0, tol,
+def fixed_point(par, prog0, dprog, obs, settings, theta1_section, balance, u0, tol,
                 max_iter, h, u, DP, info):
     """Newton's method on ``F(u) = 0`` from ``u0``; the solution in ``u``, the map's Jacobian
     ``dP/dw`` at fixed program parameter in ``DP``, the record in ``info`` (``I_*``).
@@ -190,8 +182,6 @@ def fixed_point(method, phases, par, prog0, dprog, obs, settings, theta1_section
     until ``|F|`` decreases. Converged when ``|F| <= tol``; ``h`` is the relative
     finite-difference step. ``DP`` is re-evaluated at the solution (NaN if it failed).
     """
-    literally(method)
-    literally(phases)
     n = N_SECTION
     m = n + 1 if balance else n
     settings1 = settings.copy()
@@ -211,9 +201,9 @@ def fixed_point(method, phases, par, prog0, dprog, obs, settings, theta1_section
     if balance:
         # the balance first, the state held: a secant on the height alone puts Newton's start
         # near the gait's energy level (an open-loop schedule far from it falls or stalls)
-        balance_start(method, phases, par, prog0, dprog, obs, settings1, theta1_section, u, prog, F,
+        balance_start(par, prog0, dprog, obs, settings1, theta1_section, u, prog, F,
                       counts)
-    status = residual(method, phases, par, prog0, dprog, obs, settings1, theta1_section, balance, u,
+    status = residual(par, prog0, dprog, obs, settings1, theta1_section, balance, u,
                       prog, F, counts)
     if status != ST_OK:
         info[I_MAP_STATUS] = status
@@ -225,7 +215,7 @@ def fixed_point(method, phases, par, prog0, dprog, obs, settings, theta1_section
         if norm <= tol:
             result = DS_OK
             break
-        status = jacobian(method, phases, par, prog0, dprog, obs, settings1, theta1_section, balance, u,
+        status = jacobian(par, prog0, dprog, obs, settings1, theta1_section, balance, u,
                           h, prog, J, counts)
         if status != ST_OK:
             info[I_MAP_STATUS] = status
@@ -237,7 +227,7 @@ def fixed_point(method, phases, par, prog0, dprog, obs, settings, theta1_section
         for _ in range(20):
             for i in range(m):
                 ut[i] = u[i] + lam * du[i]
-            status = residual(method, phases, par, prog0, dprog, obs, settings1, theta1_section,
+            status = residual(par, prog0, dprog, obs, settings1, theta1_section,
                               balance, ut, prog, Ft, counts)
             if status == ST_OK and _norm(Ft) < norm:
                 improved = True
@@ -260,7 +250,7 @@ def fixed_point(method, phases, par, prog0, dprog, obs, settings, theta1_section
             prog[i, j] = prog0[i, j] + q * dprog[i, j]
     w_next = np.empty(n)
     log = np.empty((LOG_ROWS, N_LOG_COLS))
-    status, rise, advance, loss, period = cycle_map(method, phases, par, prog, obs, settings1, theta1_section,
+    status, rise, advance, loss, period = cycle_map(par, prog, obs, settings1, theta1_section,
                                                     u[:n], w_next, log, counts)
     err = 0.0
     for i in range(n):
@@ -274,7 +264,7 @@ def fixed_point(method, phases, par, prog0, dprog, obs, settings, theta1_section
         # dP/dw at the fixed program: the state columns of dF/du, plus the identity
         prog_q = prog.copy()
         Jw = np.empty((n, n))
-        status = jacobian(method, phases, par, prog_q, dprog, obs, settings1, theta1_section, False,
+        status = jacobian(par, prog_q, dprog, obs, settings1, theta1_section, False,
                           u[:n].copy(), h, prog, Jw, counts)
         if status != ST_OK:
             info[I_MAP_STATUS] = status

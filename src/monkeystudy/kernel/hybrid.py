@@ -31,7 +31,7 @@ Semantics worth knowing (docs/model.md sections 4 and 6):
 import math
 
 import numpy as np
-from numba import literally, njit
+from numba import njit
 
 from .dynamics import attach_xy_end, flip_state, holding_torque, rhs, total_energy8
 from .events import (
@@ -39,8 +39,13 @@ from .events import (
     guard_trig, hermite_flags, locate_first, pack, rate_uses_field, unpack_into,
 )
 from .integrate import (
-    MAX_FACTOR, MIN_FACTOR, PI_ERR_FLOOR, SAFETY, dense_coefficients, dense_eval,
-    error_estimator_order, error_power_sq, pi_factor, select_initial_step, step_error_sq,
+    MAX_FACTOR, MIN_FACTOR, PI_ERR_FLOOR, SAFETY, dense_eval, dense_prepare,
+    error_estimator_order, error_power_sq, pi_factor, select_initial_step,
+)
+from .rk_explicit import (
+    dop853_error_sq4, dop853_error_sq8, dop853_step4, dop853_step8, rk45_error_sq4,
+    rk45_error_sq8, rk45_step4, rk45_step8, vern9_error_sq4, vern9_error_sq8, vern9_step4,
+    vern9_step8,
 )
 from .tableaux import (
     DOP853_N_STAGES, RK45_N_STAGES, VERN9_INTERPOLATOR_POWER, VERN9_N_STAGES,
@@ -48,16 +53,16 @@ from .tableaux import (
 )
 from .layout import (
     C_ATOL, C_CONTROLLER, C_MAX_CYCLES, C_MAX_DROP, C_MAX_SEGMENT_TIME, C_MAX_STEP, C_MAX_STEPS,
-    C_RTOL, C_SAMPLE_DT, C_T_END, C_TICK, C_TICK_PHASE, C_ZERO_BAND, CONTROLLER_PI,
+    C_METHOD, C_RTOL, C_SAMPLE_DT, C_T_END, C_TICK, C_TICK_PHASE, C_ZERO_BAND, CONTROLLER_PI,
     G_ENERGY_RESTORED, G_NONE, G_SLIP_STOP, G_STICK_BREAK, G_TIME, H_CLOCK, H_CYCLES, H_EREF,
     H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG, H_T, H_TORQUE, H_Y_REF, K_CYCLES, K_EVENTS,
     K_LOG, K_NFEV, K_REJECTED, K_SAMPLES, K_STEPS, L_CYCLE, L_E_AFTER, L_E_BEFORE, L_FLIPPED,
     L_ID, L_KIND, L_PHASE, L_STATE, L_T, LOG_FRICTION, LOG_OBSERVER, LOG_SEGMENT, M_FLIPPED,
     M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, METHOD_VERN9, O_GDIR,
     O_GINDEX, O_GUARD, O_GVALUE, O_SEGMENT, P_C_JOINT, P_C_PIVOT, PHASE_FIXED, PHASE_FLIGHT,
-    PHASE_SWING, PHASES_SWING, S_CLOCK, S_CYCLE, S_DELAY, S_FAIL, S_GDIR, S_GINDEX, S_GUARD, S_GVALUE, S_MAG_A,
+    PHASE_SWING, S_CLOCK, S_CYCLE, S_DELAY, S_FAIL, S_GDIR, S_GINDEX, S_GUARD, S_GVALUE, S_MAG_A,
     S_MAG_B, S_NEXT, S_SET_EREF, S_SWAP, S_TICKED, S_TORQUE, ST_BUFFER_FULL, ST_END_TIME,
-    ST_FELL, ST_HORIZON, ST_NO_FLIGHT_KERNEL, ST_NONFINITE, ST_OK, ST_STEP_FAILURE,
+    ST_FELL, ST_HORIZON, ST_NONFINITE, ST_OK, ST_STEP_FAILURE,
 )
 
 EPS = 2.220446049250313e-16
@@ -201,21 +206,11 @@ def _finite(y, n):
 
 
 @njit(cache=True, error_model="numpy")
-def simulate(method, phases, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t,
-             samp_y, samp_mode):
+def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp_y, samp_mode):
     """Run a controller program from the hybrid state ``hyb``; returns a status ``ST_*``.
-
-    Compiled once per ``(method, phases)``, both literals (:mod:`.entries` holds the compiled
-    entry points): only that method's steps, and only the 4-state ones for ``PHASES_SWING``,
-    are compiled. A ``PHASES_SWING`` loop that enters flight stops with
-    ``ST_NO_FLIGHT_KERNEL``.
 
     Parameters
     ----------
-    method : int, literal
-        ``METHOD_*``, the integrator (equal to ``settings[C_METHOD]``).
-    phases : int, literal
-        ``PHASES_SWING`` (never in flight) or ``PHASES_ANY``.
     par : float64[2, N_PARAMS]
         Robot parameters, row 0 as given, row 1 flipped (docs/model.md section 3).
     prog : float64[n_seg, N_SEG_COLS]
@@ -237,9 +232,7 @@ def simulate(method, phases, par, prog, obs, settings, hyb, counts, seg_times, l
         Trajectory samples every ``C_SAMPLE_DT`` from the dense output, plus the states just
         before and after each segment transition (capacity 0: none).
     """
-    # compile-time choices: numba compiles this function anew for each pair of values
-    literally(method)
-    literally(phases)
+    method = int(settings[C_METHOD])
     rtol = settings[C_RTOL]
     atol = settings[C_ATOL]
     max_seg_time = settings[C_MAX_SEGMENT_TIME]
@@ -253,8 +246,6 @@ def simulate(method, phases, par, prog, obs, settings, hyb, counts, seg_times, l
     max_drop = settings[C_MAX_DROP]
     band = settings[C_ZERO_BAND]
     err_order = error_estimator_order(method)
-    n_stages = DOP853_N_STAGES if method == METHOD_DOP853 else (
-        VERN9_N_STAGES if method == METHOD_VERN9 else RK45_N_STAGES)
     pi_control = settings[C_CONTROLLER] == CONTROLLER_PI
     en_prev = 1.0  # the PI controller's previous accepted error norm
 
@@ -322,9 +313,6 @@ def simulate(method, phases, par, prog, obs, settings, hyb, counts, seg_times, l
                 phase, flipped = apply_magnets(par, s8, phase, flipped, prog[seg, S_MAG_A],
                                                prog[seg, S_MAG_B], prog[seg, S_SWAP] > 0)
             magnets_done = False
-            if phases == PHASES_SWING and phase == PHASE_FLIGHT:
-                status = ST_NO_FLIGHT_KERNEL
-                break
             p = par[flipped]
             tau = prog[seg, S_TORQUE]
             if prog[seg, S_SET_EREF] > 0:
@@ -449,9 +437,35 @@ def simulate(method, phases, par, prog, obs, settings, hyb, counts, seg_times, l
                         t_new = bound
                     h = t_new - t
                     h_abs = abs(h)
-                    en_sq = step_error_sq(method, phases, p, tau, fmode, y, f, h, n, K,
-                                          trig_new, y_new, f_new, rtol, atol)
-                    counts[K_NFEV] += n_stages
+                    # integrate.rk_step and error_norm_sq written out down to the straight-line
+                    # steps: through a wrapper (inlined or called) numba reference-counts the
+                    # eight arrays on every step (atomic operations: the two wrappers cost ~10 %
+                    # of a gait). The controller works on the squared norm en_sq (see
+                    # integrate.error_power_sq).
+                    if method == METHOD_DOP853:
+                        if n == 4:
+                            dop853_step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                            en_sq = dop853_error_sq4(K, h, y, y_new, rtol, atol)
+                        else:
+                            dop853_step8(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                            en_sq = dop853_error_sq8(K, h, y, y_new, rtol, atol)
+                        counts[K_NFEV] += DOP853_N_STAGES
+                    elif method == METHOD_VERN9:
+                        if n == 4:
+                            vern9_step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                            en_sq = vern9_error_sq4(K, h, y, y_new, rtol, atol)
+                        else:
+                            vern9_step8(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                            en_sq = vern9_error_sq8(K, h, y, y_new, rtol, atol)
+                        counts[K_NFEV] += VERN9_N_STAGES
+                    else:
+                        if n == 4:
+                            rk45_step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                            en_sq = rk45_error_sq4(K, h, y, y_new, rtol, atol)
+                        else:
+                            rk45_step8(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                            en_sq = rk45_error_sq8(K, h, y, y_new, rtol, atol)
+                        counts[K_NFEV] += RK45_N_STAGES
                     if en_sq < 1.0:
                         if pi_control:
                             en = math.sqrt(en_sq)
@@ -492,9 +506,8 @@ def simulate(method, phases, par, prog, obs, settings, hyb, counts, seg_times, l
                                                      y_new, pivot, eref, trig_new)
                     if crosses(g_seg, gb, gdir) or hermite_flags(g_seg, r_seg, gb, rb, h, gdir):
                         if not dense:
-                            counts[K_NFEV] += dense_coefficients(method, phases, phase, p, tau,
-                                                                fmode, y, y_new, f_new, h, n,
-                                                                K, Fd, ytmp)
+                            counts[K_NFEV] += dense_prepare(method, phase, p, tau, fmode, t, h,
+                                                            y, y_new, f_new, n, K, Fd, ytmp)
                             dense = True
                         ta = t
                         ga = g_seg
@@ -562,9 +575,8 @@ def simulate(method, phases, par, prog, obs, settings, hyb, counts, seg_times, l
                     fdir = 1.0 if fkind == G_STICK_BREAK else -1.0
                     if crosses(g_fric[k], gb, fdir):
                         if not dense:
-                            counts[K_NFEV] += dense_coefficients(method, phases, phase, p, tau,
-                                                                fmode, y, y_new, f_new, h, n,
-                                                                K, Fd, ytmp)
+                            counts[K_NFEV] += dense_prepare(method, phase, p, tau, fmode, t, h,
+                                                            y, y_new, f_new, n, K, Fd, ytmp)
                             dense = True
                         tc = _locate_friction(k, fkind, t, t_new, g_fric[k], gb, method, Fd,
                                               y, h, n, phase, p, tau, fmode, pivot, ybuf)
@@ -591,9 +603,8 @@ def simulate(method, phases, par, prog, obs, settings, hyb, counts, seg_times, l
                     flagged = crosses(ga, gb, odir) or hermite_flags(ga, ra, gb, rb, h, odir)
                     if flagged:
                         if not dense:
-                            counts[K_NFEV] += dense_coefficients(method, phases, phase, p, tau,
-                                                                fmode, y, y_new, f_new, h, n,
-                                                                K, Fd, ytmp)
+                            counts[K_NFEV] += dense_prepare(method, phase, p, tau, fmode, t, h,
+                                                            y, y_new, f_new, n, K, Fd, ytmp)
                             dense = True
                         # searched over the whole step, so that an observer watching the
                         # same guard as the segment event finds the same root; crossings up
@@ -632,9 +643,8 @@ def simulate(method, phases, par, prog, obs, settings, hyb, counts, seg_times, l
                     while next_k * sample_dt <= t_cut:
                         ts = next_k * sample_dt
                         if not dense:
-                            counts[K_NFEV] += dense_coefficients(method, phases, phase, p, tau,
-                                                                fmode, y, y_new, f_new, h, n,
-                                                                K, Fd, ytmp)
+                            counts[K_NFEV] += dense_prepare(method, phase, p, tau, fmode, t, h,
+                                                            y, y_new, f_new, n, K, Fd, ytmp)
                             dense = True
                         dense_eval(method, Fd, y, h, (ts - t) / h, n, ybuf)
                         unpack_into(phase, ybuf, pivot, work)

@@ -14,16 +14,13 @@ scipy counterpart: it uses the same controller with scipy's RMS error norm.
 """
 import math
 
-from numba import literally, njit, types
-from numba.extending import overload
+from numba import njit
 
 from .dynamics import rhs
-from .layout import METHOD_DOP853, METHOD_RK45, METHOD_VERN9, PHASES_SWING
+from .layout import METHOD_DOP853, METHOD_VERN9
 from .rk_explicit import (
-    dop853_dense, dop853_dense4, dop853_dense8, dop853_error_sq, dop853_error_sq4,
-    dop853_error_sq8, dop853_step, dop853_step4, dop853_step8, rk45_error_sq, rk45_error_sq4,
-    rk45_error_sq8, rk45_step, rk45_step4, rk45_step8, vern9_error_sq, vern9_error_sq4,
-    vern9_error_sq8, vern9_step, vern9_step4, vern9_step8,
+    dop853_dense, dop853_error_sq, dop853_step, rk45_error_sq, rk45_step, vern9_error_sq,
+    vern9_step,
 )
 from .roots import inv_root16
 from .tableaux import (
@@ -171,36 +168,40 @@ def error_norm(method, K, h, y, y_new, n, rtol, atol):
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def vern9_dense(phase, p, tau, fmode, y_old, y_new, h, n, K, Fd, ytmp):
-    """Vern9's 9th-order interpolant: nine extra stages beyond ``f_new`` (which the step left
-    in ``K[16]``), ``Fd[k] = sum_i R[i, k] k_i``, the last coefficient closing it on
-    ``y_new``; returns the extra right-hand-side evaluations."""
-    for s in range(VERN9_N_STAGES + 1, VERN9_N_STAGES_EXTENDED):
+def dense_prepare(method, phase, p, tau, fmode, t_old, h, y_old, y_new, f_new, n, K, Fd, ytmp):
+    """Dense-output coefficients of the last step into ``Fd``; returns extra RHS evaluations.
+
+    DOP853: the 7th-order interpolant (three extra stages); RK45: the 4th-order free
+    interpolant ``Q = K^T P``; Vern9: the 9th-order interpolant (nine extra stages beyond
+    ``f_new``, which the step left in ``K[16]``), ``Fd[k] = sum_i R[i, k] k_i``, the last
+    coefficient closing it on ``y_new``.
+    """
+    if method == METHOD_VERN9:
+        for s in range(VERN9_N_STAGES + 1, VERN9_N_STAGES_EXTENDED):
+            for i in range(n):
+                acc = 0.0
+                for j in range(s):
+                    acc += K[j, i] * VERN9_A[s, j]
+                ytmp[i] = y_old[i] + acc * h
+            rhs(phase, p, tau, fmode, ytmp, K[s])
+        last = VERN9_INTERPOLATOR_POWER - 1
         for i in range(n):
-            acc = 0.0
-            for j in range(s):
-                acc += K[j, i] * VERN9_A[s, j]
-            ytmp[i] = y_old[i] + acc * h
-        rhs(phase, p, tau, fmode, ytmp, K[s])
-    last = VERN9_INTERPOLATOR_POWER - 1
-    for i in range(n):
-        low = 0.0
-        for r in range(last):
-            acc = 0.0
-            for j in range(VERN9_N_STAGES_EXTENDED):
-                acc += VERN9_R[j, r] * K[j, i]
-            Fd[r, i] = acc
-            low += acc
-        # the theta^9 coefficient closes the polynomial on the step's end: the weights
-        # b_i(1) = sum_k R[i, k] equal b_i only to ~1e-12 in double precision (terms of
-        # ~1e4 cancel), a jump at step ends that event location would see
-        Fd[last, i] = (y_new[i] - y_old[i]) / h - low
-    return VERN9_N_STAGES_EXTENDED - VERN9_N_STAGES - 1
-
-
-@njit(cache=True, error_model="numpy", _nrt=False)
-def rk45_dense(n, K, Fd):
-    """RK45's 4th-order free interpolant ``Q = K^T P``; no extra evaluations (returns 0)."""
+            low = 0.0
+            for r in range(last):
+                acc = 0.0
+                for j in range(VERN9_N_STAGES_EXTENDED):
+                    acc += VERN9_R[j, r] * K[j, i]
+                Fd[r, i] = acc
+                low += acc
+            # the theta^9 coefficient closes the polynomial on the step's end: the weights
+            # b_i(1) = sum_k R[i, k] equal b_i only to ~1e-12 in double precision (terms of
+            # ~1e4 cancel), a jump at step ends that event location would see
+            Fd[last, i] = (y_new[i] - y_old[i]) / h - low
+        return VERN9_N_STAGES_EXTENDED - VERN9_N_STAGES - 1
+    if method == METHOD_DOP853:
+        # written out (kernel/rk_explicit.py): the generic loops multiply through the zeros
+        # of the tableau, and an event costs one of these
+        return dop853_dense(p, tau, fmode, y_old, y_new, f_new, h, n, K, Fd)
     for i in range(n):
         for r in range(4):
             acc = 0.0
@@ -208,134 +209,6 @@ def rk45_dense(n, K, Fd):
                 acc += K[j, i] * RK45_P[j, r]
             Fd[r, i] = acc
     return 0
-
-
-@njit(cache=True, error_model="numpy", _nrt=False)
-def dense_prepare(method, phase, p, tau, fmode, t_old, h, y_old, y_new, f_new, n, K, Fd, ytmp):
-    """Dense-output coefficients of the last step into ``Fd``; returns extra RHS evaluations.
-
-    DOP853: the 7th-order interpolant (three extra stages); RK45: the 4th-order free
-    interpolant; Vern9: the 9th-order interpolant (nine extra stages). Chosen at run time
-    (all three compiled); :func:`dense_coefficients` chooses when compiling.
-    """
-    if method == METHOD_VERN9:
-        return vern9_dense(phase, p, tau, fmode, y_old, y_new, h, n, K, Fd, ytmp)
-    if method == METHOD_DOP853:
-        # written out (kernel/rk_explicit.py): the generic loops multiply through the zeros
-        # of the tableau, and an event costs one of these
-        return dop853_dense(p, tau, fmode, y_old, y_new, f_new, h, n, K, Fd)
-    return rk45_dense(n, K, Fd)
-
-
-# --- choices made when compiling ----------------------------------------------------------------
-# The hybrid loop is compiled once per (method, phase set) it is asked for (see
-# :mod:`.entries`): the straight-line steps of the other methods, and the 8-state (flight) steps
-# of a run that never flies, are then never compiled. These two functions are that choice:
-# interpreted (``NUMBA_DISABLE_JIT``) they dispatch at run time like :func:`rk_step`; compiled,
-# their overloads below resolve the literal ``method`` and ``phases`` to one step function.
-_STEPS = {
-    METHOD_DOP853: ((dop853_step4, dop853_error_sq4), (dop853_step8, dop853_error_sq8)),
-    METHOD_VERN9: ((vern9_step4, vern9_error_sq4), (vern9_step8, vern9_error_sq8)),
-    METHOD_RK45: ((rk45_step4, rk45_error_sq4), (rk45_step8, rk45_error_sq8)),
-}
-
-
-def step_error_sq(method, phases, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new, rtol,
-                  atol):
-    """One embedded step of ``method`` (as :func:`rk_step`) and the square of its scaled
-    error norm (as :func:`error_norm_sq`). ``method`` and ``phases`` (``PHASES_*``) must be
-    compile-time literals: with ``PHASES_SWING`` only the 4-state step exists (``n`` is 4)."""
-    (step4, err4), (step8, err8) = _STEPS[method]
-    if phases == PHASES_SWING or n == 4:
-        step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
-        return err4(K, h, y, y_new, rtol, atol)
-    step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
-    return err8(K, h, y, y_new, rtol, atol)
-
-
-def dense_coefficients(method, phases, phase, p, tau, fmode, y_old, y_new, f_new, h, n, K, Fd,
-                       ytmp):
-    """:func:`dense_prepare` with ``method`` and ``phases`` compile-time literals."""
-    if method == METHOD_VERN9:
-        return vern9_dense(phase, p, tau, fmode, y_old, y_new, h, n, K, Fd, ytmp)
-    if method == METHOD_DOP853:
-        if phases == PHASES_SWING or n == 4:
-            dop853_dense4(p, tau, fmode, y_old, y_new, f_new, h, K, Fd)
-        else:
-            dop853_dense8(p, tau, fmode, y_old, y_new, f_new, h, K, Fd)
-        return 3
-    return rk45_dense(n, K, Fd)
-
-
-def _literal_choice(method, phases):
-    """``(method, phases)`` as Python ints, or None while numba types them as plain ints (the
-    overload then asks for literals)."""
-    if isinstance(method, types.IntegerLiteral) and isinstance(phases, types.IntegerLiteral):
-        return method.literal_value, phases.literal_value
-    return None
-
-
-@overload(step_error_sq, prefer_literal=True, jit_options={"error_model": "numpy"})
-def _step_error_sq(method, phases, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new, rtol,
-                   atol):
-    choice = _literal_choice(method, phases)
-    if choice is None:
-        def force(method, phases, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new, rtol,
-                  atol):
-            return literally(method) + literally(phases) + 0.0
-        return force
-    (step4, err4), (step8, err8) = _STEPS[choice[0]]
-    if choice[1] == PHASES_SWING:
-        def swing(method, phases, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new, rtol,
-                  atol):
-            step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
-            return err4(K, h, y, y_new, rtol, atol)
-        return swing
-
-    def any_phase(method, phases, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new, rtol,
-                  atol):
-        if n == 4:
-            step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
-            return err4(K, h, y, y_new, rtol, atol)
-        step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new)
-        return err8(K, h, y, y_new, rtol, atol)
-    return any_phase
-
-
-@overload(dense_coefficients, prefer_literal=True, jit_options={"error_model": "numpy"})
-def _dense_coefficients(method, phases, phase, p, tau, fmode, y_old, y_new, f_new, h, n, K,
-                        Fd, ytmp):
-    choice = _literal_choice(method, phases)
-    if choice is None:
-        def force(method, phases, phase, p, tau, fmode, y_old, y_new, f_new, h, n, K, Fd,
-                  ytmp):
-            return literally(method) + literally(phases)
-        return force
-    if choice[0] == METHOD_VERN9:
-        def vern9(method, phases, phase, p, tau, fmode, y_old, y_new, f_new, h, n, K, Fd,
-                  ytmp):
-            return vern9_dense(phase, p, tau, fmode, y_old, y_new, h, n, K, Fd, ytmp)
-        return vern9
-    if choice[0] == METHOD_RK45:
-        def rk45(method, phases, phase, p, tau, fmode, y_old, y_new, f_new, h, n, K, Fd,
-                 ytmp):
-            return rk45_dense(n, K, Fd)
-        return rk45
-    if choice[1] == PHASES_SWING:
-        def dop853_swing(method, phases, phase, p, tau, fmode, y_old, y_new, f_new, h, n, K,
-                         Fd, ytmp):
-            dop853_dense4(p, tau, fmode, y_old, y_new, f_new, h, K, Fd)
-            return 3
-        return dop853_swing
-
-    def dop853_any(method, phases, phase, p, tau, fmode, y_old, y_new, f_new, h, n, K, Fd,
-                   ytmp):
-        if n == 4:
-            dop853_dense4(p, tau, fmode, y_old, y_new, f_new, h, K, Fd)
-        else:
-            dop853_dense8(p, tau, fmode, y_old, y_new, f_new, h, K, Fd)
-        return 3
-    return dop853_any
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)

@@ -31,10 +31,6 @@ PHASE_SWING = 0    # the (x, y) end is attached, 2-DOF
 PHASE_FLIGHT = 1   # nothing attached, 4-DOF
 PHASE_FIXED = 2    # both ends attached, no motion
 
-# phase sets a hybrid loop is compiled for (a compile-time choice: see kernel/entries.py)
-PHASES_SWING = 0   # swinging or fixed only: the 4-state steps
-PHASES_ANY = 1     # flight too: the 8-state steps as well
-
 # --- integrator methods ----------------------------------------------------------------------
 METHOD_RK45 = 0
 METHOD_DOP853 = 1
@@ -109,7 +105,6 @@ ST_BUFFER_FULL = 7          # log/sample buffer too small (the API grows it and 
 ST_END_TIME = 8             # ran to C_T_END (normal end of a fixed-duration run)
 ST_HORIZON = 9              # a segment without a specific failure status hit its horizon
 ST_FELL = 10                # the attached end sank more than C_MAX_DROP
-ST_NO_FLIGHT_KERNEL = 13    # entered flight in a loop compiled for PHASES_SWING (a bug)
 
 STATUS_NAMES = ("ok", "no_switch", "energy_not_restored", "no_return_to_vertical",
                 "non_finite", "unreachable", "step_failure", "buffer_full", "end_time",

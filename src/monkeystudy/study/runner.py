@@ -24,6 +24,7 @@ import numpy as np
 
 from .. import __version__
 from ..controllers import Integrator, OpenLoop
+from ..kernel import KERNEL_CACHE_DIR
 from ..kernel.layout import ST_UNREACHABLE
 from ..kernel.variational import (
     swap_jacobian, swap_state, swing_energy_gradient, swing_field, swing_variational_rhs,
@@ -71,6 +72,18 @@ def step_attrs(loaded: LoadedStudy, step, history: str) -> dict:
     }
 
 
+def kernels_marker(spec: GaitSpec, *, runs: bool = False,
+                   variational: bool = False) -> Path | None:
+    """A file in the kernel cache (keyed by every kernel source) that :func:`load_kernels`
+    leaves once these kernels were compiled: its absence means a first run, which compiles.
+    None when the cache is not ours (a read-only home). Not keyed by the integration method:
+    the hybrid loop is compiled for all of them at once."""
+    if not KERNEL_CACHE_DIR:
+        return None
+    return Path(KERNEL_CACHE_DIR) / "-".join(["loaded"] + ["runs"] * runs
+                                             + ["variational"] * variational)
+
+
 def load_kernels(spec: GaitSpec, *, runs: bool = False, variational: bool = False) -> None:
     """Compile (or load from the on-disk cache) the kernels the tasks use, once, in the
     driver, before fanning out: parallel first compiles would race on the cache.
@@ -94,6 +107,12 @@ def load_kernels(spec: GaitSpec, *, runs: bool = False, variational: bool = Fals
         swap_state(par[0], par[1], y)
         swing_field(par[0], 0.0, np.ones(2), y, np.empty(4))
         swing_energy_gradient(par[0], 0.0, y, np.empty(4))
+    marker = kernels_marker(spec, runs=runs, variational=variational)
+    if marker is not None:
+        try:
+            marker.touch()
+        except OSError:
+            pass
 
 
 # --- the run loop ----------------------------------------------------------------------------
@@ -316,11 +335,15 @@ def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
     run = None
     try:
         def warm_up():
-            if pool is None:   # a resident pool's process has them (resident_pool)
-                reporter.log("loading the compiled kernels (the first run after a change "
-                             "compiles them: a few minutes)")
-            load_kernels(spec, runs=any(s.kind.needs_runs(s.step) for s in todo),
-                         variational=any(s.kind.needs_variational(s.step) for s in todo))
+            needs = {"runs": any(s.kind.needs_runs(s.step) for s in todo),
+                     "variational": any(s.kind.needs_variational(s.step) for s in todo)}
+            marker = kernels_marker(spec, **needs)
+            if pool is None and (marker is None or not marker.exists()):
+                # said once: a cached run loads them in about a second, silently
+                reporter.log(f"compiling the kernels this study uses ({spec.integrator.method}"
+                             "; first run with this code: a few minutes on two cores, "
+                             "cached afterwards)")
+            load_kernels(spec, **needs)
 
         with (open_pool(workers, scheduler, warm_up) if pool is None
               else resident_pool(pool, warm_up)) as used:
