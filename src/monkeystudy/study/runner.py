@@ -72,8 +72,7 @@ def step_attrs(loaded: LoadedStudy, step, history: str) -> dict:
     }
 
 
-def kernels_marker(spec: GaitSpec, *, runs: bool = False,
-                   variational: bool = False) -> Path | None:
+def kernels_marker(*, runs: bool = False, variational: bool = False) -> Path | None:
     """A file in the kernel cache (keyed by every kernel source) that :func:`load_kernels`
     leaves once these kernels were compiled: its absence means a first run, which compiles.
     None when the cache is not ours (a read-only home). Not keyed by the integration method:
@@ -107,7 +106,7 @@ def load_kernels(spec: GaitSpec, *, runs: bool = False, variational: bool = Fals
         swap_state(par[0], par[1], y)
         swing_field(par[0], 0.0, np.ones(2), y, np.empty(4))
         swing_energy_gradient(par[0], 0.0, y, np.empty(4))
-    marker = kernels_marker(spec, runs=runs, variational=variational)
+    marker = kernels_marker(runs=runs, variational=variational)
     if marker is not None:
         try:
             marker.touch()
@@ -337,7 +336,7 @@ def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
         def warm_up():
             needs = {"runs": any(s.kind.needs_runs(s.step) for s in todo),
                      "variational": any(s.kind.needs_variational(s.step) for s in todo)}
-            marker = kernels_marker(spec, **needs)
+            marker = kernels_marker(**needs)
             if pool is None and (marker is None or not marker.exists()):
                 # said once: a cached run loads them in about a second, silently
                 reporter.log(f"compiling the kernels this study uses ({spec.integrator.method}"
