@@ -120,3 +120,63 @@ def test_grid_consolidation_memory_is_flat(tmp_path, monkeypatch):
     assert peak < full / 5, (peak, full)
     with xr.open_dataset(tmp_path / "big.nc") as ds:
         assert int(ds["steps"][99, 999]) == 99
+
+
+@pytest.mark.parametrize("layout", ["axes", "points"])
+def test_grid_records_its_least_error_and_where(tmp_path, layout):
+    rng = np.random.default_rng(7)
+    a1, a2 = np.linspace(0, 1, 5), np.linspace(5, 6, 7)
+    n = a1.size * a2.size
+    flat = {k: np.zeros(n, dt) for k, dt in grid.HORIZONTAL_VARIABLES.items()}
+    flat["error"] = rng.uniform(1.0, 2.0, n)
+    flat["error"][::3] = np.nan                     # failed points carry no error
+    flat["error"][23] = 0.25
+    blocks = [(b.lo, {k: v[b.lo:b.hi] for k, v in flat.items()}) for b in make_blocks(n, 4)]
+    seen = []
+
+    def kind(d1, d2):
+        seen.append((d1, d2))
+        return {"least_error_vertical_passes": 3}
+
+    pts = np.stack(np.meshgrid(a1, a2, indexing="ij"), -1).reshape(-1, 2)
+    where = {"axes": (a1, a2)} if layout == "axes" else {"points": pts}
+    info = grid.write_grid(tmp_path / "g.nc", {}, blocks=blocks, least_error_attrs=kind, **where)
+    assert seen == [tuple(pts[23])]                  # asked once, at the least error's start
+    assert info["least_error"] == 0.25 and info["least_error_at"] == tuple(pts[23])
+    a = D.read_attrs(tmp_path / "g.nc")
+    assert (a["least_error"], a["least_error_dtheta1"], a["least_error_dtheta2"]) == \
+        (0.25, pts[23, 0], pts[23, 1])
+    assert a["least_error_vertical_passes"] == 3
+
+    flat["error"][:] = np.nan                        # no error anywhere: no such attributes
+    blocks = [(0, flat)]
+    info = grid.write_grid(tmp_path / "none.nc", {}, blocks=blocks, least_error_attrs=kind, **where)
+    assert info["least_error_at"] is None and len(seen) == 1
+    assert "least_error" not in D.read_attrs(tmp_path / "none.nc")
+
+
+def test_grid_names_the_kind_of_its_best_start(tmp_path):
+    """A start that swaps only on the backswing is reported as another gait, in the log line,
+    the dataset and ``inspect``'s summary."""
+    from monkeystudy.study import load_study, run_study
+    from monkeystudy.study.steps import REGISTRY
+    from studyhelpers import write_study
+
+    text = """\
+schema_version: 1
+name: kinds
+robot: seed2009
+gait: {kind: horizontal, motor_torque: 0.6354, tick: 0.001}
+integrator: {rtol: 1.0e-8, atol: 1.0e-10}
+steps:
+  - {name: late, kind: grid, points: [[0.85, 10.85], [0.3, 10.0]]}
+"""
+    out = tmp_path / "out"
+    summary = run_study(load_study(write_study(tmp_path, text)), out, workers=1)
+    a = D.read_attrs(out / "late.nc")
+    assert a["least_error_dtheta1"] == 0.85 and a["least_error_dtheta2"] == 10.85
+    assert a["least_error_vertical_passes"] == 1    # tests/analysis/test_gait_kind.py
+    with xr.open_dataset(out / "late.nc", engine="netcdf4") as ds:
+        line = REGISTRY["grid"].describe(ds)[-1]
+    assert "not a first-swing gait" in line and "swap at 1.2" in line, line
+    assert "not a first-swing gait" in summary.notes["late"], summary.notes

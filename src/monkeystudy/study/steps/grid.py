@@ -8,11 +8,12 @@ integrating them (``skip_unreachable``).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Iterable, Iterator, Literal, Optional
+from typing import Callable, Iterable, Iterator, Literal, Optional
 
 import numpy as np
 from pydantic import Field, model_validator
 
+from ...analysis.gait_kind import gait_kind_text, vertical_passes_before_swap
 from ...kernel.layout import STATUS_NAMES
 from ...simulate import evaluate_cycle_gaits, evaluate_gaits
 from .. import datasets as D
@@ -131,13 +132,18 @@ def grid_axes_block(spec: GaitSpec, a1: np.ndarray, a2: np.ndarray, lo: int, hi:
 def write_grid(path: Path, attrs: dict, *, axes: tuple[np.ndarray, np.ndarray] | None = None,
                points: np.ndarray | None = None,
                blocks: Iterable[tuple[int, dict[str, np.ndarray]]] = (),
-               variables: dict | None = None, n_segments: int = 0) -> dict:
+               variables: dict | None = None, n_segments: int = 0,
+               least_error_attrs: Callable[[float, float], dict] | None = None) -> dict:
     """Write a grid dataset, streaming ``blocks`` of ``(first flat index, arrays)``.
 
     ``axes`` (dtheta1, dtheta2 values) give dims ``dtheta1 x dtheta2`` (flat index in C order);
     ``points[n, 2]`` give dim ``point``. ``variables`` (name -> dtype) default to the
     horizontal gait's; ``n_segments > 0`` (a sequence gait) adds dim ``segment`` for
-    ``t_segment``. Returns ``{"skipped_fraction", "n_points"}``.
+    ``t_segment``. The grid's least error and its start become the global attributes
+    ``least_error``, ``least_error_dtheta1``, ``least_error_dtheta2`` (absent when no point
+    has an error value), plus what ``least_error_attrs(dtheta1, dtheta2)`` returns.
+    Returns ``{"skipped_fraction", "n_points", "least_error", "least_error_at", "attrs"}``
+    (``attrs``: the least error's attributes written).
     """
     variables = HORIZONTAL_VARIABLES if variables is None else variables
     sequence = n_segments > 0
@@ -164,16 +170,34 @@ def write_grid(path: Path, attrs: dict, *, axes: tuple[np.ndarray, np.ndarray] |
                          D.variable_attrs(name, sequence), coordinates=coords)
               for name, dt in variables.items()}
         written = skipped = 0
+        least, least_at = np.inf, -1          # ties: the lowest flat index, as numpy's argmin
         for lo, arrays in coalesce(blocks, variables):
             for name, v in vs.items():
                 write_flat(v, shape, lo, arrays[name])
             written += len(arrays["status"])
             skipped += int(np.count_nonzero(arrays["status"] == STATUS_NAMES.index("unreachable")))
+            err = np.asarray(arrays["error"], np.float64)
+            if np.isfinite(err).any() and np.nanmin(err) < least:
+                least, least_at = float(np.nanmin(err)), lo + int(np.nanargmin(err))
         if written != n:
             raise RuntimeError(f"grid {path.name}: {written} of {n} points written")
         frac = skipped / n if n else 0.0
-        D.set_global_attrs(nc, dict(attrs, skipped_fraction=frac, n_points=n))
-    return {"skipped_fraction": frac, "n_points": n}
+        extra: dict = {}
+        at = None
+        if least_at >= 0:
+            if axes is not None:
+                i, j = divmod(least_at, a2.size)
+                at = (float(a1[i]), float(a2[j]))
+            else:
+                at = (float(pts[least_at, 0]), float(pts[least_at, 1]))
+            extra = {"least_error": least, "least_error_dtheta1": at[0],
+                     "least_error_dtheta2": at[1]}
+            if least_error_attrs is not None:
+                extra.update(least_error_attrs(*at))
+        D.set_global_attrs(nc, dict(attrs, skipped_fraction=frac, n_points=n, **extra))
+    return {"skipped_fraction": frac, "n_points": n,
+            "least_error": least if at is not None else np.nan, "least_error_at": at,
+            "attrs": extra}
 
 
 def coalesce(blocks: Iterable[tuple[int, dict[str, np.ndarray]]], variables: dict,
@@ -316,9 +340,25 @@ class GridKind(StepKind):
         where = ({"points": grid_points(st)} if st.points is not None else
                  {"axes": (st.dtheta1.values(), st.dtheta2.values())})
         blocks = ((b.lo, ctx.block_arrays(b)) for b in ctx.blocks)
-        info = write_grid(ctx.path, attrs, blocks=blocks, variables=grid_variables(ctx.spec),
-                          n_segments=ctx.spec.n_cycle_segments, **where)
-        return f"{info['n_points']} points, skipped_fraction {info['skipped_fraction']:.3f}"
+        spec = ctx.spec
+        kind_attrs = None
+        if spec.sequence is None:
+            # a small error can belong to a start that swaps only after swinging back and
+            # forth: another gait than the study's; say which kind the map's best start is
+            def kind_attrs(d1: float, d2: float) -> dict:
+                return {"least_error_vertical_passes": vertical_passes_before_swap(
+                    d1, d2, robot=spec.robot, torque=spec.torque, tick=spec.tick,
+                    integrator=spec.integrator)}
+        info = write_grid(ctx.path, attrs, blocks=blocks, variables=grid_variables(spec),
+                          n_segments=spec.n_cycle_segments, least_error_attrs=kind_attrs, **where)
+        text = f"{info['n_points']} points, skipped_fraction {info['skipped_fraction']:.3f}"
+        if info["least_error_at"] is not None:
+            text += (f", least error {info['least_error']:.3g} at "
+                     f"({info['least_error_at'][0]:.6g}, {info['least_error_at'][1]:.6g})")
+            if kind_attrs is not None:
+                passes = info["attrs"]["least_error_vertical_passes"]
+                text += f", {gait_kind_text(int(passes))}"
+        return text
 
     def describe(self, ds) -> list[str]:
         a = ds.attrs
@@ -333,8 +373,13 @@ class GridKind(StepKind):
                 d1, d2 = float(ds["dtheta1"][i]), float(ds["dtheta2"][j])
             else:
                 d1, d2 = float(ds["dtheta1"][k]), float(ds["dtheta2"][k])
-            lines.append(f"least error {np.nanmin(err):.4g} at dtheta1 = {d1:.6g}, "
-                         f"dtheta2 = {d2:.6g} rad s-1")
+            line = (f"least error {np.nanmin(err):.4g} at dtheta1 = {d1:.6g}, "
+                    f"dtheta2 = {d2:.6g} rad s-1")
+            if "t_switch" in ds:
+                line += f", swap at {float(ds['t_switch'].values.flat[k]):.4g} s"
+            if "least_error_vertical_passes" in a:
+                line += f": {gait_kind_text(int(a['least_error_vertical_passes']))}"
+            lines.append(line)
         else:
             lines.append("no point with an error value")
         return lines
