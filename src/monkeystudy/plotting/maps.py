@@ -14,10 +14,14 @@ from pathlib import Path
 from typing import Sequence
 
 import numpy as np
+from matplotlib import colormaps
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import LightSource, Normalize
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch, PathPatch
 from matplotlib.patheffects import withStroke
 from matplotlib.path import Path as MplPath
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 from ..kernel import layout as L
 from .common import MINIMUM_COLOUR, new_figure, run_label, status_name, style
@@ -414,9 +418,11 @@ def plot_error_surface(grid, *, max_cells: int = 150, cmap: str = "magma",
     Points without a gait form a flat floor at 0 in their category colours (the study's flat
     "not enough energy" region), with a legend; the surface itself is only drawn where there is
     a gait, and not across a jump of sqrt(e) by more than a tenth of its range between
-    neighbours (the gait's event sequence changes there: a gap, not a wall of teeth). Grids
-    with more than ``max_cells`` points along an axis are drawn with every n-th point (a
-    uniform stride, no averaging), so the surface keeps the data's own values.
+    neighbours (the gait's event sequence changes there: a gap, not a wall). The surface is
+    drawn cell by cell, only cells whose four corners all carry a value (matplotlib's
+    ``plot_surface`` keeps the triangles of cells with a missing corner, which line every gap
+    with teeth). Grids with more than ``max_cells`` points along an axis are drawn with every
+    n-th point (a uniform stride, no averaging), so the surface keeps the data's own values.
 
     Returns a Figure whose surface has ``gid`` ``sqrt_error`` and floors ``floor_<category>``.
     """
@@ -438,10 +444,12 @@ def plot_error_surface(grid, *, max_cells: int = 150, cmap: str = "magma",
             ax.plot_surface(X, Y, Zf, color=colour, rstride=1, cstride=1, linewidth=0,
                             antialiased=False, shade=False, gid=f"floor_{key}", zorder=1)
             handles.append(Patch(facecolor=colour, edgecolor="#42526e", label=label))
-        surf = ax.plot_surface(X, Y, Z, cmap=cmap, vmin=0.0, vmax=zmax, rstride=1, cstride=1,
-                               linewidth=0.15, edgecolor=(0, 0, 0, 0.15), antialiased=True,
-                               gid="sqrt_error", zorder=2)
-        cb = fig.colorbar(surf, ax=ax, shrink=0.6, pad=0.08)
+        surf = whole_cell_surface(X, Y, Z, cmap=cmap, vmax=zmax)
+        surf.set_gid("sqrt_error")
+        surf.set_zorder(2)
+        ax.add_collection3d(surf)
+        cb = fig.colorbar(ScalarMappable(Normalize(0.0, zmax), cmap), ax=ax, shrink=0.6,
+                          pad=0.08)
         cb.set_label(r"$\sqrt{e}$  [1]")
         ax.set_xlabel(D1_LABEL, labelpad=8)
         ax.set_ylabel(D2_LABEL, labelpad=8)
@@ -458,6 +466,28 @@ def plot_error_surface(grid, *, max_cells: int = 150, cmap: str = "magma",
                      ha="left", fontweight="bold")
         ax.set_title(run_label(grid), fontsize=8.5, fontweight="normal", loc="left")
     return fig
+
+
+def whole_cell_surface(X: np.ndarray, Y: np.ndarray, Z: np.ndarray, *, cmap: str,
+                       vmax: float) -> Poly3DCollection:
+    """The cells of the surface ``Z(X, Y)`` whose four corners are finite, as quadrilaterals
+    coloured by their mean height (``cmap`` over ``0..vmax``) and shaded by a light from the
+    upper left, as ``plot_surface`` shades."""
+    corners = [(slice(None, -1), slice(None, -1)), (slice(1, None), slice(None, -1)),
+               (slice(1, None), slice(1, None)), (slice(None, -1), slice(1, None))]
+    quads = np.stack([np.stack([A[c] for c in corners], axis=-1) for A in (X, Y, Z)], axis=-1)
+    quads = quads.reshape(-1, 4, 3)
+    quads = quads[np.isfinite(quads).all(axis=(1, 2))]
+    z_mean = quads[:, :, 2].mean(axis=1)
+    colours = colormaps[cmap](Normalize(0.0, vmax)(z_mean))
+    normals = np.cross(quads[:, 2] - quads[:, 0], quads[:, 3] - quads[:, 1])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    # the sign of a normal is arbitrary: light the side facing up
+    normals *= np.sign(normals[:, 2:3] + (normals[:, 2:3] == 0))
+    shade = LightSource(azdeg=225, altdeg=19.4712).shade_normals(normals, fraction=1.0)
+    colours[:, :3] *= (0.35 + 0.65 * shade)[:, None]
+    return Poly3DCollection(quads, facecolors=colours, edgecolors=(0, 0, 0, 0.15),
+                            linewidths=0.15)
 
 
 def jump_points(z: np.ndarray, jump: float) -> np.ndarray:
