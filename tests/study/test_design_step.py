@@ -2,6 +2,7 @@
 contract, its fixed points and spectral radii, and the same numbers for one and two workers."""
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -85,6 +86,25 @@ def test_a_survival_step_runs_the_best_design(smoke):
         assert float(sv.attrs["t_switch"]) == float(ds.attrs["best_t_switch"])
         assert sv["cycles_completed"].shape == (2, 8)
         assert np.all(sv["cycles_completed"].values >= 1)
+        # a schedule-only design runs on the study's robot, and the dataset says so
+        assert json.loads(sv.attrs["robot"])["name"] == "seed2009"
+
+
+def test_runs_of_a_redesigned_robot_name_that_robot():
+    """A survival dataset's ``robot`` is the robot its runs used: a design's own."""
+    from monkeystudy.study.spec import GaitSpec
+    from monkeystudy.study.steps.survival import design_robot_dict
+
+    base = Robot.preset("seed2009")
+    spec = GaitSpec(base, Integrator(), 0.6354, 0.0)
+    values = DesignSpace(base).values({"t_switch": 0.47})
+    same = design_robot_dict(spec, {"design": values, "two_step": False}, "as_built")
+    assert same == base.to_dict()
+    values["com"] = 0.45
+    other = design_robot_dict(spec, {"design": values, "two_step": False}, "redesign")
+    assert other["name"] == "redesign design (from seed2009)"
+    assert other["link1"]["com"] == pytest.approx(0.45)
+    assert other["link1"]["mass"] + other["link2"]["mass"] == pytest.approx(2.0)
 
 
 def test_one_worker_equals_two(smoke, tmp_path):

@@ -13,7 +13,7 @@ cycle)``, so the dataset is the same for any number of workers and after a resum
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import astuple, replace
 from pathlib import Path
 from typing import Annotated, Literal, Optional, Union
 
@@ -252,6 +252,18 @@ def design_of(spec: GaitSpec, gait: dict) -> DesignSpace:
 def gait_robot(spec: GaitSpec, gait: dict):
     """The robot a survival gait runs on: a design's own, else the study's."""
     return design_of(spec, gait).robot_for(gait["design"]) if "design" in gait else spec.robot
+
+
+def design_robot_dict(spec: GaitSpec, gait: dict, design_step: str) -> dict:
+    """The ``robot`` attribute of runs of a design gait: the study's robot if the design
+    kept it (a schedule-only design), else the design's, named after the design step."""
+    robot = gait_robot(spec, gait)
+    links = [astuple(link) for link in (robot.link1, robot.link2, spec.robot.link1,
+                                         spec.robot.link2)]
+    # the design's links are rebuilt from ratios: equal to the base's to round-off
+    if np.allclose(links[:2], links[2:], rtol=1e-12, atol=0.0):
+        return spec.robot.to_dict()
+    return dict(robot.to_dict(), name=f"{design_step} design (from {spec.robot.name})")
 
 
 def survival_controller(spec: GaitSpec, gait: dict, *, tick: float, clock: str):
@@ -519,6 +531,9 @@ class SurvivalKind(StepKind):
                      min_advance=kw["min_advance"],
                      max_drop=kw["max_drop"], noise_distribution=st.noise.distribution,
                      swept=st.noise.swept(), n_blocks=len(ctx.blocks))
+        if "design" in gait:
+            # the runs used the design's robot: the dataset names it, not the study's
+            attrs["robot"] = design_robot_dict(ctx.spec, gait, st.from_)
         for key in ("t_switch", "t_motor", "torque"):
             if key in gait:
                 attrs["motor_torque" if key == "torque" else key] = gait[key]
