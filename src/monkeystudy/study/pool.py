@@ -64,9 +64,16 @@ class DeferredSignals:
 
 
 def worker_init(driver: int) -> None:
-    """Pool worker start: Ctrl-C is the driver's business; exit when the driver is gone
-    (after a kill -9 nobody else would stop an idle worker)."""
+    """Pool worker start: Ctrl-C is the driver's business; SIGTERM (the driver's
+    :meth:`Pool.abort`) ends the worker at once; exit when the driver is gone (after a kill
+    -9 nobody else would stop an idle worker)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # a forked worker inherits the driver's Python handlers: the CLI's SIGTERM-as-interrupt
+    # would only end the worker's current task with KeyboardInterrupt, and the worker would
+    # go on with the tasks already queued to it while the driver waits for it
+    for name in ("SIGTERM", "SIGUSR1"):
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), signal.SIG_DFL)
     gc.enable()  # the driver may fork with collection off during its start-up
 
     def watch():

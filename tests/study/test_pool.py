@@ -1,0 +1,41 @@
+"""The local process pool: aborting it stops its workers, whatever handlers they inherited."""
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+import pytest
+
+from monkeystudy.study.pool import START_METHOD_ENV, local_pool
+
+
+def _sleep(seconds: float) -> int:
+    time.sleep(seconds)
+    return os.getpid()
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGTERM") or os.name != "posix", reason="POSIX signals")
+def test_abort_stops_forked_workers_that_inherited_a_sigterm_handler(monkeypatch):
+    """The CLI turns SIGTERM into KeyboardInterrupt; forked workers inherit that handler.
+    Aborting must still end them at once, not just interrupt their current task and let them
+    run the next one already queued to them."""
+    monkeypatch.setenv(START_METHOD_ENV, "fork")
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        pool = local_pool(1)
+        procs = list(pool.executor._processes.values())
+        futures = [pool.submit(_sleep, 120.0) for _ in range(4)]   # one runs, one is queued
+        time.sleep(1.0)
+        assert not futures[0].done()
+        pool.abort()
+        assert not any(p.is_alive() for p in procs)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        for p in procs:
+            if p.is_alive():
+                p.kill()
