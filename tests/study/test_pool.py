@@ -39,3 +39,20 @@ def test_abort_stops_forked_workers_that_inherited_a_sigterm_handler(monkeypatch
         for p in procs:
             if p.is_alive():
                 p.kill()
+
+
+def test_a_signal_deferred_until_the_end_of_the_block_still_takes_effect():
+    from monkeystudy.study.pool import DeferredSignals
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            with DeferredSignals():
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(0.1)               # recorded, not raised, inside the block
+        assert signal.getsignal(signal.SIGTERM) is interrupt
+    finally:
+        signal.signal(signal.SIGTERM, previous)

@@ -36,7 +36,7 @@ from matplotlib.ticker import MaxNLocator
 
 from .drawing import Drawing
 from .common import (
-    BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, fmt_tick, gait_settings, json_attr,
+    BLACK, BLUE, ERROR_UNITS, GREEN, ORANGE, PURPLE, SKY, VERMILLION, fmt_tick, gait_settings, json_attr,
     new_figure, robot_name, status_name, style,
 )
 from ..kernel import layout as L
@@ -605,7 +605,7 @@ def plot_tick_sweep(ds):
         ax.set_xlim(0, n_cycles + 1)
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         ax.set_xlabel("gait cycle n")
-        ax.set_ylabel(f"error e at the {at} crossing  [1]")
+        ax.set_ylabel(f"error e at the {at} crossing  {ERROR_UNITS}")
         body.legend(handles=handles, loc="outside lower center", ncols=1, frameon=False)
     return fig
 
@@ -888,7 +888,7 @@ def plot_work_precision(ds):
             mean_t = [np.nanmean(np.log(row)) if np.isfinite(row).any() else -np.inf
                       for row in t]
         above = int(np.argmax(mean_t)) if len(mean_t) else -1
-        for which, ax, xlabel in (("value", axv, "max error of the gait error value e  [1]"),
+        for which, ax, xlabel in (("value", axv, f"max error of the gait error value e  {ERROR_UNITS}"),
                                   ("times", axt, "max error of the event times  [s]")):
             e = values_of(ds, f"error_{which}")
             for i, m in enumerate(methods):

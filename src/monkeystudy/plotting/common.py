@@ -32,6 +32,9 @@ STYLE_FILE = Path(str(resources.files("monkeystudy") / "monkeystudy.mplstyle"))
 BLUE, VERMILLION, GREEN, PURPLE, ORANGE, SKY, YELLOW, BLACK = (
     "#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#F0E442", "#000000")
 MINIMUM_COLOUR = "#39d353"      # the study marks its minima with green squares (fig. 4)
+#: units of the gait error e: theta2_f^2 [rad2] plus two squared rate differences [rad2 s-2],
+#: a sum of mixed units as the 2009 study defines it (docs/model.md)
+ERROR_UNITS = "[rad² + rad² s⁻²]"
 
 
 def style():

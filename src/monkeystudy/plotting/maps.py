@@ -24,7 +24,7 @@ from matplotlib.path import Path as MplPath
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 from ..kernel import layout as L
-from .common import MINIMUM_COLOUR, new_figure, run_label, status_name, style
+from .common import ERROR_UNITS, MINIMUM_COLOUR, new_figure, run_label, status_name, style
 from .drawing import Drawing, Folder
 
 D1_LABEL = r"initial $\dot\theta_1$  [rad s$^{-1}$]"
@@ -249,7 +249,7 @@ def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str
                              gid="error", rasterized=True, zorder=1)
         cb = fig.colorbar(mesh, ax=[ax, axp] if profile else ax, extend="max", pad=0.02,
                           shrink=0.9)
-        cb.set_label(f"{'section' if g.sequence else 'gait'} error e  [1]  (values above "
+        cb.set_label(f"{'section' if g.sequence else 'gait'} error e  {ERROR_UNITS}  (values above "
                      f"{vmax:g} shown as {vmax:g})")
         handles = []
         for key, mask, colour, hatch, label in g.category_masks():
@@ -450,10 +450,10 @@ def plot_error_surface(grid, *, max_cells: int = 150, cmap: str = "magma",
         ax.add_collection3d(surf)
         cb = fig.colorbar(ScalarMappable(Normalize(0.0, zmax), cmap), ax=ax, shrink=0.6,
                           pad=0.08)
-        cb.set_label(r"$\sqrt{e}$  [1]")
+        cb.set_label(r"$\sqrt{e}$  (e in " + ERROR_UNITS[1:-1] + ")")
         ax.set_xlabel(D1_LABEL, labelpad=8)
         ax.set_ylabel(D2_LABEL, labelpad=8)
-        ax.set_zlabel(r"$\sqrt{e}$  [1]", labelpad=6)
+        ax.set_zlabel(r"$\sqrt{e}$", labelpad=6)
         ax.set_xlim(g.dtheta1[0], g.dtheta1[-1])
         ax.set_ylim(g.dtheta2[0], g.dtheta2[-1])
         ax.set_zlim(0.0, zmax)
@@ -537,7 +537,7 @@ def plot_refine_convergence(refine):
         ax.set_yscale("log")
         ax.set_xlabel("Nelder–Mead iteration")
         ax.set_ylabel(("section" if is_sequence(refine) else "gait")
-                      + " error e of the best vertex  [1]")
+                      + f" error e of the best vertex  {ERROR_UNITS}")
         ax.legend(loc="upper right", fontsize=8)
         conv = refine["converged"] if "converged" in refine else refine.attrs.get("converged")
         conv = np.atleast_1d(np.asarray(getattr(conv, "values", conv) if conv is not None

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import html
 import json
+import re
 from pathlib import Path
 from typing import Mapping, Sequence
 
@@ -39,6 +40,11 @@ nav a { margin-right: 1em; } .muted { color: #666; font-size: 13px; }
 
 def _e(text) -> str:
     return html.escape(str(text), quote=True)
+
+
+def _prose(text) -> str:
+    """Escaped text with the docstrings' ``literal`` markup as <code>."""
+    return re.sub(r"``(.+?)``", r"<code>\1</code>", _e(text))
 
 
 def _json(attrs: Mapping, name: str):
@@ -98,7 +104,7 @@ def _figure_html(name: str, outputs: Sequence[str], title: str, caption: str) ->
         body = ""
     links = " ".join(f'<a href="{_e(o)}">{_e(Path(o).suffix[1:].upper())}</a>'
                      for o in stills[1:] + videos + gifs + others if o)
-    return (f'<figure id="{_e(name)}">{body}<figcaption><b>{_e(title)}.</b> {_e(caption)}'
+    return (f'<figure id="{_e(name)}">{body}<figcaption><b>{_e(title)}.</b> {_prose(caption)}'
             + (f' <span class="muted">({links})</span>' if links else "")
             + "</figcaption></figure>")
 
@@ -135,7 +141,7 @@ def render_page(study_dir: Path, datasets: Mapping[str, object],
         out.append(f'<h3 id="step-{_e(name)}">{_e(name)} <small>[{_e(kind_name)}]'
                    f'</small></h3>')
         if kind is not None:
-            out.append(f"<p>{_e(kind.summary)}</p>")
+            out.append(f"<p>{_prose(kind.summary)}</p>")
             try:
                 lines = kind.describe(ds)
             except Exception as exc:   # a dataset of another version: still show the rest

@@ -58,9 +58,9 @@ class DeferredSignals:
     def __exit__(self, *exc) -> None:
         for sig, handler in self.previous.items():
             signal.signal(sig, handler)
-        self.previous.clear()
         if exc[0] is None:
-            self.check()
+            self.check()          # a signal that came during the last step still counts
+        self.previous.clear()
 
 
 def worker_init(driver: int) -> None:

@@ -344,14 +344,15 @@ class GridKind(StepKind):
                  {"axes": (st.dtheta1.values(), st.dtheta2.values())})
         blocks = ((b.lo, ctx.block_arrays(b)) for b in ctx.blocks)
         spec = ctx.spec
-        kind_attrs = None
-        if spec.sequence is None:
-            # a small error can belong to a start that swaps only after swinging back and
-            # forth: another gait than the study's; say which kind the map's best start is
-            def kind_attrs(d1: float, d2: float) -> dict:
-                return {"least_error_vertical_passes": vertical_passes_before_swap(
-                    d1, d2, robot=spec.robot, torque=spec.torque, tick=spec.tick,
-                    integrator=spec.integrator)}
+
+        # a small error can belong to a start that swaps only after swinging back and forth:
+        # another gait than the study's; say which kind the map's best start is
+        def least_error_kind(d1: float, d2: float) -> dict:
+            return {"least_error_vertical_passes": vertical_passes_before_swap(
+                d1, d2, robot=spec.robot, torque=spec.torque, tick=spec.tick,
+                integrator=spec.integrator)}
+
+        kind_attrs = least_error_kind if spec.sequence is None else None
         info = write_grid(ctx.path, attrs, blocks=blocks, variables=grid_variables(spec),
                           n_segments=spec.n_cycle_segments, least_error_attrs=kind_attrs, **where)
         text = f"{info['n_points']} points, skipped_fraction {info['skipped_fraction']:.3f}"
