@@ -139,7 +139,7 @@ def test_error_per_cycle_is_the_dataset_on_a_log_axis(datasets):
     np.testing.assert_array_equal(line.get_xdata(), s["cycle"].values)
     np.testing.assert_array_equal(np.asarray(line.get_ydata()), s["error"].values)
     assert line.axes.get_yscale() == "log"
-    assert "[1]" in line.axes.get_ylabel() and "cycle" in line.axes.get_xlabel()
+    assert "rad² + rad² s⁻²" in line.axes.get_ylabel() and "cycle" in line.axes.get_xlabel()
 
 
 def test_error_comparison_draws_every_run(datasets):
