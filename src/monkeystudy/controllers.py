@@ -273,6 +273,11 @@ class SequenceGait:
     frame of the end attached then. The controller clock restarts at the section, so time
     guards count from the cycle start. The section error generalises docs/model.md section 4:
     ``wrap(theta2_f - theta2)^2 + (dtheta1_f - dtheta1)^2 + (dtheta2_f - dtheta2)^2``.
+
+    With a finite ``period`` [s] the clock runs on instead: the cycle ends when the clock
+    reaches ``period`` (no sensed event), the clock advances by it, and the section is clock
+    phase zero, where the state is ``(theta1, theta2, dtheta1, dtheta2)`` (the error adds
+    ``(theta1_f - theta1)^2``). ``section_theta1`` is then only the start's ``theta1``.
     """
 
     segments: Sequence[Segment]
@@ -282,11 +287,15 @@ class SequenceGait:
     theta2: float = 0.0
     tick: float = 0.0
     tick_phase: float = 0.0
+    period: float = math.nan
 
     def __post_init__(self):
         _check_tick(self.tick)
         if len(self.segments) == 0:
             raise ValueError("a sequence gait needs at least one segment before the section")
+        if self.clocked and not self.period > 0.0:
+            raise ValueError(f"period must be > 0 (or NaN: no running clock), got "
+                             f"{self.period!r}")
         for name in ("section_theta1", "section_torque", "theta2", "tick_phase"):
             if not math.isfinite(getattr(self, name)):
                 raise ValueError(f"{name} must be finite, got {getattr(self, name)!r}")
@@ -294,12 +303,27 @@ class SequenceGait:
             raise ValueError(f"section_direction must be one of {sorted(DIRECTIONS)}")
         self.end_attached()
 
+    @property
+    def clocked(self) -> bool:
+        """The clock runs on with ``period`` (the section is clock phase zero)."""
+        return not math.isnan(self.period)
+
+    @property
+    def section_size(self) -> int:
+        """Entries of the section state: 4 with a running clock, else 3."""
+        return 4 if self.clocked else 3
+
     def all_segments(self) -> list[Segment]:
         """The segments with the section segment appended (the cycle's last row)."""
-        section = Segment("coord", coord="theta1", value=self.section_theta1,
-                          direction=self.section_direction, torque=self.section_torque,
-                          ticked=False, clock="reset", cycle_end=True, next=0,
-                          fail_status=L.ST_NO_RETURN)
+        if self.clocked:
+            section = Segment("time", value=self.period, torque=self.section_torque,
+                              ticked=False, clock="advance", cycle_end=True, next=0,
+                              fail_status=L.ST_HORIZON)
+        else:
+            section = Segment("coord", coord="theta1", value=self.section_theta1,
+                              direction=self.section_direction, torque=self.section_torque,
+                              ticked=False, clock="reset", cycle_end=True, next=0,
+                              fail_status=L.ST_NO_RETURN)
         return [*self.segments, section]
 
     def attached_ends(self) -> list[frozenset]:

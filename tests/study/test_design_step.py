@@ -136,3 +136,81 @@ def test_designs_that_cannot_be_built_are_refused_without_simulating():
     assert r.status == 4 and "no mass distribution" in r.message and r.nfev == 0
     r = evaluate_design(space, {"motor_start": -0.45}, [0.0, 1.5, 10.2])
     assert r.status == 4 and "before the vertical" in r.message
+
+
+# --- the running clock ----------------------------------------------------------------------------
+def test_the_running_clock_step_measures_the_same_gaits_stroboscopically(smoke):
+    """``clock: run_on`` solves the same gaits as the restarting clock (the same orbit, its
+    vertical crossing at clock phase zero) and measures the four multipliers of the
+    stroboscopic map, both ways."""
+    out, ds, log = smoke
+    assert "schedule_clock: done" in log
+    with xr.open_dataset(out / "schedule_clock.nc") as clk:
+        clk = clk.load()
+    assert clk.attrs["clock"] == "run_on" and ds.attrs["clock"] == "reset_at_vertical"
+    assert clk.sizes["k"] == 4 and clk.sizes["row"] == 4 and ds.sizes["k"] == 3
+    ok = clk["status"].values == 0
+    assert ok.sum() >= 6
+    assert np.array_equal(ok, ds["status"].values == 0)
+    for v in ("theta2", "dtheta1", "dtheta2", "balance_value"):
+        assert np.allclose(clk[v].values[ok], ds[v].values[ok], rtol=0, atol=1e-9), v
+    # the same orbit is a fixed point of the running clock's map
+    assert np.all(clk["error"].values[ok] < 1e-20)
+    rho, rho_fd = clk["spectral_radius"].values[ok], clk["spectral_radius_fd"].values[ok]
+    assert np.all(np.abs(rho - rho_fd) < 1e-6)
+    assert clk["best_jacobian"].shape == (4, 4)
+    assert np.max(np.abs(clk["best_jacobian"].values - clk["best_jacobian_fd"].values)) < 1e-6
+    # the decay of a perturbation follows the leading multiplier of the 4-state map
+    assert abs(float(clk.attrs["decay_growth"]) - float(clk.attrs["best_spectral_radius"])) \
+        < 0.02
+
+
+def test_a_running_clock_design_against_its_restarting_twin():
+    """One design both ways: the same fixed point; the running clock's map has four
+    multipliers (variational = finite differences), and a run from the fixed point stays
+    on it with exact timing."""
+    from monkeystudy.analysis.design import replay_design
+
+    kw = dict(base={"t_switch": 0.47}, integrator=Integrator(rtol=1e-13, atol=1e-13))
+    free = {"motor_start": -0.3, "t_motor": 0.18, "torque": -0.6354}
+    reset = evaluate_design(DesignSpace(Robot.preset("seed2009"), **kw), free,
+                            [-0.33, 4.75, 5.37], variational=True)
+    space = DesignSpace(Robot.preset("seed2009"), clock="run_on", **kw)
+    clk = evaluate_design(space, free, [-0.33, 4.75, 5.37], variational=True)
+    assert reset.ok and clk.ok
+    assert np.array_equal(clk.z, reset.z) and clk.period == reset.period
+    assert clk.state.shape == (4,) and clk.state[0] == 0.0
+    assert clk.error < 1e-20
+    assert clk.jacobian.shape == (4, 4) and reset.jacobian.shape == (3, 3)
+    assert np.max(np.abs(clk.jacobian - clk.jacobian_fd)) < 1e-7
+    assert abs(clk.spectral_radius - clk.spectral_radius_fd) < 1e-8
+    rep = replay_design(space, clk, cycles=10)
+    assert rep.cycles_completed == 10 and np.all(rep.error < 1e-18)
+
+
+def test_a_running_clock_needs_mirror_links_and_survival_refuses_it(tmp_path):
+    text = SMOKE.read_text()
+    bad = text.replace("clock: run_on}", "clock: run_on, fixed: {torque: -0.6354, "
+                       "mass_ratio: 1.2}}")
+    assert bad != text
+    path = tmp_path / "bad.yaml"
+    path.write_text(bad)
+    result = CliRunner().invoke(app, ["validate", str(path)])
+    assert result.exit_code == 2 and "mirror-image links" in result.output
+    path.write_text(text.replace("from: schedule\n", "from: schedule_clock\n"))
+    result = CliRunner().invoke(app, ["validate", str(path)])
+    assert result.exit_code == 2, result.output
+    # file, line and key of the survival step's from
+    assert f"{path}:27: steps[3].from: design step 'schedule_clock' runs its clock on" \
+        in result.output, result.output
+
+
+def test_newton_gives_up_a_start_that_stalls():
+    """A design with no gait near the start: |F| stops shrinking, and Newton stops before
+    its iteration limit (each further step would cost a full stencil of runs)."""
+    space = DesignSpace(Robot.preset("seed2009"), base={"t_switch": 0.4334, "motor_start": -0.3},
+                        integrator=Integrator(rtol=1e-13, atol=1e-13))
+    r = evaluate_design(space, {"com": 0.30, "inertia": 0.005, "t_motor": 0.1, "torque": -2.0},
+                        [0.0, 1.4952, 10.2468])
+    assert r.status == 3 and "not_converged" in r.message
+    assert 4 <= r.iterations < space.max_iter

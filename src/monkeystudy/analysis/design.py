@@ -16,6 +16,13 @@ finite differences and, on request, by variational equations with saltation matr
 Stability is the spectral radius ``rho`` per step: ``max |lambda|`` of the cycle's map, to
 the power ``1 / steps`` when a cycle takes two steps (links that are not mirror images make
 the frame's flip at each swap compare unlike links, so a cycle is two steps then).
+
+With ``clock="run_on"`` the schedule's clock never looks at the state: it runs on with the
+gait's period, and nothing is sensed at all. Every such gait is a gait of the restarting
+clock (the same orbit, its vertical crossing at clock phase zero), so the gait is solved as
+above; its stability is that of the stroboscopic map, the state ``(theta1, theta2, dtheta1,
+dtheta2)`` at clock phase zero, one period later (four multipliers: a running clock keeps no
+phase reference, so errors in the timing of the orbit count too).
 """
 from __future__ import annotations
 
@@ -28,8 +35,8 @@ import numpy as np
 from ..controllers import Integrator, Segment, SequenceGait, settings_vector
 from ..kernel import layout as L
 from ..kernel.design import (
-    DESIGN_STATUS_NAMES, DS_OK, I_ADVANCE, I_DEFECT, I_ERROR, I_ITERATIONS, I_LOSS, I_NFEV,
-    I_PERIOD, I_RISE, N_INFO, fixed_point,
+    DESIGN_STATUS_NAMES, DS_OK, DS_STENCIL, I_ADVANCE, I_DEFECT, I_ERROR, I_ITERATIONS, I_LOSS,
+    I_NFEV, I_PERIOD, I_RISE, N_INFO, clocked_jacobian, fixed_point,
 )
 from ..robot import Link, Robot
 from ..simulate import run_controller
@@ -79,6 +86,8 @@ PARAMETERS: dict[str, Parameter] = {
 
 #: schedule values solved so that the gait returns to its height (or none)
 BALANCES = ("t_switch", "torque", "t_motor", "none")
+#: the schedule's clock: restarted at each vertical crossing, or running on with the period
+CLOCKS = ("reset_at_vertical", "run_on")
 #: what a design search minimises
 OBJECTIVES = ("spectral_radius", "spectral_radius_energy")
 #: status of a design that breaks a bound (not simulated)
@@ -123,6 +132,9 @@ class DesignSpace:
         on starts that lead nowhere).
     fd_step : float
         Relative finite-difference step.
+    clock : {"reset_at_vertical", "run_on"}
+        The schedule's clock: restarted when link 1 passes the vertical, or running on with
+        the gait's period (stability of the stroboscopic map; one-step cycles only).
     """
 
     robot: Robot
@@ -133,10 +145,16 @@ class DesignSpace:
     tol: float = 1e-11
     max_iter: int = 12
     fd_step: float = 1e-5
+    clock: str = "reset_at_vertical"
 
     def __post_init__(self):
         if self.balance not in BALANCES:
             raise ValueError(f"balance must be one of {BALANCES}, got {self.balance!r}")
+        if self.clock not in CLOCKS:
+            raise ValueError(f"clock must be one of {CLOCKS}, got {self.clock!r}")
+        if self.clock == "run_on" and self.two_step:
+            raise ValueError("a running clock's cycle is one step: the links must be mirror "
+                             "images (mass_ratio and length_ratio 1)")
         unknown = set(self.base) - set(PARAMETERS)
         if unknown:
             raise ValueError(f"unknown design parameters {sorted(unknown)}; known: "
@@ -149,6 +167,11 @@ class DesignSpace:
     def steps(self) -> int:
         """Steps per cycle of the return map."""
         return 2 if self.two_step else 1
+
+    @property
+    def n_multipliers(self) -> int:
+        """Size of the return map's state: 3 on the section, 4 with a running clock."""
+        return 4 if self.clock == "run_on" else 3
 
     def defaults(self) -> dict[str, float]:
         """The base robot's values of the robot parameters, and a schedule without pulses
@@ -246,6 +269,13 @@ class DesignSpace:
         return SequenceGait(rows, section_theta1=0.0, section_direction="either",
                             section_torque=tau)
 
+    def cycle_gait(self, values: Mapping[str, float], period: float) -> SequenceGait:
+        """The gait whose cycles the design's stability and replays are about: :meth:`gait`,
+        or with a running clock the same rows closed at ``period`` [s] (the gait's) instead
+        of at the vertical crossing."""
+        gait = self.gait(values)
+        return replace(gait, period=float(period)) if self.clock == "run_on" else gait
+
     def row_kinds(self, values: Mapping[str, float]) -> list[str]:
         """What each row of :meth:`gait`'s program is (``vertical``, ``section`` or a
         schedule event, see :meth:`step_rows`)."""
@@ -301,10 +331,17 @@ class DesignResult:
     iterations: int
     nfev: int
     message: str = ""
+    clocked: bool = False            # a running clock: the map's state is (0, z)
 
     @property
     def ok(self) -> bool:
         return self.status == DS_OK
+
+    @property
+    def state(self) -> np.ndarray:
+        """The cycle's start on its map: ``z``, or with a running clock ``(theta1 = 0, z)``
+        at clock phase zero."""
+        return np.concatenate([[0.0], self.z]) if self.clocked else self.z.copy()
 
     @property
     def energy_per_metre(self) -> float:
@@ -351,12 +388,15 @@ def evaluate_design(space: DesignSpace, free: Mapping[str, float], z0,
     """
     values = space.values(free)
     n = 3
-    nan3 = np.full((n, n), np.nan)
+    k = space.n_multipliers
+    clocked = space.clock == "run_on"
+    nank = np.full((k, k), np.nan)
     why = space.buildable(values)
     if why:
-        return DesignResult(values, OUT_OF_BOUNDS, np.full(n, np.nan), nan3, np.full(n, np.nan),
-                            math.nan, nan3, np.full(n, np.nan), math.nan, math.nan, math.nan,
-                            math.nan, math.nan, math.nan, 0, 0, why)
+        return DesignResult(values, OUT_OF_BOUNDS, np.full(n, np.nan), nank,
+                            np.full(k, np.nan), math.nan, nank.copy(), np.full(k, np.nan),
+                            math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, 0, 0,
+                            why, clocked)
     robot = space.robot_for(values)
     prog0, dprog = space.programs(values)
     balance = space.balance != "none"
@@ -378,23 +418,50 @@ def evaluate_design(space: DesignSpace, free: Mapping[str, float], z0,
             status = OUT_OF_BOUNDS
     z = u[:n].copy()
     res = DesignResult(values, int(status), z, DP.copy(), sorted_eigs(DP) if status == DS_OK
-                       else np.full(n, np.nan), spectral_radius(DP, space.steps), nan3,
-                       np.full(n, np.nan), math.nan, float(info[I_ERROR]),
+                       else np.full(n, np.nan), spectral_radius(DP, space.steps), nank,
+                       np.full(k, np.nan), math.nan, float(info[I_ERROR]),
                        float(info[I_RISE]), float(info[I_ADVANCE]), float(info[I_LOSS]),
                        float(info[I_PERIOD]), int(info[I_ITERATIONS]), int(info[I_NFEV]),
-                       why if status == OUT_OF_BOUNDS else "")
-    if status != DS_OK:
+                       why if status == OUT_OF_BOUNDS else "", clocked)
+    if status == DS_OK and clocked:
+        clocked_stability(space, res, robot, settings)
+    if res.status != DS_OK:
         res.spectral_radius_fd = math.nan
+        res.jacobian_fd, res.multipliers_fd = nank.copy(), np.full(k, np.nan)
         if not res.message:
-            res.message = f"{STATUS_NAMES[status]} (|F| = {info[I_DEFECT]:.3g})"
+            res.message = f"{STATUS_NAMES[res.status]} (|F| = {info[I_DEFECT]:.3g})"
         return res
     return with_variational(space, res) if variational else res
+
+
+def clocked_stability(space: DesignSpace, res: DesignResult, robot: Robot,
+                      settings: np.ndarray) -> None:
+    """A solved gait's stability under a running clock, in place: the stroboscopic map's
+    Jacobian at ``res.state`` by finite differences (compiled), its multipliers, and its
+    squared defect ``|P(x) - x|^2`` as ``res.error`` (the gait of the restarting clock is
+    this map's fixed point: the defect is round-off)."""
+    prog, _ = space.cycle_gait(res.values, res.period).program()
+    x = res.state
+    DP = np.empty((x.size, x.size))
+    x_next = np.empty(x.size)
+    status, nfev = clocked_jacobian(robot.params(), prog, np.empty((0, L.N_OBS_COLS)),
+                                    settings, x, space.fd_step, DP, x_next)
+    res.nfev += int(nfev)
+    if status != L.ST_OK:
+        res.status = DS_STENCIL
+        res.message = (f"stencil_failed: a run of the running-clock map ended "
+                       f"{L.STATUS_NAMES[int(status)]}")
+        return
+    res.error = float(np.sum((x_next - x) ** 2))
+    res.jacobian_fd = DP
+    res.multipliers_fd = sorted_eigs(DP)
+    res.spectral_radius_fd = spectral_radius(DP, space.steps)
 
 
 def with_variational(space: DesignSpace, res: DesignResult) -> DesignResult:
     """A solved design's Jacobian, multipliers and spectral radius by variational equations
     with saltation matrices (in place; returns ``res``)."""
-    J = sequence_variational_jacobian(space.gait(res.values), res.z,
+    J = sequence_variational_jacobian(space.cycle_gait(res.values, res.period), res.state,
                                       robot=space.robot_for(res.values),
                                       integrator=space.integrator)
     res.jacobian = J
@@ -418,15 +485,16 @@ class Replay:
 
 def replay_design(space: DesignSpace, result: DesignResult, *, cycles: int,
                   tick: float = 0.0, error_bound: float = 1e-2, start=None) -> Replay:
-    """Run the design's schedule open loop (clock reset at each vertical crossing, actions on
-    the ``tick`` grid [s]) for up to ``cycles`` cycles from ``start`` (default: the fixed
-    point); ``cycles_completed`` counts the cycles before the run fell or stopped, or its
-    error against the fixed point first exceeded ``error_bound``."""
+    """Run the design's schedule open loop (its clock restarting at each vertical crossing or
+    running on, actions on the ``tick`` grid [s]) for up to ``cycles`` cycles from ``start``
+    (default: the fixed point, :attr:`DesignResult.state`); ``cycles_completed`` counts the
+    cycles before the run fell or stopped, or its error against the fixed point first
+    exceeded ``error_bound``."""
     robot = space.robot_for(result.values)
-    gait = space.gait(result.values)
-    z0 = result.z if start is None else np.asarray(start, float)
+    gait = space.cycle_gait(result.values, result.period)
+    z0 = result.state if start is None else np.asarray(start, float)
     run = sequence_cycles(gait, z0, cycles=cycles, robot=robot, integrator=space.integrator,
-                          reference=result.z, tick=tick)
+                          reference=result.state, tick=tick)
     bound = cycles_to_bound(run.error, error_bound)
     completed = bound - 1 if run.error.size and not run.error[bound - 1] <= error_bound else bound
     return Replay(tick, run.error, run.kinetic_energy, run.pivot_height, int(completed),
@@ -442,7 +510,7 @@ def perturbation_decay(space: DesignSpace, result: DesignResult, *, size: float 
     lam, vec = np.linalg.eig(result.jacobian_fd)
     v = np.real(vec[:, int(np.argmax(np.abs(lam)))])
     v /= np.linalg.norm(v)
-    rep = replay_design(space, result, cycles=cycles, start=result.z + size * v,
+    rep = replay_design(space, result, cycles=cycles, start=result.state + size * v,
                         error_bound=math.inf)
     dist = np.sqrt(rep.error)
     return dist, growth_per_cycle(rep.error, window=(1e-9, 10 * size))
@@ -453,15 +521,15 @@ def design_basin(space: DesignSpace, result: DesignResult, offsets1, offsets2, *
     """Cycles survived from the fixed point offset by ``(d dtheta1, d dtheta2)`` [rad s-1]
     (:func:`~monkeystudy.analysis.replay.sequence_basin`, exact timing)."""
     robot = space.robot_for(result.values)
-    return sequence_basin(space.gait(result.values), result.z, offsets1, offsets2,
-                          max_cycles=max_cycles, error_bound=error_bound, robot=robot,
-                          integrator=space.integrator)
+    return sequence_basin(space.cycle_gait(result.values, result.period), result.state,
+                          offsets1, offsets2, max_cycles=max_cycles, error_bound=error_bound,
+                          robot=robot, integrator=space.integrator)
 
 
 def design_cycle_run(space: DesignSpace, result: DesignResult, *, sample_dt: float):
     """One cycle of the design's gait from its fixed point, sampled every ``sample_dt`` [s]
     (a :class:`~monkeystudy.simulate.RunResult`, for the filmstrip)."""
-    gait = space.gait(result.values)
-    return run_controller(gait.controller(), cycle_section_state(gait, result.z),
+    gait = space.cycle_gait(result.values, result.period)
+    return run_controller(gait.controller(), cycle_section_state(gait, result.state),
                           robot=space.robot_for(result.values), integrator=space.integrator,
                           cycles=1, sample_dt=sample_dt)

@@ -169,11 +169,18 @@ REPLAYS = ("gait", "open_loop")
 def section_error(states: np.ndarray, z) -> np.ndarray:
     """Section error of frame states ``[..., 8]`` against ``z = (theta2 [rad], dtheta1,
     dtheta2 [rad s-1])``: ``wrap(theta2_f - theta2)^2 + (dtheta1_f - dtheta1)^2 + (dtheta2_f -
-    dtheta2)^2`` (docs/model.md section 4 generalised; :class:`SequenceGait`) [1]."""
+    dtheta2)^2`` (docs/model.md section 4 generalised; :class:`SequenceGait`) [rad2 + rad2
+    s-2]. A running clock's ``z = (theta1, theta2, dtheta1, dtheta2)`` adds ``(theta1_f -
+    theta1)^2``."""
     s = np.asarray(states, float)
-    th2, w1, w2 = (float(v) for v in z)
+    z = [float(v) for v in z]
+    extra = 0.0
+    if len(z) == 4:
+        extra = (s[..., L.TH1] - z[0]) ** 2
+        z = z[1:]
+    th2, w1, w2 = z
     d = (s[..., L.TH2] - th2 + math.pi) % (2.0 * math.pi) - math.pi  # kernel's wrap
-    return d * d + (s[..., L.DTH1] - w1) ** 2 + (s[..., L.DTH2] - w2) ** 2
+    return extra + d * d + (s[..., L.DTH1] - w1) ** 2 + (s[..., L.DTH2] - w2) ** 2
 
 
 def cycle_times(gait: SequenceGait, z, *, robot: RobotLike = "seed2009",
@@ -242,7 +249,8 @@ def sequence_cycles(gait: SequenceGait, z0, *, cycles: int, robot: RobotLike = "
                     tick_phase: float = 0.0, max_drop: float | None = None,
                     sample_dt: float = 0.0) -> SequenceCycles:
     """Run a sequence gait for ``cycles`` cycles from section state ``z0 = (theta2 [rad],
-    dtheta1, dtheta2 [rad s-1])``, hanging from A at the origin.
+    dtheta1, dtheta2 [rad s-1])`` (running clock: ``(theta1, theta2, dtheta1, dtheta2)``),
+    hanging from A at the origin.
 
     Parameters
     ----------
@@ -283,7 +291,7 @@ def sequence_cycles(gait: SequenceGait, z0, *, cycles: int, robot: RobotLike = "
         if times is None:
             times = cycle_times(gait, ref, robot=robot, integrator=integrator)
         run_gait = open_loop_gait(gait, times)
-    run_gait = replace(run_gait, theta2=float(z0[0]),
+    run_gait = replace(run_gait, theta2=float(z0[-3]),
                        tick=gait.tick if tick is None else float(tick),
                        tick_phase=gait.tick_phase if tick is None else float(tick_phase))
     if max_drop is None:
@@ -317,7 +325,8 @@ def sequence_basin(gait: SequenceGait, z_star, offsets1, offsets2, *, max_cycles
                    tick: float | None = None, max_drop: float | None = None) -> np.ndarray:
     """Cycles a sequence gait survives from perturbed starts (a basin map).
 
-    Start ``z_star + (0, a, b)`` for ``a`` in ``offsets1``, ``b`` in ``offsets2`` [rad s-1];
+    Start ``z_star`` with ``a`` added to dtheta1 for ``a`` in ``offsets1`` and ``b`` to
+    dtheta2 for ``b`` in ``offsets2`` [rad s-1];
     a run fails at the first section crossing whose error against ``z_star`` exceeds
     ``error_bound``, or when it falls or stops before. The open-loop replay keeps the fixed
     point's times for every start. Returns int ``[len(offsets1), len(offsets2)]``;
@@ -330,7 +339,8 @@ def sequence_basin(gait: SequenceGait, z_star, offsets1, offsets2, *, max_cycles
     out = np.zeros((len(offsets1), len(offsets2)), np.int32)
     for i, a in enumerate(offsets1):
         for j, b in enumerate(offsets2):
-            z0 = z_star + np.array([0.0, float(a), float(b)])
+            z0 = z_star.copy()
+            z0[-2:] += (float(a), float(b))
             run = sequence_cycles(gait, z0, cycles=max_cycles, robot=robot,
                                   integrator=integrator, replay=replay, times=times,
                                   reference=z_star, tick=tick, max_drop=max_drop)

@@ -67,7 +67,12 @@ def search_return_map(z, *, torque: float = SEED2009_TORQUE, robot: RobotLike = 
 
 def cycle_section_state(gait: SequenceGait, z) -> np.ndarray:
     """Hybrid state on a sequence gait's section: hanging from A at the origin, ``theta1 =
-    gait.section_theta1``, ``z = (theta2 [rad], dtheta1, dtheta2 [rad s-1])``."""
+    gait.section_theta1``, ``z = (theta2 [rad], dtheta1, dtheta2 [rad s-1])``; with a running
+    clock (``gait.clocked``) ``z = (theta1, theta2 [rad], dtheta1, dtheta2 [rad s-1])`` at
+    clock phase zero."""
+    if gait.clocked:
+        th1, th2, w1, w2 = (float(v) for v in z)
+        return initial_state(w1, w2, theta1=th1, theta2=th2)
     th2, w1, w2 = (float(v) for v in z)
     return initial_state(w1, w2, theta1=gait.section_theta1, theta2=th2)
 

@@ -50,6 +50,8 @@ from .sections import TIGHT, check_cycle_frame, check_mirror_links, cycle_sectio
 
 #: rows/columns of the section coordinates ``z = (theta2, dtheta1, dtheta2)`` in the 8-state
 SECTION_INDEX = (L.TH2, L.DTH1, L.DTH2)
+#: rows/columns of a running clock's section state ``(theta1, theta2, dtheta1, dtheta2)``
+CLOCKED_INDEX = (L.TH1, L.TH2, L.DTH1, L.DTH2)
 #: largest relative difference between the re-integrated states and the kernel's log: beyond
 #: it the two did not follow the same event sequence
 _STATE_TOL = 1e-7
@@ -231,9 +233,11 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
     gait : SequenceGait
         The gait; its ``tick`` must be 0 (exact event timing: on a tick the map is piecewise
         constant in the event times, not differentiable).
-    z : array_like, shape (3,)
+    z : array_like, shape (3,) or (4,)
         Section state ``(theta2 [rad], dtheta1 [rad s-1], dtheta2 [rad s-1])`` on
-        ``theta1 = gait.section_theta1``.
+        ``theta1 = gait.section_theta1``; with a running clock (``gait.clocked``) the state
+        ``(theta1, theta2, dtheta1, dtheta2)`` at clock phase zero (the cycle ends at a fixed
+        time: no projection onto a section).
     robot : Robot or str
         The robot. Coulomb friction is refused (the flow is not smooth where a joint sticks);
         viscous friction is part of the vector field. A cycle that ends hanging from B needs
@@ -245,7 +249,7 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
 
     Returns
     -------
-    numpy.ndarray, shape (3, 3)
+    numpy.ndarray, shape (3, 3) or (4, 4)
         ``d z' / d z``, with ``z'`` the section state at the end of the cycle.
 
     Raises
@@ -267,7 +271,8 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
         raise ValueError("Coulomb friction makes the return map non-smooth (stick-slip "
                          "events): no variational Jacobian")
     check_cycle_frame(gait, robot)
-    z = np.asarray(z, dtype=float).reshape(3)
+    cols = list(CLOCKED_INDEX if gait.clocked else SECTION_INDEX)
+    z = np.asarray(z, dtype=float).reshape(len(cols))
     prog, _ = gait.program()
     hyb0 = cycle_section_state(gait, z)
     res = run_controller(gait.controller(), hyb0, robot=robot, integrator=integrator,
@@ -276,7 +281,6 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
         raise RuntimeError(f"no cycle from z (status {res.status.name})")
     log = res.log[res.log[:, L.L_KIND] == L.LOG_SEGMENT]
 
-    cols = list(SECTION_INDEX)
     n = len(cols)
     s = hyb0[:8].copy()
     phase, flipped = L.PHASE_SWING, 0
@@ -358,7 +362,8 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
         elif clock_mode == 2:
             clock0 += value
         if k == len(log) - 1:
-            # the section: the crossing time is free, so the state moves along the flow
+            # the section: the crossing time is free, so the state moves along the flow (a
+            # running clock's end is at a fixed time: dt_e = 0 and M = Phi)
             s = _check_state(s, res.state[:8], "the section")
             M = Phi + np.outer(f_minus, dt_e)
             return M[cols, :]

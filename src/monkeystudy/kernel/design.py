@@ -15,8 +15,12 @@ program's clock restarts there). The cycle starts hanging from end A at the orig
 the frame of the end attached then, with ``theta2`` continued across whole turns so the map is
 smooth.
 
-The Jacobian is fourth-order central differences (Richardson on ``h`` and ``2h``), so the
-whole solve, and the multipliers' matrix ``DP = dP/dw`` it returns, stay in compiled code.
+Newton's Jacobian is second-order central differences (a relative step ``h`` ~ 1e-5 leaves
+an error ~1e-10, which still converges as fast as Newton to the tolerance); the multipliers'
+matrix ``DP = dP/dw`` at the solution is fourth order (Richardson on ``h`` and ``2h``). The
+whole solve stays in compiled code. A start that leads nowhere is given up early: most
+designs of a landscape have no gait, and a Newton run that stalls costs a full solve per
+iteration (see :func:`fixed_point`).
 """
 import math
 
@@ -54,6 +58,15 @@ N_INFO = 9
 
 #: event-log rows one cycle may use
 LOG_ROWS = 64
+#: step halvings of Newton's line search before it gives up (a step of 2**-10 that does not
+#: reduce |F| marks a start far from any gait)
+MAX_HALVINGS = 10
+#: Newton gives up when |F| fell by less than STALL_FACTOR over the last STALL_STEPS steps.
+#: On 338 Newton runs of the design landscape's first designs (studies/design_landscape.yaml)
+#: every run that converged within 12 steps kept shrinking |F| faster than this, while most
+#: that did not sat on a plateau for their remaining steps, each costing a full stencil.
+STALL_STEPS = 4
+STALL_FACTOR = 1.25
 
 
 @njit(cache=True, error_model="numpy")
@@ -83,6 +96,66 @@ def cycle_map(par, prog, obs, settings, theta1_section, w, w_next, log, counts):
 
 
 @njit(cache=True, error_model="numpy")
+def clocked_map(par, prog, obs, settings, x, x_next, counts):
+    """One cycle of a running-clock program (its last row ends at a fixed clock time) from
+    ``x = (theta1, theta2 [rad], dtheta1, dtheta2 [rad s-1])`` at clock phase zero, hanging
+    from A at the origin; writes the state at the cycle's end (in the frame of the end
+    attached then, angles continued across whole turns) into ``x_next`` and returns the
+    kernel status. ``settings[C_MAX_CYCLES]`` must be 1."""
+    hyb = np.empty(N_HYB)
+    start_state(x[2], x[3], hyb)
+    hyb[TH1] = x[0]
+    hyb[TH2] = x[1]
+    seg_times = np.empty(prog.shape[0])
+    status = simulate(par, prog, obs, settings, hyb, counts, seg_times,
+                      np.empty((0, N_LOG_COLS)), np.empty(0), np.empty((0, 8)),
+                      np.empty((0, N_MODE_COLS)))
+    x_next[0] = x[0] + wrapped_difference(hyb[TH1], x[0])
+    x_next[1] = x[1] + wrapped_difference(hyb[TH2], x[1])
+    x_next[2] = hyb[DTH1]
+    x_next[3] = hyb[DTH2]
+    return status
+
+
+@njit(cache=True, error_model="numpy")
+def clocked_jacobian(par, prog, obs, settings, x, h, DP, x_next):
+    """The running-clock map's value at ``x`` (into ``x_next``) and its Jacobian ``dP/dx``
+    (into ``DP``) by fourth-order central differences (relative steps ``h`` and ``2 h``);
+    returns ``(status, right-hand-side evaluations)``: ``ST_OK`` or the status of the first
+    run that failed."""
+    n = x.shape[0]
+    settings1 = settings.copy()
+    settings1[C_MAX_CYCLES] = 1.0
+    counts = np.zeros(N_COUNTS, dtype=np.int64)
+    DP[:, :] = np.nan
+    status = clocked_map(par, prog, obs, settings1, x, x_next, counts)
+    if status != ST_OK:
+        return status, counts[K_NFEV]
+    xp = x.copy()
+    fp = np.empty(n)
+    fm = np.empty(n)
+    col = np.empty((2, n))
+    for j in range(n):
+        hj = h * max(1.0, abs(x[j]))
+        for k in range(2):
+            step = hj * (k + 1)
+            xp[j] = x[j] + step
+            sp = clocked_map(par, prog, obs, settings1, xp, fp, counts)
+            xp[j] = x[j] - step
+            sm = clocked_map(par, prog, obs, settings1, xp, fm, counts)
+            xp[j] = x[j]
+            if sp != ST_OK:
+                return sp, counts[K_NFEV]
+            if sm != ST_OK:
+                return sm, counts[K_NFEV]
+            for i in range(n):
+                col[k, i] = (fp[i] - fm[i]) / (2.0 * step)
+        for i in range(n):
+            DP[i, j] = (4.0 * col[0, i] - col[1, i]) / 3.0
+    return ST_OK, counts[K_NFEV]
+
+
+@njit(cache=True, error_model="numpy")
 def residual(par, prog0, dprog, obs, settings, theta1_section, balance, u, prog, F, counts):
     """``F(u)`` into ``F`` (see the module docstring); returns the kernel status of the run.
     ``prog`` is work space for ``prog0 + u[n] * dprog``."""
@@ -103,17 +176,19 @@ def residual(par, prog0, dprog, obs, settings, theta1_section, balance, u, prog,
 
 @njit(cache=True, error_model="numpy")
 def jacobian(par, prog0, dprog, obs, settings, theta1_section, balance, u, h, prog, J,
-             counts):
-    """``dF/du`` by fourth-order central differences (steps ``h * max(1, |u_j|)`` and twice
-    that) into ``J``; returns ``ST_OK`` or the status of the first stencil run that failed."""
+             counts, order=4):
+    """``dF/du`` by central differences into ``J``: fourth order (steps ``h * max(1, |u_j|)``
+    and twice that, Richardson) or, with ``order=2``, second order (the first step alone);
+    returns ``ST_OK`` or the status of the first stencil run that failed."""
     m = u.shape[0]
     up = u.copy()
     Fp = np.empty(m)
     Fm = np.empty(m)
     col = np.empty((2, m))
+    n_steps = 1 if order == 2 else 2
     for j in range(m):
         hj = h * max(1.0, abs(u[j]))
-        for k in range(2):
+        for k in range(n_steps):
             step = hj * (k + 1)
             up[j] = u[j] + step
             sp = residual(par, prog0, dprog, obs, settings, theta1_section, balance, up,
@@ -129,7 +204,7 @@ def jacobian(par, prog0, dprog, obs, settings, theta1_section, balance, u, h, pr
             for i in range(m):
                 col[k, i] = (Fp[i] - Fm[i]) / (2.0 * step)
         for i in range(m):
-            J[i, j] = (4.0 * col[0, i] - col[1, i]) / 3.0
+            J[i, j] = col[0, i] if n_steps == 1 else (4.0 * col[0, i] - col[1, i]) / 3.0
     return ST_OK
 
 
@@ -178,9 +253,12 @@ def fixed_point(par, prog0, dprog, obs, settings, theta1_section, balance, u0, t
     ``dP/dw`` at fixed program parameter in ``DP``, the record in ``info`` (``I_*``).
     Returns ``DS_*``.
 
-    Each step solves ``J du = -F`` in the least-squares sense and is halved up to 20 times
-    until ``|F|`` decreases. Converged when ``|F| <= tol``; ``h`` is the relative
-    finite-difference step. ``DP`` is re-evaluated at the solution (NaN if it failed).
+    Each step solves ``J du = -F`` (``J`` second order) in the least-squares sense and is
+    halved up to :data:`MAX_HALVINGS` times until ``|F|`` decreases. Converged when ``|F| <=
+    tol``; ``h`` is the relative finite-difference step. Not converged when no halved step
+    decreases ``|F|``, when ``|F|`` fell by less than :data:`STALL_FACTOR` over the last
+    :data:`STALL_STEPS` steps, or after ``max_iter`` steps. ``DP`` is re-evaluated at the
+    solution with the fourth-order stencil (NaN if it failed).
     """
     n = N_SECTION
     m = n + 1 if balance else n
@@ -210,13 +288,17 @@ def fixed_point(par, prog0, dprog, obs, settings, theta1_section, balance, u0, t
         info[I_NFEV] = counts[K_NFEV]
         return DS_NO_CYCLE
     norm = _norm(F)
+    history = np.full(max_iter + 1, np.inf)   # |F| before each step
     ut = np.empty(m)
     for it in range(max_iter):
+        history[it] = norm
         if norm <= tol:
             result = DS_OK
             break
+        if it >= STALL_STEPS and norm * STALL_FACTOR > history[it - STALL_STEPS]:
+            break
         status = jacobian(par, prog0, dprog, obs, settings1, theta1_section, balance, u,
-                          h, prog, J, counts)
+                          h, prog, J, counts, 2)
         if status != ST_OK:
             info[I_MAP_STATUS] = status
             result = DS_STENCIL
@@ -224,7 +306,7 @@ def fixed_point(par, prog0, dprog, obs, settings, theta1_section, balance, u0, t
         du = np.linalg.lstsq(J, -F, 1e-12)[0]
         lam = 1.0
         improved = False
-        for _ in range(20):
+        for _ in range(MAX_HALVINGS + 1):
             for i in range(m):
                 ut[i] = u[i] + lam * du[i]
             status = residual(par, prog0, dprog, obs, settings1, theta1_section,

@@ -27,8 +27,9 @@ import numpy as np
 from pydantic import Field, field_validator, model_validator
 
 from ...analysis.design import (
-    BALANCES, OBJECTIVES, PARAMETERS, STATUS_NAMES, DesignResult, DesignSpace, design_basin,
-    design_cycle_run, evaluate_design, perturbation_decay, replay_design, with_variational,
+    BALANCES, CLOCKS, OBJECTIVES, PARAMETERS, STATUS_NAMES, DesignResult, DesignSpace,
+    design_basin, design_cycle_run, evaluate_design, perturbation_decay, replay_design,
+    with_variational,
 )
 from ...kernel.design import DS_OK
 from .. import datasets as D
@@ -116,6 +117,11 @@ class DesignStep(StrictModel):
                                            "energy_weight times the energy per metre")
     energy_weight: float = Field(0.0, ge=0, description="weight of the energy per metre "
                                  "[m J-1] in spectral_radius_energy")
+    clock: Literal[CLOCKS] = Field("reset_at_vertical", description="the schedule's clock: "
+                                   "restarted when link 1 passes the vertical (one sensed "
+                                   "event per step), or run_on: running on with the gait's "
+                                   "period, nothing sensed (the same gaits; their stability "
+                                   "is the stroboscopic map's; mirror-image links only)")
     starts: list[list[float]] = Field(default_factory=list, description="more Newton starts "
                                       "for every design, each [theta2 (rad), dtheta1, "
                                       "dtheta2 (rad s-1)] with an optional 4th entry, the "
@@ -158,6 +164,10 @@ class DesignStep(StrictModel):
             raise ValueError(f"{sorted(both)} both free and fixed")
         if self.balance != "none" and self.balance in self.parameters:
             raise ValueError(f"balance {self.balance!r} is solved, not a free parameter")
+        if self.clock == "run_on" and self.two_step:
+            raise ValueError("clock run_on needs mirror-image links (a one-step cycle): "
+                             "mass_ratio and length_ratio can be neither free nor other "
+                             "than 1")
         return self
 
     @property
@@ -205,7 +215,7 @@ def design_space(ctx: StepContext, gait: dict) -> DesignSpace:
     for name in st.parameters:
         base.pop(name, None)
     return DesignSpace(ctx.spec.robot, base=base, balance=st.balance, two_step=st.two_step,
-                       integrator=ctx.spec.integrator)
+                       integrator=ctx.spec.integrator, clock=st.clock)
 
 
 # --- tasks (run on the workers) ------------------------------------------------------------------
@@ -241,7 +251,7 @@ def design_block(space: DesignSpace, names: list[str], axes: list[np.ndarray], s
     n = hi - lo
     out = {k: np.full(n, np.nan) for k in FIELDS}
     out["status"] = np.zeros(n, np.int8)
-    out["multiplier_modulus"] = np.full((n, 3), np.nan)
+    out["multiplier_modulus"] = np.full((n, space.n_multipliers), np.nan)
     prev = None
     for i, flat in enumerate(range(lo, hi)):
         idx = np.unravel_index(flat, shape)
@@ -434,7 +444,8 @@ def write_design(path: Path, attrs: dict, st: DesignStep, space: DesignSpace, ax
             nc.createDimension(n, len(a))
             D.add_variable(nc, n, (n,), np.float64, {"long_name": PARAMETERS[n].meaning,
                                                      "units": units[n]}, a)
-        D.add_index_coord(nc, "k", 3, "multiplier, by decreasing modulus")
+        k = space.n_multipliers
+        D.add_index_coord(nc, "k", k, "multiplier, by decreasing modulus")
         for key, (what, unit) in GRID_VARIABLES.items():
             if key == "balance_value":
                 unit = PARAMETERS[space.balance].unit if space.balance != "none" else "1"
@@ -449,7 +460,7 @@ def write_design(path: Path, attrs: dict, st: DesignStep, space: DesignSpace, ax
         D.add_variable(nc, "multiplier_modulus", (*names, "k"), np.float64,
                        {"long_name": "|multiplier| of the cycle's return map (finite "
                                      "differences)", "units": "1"},
-                       grid["multiplier_modulus"].reshape(*shape, 3))
+                       grid["multiplier_modulus"].reshape(*shape, k))
         refined = found["refined"]
         D.add_index_coord(nc, "start", len(refined), "Nelder-Mead start (a grid design)")
         for n in names:
@@ -480,8 +491,8 @@ def write_design(path: Path, attrs: dict, st: DesignStep, space: DesignSpace, ax
                         "units": "1"},
                        np.array([r["cycles_completed"] for r in refined],
                                 np.int64).reshape(len(refined), 2))
-        D.add_index_coord(nc, "row", 3, "row of dP/dz")
-        D.add_index_coord(nc, "col", 3, "column of dP/dz")
+        D.add_index_coord(nc, "row", k, "row of dP/dz")
+        D.add_index_coord(nc, "col", k, "column of dP/dz")
         D.add_variable(nc, "best_jacobian", ("row", "col"), np.float64,
                        {"long_name": "best design: dP/dz by variational equations",
                         "units": "1"}, best.jacobian)
@@ -577,7 +588,8 @@ def best_attrs(space: DesignSpace, st: DesignStep, found: dict) -> dict:
                best_period=best.period, best_objective=best.objective(st.objective,
                                                                       st.energy_weight),
                decay_growth=checks["growth"], multiplier_power=rho ** space.steps,
-               steps_per_cycle=space.steps, balance=space.balance, objective=st.objective,
+               steps_per_cycle=space.steps, balance=space.balance, clock=space.clock,
+               objective=st.objective,
                energy_weight=st.energy_weight, parameters=list(st.names),
                stable=bool(stable), stable_exact=bool(stable and exact.cycles_completed >= n),
                stable_tick=bool(stable and ticked.cycles_completed >= n),
@@ -662,7 +674,7 @@ class DesignKind(StepKind):
         n = int(np.prod(st.shape))
         grid = {k: np.full(n, np.nan) for k in FIELDS}
         grid["status"] = np.zeros(n, np.int8)
-        grid["multiplier_modulus"] = np.full((n, 3), np.nan)
+        grid["multiplier_modulus"] = np.full((n, space.n_multipliers), np.nan)
         for b in ctx.blocks:
             got = ctx.block_arrays(b)
             for k in grid:
@@ -695,6 +707,7 @@ class DesignKind(StepKind):
                          for n in names)
         return [f"{int(a['designs'])} designs over {', '.join(names)} "
                 f"({int(a['designs_with_gait'])} with a gait); balance {a.get('balance')}; "
+                f"clock {a.get('clock', 'reset_at_vertical')}; "
                 f"{int(a['steps_per_cycle'])} step(s) per cycle",
                 f"best: {best}; rho {float(a['best_spectral_radius']):.6g} (variational), "
                 f"{float(a['best_spectral_radius_fd']):.6g} (fd); grid min "

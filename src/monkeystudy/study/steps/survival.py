@@ -451,6 +451,10 @@ class SurvivalKind(StepKind):
             if step.controller.clock != "reset_at_vertical":
                 out.append((("steps", index, "controller", "clock"), "a design's clock "
                             "restarts at each vertical crossing (reset_at_vertical)"))
+            if ref.clock != "reset_at_vertical":
+                out.append((("steps", index, "from"), f"design step {ref.name!r} runs its "
+                            "clock on (clock: run_on): survival runs designs whose clock "
+                            "restarts at the vertical only"))
         else:
             if not isinstance(ref, (ShootStep, RefineStep, FloquetStep)):
                 out.append((("steps", index, "from"),
