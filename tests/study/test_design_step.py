@@ -70,6 +70,10 @@ def test_the_best_design_is_checked_as_the_issue_asks(smoke):
     assert rho < 1.0
     done = ds["cycles_completed"].values
     assert done[0] == ds.sizes["cycle"]           # exact timing: every cycle, within bound
+    # walking on counts at least the cycles within the bound, at most the replay's length
+    walked = ds["cycles_walked"].values
+    assert np.all(walked >= done) and np.all(walked <= ds.sizes["cycle"])
+    assert np.all(ds["refined_cycles_walked"].values >= ds["refined_cycles_completed"].values)
     # a perturbation decays at the leading multiplier's rate (fit over 20 cycles)
     assert abs(float(ds.attrs["decay_growth"]) - rho) < 0.02
     assert np.nanmax(ds["perturbation_distance"].values[-5:]) < 1e-3 * rho ** 10
@@ -214,3 +218,23 @@ def test_newton_gives_up_a_start_that_stalls():
                         [0.0, 1.4952, 10.2468])
     assert r.status == 3 and "not_converged" in r.message
     assert 4 <= r.iterations < space.max_iter
+
+
+def test_the_verdict_tells_a_tick_replay_that_walks_on_from_one_that_falls():
+    from monkeystudy.analysis.design import Replay
+    from monkeystudy.kernel.layout import ST_FELL, ST_OK
+    from monkeystudy.study.steps.design import walked_on
+
+    # on the tick the orbit moves: the error leaves 1e-2 at once, then settles near 2.4e-3
+    settles = np.r_[0.0134, 0.0219, 0.014, 0.0082, 0.004, np.full(95, 2.4e-3)]
+    kept = Replay(0.001, settles, np.ones(100), np.zeros(100), 0, ST_OK, 100)
+    said = walked_on(kept, 100)
+    assert "walks on to 100 cycles without falling" in said
+    assert "0.022 at most" in said and "0.0024 over the last 10" in said
+    fell = Replay(0.001, settles[:7], np.ones(7), np.zeros(7), 0, ST_FELL, 7)
+    assert walked_on(fell, 100) == ""
+    short = Replay(0.001, settles[:50], np.ones(50), np.zeros(50), 0, ST_OK, 50)
+    assert walked_on(short, 100) == ""
+    stalls = Replay(0.001, settles, np.ones(100), np.zeros(100), 0, ST_OK, 60)
+    assert walked_on(stalls, 100) == ""
+    assert walked_on(short, 100) == ""

@@ -481,6 +481,7 @@ class Replay:
     pivot_height: np.ndarray     # [m]
     cycles_completed: int    # cycles before it fell, stopped, or left the error bound
     status: int
+    cycles_walked: int = 0   # cycles before it fell, stopped or advanced < half a gait cycle
 
 
 def replay_design(space: DesignSpace, result: DesignResult, *, cycles: int,
@@ -489,7 +490,9 @@ def replay_design(space: DesignSpace, result: DesignResult, *, cycles: int,
     running on, actions on the ``tick`` grid [s]) for up to ``cycles`` cycles from ``start``
     (default: the fixed point, :attr:`DesignResult.state`); ``cycles_completed`` counts the
     cycles before the run fell or stopped, or its error against the fixed point first
-    exceeded ``error_bound``."""
+    exceeded ``error_bound``; ``cycles_walked`` counts the cycles before it fell or stopped
+    or a cycle advanced less than half the gait's advance, whatever its error (on the tick a
+    stable gait walks on near its orbit, the tick's delays keeping its error up)."""
     robot = space.robot_for(result.values)
     gait = space.cycle_gait(result.values, result.period)
     z0 = result.state if start is None else np.asarray(start, float)
@@ -497,8 +500,11 @@ def replay_design(space: DesignSpace, result: DesignResult, *, cycles: int,
                           reference=result.state, tick=tick)
     bound = cycles_to_bound(run.error, error_bound)
     completed = bound - 1 if run.error.size and not run.error[bound - 1] <= error_bound else bound
+    short = np.flatnonzero(~(run.x_advance * math.copysign(1.0, result.advance)
+                             >= 0.5 * abs(result.advance)))
+    walked = int(short[0]) if short.size else int(run.error.size)
     return Replay(tick, run.error, run.kinetic_energy, run.pivot_height, int(completed),
-                  int(run.status))
+                  int(run.status), walked)
 
 
 def perturbation_decay(space: DesignSpace, result: DesignResult, *, size: float = 1e-3,

@@ -192,9 +192,12 @@ def plot_design_replay(ds):
                           f"{ds.attrs.get('verdict', '')}. {run_line(ds, tick=False)}")
         axs = body.subplots(2, 2)
         done = ds["cycles_completed"].values
+        walked = ds["cycles_walked"].values if "cycles_walked" in ds else done
         for i, t in enumerate(ticks):
             label = (f"{'exact timing' if t == 0 else f'{t * 1e3:g} ms tick'}: "
-                     f"{int(done[i])} cycles")
+                     f"{int(done[i])} cycles within the bound")
+            if walked[i] != done[i]:
+                label += f", {int(walked[i])} walked"
             c = colours[i % len(colours)]
             for ax, key in zip((axs[0, 0], axs[0, 1], axs[1, 0]),
                                ("error", "kinetic_energy", "pivot_height")):

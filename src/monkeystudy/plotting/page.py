@@ -34,7 +34,7 @@ ul.numbers { font-family: ui-monospace, "DejaVu Sans Mono", monospace; font-size
              padding-left: 1.2em; }
 figure { margin: 1.2em 0 2em; } figure img, figure video { max-width: 100%; border: 1px solid #ddd; }
 figcaption { font-size: 14px; color: #333; margin-top: 0.3em; }
-nav a { margin-right: 1em; } .muted { color: #666; font-size: 13px; }
+nav { display: flex; flex-wrap: wrap; gap: 0.2em 1em; } .muted { color: #666; font-size: 13px; }
 """
 
 
