@@ -243,6 +243,33 @@ def guard_rate_trig(kind, index, phase, p, tau, fmode, y, pivot, work, trig):
     return guard_rate_kin(kind, index, phase, p, tau, fmode, y, pivot, trig[T_S1], trig[T_S12])
 
 
+@njit(cache=True, error_model="numpy", _nrt=False)
+def guard_value(kind, index, value, phase, p, tau, fmode, y, pivot, eref):
+    """:func:`guard` compiled once as a function of its own, for the hybrid loop's calls off
+    the step loop (a leg's start, an event's located point): inlined at each of those sites
+    it would multiply the loop's compile time, for no measurable speed."""
+    return guard(kind, index, value, phase, p, tau, fmode, y, pivot, eref)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def guard_rate_value(kind, index, phase, p, tau, fmode, y, pivot, work):
+    """:func:`guard_rate` compiled once as a function of its own (see :func:`guard_value`)."""
+    return guard_rate(kind, index, phase, p, tau, fmode, y, pivot, work)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def guard_trig_value(kind, index, value, phase, p, tau, fmode, y, pivot, eref, trig):
+    """:func:`guard_trig` compiled once as a function of its own (see :func:`guard_value`)."""
+    return guard_trig(kind, index, value, phase, p, tau, fmode, y, pivot, eref, trig)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def guard_rate_trig_value(kind, index, phase, p, tau, fmode, y, pivot, work, trig):
+    """:func:`guard_rate_trig` compiled once as a function of its own (see
+    :func:`guard_value`)."""
+    return guard_rate_trig(kind, index, phase, p, tau, fmode, y, pivot, work, trig)
+
+
 @njit(cache=True, inline="always", error_model="numpy")
 def rate_uses_field(kind, index):
     """Whether a guard's rate needs the vector field (an acceleration)."""
@@ -435,14 +462,14 @@ def guard_at(kind, index, value, method, Fd, y_old, t_old, h, t, n, phase, p, ta
              pivot, eref, ybuf):
     """Guard on the dense output at time ``t`` (state left in ``ybuf``)."""
     dense_eval(method, Fd, y_old, h, (t - t_old) / h, n, ybuf)
-    return guard(kind, index, value, phase, p, tau, fmode, ybuf, pivot, eref)
+    return guard_value(kind, index, value, phase, p, tau, fmode, ybuf, pivot, eref)
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
 def rate_at(kind, index, method, Fd, y_old, t_old, h, t, n, phase, p, tau, fmode, pivot,
             ybuf, work):
     dense_eval(method, Fd, y_old, h, (t - t_old) / h, n, ybuf)
-    return guard_rate(kind, index, phase, p, tau, fmode, ybuf, pivot, work)
+    return guard_rate_value(kind, index, phase, p, tau, fmode, ybuf, pivot, work)
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
@@ -450,8 +477,8 @@ def guard_rate_at(kind, index, value, method, Fd, y_old, t_old, h, t, n, phase, 
                   pivot, eref, ybuf, work):
     """Guard and its rate on the dense output at ``t`` from one interpolation."""
     dense_eval(method, Fd, y_old, h, (t - t_old) / h, n, ybuf)
-    return (guard(kind, index, value, phase, p, tau, fmode, ybuf, pivot, eref),
-            guard_rate(kind, index, phase, p, tau, fmode, ybuf, pivot, work))
+    return (guard_value(kind, index, value, phase, p, tau, fmode, ybuf, pivot, eref),
+            guard_rate_value(kind, index, phase, p, tau, fmode, ybuf, pivot, work))
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)

@@ -35,8 +35,9 @@ from numba import njit
 
 from .dynamics import attach_xy_end, flip_state, holding_torque, rhs, total_energy8
 from .events import (
-    crosses, guard, guard_and_rate_step, guard_rate, guard_rate_field, guard_rate_trig,
-    guard_trig, hermite_flags, locate_first, pack, rate_uses_field, unpack_into,
+    crosses, guard_and_rate_step, guard_rate_field, guard_rate_trig_value,
+    guard_rate_value, guard_trig_value, guard_value, hermite_flags, locate_first, pack,
+    rate_uses_field, unpack_into,
 )
 from .integrate import (
     MAX_FACTOR, MIN_FACTOR, PI_ERR_FLOOR, SAFETY, dense_eval, dense_prepare,
@@ -148,7 +149,7 @@ def friction_guard(k, phase, p, tau, fmode, y, pivot):
     if fmode[k] == 0.0:
         c = p[P_C_PIVOT] if k == 0 else p[P_C_JOINT]
         return abs(holding_torque(phase, p, tau, fmode, y, k)) - c
-    return guard(G_SLIP_STOP, k, 0.0, phase, p, tau, fmode, y, pivot, 0.0)
+    return guard_value(G_SLIP_STOP, k, 0.0, phase, p, tau, fmode, y, pivot, 0.0)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -364,7 +365,7 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
         fric_k = -1         # a friction mode change at time t
         level_fire = False
         if state_guard:
-            g_seg = guard(gkind, gindex, gvalue, phase, p, tau, fmode, y, pivot, eref)
+            g_seg = guard_value(gkind, gindex, gvalue, phase, p, tau, fmode, y, pivot, eref)
             scale = 1.0 + abs(gvalue)
             if gkind == G_ENERGY_RESTORED:
                 scale = 1.0 + abs(eref) + abs(gvalue)
@@ -377,7 +378,7 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
         for k in range(n_obs):
             if obs[k, O_SEGMENT] >= 0 and int(obs[k, O_SEGMENT]) != seg:
                 continue
-            g_obs[k] = guard(int(obs[k, O_GUARD]), int(obs[k, O_GINDEX]), obs[k, O_GVALUE],
+            g_obs[k] = guard_value(int(obs[k, O_GUARD]), int(obs[k, O_GINDEX]), obs[k, O_GVALUE],
                              phase, p, tau, fmode, y, pivot, eref)
             if abs(g_obs[k]) <= band * (1.0 + abs(obs[k, O_GVALUE])):
                 g_obs[k] = 0.0
@@ -413,7 +414,7 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
             en_prev = 1.0  # a leg starts the PI controller afresh, as the integrator restarts
             r_seg = 0.0
             if state_guard:
-                r_seg = guard_rate(gkind, gindex, phase, p, tau, fmode, y, pivot, work)
+                r_seg = guard_rate_value(gkind, gindex, phase, p, tau, fmode, y, pivot, work)
             while True:
                 bound = min(t_stop, pending)
                 if t >= bound:
@@ -498,7 +499,7 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                     # guard and rate from the step's sines and cosines; the vector field's
                     # call kept out of inlined code (numba would reference-count its arrays)
                     if rate_uses_field(gkind, gindex):
-                        gb = guard_trig(gkind, gindex, gvalue, phase, p, tau, fmode, y_new,
+                        gb = guard_trig_value(gkind, gindex, gvalue, phase, p, tau, fmode, y_new,
                                         pivot, eref, trig_new)
                         rb = guard_rate_field(gkind, gindex, phase, p, tau, fmode, y_new, work)
                     else:
@@ -538,7 +539,7 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                                 gk = gb
                             else:
                                 dense_eval(method, Fd, y, h, (tk - t) / h, n, ybuf)
-                                gk = guard(gkind, gindex, gvalue, phase, p, tau, fmode, ybuf,
+                                gk = guard_value(gkind, gindex, gvalue, phase, p, tau, fmode, ybuf,
                                            pivot, eref)
                             if (gdir > 0 and gk >= 0.0) or (gdir < 0 and gk <= 0.0) or \
                                     (gdir == 0 and gk * sign_before <= 0.0):
@@ -548,19 +549,19 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                                 break
                             ta = tk
                             ga = gk
-                            ra_seg = guard_rate(gkind, gindex, phase, p, tau, fmode, ybuf, pivot,
+                            ra_seg = guard_rate_value(gkind, gindex, phase, p, tau, fmode, ybuf, pivot,
                                                 work) if tk < t_new else rb
                     g_seg = gb
                     r_seg = rb
                 elif state_guard and t_new == pending:
-                    gb = guard_trig(gkind, gindex, gvalue, phase, p, tau, fmode, y_new, pivot,
+                    gb = guard_trig_value(gkind, gindex, gvalue, phase, p, tau, fmode, y_new, pivot,
                                     eref, trig_new)
                     if (gdir > 0 and gb >= 0.0) or (gdir < 0 and gb <= 0.0) or \
                             (gdir == 0 and gb * pending_sign <= 0.0):
                         t_ev = t_new
                     pending = np.inf
                     g_seg = gb
-                    r_seg = guard_rate_trig(gkind, gindex, phase, p, tau, fmode, y_new, pivot,
+                    r_seg = guard_rate_trig_value(gkind, gindex, phase, p, tau, fmode, y_new, pivot,
                                             work, trig_new)
                 if t_new == t_target and t_target < t_ev:
                     t_ev = t_new
@@ -594,11 +595,11 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                     oidx = int(obs[k, O_GINDEX])
                     oval = obs[k, O_GVALUE]
                     odir = obs[k, O_GDIR]
-                    gb = guard_trig(okind, oidx, oval, phase, p, tau, fmode, y_new, pivot, eref,
+                    gb = guard_trig_value(okind, oidx, oval, phase, p, tau, fmode, y_new, pivot, eref,
                                     trig_new)
                     ga = g_obs[k]
-                    ra = guard_rate(okind, oidx, phase, p, tau, fmode, y, pivot, work)
-                    rb = guard_rate_trig(okind, oidx, phase, p, tau, fmode, y_new, pivot, work,
+                    ra = guard_rate_value(okind, oidx, phase, p, tau, fmode, y, pivot, work)
+                    rb = guard_rate_trig_value(okind, oidx, phase, p, tau, fmode, y_new, pivot, work,
                                          trig_new)
                     flagged = crosses(ga, gb, odir) or hermite_flags(ga, ra, gb, rb, h, odir)
                     if flagged:
@@ -634,7 +635,7 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
                             counts[K_EVENTS] += 1
                             ta = tc
                             ga = 0.0
-                            ra = guard_rate(okind, oidx, phase, p, tau, fmode, ybuf, pivot, work)
+                            ra = guard_rate_value(okind, oidx, phase, p, tau, fmode, ybuf, pivot, work)
                     g_obs[k] = gb
                 if status >= 0:
                     break
@@ -797,7 +798,7 @@ def _locate_friction(k, fkind, t0, t1, ga, gb, method, Fd, y_old, h, n, phase, p
             cc = p[P_C_PIVOT] if k == 0 else p[P_C_JOINT]
             fc = abs(holding_torque(phase, p, tau, fmode, ybuf, k)) - cc
         else:
-            fc = guard(G_SLIP_STOP, k, 0.0, phase, p, tau, fmode, ybuf, pivot, 0.0)
+            fc = guard_value(G_SLIP_STOP, k, 0.0, phase, p, tau, fmode, ybuf, pivot, 0.0)
         if fc == 0.0:
             return c
         if (fc > 0.0) == (fb > 0.0):
