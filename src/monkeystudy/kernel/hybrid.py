@@ -37,7 +37,7 @@ from .dynamics import attach_xy_end, flip_state, holding_torque, rhs, total_ener
 from .events import (
     crosses, guard_and_rate_step, guard_rate_field, guard_rate_trig_value,
     guard_rate_value, guard_trig_value, guard_value, hermite_flags, locate_first, pack,
-    rate_uses_field, unpack_into,
+    rate_uses_field, unpack, unpack_into,
 )
 from .integrate import (
     MAX_FACTOR, MIN_FACTOR, PI_ERR_FLOOR, SAFETY, dense_eval, dense_prepare,
@@ -149,7 +149,17 @@ def friction_guard(k, phase, p, tau, fmode, y, pivot):
     if fmode[k] == 0.0:
         c = p[P_C_PIVOT] if k == 0 else p[P_C_JOINT]
         return abs(holding_torque(phase, p, tau, fmode, y, k)) - c
-    return guard_value(G_SLIP_STOP, k, 0.0, phase, p, tau, fmode, y, pivot, 0.0)
+    return slip_speed(k, phase, fmode, y, pivot)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def slip_speed(k, phase, fmode, y, pivot):
+    """The slip-stop guard of friction DOF ``k``: its speed times its slip sign (the
+    ``G_SLIP_STOP`` guard of :mod:`.events`, bit for bit, without the other kinds' code)."""
+    x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
+    w = w1 if k == 0 else w2
+    fm = fmode[0] if k == 0 else fmode[1]
+    return w * fm
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -798,7 +808,7 @@ def _locate_friction(k, fkind, t0, t1, ga, gb, method, Fd, y_old, h, n, phase, p
             cc = p[P_C_PIVOT] if k == 0 else p[P_C_JOINT]
             fc = abs(holding_torque(phase, p, tau, fmode, ybuf, k)) - cc
         else:
-            fc = guard_value(G_SLIP_STOP, k, 0.0, phase, p, tau, fmode, ybuf, pivot, 0.0)
+            fc = slip_speed(k, phase, fmode, ybuf, pivot)
         if fc == 0.0:
             return c
         if (fc > 0.0) == (fb > 0.0):
