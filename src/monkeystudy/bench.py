@@ -29,7 +29,9 @@ from .analysis.design import DesignSpace, evaluate_design
 from .analysis.precision import best_of, kernel_gaits
 from .analysis.sections import cycle_section_state
 from .analysis.survival import Noise, survival_runs
-from .controllers import HorizontalSearch, Integrator, Observer, settings_vector
+from .controllers import (
+    HorizontalSearch, Integrator, Observer, kernel_method, settings_vector,
+)
 from .kernel.design import cycle_map
 from .kernel.dynamics import rhs_swing
 from .kernel.layout import C_MAX_CYCLES, N_COUNTS, N_LOG_COLS, N_OBS_COLS
@@ -346,7 +348,7 @@ def skipping() -> dict:
     out = np.empty((len(unreachable), 16))
 
     def run(skip):
-        horizontal_gait_batch(par, prog, st, unreachable, floor, skip, out)
+        horizontal_gait_batch(kernel_method(st), par, prog, st, unreachable, floor, skip, out)
     run(True)
     run(False)
     t_skip = best_of(lambda: run(True), 3) / len(unreachable)
@@ -387,7 +389,7 @@ def design_cost(repeat: int = 5) -> dict:
     w_next, counts = np.empty(3), np.zeros(N_COUNTS, np.int64)
 
     def one_cycle():
-        cycle_map(par, prog, obs, st, 0.0, res.z, w_next, log, counts)
+        cycle_map(kernel_method(st), par, prog, obs, st, 0.0, res.z, w_next, log, counts)
     one_cycle()
     t_cycle = best_of(one_cycle, repeat)
     t_design = best_of(lambda: evaluate_design(space, start, near), repeat)

@@ -23,6 +23,7 @@ from typing import Sequence
 import numpy as np
 
 from .kernel import layout as L
+from .kernel.integrate import method_scalar
 
 GUARD_KINDS = {
     "none": L.G_NONE, "time": L.G_TIME, "free_end_height": L.G_FREE_END_HEIGHT,
@@ -400,6 +401,13 @@ METHODS = {
     "vern9": (L.METHOD_VERN9, 9, "Verner 9(8) (2010, 16 stages), 9th-order interpolant "
               "(nine extra stages, only on steps with an event)"),
 }
+
+
+def kernel_method(settings: np.ndarray):
+    """The integrator of a settings vector as the first argument of every kernel that
+    integrates (:func:`~monkeystudy.kernel.integrate.method_scalar`: a scalar whose type
+    names the method, so each method compiles only its own steps)."""
+    return method_scalar(settings[L.C_METHOD])
 
 
 def settings_vector(integrator: Integrator, *, tick: float = 0.0, tick_phase: float = 0.0,

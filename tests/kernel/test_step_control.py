@@ -8,7 +8,7 @@ tolerance), rejects far fewer steps than scipy's on the gait, and its factor is 
 import numpy as np
 import pytest
 
-from monkeystudy.controllers import HorizontalSearch, Integrator, settings_vector
+from monkeystudy.controllers import HorizontalSearch, Integrator, kernel_method, settings_vector
 from monkeystudy.kernel.gait import (
     N_RESULT, R_ERROR, R_REJECTED, R_STATUS, R_STEPS, R_T_END, R_T_SWITCH, horizontal_gait_batch,
 )
@@ -26,7 +26,7 @@ def _gaits(controller, rtol, method="dop853"):
     out = np.empty((len(POINTS), N_RESULT))
     st = settings_vector(Integrator(method=method, rtol=rtol, atol=rtol * 1e-2,
                                     controller=controller))
-    horizontal_gait_batch(ROBOT.params(), PROG, st, POINTS, ROBOT.swap_energy_floor(), True,
+    horizontal_gait_batch(kernel_method(st), ROBOT.params(), PROG, st, POINTS, ROBOT.swap_energy_floor(), True,
                           out)
     return out
 

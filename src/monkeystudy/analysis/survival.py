@@ -44,7 +44,7 @@ from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
-from ..controllers import Integrator, Observer, settings_vector
+from ..controllers import Integrator, Observer, kernel_method, settings_vector
 from ..kernel import layout as L
 from ..kernel.noise import PER_RUN_CYCLE, standard_draw
 from ..kernel.survival import survival_runs as run_block
@@ -243,7 +243,7 @@ def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles:
     par_runs = np.stack([run_robot(robot, noise, seed, r).params() for r in runs]) \
         if len(runs) else np.empty((0, 2, L.N_PARAMS))
     out = np.zeros((len(runs), L.N_SV_COLS))
-    run_block(par_runs, prog, obs, settings, np.asarray(start, float), noise_roles(prog),
+    run_block(kernel_method(settings), par_runs, prog, obs, settings, np.asarray(start, float), noise_roles(prog),
               noise.vector(), int(seed), runs, np.asarray(reference, float), int(max_cycles),
               float(error_bound), float(min_advance), out)
     return SurvivalRuns(out[:, L.SV_CYCLES].astype(np.int64),

@@ -70,7 +70,7 @@ STALL_FACTOR = 1.25
 
 
 @njit(cache=True, error_model="numpy")
-def cycle_map(par, prog, obs, settings, theta1_section, w, w_next, log, counts):
+def cycle_map(method, par, prog, obs, settings, theta1_section, w, w_next, log, counts):
     """One cycle of ``prog`` from the section state ``w``; writes the next section state into
     ``w_next`` and returns ``(status, y', x', energy lost [J], duration [s])``.
 
@@ -83,7 +83,7 @@ def cycle_map(par, prog, obs, settings, theta1_section, w, w_next, log, counts):
     hyb[TH2] = w[0]
     counts[K_LOG] = 0
     seg_times = np.empty(prog.shape[0])
-    status = simulate(par, prog, obs, settings, hyb, counts, seg_times, log, np.empty(0),
+    status = simulate(method, par, prog, obs, settings, hyb, counts, seg_times, log, np.empty(0),
                       np.empty((0, 8)), np.empty((0, N_MODE_COLS)))
     loss = 0.0
     for r in range(int(counts[K_LOG])):
@@ -96,7 +96,7 @@ def cycle_map(par, prog, obs, settings, theta1_section, w, w_next, log, counts):
 
 
 @njit(cache=True, error_model="numpy")
-def clocked_map(par, prog, obs, settings, x, x_next, counts):
+def clocked_map(method, par, prog, obs, settings, x, x_next, counts):
     """One cycle of a running-clock program (its last row ends at a fixed clock time) from
     ``x = (theta1, theta2 [rad], dtheta1, dtheta2 [rad s-1])`` at clock phase zero, hanging
     from A at the origin; writes the state at the cycle's end (in the frame of the end
@@ -107,7 +107,7 @@ def clocked_map(par, prog, obs, settings, x, x_next, counts):
     hyb[TH1] = x[0]
     hyb[TH2] = x[1]
     seg_times = np.empty(prog.shape[0])
-    status = simulate(par, prog, obs, settings, hyb, counts, seg_times,
+    status = simulate(method, par, prog, obs, settings, hyb, counts, seg_times,
                       np.empty((0, N_LOG_COLS)), np.empty(0), np.empty((0, 8)),
                       np.empty((0, N_MODE_COLS)))
     x_next[0] = x[0] + wrapped_difference(hyb[TH1], x[0])
@@ -118,7 +118,7 @@ def clocked_map(par, prog, obs, settings, x, x_next, counts):
 
 
 @njit(cache=True, error_model="numpy")
-def clocked_jacobian(par, prog, obs, settings, x, h, DP, x_next):
+def clocked_jacobian(method, par, prog, obs, settings, x, h, DP, x_next):
     """The running-clock map's value at ``x`` (into ``x_next``) and its Jacobian ``dP/dx``
     (into ``DP``) by fourth-order central differences (relative steps ``h`` and ``2 h``);
     returns ``(status, right-hand-side evaluations)``: ``ST_OK`` or the status of the first
@@ -128,7 +128,7 @@ def clocked_jacobian(par, prog, obs, settings, x, h, DP, x_next):
     settings1[C_MAX_CYCLES] = 1.0
     counts = np.zeros(N_COUNTS, dtype=np.int64)
     DP[:, :] = np.nan
-    status = clocked_map(par, prog, obs, settings1, x, x_next, counts)
+    status = clocked_map(method, par, prog, obs, settings1, x, x_next, counts)
     if status != ST_OK:
         return status, counts[K_NFEV]
     xp = x.copy()
@@ -140,9 +140,9 @@ def clocked_jacobian(par, prog, obs, settings, x, h, DP, x_next):
         for k in range(2):
             step = hj * (k + 1)
             xp[j] = x[j] + step
-            sp = clocked_map(par, prog, obs, settings1, xp, fp, counts)
+            sp = clocked_map(method, par, prog, obs, settings1, xp, fp, counts)
             xp[j] = x[j] - step
-            sm = clocked_map(par, prog, obs, settings1, xp, fm, counts)
+            sm = clocked_map(method, par, prog, obs, settings1, xp, fm, counts)
             xp[j] = x[j]
             if sp != ST_OK:
                 return sp, counts[K_NFEV]
@@ -156,7 +156,7 @@ def clocked_jacobian(par, prog, obs, settings, x, h, DP, x_next):
 
 
 @njit(cache=True, error_model="numpy")
-def residual(par, prog0, dprog, obs, settings, theta1_section, balance, u, prog, F, counts):
+def residual(method, par, prog0, dprog, obs, settings, theta1_section, balance, u, prog, F, counts):
     """``F(u)`` into ``F`` (see the module docstring); returns the kernel status of the run.
     ``prog`` is work space for ``prog0 + u[n] * dprog``."""
     n = N_SECTION
@@ -165,7 +165,7 @@ def residual(par, prog0, dprog, obs, settings, theta1_section, balance, u, prog,
         for j in range(prog.shape[1]):
             prog[i, j] = prog0[i, j] + q * dprog[i, j]
     w_next = np.empty(n)
-    status, rise, _, _, _ = cycle_map(par, prog, obs, settings, theta1_section, u[:n],
+    status, rise, _, _, _ = cycle_map(method, par, prog, obs, settings, theta1_section, u[:n],
                                       w_next, np.empty((0, N_LOG_COLS)), counts)
     for i in range(n):
         F[i] = w_next[i] - u[i]
@@ -175,7 +175,7 @@ def residual(par, prog0, dprog, obs, settings, theta1_section, balance, u, prog,
 
 
 @njit(cache=True, error_model="numpy")
-def jacobian(par, prog0, dprog, obs, settings, theta1_section, balance, u, h, prog, J,
+def jacobian(method, par, prog0, dprog, obs, settings, theta1_section, balance, u, h, prog, J,
              counts, order=4):
     """``dF/du`` by central differences into ``J``: fourth order (steps ``h * max(1, |u_j|)``
     and twice that, Richardson) or, with ``order=2``, second order (the first step alone);
@@ -191,10 +191,10 @@ def jacobian(par, prog0, dprog, obs, settings, theta1_section, balance, u, h, pr
         for k in range(n_steps):
             step = hj * (k + 1)
             up[j] = u[j] + step
-            sp = residual(par, prog0, dprog, obs, settings, theta1_section, balance, up,
+            sp = residual(method, par, prog0, dprog, obs, settings, theta1_section, balance, up,
                           prog, Fp, counts)
             up[j] = u[j] - step
-            sm = residual(par, prog0, dprog, obs, settings, theta1_section, balance, up,
+            sm = residual(method, par, prog0, dprog, obs, settings, theta1_section, balance, up,
                           prog, Fm, counts)
             up[j] = u[j]
             if sp != ST_OK:
@@ -217,12 +217,12 @@ def _norm(v):
 
 
 @njit(cache=True, error_model="numpy")
-def balance_start(par, prog0, dprog, obs, settings, theta1_section, u, prog, F, counts):
+def balance_start(method, par, prog0, dprog, obs, settings, theta1_section, u, prog, F, counts):
     """Secant steps on the balance value ``u[n]`` alone (the state ``u[:n]`` held) towards
     zero height change per cycle; ``u[n]`` is kept unchanged unless the height shrinks."""
     n = N_SECTION
     q0 = u[n]
-    s0 = residual(par, prog0, dprog, obs, settings, theta1_section, True, u, prog, F,
+    s0 = residual(method, par, prog0, dprog, obs, settings, theta1_section, True, u, prog, F,
                   counts)
     if s0 != ST_OK:
         return
@@ -231,7 +231,7 @@ def balance_start(par, prog0, dprog, obs, settings, theta1_section, u, prog, F, 
     q1 = q0 + 1e-3 * max(1.0, abs(q0))
     for _ in range(12):
         u[n] = q1
-        s1 = residual(par, prog0, dprog, obs, settings, theta1_section, True, u, prog,
+        s1 = residual(method, par, prog0, dprog, obs, settings, theta1_section, True, u, prog,
                       F, counts)
         if s1 != ST_OK:
             break
@@ -247,7 +247,7 @@ def balance_start(par, prog0, dprog, obs, settings, theta1_section, u, prog, F, 
 
 
 @njit(cache=True, error_model="numpy")
-def fixed_point(par, prog0, dprog, obs, settings, theta1_section, balance, u0, tol,
+def fixed_point(method, par, prog0, dprog, obs, settings, theta1_section, balance, u0, tol,
                 max_iter, h, u, DP, info):
     """Newton's method on ``F(u) = 0`` from ``u0``; the solution in ``u``, the map's Jacobian
     ``dP/dw`` at fixed program parameter in ``DP``, the record in ``info`` (``I_*``).
@@ -279,9 +279,9 @@ def fixed_point(par, prog0, dprog, obs, settings, theta1_section, balance, u0, t
     if balance:
         # the balance first, the state held: a secant on the height alone puts Newton's start
         # near the gait's energy level (an open-loop schedule far from it falls or stalls)
-        balance_start(par, prog0, dprog, obs, settings1, theta1_section, u, prog, F,
+        balance_start(method, par, prog0, dprog, obs, settings1, theta1_section, u, prog, F,
                       counts)
-    status = residual(par, prog0, dprog, obs, settings1, theta1_section, balance, u,
+    status = residual(method, par, prog0, dprog, obs, settings1, theta1_section, balance, u,
                       prog, F, counts)
     if status != ST_OK:
         info[I_MAP_STATUS] = status
@@ -297,7 +297,7 @@ def fixed_point(par, prog0, dprog, obs, settings, theta1_section, balance, u0, t
             break
         if it >= STALL_STEPS and norm * STALL_FACTOR > history[it - STALL_STEPS]:
             break
-        status = jacobian(par, prog0, dprog, obs, settings1, theta1_section, balance, u,
+        status = jacobian(method, par, prog0, dprog, obs, settings1, theta1_section, balance, u,
                           h, prog, J, counts, 2)
         if status != ST_OK:
             info[I_MAP_STATUS] = status
@@ -309,7 +309,7 @@ def fixed_point(par, prog0, dprog, obs, settings, theta1_section, balance, u0, t
         for _ in range(MAX_HALVINGS + 1):
             for i in range(m):
                 ut[i] = u[i] + lam * du[i]
-            status = residual(par, prog0, dprog, obs, settings1, theta1_section,
+            status = residual(method, par, prog0, dprog, obs, settings1, theta1_section,
                               balance, ut, prog, Ft, counts)
             if status == ST_OK and _norm(Ft) < norm:
                 improved = True
@@ -332,7 +332,7 @@ def fixed_point(par, prog0, dprog, obs, settings, theta1_section, balance, u0, t
             prog[i, j] = prog0[i, j] + q * dprog[i, j]
     w_next = np.empty(n)
     log = np.empty((LOG_ROWS, N_LOG_COLS))
-    status, rise, advance, loss, period = cycle_map(par, prog, obs, settings1, theta1_section,
+    status, rise, advance, loss, period = cycle_map(method, par, prog, obs, settings1, theta1_section,
                                                     u[:n], w_next, log, counts)
     err = 0.0
     for i in range(n):
@@ -346,7 +346,7 @@ def fixed_point(par, prog0, dprog, obs, settings, theta1_section, balance, u0, t
         # dP/dw at the fixed program: the state columns of dF/du, plus the identity
         prog_q = prog.copy()
         Jw = np.empty((n, n))
-        status = jacobian(par, prog_q, dprog, obs, settings1, theta1_section, False,
+        status = jacobian(method, par, prog_q, dprog, obs, settings1, theta1_section, False,
                           u[:n].copy(), h, prog, Jw, counts)
         if status != ST_OK:
             info[I_MAP_STATUS] = status

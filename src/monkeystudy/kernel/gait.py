@@ -52,18 +52,18 @@ def search_scratch(n_segments):
 
 
 @njit(cache=True, error_model="numpy")
-def simulate_unlogged(par, prog, obs, settings, scratch):
+def simulate_unlogged(method, par, prog, obs, settings, scratch):
     """:func:`~monkeystudy.kernel.hybrid.simulate` from the hybrid state ``scratch[0]`` with
     no event log and no trajectory (what a search needs: the outcome, the segment exit times
     in ``scratch[2]`` and the counts in ``scratch[1]``, zeroed here)."""
     hyb, counts, seg_times, _, no_log, no_t, no_y, no_mode = scratch
     counts[:] = 0
-    return simulate(par, prog, obs, settings, hyb, counts, seg_times, no_log, no_t, no_y,
+    return simulate(method, par, prog, obs, settings, hyb, counts, seg_times, no_log, no_t, no_y,
                     no_mode)
 
 
 @njit(cache=True, error_model="numpy")
-def horizontal_gait(par, prog, settings, dtheta1, dtheta2, energy_floor, skip_unreachable,
+def horizontal_gait(method, par, prog, settings, dtheta1, dtheta2, energy_floor, skip_unreachable,
                     out):
     """Evaluate the horizontal gait at ``(dtheta1, dtheta2)`` [rad s-1] into ``out``.
 
@@ -76,7 +76,7 @@ def horizontal_gait(par, prog, settings, dtheta1, dtheta2, energy_floor, skip_un
     """
     scratch = search_scratch(prog.shape[0])
     if not _gait_start(par, dtheta1, dtheta2, energy_floor, skip_unreachable, scratch[0], out):
-        _gait_run(par, prog, settings, dtheta1, dtheta2, out, scratch)
+        _gait_run(method, par, prog, settings, dtheta1, dtheta2, out, scratch)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -97,10 +97,10 @@ def _gait_start(par, dtheta1, dtheta2, energy_floor, skip_unreachable, hyb, out)
 
 
 @njit(cache=True, error_model="numpy")
-def _gait_run(par, prog, settings, dtheta1, dtheta2, out, scratch):
+def _gait_run(method, par, prog, settings, dtheta1, dtheta2, out, scratch):
     """Integrate the gait from the start state in ``scratch[0]`` and fill ``out``."""
     hyb, counts, seg_times, no_obs = scratch[0], scratch[1], scratch[2], scratch[3]
-    status = simulate_unlogged(par, prog, no_obs, settings, scratch)
+    status = simulate_unlogged(method, par, prog, no_obs, settings, scratch)
     out[R_STATUS] = status
     out[R_T_SWITCH] = seg_times[0]
     out[R_T_MOTOR] = seg_times[1] - seg_times[0]
@@ -116,7 +116,7 @@ def _gait_run(par, prog, settings, dtheta1, dtheta2, out, scratch):
 
 
 @njit(cache=True, error_model="numpy")
-def horizontal_gait_batch(par, prog, settings, points, energy_floor, skip_unreachable, out):
+def horizontal_gait_batch(method, par, prog, settings, points, energy_floor, skip_unreachable, out):
     """:func:`horizontal_gait` over ``points[N, 2]`` into ``out[N, N_RESULT]`` (serial)."""
     scratch = search_scratch(prog.shape[0])
     hyb = scratch[0]
@@ -125,7 +125,7 @@ def horizontal_gait_batch(par, prog, settings, points, energy_floor, skip_unreac
         # unreachable start then costs no call (47 ns, against 125 ns through the call)
         if not _gait_start(par, points[i, 0], points[i, 1], energy_floor, skip_unreachable,
                            hyb, out[i]):
-            _gait_run(par, prog, settings, points[i, 0], points[i, 1], out[i], scratch)
+            _gait_run(method, par, prog, settings, points[i, 0], points[i, 1], out[i], scratch)
 
 
 # result columns of one cycle of a phase-sequence gait
@@ -142,7 +142,7 @@ def wrapped_difference(a, b):
 
 
 @njit(cache=True, error_model="numpy")
-def cycle_gait(par, prog, obs, settings, theta1, theta2, dtheta1, dtheta2, out, seg_out):
+def cycle_gait(method, par, prog, obs, settings, theta1, theta2, dtheta1, dtheta2, out, seg_out):
     """One cycle of a phase-sequence gait from the section state into ``out``/``seg_out``.
 
     Starts hanging from A at the origin with ``(theta1, theta2)`` [rad] and rates
@@ -157,7 +157,7 @@ def cycle_gait(par, prog, obs, settings, theta1, theta2, dtheta1, dtheta2, out, 
     hyb[2] = theta1
     hyb[3] = theta2
     out[:] = np.nan
-    status = simulate(par, prog, obs, settings, hyb, counts, seg_out, no_log, no_t, no_y,
+    status = simulate(method, par, prog, obs, settings, hyb, counts, seg_out, no_log, no_t, no_y,
                       no_mode)
     out[Q_STATUS] = status
     out[Q_T_END] = hyb[H_T]
@@ -174,9 +174,9 @@ def cycle_gait(par, prog, obs, settings, theta1, theta2, dtheta1, dtheta2, out, 
 
 
 @njit(cache=True, error_model="numpy")
-def cycle_gait_batch(par, prog, obs, settings, theta1, theta2, points, out, seg_out):
+def cycle_gait_batch(method, par, prog, obs, settings, theta1, theta2, points, out, seg_out):
     """:func:`cycle_gait` over ``points[N, 2]`` into ``out[N, N_CYCLE_RESULT]`` and
     ``seg_out[N, n_segments]`` (serial)."""
     for i in range(points.shape[0]):
-        cycle_gait(par, prog, obs, settings, theta1, theta2, points[i, 0], points[i, 1],
+        cycle_gait(method, par, prog, obs, settings, theta1, theta2, points[i, 0], points[i, 1],
                    out[i], seg_out[i])

@@ -7,6 +7,9 @@ attached end's height, energy restored, a coordinate or the energy crossing a va
 (layout ``O_*``) are guards whose crossings are only logged. Everything that evolves (state,
 phase, which end the frame hangs from, segment, torque, clock, latched energy, friction modes)
 is a float vector (layout ``H_*``) that goes in and comes out, so a run can be continued.
+Each integration method is its own compiled specialisation of the loop
+(:func:`simulate_implementation`), chosen by the type of the ``method`` argument
+(:func:`.integrate.method_scalar`), so a study compiles only the steps it integrates with.
 
 Semantics worth knowing (docs/model.md sections 4 and 6):
 
@@ -32,6 +35,7 @@ import math
 
 import numpy as np
 from numba import njit
+from numba.extending import overload
 
 from .dynamics import attach_xy_end, flip_state, holding_torque, rhs, total_energy8
 from .events import (
@@ -40,31 +44,23 @@ from .events import (
     rate_uses_field, unpack, unpack_into,
 )
 from .integrate import (
-    MAX_FACTOR, MIN_FACTOR, PI_ERR_FLOOR, SAFETY, dense_eval, dense_prepare,
-    error_estimator_order, error_power_sq, pi_factor, select_initial_step,
-)
-from .rk_explicit import (
-    dop853_error_sq4, dop853_error_sq8, dop853_step4, dop853_step8, rk45_error_sq4,
-    rk45_error_sq8, rk45_step4, rk45_step8, vern9_error_sq4, vern9_error_sq8, vern9_step4,
-    vern9_step8,
-)
-from .tableaux import (
-    DOP853_N_STAGES, RK45_N_STAGES, VERN9_INTERPOLATOR_POWER, VERN9_N_STAGES,
-    VERN9_N_STAGES_EXTENDED,
+    MAX_FACTOR, MIN_FACTOR, METHOD_KERNELS, PI_ERR_FLOOR, SAFETY, dense_eval,
+    error_estimator_order, error_power_sq, method_of_type, pi_factor, select_initial_step,
 )
 from .layout import (
     C_ATOL, C_CONTROLLER, C_MAX_CYCLES, C_MAX_DROP, C_MAX_SEGMENT_TIME, C_MAX_STEP, C_MAX_STEPS,
-    C_METHOD, C_RTOL, C_SAMPLE_DT, C_T_END, C_TICK, C_TICK_PHASE, C_ZERO_BAND, CONTROLLER_PI,
+    C_RTOL, C_SAMPLE_DT, C_T_END, C_TICK, C_TICK_PHASE, C_ZERO_BAND, CONTROLLER_PI,
     G_ENERGY_RESTORED, G_NONE, G_SLIP_STOP, G_STICK_BREAK, G_TIME, H_CLOCK, H_CYCLES, H_EREF,
     H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG, H_T, H_TORQUE, H_Y_REF, K_CYCLES, K_EVENTS,
     K_LOG, K_NFEV, K_REJECTED, K_SAMPLES, K_STEPS, L_CYCLE, L_E_AFTER, L_E_BEFORE, L_FLIPPED,
     L_ID, L_KIND, L_PHASE, L_STATE, L_T, LOG_FRICTION, LOG_OBSERVER, LOG_SEGMENT, M_FLIPPED,
-    M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, METHOD_VERN9, O_GDIR,
+    M_PHASE, M_SEGMENT, M_TORQUE, O_GDIR,
     O_GINDEX, O_GUARD, O_GVALUE, O_SEGMENT, P_C_JOINT, P_C_PIVOT, PHASE_FIXED, PHASE_FLIGHT,
     PHASE_SWING, S_CLOCK, S_CYCLE, S_DELAY, S_FAIL, S_GDIR, S_GINDEX, S_GUARD, S_GVALUE, S_MAG_A,
     S_MAG_B, S_NEXT, S_SET_EREF, S_SWAP, S_TICKED, S_TORQUE, ST_BUFFER_FULL, ST_END_TIME,
     ST_FELL, ST_HORIZON, ST_NONFINITE, ST_OK, ST_STEP_FAILURE,
 )
+from .tableaux import VERN9_INTERPOLATOR_POWER, VERN9_N_STAGES_EXTENDED
 
 EPS = 2.220446049250313e-16
 TICK_SNAP = 1e-9  # a time within this fraction of a tick of a tick is on it (round-off)
@@ -216,12 +212,555 @@ def _finite(y, n):
     return acc == 0.0
 
 
+def simulate_implementation(method_code):
+    """The hybrid loop of :func:`simulate` for one integration method (``METHOD_*``), as a
+    plain function whose step, error norm and dense output are that method's own: numba
+    compiles it through :func:`simulate` (one specialisation per method, which compiles only
+    that method's steps); interpreted (``NUMBA_DISABLE_JIT``), it runs as it is."""
+    step4, step8, error_sq4, error_sq8, dense_prepare_of_method, n_stages = \
+        METHOD_KERNELS[method_code]
+
+    def simulate_method(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t,
+                        samp_y, samp_mode):
+        rtol = settings[C_RTOL]
+        atol = settings[C_ATOL]
+        max_seg_time = settings[C_MAX_SEGMENT_TIME]
+        t_end = settings[C_T_END]
+        max_cycles = int(settings[C_MAX_CYCLES])
+        tick = settings[C_TICK]
+        tick_phase = settings[C_TICK_PHASE]
+        sample_dt = settings[C_SAMPLE_DT]
+        max_steps = settings[C_MAX_STEPS]
+        max_step = settings[C_MAX_STEP]
+        max_drop = settings[C_MAX_DROP]
+        band = settings[C_ZERO_BAND]
+        err_order = error_estimator_order(method)
+        pi_control = settings[C_CONTROLLER] == CONTROLLER_PI
+        en_prev = 1.0  # the PI controller's previous accepted error norm
+
+        n_obs = obs.shape[0]
+        log_cap = log.shape[0]
+        sampling = sample_dt > 0.0 and samp_t.shape[0] > 0
+
+        K = np.zeros((VERN9_N_STAGES_EXTENDED, 8))   # the largest method's stages
+        Fd = np.zeros((VERN9_INTERPOLATOR_POWER, 8))
+        # the work vectors are rows of one array, the pairs rows of another: an allocation costs
+        # ~20 ns, and a gait is ~20 us
+        vectors = np.zeros((9, 8))
+        y = vectors[0]
+        f = vectors[1]
+        y_new = vectors[2]
+        f_new = vectors[3]
+        trig_new = vectors[4]  # sines and cosines at y_new (N_TRIG), left by the step for the guards
+        ytmp = vectors[5]
+        ybuf = vectors[6]
+        work = vectors[7]
+        s8 = vectors[8]
+        pairs = np.zeros((3, 2))
+        pivot = pairs[0]
+        fmode = pairs[1]
+        g_fric = pairs[2]
+        g_obs = np.zeros(max(n_obs, 1))
+
+        for i in range(8):
+            s8[i] = hyb[i]
+        t = hyb[H_T]
+        phase = int(hyb[H_PHASE])
+        flipped = int(hyb[H_FLIPPED])
+        seg = int(hyb[H_SEG])
+        tau = hyb[H_TORQUE]
+        eref = hyb[H_EREF]
+        clock0 = hyb[H_CLOCK]
+        fmode[0] = hyb[H_FMODE0]
+        fmode[1] = hyb[H_FMODE1]
+        cycles = int(hyb[H_CYCLES])
+        y_ref = hyb[H_Y_REF]
+        if not math.isfinite(y_ref):
+            y_ref = s8[1]
+        for i in range(seg_times.shape[0]):
+            seg_times[i] = np.nan
+
+        n_log = int(counts[K_LOG])
+        n_samp = int(counts[K_SAMPLES])
+        next_k = 0
+        if sampling:
+            next_k = int(math.floor(t / sample_dt)) + 1  # the entry sample covers t itself
+
+        status = -1
+        entering = True
+        magnets_done = False  # entry magnet actions already applied (to log the impact)
+        seg_start = t
+        pending = np.inf      # tick at which a located ticked guard will be acted on
+        pending_sign = 0.0    # guard sign before that crossing ("either" direction)
+        delayed_exit = np.inf  # a state guard fired: the exit waits until then (S_DELAY)
+        n = 4
+
+        while status < 0:
+            p = par[flipped]
+            if entering:
+                if not magnets_done:
+                    phase, flipped = apply_magnets(par, s8, phase, flipped, prog[seg, S_MAG_A],
+                                                   prog[seg, S_MAG_B], prog[seg, S_SWAP] > 0)
+                magnets_done = False
+                p = par[flipped]
+                tau = prog[seg, S_TORQUE]
+                if prog[seg, S_SET_EREF] > 0:
+                    eref = total_energy8(p, s8)
+                n = pack(phase, s8, y)
+                pivot[0] = s8[0]
+                pivot[1] = s8[1]
+                init_friction(phase, p, tau, s8, fmode, y, pivot)
+                seg_start = t
+                pending = np.inf
+                if sampling:
+                    n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, t, s8, phase,
+                                          flipped, tau, seg)
+                    if n_samp < 0:
+                        status = ST_BUFFER_FULL
+                        break
+                if phase == PHASE_SWING and s8[1] < y_ref - max_drop:
+                    status = ST_FELL
+                    break
+            # ------------------------------------------------------------------ one leg
+            gkind = int(prog[seg, S_GUARD])
+            gindex = int(prog[seg, S_GINDEX])
+            gvalue = prog[seg, S_GVALUE]
+            gdir = prog[seg, S_GDIR]
+            ticked = prog[seg, S_TICKED] > 0 and tick > 0.0
+            state_guard = gkind != G_NONE and gkind != G_TIME
+            horizon = seg_start + max_seg_time
+            t_limit = min(horizon, t_end)
+            t_target = np.inf
+            if delayed_exit < np.inf:
+                # the guard has fired; only the latency is left: a time leg without a guard
+                state_guard = False
+                gkind = G_TIME
+                t_target = delayed_exit
+            elif gkind == G_TIME:
+                t_target = clock0 + gvalue
+                if ticked:
+                    t_target = next_tick(t_target, tick, tick_phase)
+                if prog[seg, S_DELAY] != 0.0:
+                    t_target += prog[seg, S_DELAY]
+                if t_target < t:
+                    t_target = t
+            t_stop = min(t_limit, t_target)
+            n = pack(phase, s8, y)
+            pivot[0] = s8[0]
+            pivot[1] = s8[1]
+
+            fired = False       # the segment's guard fired at time t (state at t in y/s8)
+            fric_k = -1         # a friction mode change at time t
+            level_fire = False
+            if state_guard:
+                g_seg = guard_value(gkind, gindex, gvalue, phase, p, tau, fmode, y, pivot, eref)
+                scale = 1.0 + abs(gvalue)
+                if gkind == G_ENERGY_RESTORED:
+                    scale = 1.0 + abs(eref) + abs(gvalue)
+                if entering and abs(g_seg) <= band * scale:
+                    g_seg = 0.0
+                if gkind == G_ENERGY_RESTORED and entering and g_seg >= 0.0:
+                    level_fire = True
+            else:
+                g_seg = 0.0
+            for k in range(n_obs):
+                if obs[k, O_SEGMENT] >= 0 and int(obs[k, O_SEGMENT]) != seg:
+                    continue
+                g_obs[k] = guard_value(int(obs[k, O_GUARD]), int(obs[k, O_GINDEX]), obs[k, O_GVALUE],
+                                 phase, p, tau, fmode, y, pivot, eref)
+                if abs(g_obs[k]) <= band * (1.0 + abs(obs[k, O_GVALUE])):
+                    g_obs[k] = 0.0
+            # friction DOFs watched on this leg (fixed along it; tested once, not on every step)
+            fric0 = friction_active(0, phase, p)
+            fric1 = friction_active(1, phase, p)
+            for k in range(2):
+                if fric0 if k == 0 else fric1:
+                    g_fric[k] = friction_guard(k, phase, p, tau, fmode, y, pivot)
+            entering = False
+
+            if level_fire or (gkind == G_TIME and t_target <= t):
+                fired = True
+            elif phase == PHASE_FIXED:
+                # nothing moves: only time passes (samples stay put)
+                t_new = t_stop
+                if sampling:
+                    while next_k * sample_dt <= t_new:
+                        n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, next_k * sample_dt,
+                                              s8, phase, flipped, tau, seg)
+                        if n_samp < 0:
+                            status = ST_BUFFER_FULL
+                            break
+                        next_k += 1
+                t = t_new
+                if t == t_target:
+                    fired = True
+            else:
+                rhs(phase, p, tau, fmode, y, f)
+                h_abs = select_initial_step(phase, p, tau, fmode, t, y, f, n, t_stop, max_step,
+                                            err_order, rtol, atol, ytmp, f_new)
+                counts[K_NFEV] += 2
+                en_prev = 1.0  # a leg starts the PI controller afresh, as the integrator restarts
+                r_seg = 0.0
+                if state_guard:
+                    r_seg = guard_rate_value(gkind, gindex, phase, p, tau, fmode, y, pivot, work)
+                while True:
+                    bound = min(t_stop, pending)
+                    if t >= bound:
+                        break
+                    # ---- one adaptive step (scipy's RungeKutta._step_impl) ----
+                    # scipy's min_step, 10 ulp(t), is at most 10 eps |t| (+ a subnormal at t = 0):
+                    # the nextafter call is only needed for a step below that
+                    tiny = 10.0 * EPS * abs(t) + 1e-300
+                    if h_abs > max_step:
+                        h_abs = max_step
+                    elif h_abs < tiny and h_abs < _min_step(t):
+                        h_abs = _min_step(t)
+                    rejected = False
+                    ok = True
+                    while True:
+                        if h_abs < tiny and h_abs < _min_step(t):
+                            ok = False
+                            break
+                        t_new = t + h_abs
+                        if t_new > bound:
+                            t_new = bound
+                        h = t_new - t
+                        h_abs = abs(h)
+                        # the method's straight-line steps, called directly: through a wrapper
+                        # (inlined or called) numba reference-counts the eight arrays on every
+                        # step (atomic operations: ~10 % of a gait; a wrapper without reference
+                        # counting still costs ~2 %). The controller works on the squared norm
+                        # en_sq (see integrate.error_power_sq).
+                        if n == 4:
+                            step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                            en_sq = error_sq4(K, h, y, y_new, rtol, atol)
+                        else:
+                            step8(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                            en_sq = error_sq8(K, h, y, y_new, rtol, atol)
+                        counts[K_NFEV] += n_stages
+                        if en_sq < 1.0:
+                            if pi_control:
+                                en = math.sqrt(en_sq)
+                                factor = pi_factor(en, en_prev, err_order)
+                                en_prev = max(en, PI_ERR_FLOOR)
+                            else:
+                                # en_sq = 0 gives an infinite power: MAX_FACTOR
+                                factor = min(MAX_FACTOR, SAFETY * error_power_sq(method, en_sq))
+                            if rejected:
+                                factor = min(1.0, factor)
+                            h_abs *= factor
+                            break
+                        h_abs *= max(MIN_FACTOR, SAFETY * error_power_sq(method, en_sq))
+                        rejected = True
+                        counts[K_REJECTED] += 1
+                    if not ok:
+                        status = ST_STEP_FAILURE
+                        break
+                    counts[K_STEPS] += 1
+                    if counts[K_STEPS] > max_steps:
+                        status = ST_STEP_FAILURE
+                        break
+                    if not _finite(y_new, n):
+                        status = ST_NONFINITE
+                        break
+                    dense = False
+                    t_ev = np.inf
+                    # ---- segment guard ----
+                    if state_guard and pending == np.inf:
+                        # guard and rate from the step's sines and cosines; the vector field's
+                        # call kept out of inlined code (numba would reference-count its arrays)
+                        if rate_uses_field(gkind, gindex):
+                            gb = guard_trig_value(gkind, gindex, gvalue, phase, p, tau, fmode, y_new,
+                                            pivot, eref, trig_new)
+                            rb = guard_rate_field(gkind, gindex, phase, p, tau, fmode, y_new, work)
+                        else:
+                            gb, rb = guard_and_rate_step(gkind, gindex, gvalue, phase, p, tau, fmode,
+                                                         y_new, pivot, eref, trig_new)
+                        if crosses(g_seg, gb, gdir) or hermite_flags(g_seg, r_seg, gb, rb, h, gdir):
+                            if not dense:
+                                counts[K_NFEV] += dense_prepare_of_method(phase, p, tau, fmode, t, h,
+                                                                y, y_new, f_new, n, K, Fd, ytmp)
+                                dense = True
+                            ta = t
+                            ga = g_seg
+                            ra_seg = r_seg
+                            while True:
+                                tc = locate_first(gkind, gindex, gvalue, gdir, ta, t_new, ga, gb,
+                                                  ra_seg, rb, method, Fd, y, t, h, n, phase, p,
+                                                  tau, fmode, pivot, eref, ybuf, work)
+                                if tc == np.inf:
+                                    break
+                                sign_before = 1.0 if ga > 0.0 else -1.0
+                                if not ticked:
+                                    t_ev = tc
+                                    break
+                                tk = next_tick(tc, tick, tick_phase)
+                                if tk <= tc:
+                                    # the tick is the crossing itself, to round-off (next_tick
+                                    # snaps within TICK_SNAP): act. Testing the condition a hair
+                                    # before the root fails, and the search would find the same
+                                    # root and tick again, forever.
+                                    t_ev = tk if tk >= t else t
+                                    break
+                                if tk > t_new:
+                                    pending = tk
+                                    pending_sign = sign_before
+                                    break
+                                if tk == t_new:
+                                    gk = gb
+                                else:
+                                    dense_eval(method, Fd, y, h, (tk - t) / h, n, ybuf)
+                                    gk = guard_value(gkind, gindex, gvalue, phase, p, tau, fmode, ybuf,
+                                               pivot, eref)
+                                if (gdir > 0 and gk >= 0.0) or (gdir < 0 and gk <= 0.0) or \
+                                        (gdir == 0 and gk * sign_before <= 0.0):
+                                    t_ev = tk
+                                    break
+                                if tk >= t_new:
+                                    break
+                                ta = tk
+                                ga = gk
+                                ra_seg = guard_rate_value(gkind, gindex, phase, p, tau, fmode, ybuf, pivot,
+                                                    work) if tk < t_new else rb
+                        g_seg = gb
+                        r_seg = rb
+                    elif state_guard and t_new == pending:
+                        gb = guard_trig_value(gkind, gindex, gvalue, phase, p, tau, fmode, y_new, pivot,
+                                        eref, trig_new)
+                        if (gdir > 0 and gb >= 0.0) or (gdir < 0 and gb <= 0.0) or \
+                                (gdir == 0 and gb * pending_sign <= 0.0):
+                            t_ev = t_new
+                        pending = np.inf
+                        g_seg = gb
+                        r_seg = guard_rate_trig_value(gkind, gindex, phase, p, tau, fmode, y_new, pivot,
+                                                work, trig_new)
+                    if t_new == t_target and t_target < t_ev:
+                        t_ev = t_new
+                    seg_event = t_ev < np.inf
+                    # ---- friction events (earliest, strictly before any segment event) ----
+                    fric_k = -1
+                    for k in range(2):
+                        if not (fric0 if k == 0 else fric1):
+                            continue
+                        gb = friction_guard(k, phase, p, tau, fmode, y_new, pivot)
+                        fkind = G_STICK_BREAK if fmode[k] == 0.0 else G_SLIP_STOP
+                        fdir = 1.0 if fkind == G_STICK_BREAK else -1.0
+                        if crosses(g_fric[k], gb, fdir):
+                            if not dense:
+                                counts[K_NFEV] += dense_prepare_of_method(phase, p, tau, fmode, t, h,
+                                                                y, y_new, f_new, n, K, Fd, ytmp)
+                                dense = True
+                            tc = _locate_friction(k, fkind, t, t_new, g_fric[k], gb, method, Fd,
+                                                  y, h, n, phase, p, tau, fmode, pivot, ybuf)
+                            if tc < t_ev:
+                                t_ev = tc
+                                fric_k = k
+                                seg_event = False
+                        g_fric[k] = gb
+                    # ---- observers (non-terminal, up to the event) ----
+                    t_cut = min(t_ev, t_new)
+                    for k in range(n_obs):
+                        if obs[k, O_SEGMENT] >= 0 and int(obs[k, O_SEGMENT]) != seg:
+                            continue
+                        okind = int(obs[k, O_GUARD])
+                        oidx = int(obs[k, O_GINDEX])
+                        oval = obs[k, O_GVALUE]
+                        odir = obs[k, O_GDIR]
+                        gb = guard_trig_value(okind, oidx, oval, phase, p, tau, fmode, y_new, pivot, eref,
+                                        trig_new)
+                        ga = g_obs[k]
+                        ra = guard_rate_value(okind, oidx, phase, p, tau, fmode, y, pivot, work)
+                        rb = guard_rate_trig_value(okind, oidx, phase, p, tau, fmode, y_new, pivot, work,
+                                             trig_new)
+                        flagged = crosses(ga, gb, odir) or hermite_flags(ga, ra, gb, rb, h, odir)
+                        if flagged:
+                            if not dense:
+                                counts[K_NFEV] += dense_prepare_of_method(phase, p, tau, fmode, t, h,
+                                                                y, y_new, f_new, n, K, Fd, ytmp)
+                                dense = True
+                            # searched over the whole step, so that an observer watching the
+                            # same guard as the segment event finds the same root; crossings up
+                            # to the event (plus round-off) are logged, later ones belong to the
+                            # next leg
+                            slack = 8.0 * EPS * (1.0 + abs(t_cut))
+                            ta = t
+                            for _rep in range(4):
+                                if ta >= t_cut:
+                                    break
+                                tc = locate_first(okind, oidx, oval, odir, ta, t_new, ga, gb,
+                                                  ra, rb, method, Fd, y, t, h, n, phase, p, tau,
+                                                  fmode, pivot, eref, ybuf, work)
+                                if tc == np.inf or tc > t_cut + slack:
+                                    break
+                                tc = min(tc, t_cut)
+                                if n_log >= log_cap:
+                                    if log_cap > 0:
+                                        status = ST_BUFFER_FULL
+                                    break
+                                dense_eval(method, Fd, y, h, (tc - t) / h, n, ybuf)
+                                unpack_into(phase, ybuf, pivot, work)
+                                e = total_energy8(p, work)
+                                write_log(log, n_log, tc, LOG_OBSERVER, k, cycles, phase, flipped,
+                                          e, e, work)
+                                n_log += 1
+                                counts[K_EVENTS] += 1
+                                ta = tc
+                                ga = 0.0
+                                ra = guard_rate_value(okind, oidx, phase, p, tau, fmode, ybuf, pivot, work)
+                        g_obs[k] = gb
+                    if status >= 0:
+                        break
+                    # ---- samples on the grid, up to the event ----
+                    if sampling:
+                        while next_k * sample_dt <= t_cut:
+                            ts = next_k * sample_dt
+                            if not dense:
+                                counts[K_NFEV] += dense_prepare_of_method(phase, p, tau, fmode, t, h,
+                                                                y, y_new, f_new, n, K, Fd, ytmp)
+                                dense = True
+                            dense_eval(method, Fd, y, h, (ts - t) / h, n, ybuf)
+                            unpack_into(phase, ybuf, pivot, work)
+                            n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, ts, work,
+                                                  phase, flipped, tau, seg)
+                            if n_samp < 0:
+                                status = ST_BUFFER_FULL
+                                break
+                            next_k += 1
+                        if status >= 0:
+                            break
+                    # ---- advance ----
+                    if t_ev < np.inf:
+                        if t_ev == t_new:
+                            for i in range(n):
+                                y[i] = y_new[i]
+                        else:
+                            dense_eval(method, Fd, y, h, (t_ev - t) / h, n, ybuf)
+                            for i in range(n):
+                                y[i] = ybuf[i]
+                        t = t_ev
+                        if seg_event:
+                            fired = True
+                        break
+                    t = t_new
+                    for i in range(n):
+                        y[i] = y_new[i]
+                        f[i] = f_new[i]
+                unpack_into(phase, y, pivot, s8)
+                if status >= 0:
+                    break
+
+            # ------------------------------------------------------------------ leg outcome
+            if fric_k >= 0:
+                k = fric_k
+                s8[6 + k] = 0.0  # zero speed exactly at the event
+                n = pack(phase, s8, y)
+                c = p[P_C_PIVOT] if k == 0 else p[P_C_JOINT]
+                if fmode[k] == 0.0:
+                    hold = holding_torque(phase, p, tau, fmode, y, k)
+                    fmode[k] = -1.0 if hold > 0.0 else 1.0
+                    s8[6 + k] = 0.0
+                else:
+                    hold = holding_torque(phase, p, tau, fmode, y, k)
+                    if abs(hold) <= c:
+                        fmode[k] = 0.0
+                    else:
+                        fmode[k] = -1.0 if hold > 0.0 else 1.0
+                counts[K_EVENTS] += 1
+                if n_log < log_cap:
+                    e = total_energy8(p, s8)
+                    write_log(log, n_log, t, LOG_FRICTION, k, cycles, phase, flipped, e, e, s8)
+                    n_log += 1
+                elif log_cap > 0:
+                    status = ST_BUFFER_FULL
+                continue
+            if fired and delayed_exit == np.inf and int(prog[seg, S_GUARD]) != G_TIME and \
+                    prog[seg, S_DELAY] > 0.0:
+                delayed_exit = t + prog[seg, S_DELAY]
+                continue
+            if fired:
+                delayed_exit = np.inf
+                counts[K_EVENTS] += 1
+                seg_times[seg] = t
+                e_before = total_energy8(par[flipped], s8)
+                if sampling:
+                    n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, t, s8, phase,
+                                          flipped, tau, seg)
+                    if n_samp < 0:
+                        status = ST_BUFFER_FULL
+                        break
+                clock_mode = int(prog[seg, S_CLOCK])
+                if clock_mode == 1:
+                    clock0 = t
+                elif clock_mode == 2:
+                    clock0 += gvalue
+                if prog[seg, S_CYCLE] > 0:
+                    cycles += 1
+                nxt = int(prog[seg, S_NEXT])
+                last = seg
+                if nxt < 0 or (max_cycles > 0 and cycles >= max_cycles):
+                    status = ST_OK
+                    if n_log < log_cap:
+                        write_log(log, n_log, t, LOG_SEGMENT, last, cycles, phase, flipped,
+                                  e_before, e_before, s8)
+                        n_log += 1
+                    elif log_cap > 0:
+                        status = ST_BUFFER_FULL
+                    break
+                seg = nxt
+                entering = True
+                # the log row shows the state after the next segment's entry actions (the impact)
+                ph2, fl2 = apply_magnets(par, s8, phase, flipped, prog[seg, S_MAG_A],
+                                         prog[seg, S_MAG_B], prog[seg, S_SWAP] > 0)
+                phase = ph2
+                flipped = fl2
+                magnets_done = True
+                if n_log < log_cap:
+                    write_log(log, n_log, t, LOG_SEGMENT, last, cycles, phase, flipped, e_before,
+                              total_energy8(par[flipped], s8), s8)
+                    n_log += 1
+                elif log_cap > 0:
+                    status = ST_BUFFER_FULL
+                    break
+                continue
+            # no event: the leg ended on a bound
+            if t >= t_end:
+                status = ST_END_TIME
+            elif t >= horizon:
+                fail = int(prog[seg, S_FAIL])
+                status = fail if fail > 0 else ST_HORIZON
+
+        # ---------------------------------------------------------------------- write back
+        for i in range(8):
+            hyb[i] = s8[i]
+        hyb[H_T] = t
+        hyb[H_PHASE] = phase
+        hyb[H_FLIPPED] = flipped
+        hyb[H_SEG] = seg
+        hyb[H_TORQUE] = tau
+        hyb[H_EREF] = eref
+        hyb[H_CLOCK] = clock0
+        hyb[H_FMODE0] = fmode[0]
+        hyb[H_FMODE1] = fmode[1]
+        hyb[H_CYCLES] = cycles
+        hyb[H_Y_REF] = y_ref
+        counts[K_CYCLES] = cycles
+        counts[K_LOG] = n_log
+        counts[K_SAMPLES] = n_samp
+        return status
+
+    return simulate_method
+
+
 @njit(cache=True, error_model="numpy")
-def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp_y, samp_mode):
+def simulate(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp_y,
+             samp_mode):
     """Run a controller program from the hybrid state ``hyb``; returns a status ``ST_*``.
 
     Parameters
     ----------
+    method : numpy scalar
+        The integrator (``settings[C_METHOD]`` as :func:`.integrate.method_scalar`): its type
+        makes each method its own specialisation, which compiles only that method's steps.
     par : float64[2, N_PARAMS]
         Robot parameters, row 0 as given, row 1 flipped (docs/model.md section 3).
     prog : float64[n_seg, N_SEG_COLS]
@@ -243,549 +782,25 @@ def simulate(par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp
         Trajectory samples every ``C_SAMPLE_DT`` from the dense output, plus the states just
         before and after each segment transition (capacity 0: none).
     """
-    method = int(settings[C_METHOD])
-    rtol = settings[C_RTOL]
-    atol = settings[C_ATOL]
-    max_seg_time = settings[C_MAX_SEGMENT_TIME]
-    t_end = settings[C_T_END]
-    max_cycles = int(settings[C_MAX_CYCLES])
-    tick = settings[C_TICK]
-    tick_phase = settings[C_TICK_PHASE]
-    sample_dt = settings[C_SAMPLE_DT]
-    max_steps = settings[C_MAX_STEPS]
-    max_step = settings[C_MAX_STEP]
-    max_drop = settings[C_MAX_DROP]
-    band = settings[C_ZERO_BAND]
-    err_order = error_estimator_order(method)
-    pi_control = settings[C_CONTROLLER] == CONTROLLER_PI
-    en_prev = 1.0  # the PI controller's previous accepted error norm
+    return simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t,
+                         samp_y, samp_mode)
 
-    n_obs = obs.shape[0]
-    log_cap = log.shape[0]
-    sampling = sample_dt > 0.0 and samp_t.shape[0] > 0
 
-    K = np.zeros((VERN9_N_STAGES_EXTENDED, 8))   # the largest method's stages
-    Fd = np.zeros((VERN9_INTERPOLATOR_POWER, 8))
-    # the work vectors are rows of one array, the pairs rows of another: an allocation costs
-    # ~20 ns, and a gait is ~20 us
-    vectors = np.zeros((9, 8))
-    y = vectors[0]
-    f = vectors[1]
-    y_new = vectors[2]
-    f_new = vectors[3]
-    trig_new = vectors[4]  # sines and cosines at y_new (N_TRIG), left by the step for the guards
-    ytmp = vectors[5]
-    ybuf = vectors[6]
-    work = vectors[7]
-    s8 = vectors[8]
-    pairs = np.zeros((3, 2))
-    pivot = pairs[0]
-    fmode = pairs[1]
-    g_fric = pairs[2]
-    g_obs = np.zeros(max(n_obs, 1))
+def simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t,
+                  samp_y, samp_mode):
+    """:func:`simulate`'s loop for the method ``method`` names (interpreted: chosen at run
+    time; compiled: chosen by the overload below from ``method``'s type)."""
+    return simulate_implementation(int(method))(method, par, prog, obs, settings, hyb, counts,
+                                                seg_times, log, samp_t, samp_y, samp_mode)
 
-    for i in range(8):
-        s8[i] = hyb[i]
-    t = hyb[H_T]
-    phase = int(hyb[H_PHASE])
-    flipped = int(hyb[H_FLIPPED])
-    seg = int(hyb[H_SEG])
-    tau = hyb[H_TORQUE]
-    eref = hyb[H_EREF]
-    clock0 = hyb[H_CLOCK]
-    fmode[0] = hyb[H_FMODE0]
-    fmode[1] = hyb[H_FMODE1]
-    cycles = int(hyb[H_CYCLES])
-    y_ref = hyb[H_Y_REF]
-    if not math.isfinite(y_ref):
-        y_ref = s8[1]
-    for i in range(seg_times.shape[0]):
-        seg_times[i] = np.nan
 
-    n_log = int(counts[K_LOG])
-    n_samp = int(counts[K_SAMPLES])
-    next_k = 0
-    if sampling:
-        next_k = int(math.floor(t / sample_dt)) + 1  # the entry sample covers t itself
-
-    status = -1
-    entering = True
-    magnets_done = False  # entry magnet actions already applied (to log the impact)
-    seg_start = t
-    pending = np.inf      # tick at which a located ticked guard will be acted on
-    pending_sign = 0.0    # guard sign before that crossing ("either" direction)
-    delayed_exit = np.inf  # a state guard fired: the exit waits until then (S_DELAY)
-    n = 4
-
-    while status < 0:
-        p = par[flipped]
-        if entering:
-            if not magnets_done:
-                phase, flipped = apply_magnets(par, s8, phase, flipped, prog[seg, S_MAG_A],
-                                               prog[seg, S_MAG_B], prog[seg, S_SWAP] > 0)
-            magnets_done = False
-            p = par[flipped]
-            tau = prog[seg, S_TORQUE]
-            if prog[seg, S_SET_EREF] > 0:
-                eref = total_energy8(p, s8)
-            n = pack(phase, s8, y)
-            pivot[0] = s8[0]
-            pivot[1] = s8[1]
-            init_friction(phase, p, tau, s8, fmode, y, pivot)
-            seg_start = t
-            pending = np.inf
-            if sampling:
-                n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, t, s8, phase,
-                                      flipped, tau, seg)
-                if n_samp < 0:
-                    status = ST_BUFFER_FULL
-                    break
-            if phase == PHASE_SWING and s8[1] < y_ref - max_drop:
-                status = ST_FELL
-                break
-        # ------------------------------------------------------------------ one leg
-        gkind = int(prog[seg, S_GUARD])
-        gindex = int(prog[seg, S_GINDEX])
-        gvalue = prog[seg, S_GVALUE]
-        gdir = prog[seg, S_GDIR]
-        ticked = prog[seg, S_TICKED] > 0 and tick > 0.0
-        state_guard = gkind != G_NONE and gkind != G_TIME
-        horizon = seg_start + max_seg_time
-        t_limit = min(horizon, t_end)
-        t_target = np.inf
-        if delayed_exit < np.inf:
-            # the guard has fired; only the latency is left: a time leg without a guard
-            state_guard = False
-            gkind = G_TIME
-            t_target = delayed_exit
-        elif gkind == G_TIME:
-            t_target = clock0 + gvalue
-            if ticked:
-                t_target = next_tick(t_target, tick, tick_phase)
-            if prog[seg, S_DELAY] != 0.0:
-                t_target += prog[seg, S_DELAY]
-            if t_target < t:
-                t_target = t
-        t_stop = min(t_limit, t_target)
-        n = pack(phase, s8, y)
-        pivot[0] = s8[0]
-        pivot[1] = s8[1]
-
-        fired = False       # the segment's guard fired at time t (state at t in y/s8)
-        fric_k = -1         # a friction mode change at time t
-        level_fire = False
-        if state_guard:
-            g_seg = guard_value(gkind, gindex, gvalue, phase, p, tau, fmode, y, pivot, eref)
-            scale = 1.0 + abs(gvalue)
-            if gkind == G_ENERGY_RESTORED:
-                scale = 1.0 + abs(eref) + abs(gvalue)
-            if entering and abs(g_seg) <= band * scale:
-                g_seg = 0.0
-            if gkind == G_ENERGY_RESTORED and entering and g_seg >= 0.0:
-                level_fire = True
-        else:
-            g_seg = 0.0
-        for k in range(n_obs):
-            if obs[k, O_SEGMENT] >= 0 and int(obs[k, O_SEGMENT]) != seg:
-                continue
-            g_obs[k] = guard_value(int(obs[k, O_GUARD]), int(obs[k, O_GINDEX]), obs[k, O_GVALUE],
-                             phase, p, tau, fmode, y, pivot, eref)
-            if abs(g_obs[k]) <= band * (1.0 + abs(obs[k, O_GVALUE])):
-                g_obs[k] = 0.0
-        # friction DOFs watched on this leg (fixed along it; tested once, not on every step)
-        fric0 = friction_active(0, phase, p)
-        fric1 = friction_active(1, phase, p)
-        for k in range(2):
-            if fric0 if k == 0 else fric1:
-                g_fric[k] = friction_guard(k, phase, p, tau, fmode, y, pivot)
-        entering = False
-
-        if level_fire or (gkind == G_TIME and t_target <= t):
-            fired = True
-        elif phase == PHASE_FIXED:
-            # nothing moves: only time passes (samples stay put)
-            t_new = t_stop
-            if sampling:
-                while next_k * sample_dt <= t_new:
-                    n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, next_k * sample_dt,
-                                          s8, phase, flipped, tau, seg)
-                    if n_samp < 0:
-                        status = ST_BUFFER_FULL
-                        break
-                    next_k += 1
-            t = t_new
-            if t == t_target:
-                fired = True
-        else:
-            rhs(phase, p, tau, fmode, y, f)
-            h_abs = select_initial_step(phase, p, tau, fmode, t, y, f, n, t_stop, max_step,
-                                        err_order, rtol, atol, ytmp, f_new)
-            counts[K_NFEV] += 2
-            en_prev = 1.0  # a leg starts the PI controller afresh, as the integrator restarts
-            r_seg = 0.0
-            if state_guard:
-                r_seg = guard_rate_value(gkind, gindex, phase, p, tau, fmode, y, pivot, work)
-            while True:
-                bound = min(t_stop, pending)
-                if t >= bound:
-                    break
-                # ---- one adaptive step (scipy's RungeKutta._step_impl) ----
-                # scipy's min_step, 10 ulp(t), is at most 10 eps |t| (+ a subnormal at t = 0):
-                # the nextafter call is only needed for a step below that
-                tiny = 10.0 * EPS * abs(t) + 1e-300
-                if h_abs > max_step:
-                    h_abs = max_step
-                elif h_abs < tiny and h_abs < _min_step(t):
-                    h_abs = _min_step(t)
-                rejected = False
-                ok = True
-                while True:
-                    if h_abs < tiny and h_abs < _min_step(t):
-                        ok = False
-                        break
-                    t_new = t + h_abs
-                    if t_new > bound:
-                        t_new = bound
-                    h = t_new - t
-                    h_abs = abs(h)
-                    # integrate.rk_step and error_norm_sq written out down to the straight-line
-                    # steps: through a wrapper (inlined or called) numba reference-counts the
-                    # eight arrays on every step (atomic operations: the two wrappers cost ~10 %
-                    # of a gait). The controller works on the squared norm en_sq (see
-                    # integrate.error_power_sq).
-                    if method == METHOD_DOP853:
-                        if n == 4:
-                            dop853_step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
-                            en_sq = dop853_error_sq4(K, h, y, y_new, rtol, atol)
-                        else:
-                            dop853_step8(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
-                            en_sq = dop853_error_sq8(K, h, y, y_new, rtol, atol)
-                        counts[K_NFEV] += DOP853_N_STAGES
-                    elif method == METHOD_VERN9:
-                        if n == 4:
-                            vern9_step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
-                            en_sq = vern9_error_sq4(K, h, y, y_new, rtol, atol)
-                        else:
-                            vern9_step8(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
-                            en_sq = vern9_error_sq8(K, h, y, y_new, rtol, atol)
-                        counts[K_NFEV] += VERN9_N_STAGES
-                    else:
-                        if n == 4:
-                            rk45_step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
-                            en_sq = rk45_error_sq4(K, h, y, y_new, rtol, atol)
-                        else:
-                            rk45_step8(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
-                            en_sq = rk45_error_sq8(K, h, y, y_new, rtol, atol)
-                        counts[K_NFEV] += RK45_N_STAGES
-                    if en_sq < 1.0:
-                        if pi_control:
-                            en = math.sqrt(en_sq)
-                            factor = pi_factor(en, en_prev, err_order)
-                            en_prev = max(en, PI_ERR_FLOOR)
-                        else:
-                            # en_sq = 0 gives an infinite power: MAX_FACTOR
-                            factor = min(MAX_FACTOR, SAFETY * error_power_sq(method, en_sq))
-                        if rejected:
-                            factor = min(1.0, factor)
-                        h_abs *= factor
-                        break
-                    h_abs *= max(MIN_FACTOR, SAFETY * error_power_sq(method, en_sq))
-                    rejected = True
-                    counts[K_REJECTED] += 1
-                if not ok:
-                    status = ST_STEP_FAILURE
-                    break
-                counts[K_STEPS] += 1
-                if counts[K_STEPS] > max_steps:
-                    status = ST_STEP_FAILURE
-                    break
-                if not _finite(y_new, n):
-                    status = ST_NONFINITE
-                    break
-                dense = False
-                t_ev = np.inf
-                # ---- segment guard ----
-                if state_guard and pending == np.inf:
-                    # guard and rate from the step's sines and cosines; the vector field's
-                    # call kept out of inlined code (numba would reference-count its arrays)
-                    if rate_uses_field(gkind, gindex):
-                        gb = guard_trig_value(gkind, gindex, gvalue, phase, p, tau, fmode, y_new,
-                                        pivot, eref, trig_new)
-                        rb = guard_rate_field(gkind, gindex, phase, p, tau, fmode, y_new, work)
-                    else:
-                        gb, rb = guard_and_rate_step(gkind, gindex, gvalue, phase, p, tau, fmode,
-                                                     y_new, pivot, eref, trig_new)
-                    if crosses(g_seg, gb, gdir) or hermite_flags(g_seg, r_seg, gb, rb, h, gdir):
-                        if not dense:
-                            counts[K_NFEV] += dense_prepare(method, phase, p, tau, fmode, t, h,
-                                                            y, y_new, f_new, n, K, Fd, ytmp)
-                            dense = True
-                        ta = t
-                        ga = g_seg
-                        ra_seg = r_seg
-                        while True:
-                            tc = locate_first(gkind, gindex, gvalue, gdir, ta, t_new, ga, gb,
-                                              ra_seg, rb, method, Fd, y, t, h, n, phase, p,
-                                              tau, fmode, pivot, eref, ybuf, work)
-                            if tc == np.inf:
-                                break
-                            sign_before = 1.0 if ga > 0.0 else -1.0
-                            if not ticked:
-                                t_ev = tc
-                                break
-                            tk = next_tick(tc, tick, tick_phase)
-                            if tk <= tc:
-                                # the tick is the crossing itself, to round-off (next_tick
-                                # snaps within TICK_SNAP): act. Testing the condition a hair
-                                # before the root fails, and the search would find the same
-                                # root and tick again, forever.
-                                t_ev = tk if tk >= t else t
-                                break
-                            if tk > t_new:
-                                pending = tk
-                                pending_sign = sign_before
-                                break
-                            if tk == t_new:
-                                gk = gb
-                            else:
-                                dense_eval(method, Fd, y, h, (tk - t) / h, n, ybuf)
-                                gk = guard_value(gkind, gindex, gvalue, phase, p, tau, fmode, ybuf,
-                                           pivot, eref)
-                            if (gdir > 0 and gk >= 0.0) or (gdir < 0 and gk <= 0.0) or \
-                                    (gdir == 0 and gk * sign_before <= 0.0):
-                                t_ev = tk
-                                break
-                            if tk >= t_new:
-                                break
-                            ta = tk
-                            ga = gk
-                            ra_seg = guard_rate_value(gkind, gindex, phase, p, tau, fmode, ybuf, pivot,
-                                                work) if tk < t_new else rb
-                    g_seg = gb
-                    r_seg = rb
-                elif state_guard and t_new == pending:
-                    gb = guard_trig_value(gkind, gindex, gvalue, phase, p, tau, fmode, y_new, pivot,
-                                    eref, trig_new)
-                    if (gdir > 0 and gb >= 0.0) or (gdir < 0 and gb <= 0.0) or \
-                            (gdir == 0 and gb * pending_sign <= 0.0):
-                        t_ev = t_new
-                    pending = np.inf
-                    g_seg = gb
-                    r_seg = guard_rate_trig_value(gkind, gindex, phase, p, tau, fmode, y_new, pivot,
-                                            work, trig_new)
-                if t_new == t_target and t_target < t_ev:
-                    t_ev = t_new
-                seg_event = t_ev < np.inf
-                # ---- friction events (earliest, strictly before any segment event) ----
-                fric_k = -1
-                for k in range(2):
-                    if not (fric0 if k == 0 else fric1):
-                        continue
-                    gb = friction_guard(k, phase, p, tau, fmode, y_new, pivot)
-                    fkind = G_STICK_BREAK if fmode[k] == 0.0 else G_SLIP_STOP
-                    fdir = 1.0 if fkind == G_STICK_BREAK else -1.0
-                    if crosses(g_fric[k], gb, fdir):
-                        if not dense:
-                            counts[K_NFEV] += dense_prepare(method, phase, p, tau, fmode, t, h,
-                                                            y, y_new, f_new, n, K, Fd, ytmp)
-                            dense = True
-                        tc = _locate_friction(k, fkind, t, t_new, g_fric[k], gb, method, Fd,
-                                              y, h, n, phase, p, tau, fmode, pivot, ybuf)
-                        if tc < t_ev:
-                            t_ev = tc
-                            fric_k = k
-                            seg_event = False
-                    g_fric[k] = gb
-                # ---- observers (non-terminal, up to the event) ----
-                t_cut = min(t_ev, t_new)
-                for k in range(n_obs):
-                    if obs[k, O_SEGMENT] >= 0 and int(obs[k, O_SEGMENT]) != seg:
-                        continue
-                    okind = int(obs[k, O_GUARD])
-                    oidx = int(obs[k, O_GINDEX])
-                    oval = obs[k, O_GVALUE]
-                    odir = obs[k, O_GDIR]
-                    gb = guard_trig_value(okind, oidx, oval, phase, p, tau, fmode, y_new, pivot, eref,
-                                    trig_new)
-                    ga = g_obs[k]
-                    ra = guard_rate_value(okind, oidx, phase, p, tau, fmode, y, pivot, work)
-                    rb = guard_rate_trig_value(okind, oidx, phase, p, tau, fmode, y_new, pivot, work,
-                                         trig_new)
-                    flagged = crosses(ga, gb, odir) or hermite_flags(ga, ra, gb, rb, h, odir)
-                    if flagged:
-                        if not dense:
-                            counts[K_NFEV] += dense_prepare(method, phase, p, tau, fmode, t, h,
-                                                            y, y_new, f_new, n, K, Fd, ytmp)
-                            dense = True
-                        # searched over the whole step, so that an observer watching the
-                        # same guard as the segment event finds the same root; crossings up
-                        # to the event (plus round-off) are logged, later ones belong to the
-                        # next leg
-                        slack = 8.0 * EPS * (1.0 + abs(t_cut))
-                        ta = t
-                        for _rep in range(4):
-                            if ta >= t_cut:
-                                break
-                            tc = locate_first(okind, oidx, oval, odir, ta, t_new, ga, gb,
-                                              ra, rb, method, Fd, y, t, h, n, phase, p, tau,
-                                              fmode, pivot, eref, ybuf, work)
-                            if tc == np.inf or tc > t_cut + slack:
-                                break
-                            tc = min(tc, t_cut)
-                            if n_log >= log_cap:
-                                if log_cap > 0:
-                                    status = ST_BUFFER_FULL
-                                break
-                            dense_eval(method, Fd, y, h, (tc - t) / h, n, ybuf)
-                            unpack_into(phase, ybuf, pivot, work)
-                            e = total_energy8(p, work)
-                            write_log(log, n_log, tc, LOG_OBSERVER, k, cycles, phase, flipped,
-                                      e, e, work)
-                            n_log += 1
-                            counts[K_EVENTS] += 1
-                            ta = tc
-                            ga = 0.0
-                            ra = guard_rate_value(okind, oidx, phase, p, tau, fmode, ybuf, pivot, work)
-                    g_obs[k] = gb
-                if status >= 0:
-                    break
-                # ---- samples on the grid, up to the event ----
-                if sampling:
-                    while next_k * sample_dt <= t_cut:
-                        ts = next_k * sample_dt
-                        if not dense:
-                            counts[K_NFEV] += dense_prepare(method, phase, p, tau, fmode, t, h,
-                                                            y, y_new, f_new, n, K, Fd, ytmp)
-                            dense = True
-                        dense_eval(method, Fd, y, h, (ts - t) / h, n, ybuf)
-                        unpack_into(phase, ybuf, pivot, work)
-                        n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, ts, work,
-                                              phase, flipped, tau, seg)
-                        if n_samp < 0:
-                            status = ST_BUFFER_FULL
-                            break
-                        next_k += 1
-                    if status >= 0:
-                        break
-                # ---- advance ----
-                if t_ev < np.inf:
-                    if t_ev == t_new:
-                        for i in range(n):
-                            y[i] = y_new[i]
-                    else:
-                        dense_eval(method, Fd, y, h, (t_ev - t) / h, n, ybuf)
-                        for i in range(n):
-                            y[i] = ybuf[i]
-                    t = t_ev
-                    if seg_event:
-                        fired = True
-                    break
-                t = t_new
-                for i in range(n):
-                    y[i] = y_new[i]
-                    f[i] = f_new[i]
-            unpack_into(phase, y, pivot, s8)
-            if status >= 0:
-                break
-
-        # ------------------------------------------------------------------ leg outcome
-        if fric_k >= 0:
-            k = fric_k
-            s8[6 + k] = 0.0  # zero speed exactly at the event
-            n = pack(phase, s8, y)
-            c = p[P_C_PIVOT] if k == 0 else p[P_C_JOINT]
-            if fmode[k] == 0.0:
-                hold = holding_torque(phase, p, tau, fmode, y, k)
-                fmode[k] = -1.0 if hold > 0.0 else 1.0
-                s8[6 + k] = 0.0
-            else:
-                hold = holding_torque(phase, p, tau, fmode, y, k)
-                if abs(hold) <= c:
-                    fmode[k] = 0.0
-                else:
-                    fmode[k] = -1.0 if hold > 0.0 else 1.0
-            counts[K_EVENTS] += 1
-            if n_log < log_cap:
-                e = total_energy8(p, s8)
-                write_log(log, n_log, t, LOG_FRICTION, k, cycles, phase, flipped, e, e, s8)
-                n_log += 1
-            elif log_cap > 0:
-                status = ST_BUFFER_FULL
-            continue
-        if fired and delayed_exit == np.inf and int(prog[seg, S_GUARD]) != G_TIME and \
-                prog[seg, S_DELAY] > 0.0:
-            delayed_exit = t + prog[seg, S_DELAY]
-            continue
-        if fired:
-            delayed_exit = np.inf
-            counts[K_EVENTS] += 1
-            seg_times[seg] = t
-            e_before = total_energy8(par[flipped], s8)
-            if sampling:
-                n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, t, s8, phase,
-                                      flipped, tau, seg)
-                if n_samp < 0:
-                    status = ST_BUFFER_FULL
-                    break
-            clock_mode = int(prog[seg, S_CLOCK])
-            if clock_mode == 1:
-                clock0 = t
-            elif clock_mode == 2:
-                clock0 += gvalue
-            if prog[seg, S_CYCLE] > 0:
-                cycles += 1
-            nxt = int(prog[seg, S_NEXT])
-            last = seg
-            if nxt < 0 or (max_cycles > 0 and cycles >= max_cycles):
-                status = ST_OK
-                if n_log < log_cap:
-                    write_log(log, n_log, t, LOG_SEGMENT, last, cycles, phase, flipped,
-                              e_before, e_before, s8)
-                    n_log += 1
-                elif log_cap > 0:
-                    status = ST_BUFFER_FULL
-                break
-            seg = nxt
-            entering = True
-            # the log row shows the state after the next segment's entry actions (the impact)
-            ph2, fl2 = apply_magnets(par, s8, phase, flipped, prog[seg, S_MAG_A],
-                                     prog[seg, S_MAG_B], prog[seg, S_SWAP] > 0)
-            phase = ph2
-            flipped = fl2
-            magnets_done = True
-            if n_log < log_cap:
-                write_log(log, n_log, t, LOG_SEGMENT, last, cycles, phase, flipped, e_before,
-                          total_energy8(par[flipped], s8), s8)
-                n_log += 1
-            elif log_cap > 0:
-                status = ST_BUFFER_FULL
-                break
-            continue
-        # no event: the leg ended on a bound
-        if t >= t_end:
-            status = ST_END_TIME
-        elif t >= horizon:
-            fail = int(prog[seg, S_FAIL])
-            status = fail if fail > 0 else ST_HORIZON
-
-    # ---------------------------------------------------------------------- write back
-    for i in range(8):
-        hyb[i] = s8[i]
-    hyb[H_T] = t
-    hyb[H_PHASE] = phase
-    hyb[H_FLIPPED] = flipped
-    hyb[H_SEG] = seg
-    hyb[H_TORQUE] = tau
-    hyb[H_EREF] = eref
-    hyb[H_CLOCK] = clock0
-    hyb[H_FMODE0] = fmode[0]
-    hyb[H_FMODE1] = fmode[1]
-    hyb[H_CYCLES] = cycles
-    hyb[H_Y_REF] = y_ref
-    counts[K_CYCLES] = cycles
-    counts[K_LOG] = n_log
-    counts[K_SAMPLES] = n_samp
-    return status
+@overload(simulate_loop, jit_options={"error_model": "numpy"})
+def _overload_simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_times, log,
+                            samp_t, samp_y, samp_mode):
+    method_code = method_of_type(method)
+    if method_code is None:
+        return None   # not a method scalar: numba reports no implementation
+    return simulate_implementation(method_code)
 
 
 @njit(cache=True, error_model="numpy")

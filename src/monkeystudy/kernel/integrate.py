@@ -14,18 +14,21 @@ scipy counterpart: it uses the same controller with scipy's RMS error norm.
 """
 import math
 
-from numba import njit
+import numpy as np
+from numba import njit, types
 
 from .dynamics import rhs
-from .layout import METHOD_DOP853, METHOD_VERN9
+from .layout import METHOD_DOP853, METHOD_RK45, METHOD_VERN9
 from .rk_explicit import (
-    dop853_dense, dop853_error_sq, dop853_step, rk45_error_sq, rk45_step, vern9_error_sq,
-    vern9_step,
+    dop853_dense, dop853_error_sq, dop853_error_sq4, dop853_error_sq8, dop853_step,
+    dop853_step4, dop853_step8, rk45_error_sq, rk45_error_sq4, rk45_error_sq8, rk45_step,
+    rk45_step4, rk45_step8, vern9_error_sq, vern9_error_sq4, vern9_error_sq8, vern9_step,
+    vern9_step4, vern9_step8,
 )
 from .roots import inv_root16
 from .tableaux import (
-    RK45_N_STAGES, RK45_P, VERN9_A, VERN9_INTERPOLATOR_POWER, VERN9_N_STAGES,
-    VERN9_N_STAGES_EXTENDED, VERN9_R,
+    DOP853_N_STAGES, RK45_N_STAGES, RK45_P, VERN9_A, VERN9_INTERPOLATOR_POWER,
+    VERN9_N_STAGES, VERN9_N_STAGES_EXTENDED, VERN9_R,
 )
 
 SAFETY = 0.9
@@ -175,33 +178,55 @@ def dense_prepare(method, phase, p, tau, fmode, t_old, h, y_old, y_new, f_new, n
     interpolant ``Q = K^T P``; Vern9: the 9th-order interpolant (nine extra stages beyond
     ``f_new``, which the step left in ``K[16]``), ``Fd[k] = sum_i R[i, k] k_i``, the last
     coefficient closing it on ``y_new``.
+
+    Compiles all three; the hybrid loop calls the one of its method (:data:`METHOD_KERNELS`).
     """
     if method == METHOD_VERN9:
-        for s in range(VERN9_N_STAGES + 1, VERN9_N_STAGES_EXTENDED):
-            for i in range(n):
-                acc = 0.0
-                for j in range(s):
-                    acc += K[j, i] * VERN9_A[s, j]
-                ytmp[i] = y_old[i] + acc * h
-            rhs(phase, p, tau, fmode, ytmp, K[s])
-        last = VERN9_INTERPOLATOR_POWER - 1
-        for i in range(n):
-            low = 0.0
-            for r in range(last):
-                acc = 0.0
-                for j in range(VERN9_N_STAGES_EXTENDED):
-                    acc += VERN9_R[j, r] * K[j, i]
-                Fd[r, i] = acc
-                low += acc
-            # the theta^9 coefficient closes the polynomial on the step's end: the weights
-            # b_i(1) = sum_k R[i, k] equal b_i only to ~1e-12 in double precision (terms of
-            # ~1e4 cancel), a jump at step ends that event location would see
-            Fd[last, i] = (y_new[i] - y_old[i]) / h - low
-        return VERN9_N_STAGES_EXTENDED - VERN9_N_STAGES - 1
+        return vern9_dense_prepare(phase, p, tau, fmode, t_old, h, y_old, y_new, f_new, n, K, Fd,
+                                   ytmp)
     if method == METHOD_DOP853:
-        # written out (kernel/rk_explicit.py): the generic loops multiply through the zeros
-        # of the tableau, and an event costs one of these
-        return dop853_dense(p, tau, fmode, y_old, y_new, f_new, h, n, K, Fd)
+        return dop853_dense_prepare(phase, p, tau, fmode, t_old, h, y_old, y_new, f_new, n, K,
+                                    Fd, ytmp)
+    return rk45_dense_prepare(phase, p, tau, fmode, t_old, h, y_old, y_new, f_new, n, K, Fd, ytmp)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def dop853_dense_prepare(phase, p, tau, fmode, t_old, h, y_old, y_new, f_new, n, K, Fd, ytmp):
+    """DOP853's dense-output coefficients (:func:`dense_prepare`): written out
+    (kernel/rk_explicit.py), as the generic loops multiply through the zeros of the tableau,
+    and an event costs one of these."""
+    return dop853_dense(p, tau, fmode, y_old, y_new, f_new, h, n, K, Fd)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def vern9_dense_prepare(phase, p, tau, fmode, t_old, h, y_old, y_new, f_new, n, K, Fd, ytmp):
+    """Vern9's dense-output coefficients (:func:`dense_prepare`)."""
+    for s in range(VERN9_N_STAGES + 1, VERN9_N_STAGES_EXTENDED):
+        for i in range(n):
+            acc = 0.0
+            for j in range(s):
+                acc += K[j, i] * VERN9_A[s, j]
+            ytmp[i] = y_old[i] + acc * h
+        rhs(phase, p, tau, fmode, ytmp, K[s])
+    last = VERN9_INTERPOLATOR_POWER - 1
+    for i in range(n):
+        low = 0.0
+        for r in range(last):
+            acc = 0.0
+            for j in range(VERN9_N_STAGES_EXTENDED):
+                acc += VERN9_R[j, r] * K[j, i]
+            Fd[r, i] = acc
+            low += acc
+        # the theta^9 coefficient closes the polynomial on the step's end: the weights
+        # b_i(1) = sum_k R[i, k] equal b_i only to ~1e-12 in double precision (terms of
+        # ~1e4 cancel), a jump at step ends that event location would see
+        Fd[last, i] = (y_new[i] - y_old[i]) / h - low
+    return VERN9_N_STAGES_EXTENDED - VERN9_N_STAGES - 1
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def rk45_dense_prepare(phase, p, tau, fmode, t_old, h, y_old, y_new, f_new, n, K, Fd, ytmp):
+    """RK45's dense-output coefficients (:func:`dense_prepare`)."""
     for i in range(n):
         for r in range(4):
             acc = 0.0
@@ -239,3 +264,38 @@ def dense_eval(method, Fd, y_old, h, x, n, out):
             xp *= x
             acc += Fd[r, i] * xp
         out[i] = y_old[i] + h * acc
+
+
+# --- the method as a compile-time choice -----------------------------------------------------
+# Kernels that integrate take the method as a numpy scalar whose *type* names it
+# (:func:`method_scalar`): numba compiles one specialisation per type, its dispatcher picks it
+# from the argument's type at no cost, and the hybrid loop of that specialisation calls only
+# that method's steps and dense output (:data:`METHOD_KERNELS`), so a study compiles what it
+# integrates with (Vern9's two straight-line steps alone take ~10 s to compile).
+METHOD_SCALAR_TYPES = {METHOD_RK45: np.uint16, METHOD_DOP853: np.uint8, METHOD_VERN9: np.uint32}
+_METHOD_OF_TYPE = {types.uint16: METHOD_RK45, types.uint8: METHOD_DOP853,
+                   types.uint32: METHOD_VERN9}
+
+
+def method_scalar(method: int):
+    """``method`` (``METHOD_*``) as the scalar the integrating kernels take: its value is the
+    code, its type the compile-time choice."""
+    return METHOD_SCALAR_TYPES[int(method)](method)
+
+
+def method_of_type(method_type):
+    """The ``METHOD_*`` a numba scalar type names (None: not a method scalar)."""
+    return _METHOD_OF_TYPE.get(method_type)
+
+
+#: per method: the swing and flight steps, their squared error norms, the dense-output
+#: preparation (:func:`dense_prepare`'s signature without ``method``) and the right-hand-side
+#: evaluations of a step (first-same-as-last reused)
+METHOD_KERNELS = {
+    METHOD_DOP853: (dop853_step4, dop853_step8, dop853_error_sq4, dop853_error_sq8,
+                    dop853_dense_prepare, DOP853_N_STAGES),
+    METHOD_VERN9: (vern9_step4, vern9_step8, vern9_error_sq4, vern9_error_sq8,
+                   vern9_dense_prepare, VERN9_N_STAGES),
+    METHOD_RK45: (rk45_step4, rk45_step8, rk45_error_sq4, rk45_error_sq8, rk45_dense_prepare,
+                  RK45_N_STAGES),
+}

@@ -76,7 +76,7 @@ def noisy_program(prog, roles, noise, seed, run, cycle, out):
 
 
 @njit(cache=True, error_model="numpy")
-def survival_run(par, prog, obs, settings, hyb0, roles, noise, seed, run, z_ref, max_cycles,
+def survival_run(method, par, prog, obs, settings, hyb0, roles, noise, seed, run, z_ref, max_cycles,
                  error_bound, min_advance, out):
     """One run of up to ``max_cycles`` cycles from the hybrid state ``hyb0`` (a section
     state: the reference ``z_ref`` plus the run's initial-state noise); writes its outcome
@@ -112,7 +112,7 @@ def survival_run(par, prog, obs, settings, hyb0, roles, noise, seed, run, z_ref,
         noisy_program(prog, roles, noise, seed, run, c, cycle_prog)
         run_settings[C_MAX_CYCLES] = hyb[H_CYCLES] + 1.0
         counts[K_LOG] = 0
-        status = simulate(par, cycle_prog, obs, run_settings, hyb, counts, seg_times, log,
+        status = simulate(method, par, cycle_prog, obs, run_settings, hyb, counts, seg_times, log,
                           no_t, no_y, no_mode)
         nfev += counts[K_NFEV]
         counts[K_NFEV] = 0
@@ -143,11 +143,11 @@ def survival_run(par, prog, obs, settings, hyb0, roles, noise, seed, run, z_ref,
 
 
 @njit(cache=True, error_model="numpy")
-def survival_runs(par_runs, prog, obs, settings, hyb0, roles, noise, seed, runs, z_ref,
+def survival_runs(method, par_runs, prog, obs, settings, hyb0, roles, noise, seed, runs, z_ref,
                   max_cycles, error_bound, min_advance, out):
     """:func:`survival_run` for run numbers ``runs[i]`` with parameters ``par_runs[i]``;
     outcomes in ``out[i]`` (layout ``SV_*``). The run number keys the noise, so a run's
     outcome does not depend on the block it is in."""
     for i in range(runs.shape[0]):
-        survival_run(par_runs[i], prog, obs, settings, hyb0, roles, noise, seed,
+        survival_run(method, par_runs[i], prog, obs, settings, hyb0, roles, noise, seed,
                      int(runs[i]), z_ref, max_cycles, error_bound, min_advance, out[i])

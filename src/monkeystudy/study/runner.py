@@ -72,14 +72,15 @@ def step_attrs(loaded: LoadedStudy, step, history: str) -> dict:
     }
 
 
-def kernels_marker(*, runs: bool = False, variational: bool = False) -> Path | None:
+def kernels_marker(method: str, *, runs: bool = False,
+                   variational: bool = False) -> Path | None:
     """A file in the kernel cache (keyed by every kernel source) that :func:`load_kernels`
-    leaves once these kernels were compiled: its absence means a first run, which compiles.
-    None when the cache is not ours (a read-only home). Not keyed by the integration method:
-    the hybrid loop is compiled for all of them at once."""
+    leaves once these kernels were compiled for the integration ``method`` (each method is its
+    own specialisation): its absence means a first run, which compiles. None when the cache
+    is not ours (a read-only home)."""
     if not KERNEL_CACHE_DIR:
         return None
-    return Path(KERNEL_CACHE_DIR) / "-".join(["loaded"] + ["runs"] * runs
+    return Path(KERNEL_CACHE_DIR) / "-".join(["loaded", method] + ["runs"] * runs
                                              + ["variational"] * variational)
 
 
@@ -106,7 +107,7 @@ def load_kernels(spec: GaitSpec, *, runs: bool = False, variational: bool = Fals
         swap_state(par[0], par[1], y)
         swing_field(par[0], 0.0, np.ones(2), y, np.empty(4))
         swing_energy_gradient(par[0], 0.0, y, np.empty(4))
-    marker = kernels_marker(runs=runs, variational=variational)
+    marker = kernels_marker(spec.integrator.method, runs=runs, variational=variational)
     if marker is not None:
         try:
             marker.touch()
@@ -336,7 +337,7 @@ def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
         def warm_up():
             needs = {"runs": any(s.kind.needs_runs(s.step) for s in todo),
                      "variational": any(s.kind.needs_variational(s.step) for s in todo)}
-            marker = kernels_marker(**needs)
+            marker = kernels_marker(spec.integrator.method, **needs)
             if pool is None and (marker is None or not marker.exists()):
                 # said once: a cached run loads them in about a second, silently
                 reporter.log(f"compiling the kernels this study uses ({spec.integrator.method}"
