@@ -34,7 +34,7 @@ from .controllers import (
 )
 from .kernel.design import cycle_map
 from .kernel.dynamics import rhs_swing
-from .kernel.layout import C_MAX_CYCLES, N_COUNTS, N_LOG_COLS, N_OBS_COLS
+from .kernel.layout import C_MAX_CYCLES, N_COUNTS, N_LOG_COLS, N_OBS_COLS, PHASE_SWING
 from .kernel.gait import (
     R_ERROR, R_NFEV, R_REJECTED, R_STEPS, R_T_END, R_T_MOTOR, R_T_SWITCH,
     horizontal_gait_batch,
@@ -348,7 +348,7 @@ def skipping() -> dict:
     out = np.empty((len(unreachable), 16))
 
     def run(skip):
-        horizontal_gait_batch(kernel_method(st), par, prog, st, unreachable, floor, skip, out)
+        horizontal_gait_batch(kernel_method(st, prog, PHASE_SWING), par, prog, st, unreachable, floor, skip, out)
     run(True)
     run(False)
     t_skip = best_of(lambda: run(True), 3) / len(unreachable)
@@ -389,7 +389,7 @@ def design_cost(repeat: int = 5) -> dict:
     w_next, counts = np.empty(3), np.zeros(N_COUNTS, np.int64)
 
     def one_cycle():
-        cycle_map(kernel_method(st), par, prog, obs, st, 0.0, res.z, w_next, log, counts)
+        cycle_map(kernel_method(st, prog, PHASE_SWING), par, prog, obs, st, 0.0, res.z, w_next, log, counts)
     one_cycle()
     t_cycle = best_of(one_cycle, repeat)
     t_design = best_of(lambda: evaluate_design(space, start, near), repeat)

@@ -403,11 +403,27 @@ METHODS = {
 }
 
 
-def kernel_method(settings: np.ndarray):
+def program_may_fly(prog: np.ndarray, start_phase: float) -> bool:
+    """Whether a controller program run from a state of phase ``start_phase`` can enter
+    flight: only a start in flight or a segment that turns a magnet off on entry without the
+    swap can (``kernel/hybrid.apply_magnets``)."""
+    if int(start_phase) == L.PHASE_FLIGHT:
+        return True
+    rows = np.asarray(prog, dtype=float).reshape(-1, L.N_SEG_COLS)
+    release = (rows[:, L.S_SWAP] <= 0) & ((rows[:, L.S_MAG_A] == 0) | (rows[:, L.S_MAG_B] == 0))
+    return bool(release.any())
+
+
+def kernel_method(settings: np.ndarray, prog: np.ndarray | None = None,
+                  start_phase: float | None = None):
     """The integrator of a settings vector as the first argument of every kernel that
     integrates (:func:`~monkeystudy.kernel.integrate.method_scalar`: a scalar whose type
-    names the method, so each method compiles only its own steps)."""
-    return method_scalar(settings[L.C_METHOD])
+    names the method, so each method compiles only its own steps). Given the program and the
+    phase it starts in, a run that cannot fly (:func:`program_may_fly`) compiles the swing
+    steps only."""
+    flies = True if prog is None or start_phase is None else program_may_fly(prog,
+                                                                              start_phase)
+    return method_scalar(settings[L.C_METHOD], flies)
 
 
 def settings_vector(integrator: Integrator, *, tick: float = 0.0, tick_phase: float = 0.0,

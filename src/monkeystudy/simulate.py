@@ -117,7 +117,8 @@ def evaluate_gaits(points, *, robot: RobotLike = "seed2009", torque: float | Non
     prog, _ = HorizontalSearch(torque, tick=tick, tick_phase=tick_phase).program()
     settings = settings_vector(integrator, tick=tick, tick_phase=tick_phase)
     out = np.empty((pts.shape[0], N_RESULT))
-    horizontal_gait_batch(kernel_method(settings), robot.params(), prog, settings, pts, robot.swap_energy_floor(),
+    horizontal_gait_batch(kernel_method(settings, prog, L.PHASE_SWING), robot.params(), prog,
+                          settings, pts, robot.swap_energy_floor(),
                           skip_unreachable, out)
     return {
         "error": out[:, R_ERROR].copy(),
@@ -153,7 +154,8 @@ def evaluate_cycle_gaits(points, gait: SequenceGait, *, robot: RobotLike = "seed
                                max_cycles=1)
     out = np.empty((pts.shape[0], N_CYCLE_RESULT))
     seg = np.empty((pts.shape[0], prog.shape[0]))
-    cycle_gait_batch(kernel_method(settings), robot.params(), prog, obs, settings, gait.section_theta1, gait.theta2,
+    cycle_gait_batch(kernel_method(settings, prog, L.PHASE_SWING), robot.params(), prog, obs,
+                     settings, gait.section_theta1, gait.theta2,
                      pts, out, seg)
     final = out[:, Q_FINAL:Q_FINAL + 8].copy()
     return {
@@ -241,7 +243,8 @@ def run_controller(controller: Controller, state: np.ndarray, *,
         st = np.empty(n_samp)
         sy = np.empty((n_samp, 8))
         sm = np.empty((n_samp, L.N_MODE_COLS))
-        status = _simulate(kernel_method(settings), par, prog, obs, settings, hyb, counts, seg_times, log, st, sy, sm)
+        status = _simulate(kernel_method(settings, prog, state[L.H_PHASE]), par, prog, obs,
+                           settings, hyb, counts, seg_times, log, st, sy, sm)
         if status != L.ST_BUFFER_FULL:
             break
         if counts[L.K_LOG] >= log_capacity:

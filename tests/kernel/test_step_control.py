@@ -13,7 +13,7 @@ from monkeystudy.kernel.gait import (
     N_RESULT, R_ERROR, R_REJECTED, R_STATUS, R_STEPS, R_T_END, R_T_SWITCH, horizontal_gait_batch,
 )
 from monkeystudy.kernel.integrate import MAX_FACTOR, SAFETY, pi_factor
-from monkeystudy.kernel.layout import ST_OK
+from monkeystudy.kernel.layout import PHASE_SWING, ST_OK
 from monkeystudy.robot import SEED2009_TORQUE, Robot
 
 ROBOT = Robot.preset("seed2009")
@@ -26,7 +26,8 @@ def _gaits(controller, rtol, method="dop853"):
     out = np.empty((len(POINTS), N_RESULT))
     st = settings_vector(Integrator(method=method, rtol=rtol, atol=rtol * 1e-2,
                                     controller=controller))
-    horizontal_gait_batch(kernel_method(st), ROBOT.params(), PROG, st, POINTS, ROBOT.swap_energy_floor(), True,
+    horizontal_gait_batch(kernel_method(st, PROG, PHASE_SWING), ROBOT.params(), PROG, st, POINTS,
+                          ROBOT.swap_energy_floor(), True,
                           out)
     return out
 

@@ -408,7 +408,8 @@ def evaluate_design(space: DesignSpace, free: Mapping[str, float], z0,
     u = np.empty_like(u0)
     DP = np.empty((n, n))
     info = np.empty(N_INFO)
-    status = fixed_point(kernel_method(settings), robot.params(), prog0, dprog, np.empty((0, L.N_OBS_COLS)), settings,
+    status = fixed_point(kernel_method(settings, prog0, L.PHASE_SWING), robot.params(), prog0,
+                         dprog, np.empty((0, L.N_OBS_COLS)), settings,
                          0.0, balance, u0, space.tol, space.max_iter,
                          space.fd_step, u, DP, info)
     if balance:
@@ -444,7 +445,8 @@ def clocked_stability(space: DesignSpace, res: DesignResult, robot: Robot,
     x = res.state
     DP = np.empty((x.size, x.size))
     x_next = np.empty(x.size)
-    status, nfev = clocked_jacobian(kernel_method(settings), robot.params(), prog, np.empty((0, L.N_OBS_COLS)),
+    status, nfev = clocked_jacobian(kernel_method(settings, prog, L.PHASE_SWING), robot.params(),
+                                    prog, np.empty((0, L.N_OBS_COLS)),
                                     settings, x, space.fd_step, DP, x_next)
     res.nfev += int(nfev)
     if status != L.ST_OK:

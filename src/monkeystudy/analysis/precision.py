@@ -19,6 +19,7 @@ from ..controllers import METHODS, HorizontalSearch, Integrator, kernel_method, 
 from ..kernel.gait import (
     N_RESULT, R_ERROR, R_NFEV, R_STATUS, R_T_END, R_T_MOTOR, R_T_SWITCH, horizontal_gait_batch,
 )
+from ..kernel.layout import PHASE_SWING
 from ..reference.scipy_gait import ScipyGait
 from ..robot import SEED2009_TORQUE
 from ..simulate import RobotLike, as_robot
@@ -36,7 +37,8 @@ def best_of(fn, repeat: int = 5) -> float:
 def kernel_gaits(par, prog, settings, pts, floor) -> np.ndarray:
     """The kernel's batch gait results ``[n, N_RESULT]`` at ``pts`` (no Python per gait)."""
     out = np.empty((pts.shape[0], N_RESULT))
-    horizontal_gait_batch(kernel_method(settings), par, prog, settings, pts, floor, True, out)
+    horizontal_gait_batch(kernel_method(settings, prog, PHASE_SWING), par, prog, settings, pts,
+                          floor, True, out)
     return out
 
 

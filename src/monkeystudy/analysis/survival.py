@@ -243,7 +243,8 @@ def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles:
     par_runs = np.stack([run_robot(robot, noise, seed, r).params() for r in runs]) \
         if len(runs) else np.empty((0, 2, L.N_PARAMS))
     out = np.zeros((len(runs), L.N_SV_COLS))
-    run_block(kernel_method(settings), par_runs, prog, obs, settings, np.asarray(start, float), noise_roles(prog),
+    run_block(kernel_method(settings, prog, np.asarray(start, float)[L.H_PHASE]), par_runs, prog,
+              obs, settings, np.asarray(start, float), noise_roles(prog),
               noise.vector(), int(seed), runs, np.asarray(reference, float), int(max_cycles),
               float(error_bound), float(min_advance), out)
     return SurvivalRuns(out[:, L.SV_CYCLES].astype(np.int64),

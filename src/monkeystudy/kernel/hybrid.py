@@ -34,7 +34,7 @@ Semantics worth knowing (docs/model.md sections 4 and 6):
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, typeof
 from numba.extending import overload
 
 from .dynamics import attach_xy_end, flip_state, holding_torque, rhs, total_energy8
@@ -44,8 +44,9 @@ from .events import (
     rate_uses_field, unpack, unpack_into,
 )
 from .integrate import (
-    MAX_FACTOR, MIN_FACTOR, METHOD_KERNELS, PI_ERR_FLOOR, SAFETY, dense_eval,
-    error_estimator_order, error_power_sq, method_of_type, pi_factor, select_initial_step,
+    MAX_FACTOR, METHOD_KERNELS, MIN_FACTOR, PI_ERR_FLOOR, SAFETY, SWING_DENSE_PREPARE,
+    choice_of_type, dense_eval, error_estimator_order, error_power_sq, pi_factor,
+    select_initial_step,
 )
 from .layout import (
     C_ATOL, C_CONTROLLER, C_MAX_CYCLES, C_MAX_DROP, C_MAX_SEGMENT_TIME, C_MAX_STEP, C_MAX_STEPS,
@@ -212,13 +213,19 @@ def _finite(y, n):
     return acc == 0.0
 
 
-def simulate_implementation(method_code):
+def simulate_implementation(method_code, flies=True):
     """The hybrid loop of :func:`simulate` for one integration method (``METHOD_*``), as a
-    plain function whose step, error norm and dense output are that method's own: numba
-    compiles it through :func:`simulate` (one specialisation per method, which compiles only
-    that method's steps); interpreted (``NUMBA_DISABLE_JIT``), it runs as it is."""
+    plain function whose step, error norm and dense output are that method's own (and only
+    the swing ones unless ``flies``): numba compiles it through :func:`simulate` (one
+    specialisation per method and phase set, which compiles only those steps); interpreted
+    (``NUMBA_DISABLE_JIT``), it runs as it is."""
     step4, step8, error_sq4, error_sq8, dense_prepare_of_method, n_stages = \
         METHOD_KERNELS[method_code]
+    if not flies:
+        # never called: the loop stops before a flight (below); the swing step keeps the
+        # flight branch typed without compiling the flight step
+        step8, error_sq8 = step4, error_sq4
+        dense_prepare_of_method = SWING_DENSE_PREPARE[method_code]
 
     def simulate_method(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t,
                         samp_y, samp_mode):
@@ -302,6 +309,11 @@ def simulate_implementation(method_code):
                     phase, flipped = apply_magnets(par, s8, phase, flipped, prog[seg, S_MAG_A],
                                                    prog[seg, S_MAG_B], prog[seg, S_SWAP] > 0)
                 magnets_done = False
+                if not flies and phase == PHASE_FLIGHT:
+                    # compiled without the flight steps: the caller said the program cannot
+                    # release every magnet (controllers.program_may_fly), and it did
+                    status = ST_STEP_FAILURE
+                    break
                 p = par[flipped]
                 tau = prog[seg, S_TORQUE]
                 if prog[seg, S_SET_EREF] > 0:
@@ -760,7 +772,8 @@ def simulate(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp
     ----------
     method : numpy scalar
         The integrator (``settings[C_METHOD]`` as :func:`.integrate.method_scalar`): its type
-        makes each method its own specialisation, which compiles only that method's steps.
+        makes each method, with or without flight, its own specialisation, which compiles only
+        those steps.
     par : float64[2, N_PARAMS]
         Robot parameters, row 0 as given, row 1 flipped (docs/model.md section 3).
     prog : float64[n_seg, N_SEG_COLS]
@@ -790,17 +803,17 @@ def simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_times, log,
                   samp_y, samp_mode):
     """:func:`simulate`'s loop for the method ``method`` names (interpreted: chosen at run
     time; compiled: chosen by the overload below from ``method``'s type)."""
-    return simulate_implementation(int(method))(method, par, prog, obs, settings, hyb, counts,
-                                                seg_times, log, samp_t, samp_y, samp_mode)
+    return simulate_implementation(*choice_of_type(typeof(method)))(
+        method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp_y, samp_mode)
 
 
 @overload(simulate_loop, jit_options={"error_model": "numpy"})
 def _overload_simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_times, log,
                             samp_t, samp_y, samp_mode):
-    method_code = method_of_type(method)
-    if method_code is None:
+    choice = choice_of_type(method)
+    if choice is None:
         return None   # not a method scalar: numba reports no implementation
-    return simulate_implementation(method_code)
+    return simulate_implementation(*choice)
 
 
 @njit(cache=True, error_model="numpy")

@@ -20,7 +20,7 @@ from numba import njit, types
 from .dynamics import rhs
 from .layout import METHOD_DOP853, METHOD_RK45, METHOD_VERN9
 from .rk_explicit import (
-    dop853_dense, dop853_error_sq, dop853_error_sq4, dop853_error_sq8, dop853_step,
+    dop853_dense, dop853_dense4, dop853_error_sq, dop853_error_sq4, dop853_error_sq8, dop853_step,
     dop853_step4, dop853_step8, rk45_error_sq, rk45_error_sq4, rk45_error_sq8, rk45_step,
     rk45_step4, rk45_step8, vern9_error_sq, vern9_error_sq4, vern9_error_sq8, vern9_step,
     vern9_step4, vern9_step8,
@@ -267,25 +267,43 @@ def dense_eval(method, Fd, y_old, h, x, n, out):
 
 
 # --- the method as a compile-time choice -----------------------------------------------------
-# Kernels that integrate take the method as a numpy scalar whose *type* names it
-# (:func:`method_scalar`): numba compiles one specialisation per type, its dispatcher picks it
-# from the argument's type at no cost, and the hybrid loop of that specialisation calls only
-# that method's steps and dense output (:data:`METHOD_KERNELS`), so a study compiles what it
-# integrates with (Vern9's two straight-line steps alone take ~10 s to compile).
-METHOD_SCALAR_TYPES = {METHOD_RK45: np.uint16, METHOD_DOP853: np.uint8, METHOD_VERN9: np.uint32}
-_METHOD_OF_TYPE = {types.uint16: METHOD_RK45, types.uint8: METHOD_DOP853,
-                   types.uint32: METHOD_VERN9}
+# Kernels that integrate take the method as a numpy scalar whose *type* names it, and whether
+# the run can fly (:func:`method_scalar`): numba compiles one specialisation per type, its
+# dispatcher picks it from the argument's type at no cost, and the hybrid loop of that
+# specialisation calls only that method's steps and dense output (:data:`METHOD_KERNELS`),
+# and only the swing ones when the run cannot fly, so a study compiles what it integrates
+# with (Vern9's two straight-line steps alone take ~10 s to compile, DOP853's flight step and
+# its dense output ~7 s).
+_SCALAR_TYPES = {
+    (METHOD_RK45, True): (np.uint16, types.uint16),
+    (METHOD_DOP853, True): (np.uint8, types.uint8),
+    (METHOD_VERN9, True): (np.uint32, types.uint32),
+    (METHOD_RK45, False): (np.int16, types.int16),
+    (METHOD_DOP853, False): (np.int8, types.int8),
+    (METHOD_VERN9, False): (np.int32, types.int32),
+}
+_CHOICE_OF_TYPE = {numba_type: choice for choice, (_, numba_type) in _SCALAR_TYPES.items()}
 
 
-def method_scalar(method: int):
+def method_scalar(method: int, flies: bool = True):
     """``method`` (``METHOD_*``) as the scalar the integrating kernels take: its value is the
-    code, its type the compile-time choice."""
-    return METHOD_SCALAR_TYPES[int(method)](method)
+    code; its type names the method and whether the run may enter flight (``flies`` False: the
+    swing steps only are compiled, and a run that releases every magnet stops with
+    ``ST_STEP_FAILURE``)."""
+    return _SCALAR_TYPES[(int(method), bool(flies))][0](method)
 
 
-def method_of_type(method_type):
-    """The ``METHOD_*`` a numba scalar type names (None: not a method scalar)."""
-    return _METHOD_OF_TYPE.get(method_type)
+def choice_of_type(method_type):
+    """``(METHOD_*, flies)`` that a numba scalar type names (None: not a method scalar)."""
+    return _CHOICE_OF_TYPE.get(method_type)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def dop853_dense_prepare_swing(phase, p, tau, fmode, t_old, h, y_old, y_new, f_new, n, K, Fd,
+                               ytmp):
+    """:func:`dop853_dense_prepare` of a swing step (``n`` 4), for runs that cannot fly."""
+    dop853_dense4(p, tau, fmode, y_old, y_new, f_new, h, K, Fd)
+    return 3
 
 
 #: per method: the swing and flight steps, their squared error norms, the dense-output
@@ -299,3 +317,7 @@ METHOD_KERNELS = {
     METHOD_RK45: (rk45_step4, rk45_step8, rk45_error_sq4, rk45_error_sq8, rk45_dense_prepare,
                   RK45_N_STAGES),
 }
+#: per method: the dense-output preparation of a swing step (the generic loops of RK45 and
+#: Vern9 serve both phases)
+SWING_DENSE_PREPARE = {METHOD_DOP853: dop853_dense_prepare_swing,
+                       METHOD_VERN9: vern9_dense_prepare, METHOD_RK45: rk45_dense_prepare}
