@@ -8,7 +8,9 @@ against a reference gait at rtol 1e-13 computed by scipy (a different implementa
 ratios are stated at (at least) equal error.
 
 Run ``python -m monkeystudy.bench`` (or ``monkeystudy bench``); ``--quick`` for a fast pass,
-``--startup`` adds cold/cached start-up times (the cold one compiles the kernel: ~40 s).
+``--startup`` adds cold/cached start-up times: the first gait of each integration method and
+the first runs of ``studies/horizontal.yaml`` and ``studies/smoke.yaml`` (a few minutes: each
+cold run compiles its kernels afresh).
 """
 from __future__ import annotations
 
@@ -21,6 +23,7 @@ import sys
 import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
 
 import numpy as np
 from numba import njit
@@ -30,7 +33,7 @@ from .analysis.precision import best_of, kernel_gaits
 from .analysis.sections import cycle_section_state
 from .analysis.survival import Noise, survival_runs
 from .controllers import (
-    HorizontalSearch, Integrator, Observer, kernel_method, settings_vector,
+    METHODS, HorizontalSearch, Integrator, Observer, kernel_method, settings_vector,
 )
 from .kernel.design import cycle_map
 from .kernel.dynamics import rhs_swing
@@ -223,19 +226,57 @@ def workers_throughput(n_points: int, workers: int, rtol: float) -> float:
     return pts.shape[0] / dt
 
 
-def startup_seconds(cold: bool) -> float:
-    """Seconds from interpreter start to the first simulated gait, in a fresh process."""
-    code = ("import time; t=time.perf_counter(); "
-            "from monkeystudy import evaluate_horizontal_gait as e; e(0.9, 10.9); "
-            "print(time.perf_counter()-t)")
+def _cold_env(cold: bool) -> dict:
+    """The environment of a fresh process; cold: empty kernel and user caches."""
     env = dict(os.environ)
     if cold:
-        env["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(prefix="monkeystudy-cold-")
+        tmp = tempfile.mkdtemp(prefix="monkeystudy-cold-")
+        env["NUMBA_CACHE_DIR"] = os.path.join(tmp, "numba")
+        env["XDG_CACHE_HOME"] = os.path.join(tmp, "cache")
+    return env
+
+
+def startup_seconds(cold: bool, method: str = "dop853") -> float:
+    """Seconds from interpreter start to the first simulated gait integrated with ``method``,
+    in a fresh process (each method is its own compiled specialisation)."""
+    code = ("from monkeystudy.controllers import Integrator; "
+            "from monkeystudy.simulate import evaluate_gaits; "
+            f"evaluate_gaits([[0.9, 10.9]], integrator=Integrator(method={method!r}))")
     t0 = time.perf_counter()
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
-                         check=True)
-    total = time.perf_counter() - t0
-    return total if out.stdout else total
+    subprocess.run([sys.executable, "-c", code], env=_cold_env(cold), capture_output=True,
+                   text=True, check=True)
+    return time.perf_counter() - t0
+
+
+def study_startup_seconds(study: Path, cold: bool) -> float:
+    """Seconds of a whole ``monkeystudy run`` of ``study`` in a fresh process, into a new
+    folder (cold: empty kernel and user caches)."""
+    out = tempfile.mkdtemp(prefix="monkeystudy-startup-")
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "monkeystudy", "run", str(study), "--out", out],
+                   env=_cold_env(cold), capture_output=True, text=True, check=True)
+    return time.perf_counter() - t0
+
+
+def print_startup() -> None:
+    """Cold against cached start-up: the first gait of each integration method, and the
+    first runs of the horizontal and smoke studies (when run from the repository)."""
+    print("\nstart-up in a fresh process (cold: empty kernel and user caches):")
+    for method in sorted(METHODS):
+        cached = startup_seconds(cold=False, method=method)
+        cold = startup_seconds(cold=True, method=method)
+        print(f"  first gait, {method:7s}: cached {cached:5.2f} s, cold {cold:6.1f} s "
+              f"({cold / cached:.0f}x)")
+    for name in ("horizontal.yaml", "smoke.yaml"):
+        study = Path("studies") / name
+        if not study.exists():
+            print(f"  {study}: not found (run from the repository to time it)")
+            continue
+        cached = study_startup_seconds(study, cold=False)   # fills the cache if empty
+        cached = study_startup_seconds(study, cold=False)
+        cold = study_startup_seconds(study, cold=True)
+        print(f"  monkeystudy run {study}: cached {cached:5.2f} s, cold {cold:6.1f} s "
+              f"({cold / cached:.0f}x)")
 
 
 GRID_STUDY = """schema_version: 1
@@ -615,10 +656,7 @@ def main(argv=None) -> int:
     for n in args.grid or []:
         print_grid_run(n, args.served)
     if args.startup:
-        cached = startup_seconds(cold=False)
-        cold = startup_seconds(cold=True)
-        print(f"\nstart-up to first gait (fresh process): cached {cached:.2f} s, "
-              f"cold (compiles the kernel) {cold:.1f} s")
+        print_startup()
     return 0
 
 

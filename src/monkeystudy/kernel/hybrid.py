@@ -229,6 +229,7 @@ def simulate_implementation(method_code, flies=True):
 
     def simulate_method(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t,
                         samp_y, samp_mode):
+        method = method_code  # a constant of this specialisation (the argument names it too)
         rtol = settings[C_RTOL]
         atol = settings[C_ATOL]
         max_seg_time = settings[C_MAX_SEGMENT_TIME]
