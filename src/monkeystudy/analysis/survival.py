@@ -243,9 +243,10 @@ def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles:
     par_runs = np.stack([run_robot(robot, noise, seed, r).params() for r in runs]) \
         if len(runs) else np.empty((0, 2, L.N_PARAMS))
     out = np.zeros((len(runs), L.N_SV_COLS))
-    run_block(kernel_method(settings, prog, np.asarray(start, float)[L.H_PHASE]), par_runs, prog,
-              obs, settings, np.asarray(start, float), noise_roles(prog),
-              noise.vector(), int(seed), runs, np.asarray(reference, float), int(max_cycles),
+    start = np.asarray(start, float)
+    run_block(kernel_method(settings, prog, start[L.H_PHASE]), par_runs, prog, obs, settings,
+              start, noise_roles(prog), noise.vector(), int(seed), runs,
+              np.asarray(reference, float), int(max_cycles),
               float(error_bound), float(min_advance), out)
     return SurvivalRuns(out[:, L.SV_CYCLES].astype(np.int64),
                         out[:, L.SV_FAILURE].astype(np.int8), out[:, L.SV_DISTANCE].copy(),

@@ -156,7 +156,8 @@ def clocked_jacobian(method, par, prog, obs, settings, x, h, DP, x_next):
 
 
 @njit(cache=True, error_model="numpy")
-def residual(method, par, prog0, dprog, obs, settings, theta1_section, balance, u, prog, F, counts):
+def residual(method, par, prog0, dprog, obs, settings, theta1_section, balance, u, prog, F,
+             counts):
     """``F(u)`` into ``F`` (see the module docstring); returns the kernel status of the run.
     ``prog`` is work space for ``prog0 + u[n] * dprog``."""
     n = N_SECTION
@@ -332,8 +333,8 @@ def fixed_point(method, par, prog0, dprog, obs, settings, theta1_section, balanc
             prog[i, j] = prog0[i, j] + q * dprog[i, j]
     w_next = np.empty(n)
     log = np.empty((LOG_ROWS, N_LOG_COLS))
-    status, rise, advance, loss, period = cycle_map(method, par, prog, obs, settings1, theta1_section,
-                                                    u[:n], w_next, log, counts)
+    status, rise, advance, loss, period = cycle_map(method, par, prog, obs, settings1,
+                                                    theta1_section, u[:n], w_next, log, counts)
     err = 0.0
     for i in range(n):
         err += (w_next[i] - u[i]) ** 2

@@ -116,7 +116,8 @@ def _gait_run(method, par, prog, settings, dtheta1, dtheta2, out, scratch):
 
 
 @njit(cache=True, error_model="numpy")
-def horizontal_gait_batch(method, par, prog, settings, points, energy_floor, skip_unreachable, out):
+def horizontal_gait_batch(method, par, prog, settings, points, energy_floor, skip_unreachable,
+                          out):
     """:func:`horizontal_gait` over ``points[N, 2]`` into ``out[N, N_RESULT]`` (serial)."""
     scratch = search_scratch(prog.shape[0])
     hyb = scratch[0]

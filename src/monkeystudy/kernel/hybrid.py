@@ -78,9 +78,9 @@ def next_tick(t, tick, tick_phase):
 def apply_magnets(par, s8, phase, flipped, mag_a, mag_b, swap):
     """Entry magnet actions; returns the new ``(phase, flipped)``; ``s8`` changed in place.
 
-    Attaching an end that was free is a plastic impact (docs/model.md section 3): the frame is first
-    flipped if that end is not the frame's (x, y) end, then projected. Both magnets on stops all
-    motion; releasing every magnet starts a flight with the current velocities.
+    Attaching an end that was free is a plastic impact (docs/model.md section 3): the frame is
+    first flipped if that end is not the frame's (x, y) end, then projected. Both magnets on
+    stops all motion; releasing every magnet starts a flight with the current velocities.
     """
     xy_is_a = flipped == 0
     att_xy = phase == PHASE_SWING or phase == PHASE_FIXED
@@ -259,7 +259,7 @@ def simulate_implementation(method_code, flies=True):
         f = vectors[1]
         y_new = vectors[2]
         f_new = vectors[3]
-        trig_new = vectors[4]  # sines and cosines at y_new (N_TRIG), left by the step for the guards
+        trig_new = vectors[4]  # sines and cosines at y_new (N_TRIG), left by the step for guards
         ytmp = vectors[5]
         ybuf = vectors[6]
         work = vectors[7]
@@ -379,8 +379,8 @@ def simulate_implementation(method_code, flies=True):
             for k in range(n_obs):
                 if obs[k, O_SEGMENT] >= 0 and int(obs[k, O_SEGMENT]) != seg:
                     continue
-                g_obs[k] = guard_value(int(obs[k, O_GUARD]), int(obs[k, O_GINDEX]), obs[k, O_GVALUE],
-                                 phase, p, tau, fmode, y, pivot, eref)
+                g_obs[k] = guard_value(int(obs[k, O_GUARD]), int(obs[k, O_GINDEX]),
+                                       obs[k, O_GVALUE], phase, p, tau, fmode, y, pivot, eref)
                 if abs(g_obs[k]) <= band * (1.0 + abs(obs[k, O_GVALUE])):
                     g_obs[k] = 0.0
             # friction DOFs watched on this leg (fixed along it; tested once, not on every step)
@@ -398,8 +398,8 @@ def simulate_implementation(method_code, flies=True):
                 t_new = t_stop
                 if sampling:
                     while next_k * sample_dt <= t_new:
-                        n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, next_k * sample_dt,
-                                              s8, phase, flipped, tau, seg)
+                        n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp,
+                                              next_k * sample_dt, s8, phase, flipped, tau, seg)
                         if n_samp < 0:
                             status = ST_BUFFER_FULL
                             break
@@ -483,16 +483,17 @@ def simulate_implementation(method_code, flies=True):
                         # guard and rate from the step's sines and cosines; the vector field's
                         # call kept out of inlined code (numba would reference-count its arrays)
                         if rate_uses_field(gkind, gindex):
-                            gb = guard_trig_value(gkind, gindex, gvalue, phase, p, tau, fmode, y_new,
-                                            pivot, eref, trig_new)
+                            gb = guard_trig_value(gkind, gindex, gvalue, phase, p, tau, fmode,
+                                                  y_new, pivot, eref, trig_new)
                             rb = guard_rate_field(gkind, gindex, phase, p, tau, fmode, y_new, work)
                         else:
-                            gb, rb = guard_and_rate_step(gkind, gindex, gvalue, phase, p, tau, fmode,
-                                                         y_new, pivot, eref, trig_new)
-                        if crosses(g_seg, gb, gdir) or hermite_flags(g_seg, r_seg, gb, rb, h, gdir):
+                            gb, rb = guard_and_rate_step(gkind, gindex, gvalue, phase, p, tau,
+                                                         fmode, y_new, pivot, eref, trig_new)
+                        if (crosses(g_seg, gb, gdir)
+                                or hermite_flags(g_seg, r_seg, gb, rb, h, gdir)):
                             if not dense:
-                                counts[K_NFEV] += dense_prepare_of_method(phase, p, tau, fmode, t, h,
-                                                                y, y_new, f_new, n, K, Fd, ytmp)
+                                counts[K_NFEV] += dense_prepare_of_method(
+                                    phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
                                 dense = True
                             ta = t
                             ga = g_seg
@@ -523,8 +524,8 @@ def simulate_implementation(method_code, flies=True):
                                     gk = gb
                                 else:
                                     dense_eval(method, Fd, y, h, (tk - t) / h, n, ybuf)
-                                    gk = guard_value(gkind, gindex, gvalue, phase, p, tau, fmode, ybuf,
-                                               pivot, eref)
+                                    gk = guard_value(gkind, gindex, gvalue, phase, p, tau, fmode,
+                                                     ybuf, pivot, eref)
                                 if (gdir > 0 and gk >= 0.0) or (gdir < 0 and gk <= 0.0) or \
                                         (gdir == 0 and gk * sign_before <= 0.0):
                                     t_ev = tk
@@ -533,20 +534,20 @@ def simulate_implementation(method_code, flies=True):
                                     break
                                 ta = tk
                                 ga = gk
-                                ra_seg = guard_rate_value(gkind, gindex, phase, p, tau, fmode, ybuf, pivot,
-                                                    work) if tk < t_new else rb
+                                ra_seg = guard_rate_value(gkind, gindex, phase, p, tau, fmode,
+                                                          ybuf, pivot, work) if tk < t_new else rb
                         g_seg = gb
                         r_seg = rb
                     elif state_guard and t_new == pending:
-                        gb = guard_trig_value(gkind, gindex, gvalue, phase, p, tau, fmode, y_new, pivot,
-                                        eref, trig_new)
+                        gb = guard_trig_value(gkind, gindex, gvalue, phase, p, tau, fmode, y_new,
+                                              pivot, eref, trig_new)
                         if (gdir > 0 and gb >= 0.0) or (gdir < 0 and gb <= 0.0) or \
                                 (gdir == 0 and gb * pending_sign <= 0.0):
                             t_ev = t_new
                         pending = np.inf
                         g_seg = gb
-                        r_seg = guard_rate_trig_value(gkind, gindex, phase, p, tau, fmode, y_new, pivot,
-                                                work, trig_new)
+                        r_seg = guard_rate_trig_value(gkind, gindex, phase, p, tau, fmode, y_new,
+                                                      pivot, work, trig_new)
                     if t_new == t_target and t_target < t_ev:
                         t_ev = t_new
                     seg_event = t_ev < np.inf
@@ -560,8 +561,8 @@ def simulate_implementation(method_code, flies=True):
                         fdir = 1.0 if fkind == G_STICK_BREAK else -1.0
                         if crosses(g_fric[k], gb, fdir):
                             if not dense:
-                                counts[K_NFEV] += dense_prepare_of_method(phase, p, tau, fmode, t, h,
-                                                                y, y_new, f_new, n, K, Fd, ytmp)
+                                counts[K_NFEV] += dense_prepare_of_method(
+                                    phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
                                 dense = True
                             tc = _locate_friction(k, fkind, t, t_new, g_fric[k], gb, method, Fd,
                                                   y, h, n, phase, p, tau, fmode, pivot, ybuf)
@@ -579,17 +580,17 @@ def simulate_implementation(method_code, flies=True):
                         oidx = int(obs[k, O_GINDEX])
                         oval = obs[k, O_GVALUE]
                         odir = obs[k, O_GDIR]
-                        gb = guard_trig_value(okind, oidx, oval, phase, p, tau, fmode, y_new, pivot, eref,
-                                        trig_new)
+                        gb = guard_trig_value(okind, oidx, oval, phase, p, tau, fmode, y_new,
+                                              pivot, eref, trig_new)
                         ga = g_obs[k]
                         ra = guard_rate_value(okind, oidx, phase, p, tau, fmode, y, pivot, work)
-                        rb = guard_rate_trig_value(okind, oidx, phase, p, tau, fmode, y_new, pivot, work,
-                                             trig_new)
+                        rb = guard_rate_trig_value(okind, oidx, phase, p, tau, fmode, y_new, pivot,
+                                                   work, trig_new)
                         flagged = crosses(ga, gb, odir) or hermite_flags(ga, ra, gb, rb, h, odir)
                         if flagged:
                             if not dense:
-                                counts[K_NFEV] += dense_prepare_of_method(phase, p, tau, fmode, t, h,
-                                                                y, y_new, f_new, n, K, Fd, ytmp)
+                                counts[K_NFEV] += dense_prepare_of_method(
+                                    phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
                                 dense = True
                             # searched over the whole step, so that an observer watching the
                             # same guard as the segment event finds the same root; crossings up
@@ -619,7 +620,8 @@ def simulate_implementation(method_code, flies=True):
                                 counts[K_EVENTS] += 1
                                 ta = tc
                                 ga = 0.0
-                                ra = guard_rate_value(okind, oidx, phase, p, tau, fmode, ybuf, pivot, work)
+                                ra = guard_rate_value(okind, oidx, phase, p, tau, fmode, ybuf,
+                                                      pivot, work)
                         g_obs[k] = gb
                     if status >= 0:
                         break
@@ -628,8 +630,8 @@ def simulate_implementation(method_code, flies=True):
                         while next_k * sample_dt <= t_cut:
                             ts = next_k * sample_dt
                             if not dense:
-                                counts[K_NFEV] += dense_prepare_of_method(phase, p, tau, fmode, t, h,
-                                                                y, y_new, f_new, n, K, Fd, ytmp)
+                                counts[K_NFEV] += dense_prepare_of_method(
+                                    phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
                                 dense = True
                             dense_eval(method, Fd, y, h, (ts - t) / h, n, ybuf)
                             unpack_into(phase, ybuf, pivot, work)

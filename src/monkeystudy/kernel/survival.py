@@ -76,8 +76,8 @@ def noisy_program(prog, roles, noise, seed, run, cycle, out):
 
 
 @njit(cache=True, error_model="numpy")
-def survival_run(method, par, prog, obs, settings, hyb0, roles, noise, seed, run, z_ref, max_cycles,
-                 error_bound, min_advance, out):
+def survival_run(method, par, prog, obs, settings, hyb0, roles, noise, seed, run, z_ref,
+                 max_cycles, error_bound, min_advance, out):
     """One run of up to ``max_cycles`` cycles from the hybrid state ``hyb0`` (a section
     state: the reference ``z_ref`` plus the run's initial-state noise); writes its outcome
     (layout ``SV_*``) into ``out``.
