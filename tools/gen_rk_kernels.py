@@ -88,11 +88,11 @@ def stage_eval(lay, prefix, dest, trig=False) -> list[str]:
     acc_names = ["ax", "ay", "a1", "a2"] if n == 8 else ["a1", "a2"]
     args = ", ".join(f"{prefix}{i}" for i in lay["args"])
     if trig:
-        code = [f"    {', '.join(acc_names + TRIG)} = {lay['accel']}_trig(p, tau, fmode, "
+        code = [f"    {', '.join(acc_names + TRIG)} = {lay['accel']}_trig_fused(p, tau, fmode, "
                 f"{args})"]
         code += [f"    trig[{k}] = {v}" for k, v in enumerate(TRIG)]
     else:
-        code = [f"    {', '.join(acc_names)} = {lay['accel']}(p, tau, fmode, {args})"]
+        code = [f"    {', '.join(acc_names)} = {lay['accel']}_fused(p, tau, fmode, {args})"]
     for k, i in enumerate(lay["pos"]):
         code.append(f"    {dest(i)} = {prefix}{lay['vel'][k]}")
     for k, i in enumerate(lay["vel"]):
@@ -258,7 +258,7 @@ as accurate as the generic loop (a single rounding per multiply-add instead of t
 """
 from numba import njit
 
-from .dynamics import flight_accel, flight_accel_trig, swing_accel, swing_accel_trig
+from .dynamics import (\n    flight_accel_fused, flight_accel_trig_fused, swing_accel_fused, swing_accel_trig_fused,\n)
 from .intrinsics import combine_rows4, combine_rows8
 
 FM = {"contract"}

@@ -12,6 +12,16 @@ that was ~450 reference-count calls per gait (3.9 % of it in perf; removing them
 off a 23.7 us gait). Such a function fails to compile if it ever creates an array, rather than
 running wrongly.
 
+Small functions are inlined by LLVM (``forceinline=True``): compiled once, then inlined into
+each caller's machine code. Numba's own inlining (``inline="always"``) gives the same code but
+copies and re-analyses the function's IR at every call site, which made a first run's compile
+several seconds longer (the hybrid loop alone: 8.3 s against 4.3 s). Numba's inlining is kept
+where the inlined code must take its caller's flags (the vector field in the Runge-Kutta
+steps, compiled with floating-point contraction: ``dynamics.swing_accel_fused`` and its kin),
+for the wrappers that would otherwise add a level of compiled code above the hybrid loop
+(``gait.simulate_unlogged``), and for the reduced sine and cosine of ``trig`` (inlined by LLVM
+instead, some results changed in their last bits; not yet explained, so not done).
+
 Numba's on-disk cache checks only the source file of each function, not of the functions it
 calls: edit ``integrate.py`` and a cached ``hybrid.simulate`` keeps running the old integrator.
 So the cache lives in a directory keyed by a hash of *all* kernel sources (below

@@ -28,7 +28,7 @@ import numpy as np
 from numba import njit
 
 from .gait import start_state, wrapped_difference
-from .hybrid import simulate
+from .hybrid import simulate_loop
 from .layout import (
     C_MAX_CYCLES, DTH1, DTH2, H_T, K_LOG, K_NFEV, L_E_AFTER, L_E_BEFORE, L_KIND, LOG_SEGMENT,
     N_COUNTS, N_HYB, N_LOG_COLS, N_MODE_COLS, ST_OK, TH1, TH2, X, Y,
@@ -83,8 +83,8 @@ def cycle_map(method, par, prog, obs, settings, theta1_section, w, w_next, log, 
     hyb[TH2] = w[0]
     counts[K_LOG] = 0
     seg_times = np.empty(prog.shape[0])
-    status = simulate(method, par, prog, obs, settings, hyb, counts, seg_times, log, np.empty(0),
-                      np.empty((0, 8)), np.empty((0, N_MODE_COLS)))
+    status = simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_times, log,
+                           np.empty(0), np.empty((0, 8)), np.empty((0, N_MODE_COLS)))
     loss = 0.0
     for r in range(int(counts[K_LOG])):
         if log[r, L_KIND] == LOG_SEGMENT:
@@ -107,7 +107,7 @@ def clocked_map(method, par, prog, obs, settings, x, x_next, counts):
     hyb[TH1] = x[0]
     hyb[TH2] = x[1]
     seg_times = np.empty(prog.shape[0])
-    status = simulate(method, par, prog, obs, settings, hyb, counts, seg_times,
+    status = simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_times,
                       np.empty((0, N_LOG_COLS)), np.empty(0), np.empty((0, 8)),
                       np.empty((0, N_MODE_COLS)))
     x_next[0] = x[0] + wrapped_difference(hyb[TH1], x[0])

@@ -199,6 +199,39 @@ def flight_accel_trig(p, tau, fmode, th1, th2, w1, w2):
     return ax, ay, a1, a2, s1, c1, s2, c2, s12, c12
 
 
+# The fields of the Runge-Kutta steps, each compiled once as its own function with the steps'
+# flags (floating-point contraction, no reference counting) and inlined by LLVM into every
+# stage. Numba's own inlining (``inline="always"``) gives the same instructions, but copies and
+# re-analyses the field's IR at each of a step's stages: compiling DOP853's swing step took
+# about 3.4 s that way, 1.5 s this way, with the same bits.
+_STEP_FIELD = {"cache": True, "forceinline": True, "fastmath": {"contract"},
+               "error_model": "numpy", "_nrt": False}
+
+
+@njit(**_STEP_FIELD)
+def swing_accel_fused(p, tau, fmode, th1, th2, w1, w2):
+    """:func:`swing_accel` for the Runge-Kutta steps (contraction allowed)."""
+    return swing_accel(p, tau, fmode, th1, th2, w1, w2)
+
+
+@njit(**_STEP_FIELD)
+def swing_accel_trig_fused(p, tau, fmode, th1, th2, w1, w2):
+    """:func:`swing_accel_trig` for the Runge-Kutta steps (contraction allowed)."""
+    return swing_accel_trig(p, tau, fmode, th1, th2, w1, w2)
+
+
+@njit(**_STEP_FIELD)
+def flight_accel_fused(p, tau, fmode, th1, th2, w1, w2):
+    """:func:`flight_accel` for the Runge-Kutta steps (contraction allowed)."""
+    return flight_accel(p, tau, fmode, th1, th2, w1, w2)
+
+
+@njit(**_STEP_FIELD)
+def flight_accel_trig_fused(p, tau, fmode, th1, th2, w1, w2):
+    """:func:`flight_accel_trig` for the Runge-Kutta steps (contraction allowed)."""
+    return flight_accel_trig(p, tau, fmode, th1, th2, w1, w2)
+
+
 @njit(cache=True, inline="always", error_model="numpy")
 def _flight_accel_t(p, tau, fmode, s1, c1, s2, c2, s12, c12, w1, w2):
     """:func:`flight_accel` from the sines and cosines of the angles."""
@@ -327,13 +360,13 @@ def kinetic_energy(p, th1, th2, vx, vy, w1, w2):
     return k
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def kinetic_energy_rot(p, c2, w1, w2):
     """The rotational part of :func:`kinetic_energy` (all of it while swinging) [J]."""
     return kinetic_rot_s(p[P_H], p[P_K11], p[P_K22], c2, w1, w2)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def kinetic_rot_s(h, k11, k22, c2, w1, w2):
     """:func:`kinetic_energy_rot` from scalars (``P_H``, ``P_K11``, ``P_K22``)."""
     m11 = k11 + 2.0 * h * c2
@@ -341,13 +374,13 @@ def kinetic_rot_s(h, k11, k22, c2, w1, w2):
     return 0.5 * (m11 * w1 * w1 + 2.0 * m12 * w1 * w2 + k22 * w2 * w2)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def kinetic_energy_trans(p, c1, s1, c12, s12, vx, vy, w1, w2):
     """The part of :func:`kinetic_energy` due to the (x, y) end's velocity [J]."""
     return kinetic_trans_s(p[P_A], p[P_M2R2], p[P_MTOT], c1, s1, c12, s12, vx, vy, w1, w2)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def kinetic_trans_s(a, m2r2, mt, c1, s1, c12, s12, vx, vy, w1, w2):
     """:func:`kinetic_energy_trans` from scalars (``P_A``, ``P_M2R2``, ``P_MTOT``); the
     coupling block as :func:`_flight_coupling_t` forms it."""
@@ -367,13 +400,13 @@ def potential_energy(p, y_end, th1, th2):
     return potential_energy_t(p, y_end, c1, c12)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def potential_energy_t(p, y_end, c1, c12):
     """:func:`potential_energy` from ``cos(theta1)`` and ``cos(theta1 + theta2)`` [J]."""
     return potential_s(p[P_G], p[P_MTOT], p[P_A], p[P_M2R2], y_end, c1, c12)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def potential_s(g, mt, a, m2r2, y_end, c1, c12):
     """:func:`potential_energy_t` from scalars (``P_G``, ``P_MTOT``, ``P_A``, ``P_M2R2``)."""
     return g * (mt * y_end - a * c1 - m2r2 * c12)

@@ -34,7 +34,7 @@ N_SCAN = 8  # dense-output sub-intervals checked when a step is flagged
 GRAZE_MARGIN = 8.0
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def unpack(phase, y, pivot):
     """Full 8-state ``(x, y, th1, th2, dx, dy, dth1, dth2)`` from a packed vector."""
     if phase == PHASE_FLIGHT:
@@ -69,7 +69,7 @@ def unpack_into(phase, y, pivot, s8):
     s8[7] = w2
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def trig_of(phase, y, trig):
     """Sines and cosines of a packed state's angles into ``trig`` (layout ``T_*``)."""
     if phase == PHASE_FLIGHT:
@@ -87,13 +87,13 @@ def trig_of(phase, y, trig):
     trig[T_C12] = c12
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def _needs_trig(kind):
     return (kind == G_FREE_END_HEIGHT or kind == G_FREE_END_Y or kind == G_ENERGY_RESTORED
             or kind == G_ENERGY)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def guard(kind, index, value, phase, p, tau, fmode, y, pivot, eref):
     """Value of a state guard (layout ``G_*``; time guards are handled as step bounds)."""
     if _needs_trig(kind):
@@ -105,7 +105,7 @@ def guard(kind, index, value, phase, p, tau, fmode, y, pivot, eref):
                    0.0, 0.0)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def guard_trig(kind, index, value, phase, p, tau, fmode, y, pivot, eref, trig):
     """:func:`guard` with the sines and cosines of the angles given (``trig``, layout
     ``T_*``, as a step leaves them): bit for bit the same value, without the trigonometry."""
@@ -113,7 +113,7 @@ def guard_trig(kind, index, value, phase, p, tau, fmode, y, pivot, eref, trig):
                    trig[T_C1], trig[T_C2], trig[T_S12], trig[T_C12])
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, s1, c1, c2, s12, c12):
     """:func:`guard` from the sines and cosines of ``theta1``, ``theta2``, ``theta1 + theta2``
     (only read by the kinds that need them)."""
@@ -125,7 +125,7 @@ def guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, s1, c1, c2
                    p[P_K11], p[P_K22], w * fm)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, c2, s12, c12,
             L1, L2, g, mt, a, m2r2, h, k11, k22, slip):
     """:func:`guard` from scalars only: the unpacked state, the sines and cosines, the
@@ -169,16 +169,16 @@ def guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, c
     return 0.0
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def guard_and_rate_step(kind, index, value, phase, p, tau, fmode, y, pivot, eref, trig):
     """``(guard, rate)`` at a step's new point, from the sines and cosines the step left in
     ``trig``, for a guard whose rate needs no vector field (``rate_uses_field`` false); ``y``
     has 8 slots (a swing state uses the first 4).
 
     Bit for bit :func:`guard_trig` and :func:`guard_rate_kin`. Every array element it may need
-    is read first, in straight-line code: inlined into the hybrid loop, numba then drops the
-    reference counting of the five arrays (with reads inside the kind branches it kept some
-    six atomic increments and decrements per step, ~7 % of a gait).
+    is read first, in straight-line code (with reads inside the kind branches, numba's own
+    inlining kept some six atomic reference-count operations per step, ~7 % of a gait; it is
+    now compiled without reference counting and inlined by LLVM).
     """
     L1 = p[P_L1]
     L2 = p[P_L2]
@@ -223,7 +223,7 @@ def guard_and_rate_step(kind, index, value, phase, p, tau, fmode, y, pivot, eref
     return gv, r
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def guard_rate(kind, index, phase, p, tau, fmode, y, pivot, work):
     """Time derivative of a guard along the flow [guard units / s]; ``work`` is an 8-vector."""
     if rate_uses_field(kind, index):
@@ -235,7 +235,7 @@ def guard_rate(kind, index, phase, p, tau, fmode, y, pivot, work):
     return guard_rate_kin(kind, index, phase, p, tau, fmode, y, pivot, 0.0, 0.0)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def guard_rate_trig(kind, index, phase, p, tau, fmode, y, pivot, work, trig):
     """:func:`guard_rate` with the sines and cosines given (see :func:`guard_trig`)."""
     if rate_uses_field(kind, index):
@@ -270,13 +270,13 @@ def guard_rate_trig_value(kind, index, phase, p, tau, fmode, y, pivot, work, tri
     return guard_rate_trig(kind, index, phase, p, tau, fmode, y, pivot, work, trig)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def rate_uses_field(kind, index):
     """Whether a guard's rate needs the vector field (an acceleration)."""
     return (kind == G_COORD and index >= 4) or kind == G_SLIP_STOP
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def guard_rate_kin(kind, index, phase, p, tau, fmode, y, pivot, s1, s12):
     """Rate of a guard that does not need the vector field (kinematics and power), from
     ``sin(theta1)`` and ``sin(theta1 + theta2)``."""
@@ -286,7 +286,7 @@ def guard_rate_kin(kind, index, phase, p, tau, fmode, y, pivot, s1, s12):
                       fmode[1])
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def rate_kin_s(kind, index, phase, tau, vx, vy, w1, w2, s1, s12, L1, L2, bj, cj, bp, cp, fm0,
                fm1):
     """:func:`guard_rate_kin` from scalars only."""
@@ -333,7 +333,7 @@ def guard_rate_field(kind, index, phase, p, tau, fmode, y, work):
     return work[2 + index] * fmode[index]
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def crosses(ga, gb, direction):
     """Half-open sign rule for a crossing from ``ga`` to ``gb`` (see module docstring)."""
     if direction > 0:
@@ -343,7 +343,7 @@ def crosses(ga, gb, direction):
     return (ga < 0.0 <= gb) or (ga > 0.0 >= gb)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def _hermite_value(s, ga, da, gb, db):
     s2 = s * s
     s3 = s2 * s
@@ -351,7 +351,7 @@ def _hermite_value(s, ga, da, gb, db):
             + (-2.0 * s3 + 3.0 * s2) * gb + (s3 - s2) * db)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def _hermite_extrema(ga, ra, gb, rb, h):
     """Interior extrema ``s`` in (0, 1) of the cubic Hermite model of ``g`` on a step:
     ``(n, s1, s2)`` with ``n`` the number found (0, 1 or 2)."""
@@ -382,7 +382,7 @@ def _hermite_extrema(ga, ra, gb, rb, h):
     return n, s1, s2
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def hermite_flags(ga, ra, gb, rb, h, direction):
     """True when the cubic Hermite model of ``g`` on the step may cross zero inside it, or
     has an interior extremum near zero (so a crossing between same-signed ends is possible).
@@ -409,7 +409,7 @@ def hermite_flags(ga, ra, gb, rb, h, direction):
     return False
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def _hermite_root(ga, da, gb, db):
     """Root ``s`` in [0, 1] of a monotone cubic Hermite model with ends of opposite signs.
 

@@ -1,8 +1,15 @@
 """Compiled gait evaluations: the horizontal gait of docs/model.md section 4 and the cycle of any
 phase-sequence gait, one point or a batch.
 
-All call :func:`monkeystudy.kernel.hybrid.simulate` with the zero-size log and trajectory of
+All run the hybrid loop of :func:`monkeystudy.kernel.hybrid.simulate` (through
+:func:`~monkeystudy.kernel.hybrid.simulate_loop`) with the zero-size log and trajectory of
 :func:`search_scratch`, so a search evaluation integrates, locates its events and nothing else.
+
+Numba links a copy of the loop into every separately compiled function that calls it, directly
+or not, and optimises and emits that copy's machine code again: about a second each on a first
+run. So the helpers between a batch and the loop (:func:`simulate_unlogged`, :func:`_gait_run`)
+are inlined into their callers (``inline="always"``), and the loop is called directly, not
+through the ``simulate`` entry.
 """
 import math
 
@@ -10,7 +17,7 @@ import numpy as np
 from numba import njit
 
 from .dynamics import total_energy8
-from .hybrid import simulate
+from .hybrid import simulate_loop
 from .layout import (
     H_CLOCK, H_EREF, H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG, H_T, H_Y_REF, K_NFEV,
     K_REJECTED, K_STEPS, N_COUNTS, N_HYB, N_LOG_COLS, N_MODE_COLS, N_OBS_COLS, PHASE_SWING,
@@ -51,15 +58,16 @@ def search_scratch(n_segments):
             np.empty((0, N_MODE_COLS)))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")
 def simulate_unlogged(method, par, prog, obs, settings, scratch):
     """:func:`~monkeystudy.kernel.hybrid.simulate` from the hybrid state ``scratch[0]`` with
     no event log and no trajectory (what a search needs: the outcome, the segment exit times
-    in ``scratch[2]`` and the counts in ``scratch[1]``, zeroed here)."""
+    in ``scratch[2]`` and the counts in ``scratch[1]``, zeroed here). Inlined into its callers
+    (module docstring)."""
     hyb, counts, seg_times, _, no_log, no_t, no_y, no_mode = scratch
     counts[:] = 0
-    return simulate(method, par, prog, obs, settings, hyb, counts, seg_times, no_log, no_t, no_y,
-                    no_mode)
+    return simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_times, no_log, no_t,
+                         no_y, no_mode)
 
 
 @njit(cache=True, error_model="numpy")
@@ -79,7 +87,7 @@ def horizontal_gait(method, par, prog, settings, dtheta1, dtheta2, energy_floor,
         _gait_run(method, par, prog, settings, dtheta1, dtheta2, out, scratch)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def _gait_start(par, dtheta1, dtheta2, energy_floor, skip_unreachable, hyb, out):
     """The start state into ``hyb``, ``out`` cleared; True if the start is marked unreachable
     (then ``out`` is complete)."""
@@ -96,9 +104,10 @@ def _gait_start(par, dtheta1, dtheta2, energy_floor, skip_unreachable, hyb, out)
     return False
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")
 def _gait_run(method, par, prog, settings, dtheta1, dtheta2, out, scratch):
-    """Integrate the gait from the start state in ``scratch[0]`` and fill ``out``."""
+    """Integrate the gait from the start state in ``scratch[0]`` and fill ``out`` (inlined into
+    its callers: module docstring)."""
     hyb, counts, seg_times, no_obs = scratch[0], scratch[1], scratch[2], scratch[3]
     status = simulate_unlogged(method, par, prog, no_obs, settings, scratch)
     out[R_STATUS] = status
@@ -158,8 +167,8 @@ def cycle_gait(method, par, prog, obs, settings, theta1, theta2, dtheta1, dtheta
     hyb[2] = theta1
     hyb[3] = theta2
     out[:] = np.nan
-    status = simulate(method, par, prog, obs, settings, hyb, counts, seg_out, no_log, no_t, no_y,
-                      no_mode)
+    status = simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_out, no_log, no_t,
+                           no_y, no_mode)
     out[Q_STATUS] = status
     out[Q_T_END] = hyb[H_T]
     out[Q_STEPS] = counts[K_STEPS]

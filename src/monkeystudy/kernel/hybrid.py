@@ -149,7 +149,7 @@ def friction_guard(k, phase, p, tau, fmode, y, pivot):
     return slip_speed(k, phase, fmode, y, pivot)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def slip_speed(k, phase, fmode, y, pivot):
     """The slip-stop guard of friction DOF ``k``: its speed times its slip sign (the
     ``G_SLIP_STOP`` guard of :mod:`.events`, bit for bit, without the other kinds' code)."""
@@ -159,7 +159,7 @@ def slip_speed(k, phase, fmode, y, pivot):
     return w * fm
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def friction_active(k, phase, p):
     if phase == PHASE_FIXED:
         return False
@@ -197,13 +197,13 @@ def write_sample(samp_t, samp_y, samp_mode, row, t, s8, phase, flipped, tau, seg
     return row + 1
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def _min_step(t):
     """scipy's smallest step at ``t``: ten units in the last place [s]."""
     return 10.0 * abs(np.nextafter(t, np.inf) - t)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def _finite(y, n):
     # one exit, no early return: numba then drops the per-step reference counting of ``y``
     # (x * 0 is 0 for finite x, NaN for inf and NaN)
@@ -805,7 +805,13 @@ def simulate(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp
 def simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t,
                   samp_y, samp_mode):
     """:func:`simulate`'s loop for the method ``method`` names (interpreted: chosen at run
-    time; compiled: chosen by the overload below from ``method``'s type)."""
+    time; compiled: chosen by the overload below from ``method``'s type).
+
+    Compiled kernels call this, not :func:`simulate`: numba links the loop into every
+    separately compiled function above it and optimises and emits its machine code again
+    (about a second each on a first run), and :func:`simulate` would be one more such level.
+    :func:`simulate` is the entry for Python callers.
+    """
     return simulate_implementation(*choice_of_type(typeof(method)))(
         method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp_y, samp_mode)
 

@@ -36,7 +36,7 @@ MIN_FACTOR = 0.2
 MAX_FACTOR = 10.0
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def error_exponent(method):
     """-1 / (error estimator order + 1): DOP853 7, RK45 4, Vern9 8."""
     if method == METHOD_DOP853:
@@ -46,7 +46,7 @@ def error_exponent(method):
     return -1.0 / 5.0
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def error_estimator_order(method):
     """Order of the embedded error estimate (for the initial step)."""
     if method == METHOD_DOP853:
@@ -56,7 +56,7 @@ def error_estimator_order(method):
     return 4
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def error_power_sq(method, en_sq):
     """``en ** error_exponent(method)`` from the squared error norm ``en_sq = en ** 2``, the
     step-size controller's power.
@@ -81,7 +81,7 @@ PI_BETA = 0.4
 PI_ERR_FLOOR = 1e-4
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def pi_factor(en, en_prev, err_order):
     """PI step factor ``SAFETY en^(-0.7/k) en_prev^(0.4/k)``, ``k = err_order + 1``, clipped
     to ``MAX_FACTOR`` (for an accepted step, ``en < 1``).
@@ -134,7 +134,7 @@ def select_initial_step(phase, p, tau, fmode, t0, y0, f0, n, t_bound, max_step, 
     return min(100.0 * h0, h1, interval, max_step)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def rk_step(method, phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new):
     """One embedded RK step from ``(y, f)`` over ``h``; fills ``K``, ``y_new``, ``f_new``.
 
@@ -151,7 +151,7 @@ def rk_step(method, phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new):
     return rk45_step(phase, p, tau, fmode, y, f, h, n, K, trig, y_new, f_new)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def error_norm_sq(method, K, h, y, y_new, n, rtol, atol):
     """Square of the scaled norm of the local error estimate (scipy's
     ``_estimate_error_norm``): the controller needs only the square (a step is accepted if it
@@ -164,7 +164,7 @@ def error_norm_sq(method, K, h, y, y_new, n, rtol, atol):
     return rk45_error_sq(K, h, y, y_new, n, rtol, atol)
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def error_norm(method, K, h, y, y_new, n, rtol, atol):
     """Scaled norm of the local error estimate (scipy's ``_estimate_error_norm``)."""
     return math.sqrt(error_norm_sq(method, K, h, y, y_new, n, rtol, atol))

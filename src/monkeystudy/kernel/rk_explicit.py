@@ -8,7 +8,9 @@ as accurate as the generic loop (a single rounding per multiply-add instead of t
 """
 from numba import njit
 
-from .dynamics import flight_accel, flight_accel_trig, swing_accel, swing_accel_trig
+from .dynamics import (
+    flight_accel_fused, flight_accel_trig_fused, swing_accel_fused, swing_accel_trig_fused,
+)
 from .intrinsics import combine_rows4, combine_rows8
 
 FM = {"contract"}
@@ -29,7 +31,7 @@ def dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (0.05260015195876773 * K[0, 1]) * h
     z2 = y[2] + (0.05260015195876773 * K[0, 2]) * h
     z3 = y[3] + (0.05260015195876773 * K[0, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[1, 0] = z2
     K[1, 1] = z3
     K[1, 2] = a1
@@ -39,7 +41,7 @@ def dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + 0.0591751709536137 * K[1, 1]) * h
     z2 = y[2] + (o2 + 0.0591751709536137 * K[1, 2]) * h
     z3 = y[3] + (o3 + 0.0591751709536137 * K[1, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[2, 0] = z2
     K[2, 1] = z3
     K[2, 2] = a1
@@ -49,7 +51,7 @@ def dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + 0.08876275643042054 * K[2, 1]) * h
     z2 = y[2] + (o2 + 0.08876275643042054 * K[2, 2]) * h
     z3 = y[3] + (o3 + 0.08876275643042054 * K[2, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[3, 0] = z2
     K[3, 1] = z3
     K[3, 2] = a1
@@ -59,7 +61,7 @@ def dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + 0.924834003261792 * K[3, 1]) * h
     z2 = y[2] + (o2 + 0.924834003261792 * K[3, 2]) * h
     z3 = y[3] + (o3 + 0.924834003261792 * K[3, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[4, 0] = z2
     K[4, 1] = z3
     K[4, 2] = a1
@@ -69,7 +71,7 @@ def dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + 0.12546768756682242 * K[4, 1]) * h
     z2 = y[2] + (o2 + 0.12546768756682242 * K[4, 2]) * h
     z3 = y[3] + (o3 + 0.12546768756682242 * K[4, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[5, 0] = z2
     K[5, 1] = z3
     K[5, 2] = a1
@@ -79,7 +81,7 @@ def dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + -0.017578125 * K[5, 1]) * h
     z2 = y[2] + (o2 + -0.017578125 * K[5, 2]) * h
     z3 = y[3] + (o3 + -0.017578125 * K[5, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[6, 0] = z2
     K[6, 1] = z3
     K[6, 2] = a1
@@ -89,7 +91,7 @@ def dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + 0.008273789163814023 * K[6, 1]) * h
     z2 = y[2] + (o2 + 0.008273789163814023 * K[6, 2]) * h
     z3 = y[3] + (o3 + 0.008273789163814023 * K[6, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[7, 0] = z2
     K[7, 1] = z3
     K[7, 2] = a1
@@ -99,7 +101,7 @@ def dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + -43.48988418106996 * K[7, 1]) * h
     z2 = y[2] + (o2 + -43.48988418106996 * K[7, 2]) * h
     z3 = y[3] + (o3 + -43.48988418106996 * K[7, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[8, 0] = z2
     K[8, 1] = z3
     K[8, 2] = a1
@@ -109,7 +111,7 @@ def dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + -0.020331201708508627 * K[8, 1]) * h
     z2 = y[2] + (o2 + -0.020331201708508627 * K[8, 2]) * h
     z3 = y[3] + (o3 + -0.020331201708508627 * K[8, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[9, 0] = z2
     K[9, 1] = z3
     K[9, 2] = a1
@@ -119,7 +121,7 @@ def dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + -3.0467644718982196 * K[9, 1]) * h
     z2 = y[2] + (o2 + -3.0467644718982196 * K[9, 2]) * h
     z3 = y[3] + (o3 + -3.0467644718982196 * K[9, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[10, 0] = z2
     K[10, 1] = z3
     K[10, 2] = a1
@@ -129,7 +131,7 @@ def dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + 0.6433927460157636 * K[10, 1]) * h
     z2 = y[2] + (o2 + 0.6433927460157636 * K[10, 2]) * h
     z3 = y[3] + (o3 + 0.6433927460157636 * K[10, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[11, 0] = z2
     K[11, 1] = z3
     K[11, 2] = a1
@@ -143,7 +145,7 @@ def dop853_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y_new[1]
     z2 = y_new[2]
     z3 = y_new[3]
-    a1, a2, s1, c1, s2, c2, s12, c12 = swing_accel_trig(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2, s1, c1, s2, c2, s12, c12 = swing_accel_trig_fused(p, tau, fmode, z0, z1, z2, z3)
     trig[0] = s1
     trig[1] = c1
     trig[2] = s2
@@ -176,7 +178,7 @@ def dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (0.05260015195876773 * K[0, 5]) * h
     z6 = y[6] + (0.05260015195876773 * K[0, 6]) * h
     z7 = y[7] + (0.05260015195876773 * K[0, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[1, 0] = z4
     K[1, 1] = z5
     K[1, 2] = z6
@@ -192,7 +194,7 @@ def dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + 0.0591751709536137 * K[1, 5]) * h
     z6 = y[6] + (o6 + 0.0591751709536137 * K[1, 6]) * h
     z7 = y[7] + (o7 + 0.0591751709536137 * K[1, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[2, 0] = z4
     K[2, 1] = z5
     K[2, 2] = z6
@@ -208,7 +210,7 @@ def dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + 0.08876275643042054 * K[2, 5]) * h
     z6 = y[6] + (o6 + 0.08876275643042054 * K[2, 6]) * h
     z7 = y[7] + (o7 + 0.08876275643042054 * K[2, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[3, 0] = z4
     K[3, 1] = z5
     K[3, 2] = z6
@@ -224,7 +226,7 @@ def dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + 0.924834003261792 * K[3, 5]) * h
     z6 = y[6] + (o6 + 0.924834003261792 * K[3, 6]) * h
     z7 = y[7] + (o7 + 0.924834003261792 * K[3, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[4, 0] = z4
     K[4, 1] = z5
     K[4, 2] = z6
@@ -240,7 +242,7 @@ def dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + 0.12546768756682242 * K[4, 5]) * h
     z6 = y[6] + (o6 + 0.12546768756682242 * K[4, 6]) * h
     z7 = y[7] + (o7 + 0.12546768756682242 * K[4, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[5, 0] = z4
     K[5, 1] = z5
     K[5, 2] = z6
@@ -256,7 +258,7 @@ def dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + -0.017578125 * K[5, 5]) * h
     z6 = y[6] + (o6 + -0.017578125 * K[5, 6]) * h
     z7 = y[7] + (o7 + -0.017578125 * K[5, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[6, 0] = z4
     K[6, 1] = z5
     K[6, 2] = z6
@@ -272,7 +274,7 @@ def dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + 0.008273789163814023 * K[6, 5]) * h
     z6 = y[6] + (o6 + 0.008273789163814023 * K[6, 6]) * h
     z7 = y[7] + (o7 + 0.008273789163814023 * K[6, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[7, 0] = z4
     K[7, 1] = z5
     K[7, 2] = z6
@@ -288,7 +290,7 @@ def dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + -43.48988418106996 * K[7, 5]) * h
     z6 = y[6] + (o6 + -43.48988418106996 * K[7, 6]) * h
     z7 = y[7] + (o7 + -43.48988418106996 * K[7, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[8, 0] = z4
     K[8, 1] = z5
     K[8, 2] = z6
@@ -304,7 +306,7 @@ def dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + -0.020331201708508627 * K[8, 5]) * h
     z6 = y[6] + (o6 + -0.020331201708508627 * K[8, 6]) * h
     z7 = y[7] + (o7 + -0.020331201708508627 * K[8, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[9, 0] = z4
     K[9, 1] = z5
     K[9, 2] = z6
@@ -320,7 +322,7 @@ def dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + -3.0467644718982196 * K[9, 5]) * h
     z6 = y[6] + (o6 + -3.0467644718982196 * K[9, 6]) * h
     z7 = y[7] + (o7 + -3.0467644718982196 * K[9, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[10, 0] = z4
     K[10, 1] = z5
     K[10, 2] = z6
@@ -336,7 +338,7 @@ def dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + 0.6433927460157636 * K[10, 5]) * h
     z6 = y[6] + (o6 + 0.6433927460157636 * K[10, 6]) * h
     z7 = y[7] + (o7 + 0.6433927460157636 * K[10, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[11, 0] = z4
     K[11, 1] = z5
     K[11, 2] = z6
@@ -360,7 +362,7 @@ def dop853_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y_new[5]
     z6 = y_new[6]
     z7 = y_new[7]
-    ax, ay, a1, a2, s1, c1, s2, c2, s12, c12 = flight_accel_trig(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2, s1, c1, s2, c2, s12, c12 = flight_accel_trig_fused(p, tau, fmode, z2, z3, z6, z7)
     trig[0] = s1
     trig[1] = c1
     trig[2] = s2
@@ -405,7 +407,7 @@ def rk45_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (0.2 * K[0, 1]) * h
     z2 = y[2] + (0.2 * K[0, 2]) * h
     z3 = y[3] + (0.2 * K[0, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[1, 0] = z2
     K[1, 1] = z3
     K[1, 2] = a1
@@ -415,7 +417,7 @@ def rk45_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + 0.225 * K[1, 1]) * h
     z2 = y[2] + (o2 + 0.225 * K[1, 2]) * h
     z3 = y[3] + (o3 + 0.225 * K[1, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[2, 0] = z2
     K[2, 1] = z3
     K[2, 2] = a1
@@ -425,7 +427,7 @@ def rk45_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + 3.5555555555555554 * K[2, 1]) * h
     z2 = y[2] + (o2 + 3.5555555555555554 * K[2, 2]) * h
     z3 = y[3] + (o3 + 3.5555555555555554 * K[2, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[3, 0] = z2
     K[3, 1] = z3
     K[3, 2] = a1
@@ -435,7 +437,7 @@ def rk45_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + -0.2908093278463649 * K[3, 1]) * h
     z2 = y[2] + (o2 + -0.2908093278463649 * K[3, 2]) * h
     z3 = y[3] + (o3 + -0.2908093278463649 * K[3, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[4, 0] = z2
     K[4, 1] = z3
     K[4, 2] = a1
@@ -445,7 +447,7 @@ def rk45_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + -0.2735313036020583 * K[4, 1]) * h
     z2 = y[2] + (o2 + -0.2735313036020583 * K[4, 2]) * h
     z3 = y[3] + (o3 + -0.2735313036020583 * K[4, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[5, 0] = z2
     K[5, 1] = z3
     K[5, 2] = a1
@@ -459,7 +461,7 @@ def rk45_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y_new[1]
     z2 = y_new[2]
     z3 = y_new[3]
-    a1, a2, s1, c1, s2, c2, s12, c12 = swing_accel_trig(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2, s1, c1, s2, c2, s12, c12 = swing_accel_trig_fused(p, tau, fmode, z0, z1, z2, z3)
     trig[0] = s1
     trig[1] = c1
     trig[2] = s2
@@ -492,7 +494,7 @@ def rk45_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (0.2 * K[0, 5]) * h
     z6 = y[6] + (0.2 * K[0, 6]) * h
     z7 = y[7] + (0.2 * K[0, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[1, 0] = z4
     K[1, 1] = z5
     K[1, 2] = z6
@@ -508,7 +510,7 @@ def rk45_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + 0.225 * K[1, 5]) * h
     z6 = y[6] + (o6 + 0.225 * K[1, 6]) * h
     z7 = y[7] + (o7 + 0.225 * K[1, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[2, 0] = z4
     K[2, 1] = z5
     K[2, 2] = z6
@@ -524,7 +526,7 @@ def rk45_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + 3.5555555555555554 * K[2, 5]) * h
     z6 = y[6] + (o6 + 3.5555555555555554 * K[2, 6]) * h
     z7 = y[7] + (o7 + 3.5555555555555554 * K[2, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[3, 0] = z4
     K[3, 1] = z5
     K[3, 2] = z6
@@ -540,7 +542,7 @@ def rk45_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + -0.2908093278463649 * K[3, 5]) * h
     z6 = y[6] + (o6 + -0.2908093278463649 * K[3, 6]) * h
     z7 = y[7] + (o7 + -0.2908093278463649 * K[3, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[4, 0] = z4
     K[4, 1] = z5
     K[4, 2] = z6
@@ -556,7 +558,7 @@ def rk45_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + -0.2735313036020583 * K[4, 5]) * h
     z6 = y[6] + (o6 + -0.2735313036020583 * K[4, 6]) * h
     z7 = y[7] + (o7 + -0.2735313036020583 * K[4, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[5, 0] = z4
     K[5, 1] = z5
     K[5, 2] = z6
@@ -580,7 +582,7 @@ def rk45_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y_new[5]
     z6 = y_new[6]
     z7 = y_new[7]
-    ax, ay, a1, a2, s1, c1, s2, c2, s12, c12 = flight_accel_trig(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2, s1, c1, s2, c2, s12, c12 = flight_accel_trig_fused(p, tau, fmode, z2, z3, z6, z7)
     trig[0] = s1
     trig[1] = c1
     trig[2] = s2
@@ -625,7 +627,7 @@ def vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (0.03462 * K[0, 1]) * h
     z2 = y[2] + (0.03462 * K[0, 2]) * h
     z3 = y[3] + (0.03462 * K[0, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[1, 0] = z2
     K[1, 1] = z3
     K[1, 2] = a1
@@ -635,7 +637,7 @@ def vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + 0.13595789452450918 * K[1, 1]) * h
     z2 = y[2] + (o2 + 0.13595789452450918 * K[1, 2]) * h
     z3 = y[3] + (o3 + 0.13595789452450918 * K[1, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[2, 0] = z2
     K[2, 1] = z3
     K[2, 2] = a1
@@ -645,7 +647,7 @@ def vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + 0.10915239446862801 * K[2, 1]) * h
     z2 = y[2] + (o2 + 0.10915239446862801 * K[2, 2]) * h
     z3 = y[3] + (o3 + 0.10915239446862801 * K[2, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[3, 0] = z2
     K[3, 1] = z3
     K[3, 2] = a1
@@ -655,7 +657,7 @@ def vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + 6.173259922102322 * K[3, 1]) * h
     z2 = y[2] + (o2 + 6.173259922102322 * K[3, 2]) * h
     z3 = y[3] + (o3 + 6.173259922102322 * K[3, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[4, 0] = z2
     K[4, 1] = z3
     K[4, 2] = a1
@@ -665,7 +667,7 @@ def vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + 0.0008027762409222536 * K[4, 1]) * h
     z2 = y[2] + (o2 + 0.0008027762409222536 * K[4, 2]) * h
     z3 = y[3] + (o3 + 0.0008027762409222536 * K[4, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[5, 0] = z2
     K[5, 1] = z3
     K[5, 2] = a1
@@ -675,7 +677,7 @@ def vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + 0.6213052975225274 * K[5, 1]) * h
     z2 = y[2] + (o2 + 0.6213052975225274 * K[5, 2]) * h
     z3 = y[3] + (o3 + 0.6213052975225274 * K[5, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[6, 0] = z2
     K[6, 1] = z3
     K[6, 2] = a1
@@ -685,7 +687,7 @@ def vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + 0.2427799754418014 * K[6, 1]) * h
     z2 = y[2] + (o2 + 0.2427799754418014 * K[6, 2]) * h
     z3 = y[3] + (o3 + 0.2427799754418014 * K[6, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[7, 0] = z2
     K[7, 1] = z3
     K[7, 2] = a1
@@ -695,7 +697,7 @@ def vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + -0.034013671875 * K[7, 1]) * h
     z2 = y[2] + (o2 + -0.034013671875 * K[7, 2]) * h
     z3 = y[3] + (o3 + -0.034013671875 * K[7, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[8, 0] = z2
     K[8, 1] = z3
     K[8, 2] = a1
@@ -705,7 +707,7 @@ def vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + -0.10412291746271944 * K[8, 1]) * h
     z2 = y[2] + (o2 + -0.10412291746271944 * K[8, 2]) * h
     z3 = y[3] + (o3 + -0.10412291746271944 * K[8, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[9, 0] = z2
     K[9, 1] = z3
     K[9, 2] = a1
@@ -715,7 +717,7 @@ def vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + 0.21522674780318796 * K[9, 1]) * h
     z2 = y[2] + (o2 + 0.21522674780318796 * K[9, 2]) * h
     z3 = y[3] + (o3 + 0.21522674780318796 * K[9, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[10, 0] = z2
     K[10, 1] = z3
     K[10, 2] = a1
@@ -725,7 +727,7 @@ def vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + 0.43838406519683376 * K[10, 1]) * h
     z2 = y[2] + (o2 + 0.43838406519683376 * K[10, 2]) * h
     z3 = y[3] + (o3 + 0.43838406519683376 * K[10, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[11, 0] = z2
     K[11, 1] = z3
     K[11, 2] = a1
@@ -735,7 +737,7 @@ def vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + 2.8028087862720628 * K[11, 1]) * h
     z2 = y[2] + (o2 + 2.8028087862720628 * K[11, 2]) * h
     z3 = y[3] + (o3 + 2.8028087862720628 * K[11, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[12, 0] = z2
     K[12, 1] = z3
     K[12, 2] = a1
@@ -745,7 +747,7 @@ def vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + 0.2553202529443446 * K[12, 1]) * h
     z2 = y[2] + (o2 + 0.2553202529443446 * K[12, 2]) * h
     z3 = y[3] + (o3 + 0.2553202529443446 * K[12, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[13, 0] = z2
     K[13, 1] = z3
     K[13, 2] = a1
@@ -755,7 +757,7 @@ def vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1 + 0.4409353709534278 * K[13, 1]) * h
     z2 = y[2] + (o2 + 0.4409353709534278 * K[13, 2]) * h
     z3 = y[3] + (o3 + 0.4409353709534278 * K[13, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[14, 0] = z2
     K[14, 1] = z3
     K[14, 2] = a1
@@ -765,7 +767,7 @@ def vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y[1] + (o1) * h
     z2 = y[2] + (o2) * h
     z3 = y[3] + (o3) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[15, 0] = z2
     K[15, 1] = z3
     K[15, 2] = a1
@@ -779,7 +781,7 @@ def vern9_step4(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z1 = y_new[1]
     z2 = y_new[2]
     z3 = y_new[3]
-    a1, a2, s1, c1, s2, c2, s12, c12 = swing_accel_trig(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2, s1, c1, s2, c2, s12, c12 = swing_accel_trig_fused(p, tau, fmode, z0, z1, z2, z3)
     trig[0] = s1
     trig[1] = c1
     trig[2] = s2
@@ -812,7 +814,7 @@ def vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (0.03462 * K[0, 5]) * h
     z6 = y[6] + (0.03462 * K[0, 6]) * h
     z7 = y[7] + (0.03462 * K[0, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[1, 0] = z4
     K[1, 1] = z5
     K[1, 2] = z6
@@ -828,7 +830,7 @@ def vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + 0.13595789452450918 * K[1, 5]) * h
     z6 = y[6] + (o6 + 0.13595789452450918 * K[1, 6]) * h
     z7 = y[7] + (o7 + 0.13595789452450918 * K[1, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[2, 0] = z4
     K[2, 1] = z5
     K[2, 2] = z6
@@ -844,7 +846,7 @@ def vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + 0.10915239446862801 * K[2, 5]) * h
     z6 = y[6] + (o6 + 0.10915239446862801 * K[2, 6]) * h
     z7 = y[7] + (o7 + 0.10915239446862801 * K[2, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[3, 0] = z4
     K[3, 1] = z5
     K[3, 2] = z6
@@ -860,7 +862,7 @@ def vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + 6.173259922102322 * K[3, 5]) * h
     z6 = y[6] + (o6 + 6.173259922102322 * K[3, 6]) * h
     z7 = y[7] + (o7 + 6.173259922102322 * K[3, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[4, 0] = z4
     K[4, 1] = z5
     K[4, 2] = z6
@@ -876,7 +878,7 @@ def vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + 0.0008027762409222536 * K[4, 5]) * h
     z6 = y[6] + (o6 + 0.0008027762409222536 * K[4, 6]) * h
     z7 = y[7] + (o7 + 0.0008027762409222536 * K[4, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[5, 0] = z4
     K[5, 1] = z5
     K[5, 2] = z6
@@ -892,7 +894,7 @@ def vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + 0.6213052975225274 * K[5, 5]) * h
     z6 = y[6] + (o6 + 0.6213052975225274 * K[5, 6]) * h
     z7 = y[7] + (o7 + 0.6213052975225274 * K[5, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[6, 0] = z4
     K[6, 1] = z5
     K[6, 2] = z6
@@ -908,7 +910,7 @@ def vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + 0.2427799754418014 * K[6, 5]) * h
     z6 = y[6] + (o6 + 0.2427799754418014 * K[6, 6]) * h
     z7 = y[7] + (o7 + 0.2427799754418014 * K[6, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[7, 0] = z4
     K[7, 1] = z5
     K[7, 2] = z6
@@ -924,7 +926,7 @@ def vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + -0.034013671875 * K[7, 5]) * h
     z6 = y[6] + (o6 + -0.034013671875 * K[7, 6]) * h
     z7 = y[7] + (o7 + -0.034013671875 * K[7, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[8, 0] = z4
     K[8, 1] = z5
     K[8, 2] = z6
@@ -940,7 +942,7 @@ def vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + -0.10412291746271944 * K[8, 5]) * h
     z6 = y[6] + (o6 + -0.10412291746271944 * K[8, 6]) * h
     z7 = y[7] + (o7 + -0.10412291746271944 * K[8, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[9, 0] = z4
     K[9, 1] = z5
     K[9, 2] = z6
@@ -956,7 +958,7 @@ def vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + 0.21522674780318796 * K[9, 5]) * h
     z6 = y[6] + (o6 + 0.21522674780318796 * K[9, 6]) * h
     z7 = y[7] + (o7 + 0.21522674780318796 * K[9, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[10, 0] = z4
     K[10, 1] = z5
     K[10, 2] = z6
@@ -972,7 +974,7 @@ def vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + 0.43838406519683376 * K[10, 5]) * h
     z6 = y[6] + (o6 + 0.43838406519683376 * K[10, 6]) * h
     z7 = y[7] + (o7 + 0.43838406519683376 * K[10, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[11, 0] = z4
     K[11, 1] = z5
     K[11, 2] = z6
@@ -988,7 +990,7 @@ def vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + 2.8028087862720628 * K[11, 5]) * h
     z6 = y[6] + (o6 + 2.8028087862720628 * K[11, 6]) * h
     z7 = y[7] + (o7 + 2.8028087862720628 * K[11, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[12, 0] = z4
     K[12, 1] = z5
     K[12, 2] = z6
@@ -1004,7 +1006,7 @@ def vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + 0.2553202529443446 * K[12, 5]) * h
     z6 = y[6] + (o6 + 0.2553202529443446 * K[12, 6]) * h
     z7 = y[7] + (o7 + 0.2553202529443446 * K[12, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[13, 0] = z4
     K[13, 1] = z5
     K[13, 2] = z6
@@ -1020,7 +1022,7 @@ def vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5 + 0.4409353709534278 * K[13, 5]) * h
     z6 = y[6] + (o6 + 0.4409353709534278 * K[13, 6]) * h
     z7 = y[7] + (o7 + 0.4409353709534278 * K[13, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[14, 0] = z4
     K[14, 1] = z5
     K[14, 2] = z6
@@ -1036,7 +1038,7 @@ def vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y[5] + (o5) * h
     z6 = y[6] + (o6) * h
     z7 = y[7] + (o7) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[15, 0] = z4
     K[15, 1] = z5
     K[15, 2] = z6
@@ -1060,7 +1062,7 @@ def vern9_step8(p, tau, fmode, y, f, h, K, trig, y_new, f_new):
     z5 = y_new[5]
     z6 = y_new[6]
     z7 = y_new[7]
-    ax, ay, a1, a2, s1, c1, s2, c2, s12, c12 = flight_accel_trig(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2, s1, c1, s2, c2, s12, c12 = flight_accel_trig_fused(p, tau, fmode, z2, z3, z6, z7)
     trig[0] = s1
     trig[1] = c1
     trig[2] = s2
@@ -1104,7 +1106,7 @@ def dop853_dense4(p, tau, fmode, y_old, y_new, f_new, h, K, Fd):
     z1 = y_old[1] + (o1 + -0.008298 * K[12, 1]) * h
     z2 = y_old[2] + (o2 + -0.008298 * K[12, 2]) * h
     z3 = y_old[3] + (o3 + -0.008298 * K[12, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[13, 0] = z2
     K[13, 1] = z3
     K[13, 2] = a1
@@ -1114,7 +1116,7 @@ def dop853_dense4(p, tau, fmode, y_old, y_new, f_new, h, K, Fd):
     z1 = y_old[1] + (o1 + 0.1413124436746325 * K[13, 1]) * h
     z2 = y_old[2] + (o2 + 0.1413124436746325 * K[13, 2]) * h
     z3 = y_old[3] + (o3 + 0.1413124436746325 * K[13, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[14, 0] = z2
     K[14, 1] = z3
     K[14, 2] = a1
@@ -1124,7 +1126,7 @@ def dop853_dense4(p, tau, fmode, y_old, y_new, f_new, h, K, Fd):
     z1 = y_old[1] + (o1 + -9.15095847217987 * K[14, 1]) * h
     z2 = y_old[2] + (o2 + -9.15095847217987 * K[14, 2]) * h
     z3 = y_old[3] + (o3 + -9.15095847217987 * K[14, 3]) * h
-    a1, a2 = swing_accel(p, tau, fmode, z0, z1, z2, z3)
+    a1, a2 = swing_accel_fused(p, tau, fmode, z0, z1, z2, z3)
     K[15, 0] = z2
     K[15, 1] = z3
     K[15, 2] = a1
@@ -1178,7 +1180,7 @@ def dop853_dense8(p, tau, fmode, y_old, y_new, f_new, h, K, Fd):
     z5 = y_old[5] + (o5 + -0.008298 * K[12, 5]) * h
     z6 = y_old[6] + (o6 + -0.008298 * K[12, 6]) * h
     z7 = y_old[7] + (o7 + -0.008298 * K[12, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[13, 0] = z4
     K[13, 1] = z5
     K[13, 2] = z6
@@ -1194,7 +1196,7 @@ def dop853_dense8(p, tau, fmode, y_old, y_new, f_new, h, K, Fd):
     z5 = y_old[5] + (o5 + 0.1413124436746325 * K[13, 5]) * h
     z6 = y_old[6] + (o6 + 0.1413124436746325 * K[13, 6]) * h
     z7 = y_old[7] + (o7 + 0.1413124436746325 * K[13, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[14, 0] = z4
     K[14, 1] = z5
     K[14, 2] = z6
@@ -1210,7 +1212,7 @@ def dop853_dense8(p, tau, fmode, y_old, y_new, f_new, h, K, Fd):
     z5 = y_old[5] + (o5 + -9.15095847217987 * K[14, 5]) * h
     z6 = y_old[6] + (o6 + -9.15095847217987 * K[14, 6]) * h
     z7 = y_old[7] + (o7 + -9.15095847217987 * K[14, 7]) * h
-    ax, ay, a1, a2 = flight_accel(p, tau, fmode, z2, z3, z6, z7)
+    ax, ay, a1, a2 = flight_accel_fused(p, tau, fmode, z2, z3, z6, z7)
     K[15, 0] = z4
     K[15, 1] = z5
     K[15, 2] = z6

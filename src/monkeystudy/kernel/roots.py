@@ -78,7 +78,7 @@ INV_CENTRE, ROOT_TABLE, _Q = _tables()
 Q0, Q1, Q2, Q3, Q4, Q5 = _Q
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def _inv_root16_normal(x):
     """``x ** (-1/16)`` for a positive normal double ``x`` (no special cases)."""
     b = as_bits(x)
@@ -111,7 +111,7 @@ def _inv_root16_special(x):
     return _inv_root16_normal(x * SUBNORMAL_SCALE) * 16.0
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def inv_root16(x):
     """``x ** (-1/16)`` within ~1 ulp (see the module docstring); ``inf`` at 0, ``0`` at
     ``inf``, NaN for NaN and negative ``x``."""

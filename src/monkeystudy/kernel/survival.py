@@ -1,9 +1,9 @@
 """Survival runs (compiled): a gait run cycle after cycle under noise until it fails.
 
 :func:`survival_runs` runs a block of independent runs of one controller program. Each cycle
-of each run is one call of :func:`~monkeystudy.kernel.hybrid.simulate` on a copy of the
-program whose rows carry that cycle's noise; the run goes on from the hybrid state the call
-leaves, so with zero noise a run is bit for bit the deterministic multi-cycle run.
+of each run is one call of the hybrid loop (:func:`~monkeystudy.kernel.hybrid.simulate_loop`)
+on a copy of the program whose rows carry that cycle's noise; the run goes on from the hybrid
+state the call leaves, so with zero noise a run is bit for bit the deterministic multi-cycle run.
 
 Noise (scales in the vector layout ``NZ_*``, each 0 when off), drawn per action and per
 cycle from :mod:`~monkeystudy.kernel.noise` under the key ``(seed, run, cycle, slot)``:
@@ -30,7 +30,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .hybrid import simulate
+from .hybrid import simulate_loop
 from .layout import (
     C_MAX_CYCLES, DTH1, DTH2, H_CYCLES, H_SEG, H_T, JITTER_LATENCY, JITTER_NONE, K_LOG, K_NFEV,
     L_KIND, L_STATE, L_T, LOG_OBSERVER, N_COUNTS, N_LOG_COLS, N_MODE_COLS, NZ_DTHETA1,
@@ -112,8 +112,8 @@ def survival_run(method, par, prog, obs, settings, hyb0, roles, noise, seed, run
         noisy_program(prog, roles, noise, seed, run, c, cycle_prog)
         run_settings[C_MAX_CYCLES] = hyb[H_CYCLES] + 1.0
         counts[K_LOG] = 0
-        status = simulate(method, par, cycle_prog, obs, run_settings, hyb, counts, seg_times, log,
-                          no_t, no_y, no_mode)
+        status = simulate_loop(method, par, cycle_prog, obs, run_settings, hyb, counts, seg_times,
+                               log, no_t, no_y, no_mode)
         nfev += counts[K_NFEV]
         counts[K_NFEV] = 0
         if status != ST_OK:
