@@ -363,7 +363,10 @@ def simulate_implementation(method_code, flies=True):
             pivot[1] = s8[1]
 
             fired = False       # the segment's guard fired at time t (state at t in y/s8)
-            fric_k = -1         # a friction mode change at time t
+            # a friction mode change at time t. np.int64, here and for the log kinds: numba
+            # types a bare constant as a literal and compiles each callee it reaches once
+            # more for that literal (holding_torque, write_log: ~1 s of a first run)
+            fric_k = np.int64(-1)
             level_fire = False
             if state_guard:
                 g_seg = guard_value(gkind, gindex, gvalue, phase, p, tau, fmode, y, pivot, eref)
@@ -552,7 +555,7 @@ def simulate_implementation(method_code, flies=True):
                         t_ev = t_new
                     seg_event = t_ev < np.inf
                     # ---- friction events (earliest, strictly before any segment event) ----
-                    fric_k = -1
+                    fric_k = np.int64(-1)
                     for k in range(2):
                         if not (fric0 if k == 0 else fric1):
                             continue
@@ -614,8 +617,8 @@ def simulate_implementation(method_code, flies=True):
                                 dense_eval(method, Fd, y, h, (tc - t) / h, n, ybuf)
                                 unpack_into(phase, ybuf, pivot, work)
                                 e = total_energy8(p, work)
-                                write_log(log, n_log, tc, LOG_OBSERVER, k, cycles, phase, flipped,
-                                          e, e, work)
+                                write_log(log, n_log, tc, np.int64(LOG_OBSERVER), k, cycles,
+                                          phase, flipped, e, e, work)
                                 n_log += 1
                                 counts[K_EVENTS] += 1
                                 ta = tc
@@ -683,7 +686,8 @@ def simulate_implementation(method_code, flies=True):
                 counts[K_EVENTS] += 1
                 if n_log < log_cap:
                     e = total_energy8(p, s8)
-                    write_log(log, n_log, t, LOG_FRICTION, k, cycles, phase, flipped, e, e, s8)
+                    write_log(log, n_log, t, np.int64(LOG_FRICTION), k, cycles, phase, flipped, e,
+                              e, s8)
                     n_log += 1
                 elif log_cap > 0:
                     status = ST_BUFFER_FULL
@@ -715,8 +719,8 @@ def simulate_implementation(method_code, flies=True):
                 if nxt < 0 or (max_cycles > 0 and cycles >= max_cycles):
                     status = ST_OK
                     if n_log < log_cap:
-                        write_log(log, n_log, t, LOG_SEGMENT, last, cycles, phase, flipped,
-                                  e_before, e_before, s8)
+                        write_log(log, n_log, t, np.int64(LOG_SEGMENT), last, cycles, phase,
+                                  flipped, e_before, e_before, s8)
                         n_log += 1
                     elif log_cap > 0:
                         status = ST_BUFFER_FULL
@@ -730,8 +734,8 @@ def simulate_implementation(method_code, flies=True):
                 flipped = fl2
                 magnets_done = True
                 if n_log < log_cap:
-                    write_log(log, n_log, t, LOG_SEGMENT, last, cycles, phase, flipped, e_before,
-                              total_energy8(par[flipped], s8), s8)
+                    write_log(log, n_log, t, np.int64(LOG_SEGMENT), last, cycles, phase, flipped,
+                              e_before, total_energy8(par[flipped], s8), s8)
                     n_log += 1
                 elif log_cap > 0:
                     status = ST_BUFFER_FULL
