@@ -177,8 +177,8 @@ def guard_and_rate_step(kind, index, value, phase, p, tau, fmode, y, pivot, eref
 
     Bit for bit :func:`guard_trig` and :func:`guard_rate_kin`. Every array element it may need
     is read first, in straight-line code (with reads inside the kind branches, numba's own
-    inlining kept some six atomic reference-count operations per step, ~7 % of a gait; it is
-    now compiled without reference counting and inlined by LLVM).
+    inlining kept some six atomic reference-count operations per step, ~7 % of a gait).
+    Compiled without reference counting and inlined by LLVM.
     """
     L1 = p[P_L1]
     L2 = p[P_L2]
