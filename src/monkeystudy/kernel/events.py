@@ -524,8 +524,13 @@ def newton_root(kind, index, value, a, b, ga, gb, x0, method, Fd, y_old, t_old, 
         else:
             xn = 0.5 * (a + b)
         x = xn
-    return brent(0, kind, index, value, a, b, ga, gb, method, Fd, y_old, t_old, h, n, phase,
-                 p, tau, fmode, pivot, eref, ybuf, work)
+    return brent(GUARD_ROOT, kind, index, value, a, b, ga, gb, method, Fd, y_old, t_old, h, n,
+                 phase, p, tau, fmode, pivot, eref, ybuf, work)
+
+
+# what :func:`brent` finds a root of; int64 values, not literals, so that numba compiles it once
+# (a literal argument makes a specialisation of its own)
+GUARD_ROOT, RATE_ROOT = np.int64(0), np.int64(1)
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
@@ -627,8 +632,8 @@ def locate_first(kind, index, value, direction, t_a, t_b, g_a, g_b, r_a, r_b, me
             return newton_root(kind, index, value, ta, tb, ga, gb, -1.0, method, Fd, y_old,
                                t_old, h, n, phase, p, tau, fmode, pivot, eref, ybuf, work)
         if ra * rb < 0.0:
-            te = brent(1, kind, index, value, ta, tb, ra, rb, method, Fd, y_old, t_old, h, n,
-                       phase, p, tau, fmode, pivot, eref, ybuf, work)
+            te = brent(RATE_ROOT, kind, index, value, ta, tb, ra, rb, method, Fd, y_old, t_old,
+                       h, n, phase, p, tau, fmode, pivot, eref, ybuf, work)
             ge = guard_at(kind, index, value, method, Fd, y_old, t_old, h, te, n, phase, p,
                           tau, fmode, pivot, eref, ybuf)
             if crosses(ga, ge, direction):

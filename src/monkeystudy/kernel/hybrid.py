@@ -34,7 +34,7 @@ Semantics worth knowing (docs/model.md sections 4 and 6):
 import math
 
 import numpy as np
-from numba import njit, typeof
+from numba import njit, typeof, types
 from numba.extending import overload
 
 from .dynamics import attach_xy_end, flip_state, holding_torque, rhs, total_energy8
@@ -213,6 +213,63 @@ def _finite(y, n):
     return acc == 0.0
 
 
+def loop_method_kernels(method_code, flies=True):
+    """The steps, error norms, dense-output preparation and stage count the loop of
+    ``method_code`` (``METHOD_*``) calls (:data:`.integrate.METHOD_KERNELS`); without
+    ``flies``, the swing ones stand in for the flight ones (never called: the loop stops
+    before a flight), so the flight branch is typed without compiling the flight step."""
+    step4, step8, error_sq4, error_sq8, dense_prepare_of_method, n_stages = \
+        METHOD_KERNELS[method_code]
+    if not flies:
+        step8, error_sq8 = step4, error_sq4
+        dense_prepare_of_method = SWING_DENSE_PREPARE[method_code]
+    return step4, step8, error_sq4, error_sq8, dense_prepare_of_method, n_stages
+
+
+def loop_callees(method_code):
+    """The separately compiled functions the loop of ``method_code`` calls while a run swings,
+    each with the numba types of its arguments there, in the order the loop's compile first
+    reaches them.
+
+    For compiling ahead (:mod:`monkeystudy.compiling`): another process compiles these into the
+    shared cache, last first, while the study's process compiles the loop and reaches them in
+    order, loading each one the other has saved. Every function compiled that way must have
+    one signature in the loop (numba rewrites a function's whole cache index on each save, so
+    two processes saving different signatures of one function at once could each lose or
+    misfile the other's); ``tests/test_compiling.py`` checks this list against the loop.
+    """
+    F, I, B = types.float64, types.int64, types.boolean
+    V, M = types.float64[::1], types.float64[:, ::1]
+    method = types.literal(method_code)  # the loop passes its method as a constant
+    step4, _, error_sq4, _, dense_prepare_swing, _ = loop_method_kernels(method_code, False)
+    return (
+        (apply_magnets, (M, V, I, I, F, F, B)),
+        (total_energy8, (V, V)),
+        (pack, (I, V, V)),
+        (init_friction, (I, V, F, V, V, V, V)),
+        (write_sample, (V, M, M, I, F, V, I, I, F, I)),
+        (next_tick, (F, F, F)),
+        (guard_value, (I, I, F, I, V, F, V, V, V, F)),
+        (friction_guard, (I, I, V, F, V, V, V)),
+        (rhs, (I, V, F, V, V, V)),
+        (select_initial_step, (I, V, F, V, F, V, V, I, F, F, I, F, F, V, V)),
+        (guard_rate_value, (I, I, I, V, F, V, V, V, V)),
+        (guard_rate_field, (I, I, I, V, F, V, V, V)),
+        (step4, (V, F, V, V, V, F, M, V, V, V)),
+        (error_sq4, (M, F, V, V, F, F)),
+        (guard_trig_value, (I, I, F, I, V, F, V, V, V, F, V)),
+        (dense_prepare_swing, (I, V, F, V, F, F, V, V, V, I, M, M, V)),
+        (locate_first, (I, I, F, F, F, F, F, F, F, F, method, M, V, F, F, I, I, V, F, V, V, F,
+                        V, V)),
+        (guard_rate_trig_value, (I, I, I, V, F, V, V, V, V, V)),
+        (_locate_friction, (I, I, F, F, F, F, method, M, V, F, I, I, V, F, V, V, V)),
+        (unpack_into, (I, V, V, V)),
+        (dense_eval, (method, M, V, F, F, I, V)),
+        (holding_torque, (I, V, F, V, V, I)),
+        (write_log, (M, I, F, I, I, I, I, I, F, F, V)),
+    )
+
+
 def simulate_implementation(method_code, flies=True):
     """The hybrid loop of :func:`simulate` for one integration method (``METHOD_*``), as a
     plain function whose step, error norm and dense output are that method's own (and only
@@ -220,12 +277,7 @@ def simulate_implementation(method_code, flies=True):
     specialisation per method and phase set, which compiles only those steps); interpreted
     (``NUMBA_DISABLE_JIT``), it runs as it is."""
     step4, step8, error_sq4, error_sq8, dense_prepare_of_method, n_stages = \
-        METHOD_KERNELS[method_code]
-    if not flies:
-        # never called: the loop stops before a flight (below); the swing step keeps the
-        # flight branch typed without compiling the flight step
-        step8, error_sq8 = step4, error_sq4
-        dense_prepare_of_method = SWING_DENSE_PREPARE[method_code]
+        loop_method_kernels(method_code, flies)
 
     def simulate_method(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t,
                         samp_y, samp_mode):

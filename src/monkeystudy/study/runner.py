@@ -22,7 +22,7 @@ from typing import Any, Callable, Iterator
 
 import numpy as np
 
-from .. import __version__
+from .. import __version__, compiling
 from ..controllers import Integrator, OpenLoop
 from ..kernel import KERNEL_CACHE_DIR
 from ..kernel.layout import ST_UNREACHABLE
@@ -84,14 +84,22 @@ def kernels_marker(method: str, *, runs: bool = False,
                                              + ["variational"] * variational)
 
 
-def load_kernels(spec: GaitSpec, *, runs: bool = False, variational: bool = False) -> None:
+def load_kernels(spec: GaitSpec, *, runs: bool = False, variational: bool = False,
+                 ahead: bool = False) -> None:
     """Compile (or load from the on-disk cache) the kernels the tasks use, once, in the
     driver, before fanning out: parallel first compiles would race on the cache.
 
     Always the gait evaluation; ``runs``: the controller runs of multi-cycle steps;
     ``variational``: the variational-equation kernels of floquet and continuation steps.
+    ``ahead`` (a first run, nothing cached): a second process compiles the hybrid loop's
+    callees meanwhile (:mod:`monkeystudy.compiling`); it is stopped once the gait evaluation
+    is loaded, before anything else compiles.
     """
-    grid_block(spec, np.array([[1.0, 11.0]]))
+    helper = compiling.start(spec.integrator.method) if ahead else None
+    try:
+        grid_block(spec, np.array([[1.0, 11.0]]))
+    finally:
+        compiling.stop(helper)
     if runs:
         ctrl = (spec.sequence.controller() if spec.sequence is not None else
                 OpenLoop(0.01, 0.01, spec.torque, tick=spec.tick))
@@ -343,7 +351,10 @@ def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
                 reporter.log(f"compiling the kernels this study uses ({spec.integrator.method}"
                              "; first run with this code: about half a minute on two cores, "
                              "cached afterwards)")
-            load_kernels(spec, **needs)
+            # nothing loaded yet for this method: compile the loop's callees on the idle core
+            first = marker is not None and not any(
+                marker.parent.glob(f"loaded-{spec.integrator.method}*"))
+            load_kernels(spec, **needs, ahead=first)
 
         with (open_pool(workers, scheduler, warm_up) if pool is None
               else resident_pool(pool, warm_up)) as used:
