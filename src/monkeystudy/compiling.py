@@ -44,8 +44,9 @@ def start(method: str) -> subprocess.Popen | None:
 
 
 def stop(helper: subprocess.Popen | None) -> None:
-    """End a helper from :func:`start` (at once: numba replaces each cache file whole, so an
-    interrupted save leaves at most a temporary file, never a partial entry)."""
+    """End a helper from :func:`start`, at once: numba replaces each cache file whole, so an
+    interrupted save leaves at most a temporary file or an index entry whose data file is
+    missing, which numba takes for "not cached"."""
     if helper is None:
         return
     if helper.poll() is None:

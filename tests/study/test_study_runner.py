@@ -437,12 +437,16 @@ def test_first_run_says_it_compiles_and_a_cached_run_does_not(tmp_path, monkeypa
     markers = tmp_path / "markers"
     markers.mkdir()
     monkeypatch.setattr(R, "KERNEL_CACHE_DIR", str(markers))
+    helpers = []   # a first run compiles the loop's callees on the idle core, a cached one not
+    monkeypatch.setattr(R.compiling, "start", lambda method: helpers.append(method))
     loaded = load_study(write_study(tmp_path))
     first = _Lines()
     run_study(loaded, tmp_path / "a", workers=1, reporter=first)
     assert any(line.startswith("compiling the kernels this study uses (dop853")
                for line in first.lines), first.lines
     assert list(markers.glob("loaded-dop853*"))   # each method compiles its own kernels
+    assert helpers == ["dop853"]
     again = _Lines()
     run_study(loaded, tmp_path / "b", workers=1, reporter=again)
     assert not any("compiling" in line for line in again.lines), again.lines
+    assert helpers == ["dop853"]
