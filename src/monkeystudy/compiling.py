@@ -19,14 +19,13 @@ import subprocess
 import sys
 
 from .controllers import METHODS
+from .kernel.hybrid import loop_callees
 
 
 def compile_callees(method: str) -> int:
     """Compile (or load from the cache) the hybrid loop's callees for the integration
     ``method`` (a name of :data:`~monkeystudy.controllers.METHODS`), the last the loop reaches
     first; returns how many."""
-    from .kernel.hybrid import loop_callees
-
     callees = loop_callees(METHODS[method][0])
     for dispatcher, argtypes in reversed(callees):
         dispatcher.compile(argtypes)
