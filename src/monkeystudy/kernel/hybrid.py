@@ -169,6 +169,159 @@ def friction_active(k, phase, p):
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
+def enter_segment(p, prog, seg, phase, eref, s8, fmode, y, pivot):
+    """Segment ``seg``'s entry actions after its magnets (:func:`apply_magnets`): its motor
+    torque, the reference energy if it latches one, the integration state ``y`` and the pivot
+    from ``s8``, the friction modes. Returns ``(tau, eref, n)``: the torque [N m], the
+    reference energy [J] and the size of ``y``."""
+    tau = prog[seg, S_TORQUE]
+    if prog[seg, S_SET_EREF] > 0:
+        eref = total_energy8(p, s8)
+    n = pack(phase, s8, y)
+    pivot[0] = s8[0]
+    pivot[1] = s8[1]
+    init_friction(phase, p, tau, s8, fmode, y, pivot)
+    return tau, eref, n
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def segment_event_in_step(gkind, gindex, gvalue, gdir, t, t_new, g_seg, gb, r_seg, rb, method,
+                          Fd, y, h, n, phase, p, tau, fmode, pivot, eref, ybuf, work, ticked,
+                          tick, tick_phase, pending, pending_sign):
+    """The segment guard's event in the step ``(t, t_new]``, whose guard values (``g_seg``,
+    ``gb``) and rates flag a possible crossing; the dense output is prepared in ``Fd``.
+
+    Returns ``(t_ev, pending, pending_sign)``: the event's time (inf: none in this step); a
+    ticked guard found crossing is acted on at the first tick at or after the crossing where
+    its condition still holds, and a tick past ``t_new`` is left ``pending`` with the guard's
+    sign before the crossing (module docstring).
+    """
+    t_ev = np.inf
+    ta = t
+    ga = g_seg
+    ra = r_seg
+    while True:
+        tc = locate_first(gkind, gindex, gvalue, gdir, ta, t_new, ga, gb, ra, rb, method, Fd, y,
+                          t, h, n, phase, p, tau, fmode, pivot, eref, ybuf, work)
+        if tc == np.inf:
+            break
+        sign_before = 1.0 if ga > 0.0 else -1.0
+        if not ticked:
+            t_ev = tc
+            break
+        tk = next_tick(tc, tick, tick_phase)
+        if tk <= tc:
+            # the tick is the crossing itself, to round-off (next_tick snaps within
+            # TICK_SNAP): act. Testing the condition a hair before the root fails, and the
+            # search would find the same root and tick again, forever.
+            t_ev = tk if tk >= t else t
+            break
+        if tk > t_new:
+            pending = tk
+            pending_sign = sign_before
+            break
+        if tk == t_new:
+            gk = gb
+        else:
+            dense_eval(method, Fd, y, h, (tk - t) / h, n, ybuf)
+            gk = guard_value(gkind, gindex, gvalue, phase, p, tau, fmode, ybuf, pivot, eref)
+        if (gdir > 0 and gk >= 0.0) or (gdir < 0 and gk <= 0.0) or \
+                (gdir == 0 and gk * sign_before <= 0.0):
+            t_ev = tk
+            break
+        if tk >= t_new:
+            break
+        ta = tk
+        ga = gk
+        ra = guard_rate_value(gkind, gindex, phase, p, tau, fmode, ybuf, pivot,
+                              work) if tk < t_new else rb
+    return t_ev, pending, pending_sign
+
+
+@njit(cache=True, error_model="numpy")
+def change_friction_mode(k, phase, flipped, p, tau, fmode, s8, y, t, cycles, counts, log,
+                         n_log):
+    """Friction DOF ``k`` at its event at ``t`` [s]: slipping, its speed reached zero (it
+    sticks if the holding torque is within the Coulomb limit, else slips the other way);
+    stuck, the holding torque reached the limit (it slips). Logged. Returns
+    ``(n_log, status)`` (``ST_BUFFER_FULL`` if the log is full, else -1)."""
+    s8[6 + k] = 0.0  # zero speed exactly at the event
+    pack(phase, s8, y)
+    c = p[P_C_PIVOT] if k == 0 else p[P_C_JOINT]
+    if fmode[k] == 0.0:
+        hold = holding_torque(phase, p, tau, fmode, y, k)
+        fmode[k] = -1.0 if hold > 0.0 else 1.0
+        s8[6 + k] = 0.0
+    else:
+        hold = holding_torque(phase, p, tau, fmode, y, k)
+        if abs(hold) <= c:
+            fmode[k] = 0.0
+        else:
+            fmode[k] = -1.0 if hold > 0.0 else 1.0
+    counts[K_EVENTS] += 1
+    status = -1
+    if n_log < log.shape[0]:
+        e = total_energy8(p, s8)
+        write_log(log, n_log, t, np.int64(LOG_FRICTION), k, cycles, phase, flipped, e, e, s8)
+        n_log += 1
+    elif log.shape[0] > 0:
+        status = ST_BUFFER_FULL
+    return n_log, status
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def exit_segment(par, prog, seg, t, s8, phase, flipped, tau, gvalue, clock0, cycles,
+                 max_cycles, counts, seg_times, log, n_log, sampling, samp_t, samp_y, samp_mode,
+                 n_samp):
+    """Segment ``seg``'s guard fired at ``t`` [s]: record the exit, sample, advance the
+    controller clock and the cycle count, then end the run (no next segment, or the cycles
+    are done) or apply the next segment's magnets (the impact) and log the transition.
+
+    Returns ``(status, seg, phase, flipped, clock0, cycles, n_log, n_samp)``: status -1 to go
+    on into the (new) segment ``seg``, else ``ST_OK`` or ``ST_BUFFER_FULL``.
+    """
+    log_cap = log.shape[0]
+    counts[K_EVENTS] += 1
+    seg_times[seg] = t
+    e_before = total_energy8(par[flipped], s8)
+    if sampling:
+        n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, t, s8, phase, flipped, tau,
+                              seg)
+        if n_samp < 0:
+            return ST_BUFFER_FULL, seg, phase, flipped, clock0, cycles, n_log, n_samp
+    clock_mode = int(prog[seg, S_CLOCK])
+    if clock_mode == 1:
+        clock0 = t
+    elif clock_mode == 2:
+        clock0 += gvalue
+    if prog[seg, S_CYCLE] > 0:
+        cycles += 1
+    nxt = int(prog[seg, S_NEXT])
+    last = seg
+    status = -1
+    if nxt < 0 or (max_cycles > 0 and cycles >= max_cycles):
+        status = ST_OK
+        if n_log < log_cap:
+            write_log(log, n_log, t, np.int64(LOG_SEGMENT), last, cycles, phase, flipped,
+                      e_before, e_before, s8)
+            n_log += 1
+        elif log_cap > 0:
+            status = ST_BUFFER_FULL
+        return status, seg, phase, flipped, clock0, cycles, n_log, n_samp
+    seg = nxt
+    # the log row shows the state after the next segment's entry actions (the impact)
+    phase, flipped = apply_magnets(par, s8, phase, flipped, prog[seg, S_MAG_A],
+                                   prog[seg, S_MAG_B], prog[seg, S_SWAP] > 0)
+    if n_log < log_cap:
+        write_log(log, n_log, t, np.int64(LOG_SEGMENT), last, cycles, phase, flipped, e_before,
+                  total_energy8(par[flipped], s8), s8)
+        n_log += 1
+    elif log_cap > 0:
+        status = ST_BUFFER_FULL
+    return status, seg, phase, flipped, clock0, cycles, n_log, n_samp
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
 def write_log(log, row, t, kind, ident, cycle, phase, flipped, e_before, e_after, s8):
     log[row, L_T] = t
     log[row, L_KIND] = kind
@@ -239,11 +392,12 @@ def loop_callees(method_code):
     misfile the other's); ``tests/test_compiling.py`` checks this list against the loop.
     """
     F, I, B = types.float64, types.int64, types.boolean
-    V, M = types.float64[::1], types.float64[:, ::1]
+    V, M, C = types.float64[::1], types.float64[:, ::1], types.int64[::1]
     method = types.literal(method_code)  # the loop passes its method as a constant
     step4, _, error_sq4, _, dense_prepare_swing, _ = loop_method_kernels(method_code, False)
     return (
         (apply_magnets, (M, V, I, I, F, F, B)),
+        (enter_segment, (V, M, I, I, F, V, V, V, V)),
         (total_energy8, (V, V)),
         (pack, (I, V, V)),
         (init_friction, (I, V, F, V, V, V, V)),
@@ -261,12 +415,16 @@ def loop_callees(method_code):
         (dense_prepare_swing, (I, V, F, V, F, F, V, V, V, I, M, M, V)),
         (locate_first, (I, I, F, F, F, F, F, F, F, F, method, M, V, F, F, I, I, V, F, V, V, F,
                         V, V)),
+        (segment_event_in_step, (I, I, F, F, F, F, F, F, F, F, method, M, V, F, I, I, V, F, V,
+                                 V, F, V, V, B, F, F, F, F)),
         (guard_rate_trig_value, (I, I, I, V, F, V, V, V, V, V)),
         (_locate_friction, (I, I, F, F, F, F, method, M, V, F, I, I, V, F, V, V, V)),
         (unpack_into, (I, V, V, V)),
         (dense_eval, (method, M, V, F, F, I, V)),
         (holding_torque, (I, V, F, V, V, I)),
         (write_log, (M, I, F, I, I, I, I, I, F, F, V)),
+        (change_friction_mode, (I, I, I, V, F, V, V, V, F, I, C, M, I)),
+        (exit_segment, (M, M, I, F, V, I, I, F, F, F, I, I, C, V, M, I, B, V, M, M, I)),
     )
 
 
@@ -368,13 +526,7 @@ def simulate_implementation(method_code, flies=True):
                     status = ST_STEP_FAILURE
                     break
                 p = par[flipped]
-                tau = prog[seg, S_TORQUE]
-                if prog[seg, S_SET_EREF] > 0:
-                    eref = total_energy8(p, s8)
-                n = pack(phase, s8, y)
-                pivot[0] = s8[0]
-                pivot[1] = s8[1]
-                init_friction(phase, p, tau, s8, fmode, y, pivot)
+                tau, eref, n = enter_segment(p, prog, seg, phase, eref, s8, fmode, y, pivot)
                 seg_start = t
                 pending = np.inf
                 if sampling:
@@ -550,47 +702,10 @@ def simulate_implementation(method_code, flies=True):
                                 counts[K_NFEV] += dense_prepare_of_method(
                                     phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
                                 dense = True
-                            ta = t
-                            ga = g_seg
-                            ra_seg = r_seg
-                            while True:
-                                tc = locate_first(gkind, gindex, gvalue, gdir, ta, t_new, ga, gb,
-                                                  ra_seg, rb, method, Fd, y, t, h, n, phase, p,
-                                                  tau, fmode, pivot, eref, ybuf, work)
-                                if tc == np.inf:
-                                    break
-                                sign_before = 1.0 if ga > 0.0 else -1.0
-                                if not ticked:
-                                    t_ev = tc
-                                    break
-                                tk = next_tick(tc, tick, tick_phase)
-                                if tk <= tc:
-                                    # the tick is the crossing itself, to round-off (next_tick
-                                    # snaps within TICK_SNAP): act. Testing the condition a hair
-                                    # before the root fails, and the search would find the same
-                                    # root and tick again, forever.
-                                    t_ev = tk if tk >= t else t
-                                    break
-                                if tk > t_new:
-                                    pending = tk
-                                    pending_sign = sign_before
-                                    break
-                                if tk == t_new:
-                                    gk = gb
-                                else:
-                                    dense_eval(method, Fd, y, h, (tk - t) / h, n, ybuf)
-                                    gk = guard_value(gkind, gindex, gvalue, phase, p, tau, fmode,
-                                                     ybuf, pivot, eref)
-                                if (gdir > 0 and gk >= 0.0) or (gdir < 0 and gk <= 0.0) or \
-                                        (gdir == 0 and gk * sign_before <= 0.0):
-                                    t_ev = tk
-                                    break
-                                if tk >= t_new:
-                                    break
-                                ta = tk
-                                ga = gk
-                                ra_seg = guard_rate_value(gkind, gindex, phase, p, tau, fmode,
-                                                          ybuf, pivot, work) if tk < t_new else rb
+                            t_ev, pending, pending_sign = segment_event_in_step(
+                                gkind, gindex, gvalue, gdir, t, t_new, g_seg, gb, r_seg, rb,
+                                method, Fd, y, h, n, phase, p, tau, fmode, pivot, eref, ybuf,
+                                work, ticked, tick, tick_phase, pending, pending_sign)
                         g_seg = gb
                         r_seg = rb
                     elif state_guard and t_new == pending:
@@ -721,28 +836,8 @@ def simulate_implementation(method_code, flies=True):
 
             # ------------------------------------------------------------------ leg outcome
             if fric_k >= 0:
-                k = fric_k
-                s8[6 + k] = 0.0  # zero speed exactly at the event
-                n = pack(phase, s8, y)
-                c = p[P_C_PIVOT] if k == 0 else p[P_C_JOINT]
-                if fmode[k] == 0.0:
-                    hold = holding_torque(phase, p, tau, fmode, y, k)
-                    fmode[k] = -1.0 if hold > 0.0 else 1.0
-                    s8[6 + k] = 0.0
-                else:
-                    hold = holding_torque(phase, p, tau, fmode, y, k)
-                    if abs(hold) <= c:
-                        fmode[k] = 0.0
-                    else:
-                        fmode[k] = -1.0 if hold > 0.0 else 1.0
-                counts[K_EVENTS] += 1
-                if n_log < log_cap:
-                    e = total_energy8(p, s8)
-                    write_log(log, n_log, t, np.int64(LOG_FRICTION), k, cycles, phase, flipped, e,
-                              e, s8)
-                    n_log += 1
-                elif log_cap > 0:
-                    status = ST_BUFFER_FULL
+                n_log, status = change_friction_mode(fric_k, phase, flipped, p, tau, fmode, s8,
+                                                     y, t, cycles, counts, log, n_log)
                 continue
             if fired and delayed_exit == np.inf and int(prog[seg, S_GUARD]) != G_TIME and \
                     prog[seg, S_DELAY] > 0.0:
@@ -750,48 +845,14 @@ def simulate_implementation(method_code, flies=True):
                 continue
             if fired:
                 delayed_exit = np.inf
-                counts[K_EVENTS] += 1
-                seg_times[seg] = t
-                e_before = total_energy8(par[flipped], s8)
-                if sampling:
-                    n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, t, s8, phase,
-                                          flipped, tau, seg)
-                    if n_samp < 0:
-                        status = ST_BUFFER_FULL
-                        break
-                clock_mode = int(prog[seg, S_CLOCK])
-                if clock_mode == 1:
-                    clock0 = t
-                elif clock_mode == 2:
-                    clock0 += gvalue
-                if prog[seg, S_CYCLE] > 0:
-                    cycles += 1
-                nxt = int(prog[seg, S_NEXT])
-                last = seg
-                if nxt < 0 or (max_cycles > 0 and cycles >= max_cycles):
-                    status = ST_OK
-                    if n_log < log_cap:
-                        write_log(log, n_log, t, np.int64(LOG_SEGMENT), last, cycles, phase,
-                                  flipped, e_before, e_before, s8)
-                        n_log += 1
-                    elif log_cap > 0:
-                        status = ST_BUFFER_FULL
+                status, seg, phase, flipped, clock0, cycles, n_log, n_samp = exit_segment(
+                    par, prog, seg, t, s8, phase, flipped, tau, gvalue, clock0, cycles,
+                    max_cycles, counts, seg_times, log, n_log, sampling, samp_t, samp_y,
+                    samp_mode, n_samp)
+                if status >= 0:
                     break
-                seg = nxt
                 entering = True
-                # the log row shows the state after the next segment's entry actions (the impact)
-                ph2, fl2 = apply_magnets(par, s8, phase, flipped, prog[seg, S_MAG_A],
-                                         prog[seg, S_MAG_B], prog[seg, S_SWAP] > 0)
-                phase = ph2
-                flipped = fl2
-                magnets_done = True
-                if n_log < log_cap:
-                    write_log(log, n_log, t, np.int64(LOG_SEGMENT), last, cycles, phase, flipped,
-                              e_before, total_energy8(par[flipped], s8), s8)
-                    n_log += 1
-                elif log_cap > 0:
-                    status = ST_BUFFER_FULL
-                    break
+                magnets_done = True   # the next segment's magnets (the impact, in the log)
                 continue
             # no event: the leg ended on a bound
             if t >= t_end:
