@@ -168,7 +168,9 @@ def friction_active(k, phase, p):
     return p[P_C_JOINT] > 0.0
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+# with numba's runtime: init_friction -> holding_torque allocates (a function compiled without
+# it cannot call one that allocates)
+@njit(cache=True, error_model="numpy")
 def enter_segment(p, prog, seg, phase, eref, s8, fmode, y, pivot):
     """Segment ``seg``'s entry actions after its magnets (:func:`apply_magnets`): its motor
     torque, the reference energy if it latches one, the integration state ``y`` and the pivot
