@@ -312,7 +312,7 @@ def rhs(phase, p, tau, fmode, y, dy):
             dy[i] = 0.0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=False)
 def holding_torque(phase, p, tau, fmode, y, k):
     """Friction torque that would hold DOF ``k`` (0 pivot, 1 joint) at zero speed [N m].
 
@@ -321,10 +321,9 @@ def holding_torque(phase, p, tau, fmode, y, k):
     friction must supply. The hybrid loop sticks when ``|torque| <= c_k`` and otherwise slips
     with sign ``-sgn(torque)``, the direction the unheld DOF starts to move.
     """
-    fm = np.empty(2)
-    fm[0] = fmode[0]
-    fm[1] = fmode[1]
-    fm[k] = 0.0
+    # the friction modes with DOF k's removed, as a pair: nothing allocated, so callers can
+    # be compiled without numba's runtime
+    fm = (0.0 if k == 0 else fmode[0], 0.0 if k == 1 else fmode[1])
     if phase == PHASE_SWING:
         m11, m12, m22, r1, r2 = _swing_terms(p, tau, fm, y[0], y[1], y[2], y[3])
         a1, a2 = _solve2(m11, m12, m22, r1, r2, fm[0] == 0.0, fm[1] == 0.0)
@@ -332,16 +331,14 @@ def holding_torque(phase, p, tau, fmode, y, k):
             return m11 * a1 + m12 * a2 - r1
         return m12 * a1 + m22 * a2 - r2
     if phase == PHASE_FLIGHT and k == 1:
-        dy = np.empty(8)
-        rhs_flight(p, tau, fm, y, dy)
         th1, th2, w1, w2 = y[2], y[3], y[6], y[7]
+        ax, ay, a1, a2 = flight_accel(p, tau, fm, th1, th2, w1, w2)
         b02, b03, b12, b13, c1, s1, c12, s12 = _flight_coupling(p, th1, th2)
         h = p[P_H]
         s2, c2 = sincos(th2)
         r2 = (-h * s2 * w1 * w1 - p[P_G] * p[P_M2R2] * s12 + tau
               - p[P_B_JOINT] * w2)
-        return (b03 * dy[4] + b13 * dy[5] + (p[P_K22] + h * c2) * dy[6]
-                + p[P_K22] * dy[7] - r2)
+        return (b03 * ax + b13 * ay + (p[P_K22] + h * c2) * a1 + p[P_K22] * a2 - r2)
     return 0.0
 
 

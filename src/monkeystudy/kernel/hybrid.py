@@ -116,7 +116,7 @@ def apply_magnets(par, s8, phase, flipped, mag_a, mag_b, swap):
     return PHASE_FLIGHT, flipped
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=False)
 def init_friction(phase, p, tau, s8, fmode, y, pivot):
     """Friction modes at a phase start: slip with the speed's sign, or stick test at rest."""
     for k in range(2):
@@ -140,7 +140,7 @@ def init_friction(phase, p, tau, s8, fmode, y, pivot):
                 fmode[k] = -1.0 if hold > 0.0 else 1.0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=False)
 def friction_guard(k, phase, p, tau, fmode, y, pivot):
     """Guard of friction DOF ``k`` in its current mode: speed x slip sign, or |hold| - c."""
     if fmode[k] == 0.0:
@@ -168,9 +168,7 @@ def friction_active(k, phase, p):
     return p[P_C_JOINT] > 0.0
 
 
-# with numba's runtime: init_friction -> holding_torque allocates (a function compiled without
-# it cannot call one that allocates)
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=False)
 def enter_segment(p, prog, seg, phase, eref, s8, fmode, y, pivot):
     """Segment ``seg``'s entry actions after its magnets (:func:`apply_magnets`): its motor
     torque, the reference energy if it latches one, the integration state ``y`` and the pivot
@@ -240,7 +238,7 @@ def segment_event_in_step(gkind, gindex, gvalue, gdir, t, t_new, g_seg, gb, r_se
     return t_ev, pending, pending_sign
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=False)
 def change_friction_mode(k, phase, flipped, p, tau, fmode, s8, y, t, cycles, counts, log,
                          n_log):
     """Friction DOF ``k`` at its event at ``t`` [s]: slipping, its speed reached zero (it
@@ -944,7 +942,7 @@ def _overload_simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_t
     return simulate_implementation(*choice)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _locate_friction(k, fkind, t0, t1, ga, gb, method, Fd, y_old, h, n, phase, p, tau, fmode,
                      pivot, ybuf):
     """Bisection-secant (Illinois) root of a friction guard bracketed on [t0, t1]."""
