@@ -168,7 +168,7 @@ def friction_active(k, phase, p):
     return p[P_C_JOINT] > 0.0
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def enter_segment(p, prog, seg, phase, eref, s8, fmode, y, pivot):
     """Segment ``seg``'s entry actions after its magnets (:func:`apply_magnets`): its motor
     torque, the reference energy if it latches one, the integration state ``y`` and the pivot
@@ -184,7 +184,7 @@ def enter_segment(p, prog, seg, phase, eref, s8, fmode, y, pivot):
     return tau, eref, n
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def segment_event_in_step(gkind, gindex, gvalue, gdir, t, t_new, g_seg, gb, r_seg, rb, method,
                           Fd, y, h, n, phase, p, tau, fmode, pivot, eref, ybuf, work, ticked,
                           tick, tick_phase, pending, pending_sign):
@@ -238,7 +238,7 @@ def segment_event_in_step(gkind, gindex, gvalue, gdir, t, t_new, g_seg, gb, r_se
     return t_ev, pending, pending_sign
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def change_friction_mode(k, phase, flipped, p, tau, fmode, s8, y, t, cycles, counts, log,
                          n_log):
     """Friction DOF ``k`` at its event at ``t`` [s]: slipping, its speed reached zero (it
@@ -269,7 +269,7 @@ def change_friction_mode(k, phase, flipped, p, tau, fmode, s8, y, t, cycles, cou
     return n_log, status
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def exit_segment(par, prog, seg, t, s8, phase, flipped, tau, gvalue, clock0, cycles,
                  max_cycles, counts, seg_times, log, n_log, sampling, samp_t, samp_y, samp_mode,
                  n_samp):
