@@ -168,23 +168,7 @@ def friction_active(k, phase, p):
     return p[P_C_JOINT] > 0.0
 
 
-@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
-def enter_segment(p, prog, seg, phase, eref, s8, fmode, y, pivot):
-    """Segment ``seg``'s entry actions after its magnets (:func:`apply_magnets`): its motor
-    torque, the reference energy if it latches one, the integration state ``y`` and the pivot
-    from ``s8``, the friction modes. Returns ``(tau, eref, n)``: the torque [N m], the
-    reference energy [J] and the size of ``y``."""
-    tau = prog[seg, S_TORQUE]
-    if prog[seg, S_SET_EREF] > 0:
-        eref = total_energy8(p, s8)
-    n = pack(phase, s8, y)
-    pivot[0] = s8[0]
-    pivot[1] = s8[1]
-    init_friction(phase, p, tau, s8, fmode, y, pivot)
-    return tau, eref, n
-
-
-@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def segment_event_in_step(gkind, gindex, gvalue, gdir, t, t_new, g_seg, gb, r_seg, rb, method,
                           Fd, y, h, n, phase, p, tau, fmode, pivot, eref, ybuf, work, ticked,
                           tick, tick_phase, pending, pending_sign):
@@ -238,7 +222,7 @@ def segment_event_in_step(gkind, gindex, gvalue, gdir, t, t_new, g_seg, gb, r_se
     return t_ev, pending, pending_sign
 
 
-@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def change_friction_mode(k, phase, flipped, p, tau, fmode, s8, y, t, cycles, counts, log,
                          n_log):
     """Friction DOF ``k`` at its event at ``t`` [s]: slipping, its speed reached zero (it
@@ -269,7 +253,7 @@ def change_friction_mode(k, phase, flipped, p, tau, fmode, s8, y, t, cycles, cou
     return n_log, status
 
 
-@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def exit_segment(par, prog, seg, t, s8, phase, flipped, tau, gvalue, clock0, cycles,
                  max_cycles, counts, seg_times, log, n_log, sampling, samp_t, samp_y, samp_mode,
                  n_samp):
@@ -397,7 +381,6 @@ def loop_callees(method_code):
     step4, _, error_sq4, _, dense_prepare_swing, _ = loop_method_kernels(method_code, False)
     return (
         (apply_magnets, (M, V, I, I, F, F, B)),
-        (enter_segment, (V, M, I, I, F, V, V, V, V)),
         (total_energy8, (V, V)),
         (pack, (I, V, V)),
         (init_friction, (I, V, F, V, V, V, V)),
@@ -526,7 +509,13 @@ def simulate_implementation(method_code, flies=True):
                     status = ST_STEP_FAILURE
                     break
                 p = par[flipped]
-                tau, eref, n = enter_segment(p, prog, seg, phase, eref, s8, fmode, y, pivot)
+                tau = prog[seg, S_TORQUE]
+                if prog[seg, S_SET_EREF] > 0:
+                    eref = total_energy8(p, s8)
+                n = pack(phase, s8, y)
+                pivot[0] = s8[0]
+                pivot[1] = s8[1]
+                init_friction(phase, p, tau, s8, fmode, y, pivot)
                 seg_start = t
                 pending = np.inf
                 if sampling:
