@@ -28,9 +28,10 @@ def compiled(rec):
 with ev.install_recorder("numba:compile") as ahead:
     compile_callees("dop853")
 with ev.install_recorder("numba:compile") as gait:
-    evaluate_gaits(np.array([[1.0, 11.0]]))
+    r = evaluate_gaits(np.array(%r))
 listed = {d for d, _ in loop_callees(1)}
 print(json.dumps({
+    "error": r["error"].tobytes().hex(), "t_end": r["t_end"].tobytes().hex(),
     "ahead": len(compiled(ahead)),
     "listed_compiled_again": sorted(d.py_func.__qualname__ for d in compiled(gait) & listed),
     "several_signatures": sorted(d.py_func.__qualname__ for d in compiled(ahead)
@@ -62,11 +63,15 @@ def _python(code: str, cache, timeout=900) -> dict:
 def test_the_callees_are_those_the_loop_compiles(tmp_path):
     # after the helper's list, a first gait compiles none of those again (the argument types
     # are the loop's), and each function the list compiled has one signature (two processes
-    # saving different signatures of one function at once could misfile them)
-    r = _python(CALLEES_THEN_GAIT, tmp_path)
+    # saving different signatures of one function at once could misfile them); compiled in
+    # that order (numba compiles a callee with its first caller's flags), the same bits
+    r = _python(CALLEES_THEN_GAIT % POINTS, tmp_path)
     assert r["ahead"] > 20, r
     assert r["listed_compiled_again"] == [], r
     assert r["several_signatures"] == [], r
+    here = evaluate_gaits(np.array(POINTS))
+    assert r["error"] == here["error"].tobytes().hex()
+    assert r["t_end"] == here["t_end"].tobytes().hex()
 
 
 @pytest.mark.slow

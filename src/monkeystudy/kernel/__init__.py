@@ -22,6 +22,14 @@ for the wrappers that would otherwise add a level of compiled code above the hyb
 (``gait.simulate_unlogged``), and for the reduced sine and cosine of ``trig`` (inlined by LLVM
 instead, some results changed in their last bits; not yet explained, so not done).
 
+Numba compiles a function that a caller reaches while being typed with that caller's
+floating-point and runtime flags: the first caller decides (a function with ``_nrt=False``
+cannot reach one that allocates; a plain function first reached from a ``fastmath`` caller is
+compiled with fast-math). So no kernel function is reached from callers with different flags:
+the Runge-Kutta steps call only their ``*_fused`` fields and overloads (compiled per caller),
+and ``tests/test_compiling.py`` checks that compiling the hybrid loop's callees first, as
+the compile-ahead helper does, gives the same bits.
+
 Numba's on-disk cache checks only the source file of each function, not of the functions it
 calls: edit ``integrate.py`` and a cached ``hybrid.simulate`` keeps running the old integrator.
 So the cache lives in a directory keyed by a hash of *all* kernel sources (below

@@ -416,7 +416,18 @@ def simulate_implementation(method_code, flies=True):
     plain function whose step, error norm and dense output are that method's own (and only
     the swing ones unless ``flies``): numba compiles it through :func:`simulate` (one
     specialisation per method and phase set, which compiles only those steps); interpreted
-    (``NUMBA_DISABLE_JIT``), it runs as it is."""
+    (``NUMBA_DISABLE_JIT``), it runs as it is.
+
+    The loop: enter a segment (its magnets, :func:`apply_magnets`, then torque, reference
+    energy and friction modes), integrate one leg step by step, locating the segment guard's
+    event in a step (:func:`segment_event_in_step`), friction events (:func:`_locate_friction`,
+    then :func:`change_friction_mode`) and observer crossings on the dense output, and act on
+    the leg's end: a segment's exit (:func:`exit_segment`: the controller's clock and cycle
+    count, the next segment's magnets, the impact, the log) or a bound. Each named piece is
+    compiled on its own. The segment's entry stays in the loop: called as a function of its
+    own it cost ~2 % of a gait (17.63 against 17.24 us, DOP853 rtol 1e-10, four alternating
+    runs); inlined by LLVM, the pieces added ~0.7 s to a first run.
+    """
     step4, step8, error_sq4, error_sq8, dense_prepare_of_method, n_stages = \
         loop_method_kernels(method_code, flies)
 
