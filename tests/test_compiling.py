@@ -100,3 +100,9 @@ def test_stop_ends_a_running_helper():
     compiling.stop(helper)
     assert helper.returncode is not None
     compiling.stop(None)   # no helper (it could not start): nothing to do
+
+
+def test_call_with_frame_room_returns_and_raises_like_a_call():
+    assert compiling.call_with_frame_room(lambda: 42) == 42
+    with pytest.raises(ZeroDivisionError):
+        compiling.call_with_frame_room(lambda: 1 / 0)

@@ -12,14 +12,37 @@ is rewritten whole on each save; different signatures saved at once by two proce
 lost or misfiled), and numba writes each file atomically, so the cache ends up the same whichever
 process saves a function. :func:`stop` ends the helper once the study's process has what it
 needs: whatever the helper was still compiling, the study's process already has.
+
+Both compile through :func:`call_with_frame_room`: CPython (3.11 and later) keeps its frames in
+chunks of 16 KiB and unmaps a chunk as soon as the call depth falls back below it, and numba's
+compiler recurses deeply (copies of its IR), so a first gait crossed a chunk's edge some
+570 000 times: 1.17 million ``mmap``/``munmap`` calls and 5-8 s of system time (``strace -c``).
+Called with room on its frame, a compile runs inside one large chunk and maps none.
 """
 from __future__ import annotations
 
 import subprocess
 import sys
+import types
 
 from .controllers import METHODS
 from .kernel.hybrid import loop_callees
+
+
+def _call(f):
+    return f()
+
+
+# _call with room for 131 072 values on its frame (1 MiB): CPython gives such a frame a chunk
+# of its own of 2 MiB, and the frames it calls fill the other half before needing another
+_call_with_room = types.FunctionType(_call.__code__.replace(co_stacksize=131072), globals(),
+                                     "_call_with_room")
+
+
+def call_with_frame_room(f):
+    """``f()``, with about 1 MiB of CPython's frame stack free above it (module docstring):
+    for compiling, whose deep recursion otherwise maps and unmaps frame-stack chunks."""
+    return _call_with_room(f)
 
 
 def compile_callees(method: str) -> int:
@@ -54,4 +77,4 @@ def stop(helper: subprocess.Popen | None) -> None:
 
 
 if __name__ == "__main__":
-    compile_callees(sys.argv[1])
+    call_with_frame_room(lambda: compile_callees(sys.argv[1]))

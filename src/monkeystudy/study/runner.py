@@ -354,7 +354,7 @@ def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
             # nothing loaded yet for this method: compile the loop's callees on the idle core
             first = marker is not None and not any(
                 marker.parent.glob(f"loaded-{spec.integrator.method}*"))
-            load_kernels(spec, **needs, ahead=first)
+            compiling.call_with_frame_room(lambda: load_kernels(spec, **needs, ahead=first))
 
         with (open_pool(workers, scheduler, warm_up) if pool is None
               else resident_pool(pool, warm_up)) as used:
