@@ -349,7 +349,7 @@ def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
             if pool is None and (marker is None or not marker.exists()):
                 # said once: a cached run loads them in about a second, silently
                 reporter.log(f"compiling the kernels this study uses ({spec.integrator.method}"
-                             "; first run with this code: about half a minute on two cores, "
+                             "; first run with this code: 15 s or more on two cores, "
                              "cached afterwards)")
             # nothing loaded yet for this method: compile the loop's callees on the idle core
             first = marker is not None and not any(
