@@ -2,11 +2,11 @@
 
 ``monkeystudy run STUDY --server`` is the thin client of a resident ``monkeystudy serve``: its
 whole job is to send the study's path and relay the answer, so it takes a short path that
-imports neither the command-line framework (typer builds pydantic adapters for every
-parameter: ~0.13 s) nor numpy or numba. Everything else, and any served run whose arguments
-this parser does not take cleanly (help, mistakes, ``--workers``), goes to
-:mod:`monkeystudy.cli`, which reports it. ``tests/test_service.py`` keeps the two parsers'
-options equal.
+imports neither the command-line framework nor numpy or numba. Everything else, and any
+served run whose arguments this parser does not take cleanly (help, mistakes, ``--workers``),
+goes to :mod:`monkeystudy.cli`, which reports it. ``tests/test_service.py`` keeps the two
+parsers' options equal. A Ctrl-C before a command has started (while Python imports it) ends
+with exit code 3 and one line, as one during the command does.
 """
 from __future__ import annotations
 
@@ -60,10 +60,16 @@ def _served_run(argv: list[str]) -> int | None:
 
 
 def main() -> None:  # pragma: no cover - the console script
-    code = _served_run(sys.argv[1:])
-    if code is not None:
-        sys.exit(code)
-    from .cli import main as cli_main
+    try:
+        code = _served_run(sys.argv[1:])
+        if code is not None:
+            sys.exit(code)
+        from .cli import main as cli_main
+    except KeyboardInterrupt:
+        from .exit_codes import EXIT_INTERRUPTED
+        print("monkeystudy: interrupted before the command started; nothing was written",
+              file=sys.stderr)
+        sys.exit(EXIT_INTERRUPTED)
     cli_main()
 
 

@@ -21,11 +21,15 @@ Called with room on its frame, a compile runs inside one large chunk and maps no
 """
 from __future__ import annotations
 
+import json
+import os
 import subprocess
 import sys
 import types
+from pathlib import Path
 
 from .controllers import METHODS
+from .kernel import KERNEL_CACHE_DIR
 from .kernel.hybrid import loop_callees
 
 
@@ -74,6 +78,48 @@ def stop(helper: subprocess.Popen | None) -> None:
     if helper.poll() is None:
         helper.kill()
     helper.wait()
+
+
+#: file beside the kernel caches recording how long first compiles took on this machine
+COMPILE_TIMES = "compile-times.json"
+
+
+def _times_path() -> Path | None:
+    return Path(KERNEL_CACHE_DIR).parent / COMPILE_TIMES if KERNEL_CACHE_DIR else None
+
+
+def _read_times() -> dict:
+    path = _times_path()
+    try:
+        data = json.loads(path.read_text()) if path is not None else {}
+        return data if isinstance(data, dict) else {}
+    except (OSError, ValueError):
+        return {}
+
+
+def record_compile_time(what: str, seconds: float) -> None:
+    """Remember that compiling ``what`` (a kernel set, e.g. ``dop853-runs``) took ``seconds``
+    here, for the next first run's estimate (written atomically; a read-only cache is fine)."""
+    path = _times_path()
+    if path is None:
+        return
+    data = _read_times()
+    data[what] = round(float(seconds), 1)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_text(json.dumps(data, sort_keys=True) + "\n")
+        os.replace(tmp, path)
+    except OSError:
+        tmp.unlink(missing_ok=True)
+
+
+def compile_estimate(what: str) -> str:
+    """How long compiling ``what`` should take: the last such compile on this machine (any
+    code version), else a range measured on two cores."""
+    seconds = _read_times().get(what)
+    if isinstance(seconds, (int, float)) and seconds > 0:
+        return f"about {seconds:.0f} s, as the last first run here took"
+    return "15-40 s on two cores"
 
 
 if __name__ == "__main__":

@@ -49,6 +49,33 @@ class Status(IntEnum):
     HORIZON = L.ST_HORIZON
     FELL = L.ST_FELL
 
+    @property
+    def message(self) -> str:
+        """What this outcome means, in a sentence."""
+        return STATUS_MESSAGES[self]
+
+
+STATUS_MESSAGES = {
+    Status.OK: "the run ended as its controller intends",
+    Status.NO_SWITCH: (
+        "no swap: the free end never rose through the attached end's height within the "
+        "integrator's max_time (a start on the grazing border, where the free end only touches "
+        "that height, is one: the rising crossing the search controller waits for never "
+        "comes)"),
+    Status.ENERGY_NOT_RESTORED: ("the motor never restored the gait-start energy within the "
+                                 "integrator's max_time"),
+    Status.NO_RETURN_TO_VERTICAL: ("link 1 never returned to the vertical after the swap "
+                                   "within the integrator's max_time"),
+    Status.NON_FINITE: "the state became infinite or NaN",
+    Status.UNREACHABLE: ("not integrated: the start's energy cannot lift the free end to the "
+                         "attached end's height"),
+    Status.STEP_FAILURE: "the integrator's step size underflowed or its step budget ran out",
+    Status.BUFFER_FULL: "the event log or sample buffer was too small",
+    Status.END_TIME: "ran to the end time",
+    Status.HORIZON: "a segment reached its horizon before its guard fired",
+    Status.FELL: "the attached end sank farther than the fall bound",
+}
+
 
 RobotLike = Union[Robot, str]
 Controller = Union[HorizontalSearch, OpenLoop, PhaseSequence]
@@ -84,6 +111,7 @@ class GaitResult:
     ``error`` is NaN unless ``status`` is OK. Times [s]: ``t_switch`` the swap after the gait
     start, ``t_motor`` the motor-on duration, ``t_end`` the vertical crossing ending the gait.
     ``final_state`` is ``[x, y, th1, th2, dx, dy, dth1, dth2]`` in the frame after the swap.
+    ``message`` says in a sentence why a gait without an error ended as it did.
     """
 
     dtheta1: float
@@ -97,6 +125,11 @@ class GaitResult:
     nfev: int
     rejected: int
     final_state: np.ndarray
+
+    @property
+    def message(self) -> str:
+        """``status`` in a sentence (:attr:`Status.message`)."""
+        return self.status.message
 
 
 def evaluate_gaits(points, *, robot: RobotLike = "seed2009", torque: float | None = None,

@@ -245,7 +245,7 @@ def test_pipeline_builds_then_has_nothing_to_do(tmp_path):
 def test_report_command_says_what_it_did(reported_copy, monkeypatch):
     """``monkeystudy report``: a line per figure, then "up to date" when nothing changed;
     --force redraws; a figure that fails exits 1 and names it, the others are kept."""
-    from typer.testing import CliRunner
+    from click.testing import CliRunner
 
     from monkeystudy.cli import app
     from monkeystudy.plotting import report as R

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
-from typer.testing import CliRunner
+from click.testing import CliRunner
 
 from monkeystudy.cli import app
 from monkeystudy.study import StudyError, load_study, parse_study, plan_study, run_study

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
-from typer.testing import CliRunner
+from click.testing import CliRunner
 
 from monkeystudy.analysis.design import DesignSpace, evaluate_design
 from monkeystudy.cli import app

@@ -211,11 +211,14 @@ def _shards(out: Path) -> list[Path]:
     return list(out.glob(".map.parts/*/b*.npz"))
 
 
-def _start(study: Path, out: Path) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "monkeystudy.cli", "run", str(study),
+def _start(study: Path, out: Path, pause: int) -> subprocess.Popen:
+    """The run as a subprocess, paused once it has computed ``pause`` blocks (the test hook
+    ``$MONKEYSTUDY_PAUSE_AFTER_BLOCKS``), so every signal below lands at a known point."""
+    return subprocess.Popen([sys.executable, "-m", "monkeystudy", "run", str(study),
                              "--out", str(out), "--workers", "1"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+                            start_new_session=True,
+                            env={**os.environ, "MONKEYSTUDY_PAUSE_AFTER_BLOCKS": str(pause)})
 
 
 #: a hang guard for the subprocess runs, not a timing: on a loaded 2-core machine a resumed run
@@ -223,15 +226,15 @@ def _start(study: Path, out: Path) -> subprocess.Popen:
 HANG = 300
 
 
-def _wait_for_shards(proc: subprocess.Popen, out: Path, n: int, timeout: float = 180):
-    t0 = time.monotonic()
-    while len(_shards(out)) < n:
-        if proc.poll() is not None:
-            pytest.fail(f"run ended before {n} shards: rc {proc.returncode}\n"
-                        f"{proc.stderr.read()}")
-        if time.monotonic() - t0 > timeout:
-            pytest.fail("no shards appeared in time")
-        time.sleep(0.02)
+def _wait_until_paused(proc: subprocess.Popen) -> str:
+    """The run's standard error up to its pause line (fails if it ends first)."""
+    err = []
+    for line in proc.stderr:
+        err.append(line)
+        if "waiting for a signal" in line:
+            return "".join(err)
+    proc.wait(timeout=HANG)
+    pytest.fail(f"the run ended before its pause: rc {proc.returncode}\n{''.join(err)}")
 
 
 def _children(pid: int) -> list[int]:
@@ -280,9 +283,9 @@ def test_resume_after_ctrl_c_sigterm_kill9_and_dead_worker_is_bit_identical(tmp_
     #    finished blocks kept
     first = 0
     for sig, group in ((signal.SIGINT, True), (signal.SIGTERM, False)):
-        proc = _start(study, out)
+        proc = _start(study, out, pause=4)
         try:
-            _wait_for_shards(proc, out, first + 4)
+            _wait_until_paused(proc)
             if group:
                 os.killpg(proc.pid, sig)
             else:
@@ -291,16 +294,16 @@ def test_resume_after_ctrl_c_sigterm_kill9_and_dead_worker_is_bit_identical(tmp_
         finally:
             _kill_group(proc)
         assert proc.returncode == 3, err
-        assert "rerun to resume" in err
+        assert "rerun the same command to resume" in err and "Traceback" not in err
         assert len(_shards(out)) >= first + 4
         first = len(_shards(out))
     assert first < n_blocks
     assert not (out / "map.nc").exists()
 
     # 2. kill -9 of the driver and its workers: nothing to clean up but temp files
-    proc = _start(study, out)
+    proc = _start(study, out, pause=8)
     try:
-        _wait_for_shards(proc, out, first + 8)
+        _wait_until_paused(proc)
     finally:
         _kill_group(proc)
     second = len(_shards(out))
@@ -309,9 +312,9 @@ def test_resume_after_ctrl_c_sigterm_kill9_and_dead_worker_is_bit_identical(tmp_
 
     # 3. a pool worker dies (the OOM killer, say): exit code 3, finished blocks kept
     if sys.platform.startswith("linux"):
-        proc = _start(study, out)
+        proc = _start(study, out, pause=4)
         try:
-            _wait_for_shards(proc, out, second + 4)
+            _wait_until_paused(proc)
             workers = _pool_workers(proc.pid)
             assert workers, "no pool worker found"
             os.kill(workers[0], signal.SIGKILL)
@@ -365,7 +368,7 @@ def _fake_pool(exc):
 def test_lost_worker_is_an_interruption(tmp_path, monkeypatch):
     from concurrent.futures.process import BrokenProcessPool
     monkeypatch.setattr(R, "open_pool", _fake_pool(BrokenProcessPool("worker died")))
-    with pytest.raises(RunInterrupted, match="rerun to resume"):
+    with pytest.raises(RunInterrupted, match="rerun the same command to resume"):
         run_study(load_study(write_study(tmp_path)), tmp_path / "out")
     assert not list((tmp_path / "out").glob("*.nc"))
 
@@ -439,13 +442,17 @@ def test_first_run_says_it_compiles_and_a_cached_run_does_not(tmp_path, monkeypa
     monkeypatch.setattr(R, "KERNEL_CACHE_DIR", str(markers))
     helpers = []   # a first run compiles the loop's callees on the idle core, a cached one not
     monkeypatch.setattr(R.compiling, "start", lambda method: helpers.append(method))
+    recorded = []   # how long it took, for the next first run's estimate
+    monkeypatch.setattr(R.compiling, "record_compile_time",
+                        lambda what, seconds: recorded.append(what))
     loaded = load_study(write_study(tmp_path))
     first = _Lines()
     run_study(loaded, tmp_path / "a", workers=1, reporter=first)
     assert any(line.startswith("compiling the kernels this study uses (dop853")
                for line in first.lines), first.lines
     assert list(markers.glob("loaded-dop853*"))   # each method compiles its own kernels
-    assert helpers == ["dop853"]
+    assert helpers == ["dop853"] and recorded == ["dop853-runs"]
+    assert any(line.startswith("compiled the kernels in") for line in first.lines)
     again = _Lines()
     run_study(loaded, tmp_path / "b", workers=1, reporter=again)
     assert not any("compiling" in line for line in again.lines), again.lines

@@ -98,7 +98,9 @@ def submit_run(path: str, study: Path, out: Path | None, *, command: str, dry_ru
     req = {"protocol": PROTOCOL, "op": "run", "study": os.path.abspath(study),
            "shown": str(study), "cwd": os.getcwd(),
            "out": os.path.abspath(out) if out is not None else None, "dry_run": dry_run,
-           "command": command, "source_sha256": provenance.source_sha256()}
+           "command": command, "source_sha256": provenance.source_sha256(),
+           # for testing interruptions at a known point (monkeystudy.study.command.PAUSE_ENV)
+           "pause_after_blocks": os.environ.get("MONKEYSTUDY_PAUSE_AFTER_BLOCKS")}
     try:
         sock = connect(path)
     except ServiceError as exc:

@@ -17,7 +17,7 @@ from typing import Callable, TextIO
 from .. import __version__
 from ..exit_codes import EXIT_FAILED, EXIT_INVALID
 from ..study import provenance
-from ..study.command import execute_run
+from ..study.command import execute_run, pause_from_env
 from ..study.loader import StudyError, load_study, parse_study
 from ..study.plan import default_out
 from ..study.pool import local_pool
@@ -261,7 +261,8 @@ class Server:
                 err=lambda line: send({"err": line}),
                 reporter=lambda: PlainReporter(LineStream(send, "err"), every=2.0),
                 command=req.get("command") or f"monkeystudy run {shown_study} --server",
-                dry_run=bool(req.get("dry_run")), pool=self.pool, shown=shown)
+                dry_run=bool(req.get("dry_run")), pool=self.pool, shown=shown,
+                pause_after_blocks=pause_from_env(req.get("pause_after_blocks")))
         finally:
             finished.set()
         send({"exit": code})

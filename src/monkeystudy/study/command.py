@@ -24,11 +24,13 @@ from ..exit_codes import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_INVALID, EXIT_OK
 def execute_run(loaded: LoadedStudy, out: Path | None, *, echo: Callable[[str], None],
                 err: Callable[[str], None], reporter: Callable[[], Reporter],
                 command: str, workers: int | None = None, scheduler: str | None = None,
-                dry_run: bool = False, pool=None, shown: Callable[[Path], str] = str) -> int:
+                dry_run: bool = False, pool=None, shown: Callable[[Path], str] = str,
+                pause_after_blocks: int | None = None) -> int:
     """Run (or with ``dry_run`` describe) ``loaded`` into ``out``; return the exit code.
 
     ``reporter`` makes the progress reporter (only when there is something to run);
-    ``pool`` is a resident :class:`~.pool.Pool`; ``shown`` renders written paths.
+    ``pool`` is a resident :class:`~.pool.Pool`; ``shown`` renders written paths;
+    ``pause_after_blocks``: see :func:`~.runner.run_study` (for testing interruptions).
     """
     if dry_run:
         plan = plan_study(loaded, out)
@@ -39,7 +41,7 @@ def execute_run(loaded: LoadedStudy, out: Path | None, *, echo: Callable[[str], 
     rep = reporter()
     try:
         summary = run_study(loaded, out, workers=workers, scheduler=scheduler, reporter=rep,
-                            command=command, pool=pool)
+                            command=command, pool=pool, pause_after_blocks=pause_after_blocks)
     except RunInterrupted as exc:
         rep.close()
         err(f"monkeystudy: {exc}")
@@ -62,4 +64,18 @@ def execute_run(loaded: LoadedStudy, out: Path | None, *, echo: Callable[[str], 
     return EXIT_OK
 
 
-__all__ = ["EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_INVALID", "EXIT_OK", "execute_run"]
+#: environment variable that pauses a run after so many computed blocks (for testing
+#: interruptions at a known point; read by the command line and sent to a server)
+PAUSE_ENV = "MONKEYSTUDY_PAUSE_AFTER_BLOCKS"
+
+
+def pause_from_env(value: str | None) -> int | None:
+    """``$MONKEYSTUDY_PAUSE_AFTER_BLOCKS`` as a count (None: unset or not a number >= 0)."""
+    try:
+        n = int(value) if value else None
+    except ValueError:
+        return None
+    return n if n is not None and n >= 0 else None
+
+
+__all__ = ["EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_INVALID", "EXIT_OK", "PAUSE_ENV", "execute_run", "pause_from_env"]

@@ -1,8 +1,9 @@
 """Where tasks run: one code path for every executor with the ``concurrent.futures`` interface.
 
-A local ``ProcessPoolExecutor`` (all cores by default; workers forked from the driver, so they
-inherit the loaded kernels) or a Dask cluster's ``distributed.Client(address).get_executor()``.
-A :class:`Pool` pairs the executor with its number of task slots and a way to stop it at once.
+A local ``ProcessPoolExecutor`` (all cores by default; workers forked from the driver once it
+has loaded the kernels, so they inherit them) or a Dask cluster's
+``distributed.Client(address).get_executor()``. A :class:`Pool` pairs the executor with its
+number of task slots and a way to stop it at once.
 """
 from __future__ import annotations
 
@@ -54,6 +55,10 @@ class DeferredSignals:
         while self.pending:
             signum, frame = self.pending.pop(0)
             self.previous[signum](signum, frame)
+
+    def discard(self) -> None:
+        """Forget the signals that arrived (the work they would have stopped is done)."""
+        self.pending.clear()
 
     def __exit__(self, *exc) -> None:
         for sig, handler in self.previous.items():
@@ -141,8 +146,12 @@ class Pool:
         self._closer()
 
     def close(self) -> None:
-        self.executor.shutdown(wait=True)
-        self._closer()
+        """Shut down after a finished run. A Ctrl-C meanwhile stops nothing (everything is
+        done): it is not left to interrupt the executor's shutdown half way."""
+        with DeferredSignals() as signals:
+            self.executor.shutdown(wait=True)
+            self._closer()
+            signals.discard()
 
 
 #: environment variable choosing the local pool's start method (fork, forkserver, spawn)
@@ -154,7 +163,8 @@ def mp_context():
     workers inherit the imported modules and loaded kernels: no start-up of their own), else
     the ``forkserver`` (forking a multi-threaded process can copy a lock some other thread
     holds, e.g. after an in-process Dask cluster), else ``spawn``; or ``$MONKEYSTUDY_START_
-    METHOD``."""
+    METHOD``. A command-line run forks: its progress display starts after the pool, and the
+    thread showing a compile's elapsed time ends with the compile."""
     methods = mp.get_all_start_methods()
     method = os.environ.get(START_METHOD_ENV)
     if not method:
@@ -178,17 +188,24 @@ def default_workers() -> int:
         return os.cpu_count() or 1
 
 
+def local_pool_kind(workers: int | None = None) -> str:
+    """How :func:`local_pool` describes itself: ``2 local processes``."""
+    n = default_workers() if workers is None else int(workers)
+    return f"{n} local process{'es' if n != 1 else ''}"
+
+
 def local_pool(workers: int | None = None,
                warm_up: Callable[[], None] | None = None) -> Pool:
-    """A started local process pool of ``workers`` (default all cores); see :func:`open_pool`
-    for ``warm_up``. The caller closes it (``monkeystudy serve`` keeps one across runs)."""
+    """A started local process pool of ``workers`` (default all cores), forked (or started by
+    the forkserver) after ``warm_up`` has loaded the kernels in this process, so that no
+    worker compiles or waits for a compile. The caller closes it (``monkeystudy serve`` keeps
+    one across runs)."""
     n = default_workers() if workers is None else int(workers)
     if n < 1:
         raise ValueError(f"workers must be >= 1, got {n}")
-    ctx = mp_context()
-    if ctx.get_start_method() == "fork" and warm_up is not None:
+    if warm_up is not None:
         warm_up()
-        warm_up = None
+    ctx = mp_context()
     if not gc.isenabled():
         # start-up mode (the CLI): the modules and kernels loaded so far live as long as
         # the process, so keep them out of every later collection, here and in the forked
@@ -198,17 +215,17 @@ def local_pool(workers: int | None = None,
     def fork() -> Executor:
         ex = ProcessPoolExecutor(max_workers=n, mp_context=ctx,
                                  initializer=worker_init, initargs=(os.getpid(),))
-        # start the workers now: they load the kernels (forkserver preload) while the
-        # driver does its own warm-up and planning, instead of after it
-        with DeferredSignals():
-            for _ in range(n):
-                ex.submit(os.getpid)
+        try:
+            # start the workers now, while the driver plans its first tasks
+            with DeferredSignals():
+                for _ in range(n):
+                    ex.submit(os.getpid)
+        except BaseException:   # a Ctrl-C that came while they started: stop them
+            Pool(ex, n, "", lambda: None).abort()
+            raise
         return ex
 
-    ex = fork()
-    if warm_up is not None:
-        warm_up()
-    return Pool(ex, n, f"{n} local process{'es' if n > 1 else ''}", lambda: None, fork)
+    return Pool(fork(), n, local_pool_kind(n), lambda: None, fork)
 
 
 @contextmanager
@@ -217,9 +234,8 @@ def open_pool(workers: int | None = None, scheduler: str | None = None,
     """A local process pool (``workers``, default all cores) or, with ``scheduler``
     (``tcp://host:port``), the executor of a Dask distributed cluster.
 
-    ``warm_up`` loads the kernels in this process. With the forkserver (the default) it runs
-    while the workers start (they load their own from the preload); with ``fork`` it runs
-    first, and the forked workers inherit the loaded kernels."""
+    ``warm_up`` loads the kernels in this process, before a local pool's workers start (forked
+    workers inherit them; the forkserver's preload loads them from the cache it leaves)."""
     if scheduler:
         try:
             # distributed is optional and slow to import: only a --scheduler run needs it
@@ -237,11 +253,11 @@ def open_pool(workers: int | None = None, scheduler: str | None = None,
     else:
         pool = local_pool(workers, warm_up)
         warm_up = None
-    if warm_up is not None:
-        warm_up()
-    gc.enable()  # start-up is over (the CLI turns collection off while it imports)
     ok = False
     try:
+        if warm_up is not None:
+            warm_up()
+        gc.enable()  # start-up is over (the CLI turns collection off while it imports)
         yield pool
         ok = True
     finally:

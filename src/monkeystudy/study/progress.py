@@ -1,9 +1,31 @@
-"""Progress of a run: a rich progress bar with ETA on a terminal, plain log lines otherwise."""
+"""Progress of a run: a rich progress bar with ETA on a terminal, plain log lines otherwise.
+
+Both show a long wait (a first run compiling its kernels) as it happens:
+:meth:`Reporter.waiting` says what is being waited for at once, then its elapsed time (a line
+updated in place every second on a terminal; a line every ``every`` seconds otherwise), and
+how long it took. The thread that keeps the time is joined when the wait ends, and the
+terminal's progress display starts only with the first step: the run's process has no other
+thread when it forks its workers (:func:`monkeystudy.study.pool.mp_context`).
+"""
 from __future__ import annotations
 
 import sys
+import threading
 import time
-from typing import TextIO
+from contextlib import contextmanager
+from typing import Callable, Iterator, TextIO
+
+
+class Waited:
+    """What :meth:`Reporter.waiting` yields: the wait's length [s], once it is over."""
+
+    def __init__(self):
+        self.t0 = time.monotonic()
+        self.elapsed = 0.0
+
+    def stop(self) -> float:
+        self.elapsed = time.monotonic() - self.t0
+        return self.elapsed
 
 
 class Reporter:
@@ -21,8 +43,55 @@ class Reporter:
     def finish(self, name: str, message: str = "") -> None:
         pass
 
+    @contextmanager
+    def waiting(self, message: str, live: str = "waiting",
+                done: str = "done") -> Iterator[Waited]:
+        """Around a long wait: ``message`` at once, then ``live`` with the time elapsed while
+        it lasts, and ``done`` with the time it took once it is over (not if it was
+        interrupted)."""
+        self.log(message)
+        waited = Waited()
+        try:
+            yield waited
+        finally:
+            waited.stop()
+        self.log(f"{done} in {_seconds(waited.elapsed)}")
+
     def close(self) -> None:
         pass
+
+
+def units(n: int, unit: str) -> str:
+    """``unit`` (a plural: ``blocks``, ``branches``) for a count of ``n``: ``1 block``."""
+    if n == 1 and unit.endswith("s") and unit != "s":
+        unit = unit[:-2] if unit.endswith(("ches", "shes", "sses", "xes")) else unit[:-1]
+    return f"{n} {unit}"
+
+
+def _seconds(t: float) -> str:
+    return f"{t:.0f} s" if t >= 10 else f"{t:.1f} s"
+
+
+class _Ticker:
+    """A daemon thread that calls ``tick(elapsed)`` every ``period`` seconds until stopped
+    (and joined)."""
+
+    def __init__(self, tick: Callable[[float], None], period: float):
+        self._tick, self._period = tick, period
+        self._stop = threading.Event()
+        self._t0 = time.monotonic()
+        self._thread = threading.Thread(target=self._run, name="monkeystudy-elapsed",
+                                        daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.wait(self._period):
+            self._tick(time.monotonic() - self._t0)
+
+    def stop(self) -> None:
+        """Stop the thread and join it."""
+        self._stop.set()
+        self._thread.join()
 
 
 class PlainReporter(Reporter):
@@ -39,11 +108,29 @@ class PlainReporter(Reporter):
     def log(self, message: str) -> None:
         self._line(message)
 
+    @contextmanager
+    def waiting(self, message, live="waiting", done="done"):
+        self._line(message)
+        waited = Waited()
+        ticker = None
+        ok = False
+        try:
+            ticker = _Ticker(lambda el: self._line(f"{live}: {_seconds(el)}"), self.every)
+            yield waited
+            ok = True
+        finally:
+            if ticker is not None:
+                ticker.stop()
+            waited.stop()
+            if not ok:
+                self._line(f"{live}: stopped after {_seconds(waited.elapsed)}")
+        self._line(f"{done} in {_seconds(waited.elapsed)}")
+
     def start(self, name, total, done=0, unit="blocks"):
         now = time.monotonic()
         self._steps[name] = [total, done, done, unit, now, now]
         resumed = f" ({done} already saved)" if done else ""
-        self._line(f"{name}: {total} {unit}{resumed}")
+        self._line(f"{name}: {units(total, unit)}{resumed}")
 
     def advance(self, name, n=1):
         st = self._steps.get(name)
@@ -73,25 +160,65 @@ class RichReporter(Reporter):
     def __init__(self, stream: TextIO | None = None):
         # rich loads in ~0.1 s: only a run on a terminal pays for it
         from rich.console import Console
-        from rich.progress import (
-            BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn,
-            TimeRemainingColumn,
-        )
 
         self.console = Console(file=stream or sys.stderr)
-        self.progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(),
-                                 MofNCompleteColumn(), TextColumn("{task.fields[unit]}"),
-                                 TimeElapsedColumn(), TextColumn("eta"), TimeRemainingColumn(),
-                                 console=self.console, transient=False)
-        self.progress.start()
+        self.progress = None
         self._tasks: dict[str, int] = {}
 
+    def _display(self):
+        """The progress display, started with the first step (its refresh thread with it)."""
+        if self.progress is None:
+            # loaded with the first step's display, after the compile
+            from rich.progress import (
+                BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn,
+                TimeRemainingColumn,
+            )
+            self.progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(),
+                                     MofNCompleteColumn(), TextColumn("{task.fields[unit]}"),
+                                     TimeElapsedColumn(), TextColumn("eta"),
+                                     TimeRemainingColumn(), console=self.console,
+                                     transient=False)
+            self.progress.start()
+        return self.progress
+
     def log(self, message):
-        self.progress.console.print(message, markup=False, highlight=False)
+        self.console.print(message, markup=False, highlight=False, soft_wrap=True)
+
+    @contextmanager
+    def waiting(self, message, live="waiting", done="done"):
+        out = self.console.file
+        lock = threading.Lock()
+
+        def show(elapsed: float) -> None:
+            text = f"{live}: {_seconds(elapsed)}"
+            with lock:
+                out.write("\r\x1b[2K" + text[:max(self.console.width - 1, 20)])
+                out.flush()
+
+        self.log(message)
+        waited = Waited()
+        ticker = None
+        ok = False
+        try:
+            show(0.0)
+            ticker = _Ticker(show, 1.0)
+            yield waited
+            ok = True
+        finally:
+            if ticker is not None:
+                ticker.stop()
+            waited.stop()
+            with lock:
+                out.write("\r\x1b[2K")
+                out.flush()
+            self.log(f"{done} in {_seconds(waited.elapsed)}" if ok else
+                     f"{live}: stopped after {_seconds(waited.elapsed)}")
 
     def start(self, name, total, done=0, unit="blocks"):
-        self._tasks[name] = self.progress.add_task(name, total=total, completed=done,
-                                                   unit=unit)
+        if done:
+            self.log(f"{name}: {units(total, unit)} ({done} already saved)")
+        self._tasks[name] = self._display().add_task(name, total=total, completed=done,
+                                                     unit=units(total, unit).split(" ", 1)[1])
 
     def advance(self, name, n=1):
         if name in self._tasks:
@@ -105,7 +232,8 @@ class RichReporter(Reporter):
             self.log(f"{name}: {message}")
 
     def close(self):
-        self.progress.stop()
+        if self.progress is not None:
+            self.progress.stop()
 
 
 def make_reporter(stream: TextIO | None = None) -> Reporter:

@@ -11,6 +11,7 @@ local process pool or a Dask cluster (:mod:`monkeystudy.study.pool`).
 """
 from __future__ import annotations
 
+import time
 import traceback
 from collections import deque
 from concurrent.futures import FIRST_COMPLETED, CancelledError, Executor, Future, wait
@@ -38,7 +39,7 @@ from .blocks import Block, Task, clean_parts, make_blocks, read_shard, saved_blo
 from .errors import RunFailed, RunInterrupted
 from .loader import LoadedStudy
 from .plan import Plan, StepPlan, plan_study
-from .pool import DeferredSignals, Pool, open_pool
+from .pool import DeferredSignals, Pool, local_pool_kind, open_pool
 from .progress import Reporter
 from .spec import GaitSpec, gait_json, gait_spec, integrator_fields
 from .steps import Dependency, StepContext
@@ -136,8 +137,10 @@ class StudyRun:
     """One run of a plan on a pool: starts steps when their dependencies are done, keeps the
     results of their tasks, and finishes each step when its last task is in."""
 
-    def __init__(self, plan: Plan, pool: Pool, reporter: Reporter, history: str):
+    def __init__(self, plan: Plan, pool: Pool, reporter: Reporter, history: str,
+                 pause_after_blocks: int | None = None):
         self.plan = plan
+        self.pause_after_blocks = pause_after_blocks
         self.pool = pool
         self.rep = reporter
         self.history = history
@@ -241,7 +244,7 @@ class StudyRun:
         """Submit queued tasks up to twice the pool's slots (an exclusive task alone);
         returns the error of a pool that broke since the last wait."""
         self._start_ready()
-        while self.queue and len(self.inflight) < 2 * self.pool.slots:
+        while self.queue and len(self.inflight) < 2 * self.pool.slots and not self.paused:
             if any(x.task.exclusive for x in self.inflight.values()) or \
                     (self.queue[0].task.exclusive and self.inflight):
                 break   # an exclusive task runs alone: wait for the pool to drain
@@ -251,6 +254,21 @@ class StudyRun:
             except BrokenProcessPool as exc:  # a worker died since the last wait
                 return exc
         return None
+
+    @property
+    def paused(self) -> bool:
+        """The test hook ``pause_after_blocks`` holds the run (:func:`run_study`)."""
+        return self.pause_after_blocks is not None and \
+            self.computed >= self.pause_after_blocks
+
+    def _pause(self, signals: DeferredSignals) -> None:
+        """Hold the run until a signal's handler raises or the pool loses a worker (the
+        test hook)."""
+        self.rep.log(f"paused after {plural(self.computed, 'computed block')} "
+                     "($MONKEYSTUDY_PAUSE_AFTER_BLOCKS), waiting for a signal")
+        while self.pool.usable:
+            signals.check()
+            time.sleep(0.05)
 
     def run(self) -> None:
         """Submit, wait and handle until every step is done. Signals (Ctrl-C, SIGTERM) take
@@ -267,6 +285,10 @@ class StudyRun:
             if failure is None and broken is None:
                 broken = self._fill()
             if not self.inflight and broken is None:
+                if self.paused and failure is None and (self.queue or self.waiting):
+                    self._pause(signals)
+                    broken = BrokenProcessPool("a worker died while the run was paused")
+                    continue
                 break
             finished, _ = wait(list(self.inflight), timeout=0.5, return_when=FIRST_COMPLETED) \
                 if self.inflight else (set(), set())
@@ -295,7 +317,8 @@ class StudyRun:
             if broken is not None:
                 self.pool.abort()
                 raise RunInterrupted(f"a worker died ({type(broken).__name__}: {broken}); "
-                                     f"finished blocks are saved, rerun to resume")
+                                     "finished blocks are saved: rerun the same command to "
+                                     "resume")
         if failure is not None:
             if isinstance(failure, RunFailed):
                 raise failure
@@ -316,12 +339,16 @@ def is_lost_worker(exc: BaseException) -> bool:
 def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
               workers: int | None = None, scheduler: str | None = None,
               reporter: Reporter | None = None, command: str | None = None,
-              pool: Pool | None = None) -> RunSummary:
+              pool: Pool | None = None, pause_after_blocks: int | None = None) -> RunSummary:
     """Run a study: every step not up to date, resuming from saved shards.
 
     ``pool``: a resident pool to run on instead of opening one (``monkeystudy serve``); it
     stays open after a finished run and is aborted (its workers stopped) after any other end,
     so that no task of this run outlives it: check :attr:`Pool.usable` before reusing it.
+
+    ``pause_after_blocks`` (for testing interruptions; the command line reads
+    ``$MONKEYSTUDY_PAUSE_AFTER_BLOCKS``): once this many blocks were computed, submit nothing
+    more, say so and wait for a signal.
 
     Raises :class:`RunFailed` (a task raised, exit 1) or :class:`RunInterrupted` (Ctrl-C,
     SIGTERM or a dead worker, exit 3; rerun to resume).
@@ -340,33 +367,64 @@ def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
                              f"python: monkeystudy.study.run_study({str(loaded.path)!r})")
     todo = [s for s in plan.steps if not s.up_to_date]
     spec = gait_spec(loaded.study)
+    where = (pool.kind if pool is not None else f"dask {scheduler}" if scheduler else
+             local_pool_kind(workers))
+    reporter.log(f"{loaded.study.name}: {plural(len(todo), 'step')} to run "
+                 f"({', '.join(s.name for s in todo)}) on {where} -> {plan.out}")
     run = None
     try:
         def warm_up():
             needs = {"runs": any(s.kind.needs_runs(s.step) for s in todo),
                      "variational": any(s.kind.needs_variational(s.step) for s in todo)}
-            marker = kernels_marker(spec.integrator.method, **needs)
-            if pool is None and (marker is None or not marker.exists()):
-                # said once: a cached run loads them in about a second, silently
-                reporter.log(f"compiling the kernels this study uses ({spec.integrator.method}"
-                             "; first run with this code: 15 s or more on two cores, "
-                             "cached afterwards)")
+            method = spec.integrator.method
+            marker = kernels_marker(method, **needs)
             # nothing loaded yet for this method: compile the loop's callees on the idle core
-            first = marker is not None and not any(
-                marker.parent.glob(f"loaded-{spec.integrator.method}*"))
-            compiling.call_with_frame_room(lambda: load_kernels(spec, **needs, ahead=first))
+            first = marker is not None and not any(marker.parent.glob(f"loaded-{method}*"))
+
+            def load():
+                compiling.call_with_frame_room(lambda: load_kernels(spec, **needs,
+                                                                     ahead=first))
+            if pool is not None or marker is None or marker.exists():
+                load()     # cached: loads in about a second, silently
+                return
+            what = marker.name.removeprefix("loaded-")
+            with reporter.waiting(f"compiling the kernels this study uses ({method}), as the "
+                                  f"first run with this code does: "
+                                  f"{compiling.compile_estimate(what)}; cached for later runs",
+                                  live="compiling", done="compiled the kernels") as timer:
+                load()
+            if first:
+                compiling.record_compile_time(what, timer.elapsed)
 
         with (open_pool(workers, scheduler, warm_up) if pool is None
               else resident_pool(pool, warm_up)) as used:
-            reporter.log(f"{loaded.study.name}: {len(todo)} step(s) to run on {used.kind} "
-                         f"-> {plan.out}")
-            run = StudyRun(plan, used, reporter, history)
+            run = StudyRun(plan, used, reporter, history, pause_after_blocks)
             run.run()
     except KeyboardInterrupt:
-        saved = sum(len(s.saved) for s in plan.steps if s.blocks)
-        raise RunInterrupted(f"interrupted; {saved} finished blocks are saved, rerun to "
-                             "resume") from None
+        raise RunInterrupted(interrupted_message(plan, run)) from None
     return RunSummary(plan.out, run.written, current, run.computed, run.reused, run.notes)
+
+
+def plural(n: int, noun: str) -> str:
+    """``1 step``, ``2 steps``."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+def interrupted_message(plan: Plan, run: "StudyRun | None") -> str:
+    """What an interrupted run leaves: the datasets it wrote and the blocks it saved."""
+    todo = [s for s in plan.steps if not s.up_to_date]
+    written = len(run.written) if run is not None else 0
+    saved = sum(len(s.saved) for s in todo if s.blocks and s.name not in
+                (run.done if run is not None else ()))
+    if written == 0 and saved == 0:
+        return ("interrupted before any step finished: nothing to keep yet (compiled kernels "
+                "are cached); rerun the same command to start again")
+    parts = []
+    if written:
+        parts.append(f"{written} of {plural(len(todo), 'dataset')} written")
+    if saved:
+        parts.append(f"{plural(saved, 'finished block')} saved")
+    return f"interrupted; {' and '.join(parts)}: rerun the same command to resume"
 
 
 @contextmanager

@@ -102,9 +102,13 @@ def refine_task(spec: GaitSpec, start: tuple[float, float], *, xatol: float, fat
     return r
 
 
-def outcome_text(converged: int, message: str, nit: int) -> str:
-    """``converged after 30 iterations`` or why Nelder-Mead stopped without converging."""
-    after = f" after {nit} iterations" if nit >= 0 else ""
+def outcome_text(converged: int, message: str, iterations: int) -> str:
+    """``converged after 30 iterations`` or why Nelder-Mead stopped without converging.
+
+    ``iterations`` counts the simplex updates recorded: the dataset's iterates less the start
+    (iterate 0), as its convergence figure numbers them."""
+    after = (f" after {iterations} iteration{'s' if iterations != 1 else ''}"
+             if iterations >= 0 else "")
     if converged:
         return f"converged{after}"
     why = ("the iteration limit" if "iterations" in message else
@@ -167,8 +171,10 @@ def write_refine(path: Path, attrs: dict, results: list[dict], multi: bool) -> N
         D.add_variable(nc, "converged", sdim, np.int8, {"long_name": "Nelder-Mead met xatol and fatol "
                                                            "(1) or hit a limit (0)",
                                                "units": "1"}, col("converged", np.int8))
-        D.add_variable(nc, "nit", sdim, np.int32, {"long_name": "Nelder-Mead iterations", "units": "1"},
-             col("nit", np.int32))
+        D.add_variable(nc, "nit", sdim, np.int32,
+                       {"long_name": "Nelder-Mead iterations as scipy counts them (the "
+                                     "initial simplex is one)", "units": "1"},
+                       col("nit", np.int32))
         D.add_variable(nc, "n_iterations", sdim, np.int32, {"long_name": "recorded iterates (start "
                                                                "included)", "units": "1"},
              np.array([len(r["iterate_error"]) for r in results], np.int32)
@@ -282,7 +288,7 @@ class RefineKind(StepKind):
         kind = (f", {gait_kind_text(b['vertical_passes'])}" if ctx.gait_kind == "horizontal"
                 else "")
         msg = (f"best error {b['error']:.3g} at ({b['x'][0]:.6g}, {b['x'][1]:.6g}){kind}, "
-               f"{outcome_text(b['converged'], b['message'], b['nit'])}")
+               f"{outcome_text(b['converged'], b['message'], len(b['iterate_error']) - 1)}")
         if len(results) > 1:
             n_conv = sum(r["converged"] for r in results)
             msg += f" (start {best}); {n_conv} of {len(results)} starts converged"
@@ -294,7 +300,9 @@ class RefineKind(StepKind):
                 np.full(ds["dtheta1"].size, default)
 
         d1, d2, err, st = col("dtheta1"), col("dtheta2"), col("error"), col("status", 0)
-        conv, nit, passes = col("converged", 0), col("nit", -1), col("vertical_passes", -2)
+        conv, passes = col("converged", 0), col("vertical_passes", -2)
+        # recorded iterates per start, the start (iterate 0) included
+        iterates = col("n_iterations", ds.sizes.get("iteration", 0))
         ts, tm, s1, s2 = col("t_switch"), col("t_motor"), col("start_dtheta1"), \
             col("start_dtheta2")
         msgs = [m for m in (ds.attrs.get("message", ""),)]
@@ -310,6 +318,6 @@ class RefineKind(StepKind):
                      else "")
             lines.append(f"start {k}: ({s1[k]:.6g}, {s2[k]:.6g}) -> ({d1[k]:.6g}, {d2[k]:.6g}) "
                          f"rad s-1, error {err[k]:.4g}, {STATUS_NAMES[int(st[k])]}{kind}; "
-                         f"{outcome_text(int(conv[k]), str(msgs[min(k, len(msgs) - 1)]), int(nit[k]))}"
+                         f"{outcome_text(int(conv[k]), str(msgs[min(k, len(msgs) - 1)]), int(iterates[k]) - 1)}"
                          f"{times}")
         return lines

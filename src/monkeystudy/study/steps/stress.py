@@ -22,7 +22,7 @@ from ..spec import GaitSpec
 from .base import Figure, StepContext, StepKind, max_drop_of
 
 
-#: defaults of the stress step's scenarios (``monkeystudy.stress``)
+#: defaults of the stress step's scenarios (:mod:`monkeystudy.analysis.stress`)
 STRESS_RTOLS = [1e-8, 1e-10, 1e-12]
 STRESS_START = [0.902, 10.935]
 STRESS_POINTS = [[0.5, 11.0], [2.0, 6.0], [5.0, -3.0], [0.1, 0.1], [0.902, 10.935]]
@@ -31,8 +31,9 @@ STRESS_CASES = ["mass_ratio_1_100", "mass_ratio_100_1", "tiny_inertia", "cg_at_t
 
 
 class EnergyDriftScenario(StrictModel):
-    """Unforced, frictionless runs of the study's robot (``monkeystudy.stress.energy_drift``):
-    relative energy drift at log-spaced checkpoints, one run per phase and tolerance."""
+    """Unforced, frictionless runs of the study's robot
+    (:func:`monkeystudy.analysis.stress.energy_drift`): relative energy drift at log-spaced
+    checkpoints, one run per phase and tolerance."""
 
     phases: list[Literal["swing", "flight"]] = Field(
         ["swing", "flight"], min_length=1, description="swing: hanging from end A, started "
@@ -70,8 +71,8 @@ class LongRunScenario(StrictModel):
 
 
 class ExtremeScenario(StrictModel):
-    """Extreme parameters (``monkeystudy.stress.EXTREME_CASES``): status counts per case and
-    whether every result marked ok is finite."""
+    """Extreme parameters (:data:`monkeystudy.analysis.stress.EXTREME_CASES`): status counts
+    per case and whether every result marked ok is finite."""
 
     cases: list[Literal[tuple(STRESS_CASES)]] = Field(  # type: ignore[valid-type]
         STRESS_CASES, min_length=1, description="cases to run: " + ", ".join(STRESS_CASES))
@@ -88,9 +89,9 @@ class ExtremeScenario(StrictModel):
 
 
 class StressStep(StrictModel):
-    """Numerical stress tests (``monkeystudy.stress``): energy drift of unforced runs, long
-    controller runs, extreme parameters. Every scenario runs, with its defaults unless
-    given. Deterministic (no timings): the dataset is bit-reproducible."""
+    """Numerical stress tests (:mod:`monkeystudy.analysis.stress`): energy drift of unforced
+    runs, long controller runs, extreme parameters. Every scenario runs, with its defaults
+    unless given. Deterministic (no timings): the dataset is bit-reproducible."""
 
     name: Name
     kind: Literal["stress"]

@@ -568,8 +568,10 @@ class SurvivalKind(StepKind):
                      0, 0, math.nan, math.nan)
             counts = ds["failure_count"].values[i]
             ended = ", ".join(f"{modes[k]} {int(c)}" for k, c in enumerate(counts) if c)
-            lines.append(f"level {i} ({noise}): MFPT {mfpt_text(m)}, "
-                         f"{float(ds['mfpt_distance'][i]):.4g} m; {ended}")
+            distance = float(ds["mfpt_distance"][i])
+            walked = (f", {distance:.4g} m walked on average before a failure"
+                      if math.isfinite(distance) else "")
+            lines.append(f"level {i} ({noise}): MFPT {mfpt_text(m)}{walked}; runs: {ended}")
         return lines
 
 

@@ -185,8 +185,9 @@ class WorkPrecisionKind(StepKind):
                      first_swing_only=int(st.first_swing_only),
                      n_points_requested=st.n_points, scipy_points=st.scipy_points)
         write_work_precision(ctx.path, attrs, r)
-        return (f"{len(r['methods'])} methods x {len(r['rtols'])} rtols on {r['n_points']} "
-                f"points (timings are machine-dependent)")
+        n_m, n_r, n_p = len(r["methods"]), len(r["rtols"]), r["n_points"]
+        return (f"{n_m} method{'s' if n_m != 1 else ''} x {n_r} rtol{'s' if n_r != 1 else ''} "
+                f"on {n_p} point{'s' if n_p != 1 else ''} (timings are machine-dependent)")
 
     def describe(self, ds) -> list[str]:
         a = ds.attrs

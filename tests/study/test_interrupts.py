@@ -1,0 +1,172 @@
+"""Ctrl-C as a person presses it: in a pseudo-terminal, at known points of a first run.
+
+Every interruption lands at a point the test has seen the run reach (the live compile line;
+the pause that ``$MONKEYSTUDY_PAUSE_AFTER_BLOCKS`` holds after so many computed blocks), never
+at a time hoped to fall inside the run, so the tests hold on a fast or a slow machine. A
+terminal's Ctrl-C is SIGINT to the foreground process group: the driver, its pool's workers
+and the compiling helper alike.
+"""
+from __future__ import annotations
+
+import os
+import pty
+import re
+import select
+import signal
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from monkeystudy.study.loader import load_study
+from monkeystudy.study.runner import run_study
+
+from studyhelpers import assert_same_datasets, write_study
+
+pytestmark = pytest.mark.skipif(os.name != "posix", reason="pseudo-terminals and signals")
+
+STUDY = """\
+schema_version: 1
+name: interrupted
+robot: seed2009
+gait: {kind: horizontal, motor_torque: 0.6354, tick: 0.001}
+integrator: {rtol: 1.0e-8, atol: 1.0e-10}
+steps:
+  - {name: map, kind: grid, block_size: 40,
+     dtheta1: {start: 0.0, stop: 3.0, num: 30}, dtheta2: {start: 9.0, stop: 14.0, num: 40}}
+  - {name: best, kind: refine, start: {from: map, best: 1}, maxiter: 10}
+"""
+N_BLOCKS = 30
+
+#: a hang guard, not a timing: a cold compile on a loaded 2-core machine can take minutes
+HANG = 600.0
+
+
+class Terminal:
+    """``monkeystudy ARGS`` in a pseudo-terminal: its output as it comes, Ctrl-C, exit code."""
+
+    def __init__(self, args: list[str], env: dict[str, str]):
+        self.pid, self.fd = pty.fork()
+        if self.pid == 0:  # the child: the command, as the terminal's foreground job
+            os.execvpe(sys.executable, [sys.executable, "-m", "monkeystudy", *args],
+                       {**os.environ, **env})
+        self.output = ""
+        self.code: int | None = None
+
+    def _read(self, timeout: float) -> bool:
+        """Read what is there within ``timeout``; False once the terminal is closed."""
+        ready, _, _ = select.select([self.fd], [], [], timeout)
+        if not ready:
+            return True
+        try:
+            data = os.read(self.fd, 65536)
+        except OSError:   # EIO: the child closed the terminal
+            return False
+        if not data:
+            return False
+        self.output += data.decode(errors="replace")
+        return True
+
+    def wait_for(self, pattern: str, timeout: float = HANG) -> None:
+        t0 = time.monotonic()
+        while not re.search(pattern, self.output):
+            if not self._read(0.1) or time.monotonic() - t0 > timeout:
+                self.close()
+                pytest.fail(f"never printed {pattern!r} (exit {self.code}):\n{self.output}")
+
+    def ctrl_c(self) -> None:
+        os.killpg(self.pid, signal.SIGINT)
+
+    def close(self, timeout: float = HANG) -> int:
+        t0 = time.monotonic()
+        while self._read(0.1) and time.monotonic() - t0 < timeout:
+            pass
+        if self.code is None:
+            try:
+                _, status = os.waitpid(self.pid, 0 if time.monotonic() - t0 < timeout
+                                       else os.WNOHANG)
+                self.code = os.waitstatus_to_exitcode(status)
+            except ChildProcessError:
+                pass
+            if self.code is None:
+                os.killpg(self.pid, signal.SIGKILL)
+                os.waitpid(self.pid, 0)
+                self.code = -9
+            os.close(self.fd)
+        return self.code
+
+
+def _run(args, env=None) -> Terminal:
+    return Terminal(["run", *map(str, args)], env or {})
+
+
+def _shards(out: Path) -> int:
+    return len(list(out.glob(".map.parts/*/b*.npz")))
+
+
+def _assert_one_clean_line(term: Terminal, needle: str) -> None:
+    assert term.code == 3, term.output
+    assert "Traceback" not in term.output and "Aborted" not in term.output, term.output
+    assert needle in term.output, term.output
+
+
+@pytest.mark.slow
+def test_ctrl_c_while_compiling_exits_3_and_the_rerun_completes(tmp_path):
+    """A first run with an empty kernel cache, interrupted while it compiles: exit 3, one line,
+    no traceback, no helper process left; the same command then compiles on and finishes."""
+    study = write_study(tmp_path, STUDY, "s.yaml")
+    out = tmp_path / "out"
+    env = {"NUMBA_CACHE_DIR": str(tmp_path / "cold-cache")}
+    term = _run([study, "--out", out, "--workers", "2"], env)
+    term.wait_for(r"compiling: [1-9]")   # a second into the compile
+    term.ctrl_c()
+    term.close()
+    _assert_one_clean_line(term, "interrupted before any step finished")
+    assert "compiling: stopped after" in term.output   # it landed inside the compile
+    assert not list(out.glob("*.nc"))
+    helpers = [p for p in Path("/proc").glob("[0-9]*/cmdline")
+               if b"monkeystudy.compiling" in _read_bytes(p) and
+               str(tmp_path).encode() in _read_bytes(p.with_name("environ"))]
+    assert not helpers, "the compiling helper outlived the run"
+
+    again = _run([study, "--out", out, "--workers", "2"], env)
+    assert again.close() == 0, again.output
+    assert "compiled the kernels in" in again.output
+    assert (out / "map.nc").exists() and (out / "best.nc").exists()
+
+
+def _read_bytes(path: Path) -> bytes:
+    try:
+        return path.read_bytes()
+    except OSError:
+        return b""
+
+
+@pytest.mark.slow
+def test_ctrl_c_in_a_block_and_in_a_resumed_run_then_the_rerun_is_bit_identical(tmp_path):
+    """Interrupted after 3 computed blocks, then after 5 more of the resumed run: exit 3 with
+    one line each time, shards kept; the third run computes only what is missing, and its
+    datasets equal an uninterrupted run's bit for bit."""
+    study = write_study(tmp_path, STUDY, "s.yaml")
+    out = tmp_path / "out"
+    saved = 0
+    for pause in (3, 5):
+        term = _run([study, "--out", out, "--workers", "2"],
+                    {"MONKEYSTUDY_PAUSE_AFTER_BLOCKS": str(pause)})
+        term.wait_for("waiting for a signal")
+        term.ctrl_c()
+        term.close()
+        _assert_one_clean_line(term, "finished blocks saved: rerun the same command to resume")
+        assert _shards(out) >= saved + pause
+        saved = _shards(out)
+        assert saved < N_BLOCKS and not (out / "map.nc").exists()
+        assert term.output.rfind("\x1b[?25h") >= term.output.rfind("\x1b[?25l"), \
+            "the terminal's cursor was left hidden"
+
+    last = _run([study, "--out", out, "--workers", "2"])
+    assert last.close() == 0, last.output
+    assert f"({saved} already saved)" in last.output
+    clean = tmp_path / "clean"
+    run_study(load_study(study), clean, workers=1)
+    assert_same_datasets(clean, out, ["map.nc", "best.nc"])
