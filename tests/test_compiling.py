@@ -76,6 +76,10 @@ def test_the_callees_are_those_the_loop_compiles(tmp_path):
 
 @pytest.mark.slow
 def test_two_processes_compile_into_one_cache(tmp_path, monkeypatch):
+    """A first run's two processes (the helper and the driver's first gait) compile into one
+    empty cache: no temporary file is left, a third process compiles nothing and computes
+    the same bits, and the cache holds DOP853's swing step but no other method's steps and no
+    flight step (the method and the phase set are compile-time choices)."""
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
     helper = compiling.start("dop853")     # compiles the callees, last first ...
     try:
@@ -85,6 +89,11 @@ def test_two_processes_compile_into_one_cache(tmp_path, monkeypatch):
     assert helper.returncode == 0
     assert driver["compiled"] > 0
     assert not [p for p in tmp_path.rglob("*") if ".tmp." in p.name]
+    cached = {p.name for p in tmp_path.rglob("*.nbi")}
+    assert any(n.startswith("rk_explicit.dop853_step4-") for n in cached), sorted(cached)
+    assert not any(n.startswith(("rk_explicit.vern9_", "rk_explicit.rk45_",
+                                 "rk_explicit.dop853_step8-", "rk_explicit.dop853_dense8-"))
+                   for n in cached), sorted(n for n in cached if n.startswith("rk_explicit."))
     # a third process compiles nothing and computes the same bits as this one
     third = _python(GAITS % POINTS, tmp_path)
     assert third["compiled"] == 0, third
