@@ -24,6 +24,7 @@ from ..study.pool import local_pool
 from ..study.progress import PlainReporter
 from ..study.runner import load_kernels
 from ..study.spec import gait_spec
+from ..study.steps import REGISTRY
 from .client import PROTOCOL, MessageReader, ServiceError, request, send_message
 
 
@@ -79,7 +80,9 @@ class Server:
         try:
             self._check_free()
             self.code = provenance.source_sha256()
-            provenance.code_sha256()        # pinned (cached) with the code it describes
+            for kind in REGISTRY.values():  # pinned (cached) with the code they describe
+                kind.code_sha256
+            provenance.code_sha256()
             provenance.git_revision()       # pinned too: the datasets' provenance attrs
             provenance.library_versions()
             t0 = time.perf_counter()

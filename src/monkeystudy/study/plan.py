@@ -108,26 +108,28 @@ def default_out(study: Study) -> Path:
 
 def step_keys(study: Study) -> dict[str, str]:
     """Each step's content key: sha256 of everything its dataset depends on - the robot, the
-    gait, the integrator, the step's own settings, its dependencies' keys and the code.
-    Editing one step (or adding one) leaves the others' keys, datasets and shards valid;
-    editing the robot, gait or integrator changes every key."""
+    gait, the integrator, the step's own settings, its dependencies' keys and the code its
+    kind runs. Editing one step (or adding one), or the code of another kind, leaves the
+    others' keys, datasets and shards valid; editing the robot, gait or integrator changes
+    every key."""
     common = {"schema_version": study.schema_version, "robot": study.to_robot().to_dict(),
               "gait": gait_json(study),
-              "integrator": integrator_fields(study.integrator.to_integrator()),
-              "code": P.code_sha256()}
+              "integrator": integrator_fields(study.integrator.to_integrator())}
     keys: dict[str, str] = {}
     for s in study.steps:
+        kind = kind_of(s)
         payload = dict(common, step=s.model_dump(mode="json", by_alias=True),
-                       deps=[keys[d] for d in kind_of(s).deps(s)])
+                       code=kind.code_sha256, deps=[keys[d] for d in kind.deps(s)])
         keys[s.name] = hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
     return keys
 
 
-def dataset_current(path: Path, step_sha256: str) -> bool:
-    """The dataset exists and was made from the same step key (:func:`step_keys`)."""
+def dataset_current(path: Path, step_sha256: str, code_sha256: str) -> bool:
+    """The dataset exists and was made from the same step key (:func:`step_keys`) by the same
+    code of its kind."""
     attrs = D.read_attrs(path)
     return bool(attrs) and attrs.get("step_sha256") == step_sha256 and \
-        attrs.get("code_sha256") == P.code_sha256()
+        attrs.get("code_sha256") == code_sha256
 
 
 def plan_study(loaded: LoadedStudy, out: str | Path | None = None) -> Plan:
@@ -143,7 +145,8 @@ def plan_study(loaded: LoadedStudy, out: str | Path | None = None) -> Plan:
         kind = kind_of(s)
         path = out / f"{s.name}.nc"
         deps = kind.deps(s)
-        current = dataset_current(path, keys[s.name]) and not (set(deps) & stale)
+        current = dataset_current(path, keys[s.name], kind.code_sha256) and \
+            not (set(deps) & stale)
         if not current:
             stale.add(s.name)
         sp = StepPlan(s, kind, path, deps, current, keys[s.name], gait_kind=study.gait.kind,

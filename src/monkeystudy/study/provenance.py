@@ -1,12 +1,14 @@
 """Provenance of datasets: package version, git revision, code hash, library versions, history.
 
-``code_sha256`` hashes the source files that decide what a study computes, together with the
-package version: the step kinds (:mod:`monkeystudy.study.steps`: their models, tasks and
-dataset writers) and every module of the package they import, followed through the import
-graph (imports inside functions too) - the analysis, the simulation API, the kernels. The
-figures, the command line, the service and the benchmark are not among them: editing them
-reruns nothing. With the study text's hash it keys shards and datasets: change either and
-nothing old is reused. It does not depend on git, so an uncommitted edit counts too.
+``code_sha256(module)`` hashes, with the package version, the source files that decide what
+one step kind computes: the kind's module (its model, tasks and dataset writer) and every
+module of the package it imports, followed through the import graph (imports inside functions
+too) - the analysis, the simulation API, the kernels. A package's ``__init__`` counts when a
+name is imported from it, not when the import only passes through it (the step registry and
+the lazy re-exports decide nothing), so editing one kind, or adding one, leaves the other
+kinds' datasets current. The figures, the command line, the service and the benchmark are
+never among the sources: editing them reruns nothing. With the study text's hash it keys
+shards and datasets. It does not depend on git, so an uncommitted edit counts too.
 """
 from __future__ import annotations
 
@@ -91,33 +93,47 @@ def import_statements(text: str) -> list[tuple[int, str, list[str]]]:
 
 
 def _imported_files(path: Path) -> set[Path]:
-    """Sources of the package modules ``path`` imports (anywhere in the file), with the
-    ``__init__`` of every package on the way (Python runs them on import)."""
+    """Sources of the package modules ``path`` imports (anywhere in the file): for
+    ``from X import n`` the module ``X.n`` if there is one, else ``X`` itself; for
+    ``import X.Y``, ``X.Y``. The packages an import only passes through are left out."""
     here = list(path.relative_to(_PKG).with_suffix("").parts)[:-1]   # its package
+    modules = _package_modules()
     found: set[Path] = set()
     for level, module, names in import_statements(path.read_text()):
         if level:
             base = here[:len(here) - (level - 1)]
             mod = base + (module.split(".") if module else [])
-            targets = [mod] + [mod + [n] for n in names]
         elif module:
-            targets = [module.split(".")[1:]] if module.split(".")[0] == "monkeystudy" else []
-            targets += [t + [n] for t in targets for n in names]
+            if module.split(".")[0] != "monkeystudy":
+                continue
+            mod = module.split(".")[1:]
         else:
-            targets = [n.split(".")[1:] for n in names if n.split(".")[0] == "monkeystudy"]
-        for target in targets:
-            for k in range(len(target) + 1):       # the packages on the way, then the module
-                p = _package_modules().get(tuple(target[:k]))
-                if p is not None:
-                    found.add(p)
+            found.update(modules[tuple(t)] for n in names if n.split(".")[0] == "monkeystudy"
+                         and tuple(t := n.split(".")[1:]) in modules)
+            continue
+        for n in names:
+            sub = tuple(mod + [n])
+            target = sub if sub in modules else tuple(mod)
+            if target in modules:
+                found.add(modules[target])
     return found
 
 
+def module_path(module: str) -> Path:
+    """The source of a module of the package, by its dotted name
+    (``monkeystudy.study.steps.grid``)."""
+    return _package_modules()[tuple(module.split(".")[1:])]
+
+
 @functools.lru_cache(maxsize=None)
-def result_sources() -> tuple[Path, ...]:
-    """Every source that decides what a study computes: the modules of :data:`RESULT_ROOT`
-    and the package modules they import, transitively (sorted)."""
-    todo = sorted((_PKG / RESULT_ROOT).rglob("*.py"))
+def result_sources(module: str | None = None) -> tuple[Path, ...]:
+    """Every source that decides what ``module`` (a step kind's, by its dotted name)
+    computes: its own and the package modules it imports, transitively (sorted). Without
+    ``module``, those of every module of :data:`RESULT_ROOT` but its registry (every
+    kind)."""
+    todo = ([module_path(module)] if module is not None
+            else sorted(p for p in (_PKG / RESULT_ROOT).rglob("*.py")
+                        if p.name != "__init__.py"))
     seen: set[Path] = set(todo)
     while todo:
         for p in _imported_files(todo.pop()):
@@ -128,10 +144,11 @@ def result_sources() -> tuple[Path, ...]:
 
 
 @functools.lru_cache(maxsize=None)
-def code_sha256() -> str:
-    """Hash of the package version and every source of :func:`result_sources`."""
+def code_sha256(module: str | None = None) -> str:
+    """Hash of the package version and every source of :func:`result_sources` of
+    ``module`` (a step kind's module: what its datasets are keyed by), or of every kind."""
     h = hashlib.sha256(f"monkeystudy {__version__}\n".encode())
-    for p in result_sources():
+    for p in result_sources(module):
         h.update(p.relative_to(_PKG).as_posix().encode() + b"\0")
         h.update(p.read_bytes())
         h.update(b"\0")

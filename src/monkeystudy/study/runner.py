@@ -42,7 +42,7 @@ from .plan import Plan, StepPlan, plan_study
 from .pool import DeferredSignals, Pool, local_pool_kind, open_pool
 from .progress import Reporter
 from .spec import GaitSpec, gait_json, gait_spec, integrator_fields
-from .steps import Dependency, StepContext
+from .steps import Dependency, StepContext, kind_of
 from .steps.grid import HORIZONTAL_VARIABLES, axes_points, grid_block
 
 
@@ -68,7 +68,7 @@ def step_attrs(loaded: LoadedStudy, step, history: str) -> dict:
         "robot": study.to_robot().to_dict(), "gait": gait_json(study),
         "integrator": integrator_fields(study.integrator.to_integrator()),
         "monkeystudy_version": __version__, "git_revision": P.git_revision(),
-        "code_sha256": P.code_sha256(), "library_versions": P.library_versions(),
+        "code_sha256": kind_of(step).code_sha256, "library_versions": P.library_versions(),
         "history": history, "Conventions": D.CONVENTIONS, "source": "monkeystudy",
     }
 

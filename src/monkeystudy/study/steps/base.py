@@ -14,6 +14,7 @@ from typing import Any, Callable, ClassVar
 
 import numpy as np
 
+from .. import provenance
 from ..blocks import Block, Task
 from ..spec import GaitSpec
 
@@ -111,6 +112,12 @@ class StepKind:
     no_figures: ClassVar[str] = ""
     #: its dataset is bit-reproducible (same numbers for any workers, resumed or not)
     reproducible: ClassVar[bool] = True
+
+    @property
+    def code_sha256(self) -> str:
+        """Hash of the code this kind runs (its module's import closure,
+        :func:`~monkeystudy.study.provenance.code_sha256`): its datasets' key."""
+        return provenance.code_sha256(type(self).__module__)
 
     @property
     def summary(self) -> str:
