@@ -425,8 +425,8 @@ def simulate_implementation(method_code, flies=True):
     the leg's end: a segment's exit (:func:`exit_segment`: the controller's clock and cycle
     count, the next segment's magnets, the impact, the log) or a bound. Each named piece is
     compiled on its own. The segment's entry stays in the loop: called as a function of its
-    own it cost ~2 % of a gait (17.63 against 17.24 us, DOP853 rtol 1e-10, four alternating
-    runs); inlined by LLVM, the pieces added ~0.7 s to a first run.
+    own it made a gait slower, and inlining the pieces made a first run longer
+    (docs/performance.md, "Compiling", gives both).
     """
     step4, step8, error_sq4, error_sq8, dense_prepare_of_method, n_stages = \
         loop_method_kernels(method_code, flies)
@@ -569,7 +569,7 @@ def simulate_implementation(method_code, flies=True):
             fired = False       # the segment's guard fired at time t (state at t in y/s8)
             # a friction mode change at time t. np.int64, here and for the log kinds: numba
             # types a bare constant as a literal and compiles each callee it reaches once
-            # more for that literal (holding_torque, write_log: ~1 s of a first run)
+            # more for that literal (holding_torque, write_log)
             fric_k = np.int64(-1)
             level_fire = False
             if state_guard:
@@ -648,9 +648,9 @@ def simulate_implementation(method_code, flies=True):
                         h_abs = abs(h)
                         # the method's straight-line steps, called directly: through a wrapper
                         # (inlined or called) numba reference-counts the eight arrays on every
-                        # step (atomic operations: ~10 % of a gait; a wrapper without reference
-                        # counting still costs ~2 %). The controller works on the squared norm
-                        # en_sq (see integrate.error_power_sq).
+                        # step (atomic operations; docs/performance.md says what a wrapper
+                        # costs). The controller works on the squared norm en_sq (see
+                        # integrate.error_power_sq).
                         if n == 4:
                             step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
                             en_sq = error_sq4(K, h, y, y_new, rtol, atol)
