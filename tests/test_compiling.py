@@ -5,11 +5,12 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from monkeystudy import compiling
+from monkeystudy import OpenLoop, compiling, initial_state, run_controller
 from monkeystudy.simulate import evaluate_gaits
 
 POINTS = [[1.0, 11.0], [0.9, 10.9], [1.3, 10.5], [0.2, 12.5]]
@@ -39,17 +40,38 @@ print(json.dumps({
 }))
 """
 
-# the gaits at POINTS, and how many functions this process compiled
+# the gaits at POINTS and a short open-loop run (a study's two entries of the loop), and how
+# many functions this process compiled
 GAITS = """
 import json, numpy as np
 from numba.core import event as ev
+from monkeystudy import OpenLoop, initial_state, run_controller
 from monkeystudy.simulate import evaluate_gaits
 with ev.install_recorder("numba:compile") as rec:
     r = evaluate_gaits(np.array(%r))
+    run = run_controller(OpenLoop(0.43, 0.024, 0.6354, tick=0.001), initial_state(0.9, 10.93),
+                         cycles=2, sample_dt=0.01)
 print(json.dumps({"compiled": sum(1 for _, e in rec.buffer if e.is_start),
                   "error": r["error"].tobytes().hex(), "t_end": r["t_end"].tobytes().hex(),
-                  "status": r["status"].tolist()}))
+                  "status": r["status"].tolist(), "run": run.sample_state.tobytes().hex()}))
 """
+
+
+# a study's warm-up on an empty cache (a first run: the helper runs beside it), and which of
+# the loop's two entries this process compiled itself
+WARM_UP = """
+import json
+from numba.core import event as ev
+from monkeystudy.study.loader import load_study
+from monkeystudy.study.runner import load_kernels
+from monkeystudy.study.spec import gait_spec
+spec = gait_spec(load_study(%r).study)
+with ev.install_recorder("numba:compile") as rec:
+    load_kernels(spec, runs=True, ahead=True)
+names = {e.data["dispatcher"].py_func.__qualname__ for _, e in rec.buffer if e.is_start}
+print(json.dumps({"runs_entry_compiled_here": "simulate" in names,
+                  "gait_entry_compiled_here": "horizontal_gait_batch" in names}))
+""" % str(Path(__file__).resolve().parents[1] / "studies" / "smoke.yaml")
 
 
 def _python(code: str, cache, timeout=900) -> dict:
@@ -81,11 +103,13 @@ def test_two_processes_compile_into_one_cache(tmp_path, monkeypatch):
     the same bits, and the cache holds DOP853's swing step but no other method's steps and no
     flight step (the method and the phase set are compile-time choices)."""
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
-    helper = compiling.start("dop853")     # compiles the callees, last first ...
+    # compiles the callees, last first, then the runs' entry ...
+    helper = compiling.start("dop853", runs=False)
     try:
-        driver = _python(GAITS % POINTS, tmp_path)   # ... while this compiles the gait
+        driver = _python(GAITS % POINTS, tmp_path)   # ... while this compiles both entries
     finally:
         helper.wait(timeout=900)           # not stopped: both run to the end
+        helper.stdout.close()
     assert helper.returncode == 0
     assert driver["compiled"] > 0
     assert not [p for p in tmp_path.rglob("*") if ".tmp." in p.name]
@@ -98,10 +122,24 @@ def test_two_processes_compile_into_one_cache(tmp_path, monkeypatch):
     third = _python(GAITS % POINTS, tmp_path)
     assert third["compiled"] == 0, third
     here = evaluate_gaits(np.array(POINTS))
+    run = run_controller(OpenLoop(0.43, 0.024, 0.6354, tick=0.001), initial_state(0.9, 10.93),
+                         cycles=2, sample_dt=0.01)
     for r in (driver, third):
         assert r["status"] == here["status"].tolist()
         assert r["error"] == here["error"].tobytes().hex()
         assert r["t_end"] == here["t_end"].tobytes().hex()
+        assert r["run"] == run.sample_state.tobytes().hex()
+
+
+@pytest.mark.slow
+def test_a_study_process_waits_for_the_helpers_runs_entry_and_compiles_it_not(tmp_path,
+                                                                             monkeypatch):
+    """A first run's warm-up with multi-cycle runs: the helper compiles the runs' entry
+    after its callees and the study's process loads it instead of compiling it."""
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    r = _python(WARM_UP, tmp_path)
+    assert r["runs_entry_compiled_here"] is False, r
+    assert r["gait_entry_compiled_here"] is True, r
 
 
 def test_stop_ends_a_running_helper():

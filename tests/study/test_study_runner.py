@@ -440,7 +440,7 @@ def test_first_run_says_it_compiles_and_a_cached_run_does_not(tmp_path, monkeypa
     markers.mkdir()
     monkeypatch.setattr(R, "KERNEL_CACHE_DIR", str(markers))
     helpers = []   # a first run compiles the loop's callees on the idle core, a cached one not
-    monkeypatch.setattr(R.compiling, "start", lambda method: helpers.append(method))
+    monkeypatch.setattr(R.compiling, "start", lambda method, runs=None: helpers.append(method))
     recorded = []   # how long it took, for the next first run's estimate
     monkeypatch.setattr(R.compiling, "record_compile_time",
                         lambda what, seconds: recorded.append(what))

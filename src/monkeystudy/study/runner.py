@@ -24,9 +24,9 @@ from typing import Any, Callable, Iterator
 import numpy as np
 
 from .. import __version__, compiling
-from ..controllers import Integrator, OpenLoop
+from ..controllers import Integrator, OpenLoop, program_may_fly
 from ..kernel import KERNEL_CACHE_DIR
-from ..kernel.layout import ST_UNREACHABLE
+from ..kernel.layout import PHASE_SWING, ST_UNREACHABLE
 from ..kernel.variational import (
     swap_jacobian, swap_state, swing_energy_gradient, swing_field, swing_variational_rhs,
 )
@@ -93,17 +93,26 @@ def load_kernels(spec: GaitSpec, *, runs: bool = False, variational: bool = Fals
     Always the gait evaluation; ``runs``: the controller runs of multi-cycle steps;
     ``variational``: the variational-equation kernels of floquet and continuation steps.
     ``ahead`` (a first run, nothing cached): a second process compiles the hybrid loop's
-    callees meanwhile (:mod:`monkeystudy.compiling`); it is stopped once the gait evaluation
-    is loaded, before anything else compiles.
+    callees meanwhile and, for ``runs``, then the runs' entry (:mod:`monkeystudy.compiling`);
+    it is waited for or stopped once the gait evaluation is loaded, before anything else
+    compiles.
     """
-    helper = compiling.start(spec.integrator.method) if ahead else None
-    try:
-        grid_block(spec, np.array([[1.0, 11.0]]))
-    finally:
-        compiling.stop(helper)
+    ctrl = None
     if runs:
         ctrl = (spec.sequence.controller() if spec.sequence is not None else
                 OpenLoop(0.01, 0.01, spec.torque, tick=spec.tick))
+    helper = None
+    if ahead:
+        helper = compiling.start(spec.integrator.method,
+                                 None if ctrl is None else program_may_fly(ctrl.program()[0],
+                                                                           PHASE_SWING))
+    try:
+        grid_block(spec, np.array([[1.0, 11.0]]))
+        if ctrl is not None:
+            compiling.finish_runs(helper)
+    finally:
+        compiling.stop(helper)
+    if ctrl is not None:
         run_controller(ctrl, initial_state(1.0, 11.0), robot=spec.robot,
                        integrator=spec.integrator, t_end=0.05,
                        sample_dt=0.01 if spec.sequence is None else 0.0)
