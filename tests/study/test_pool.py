@@ -56,3 +56,39 @@ def test_a_signal_deferred_until_the_end_of_the_block_still_takes_effect():
         assert signal.getsignal(signal.SIGTERM) is interrupt
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def _live_children() -> list[int]:
+    """Child processes of this one that are still running (zombies excluded)."""
+    me = os.getpid()
+    out = []
+    for stat in __import__("pathlib").Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == me and fields[0] != "Z":
+            out.append(int(stat.parent.name))
+    return out
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc"), reason="reads /proc")
+def test_ctrl_c_while_the_pool_starts_stops_its_workers(monkeypatch):
+    """A Ctrl-C that lands while the workers start: the pool is stopped before the interrupt
+    goes on (no worker outlives it)."""
+    from monkeystudy.study import pool as P
+
+    before = set(_live_children())
+    enter = P.DeferredSignals.__enter__
+
+    def enter_and_interrupt(self):
+        out = enter(self)
+        os.kill(os.getpid(), signal.SIGINT)     # arrives while the workers start
+        return out
+    monkeypatch.setattr(P.DeferredSignals, "__enter__", enter_and_interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        local_pool(2)
+    t0 = time.monotonic()
+    while set(_live_children()) - before and time.monotonic() - t0 < 30:
+        time.sleep(0.05)
+    assert not set(_live_children()) - before

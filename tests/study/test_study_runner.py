@@ -456,3 +456,28 @@ def test_first_run_says_it_compiles_and_a_cached_run_does_not(tmp_path, monkeypa
     run_study(loaded, tmp_path / "b", workers=1, reporter=again)
     assert not any("compiling" in line for line in again.lines), again.lines
     assert helpers == ["dop853"]
+
+
+def test_ctrl_c_while_a_dataset_is_written_waits_for_it(tmp_path, monkeypatch):
+    """A Ctrl-C that lands while a step writes its dataset takes effect once the file is
+    complete: the run stops (exit 3), the dataset written is whole and current, the rerun
+    does the rest."""
+    study = load_study(write_study(tmp_path))
+    original = grid.write_grid
+
+    def write_interrupted(path, attrs, **kw):
+        os.kill(os.getpid(), signal.SIGINT)      # lands in the middle of the write
+        return original(path, attrs, **kw)
+    monkeypatch.setattr(grid, "write_grid", write_interrupted)
+    with pytest.raises(RunInterrupted, match="rerun the same command to resume"):
+        run_study(study, tmp_path / "out", workers=1)
+    written = sorted(p.name for p in (tmp_path / "out").glob("*.nc"))
+    assert written and set(written) < set(TINY_FILES)
+    for name in written:
+        with xr.open_dataset(tmp_path / "out" / name) as ds:
+            assert ds.attrs["step_name"] == name[:-3]
+    monkeypatch.setattr(grid, "write_grid", original)
+    plan = plan_study(study, tmp_path / "out")
+    assert all(s.up_to_date for s in plan.steps if s.path.name in written)
+    summary = run_study(study, tmp_path / "out", workers=1)
+    assert sorted(p.name for p in summary.written) == sorted(set(TINY_FILES) - set(written))
