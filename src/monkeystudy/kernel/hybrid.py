@@ -253,6 +253,76 @@ def change_friction_mode(k, phase, flipped, p, tau, fmode, s8, y, t, cycles, cou
     return n_log, status
 
 
+#: :func:`observe_step`'s answer when a crossing needs the step's dense output first
+NEED_DENSE = -2
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def observe_step(first, obs, seg, t, t_new, t_cut, h, dense, method, Fd, y, y_new, trig_new,
+                 n, phase, p, tau, fmode, pivot, eref, work, ybuf, g_obs, log, n_log, cycles,
+                 flipped, counts):
+    """The observers' crossings in the accepted step ``[t, t_new]`` [s], logged up to
+    ``t_cut`` (the step's event, or its end), from observer ``first`` on: each observer
+    watching this segment is flagged by a sign change or the cubic model of its guard, its
+    crossings located on the dense output and logged (``LOG_OBSERVER``), and its guard value
+    kept for the next step.
+
+    Returns ``(n_log, status, k)``: status -1 (``k`` = the number of observers), or
+    ``ST_BUFFER_FULL``; or :data:`NEED_DENSE` when observer ``k`` is flagged and the step's
+    dense output is not prepared (``dense`` false): the loop prepares it and calls again from
+    ``k``, whose guards, computed again from the same values, give the same bits.
+    """
+    n_obs = obs.shape[0]
+    log_cap = log.shape[0]
+    status = -1
+    for k in range(first, n_obs):
+        if obs[k, O_SEGMENT] >= 0 and int(obs[k, O_SEGMENT]) != seg:
+            continue
+        okind = int(obs[k, O_GUARD])
+        oidx = int(obs[k, O_GINDEX])
+        oval = obs[k, O_GVALUE]
+        odir = obs[k, O_GDIR]
+        gb = guard_trig_value(okind, oidx, oval, phase, p, tau, fmode, y_new, pivot, eref,
+                              trig_new)
+        ga = g_obs[k]
+        ra = guard_rate_value(okind, oidx, phase, p, tau, fmode, y, pivot, work)
+        rb = guard_rate_trig_value(okind, oidx, phase, p, tau, fmode, y_new, pivot, work,
+                                   trig_new)
+        if crosses(ga, gb, odir) or hermite_flags(ga, ra, gb, rb, h, odir):
+            if not dense:
+                return n_log, NEED_DENSE, k
+            # searched over the whole step, so that an observer watching the same guard as
+            # the segment event finds the same root; crossings up to the event (plus
+            # round-off) are logged, later ones belong to the next leg
+            slack = 8.0 * EPS * (1.0 + abs(t_cut))
+            ta = t
+            for _rep in range(4):
+                if ta >= t_cut:
+                    break
+                tc = locate_first(okind, oidx, oval, odir, ta, t_new, ga, gb, ra, rb, method,
+                                  Fd, y, t, h, n, phase, p, tau, fmode, pivot, eref, ybuf,
+                                  work)
+                if tc == np.inf or tc > t_cut + slack:
+                    break
+                tc = min(tc, t_cut)
+                if n_log >= log_cap:
+                    if log_cap > 0:
+                        status = ST_BUFFER_FULL
+                    break
+                dense_eval(method, Fd, y, h, (tc - t) / h, n, ybuf)
+                unpack_into(phase, ybuf, pivot, work)
+                e = total_energy8(p, work)
+                write_log(log, n_log, tc, np.int64(LOG_OBSERVER), k, cycles, phase, flipped,
+                          e, e, work)
+                n_log += 1
+                counts[K_EVENTS] += 1
+                ta = tc
+                ga = 0.0
+                ra = guard_rate_value(okind, oidx, phase, p, tau, fmode, ybuf, pivot, work)
+        g_obs[k] = gb
+    return n_log, status, n_obs
+
+
 @njit(cache=True, error_model="numpy", _nrt=False)
 def exit_segment(par, prog, seg, t, s8, phase, flipped, tau, gvalue, clock0, cycles,
                  max_cycles, counts, seg_times, log, n_log, sampling, samp_t, samp_y, samp_mode,
@@ -407,6 +477,8 @@ def loop_callees(method_code):
         (holding_torque, (I, V, F, V, V, I)),
         (write_log, (M, I, F, I, I, I, I, I, F, F, V)),
         (change_friction_mode, (I, I, I, V, F, V, V, V, F, I, C, M, I)),
+        (observe_step, (I, M, I, F, F, F, F, B, method, M, V, V, V, I, I, V, F, V, V, F, V,
+                        V, V, M, I, I, I, C)),
         (exit_segment, (M, M, I, F, V, I, I, F, F, F, I, I, C, V, M, I, B, V, M, M, I)),
     )
 
@@ -421,9 +493,10 @@ def simulate_implementation(method_code, flies=True):
     The loop: enter a segment (its magnets, :func:`apply_magnets`, then torque, reference
     energy and friction modes), integrate one leg step by step, locating the segment guard's
     event in a step (:func:`segment_event_in_step`), friction events (:func:`_locate_friction`,
-    then :func:`change_friction_mode`) and observer crossings on the dense output, and act on
-    the leg's end: a segment's exit (:func:`exit_segment`: the controller's clock and cycle
-    count, the next segment's magnets, the impact, the log) or a bound. Each named piece is
+    then :func:`change_friction_mode`) and observer crossings on the dense output
+    (:func:`observe_step`), and act on the leg's end: a segment's exit (:func:`exit_segment`:
+    the controller's clock and cycle count, the next segment's magnets, the impact, the log)
+    or a bound. Each named piece is
     compiled on its own. The segment's entry stays in the loop: called as a function of its
     own it made a gait slower, and inlining the pieces made a first run longer
     (docs/performance.md, "Compiling", gives both).
@@ -451,7 +524,6 @@ def simulate_implementation(method_code, flies=True):
         en_prev = 1.0  # the PI controller's previous accepted error norm
 
         n_obs = obs.shape[0]
-        log_cap = log.shape[0]
         sampling = sample_dt > 0.0 and samp_t.shape[0] > 0
 
         K = np.zeros((VERN9_N_STAGES_EXTENDED, 8))   # the largest method's stages
@@ -743,56 +815,22 @@ def simulate_implementation(method_code, flies=True):
                         g_fric[k] = gb
                     # ---- observers (non-terminal, up to the event) ----
                     t_cut = min(t_ev, t_new)
-                    for k in range(n_obs):
-                        if obs[k, O_SEGMENT] >= 0 and int(obs[k, O_SEGMENT]) != seg:
-                            continue
-                        okind = int(obs[k, O_GUARD])
-                        oidx = int(obs[k, O_GINDEX])
-                        oval = obs[k, O_GVALUE]
-                        odir = obs[k, O_GDIR]
-                        gb = guard_trig_value(okind, oidx, oval, phase, p, tau, fmode, y_new,
-                                              pivot, eref, trig_new)
-                        ga = g_obs[k]
-                        ra = guard_rate_value(okind, oidx, phase, p, tau, fmode, y, pivot, work)
-                        rb = guard_rate_trig_value(okind, oidx, phase, p, tau, fmode, y_new, pivot,
-                                                   work, trig_new)
-                        flagged = crosses(ga, gb, odir) or hermite_flags(ga, ra, gb, rb, h, odir)
-                        if flagged:
-                            if not dense:
-                                counts[K_NFEV] += dense_prepare_of_method(
-                                    phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
-                                dense = True
-                            # searched over the whole step, so that an observer watching the
-                            # same guard as the segment event finds the same root; crossings up
-                            # to the event (plus round-off) are logged, later ones belong to the
-                            # next leg
-                            slack = 8.0 * EPS * (1.0 + abs(t_cut))
-                            ta = t
-                            for _rep in range(4):
-                                if ta >= t_cut:
-                                    break
-                                tc = locate_first(okind, oidx, oval, odir, ta, t_new, ga, gb,
-                                                  ra, rb, method, Fd, y, t, h, n, phase, p, tau,
-                                                  fmode, pivot, eref, ybuf, work)
-                                if tc == np.inf or tc > t_cut + slack:
-                                    break
-                                tc = min(tc, t_cut)
-                                if n_log >= log_cap:
-                                    if log_cap > 0:
-                                        status = ST_BUFFER_FULL
-                                    break
-                                dense_eval(method, Fd, y, h, (tc - t) / h, n, ybuf)
-                                unpack_into(phase, ybuf, pivot, work)
-                                e = total_energy8(p, work)
-                                write_log(log, n_log, tc, np.int64(LOG_OBSERVER), k, cycles,
-                                          phase, flipped, e, e, work)
-                                n_log += 1
-                                counts[K_EVENTS] += 1
-                                ta = tc
-                                ga = 0.0
-                                ra = guard_rate_value(okind, oidx, phase, p, tau, fmode, ybuf,
-                                                      pivot, work)
-                        g_obs[k] = gb
+                    if n_obs > 0:
+                        # one call site: a second one, after dense = True, would pass a
+                        # literal and compile the piece once more
+                        k_obs = np.int64(0)
+                        for _pass in range(2):
+                            n_log, ostatus, k_obs = observe_step(
+                                k_obs, obs, seg, t, t_new, t_cut, h, dense, method, Fd, y,
+                                y_new, trig_new, n, phase, p, tau, fmode, pivot, eref, work,
+                                ybuf, g_obs, log, n_log, cycles, flipped, counts)
+                            if ostatus != NEED_DENSE:
+                                break
+                            counts[K_NFEV] += dense_prepare_of_method(
+                                phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
+                            dense = True
+                        if ostatus >= 0:
+                            status = ostatus
                     if status >= 0:
                         break
                     # ---- samples on the grid, up to the event ----
