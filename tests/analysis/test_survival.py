@@ -161,3 +161,56 @@ def test_the_error_bound_fails_a_run_at_the_first_cycle_beyond_it():
     first = int(np.flatnonzero(err > bound)[0])            # 0-based cycle beyond the bound
     r = _runs(Noise(), [0], error_bound=bound)
     assert r.failure[0] == L.ST_ERROR_BOUND and r.cycles[0] == first
+
+
+class _Program:
+    """A controller given by its program table (what :func:`survival_runs` reads of one)."""
+
+    def __init__(self, prog, obs, tick):
+        self.prog, self.obs, self.tick, self.tick_phase = prog, obs, tick, 0.0
+
+    def program(self):
+        return self.prog.copy(), self.obs.copy()
+
+
+def test_a_runs_latency_delays_every_actuation_by_its_one_draw():
+    """Latency noise is one uniform draw per run on [0, scale), added to the delay of every
+    magnet and motor action: the run equals, bit for bit, a noiseless run of the program
+    with that delay written into its actuation rows."""
+    from monkeystudy.kernel.noise import PER_RUN_CYCLE, standard_draw
+    from monkeystudy.kernel.survival import LATENCY_SLOT
+
+    scale, seed = 1e-3, 5
+    prog, obs = _open_loop().program()
+    actuation = noise_roles(prog)[:, L.RL_JITTER] != L.JITTER_NONE
+    assert actuation.sum() >= 2                       # the swap and the motor's end
+    for run in (0, 3):
+        draw = standard_draw(seed, run, PER_RUN_CYCLE, LATENCY_SLOT, True)
+        latency = scale * 0.5 * (draw + 1.0)
+        assert 0.0 <= latency < scale
+        delayed = prog.copy()
+        delayed[actuation, L.S_DELAY] += latency
+        noisy = _runs(Noise(latency=scale), [run], max_cycles=8)
+        plain = survival_runs(_Program(delayed, obs, 0.001),
+                              initial_state(GAIT["dtheta1"], GAIT["dtheta2"]), REF, runs=[run],
+                              max_cycles=8, noise=Noise(), seed=seed, integrator=INTEG,
+                              max_drop=0.61)
+        for field in ("cycles", "failure", "distance", "time", "error", "height"):
+            assert getattr(noisy, field)[0] == getattr(plain, field)[0], (run, field)
+    a, b = (_runs(Noise(latency=scale), [r], max_cycles=8).time[0] for r in (0, 3))
+    assert a != b                                     # each run draws its own
+
+
+def test_the_height_is_the_attached_ends_height_where_the_last_cycle_is_measured():
+    """Without noise, a run's height change after k cycles is the attached end's height at
+    its k-th vertical crossing in one deterministic open-loop run."""
+    from monkeystudy.simulate import run_controller
+
+    res = run_controller(_open_loop(), initial_state(GAIT["dtheta1"], GAIT["dtheta2"]),
+                         integrator=INTEG, cycles=12, max_drop=0.61)
+    cross = res.log[res.log[:, L.L_KIND] == L.LOG_OBSERVER]
+    for k in (1, 5, 12):
+        r = _runs(Noise(), [0], max_cycles=k)
+        assert r.cycles[0] == k
+        assert r.height[0] == cross[k - 1, L.L_STATE + L.Y]
+    assert _runs(Noise(), [0], max_cycles=12).height[0] != 0.0     # the replay drifts

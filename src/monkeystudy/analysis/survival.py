@@ -78,6 +78,10 @@ class Noise:
         a height [m], an energy [J]; one draw per guarded action.
     torque : float
         Relative error of each motor pulse's torque [1].
+    latency : float
+        Actuation latency [s]: each run draws one value uniformly on ``[0, latency)`` (always
+        uniform: a build's actuator delay) that delays every magnet and motor action of the
+        run, on top of the jitter.
     mass, com, inertia : float
         Relative uncertainty of each link's mass, CG position and inertia [1], drawn once
         per run (the CG is kept on the link).
@@ -92,6 +96,7 @@ class Noise:
     height: float = 0.0
     energy: float = 0.0
     torque: float = 0.0
+    latency: float = 0.0
     mass: float = 0.0
     com: float = 0.0
     inertia: float = 0.0
@@ -117,6 +122,7 @@ class Noise:
         v[L.NZ_HEIGHT], v[L.NZ_ENERGY], v[L.NZ_TORQUE] = self.height, self.energy, self.torque
         v[L.NZ_THETA2], v[L.NZ_DTHETA1], v[L.NZ_DTHETA2] = (self.theta2, self.dtheta1,
                                                             self.dtheta2)
+        v[L.NZ_LATENCY] = self.latency
         return v
 
     def to_dict(self) -> dict:
@@ -190,7 +196,8 @@ class SurvivalRuns:
     ``ST_STALLED``: the minimum advance);
     ``distance`` the attached end's horizontal travel to the last completed cycle [m];
     ``time`` of that cycle's end [s]; ``error`` there [rad2 + rad2 s-2]; ``nfev`` the
-    right-hand-side evaluations.
+    right-hand-side evaluations; ``height`` the attached end's height there less its height
+    at the start [m].
     """
 
     cycles: np.ndarray
@@ -199,6 +206,7 @@ class SurvivalRuns:
     time: np.ndarray
     error: np.ndarray
     nfev: np.ndarray
+    height: np.ndarray
 
 
 def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles: int,
@@ -251,7 +259,7 @@ def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles:
     return SurvivalRuns(out[:, L.SV_CYCLES].astype(np.int64),
                         out[:, L.SV_FAILURE].astype(np.int8), out[:, L.SV_DISTANCE].copy(),
                         out[:, L.SV_TIME].copy(), out[:, L.SV_ERROR].copy(),
-                        out[:, L.SV_NFEV].astype(np.int64))
+                        out[:, L.SV_NFEV].astype(np.int64), out[:, L.SV_HEIGHT].copy())
 
 
 # ------------------------------------------------------------------------------------------

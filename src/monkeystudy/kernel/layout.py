@@ -154,7 +154,9 @@ NZ_TORQUE = 6       # relative error of a motor pulse's torque [1]
 NZ_THETA2 = 7       # initial theta2 [rad]
 NZ_DTHETA1 = 8      # initial dtheta1 [rad s-1]
 NZ_DTHETA2 = 9      # initial dtheta2 [rad s-1]
-N_NOISE = 10
+NZ_LATENCY = 10     # actuation latency [s]: one draw per run, uniform on [0, scale), added to
+                    # the delay of every actuation (whatever the distribution of the others)
+N_NOISE = 11
 # noise role of each program row
 RL_JITTER = 0       # JITTER_*: how timing jitter moves the row's exit
 RL_SENSOR = 1       # the NZ_* source read by the row's guard (0: none)
@@ -168,4 +170,5 @@ SV_DISTANCE = 2     # attached end's x at the last completed cycle's end - at th
 SV_TIME = 3         # time of the last completed cycle's end [s]
 SV_ERROR = 4        # error at the last completed cycle's end [rad2 + rad2 s-2]
 SV_NFEV = 5         # right-hand-side evaluations of the run
-N_SV_COLS = 6
+SV_HEIGHT = 6       # attached end's height at the last completed cycle's end - at the start [m]
+N_SV_COLS = 7

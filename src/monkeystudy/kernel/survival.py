@@ -11,13 +11,16 @@ cycle from :mod:`~monkeystudy.kernel.noise` under the key ``(seed, run, cycle, s
 * timing jitter [s]: a row whose exit is an actuation (``RL_JITTER``) exits ``d`` later:
   a time guard's instant moves by ``d`` (either sign), a state guard's action waits ``|d|``
   after the guard fires (a latency cannot be negative);
+* actuation latency [s]: one draw per run, uniform on ``[0, scale)``, added to the delay of
+  every actuation (the time an actuator takes to act, the same on every action of a build);
 * sensor noise: a row's guard value moves by a draw of the source it reads (``RL_SENSOR``:
   an angle [rad], a rate [rad s-1], a height [m] or an energy [J]), held for that action;
 * torque error: a motor pulse's torque is multiplied by ``1 + e`` (``RL_PULSE``);
 * initial state: the section state's ``theta2``, ``dtheta1``, ``dtheta2`` once per run.
 
 Program row ``k`` of cycle ``c`` draws slots ``3k`` (jitter), ``3k + 1`` (sensor), ``3k + 2``
-(torque); the initial state draws slots 0-2 on the cycle word ``PER_RUN_CYCLE``.
+(torque); the initial state draws slots 0-2 and the latency slot :data:`LATENCY_SLOT` on the
+cycle word ``PER_RUN_CYCLE``.
 
 A cycle is measured where it ends: at the last observer crossing it logged (the exact
 section, e.g. link 1 at the vertical), else at the exit of its cycle-ending row. A run fails
@@ -34,14 +37,16 @@ from .hybrid import simulate_loop
 from .layout import (
     C_MAX_CYCLES, DTH1, DTH2, H_CYCLES, H_SEG, H_T, JITTER_LATENCY, JITTER_NONE, K_LOG, K_NFEV,
     L_KIND, L_STATE, L_T, LOG_OBSERVER, N_COUNTS, N_LOG_COLS, N_MODE_COLS, NZ_DTHETA1,
-    NZ_DTHETA2, NZ_THETA2, NZ_TIMING, NZ_TORQUE, NZ_UNIFORM, RL_JITTER, RL_PULSE, RL_SENSOR,
-    S_DELAY, S_GVALUE, S_NEXT, S_TORQUE, ST_ERROR_BOUND, ST_OK, ST_STALLED, SV_CYCLES, SV_DISTANCE,
-    SV_ERROR, SV_FAILURE, SV_NFEV, SV_TIME, TH2, X,
+    NZ_DTHETA2, NZ_LATENCY, NZ_THETA2, NZ_TIMING, NZ_TORQUE, NZ_UNIFORM, RL_JITTER, RL_PULSE,
+    RL_SENSOR, S_DELAY, S_GVALUE, S_NEXT, S_TORQUE, ST_ERROR_BOUND, ST_OK, ST_STALLED,
+    SV_CYCLES, SV_DISTANCE, SV_ERROR, SV_FAILURE, SV_HEIGHT, SV_NFEV, SV_TIME, TH2, X, Y,
 )
 from .noise import PER_RUN_CYCLE, standard_draw
 
 #: event-log rows one cycle may use (segment exits, observer crossings, friction changes)
 CYCLE_LOG_ROWS = 256
+#: the per-run draw of the actuation latency (cycle word PER_RUN_CYCLE)
+LATENCY_SLOT = 22
 
 
 @njit(cache=True, error_model="numpy")
@@ -53,9 +58,9 @@ def wrapped_error(s8, z_ref):
 
 
 @njit(cache=True, error_model="numpy")
-def noisy_program(prog, roles, noise, seed, run, cycle, out):
+def noisy_program(prog, roles, noise, seed, run, cycle, latency, out):
     """Write cycle ``cycle``'s program of run ``run`` into ``out`` (rows as ``prog`` with the
-    cycle's delays, guard values and torques)."""
+    cycle's delays, guard values and torques; ``latency`` [s] the run's actuation latency)."""
     uniform = noise[NZ_UNIFORM] > 0.0
     timing = noise[NZ_TIMING]
     torque = noise[NZ_TORQUE]
@@ -66,6 +71,8 @@ def noisy_program(prog, roles, noise, seed, run, cycle, out):
         if jitter != JITTER_NONE and timing > 0.0:
             d = timing * standard_draw(seed, run, cycle, 3 * k, uniform)
             out[k, S_DELAY] = abs(d) if jitter == JITTER_LATENCY else d
+        if jitter != JITTER_NONE and latency > 0.0:
+            out[k, S_DELAY] += latency
         source = int(roles[k, RL_SENSOR])
         if source > 0 and noise[source] > 0.0:
             out[k, S_GVALUE] = prog[k, S_GVALUE] + noise[source] * standard_draw(
@@ -94,6 +101,11 @@ def survival_run(method, par, prog, obs, settings, hyb0, roles, noise, seed, run
         if noise[source] > 0.0:
             hyb[i] += noise[source] * standard_draw(seed, run, PER_RUN_CYCLE, i - TH2, uniform)
     x_start = hyb[X]
+    y_start = hyb[Y]
+    latency = 0.0
+    if noise[NZ_LATENCY] > 0.0:    # uniform on [0, scale): a draw on [-1, 1) mapped there
+        latency = noise[NZ_LATENCY] * 0.5 * (
+            standard_draw(seed, run, PER_RUN_CYCLE, LATENCY_SLOT, True) + 1.0)
     run_settings = settings.copy()
     cycle_prog = np.empty_like(prog)
     counts = np.zeros(N_COUNTS, dtype=np.int64)
@@ -107,9 +119,10 @@ def survival_run(method, par, prog, obs, settings, hyb0, roles, noise, seed, run
     out[SV_DISTANCE] = 0.0
     out[SV_TIME] = hyb[H_T]
     out[SV_ERROR] = wrapped_error(hyb, z_ref)
+    out[SV_HEIGHT] = 0.0
     nfev = 0
     for c in range(max_cycles):
-        noisy_program(prog, roles, noise, seed, run, c, cycle_prog)
+        noisy_program(prog, roles, noise, seed, run, c, latency, cycle_prog)
         run_settings[C_MAX_CYCLES] = hyb[H_CYCLES] + 1.0
         counts[K_LOG] = 0
         status = simulate_loop(method, par, cycle_prog, obs, run_settings, hyb, counts, seg_times,
@@ -135,6 +148,7 @@ def survival_run(method, par, prog, obs, settings, hyb0, roles, noise, seed, run
             break
         out[SV_CYCLES] = c + 1.0
         out[SV_DISTANCE] = s8[X] - x_start
+        out[SV_HEIGHT] = s8[Y] - y_start
         out[SV_TIME] = log[row, L_T]
         out[SV_ERROR] = err
         # the call stopped on the cycle-ending row, before the next row's entry actions
