@@ -60,13 +60,17 @@ def _served_run(argv: list[str]) -> int | None:
 
 
 def main() -> None:  # pragma: no cover - the console script
+    from .exit_codes import EXIT_INTERRUPTED
     try:
         code = _served_run(sys.argv[1:])
-        if code is not None:
-            sys.exit(code)
+    except KeyboardInterrupt:   # the served run handles its own; this is before or after it
+        print("monkeystudy: interrupted", file=sys.stderr)
+        sys.exit(EXIT_INTERRUPTED)
+    if code is not None:
+        sys.exit(code)
+    try:
         from .cli import main as cli_main
     except KeyboardInterrupt:
-        from .exit_codes import EXIT_INTERRUPTED
         print("monkeystudy: interrupted before the command started; nothing was written",
               file=sys.stderr)
         sys.exit(EXIT_INTERRUPTED)
