@@ -59,7 +59,8 @@ def flipped_params(p):
     not to a link, so it is unchanged.
     """
     q = np.empty(N_PARAMS)
-    q[:] = p
+    for i in range(N_PARAMS):   # element by element: a slice copy compiles numba's
+        q[i] = p[i]             # broadcast-error formatting (~0.6 s of a first run)
     q[P_M1], q[P_M2] = p[P_M2], p[P_M1]
     q[P_L1], q[P_L2] = p[P_L2], p[P_L1]
     q[P_I1], q[P_I2] = p[P_I2], p[P_I1]
