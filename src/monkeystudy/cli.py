@@ -222,10 +222,13 @@ def report(
     if not path.is_dir():
         _err(f"{path}: no such folder")
         raise typer.Exit(EXIT_INVALID)
-    from .plotting.report import NoStudyDatasets, ReportError, report_study
+    from .plotting.report import NoStudyDatasets, ReportError, ReportInterrupted, report_study
     try:
         report_study(path, force=force, formats=fmts, animation=not no_animation,
                      progress=typer.echo)
+    except ReportInterrupted as exc:
+        _err(f"monkeystudy report: {exc}")
+        raise typer.Exit(EXIT_INTERRUPTED) from None
     except NoStudyDatasets as exc:
         _err(f"monkeystudy report: {exc}")
         raise typer.Exit(EXIT_INVALID) from None
