@@ -218,6 +218,20 @@ def save_figure(fig: Figure, base: Path, prov: Mapping[str, str], *,
     return written
 
 
+def count(n: int, noun: str, plural: str | None = None) -> str:
+    """``1 run``, ``2 runs``: a number with its noun in the right number."""
+    n = int(n)
+    return f"{n} {noun if n == 1 else (plural or noun + 's')}"
+
+
+def finite(x) -> bool:
+    """Whether ``x`` is a finite number (text of a non-finite value says nothing)."""
+    try:
+        return math.isfinite(float(x))
+    except (TypeError, ValueError):
+        return False
+
+
 def finite_or_nan(x) -> float:
     try:
         x = float(x)

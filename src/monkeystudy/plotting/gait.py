@@ -23,7 +23,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from .cycles import gait_point, gait_text, own_controller, stability_inputs, stop_note
-from .drawing import Drawing, Folder
+from .drawing import Drawing, Folder, NothingToDraw
 from .common import (
     BLUE, GREEN, PURPLE, VERMILLION, atomic_path, link_lengths, new_figure, run_label, style,
 )
@@ -72,7 +72,17 @@ class Trajectory:
 
 
 def has_trajectory(ds) -> bool:
-    return all(v in ds for v in ("A", "joint", "B")) and ds.sizes.get("sample", 0) > 1
+    """Whether the dataset's layout holds a trajectory (its variables; it may be empty)."""
+    return all(v in ds for v in ("A", "joint", "B"))
+
+
+def require_samples(ds) -> None:
+    """Raise :class:`NothingToDraw` when the trajectory has fewer than two samples."""
+    n = ds.sizes.get("sample", 0)
+    if n < 2:
+        raise NothingToDraw("the run recorded no motion to draw ("
+                            + ("no trajectory sample" if n == 0 else "a single sample")
+                            + (f"; {stop_note(ds)}" if stop_note(ds) else "") + ")")
 
 
 def trajectory(ds) -> Trajectory:
@@ -213,6 +223,7 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
 
     Pose lines have ``gid`` ``pose``; their data are ``[A, joint, B]`` of a sample.
     """
+    require_samples(stab)
     traj = trajectory(stab)
     i0, i1 = _cycle_bounds(stab, traj, cycle)
     frames = _pick_frames(traj, i0, i1, n_frames)
@@ -433,6 +444,7 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
     to the encoder. ``progress(done, total)`` is called after each frame. Returns the written
     paths.
     """
+    require_samples(stab)
     traj = trajectory(stab)
     frames, speed = animation_frames(traj, fps, max_frames)
     stage = traj.stage
