@@ -14,8 +14,13 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from matplotlib.text import Text
+
+from monkeystudy.plotting.drawing import NothingToDraw
 from monkeystudy.plotting.page import PAGE
-from monkeystudy.plotting.report import MANIFEST, plan, report_study, study_datasets
+from monkeystudy.plotting.report import (
+    DRAWINGS, MANIFEST, _load, _split, plan, report_study, study_datasets,
+)
 from monkeystudy.study import RunFailed, parse_study, run_study
 
 #: What the runner refuses at run time: a step whose source step found nothing to build on
@@ -30,6 +35,11 @@ RUN_REFUSALS = (
     r"did not converge to a fixed point",
     r"has no \w+ fixed point",
 )
+
+#: text no figure may show: a number that is not one, a count in the wrong number
+BAD_TEXT = (re.compile(r"\bnan\b", re.IGNORECASE),
+            re.compile(r"(?<![\d.])1 (runs|points|cycles|starts|iterations|iterates|designs|levels"
+                       r"|solutions|samples|minima)\b"))
 
 #: fast drawing settings: PNG only, a few animation frames
 FAST = dict(formats=("png",), fps=4.0, max_frames=5)
@@ -92,6 +102,18 @@ def check_report(folder: Path, out: Outcome) -> None:
         else:
             assert entry["outputs"], f"{job.name}: drawn, but no file recorded"
             out.drawn.append(job.name)
+    for job in plan(folder, animation=False):
+        if job.name in out.drawn:
+            data = [_load(p) for p in job.inputs]
+            how = DRAWINGS[job.key]
+            try:
+                fig = how.draw(_split(data, job.sizes) if job.sizes else data)
+            except NothingToDraw:
+                raise AssertionError(f"{job.name}: drawn by the report, not on a redraw")
+            for t in fig.findobj(Text):
+                for bad in BAD_TEXT:
+                    assert not bad.search(t.get_text()), \
+                        f"{job.name}: figure text {t.get_text()!r}"
     for ref in re.findall(r'(?:src|href)="([^"#][^"]*)"', page):
         assert (figs / ref).resolve().is_file(), f"the page references {ref}, not on disk"
     again: list[str] = []

@@ -303,7 +303,11 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
         handles += [Line2D([], [], color=SWAP_COLOUR, ls="--", label="magnet swap"),
                     Line2D([], [], label="end A", **END_A),
                     Line2D([], [], label="end B", **END_B),
-                    Line2D([], [], label="attached end (magnet on)", **MAGNET)]
+                    Line2D([], [], label="attached end (magnet on)", **MAGNET),
+                    Line2D([], [], color="0.8", lw=0.8, label="path of end A over the cycle"),
+                    Line2D([], [], color="0.8", lw=0.8, ls="--",
+                           label="path of end B over the cycle"),
+                    Line2D([], [], color="0.6", lw=0.6, ls=":", label="start height")]
         fig.legend(handles=handles, loc="outside lower center", ncols=4, frameon=False)
         run = "run under the gait's own controller" if own_controller(stab) else "open-loop run"
         fig.suptitle(f"Gait cycle {cycle} of the {run}, "

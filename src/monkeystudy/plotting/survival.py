@@ -22,8 +22,8 @@ from matplotlib.lines import Line2D
 
 from .analysis import run_line, two_titles
 from .common import (
-    BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, fmt_tick, json_attr, new_figure,
-    style,
+    BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, count, finite, fmt_tick, json_attr,
+    new_figure, style,
 )
 from .drawing import Drawing
 
@@ -85,7 +85,7 @@ def gait_text(ds) -> str:
               else "state-based controller")
     start = f"({float(a['dtheta1']):.4g}, {float(a['dtheta2']):.4g}) rad/s"
     times = ""
-    if "t_switch" in a and math.isfinite(float(a["t_switch"])) and a.get("replay") == "open_loop":
+    if finite(a.get("t_switch")) and finite(a.get("t_motor")) and a.get("replay") == "open_loop":
         times = f", swap {float(a['t_switch']) * 1e3:.4g} ms, motor {float(a['t_motor']) * 1e3:.4g} ms"
     return f"{replay} from {start}{times}"
 
@@ -109,8 +109,8 @@ def _subtitle(ds) -> str:
                      + ([f"advanced < {advance:g} m in a cycle"] if math.isfinite(advance)
                         else []))
     fixed = fixed_noise(ds)
-    return (f"{gait_text(ds)}; {int(a['runs'])} runs per level, up to {int(a['max_cycles'])} "
-            f"cycles; failure: {fail}\n{fmt_tick(a.get('tick'))}, {a.get('noise_distribution')} "
+    return (f"{gait_text(ds)}; {count(a['runs'], 'run')} per level, up to "
+            f"{count(a['max_cycles'], 'cycle')}; failure: {fail}\n{fmt_tick(a.get('tick'))}, {a.get('noise_distribution')} "
             f"noise{' (at every level: ' + fixed + ')' if fixed else ''}, seed "
             f"{a.get('seed')}; " + run_line(ds, tick=False))
 
