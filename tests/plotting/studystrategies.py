@@ -133,20 +133,32 @@ def axes(draw, lo: float, hi: float, span_max: float, scale: float) -> dict:
     return {"start": start, "stop": _r(start + span), "num": num}
 
 
+#: where the grids look (seed2009's rates, scaled to the robot): the horizontal gait's maps
+#: start near dtheta2 = 10.3, so the range reaches well below, where there is no gait; the
+#: sequence templates' own maps (studies/two_swing.yaml, studies/flight_gait.yaml)
+REGIONS = {"horizontal": (-1.0, 3.0, 7.0, 14.0), "two_swing": (-2.5, 0.5, 8.0, 22.0),
+           "flight": (0.5, 3.0, 7.0, 13.0)}
+
+
+def gait_region(gait: dict) -> str:
+    if gait["kind"] == "horizontal":
+        return "horizontal"
+    return "flight" if any(seg["magnets"] == "none" for seg in gait["segments"]
+                           if "magnets" in seg) else "two_swing"
+
+
 @st.composite
-def grid_steps(draw, name: str, robot, sequence: bool) -> dict:
+def grid_steps(draw, name: str, robot, region: str) -> dict:
     s = rate_scale(robot)
-    # seed2009's gaits start near dtheta2 = 10.3 (horizontal) and 8 (two swings): the ranges
-    # reach well below, where there is none
-    lo1, hi1, lo2, hi2 = (-2.5, 1.0, 6.0, 20.0) if sequence else (-1.0, 3.0, 7.0, 14.0)
+    lo1, hi1, lo2, hi2 = REGIONS[region]
     if draw(st.integers(0, 4)) == 0:
         n = draw(st.integers(1, 4))
         pts = [[_r(s * draw(st.floats(lo1, hi1))), _r(s * draw(st.floats(lo2, hi2)))]
                for _ in range(n)]
         pts = [p for i, p in enumerate(pts) if p not in pts[:i]]
         return {"name": name, "kind": "grid", "points": pts}
-    return {"name": name, "kind": "grid", "dtheta1": draw(axes(lo1, hi1, 3.0, s)),
-            "dtheta2": draw(axes(lo2, hi2, 6.0, s))}
+    return {"name": name, "kind": "grid", "dtheta1": draw(axes(lo1, hi1, hi1 - lo1, s)),
+            "dtheta2": draw(axes(lo2, hi2, hi2 - lo2, s))}
 
 
 def _n_points(grid: dict) -> int:
@@ -185,14 +197,19 @@ def survival_steps(draw, name: str, source: str, replay: str | None = None) -> d
 
 
 @st.composite
-def horizontal_studies(draw) -> dict:
-    robot = draw(robots())
-    design = draw(st.integers(0, 5)) == 0
-    gait = draw(horizontal_gaits(robot, tick=0.0 if design else None))
+def horizontal_studies(draw, design: bool | None = None) -> dict:
+    """A horizontal-gait study (``design``: with a design step, or drawn)."""
+    design = draw(st.integers(0, 5)) == 0 if design is None else design
+    # a design needs a schedule near a stable one to find gaits at all: mostly the 2009
+    # robot's (studies/open_loop_design_smoke.yaml), sometimes any robot (it finds none)
+    known = design and draw(st.integers(0, 3)) > 0
+    robot = "seed2009" if known else draw(robots())
+    gait = ({"kind": "horizontal", "motor_torque": 0.6354, "tick": 0.0} if known
+            else draw(horizontal_gaits(robot, tick=0.0 if design else None)))
     s = rate_scale(robot)
-    steps = [draw(grid_steps("map", robot, sequence=False))]
+    steps = [draw(grid_steps("map", robot, "horizontal"))]
     if draw(st.booleans()):
-        steps.append(draw(grid_steps("map2", robot, sequence=False)))
+        steps.append(draw(grid_steps("map2", robot, "horizontal")))
     refine = None
     if draw(st.integers(0, 3)) > 0:
         if draw(st.booleans()):
@@ -213,7 +230,7 @@ def horizontal_studies(draw) -> dict:
             steps.append(stab)
     shoot = design or draw(st.integers(0, 2)) == 0
     if shoot:
-        near = [[_r(1.44 * s), _r(10.31 * s)]] if draw(st.booleans()) else []
+        near = [[_r(1.44 * s), _r(10.31 * s)]] if known or draw(st.booleans()) else []
         starts = near + [[_r(s * draw(st.floats(0.0, 3.0))), _r(s * draw(st.floats(8.0, 13.0)))]]
         steps.append({"name": "exact", "kind": "shoot", "starts": starts,
                       "method": draw(st.sampled_from(["grazing", "gauss_newton", "both"])),
@@ -225,7 +242,7 @@ def horizontal_studies(draw) -> dict:
     # the search controller's fixed point is polished from the 2009 robot's gait: only there
     # does its default start lie near one (elsewhere the floquet task fails: a finding for
     # the run, not the report)
-    floquet = robot in ("seed2009", "uniform_rod") and gait["motor_torque"] == 0.6354 \
+    floquet = robot == "seed2009" and gait["motor_torque"] == 0.6354 \
         and draw(st.integers(0, 3)) == 0
     if floquet:
         ctrls = ["search"] + (["open_loop"] if shoot and draw(st.booleans()) else [])
@@ -241,12 +258,18 @@ def horizontal_studies(draw) -> dict:
         params = draw(st.sampled_from([["motor_start"], ["t_motor"], ["motor_start", "t_motor"]]))
         grid = {}
         for p in params:
-            lo, hi = {"motor_start": (-0.3, 0.1), "t_motor": (0.0, 0.3)}[p]
+            # around the smoke study's schedule (motor_start -0.30..-0.20, t_motor 0.14..0.22)
+            lo, hi = {"motor_start": (-0.35, -0.15), "t_motor": (0.1, 0.25)}[p]
             num = draw(st.integers(1, 3))
             a = _r(draw(st.floats(lo, hi)))
-            b = _r(min(a + draw(st.floats(0.01, 0.2)), {"motor_start": 0.5, "t_motor": 0.5}[p]))
+            b = _r(a + draw(st.floats(0.01, 0.1)))
             grid[p] = {"start": a, "stop": a if num == 1 else b, "num": num}
+        extra = {}
+        if known:
+            extra = {"fixed": {"torque": -0.6354}, "balance": "t_switch",
+                     "starts": [[-0.3288, 4.7564, 5.3654, 0.4711]]}
         steps.append({"name": "design", "kind": "design", "from": "exact", "parameters": grid,
+                      **extra,
                       "refine": {"starts": draw(st.integers(0, 1)),
                                  "max_evaluations": draw(st.integers(1, 5))},
                       "verify": {"cycles": draw(st.integers(1, 10)),
@@ -263,10 +286,15 @@ def horizontal_studies(draw) -> dict:
 def sequence_studies(draw) -> dict:
     robot = draw(st.one_of(st.just("seed2009"), robots(mirror=True)))
     gait = draw(sequence_gaits(robot))
-    steps = [draw(grid_steps("map", robot, sequence=True))]
+    steps = [draw(grid_steps("map", robot, gait_region(gait)))]
     steps.append({"name": "best", "kind": "refine",
                   "start": {"from": "map", "best": 1}, "maxiter": draw(st.integers(1, 12))})
-    if draw(st.booleans()):
+    # a floquet step on another robot can fail in its task (the variational Jacobian's event
+    # sequence differs from the run's: kept in test_report_regressions.py, a finding for the
+    # run): the report's part is drawn from the 2009 robot's
+    # (and its return map is differentiated with exact timing only: with a tick the task
+    # fails, though the loader accepts the study: kept as a regression case too)
+    if robot == "seed2009" and gait["tick"] == 0.0 and draw(st.booleans()):
         steps.append({"name": "multipliers", "kind": "floquet", "from": "best"})
         follow = draw(st.sampled_from(["stability", "basin", "survival", "none"]))
         if follow == "stability":
@@ -294,3 +322,8 @@ def studies() -> st.SearchStrategy[dict]:
 def study_text(study: dict) -> str:
     """The study as a file's text (JSON, which is YAML 1.2)."""
     return json.dumps(study, indent=1) + "\n"
+
+
+def design_studies() -> st.SearchStrategy[dict]:
+    """Horizontal-gait studies with a design step."""
+    return horizontal_studies(design=True)

@@ -20,6 +20,7 @@ import matplotlib.style
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter
 
 import monkeystudy
 from ..kernel.layout import STATUS_NAMES
@@ -230,6 +231,21 @@ def finite(x) -> bool:
         return math.isfinite(float(x))
     except (TypeError, ValueError):
         return False
+
+
+def plain_log_labels(axis) -> None:
+    """Label a logarithmic axis with plain numbers (``4``, ``0.002``), minor ticks too, so that
+    a range shorter than a decade reads ``4 5 6``, not ``4×10⁰ 5×10⁰ 6×10⁰``."""
+    def fmt(v, _pos):
+        return f"{v:g}"
+    axis.set_major_formatter(FuncFormatter(fmt))
+    axis.set_minor_formatter(FuncFormatter(
+        lambda v, pos: fmt(v, pos) if _short_range(axis) else ""))
+
+
+def _short_range(axis) -> bool:
+    lo, hi = sorted(axis.get_view_interval())
+    return lo > 0 and hi / lo < 10.0
 
 
 def finite_or_nan(x) -> float:

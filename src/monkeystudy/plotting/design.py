@@ -103,6 +103,7 @@ def plot_design_map(ds):
             ax.set_xlabel(LABELS.get(kept[0], kept[0]))
             ax.set_ylabel("spectral radius ρ per step")
             ax.set_yscale("log")
+            ax.legend(loc="best", fontsize=8.5)
         else:
             xd, yd = kept[1], kept[0]          # C order: rows are the first kept dim
             x, y = ds[xd].values, ds[yd].values

@@ -424,8 +424,12 @@ def mark_minima(fig, ax, shown: Sequence[Minimum], e1: np.ndarray, e2: np.ndarra
                     color="white", path_effects=outline, zorder=7, gid=f"label_{m.label}",
                     arrowprops=None if off == (6, 5) else dict(
                         arrowstyle="-", color="white", lw=0.8, shrinkA=0, shrinkB=4))
-        what = (f"e = {m.error:.2g} at ({m.dtheta1:.3f}, {m.dtheta2:.3f})"
-                + ("" if m.ok else " (no gait)") if values else "as numbered on the error map")
+        if not values:
+            what = "as numbered on the error map"
+        elif m.ok and finite(m.error):
+            what = f"e = {m.error:.2g} at ({m.dtheta1:.3f}, {m.dtheta2:.3f})"
+        else:
+            what = f"no gait at ({m.dtheta1:.3f}, {m.dtheta2:.3f}): the search found none"
         handles.append(Line2D([], [], marker="s", ms=8, mfc=MINIMUM_COLOUR, mec="black",
                               ls="none", label=f"{k}: {m.label}, {what}"))
     if least is not None:

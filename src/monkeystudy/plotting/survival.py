@@ -23,7 +23,7 @@ from matplotlib.lines import Line2D
 from .analysis import run_line, two_titles
 from .common import (
     BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, count, finite, fmt_tick, json_attr,
-    new_figure, style,
+    new_figure, plain_log_labels, style,
 )
 from .drawing import Drawing
 
@@ -155,6 +155,7 @@ def plot_survival(ds):
             ax.step(c[keep], s[i, keep], where="post", color=col, lw=2,
                     gid=f"survival_{i}", label=level_text(ds, i))
         ax.set_xscale("log")
+        plain_log_labels(ax.xaxis)
         ax.set_ylim(-0.03, 1.03)
         ax.set_xlim(1, max(float(ds.attrs["max_cycles"]), 2))
         ax.set_xlabel("cycles completed  c")
@@ -205,6 +206,7 @@ def plot_mfpt(ds):
         est_open, bound = _mfpt_points(ax, x, ds, BLUE, "MFPT, 95 % interval", "mfpt")
         ax.set_xscale("log" if np.all(x > 0) else "linear")
         ax.set_yscale("log")
+        plain_log_labels(ax.yaxis)
         ax.set_xlabel(xlabel)
         ax.set_ylabel("mean cycles before failure")
         adv = np.asarray(ds["advance_per_cycle"].values, float)
@@ -213,6 +215,7 @@ def plot_mfpt(ds):
             a = float(np.mean(adv))
             sec = ax.secondary_yaxis("right", functions=(lambda v: v * a, lambda v: v / a))
             sec.set_ylabel(f"metres before failure (at {a:.3g} m per cycle)")
+            plain_log_labels(sec.yaxis)
         handles, _ = ax.get_legend_handles_labels()
         ax.legend(handles=handles + marker_handles(est_open, bound, BLUE), loc="best",
                   fontsize=8.5)
