@@ -38,7 +38,7 @@ RUN_REFUSALS = (
 
 #: text no figure may show: a number that is not one, a count in the wrong number
 BAD_TEXT = (re.compile(r"\bnan\b", re.IGNORECASE),
-            re.compile(r"(?<![\d.])1 (runs|points|cycles|starts|iterations|iterates|designs|levels"
+            re.compile(r"(?<![\d.×])1 (runs|points|cycles|starts|iterations|iterates|designs|levels"
                        r"|solutions|samples|minima)\b"))
 
 #: fast drawing settings: PNG only, a few animation frames

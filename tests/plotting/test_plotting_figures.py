@@ -5,6 +5,8 @@ import re
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from matplotlib.figure import Figure
 from PIL import Image
 
@@ -281,3 +283,45 @@ def test_animation_is_an_mp4_a_person_can_watch(datasets, tmp_path):
     assert w >= 960 and (w, h) == (960, 600), probe
     assert re.search(r"Duration: 00:00:0(3\.9|4\.0)", probe), probe   # (6 + 2) frames at 2 fps
     assert "study_sha256=abc123" in probe
+
+
+def test_the_animation_camera_keeps_the_whole_robot_in_view(datasets):
+    """Issue 32: the last (falling) frames moved the view so that only a stub of a link was
+    left in it. The camera holds every point of the robot in every frame of a run."""
+    from monkeystudy.plotting.gait import Camera, animation_frames
+
+    s = datasets["stability_1"]
+    traj = trajectory(s)
+    frames, _ = animation_frames(traj, fps=15.0, max_frames=240)
+    reach = 1.22
+    cam = Camera(3.5, 1.6, margin=0.06)
+    moves = 0
+    for i in frames:
+        pts = np.array([traj.A[i], traj.joint[i], traj.B[i]])
+        moves += cam.follow(pts.min(axis=0), pts.max(axis=0))
+        assert np.all(pts >= cam.lo) and np.all(pts <= cam.lo + cam.size), (i, cam.lo)
+    assert moves < len(frames) / 4          # a still view most of the time: frames blit
+    assert reach < cam.size[1]
+
+
+@given(st.lists(st.tuples(st.floats(-50, 50), st.floats(-50, 50), st.floats(0.0, 1.0),
+                          st.floats(0.0, 1.0)), min_size=1, max_size=40),
+       st.sampled_from([-1.0, 1.0]))
+def test_camera_holds_any_box_that_fits(boxes, heading):
+    """Whatever the robot does, a box that fits the view (with its margins) is in it."""
+    from monkeystudy.plotting.gait import Camera
+
+    cam = Camera(3.0, 2.0, margin=0.1, heading=heading)
+    for x, y, w, h in boxes:
+        lo, hi = np.array([x, y]), np.array([x + 2.6 * w, y + 1.6 * h])
+        cam.follow(lo, hi)
+        assert np.all(cam.lo + cam.margin <= lo + 1e-9)
+        assert np.all(hi <= cam.lo + cam.size - cam.margin + 1e-9)
+
+
+def test_animation_reports_every_frame(datasets, tmp_path):
+    s = datasets["stability_1"]
+    seen = []
+    write_animation(s, tmp_path / "anim", {}, max_frames=6, fps=2,
+                    progress=lambda done, total: seen.append((done, total)))
+    assert seen == [(k, 8) for k in range(1, 9)]         # 6 frames + the end held 1 s
