@@ -246,8 +246,8 @@ def has_film(ds) -> bool:
 DRAWINGS = {
     ("design", "map"): Drawing(lambda d: plot_design_map(d[0])),
     ("design", "multipliers"): Drawing(lambda d: plot_design_multipliers(d[0])),
-    ("design", "replay"): Drawing(lambda d: plot_design_replay(d[0])),
-    ("design", "filmstrip"): Drawing(lambda d: plot_filmstrip(d[0]),
+    ("design", "replay"): Drawing(lambda d: plot_design_replay(d[0]), cost=2.0),
+    ("design", "filmstrip"): Drawing(lambda d: plot_filmstrip(d[0]), cost=3.0,
                                      applies=lambda path, folder: has_film(
                                          folder.loaded(path))),
 }

@@ -50,7 +50,8 @@ class Drawing:
     instead writes its own files: ``draw(datasets, base, provenance) -> paths``. Either may
     raise :class:`NothingToDraw`. ``applies`` says whether the dataset's layout has the figure
     at all (a sequence gait's grid has no swap time); a dataset of the right layout whose
-    numbers leave nothing to draw is a :class:`NothingToDraw`. An ``across`` figure is drawn once
+    numbers leave nothing to draw is a :class:`NothingToDraw`. ``cost`` orders the drawing
+    (longest first). An ``across`` figure is drawn once
     per study folder from every dataset of its kind (``figures/<kind>_<suffix>``), when there
     are at least two.
     """
@@ -60,3 +61,6 @@ class Drawing:
     applies: Callable[[Path, Folder], bool] = always
     animation: bool = False
     across: bool = False
+    #: how long it takes to draw, relative to a simple figure: the report starts the longest
+    #: first, so that the processes finish together
+    cost: float = 1.0

@@ -590,7 +590,8 @@ def _animation(d, base: Path, prov: dict, *, fps: float, max_frames: int,
 DRAWINGS = {
     ("stability", "filmstrip"): Drawing(
         lambda d: plot_filmstrip(d[0], gait=gait_point(d[0], d[1:])),
-        extra_inputs=stability_inputs, applies=_has_trajectory),
+        extra_inputs=stability_inputs, applies=_has_trajectory, cost=3.0),
     ("stability", "animation"): Drawing(_animation, extra_inputs=stability_inputs,
-                                        applies=_has_trajectory, animation=True),
+                                        applies=_has_trajectory, animation=True,
+                                        cost=8.0),
 }

@@ -644,26 +644,28 @@ def continuous_surface(X: np.ndarray, Y: np.ndarray, Z: np.ndarray, *, cmap: str
     else:
         keep = drawn
     covered = np.zeros(Z.shape, bool)
-    faces = [f for f in cells[whole & keep]]
+    quads = cells[whole & keep]                                   # (n, 4, 3)
+    tris = [cells[m & keep][:, [j for j in range(4) if j != k]] for k, m in triangles.items()]
+    tris = np.concatenate(tris) if tris else np.zeros((0, 3, 3))  # (m, 3, 3)
     for k, m in triangles.items():
-        corners = [j for j in range(4) if j != k]
-        faces += [f for f in cells[m & keep][:, corners]]
-        for j in corners:
-            covered[_CORNERS[j]] |= m & keep
+        for j in range(4):
+            if j != k:
+                covered[_CORNERS[j]] |= m & keep
     for j in range(4):
         covered[_CORNERS[j]] |= whole & keep
     loose = np.isfinite(Z) & ~covered
-    if not faces:
+    if not len(quads) and not len(tris):
         return Poly3DCollection([], linewidths=0.15), loose
-    z_mean = np.array([f[:, 2].mean() for f in faces])
+    z_mean = np.concatenate([quads[:, :, 2].mean(axis=1), tris[:, :, 2].mean(axis=1)])
     colours = colormaps[cmap](Normalize(0.0, vmax)(z_mean))
-    normals = np.array([np.cross(f[2] - f[0], f[3] - f[1]) if len(f) == 4
-                        else np.cross(f[1] - f[0], f[2] - f[0]) for f in faces])
+    normals = np.concatenate([np.cross(quads[:, 2] - quads[:, 0], quads[:, 3] - quads[:, 1]),
+                              np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])])
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
     # the sign of a normal is arbitrary: light the side facing up
     normals *= np.sign(normals[:, 2:3] + (normals[:, 2:3] == 0))
     shade = LightSource(azdeg=225, altdeg=19.4712).shade_normals(normals, fraction=1.0)
     colours[:, :3] *= (0.35 + 0.65 * shade)[:, None]
+    faces = list(quads) + list(tris)
     return Poly3DCollection(faces, facecolors=colours, edgecolors=(0, 0, 0, 0.15),
                             linewidths=0.15), loose
 
@@ -758,8 +760,9 @@ def _has_iterations(path: Path, folder: Folder) -> bool:
 
 #: how the grid and refine steps' figures are drawn
 DRAWINGS = {
-    ("grid", "surface"): Drawing(lambda d: plot_error_surface(d[0])),
-    ("grid", "map"): Drawing(lambda d: plot_error_map(d[0], d[1:]), extra_inputs=_refines),
+    ("grid", "surface"): Drawing(lambda d: plot_error_surface(d[0]), cost=3.0),
+    ("grid", "map"): Drawing(lambda d: plot_error_map(d[0], d[1:]), extra_inputs=_refines,
+                             cost=2.0),
     ("grid", "swap_time"): Drawing(lambda d: plot_swap_time_map(d[0], d[1:]),
                                    extra_inputs=_refines, applies=_has_swap_times),
     ("refine", "convergence"): Drawing(lambda d: plot_refine_convergence(d[0]),

@@ -4,7 +4,7 @@
 their ``step_kind`` attribute), plans the figures they support and writes each as PNG and PDF
 (the animation as MP4, or GIF without ffmpeg) into ``DIR/figures/``. It never simulates.
 The figures are drawn on one process per core (:mod:`monkeystudy.plotting.workers`), the
-animations first, since they take longest; every file is written to a temporary name and
+longest first (the animations, by each drawing's ``cost``); every file is written to a temporary name and
 renamed into place, so an interrupted report leaves no half-written file.
 
 A figure whose datasets hold nothing it could show (:class:`~.drawing.NothingToDraw`: a
@@ -22,13 +22,15 @@ deleted are removed.
 file (``figures/``)                    what                                    study figure
 =====================================  ======================================  ==============
 ``<grid>_surface``                     sqrt(error) surface, no-gait floor      3
-``<grid>_map``                         error map truncated at 5, minima        4, 9, 10
-``<refine>_convergence``               best-vertex error per iteration         (text 4.2)
+``<grid>_map``                         error map truncated at 5, minima, the   4, 9, 10
+                                       grid's least error
+``<refine>_convergence``               best-vertex error per iteration (0:     (text 4.2)
+                                       the start)
 ``<stability>_error``                  error per cycle, log scale              5, 8
 ``<stability>_kinetic_energy``         kinetic energy per cycle                6
 ``<stability>_height``                 attached-end height per cycle           7
 ``<stability>_filmstrip``              one gait cycle, frame by frame          2 (from data)
-``<stability>_animation``              the whole run (GIF / MP4)               -
+``<stability>_animation``              the whole run (MP4, or GIF)             -
 ``stability_error_comparison``         all multi-cycle runs' errors            5 + 8
 ``<shoot>_newton``                     residual norm per Newton iteration      -
 ``<floquet>_multipliers``              multipliers and the unit circle         -
@@ -446,8 +448,9 @@ def report_study(study_dir: Path, *, force: bool = False,
         manifest["figures"][job.name] = entry
         _write_manifest(manifest_path, manifest)
 
-    # the animations first: they take longest, and the other core draws the stills meanwhile
-    order = sorted(range(len(todo)), key=lambda i: not todo[i][1].animation)
+    # longest first (the animations, then the many-panel figures): the processes then finish
+    # close together; ties in the plan's order
+    order = sorted(range(len(todo)), key=lambda i: -DRAWINGS[todo[i][1].key].cost)
     try:
         run_jobs(order, run_one, handle, workers or available_cores())
     except KeyboardInterrupt:
