@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib.lines import Line2D
+from PIL import Image
 from matplotlib.patches import Patch
 
 from .cycles import gait_point, gait_text, own_controller, stability_inputs, stop_note
@@ -407,7 +408,6 @@ class _FrameSink:
         if self.proc is not None:
             self.proc.stdin.write(rgba)
         else:
-            from PIL import Image
             w, h = self.size
             self.images.append(Image.frombuffer("RGBA", (w, h), bytes(rgba), "raw", "RGBA", 0,
                                                 1).convert("RGB"))
