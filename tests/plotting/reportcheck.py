@@ -114,6 +114,9 @@ def check_report(folder: Path, out: Outcome) -> None:
                 for bad in BAD_TEXT:
                     assert not bad.search(t.get_text()), \
                         f"{job.name}: figure text {t.get_text()!r}"
+    shown = re.sub(r"<pre>.*?</pre>", "", page, flags=re.S)     # the study file as written
+    for bad in BAD_TEXT:
+        assert not bad.search(shown), f"the page says {bad.search(shown).group(0)!r}"
     for ref in re.findall(r'(?:src|href)="([^"#][^"]*)"', page):
         assert (figs / ref).resolve().is_file(), f"the page references {ref}, not on disk"
     again: list[str] = []

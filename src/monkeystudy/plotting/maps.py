@@ -247,6 +247,7 @@ def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str
     g = grid_arrays(grid)
     e1, e2 = cell_edges(g.dtheta1), cell_edges(g.dtheta2)
     clipped = np.ma.masked_invalid(np.minimum(g.error, vmax)).T
+    profile = profile and bool(g.ok.any())       # no gait: no row has a lowest error
     with style():
         if profile:
             fig = new_figure(figsize=(8.8, 6.4))

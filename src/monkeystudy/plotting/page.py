@@ -57,6 +57,20 @@ def _json(attrs: Mapping, name: str):
         return None
 
 
+#: a value that is not a number, with the unit that would follow it
+_NOT_A_NUMBER = re.compile(r"\bnan\b(?: (?:rad s-1|rad|m|s|J|N m|kg|%))?", re.IGNORECASE)
+#: a count of one followed by a plural noun (``1 runs``)
+_ONE = re.compile(r"(?<![\d.×])1 (runs|cycles|points|starts|iterations|iterates|designs|levels|"
+                  r"solutions|blocks|samples|vertical crossings)\b")
+
+
+def tidy(line: str) -> str:
+    """A key-number line as the page shows it: a value that is not a number as "–" (its unit
+    dropped), a count of one in the singular."""
+    line = _NOT_A_NUMBER.sub("–", line)
+    return _ONE.sub(lambda m: "1 " + m.group(1)[:-1], line)
+
+
 def description(doc: str | None) -> str:
     """A step kind's description for the page: the first sentence of its model's docstring,
     whole (the docstring's first line may stop mid-sentence), on one line."""
@@ -170,7 +184,8 @@ def render_page(study_dir: Path, datasets: Mapping[str, object],
             except Exception as exc:   # a dataset of another version: still show the rest
                 lines = [f"(key numbers unavailable: {type(exc).__name__}: {exc})"]
             if lines:
-                out.append('<ul class="numbers">' + "".join(f"<li>{_e(x)}</li>" for x in lines)
+                out.append('<ul class="numbers">' + "".join(f"<li>{_e(tidy(x))}</li>"
+                                                            for x in lines)
                            + "</ul>")
         out.append(f'<p class="muted">dataset <a href="../{_e(name)}.nc">{_e(name)}.nc</a>'
                    "</p>")
