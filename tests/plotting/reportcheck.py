@@ -19,7 +19,7 @@ from matplotlib.text import Text
 from monkeystudy.plotting.drawing import NothingToDraw
 from monkeystudy.plotting.page import PAGE
 from monkeystudy.plotting.report import (
-    DRAWINGS, MANIFEST, _load, _split, plan, report_study, study_datasets,
+    DRAWINGS, MANIFEST, load_dataset, plan, report_study, split_groups, study_datasets,
 )
 from monkeystudy.study import RunFailed, parse_study, run_study
 
@@ -104,10 +104,10 @@ def check_report(folder: Path, out: Outcome) -> None:
             out.drawn.append(job.name)
     for job in plan(folder, animation=False):
         if job.name in out.drawn:
-            data = [_load(p) for p in job.inputs]
+            data = [load_dataset(p) for p in job.inputs]
             how = DRAWINGS[job.key]
             try:
-                fig = how.draw(_split(data, job.sizes) if job.sizes else data)
+                fig = how.draw(split_groups(data, job.sizes) if job.sizes else data)
             except NothingToDraw:
                 raise AssertionError(f"{job.name}: drawn by the report, not on a redraw")
             for t in fig.findobj(Text):

@@ -177,7 +177,8 @@ def _datasets(study_dir: Path) -> dict[str, list[Path]]:
     return out
 
 
-def _load(path: Path) -> xr.Dataset:
+def load_dataset(path: Path) -> xr.Dataset:
+    """A dataset file, read whole into memory (the file is closed again)."""
     with xr.open_dataset(path) as ds:
         return ds.load()
 
@@ -191,7 +192,7 @@ def plan(study_dir: Path, *, animation: bool = True, fps: float = 15.0,
 
     def loaded(path: Path) -> xr.Dataset:
         if path not in cache:
-            cache[path] = _load(path)
+            cache[path] = load_dataset(path)
         return cache[path]
 
     folder = Folder(study_dir, _datasets(study_dir), loaded)
@@ -217,7 +218,7 @@ def plan(study_dir: Path, *, animation: bool = True, fps: float = 15.0,
     return jobs
 
 
-def _split(datasets: list, sizes: Sequence[int]) -> list[list]:
+def split_groups(datasets: list, sizes: Sequence[int]) -> list[list]:
     """``datasets`` cut into consecutive groups of ``sizes``."""
     out, k = [], 0
     for n in sizes:
@@ -235,7 +236,7 @@ def draw_job(job: Job, fig_dir: Path, *, formats: Sequence[str], fps: float, max
     """
     t0 = time.perf_counter()
     how = DRAWINGS[job.key]
-    data = [_load(p) for p in job.inputs]
+    data = [load_dataset(p) for p in job.inputs]
     prov = provenance(data, job.inputs)
     base = fig_dir / job.name
     try:
@@ -243,7 +244,7 @@ def draw_job(job: Job, fig_dir: Path, *, formats: Sequence[str], fps: float, max
             paths = how.draw(data, base, prov, fps=fps, max_frames=max_frames,
                              progress=frames)
         else:
-            fig = how.draw(_split(data, job.sizes) if job.sizes else data)
+            fig = how.draw(split_groups(data, job.sizes) if job.sizes else data)
             paths = save_figure(fig, base, prov, formats=formats, title=job.title)
             fig.clear()
     except NothingToDraw as why:
@@ -486,7 +487,7 @@ def _write_page(study_dir: Path, files: list[Path], manifest: dict) -> Path | No
     """Write ``figures/index.html`` if its content changed; return its path if written. The
     page shows every figure the manifest holds (those not drawn this time, e.g. animations
     with ``animation=False``, are still there) and says why each skipped one has none."""
-    datasets = {p.stem: _load(p) for p in files}
+    datasets = {p.stem: load_dataset(p) for p in files}
     figures = {name: e.get("outputs", []) for name, e in manifest["figures"].items()
                if "skipped" not in e}
     skipped = {name: e["skipped"] for name, e in manifest["figures"].items() if "skipped" in e}
