@@ -5,6 +5,8 @@ import re
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from matplotlib.figure import Figure
 from PIL import Image
 
@@ -15,7 +17,8 @@ from monkeystudy.plotting import (
     plot_filmstrip, plot_kinetic_energy, plot_pivot_height, plot_refine_convergence,
     trajectory, write_animation,
 )
-from monkeystudy.plotting.maps import cell_edges, grid_arrays, jump_points
+from monkeystudy.plotting.drawing import NothingToDraw
+from monkeystudy.plotting.maps import cell_edges, grid_arrays
 
 
 def by_gid(fig: Figure, gid: str):
@@ -95,40 +98,69 @@ def test_cell_edges_centre_the_cells():
 
 
 # --- surface (fig. 3) -----------------------------------------------------------------------
+def drawn_faces(coll) -> list[np.ndarray]:
+    """The 3-D faces of a Poly3DCollection, padding vertices of triangles dropped (private
+    attributes: mplot3d has no public accessor for the 3-D vertices)."""
+    faces = coll._faces
+    invalid = np.broadcast_to(getattr(coll, "_invalid_vertices", False), faces.shape[:2])
+    return [f[~bad] for f, bad in zip(faces, invalid)]
+
+
 def drawn_z(coll) -> np.ndarray:
-    """Vertex heights of a Poly3DCollection (private attributes: mplot3d has no public
-    accessor for the 3-D vertices; padding vertices of partial faces are masked)."""
-    z = coll._faces[..., 2]
-    invalid = getattr(coll, "_invalid_vertices", False)
-    return np.ma.masked_array(z, mask=np.broadcast_to(invalid, z.shape)).compressed()
+    faces = drawn_faces(coll)
+    return np.concatenate([f[:, 2] for f in faces]) if faces else np.zeros(0)
 
 
 def test_surface_heights_are_sqrt_error_and_floor_is_flat(datasets):
     grid = datasets["error_map"]
     fig = plot_error_surface(grid)
-    err = grid["error"].values
+    g = grid_arrays(grid)
+    root = np.sqrt(g.error)
     surf = by_gid(fig, "sqrt_error")
-    z = drawn_z(surf)
-    allowed = np.sqrt(err[np.isfinite(err)])
-    assert z.size and np.all(np.min(np.abs(z[:, None] - allowed[None, :]), axis=1) < 1e-9)
-    # the highest point drawn: the highest one with a whole cell of values around it and no
-    # jump by more than a tenth of the range to a neighbour (the docstring's rule)
-    root = np.sqrt(err)
-    kept = np.where(jump_points(root, 0.1 * np.nanmax(root)), np.nan, root)
-    f = np.isfinite(kept)
-    cell = f[:-1, :-1] & f[1:, :-1] & f[1:, 1:] & f[:-1, 1:]
-    covered = np.zeros_like(f)
-    for di, dj in ((0, 0), (1, 0), (1, 1), (0, 1)):
-        covered[di:di + cell.shape[0], dj:dj + cell.shape[1]] |= cell
-    assert z.max() == pytest.approx(np.nanmax(np.where(covered, root, np.nan)))
-    assert covered.any()
-    faces = surf._faces                # whole cells only: no triangle of a cell cut by a gap
-    assert faces.shape[1] == 4 and np.isfinite(faces).all()
-    assert not np.any(getattr(surf, "_invalid_vertices", False))
+    faces = drawn_faces(surf)
+    assert faces and all(len(f) in (3, 4) and np.isfinite(f).all() for f in faces)
+    zmax = np.nanmax(root)
+    for f in faces:
+        # every vertex is a grid point with a gait, at sqrt(e) of that point
+        i = np.searchsorted(g.dtheta1, f[:, 0])
+        j = np.searchsorted(g.dtheta2, f[:, 1])
+        np.testing.assert_array_equal(g.dtheta1[i], f[:, 0])
+        np.testing.assert_array_equal(g.dtheta2[j], f[:, 1])
+        np.testing.assert_allclose(f[:, 2], root[i, j], rtol=0, atol=1e-12)
+        # never across a jump of more than a tenth of the range
+        assert np.ptp(f[:, 2]) <= 0.1 * zmax + 1e-12
+    # every point with a gait is on the surface or a dot
+    on_surface = {(x, y) for f in faces for x, y in f[:, :2]}
+    dots = [a for a in fig.findobj() if a.get_gid() == "sqrt_error_points"]
+    dotted = {tuple(p) for d in dots for p in np.column_stack(d._offsets3d[:2])}
+    with_gait = {(g.dtheta1[i], g.dtheta2[j]) for i, j in zip(*np.nonzero(g.ok))}
+    assert with_gait <= on_surface | dotted
+    assert not (on_surface & dotted)
     for key in ("floor_unreachable", "floor_no_switch"):
         fz = drawn_z(by_gid(fig, key))
         assert fz.size and np.all(fz == 0.0)
     assert "√" in fig.axes[0].get_zlabel() or "sqrt" in fig.axes[0].get_zlabel()
+
+
+def test_surface_of_grids_too_small_for_cells(datasets):
+    """A 1 x n grid and a single point have no cell: their points are drawn as dots (and a
+    1 x n grid as a curve); a grid without any gait has nothing to draw."""
+    grid = datasets["error_map"]
+    g = grid_arrays(grid)
+    col = int(np.argmax(g.ok.sum(axis=1)))               # the column with most gaits
+    row = grid.isel(dtheta1=[col])
+    fig = plot_error_surface(row)
+    dots = by_gid(fig, "sqrt_error_points")
+    z = np.asarray(dots._offsets3d[2], float)
+    np.testing.assert_allclose(np.sort(z), np.sort(np.sqrt(g.error[col][g.ok[col]])))
+    assert by_gid(fig, "sqrt_error_line")
+    i, j = np.argwhere(g.ok)[0]
+    one = grid.isel(dtheta1=[i], dtheta2=[j])
+    assert by_gid(plot_error_surface(one), "sqrt_error_points")
+    none = grid.copy()
+    none["status"] = none["status"].where(none["status"] != 0, 2)     # every gait: no switch
+    with pytest.raises(NothingToDraw, match="no point of the grid has a gait"):
+        plot_error_surface(none)
 
 
 # --- per-cycle figures (figs. 5-8) ----------------------------------------------------------
@@ -251,3 +283,45 @@ def test_animation_is_an_mp4_a_person_can_watch(datasets, tmp_path):
     assert w >= 960 and (w, h) == (960, 600), probe
     assert re.search(r"Duration: 00:00:0(3\.9|4\.0)", probe), probe   # (6 + 2) frames at 2 fps
     assert "study_sha256=abc123" in probe
+
+
+def test_the_animation_camera_keeps_the_whole_robot_in_view(datasets):
+    """Issue 32: the last (falling) frames moved the view so that only a stub of a link was
+    left in it. The camera holds every point of the robot in every frame of a run."""
+    from monkeystudy.plotting.gait import Camera, animation_frames
+
+    s = datasets["stability_1"]
+    traj = trajectory(s)
+    frames, _ = animation_frames(traj, fps=15.0, max_frames=240)
+    reach = 1.22
+    cam = Camera(3.5, 1.6, margin=0.06)
+    moves = 0
+    for i in frames:
+        pts = np.array([traj.A[i], traj.joint[i], traj.B[i]])
+        moves += cam.follow(pts.min(axis=0), pts.max(axis=0))
+        assert np.all(pts >= cam.lo) and np.all(pts <= cam.lo + cam.size), (i, cam.lo)
+    assert moves < len(frames) / 4          # a still view most of the time: frames blit
+    assert reach < cam.size[1]
+
+
+@given(st.lists(st.tuples(st.floats(-50, 50), st.floats(-50, 50), st.floats(0.0, 1.0),
+                          st.floats(0.0, 1.0)), min_size=1, max_size=40),
+       st.sampled_from([-1.0, 1.0]))
+def test_camera_holds_any_box_that_fits(boxes, heading):
+    """Whatever the robot does, a box that fits the view (with its margins) is in it."""
+    from monkeystudy.plotting.gait import Camera
+
+    cam = Camera(3.0, 2.0, margin=0.1, heading=heading)
+    for x, y, w, h in boxes:
+        lo, hi = np.array([x, y]), np.array([x + 2.6 * w, y + 1.6 * h])
+        cam.follow(lo, hi)
+        assert np.all(cam.lo + cam.margin <= lo + 1e-9)
+        assert np.all(hi <= cam.lo + cam.size - cam.margin + 1e-9)
+
+
+def test_animation_reports_every_frame(datasets, tmp_path):
+    s = datasets["stability_1"]
+    seen = []
+    write_animation(s, tmp_path / "anim", {}, max_frames=6, fps=2,
+                    progress=lambda done, total: seen.append((done, total)))
+    assert seen == [(k, 8) for k in range(1, 9)]         # 6 frames + the end held 1 s

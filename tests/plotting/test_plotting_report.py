@@ -1,6 +1,7 @@
 """report_study: every figure the datasets support, valid files with provenance, incremental."""
 from __future__ import annotations
 
+import json
 import re
 
 import os
@@ -293,3 +294,136 @@ def test_the_page_links_only_to_files_that_exist(reported_study):
         assert p.name in links, p.name
     captions = [f.caption for k in REGISTRY.values() for f in k.figures]
     assert sum(c in text.replace("&#x27;", "'") for c in captions) >= 5
+
+
+# --- figures with nothing to show, interruptions, workers, progress -------------------------
+def test_a_figure_with_nothing_to_show_is_skipped_with_its_reason(reported_copy, monkeypatch):
+    """A drawing that raises NothingToDraw is skipped, not failed: the log line and the page
+    say why, its earlier files are removed, and the next report finds it up to date."""
+    from monkeystudy.plotting import report as R
+    from monkeystudy.plotting.drawing import NothingToDraw
+
+    def nothing(d):
+        raise NothingToDraw("no swap time in this test")
+    how = R.DRAWINGS[("grid", "swap_time")]
+    monkeypatch.setitem(R.DRAWINGS, ("grid", "swap_time"),
+                        R.Drawing(nothing, extra_inputs=how.extra_inputs))
+    figs = reported_copy / "figures"
+    assert (figs / "error_map_swap_time.png").exists()
+    lines: list[str] = []
+    report_study(reported_copy, force=True, animation=False, formats=("png",),
+                 progress=lines.append)
+    assert any(line.endswith("error_map_swap_time: skipped: no swap time in this test")
+               for line in lines)
+    assert "1 skipped (nothing to show)" in lines[-1]
+    assert not list(figs.glob("error_map_swap_time.*"))
+    entry = json.loads((figs / MANIFEST).read_text())["figures"]["error_map_swap_time"]
+    assert entry["skipped"] == "no swap time in this test" and entry["outputs"] == []
+    page = (figs / PAGE).read_text()
+    assert 'id="error_map_swap_time" class="skipped"' in page
+    assert "not drawn, no swap time in this test." in page
+    assert report_study(reported_copy, animation=False, formats=("png",)) == []
+
+
+def test_an_interrupted_report_leaves_no_half_written_file_and_resumes(study_dir,
+                                                                       monkeypatch):
+    """Ctrl-C while a figure is being written: that file is not left half-written, the
+    figures finished before are in the manifest, and the next report draws only the rest."""
+    from matplotlib.figure import Figure
+
+    from monkeystudy.plotting.report import ReportInterrupted
+
+    real = Figure.savefig
+    calls = []
+
+    def savefig(self, fname, *args, **kwargs):
+        calls.append(fname)
+        if len(calls) == 4:                 # mid-write: some bytes out, then Ctrl-C
+            Path(fname).write_bytes(b"\x89PNG half")
+            raise KeyboardInterrupt
+        return real(self, fname, *args, **kwargs)
+    monkeypatch.setattr(Figure, "savefig", savefig)
+    with pytest.raises(ReportInterrupted) as exc:
+        report_study(study_dir, animation=False, formats=("png",), workers=1)
+    figs = study_dir / "figures"
+    names = {p.name for p in figs.iterdir()}
+    assert not [n for n in names if n.startswith(".")], names        # no temporary file
+    done = json.loads((figs / MANIFEST).read_text())["figures"]
+    assert len(done) == 3 and exc.value.written
+    assert {f"{n}.png" for n in done} == names - {MANIFEST}
+    monkeypatch.setattr(Figure, "savefig", real)
+    written = report_study(study_dir, animation=False, formats=("png",), workers=1)
+    assert not {p.stem for p in written} & set(done)                 # only the rest redrawn
+    assert len(json.loads((figs / MANIFEST).read_text())["figures"]) == len(STILLS)
+
+
+def test_ctrl_c_stops_the_drawing_processes_and_their_files(study_dir, monkeypatch):
+    """With figures drawn on worker processes, Ctrl-C (SIGINT to the report) stops them all:
+    the file a worker was writing is removed, and no worker is left running."""
+    import signal
+    import threading
+    import time
+
+    from monkeystudy.plotting import report as R
+    from monkeystudy.plotting.common import atomic_path
+
+    started = study_dir / "started"
+
+    def slow(d):                    # a drawing caught in the middle of writing its file
+        with atomic_path(study_dir / "figures" / "slow.png") as tmp:
+            tmp.write_bytes(b"partial")
+            started.write_text("")
+            time.sleep(60)
+    monkeypatch.setitem(R.DRAWINGS, ("refine", "convergence"), R.Drawing(slow))
+
+    def interrupt():
+        for _ in range(600):
+            if started.exists():
+                os.kill(os.getpid(), signal.SIGINT)
+                return
+            time.sleep(0.05)
+    threading.Thread(target=interrupt, daemon=True).start()
+    t0 = time.monotonic()
+    with pytest.raises(R.ReportInterrupted):
+        report_study(study_dir, animation=False, formats=("png",), workers=2)
+    assert time.monotonic() - t0 < 50, "the sleeping worker was not stopped"
+    names = [p.name for p in (study_dir / "figures").iterdir()]
+    assert not [n for n in names if n.startswith(".")], names
+    assert "slow.png" not in names
+
+
+def test_workers_draw_the_same_files_as_one_process(reported_study, study_dir):
+    """The figures drawn on two processes are the files one process draws, byte for byte."""
+    report_study(study_dir, formats=("png",), workers=2, **FAST)
+    one = reported_study / "figures"
+    for p in (study_dir / "figures").glob("*.png"):
+        assert p.read_bytes() == (one / p.name).read_bytes(), p.name
+
+
+def test_each_animation_reports_its_frames(study_dir):
+    """An animation says how many of its frames are drawn, at each quarter and at the end."""
+    lines: list[str] = []
+    report_study(study_dir, formats=("png",), progress=lines.append, **FAST)
+    for name in ANIMATIONS:
+        frames = [re.search(r"animation: (\d+)/(\d+) frames", line)
+                  for line in lines if f"] {name}: animation:" in line]
+        counts = [(int(m[1]), int(m[2])) for m in frames if m]
+        assert len(counts) >= 2 and counts[-1][0] == counts[-1][1], (name, lines)
+        assert [c for c, _ in counts] == sorted(c for c, _ in counts)
+
+
+def test_step_descriptions_on_the_page_are_whole_sentences(reported_study):
+    """Each step's description is its kind's first sentence, whole (issue 31: seven kinds were
+    cut at their docstring's first line, e.g. "...completes max_cycles: survival per")."""
+    from monkeystudy.plotting.page import description
+    from monkeystudy.study.steps import REGISTRY
+
+    for kind in REGISTRY.values():
+        text = description(kind.model.__doc__)
+        whole = " ".join((kind.model.__doc__ or "").split())
+        assert text.endswith(".") and whole.startswith(text), kind.name
+        rest = whole[len(text):]
+        assert rest == "" or re.match(r"\s+[A-Z`(]", rest), (kind.name, rest[:20])
+    page = (reported_study / "figures" / PAGE).read_text()
+    assert "Repeat a refined gait open-loop from its recorded times for <code>cycles</code> " \
+           "cycles." in page

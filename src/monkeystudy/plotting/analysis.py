@@ -36,8 +36,8 @@ from matplotlib.ticker import MaxNLocator
 
 from .drawing import Drawing
 from .common import (
-    BLACK, BLUE, ERROR_UNITS, GREEN, ORANGE, PURPLE, SKY, VERMILLION, fmt_tick, gait_settings, json_attr,
-    new_figure, robot_name, status_name, style,
+    BLACK, BLUE, ERROR_UNITS, GREEN, ORANGE, PURPLE, SKY, VERMILLION, count, fmt_tick,
+    gait_settings, json_attr, new_figure, robot_name, status_name, style,
 )
 from ..kernel import layout as L
 
@@ -253,7 +253,7 @@ def plot_shoot_convergence(ds):
             x, y = it[keep], h[keep]
             ax.plot(x, _positive(y), marker="o", ms=3.5, color=c, gid=f"history_{i}")
             m = SHOOT_METHODS[meth[i]] if 0 <= meth[i] < len(SHOOT_METHODS) else "?"
-            state = (f"converged in {y.size - 1} iterations" if conv[i] == 1
+            state = (f"converged in {count(y.size - 1, 'iteration')}" if conv[i] == 1
                      else f"not converged, stopped after {y.size - 1}")
             handles.append(Line2D([], [], color=c, marker="o", ms=3.5, label=(
                 f"solution {i}: {m}, {state}: ({d1[i]:.6f}, {d2[i]:.6f}) rad s⁻¹, "
@@ -519,9 +519,9 @@ def plot_tick_sweep(ds):
         i0 = exact[0]
         title = ("Error per cycle of the exact-timing replay: " + (
             f"above {bound:g} from cycle {to_bound[i0]}" if exceeded(i0)
-            else f"below {bound:g} for all {done[i0]} cycles"))
+            else f"below {bound:g} for all {count(done[i0], 'cycle')}"))
         verdict = ("the gait leaves the bound without any tick" if exceeded(i0)
-                   else f"no departure within {done[i0]} cycles")
+                   else f"no departure within {count(done[i0], 'cycle')}")
     elif exact and exceeded(exact[0]):
         i0 = exact[0]
         title = (f"{question}\nNo: with exact timing the run still leaves the gait "
@@ -532,7 +532,7 @@ def plot_tick_sweep(ds):
         i0 = exact[0]
         failed = [i for i in range(len(ticks)) if ticks[i] > 0 and exceeded(i)]
         title = (f"{question}\n" + ("Yes: with exact timing the gait holds all "
-                                     f"{done[i0]} cycles" if failed else
+                                     f"{count(done[i0], 'cycle')}" if failed else
                                      "No run left the gait: error per cycle for each tick"))
         verdict = ("with exact timing the error stays below the bound" + (
             "; the tick's rounding is what drives the runs off the gait" if failed else ""))
@@ -572,7 +572,7 @@ def plot_tick_sweep(ds):
                         mew=0.7, ls="none", zorder=6, gid=f"to_bound_{i}")
                 when = f"error > {bound:g} from cycle {to_bound[i]}"
             else:
-                when = f"error ≤ {bound:g} for all {done[i]} cycles"
+                when = f"error ≤ {bound:g} for all {count(done[i], 'cycle')}"
             stop = ""
             if status[i] not in (L.ST_OK, L.ST_END_TIME) and done[i] < n_cycles:
                 ok = np.flatnonzero(np.isfinite(e) & (e > 0))
@@ -643,8 +643,9 @@ def plot_basin(ds, *, cmap: str = "viridis", numbers: int = 225):
         gait = _gait_of(ds) or "the gait"
         what = (f"failure: error against the gait > {bound:g}" if math.isfinite(bound)
                 else "failure: the run left the gait")
-        sub = (f"{o1.size}×{o2.size} starts around the {gait}; {what}, or the run fell; "
-               f"{top} = never failed in {top} cycles\n"
+        starts = "start" if o1.size * o2.size == 1 else "starts"
+        sub = (f"{o1.size}×{o2.size} {starts} around the {gait}; {what}, or the run fell; "
+               f"{top} = never failed in {count(top, 'cycle')}\n"
                + (f"{_times_of(ds)}, " if _times_of(ds) else "")
                + (f"{fmt_tick(tick)}, " if math.isfinite(tick) else "")
                + run_line(ds, tick=False, torque=attr_float(ds, "motor_torque", None)

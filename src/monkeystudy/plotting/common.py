@@ -20,6 +20,7 @@ import matplotlib.style
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter
 
 import monkeystudy
 from ..kernel.layout import STATUS_NAMES
@@ -216,6 +217,35 @@ def save_figure(fig: Figure, base: Path, prov: Mapping[str, str], *,
         if fig.get_layout_engine() is not None:
             fig.set_layout_engine("none")   # laid out once: later formats keep the positions
     return written
+
+
+def count(n: int, noun: str, plural: str | None = None) -> str:
+    """``1 run``, ``2 runs``: a number with its noun in the right number."""
+    n = int(n)
+    return f"{n} {noun if n == 1 else (plural or noun + 's')}"
+
+
+def finite(x) -> bool:
+    """Whether ``x`` is a finite number (text of a non-finite value says nothing)."""
+    try:
+        return math.isfinite(float(x))
+    except (TypeError, ValueError):
+        return False
+
+
+def plain_log_labels(axis) -> None:
+    """Label a logarithmic axis with plain numbers (``4``, ``0.002``), minor ticks too, so that
+    a range shorter than a decade reads ``4 5 6``, not ``4×10⁰ 5×10⁰ 6×10⁰``."""
+    def fmt(v, _pos):
+        return f"{v:g}"
+    axis.set_major_formatter(FuncFormatter(fmt))
+    axis.set_minor_formatter(FuncFormatter(
+        lambda v, pos: fmt(v, pos) if _short_range(axis) else ""))
+
+
+def _short_range(axis) -> bool:
+    lo, hi = sorted(axis.get_view_interval())
+    return lo > 0 and hi / lo < 10.0
 
 
 def finite_or_nan(x) -> float:

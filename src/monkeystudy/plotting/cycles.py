@@ -18,13 +18,13 @@ import numpy as np
 from matplotlib.ticker import MaxNLocator
 
 from .common import (
-    BLUE, ERROR_UNITS, GREEN, VERMILLION, link_lengths, new_figure, robot_object, run_label, status_name,
-    style,
+    BLUE, ERROR_UNITS, GREEN, VERMILLION, count, finite, link_lengths, new_figure, robot_object,
+    run_label, status_name, style,
 )
 from ..analysis.gait_kind import gait_kind_text
 from ..kernel import layout as L
 from ..kernel.dynamics import kinetic_energy
-from .drawing import Drawing, Folder
+from .drawing import Drawing, Folder, NothingToDraw
 
 #: Statuses that mean "the run went as long as asked" (not worth a warning on the plot).
 NORMAL_END = (L.ST_OK, L.ST_END_TIME)
@@ -87,7 +87,7 @@ def gait_text(stab, gait) -> str:
     if gait is None:
         gait = gait_point(stab)          # the run's own dtheta1/dtheta2, when it has them
     times = ""
-    if "t_switch" in stab.attrs and "t_motor" in stab.attrs:
+    if finite(stab.attrs.get("t_switch")) and finite(stab.attrs.get("t_motor")):
         times = (f"swap at {float(stab.attrs['t_switch']):.3f} s, "
                  f"motor {float(stab.attrs['t_motor']):.3f} s")
     passes = int(stab.attrs.get("vertical_passes_before_swap", -1))
@@ -115,12 +115,32 @@ def stop_note(stab, who: str = "run") -> str | None:
     return f"{who} stopped after cycle {int(done)}: {why}"
 
 
+def nothing_per_cycle(stab, values, what: str) -> None:
+    """Raise :class:`NothingToDraw` when ``values`` (one per cycle) has no finite value,
+    saying why the run has none."""
+    if np.isfinite(np.asarray(values, float)).any():
+        return
+    if "t_switch" in stab.attrs and not finite(stab.attrs.get("t_switch")):
+        why = "the gait it replays has no swap time (its refine step found no gait)"
+    elif "status" in stab and int(stab["status"]) not in NORMAL_END:
+        why = ("the run completed no cycle: it stopped with status "
+               + status_name(int(stab["status"])).replace("_", " "))
+    else:
+        why = "the run recorded no cycle"
+    raise NothingToDraw(f"no {what} to show: {why}")
+
+
+def cycle_axis(ax) -> None:
+    """Whole cycles on the x axis, a tick at every cycle of a short run."""
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
+
+
 def _finish(fig, ax, stab, title, subtitle="", step=True):
     fig.suptitle(title, x=0.02, ha="left", fontweight="bold")
     run = run_label(stab, step=step)
     sub = f"{subtitle}\n{run}" if subtitle else run
     ax.set_title(sub, fontsize=8.5, fontweight="normal", loc="left")
-    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    cycle_axis(ax)
     ax.set_xlabel("gait cycle")
 
 
@@ -138,7 +158,7 @@ def _annotate_stop(ax, stab, x, y, slot: int = 0, colour: str = VERMILLION,
         if at_swap and done is not None and x[i] > int(done):
             why = status_name(int(stab["status"])).replace("_", " ")
             note = (f"{who} {why}: cycle {int(x[i])}'s swap attached {abs(y[i]):.2f} m below "
-                    f"the start\n({int(done)} cycles completed)")
+                    f"the start\n({count(done, 'cycle')} completed)")
         ax.plot([x[i]], [y[i]], marker="X", ms=11, mfc=colour, mec="black", mew=0.8,
                 ls="none", zorder=5, gid="stop_note" if slot == 0 else f"stop_note_{slot}",
                 label=note)
@@ -184,6 +204,15 @@ def plot_error_comparison(stabs: Sequence, *, gaits: Sequence = (), labels: Sequ
     """
     gaits = list(gaits) + [None] * (len(stabs) - len(gaits))
     labels = list(labels) + [None] * (len(stabs) - len(labels))
+    with_data = [k for k, s in enumerate(stabs)
+                 if np.any(np.asarray(s["error"].values, float) > 0)]
+    if _single:
+        nothing_per_cycle(stabs[0], np.where(np.asarray(stabs[0]["error"].values, float) > 0,
+                                             stabs[0]["error"].values, np.nan), "error")
+    elif not with_data:
+        raise NothingToDraw("no run completed a cycle with an error to show")
+    else:           # a run without a single cycle has no line: left out, the others shown
+        stabs, gaits, labels = ([x[k] for k in with_data] for x in (stabs, gaits, labels))
     colours = [BLUE, VERMILLION, GREEN, "#CC79A7", "#E69F00", "#56B4E9"]
     with style():
         fig = new_figure(figsize=(7.0, 4.6))
@@ -228,6 +257,7 @@ def plot_kinetic_energy(stab, *, gait=None):
     """
     x = _cycle(stab)
     y = np.asarray(stab["kinetic_energy"].values, float)
+    nothing_per_cycle(stab, y, "kinetic energy")
     with style():
         fig = new_figure(figsize=(7.0, 4.6))
         ax = fig.add_subplot()
@@ -270,6 +300,7 @@ def plot_pivot_height(stab, *, gait=None):
     """
     x = _cycle(stab)
     y = np.asarray(stab["pivot_height"].values, float)
+    nothing_per_cycle(stab, y, "height")
     has_adv = "x_advance" in stab
     lengths = link_lengths(stab)
     with style():
@@ -289,20 +320,24 @@ def plot_pivot_height(stab, *, gait=None):
                        label=f"one link length ({L1:g} m) below the start")
         _annotate_stop(ax, stab, x, y, at_swap="section_theta1" not in stab.attrs)
         _cycle_limits(ax, [stab])
-        ax.set_ylabel("height of the attached end  [m]")
+        # two short lines each: one line is taller than its panel, and the labels met
+        ax.set_ylabel("height of the\nattached end  [m]" if has_adv
+                      else "height of the attached end  [m]")
         if ax2 is not None:
             adv = np.asarray(stab["x_advance"].values, float)
             ax2.plot(x, adv, marker="o", color=GREEN, gid="x_advance",
                      label="horizontal advance of the attached end")
             if lengths is not None:
                 ax2.axhline(0.0, color="0.6", lw=0.8)
-            ax2.set_ylabel("advance per cycle  [m]")
+            ax2.set_ylabel("advance per\ncycle  [m]")
             ax.tick_params(labelbottom=False)
             _finish(fig, ax, stab, "Height of the attached end per cycle",
                     f"Repeating {gait_text(stab, gait)}")
             ax.set_xlabel("")
             ax2.set_xlabel("gait cycle")
-            ax2.xaxis.set_major_locator(MaxNLocator(integer=True))
+            cycle_axis(ax2)
+            # the two y labels in one column: their lengths differ, so aligned by hand
+            fig.align_ylabels([ax, ax2])
         else:
             _finish(fig, ax, stab, "Height of the attached end per cycle",
                     f"Repeating {gait_text(stab, gait)}")

@@ -4,8 +4,9 @@
   controller stage (hanging from A, swap, motor on, hanging from B, ...), end A a filled
   circle, end B an open square, the attached end ringed; a timeline of the stages and the
   motor torque below.
-* :func:`write_animation` - the whole multi-cycle run as a GIF (matplotlib ``PillowWriter``),
-  and as MP4 when ffmpeg is available; made offline from the dataset, no simulation.
+* :func:`write_animation` - the whole multi-cycle run as an MP4 (ffmpeg, the imageio-ffmpeg
+  wheel's), or a GIF without ffmpeg; made offline from the dataset, no simulation, its
+  frames blitted and piped to the encoder.
 
 Which end is attached is read from a ``flipped`` variable when the dataset has one, otherwise
 from the trajectory itself: while swinging, the attached end is the one that does not move.
@@ -13,17 +14,17 @@ from the trajectory itself: while swinging, the attached end is the one that doe
 from __future__ import annotations
 
 import shutil
+import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
-import matplotlib
 import numpy as np
-from matplotlib.animation import FFMpegWriter, PillowWriter
 from matplotlib.lines import Line2D
+from PIL import Image
 from matplotlib.patches import Patch
 
 from .cycles import gait_point, gait_text, own_controller, stability_inputs, stop_note
-from .drawing import Drawing, Folder
+from .drawing import Drawing, Folder, NothingToDraw
 from .common import (
     BLUE, GREEN, PURPLE, VERMILLION, atomic_path, link_lengths, new_figure, run_label, style,
 )
@@ -72,7 +73,17 @@ class Trajectory:
 
 
 def has_trajectory(ds) -> bool:
-    return all(v in ds for v in ("A", "joint", "B")) and ds.sizes.get("sample", 0) > 1
+    """Whether the dataset's layout holds a trajectory (its variables; it may be empty)."""
+    return all(v in ds for v in ("A", "joint", "B"))
+
+
+def require_samples(ds) -> None:
+    """Raise :class:`NothingToDraw` when the trajectory has fewer than two samples."""
+    n = ds.sizes.get("sample", 0)
+    if n < 2:
+        raise NothingToDraw("the run recorded no motion to draw ("
+                            + ("no trajectory sample" if n == 0 else "a single sample")
+                            + (f"; {stop_note(ds)}" if stop_note(ds) else "") + ")")
 
 
 def trajectory(ds) -> Trajectory:
@@ -213,6 +224,7 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
 
     Pose lines have ``gid`` ``pose``; their data are ``[A, joint, B]`` of a sample.
     """
+    require_samples(stab)
     traj = trajectory(stab)
     i0, i1 = _cycle_bounds(stab, traj, cycle)
     frames = _pick_frames(traj, i0, i1, n_frames)
@@ -292,7 +304,11 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
         handles += [Line2D([], [], color=SWAP_COLOUR, ls="--", label="magnet swap"),
                     Line2D([], [], label="end A", **END_A),
                     Line2D([], [], label="end B", **END_B),
-                    Line2D([], [], label="attached end (magnet on)", **MAGNET)]
+                    Line2D([], [], label="attached end (magnet on)", **MAGNET),
+                    Line2D([], [], color="0.8", lw=0.8, label="path of end A over the cycle"),
+                    Line2D([], [], color="0.8", lw=0.8, ls="--",
+                           label="path of end B over the cycle"),
+                    Line2D([], [], color="0.6", lw=0.6, ls=":", label="start height")]
         fig.legend(handles=handles, loc="outside lower center", ncols=4, frameon=False)
         run = "run under the gait's own controller" if own_controller(stab) else "open-loop run"
         fig.suptitle(f"Gait cycle {cycle} of the {run}, "
@@ -302,19 +318,6 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
 
 
 # ----------------------------------------------------------------------------------------------
-class _PillowWriterWithComment(PillowWriter):
-    """matplotlib's PillowWriter, storing a provenance comment in the GIF."""
-
-    def __init__(self, *args, comment: str = "", **kwargs):
-        super().__init__(*args, **kwargs)
-        self._comment = comment
-
-    def finish(self):
-        self._frames[0].save(self.outfile, save_all=True, append_images=self._frames[1:],
-                             duration=int(1000 / self.fps), loop=0,
-                             comment=self._comment.encode("utf-8", "replace"))
-
-
 def animation_frames(traj: Trajectory, fps: float, max_frames: int) -> tuple[np.ndarray, float]:
     """Sample indices of the frames and the playback speed-up (1 = real time)."""
     duration = float(traj.t[-1] - traj.t[0])
@@ -342,19 +345,110 @@ def animation_format() -> str:
     return "mp4" if ffmpeg_path() is not None else "gif"
 
 
+class Camera:
+    """A view of fixed size that moves only when the robot would leave it.
+
+    :meth:`follow` takes the box the view must hold: while the robot hangs from a magnet,
+    every point it can swing to horizontally (the attached end +- its reach) and its actual
+    height; in flight, where it is. The view keeps still while that box lies ``margin`` inside
+    it; otherwise it jumps so that the box sits at its centre (vertically) or ``margin`` from
+    its trailing edge (horizontally, travelling towards ``heading``, +1 or -1), which leaves
+    the most room ahead. A still view lets the frames be blitted: the axes are redrawn only
+    on a jump, a few times per run.
+    """
+
+    def __init__(self, width: float, height: float, margin: float, heading: float = 1.0):
+        self.size = np.array([width, height], float)
+        self.margin = float(margin)
+        self.heading = 1.0 if heading >= 0 else -1.0
+        self.lo: np.ndarray | None = None          # lower-left corner of the view [m]
+
+    def follow(self, lo: np.ndarray, hi: np.ndarray) -> bool:
+        """Move the view to hold the box ``lo``..``hi`` [m]; True when it moved."""
+        centred = 0.5 * (lo + hi) - 0.5 * self.size
+        if self.lo is None:
+            self.lo = centred
+            return True
+        inside = (self.lo + self.margin <= lo) & (hi <= self.lo + self.size - self.margin)
+        if inside.all():
+            return False
+        new = self.lo.copy()
+        if not inside[0]:
+            trailing = (lo[0] - self.margin if self.heading > 0
+                        else hi[0] + self.margin - self.size[0])
+            # a box wider than the view (a long robot in flight) is centred instead
+            new[0] = trailing if hi[0] - lo[0] + 2 * self.margin <= self.size[0] \
+                else centred[0]
+        if not inside[1]:
+            new[1] = centred[1]
+        self.lo = new
+        return True
+
+
+class _FrameSink:
+    """Where the frames go: ffmpeg's standard input (MP4) or a list of images (GIF)."""
+
+    def __init__(self, fmt: str, path: Path, size: tuple[int, int], fps: float, comment: str,
+                 title: str):
+        self.fmt, self.path, self.size, self.fps = fmt, path, size, fps
+        self.comment = comment
+        self.images: list = []
+        self.proc = None
+        if fmt == "mp4":
+            w, h = size
+            cmd = [ffmpeg_path(), "-y", "-loglevel", "error", "-f", "rawvideo",
+                   "-pix_fmt", "rgba", "-s", f"{w}x{h}", "-r", f"{fps:g}", "-i", "pipe:0",
+                   "-vcodec", "h264", "-preset", "veryfast", "-pix_fmt", "yuv420p", "-metadata", f"comment={comment}",
+                   "-metadata", f"title={title}", "-f", "mp4", str(path)]
+            # its own session: Ctrl-C reaches the report, which stops the encoder itself
+            self.proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stderr=subprocess.PIPE,
+                                         start_new_session=True)
+
+    def write(self, rgba) -> None:
+        if self.proc is not None:
+            self.proc.stdin.write(rgba)
+        else:
+            w, h = self.size
+            self.images.append(Image.frombuffer("RGBA", (w, h), bytes(rgba), "raw", "RGBA", 0,
+                                                1).convert("RGB"))
+
+    def close(self) -> None:
+        if self.proc is not None:
+            self.proc.stdin.close()
+            err = self.proc.stderr.read().decode(errors="replace")
+            if self.proc.wait() != 0:
+                raise RuntimeError(f"ffmpeg failed: {err.strip()}")
+        else:
+            self.images[0].save(self.path, format="GIF", save_all=True,
+                                append_images=self.images[1:], duration=int(1000 / self.fps),
+                                loop=0, comment=self.comment.encode("utf-8", "replace"))
+
+    def abort(self) -> None:
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait()
+
+
 def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_frames: int = 300,
-                    dpi: float = 150.0, window: float = 3.2, gait=None,
-                    fmt: str | None = None) -> list[Path]:
+                    dpi: float = 150.0, window: float | None = None, gait=None,
+                    fmt: str | None = None, progress=None) -> list[Path]:
     """Animate the whole run of a stability dataset; write ``base.mp4`` (``base.gif`` when
     there is no ffmpeg, or with ``fmt="gif"``). The frames are 6.4 x 4 in at ``dpi``: 960 x
     600 pixels by default.
 
     Real time at ``fps`` frames per second unless that needs more than ``max_frames`` frames,
     then sped up (the speed-up is shown); the last frame is held for a second (with the reason
-    when the run stopped early). The view (``window`` metres wide) follows the robot;
-    the start height and the points where a magnet attached are drawn fixed in the world.
-    Returns the written paths.
+    when the run stopped early). The view, ``window`` metres wide (default 2.6 times the
+    robot's reach), holds still and jumps only when the robot would leave it
+    (:class:`Camera`), falling runs included, so the whole robot is always in view; the start
+    height and the points where a magnet attached are drawn fixed in the world.
+
+    The frames are drawn by blitting: the axes (ticks, grid, legend) are drawn once per view,
+    and each frame only restores them and redraws the moving artists, whose pixels go straight
+    to the encoder. ``progress(done, total)`` is called after each frame. Returns the written
+    paths.
     """
+    require_samples(stab)
     traj = trajectory(stab)
     frames, speed = animation_frames(traj, fps, max_frames)
     stage = traj.stage
@@ -366,19 +460,20 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
     foot_t = np.concatenate([[traj.t[0]], traj.t[swaps]])
     tc = np.asarray(stab["t_cross"].values, float) if "t_cross" in stab else np.zeros(0)
     comment = "; ".join(f"{k}={v}" for k, v in prov.items())
+    fmt = fmt or animation_format()
+    if fmt not in ("mp4", "gif"):
+        raise ValueError(f"animation format must be mp4 or gif, got {fmt!r}")
     base = Path(base)
-    written = []
-    # fixed layout: savefig resets a figure without a layout engine to the rcParam default
-    # (constrained), which would re-run the layout on every frame
-    with style(), matplotlib.rc_context({"figure.constrained_layout.use": False}):
+    path = base.with_name(f"{base.name}.{fmt}")
+    stop = stop_note(stab)
+    hold = max(1, int(round(fps)))
+    total = len(frames) + hold
+    with style():
         fig = new_figure(figsize=(6.4, 4.0), dpi=dpi, layout="none")
-        fig.subplots_adjust(left=0.1, right=0.98, bottom=0.12, top=0.86)
+        fig.subplots_adjust(left=0.1, right=0.98, bottom=0.27, top=0.87)
         ax = fig.add_subplot()
         ax.set_aspect("equal", adjustable="box")
         ax.axhline(0.0, color="0.5", lw=0.8, ls="--")
-        ax.text(0.01, 0.02, "dashed: start height; grey: path of the joint; "
-                "▼: where a magnet attached", transform=ax.transAxes, fontsize=6.5,
-                color="0.35")
         trail, = ax.plot([], [], color="0.75", lw=0.8)
         foot, = ax.plot([], [], "v", color="#B8860B", ms=5, ls="none")
         line, = ax.plot([], [], "-", lw=4, solid_capstyle="round", zorder=4)
@@ -386,78 +481,98 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
         a_m, = ax.plot([], [], zorder=6, **END_A)
         b_m, = ax.plot([], [], zorder=6, **END_B)
         mag, = ax.plot([], [], zorder=3, **MAGNET)
-        info = ax.text(0.01, 0.98, "", transform=ax.transAxes, va="top", fontsize=8)
-        end_note = ax.text(0.5, 0.1, "", transform=ax.transAxes, ha="center", va="bottom",
-                           fontsize=8.5, color=VERMILLION, visible=False, zorder=8,
-                           bbox=dict(boxstyle="round,pad=0.3", fc="white", ec=VERMILLION))
-        ax.set_xlabel("x  [m]")
+        # what is happening, under the axes: inside, it would cover the robot now and then
+        info = fig.text(0.01, 0.015, "", fontsize=8, ha="left", va="bottom")
+        moving = [trail, foot, mag, line, jnt, a_m, b_m, info]
+        for artist in moving:
+            artist.set_animated(True)
+        ax.set_xlabel("x  [m]", labelpad=1)
         ax.set_ylabel("y  [m]")
         fig.suptitle(f"Open-loop run, {gait_text(stab, gait)}", fontsize=9, x=0.02,
                      ha="left", fontweight="bold")
         ax.set_title(run_label(stab) + (f"; playback ×{speed:.1f}" if speed > 1 else ""),
                      fontsize=6.5, fontweight="normal", loc="left")
-        ax.legend(handles=[Line2D([], [], label="end A", **END_A),
-                           Line2D([], [], label="end B", **END_B),
-                           Line2D([], [], label="magnet on", **MAGNET)] +
-                  [Line2D([], [], color=STAGES["A"][0], lw=3, label="hanging from A"),
-                   Line2D([], [], color=STAGES["B"][0], lw=3, label="hanging from B"),
-                   Line2D([], [], color=STAGES["A+motor"][0], lw=3, label="motor on")],
-                  loc="upper right", fontsize=6, ncols=2)
-        half_h = 0.5 * window * (fig.subplotpars.top - fig.subplotpars.bottom) * 4.0 / \
-            ((fig.subplotpars.right - fig.subplotpars.left) * 6.4)
+        fig.legend(handles=[Line2D([], [], label="end A", **END_A),
+                            Line2D([], [], label="end B", **END_B),
+                            Line2D([], [], label="magnet on", **MAGNET),
+                            Line2D([], [], color=STAGES["A"][0], lw=3, label="hanging from A"),
+                            Line2D([], [], color=STAGES["B"][0], lw=3, label="hanging from B"),
+                            Line2D([], [], color=STAGES["A+motor"][0], lw=3, label="motor on"),
+                            Line2D([], [], color="0.5", lw=0.8, ls="--", label="start height"),
+                            Line2D([], [], color="0.75", lw=0.8, label="path of the joint"),
+                            Line2D([], [], marker="v", color="#B8860B", ms=5, ls="none",
+                                   label="a magnet attached here")],
+                   loc="lower center", bbox_to_anchor=(0.5, 0.065), ncols=5, fontsize=6,
+                   frameon=False, columnspacing=1.2, handlelength=1.8)
+        # the view, in metres, of the axes box's shape: it holds the robot's full swing
+        # horizontally with room to travel, and its reach vertically
+        box = ax.get_position(original=True)
+        aspect = box.height * 4.0 / (box.width * 6.4)
+        margin = 0.05 * reach
+        width = window or max(2.9 * reach, (1.25 * reach + 2 * margin) / aspect)
+        height = width * aspect
+        heading = np.sign(feet[-1, 0] - feet[0, 0]) if feet.shape[0] > 1 else 1.0
+        camera = Camera(width, height, margin=margin, heading=heading)
+        canvas = fig.canvas
+        background = None
 
-        stop = stop_note(stab)
-        last = int(frames[-1])
-
-        def update(i, final=False):
+        def draw_frame(i: int, final: bool = False):
+            nonlocal background
+            pts = np.array([traj.A[i], traj.joint[i], traj.B[i]])
+            lo, hi = np.nanmin(pts, axis=0), np.nanmax(pts, axis=0)
+            att = traj.attached[i]
+            if att in ("A", "B"):           # all it can swing to, so the view need not chase it
+                pivot = traj.B[i] if att == "B" else traj.A[i]
+                lo[0], hi[0] = min(lo[0], pivot[0] - reach), max(hi[0], pivot[0] + reach)
+            if camera.follow(lo, hi) or background is None:
+                ax.set_xlim(camera.lo[0], camera.lo[0] + width)
+                ax.set_ylim(camera.lo[1], camera.lo[1] + height)
+                canvas.draw()                       # everything but the moving artists
+                background = canvas.copy_from_bbox(fig.bbox)
             colour = STAGES.get(stage[i], ("0.3", ""))[0]
-            line.set_data([traj.A[i, 0], traj.joint[i, 0], traj.B[i, 0]],
-                          [traj.A[i, 1], traj.joint[i, 1], traj.B[i, 1]])
+            line.set_data(pts[:, 0], pts[:, 1])
             line.set_color(colour)
             jnt.set_data([traj.joint[i, 0]], [traj.joint[i, 1]])
             a_m.set_data([traj.A[i, 0]], [traj.A[i, 1]])
             b_m.set_data([traj.B[i, 0]], [traj.B[i, 1]])
-            att = traj.attached[i]
-            pts = [p for e, p in (("A", traj.A[i]), ("B", traj.B[i])) if att in (e, "both")]
-            mag.set_data([p[0] for p in pts], [p[1] for p in pts])
+            on = [q for e, q in (("A", traj.A[i]), ("B", traj.B[i])) if att in (e, "both")]
+            mag.set_data([q[0] for q in on], [q[1] for q in on])
             k = np.searchsorted(foot_t, traj.t[i], side="right")
             foot.set_data(feet[:k, 0], feet[:k, 1])
             j0 = max(0, i - 400)
             trail.set_data(traj.joint[j0:i + 1, 0], traj.joint[j0:i + 1, 1])
-            pivot = traj.B[i] if att == "B" else traj.A[i]
-            cx = 0.5 * (traj.A[i, 0] + traj.B[i, 0])
-            cy = pivot[1] - 0.35 * reach
-            ax.set_xlim(cx - window / 2, cx + window / 2)
-            ax.set_ylim(cy - half_h, cy + half_h)
             cyc = (min(int(np.searchsorted(tc, traj.t[i], side="left")) + 1, tc.size)
                    if tc.size else None)
-            info.set_text(f"t = {traj.t[i]:6.2f} s" + (f"   cycle {cyc}" if cyc else "")
-                          + f"\n{STAGES.get(stage[i], ('', stage[i]))[1]}")
+            text = (f"t = {traj.t[i]:.2f} s" + (f",  cycle {cyc}" if cyc else "")
+                    + f":  {STAGES.get(stage[i], ('', stage[i]))[1]}")
+            if final and stop:
+                text, colour = stop, VERMILLION
+            info.set_text(text)
             info.set_color(colour)
-            end_note.set_text(stop.replace(": ", ":\n", 1) if final and stop else "")
-            end_note.set_visible(bool(final and stop))
+            canvas.restore_region(background)
+            for artist in moving:
+                fig.draw_artist(artist)
+            return canvas.buffer_rgba()
 
-        fmt = fmt or animation_format()
-        if fmt == "mp4":
-            matplotlib.rcParams["animation.ffmpeg_path"] = ffmpeg_path()
-            writer = FFMpegWriter(fps=fps, metadata={"comment": comment, "title": base.name},
-                                  extra_args=["-pix_fmt", "yuv420p"])
-        elif fmt == "gif":
-            writer = _PillowWriterWithComment(fps=fps, comment=comment)
-        else:
-            raise ValueError(f"animation format must be mp4 or gif, got {fmt!r}")
-        for ext, writer in ((fmt, writer),):
-            path = base.with_name(f"{base.name}.{ext}")
-            with atomic_path(path) as tmp:
-                with writer.saving(fig, str(tmp), dpi):
-                    for i in frames:
-                        update(int(i))
-                        writer.grab_frame()
-                    update(last, final=True)          # hold the end for a second
-                    for _ in range(max(1, int(round(fps)))):
-                        writer.grab_frame()
-            written.append(path)
-    return written
+        with atomic_path(path) as tmp:
+            sink = _FrameSink(fmt, tmp, canvas.get_width_height(), fps, comment, base.name)
+            try:
+                done = 0
+                for i in frames:
+                    sink.write(draw_frame(int(i)))
+                    done += 1
+                    if progress:
+                        progress(done, total)
+                rgba = bytes(draw_frame(int(frames[-1]), final=True))   # held for a second
+                for _ in range(hold):
+                    sink.write(rgba)
+                    done += 1
+                    if progress:
+                        progress(done, total)
+                sink.close()
+            finally:
+                sink.abort()
+    return [path]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -465,16 +580,18 @@ def _has_trajectory(path: Path, folder: Folder) -> bool:
     return has_trajectory(folder.loaded(path))
 
 
-def _animation(d, base: Path, prov: dict, *, fps: float, max_frames: int) -> list[Path]:
+def _animation(d, base: Path, prov: dict, *, fps: float, max_frames: int,
+               progress=None) -> list[Path]:
     return write_animation(d[0], base, prov, gait=gait_point(d[0], d[1:]), fps=fps,
-                           max_frames=max_frames)
+                           max_frames=max_frames, progress=progress)
 
 
 #: how the stability step's trajectory figures are drawn
 DRAWINGS = {
     ("stability", "filmstrip"): Drawing(
         lambda d: plot_filmstrip(d[0], gait=gait_point(d[0], d[1:])),
-        extra_inputs=stability_inputs, applies=_has_trajectory),
+        extra_inputs=stability_inputs, applies=_has_trajectory, cost=3.0),
     ("stability", "animation"): Drawing(_animation, extra_inputs=stability_inputs,
-                                        applies=_has_trajectory, animation=True),
+                                        applies=_has_trajectory, animation=True,
+                                        cost=8.0),
 }

@@ -9,6 +9,7 @@ surface.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
@@ -21,11 +22,15 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch, PathPatch
 from matplotlib.patheffects import withStroke
 from matplotlib.path import Path as MplPath
+from matplotlib.ticker import MaxNLocator
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+from scipy import ndimage
 
 from ..kernel import layout as L
-from .common import ERROR_UNITS, MINIMUM_COLOUR, new_figure, run_label, status_name, style
-from .drawing import Drawing, Folder
+from .common import (
+    ERROR_UNITS, MINIMUM_COLOUR, count, finite, new_figure, run_label, status_name, style,
+)
+from .drawing import Drawing, Folder, NothingToDraw
 
 D1_LABEL = r"initial $\dot\theta_1$  [rad s$^{-1}$]"
 D2_LABEL = r"initial $\dot\theta_2$  [rad s$^{-1}$]"
@@ -74,7 +79,8 @@ class GridData:
                 mask = np.isin(self.status, codes)
             claimed |= mask
             if mask.any():
-                out.append((key, mask, colour, hatch, f"{label} ({int(mask.sum())} points)"))
+                out.append((key, mask, colour, hatch,
+                            f"{label} ({count(mask.sum(), 'point')})"))
         return out
 
 
@@ -219,7 +225,9 @@ def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str
     refines : sequence of xarray.Dataset
         ``refine`` datasets of the same study: their minima are marked with green squares and
         labelled with their position and error; their Nelder-Mead paths drawn dotted. Minima
-        outside the grid's range are left out (the legend says how many).
+        outside the grid's range are left out (the legend says how many). The grid's own
+        least error is starred and labelled "least e" (with its value and times in the
+        legend): it is a grid point, often of another kind than the refined gaits.
     vmax : float
         Errors above this are shown at the top colour (the study truncates at 5).
     profile : bool
@@ -231,12 +239,15 @@ def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str
     matplotlib.figure.Figure
         Artists with ``gid``: ``error`` (the QuadMesh; its array is the clipped error,
         ``[i_dtheta2, i_dtheta1]``, masked where there is no gait), ``nogait_<category>``
-        patches, ``minimum_<step>`` markers, ``path_<step>`` lines, ``row_minimum`` (the side
-        panel's line: x the lowest error of each row, y dtheta2).
+        patches, ``minimum_<step>`` markers and ``label_<step>`` their numbers, ``path_<step>``
+        lines, ``least_error`` (the star at the grid's least error) and its
+        ``least_error_label``, ``row_minimum`` (the side panel's line: x the lowest error of
+        each row, y dtheta2), ``e_one`` (its dashed e = 1 line).
     """
     g = grid_arrays(grid)
     e1, e2 = cell_edges(g.dtheta1), cell_edges(g.dtheta2)
     clipped = np.ma.masked_invalid(np.minimum(g.error, vmax)).T
+    profile = profile and bool(g.ok.any())       # no gait: no row has a lowest error
     with style():
         if profile:
             fig = new_figure(figsize=(8.8, 6.4))
@@ -260,10 +271,10 @@ def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str
         ax.set_xlabel(D1_LABEL)
         ax.set_ylabel(D2_LABEL)
 
-        # located minima (green squares, as in the study) with their values
-        lo1, hi1, lo2, hi2 = e1[0], e1[-1], e2[0], e2[-1]
+        # located minima (green squares, as in the study) with their values, and the grid's
+        # own least error (a star)
         every = minima_from(refines)
-        shown = [m for m in every if lo1 <= m.dtheta1 <= hi1 and lo2 <= m.dtheta2 <= hi2]
+        shown = minima_shown(every, e1, e2)
         for m in shown:                       # search paths under every marker
             if show_paths and m.path1.size:
                 ax.plot(m.path1, m.path2, ls=":", lw=1.2, color=MINIMUM_COLOUR, alpha=0.9,
@@ -271,29 +282,13 @@ def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str
             if show_paths and m.start is not None:
                 ax.plot(*m.start, marker="o", ms=6, mfc="none", mec=MINIMUM_COLOUR, mew=1.5,
                         ls="none", zorder=4, gid=f"start_{m.label}")
-        outline = [withStroke(linewidth=2.5, foreground="black")]
-        offsets = _label_offsets([((m.dtheta1 - lo1) / (hi1 - lo1),
-                                   (m.dtheta2 - lo2) / (hi2 - lo2))
-                                  for m in shown], fig.get_size_inches())
-        for k, (m, off) in enumerate(zip(shown, offsets), 1):
-            # the square marks the minimum; its number keys the value in the legend (labels
-            # beside close minima would cover each other's markers)
-            ax.plot(m.dtheta1, m.dtheta2, marker="s", ms=8, mfc=MINIMUM_COLOUR, mec="black",
-                    mew=1.0, ls="none", zorder=6, gid=f"minimum_{m.label}", clip_on=False)
-            ax.annotate(str(k), (m.dtheta1, m.dtheta2), xytext=off,
-                        textcoords="offset points", fontsize=9, fontweight="bold",
-                        color="white", path_effects=outline, zorder=7, gid=f"label_{m.label}",
-                        arrowprops=None if off == (6, 5) else dict(
-                            arrowstyle="-", color="white", lw=0.8, shrinkA=0, shrinkB=4))
-            handles.append(Line2D(
-                [], [], marker="s", ms=8, mfc=MINIMUM_COLOUR, mec="black", ls="none",
-                label=f"{k}: {m.label}, e = {m.error:.2g} at "
-                      f"({m.dtheta1:.3f}, {m.dtheta2:.3f})" + ("" if m.ok else " (no gait)")))
+        handles += mark_minima(fig, ax, shown, e1, e2, least_error(grid, g), values=True)
         if shown:
             outside = len(every) - len(shown)
             if outside:
-                handles.append(Line2D([], [], ls="none", label=f"({outside} more located "
-                                                               "minima lie outside this map)"))
+                handles.append(Line2D([], [], ls="none", label=(
+                    f"({count(outside, 'more located minimum', 'more located minima')} "
+                    f"{'lies' if outside == 1 else 'lie'} outside this map)")))
             if show_paths:
                 handles.append(Line2D([], [], marker="o", mfc="none", mec=MINIMUM_COLOUR,
                                       ls=":", color=MINIMUM_COLOUR,
@@ -314,11 +309,20 @@ def plot_swap_time_map(grid, refines: Sequence = (), *, cmap: str = "viridis"):
     swap comes on a later swing (link 1 swings back through the vertical first), and a small
     error there is a gait of another kind than the study's first-swing gait.
 
+    The refined minima are marked and numbered as on the error map, and the grid's least
+    error is starred.
+
     Returns
     -------
     matplotlib.figure.Figure
         Artists with ``gid``: ``t_switch`` (the QuadMesh; its array ``[i_dtheta2,
-        i_dtheta1]``, masked where there is no gait), ``minimum_<step>`` markers.
+        i_dtheta1]``, masked where there is no gait), ``minimum_<step>`` markers,
+        ``label_<step>`` their numbers, ``least_error``.
+
+    Raises
+    ------
+    NothingToDraw
+        No point of the grid has a gait.
     """
     g = grid_arrays(grid)
     e1, e2 = cell_edges(g.dtheta1), cell_edges(g.dtheta2)
@@ -330,6 +334,9 @@ def plot_swap_time_map(grid, refines: Sequence = (), *, cmap: str = "viridis"):
     else:
         ts = np.asarray(grid["t_switch"].transpose("dtheta1", "dtheta2").values, float)
     ts = np.where(g.status == L.ST_OK, ts, np.nan)
+    if not np.isfinite(ts).any():
+        raise NothingToDraw("no point of the grid has a gait, so there is no swap time (the "
+                            "error map shows why)")
     with style():
         fig = new_figure(figsize=(7.4, 6.4))
         ax = fig.add_subplot()
@@ -342,13 +349,9 @@ def plot_swap_time_map(grid, refines: Sequence = (), *, cmap: str = "viridis"):
         for key, mask, colour, hatch, label in g.category_masks():
             ax.add_patch(_hatch_patch(mask_path(mask, e1, e2), colour, hatch, f"nogait_{key}"))
             handles.append(_legend_patch(colour, hatch, label))
-        for m in minima_from(refines):
-            if e1[0] <= m.dtheta1 <= e1[-1] and e2[0] <= m.dtheta2 <= e2[-1]:
-                ax.plot(m.dtheta1, m.dtheta2, marker="s", ms=8, mfc=MINIMUM_COLOUR,
-                        mec="black", mew=1.0, ls="none", zorder=6, gid=f"minimum_{m.label}")
-        if any(m for m in minima_from(refines)):
-            handles.append(Line2D([], [], marker="s", ms=8, mfc=MINIMUM_COLOUR, mec="black",
-                                  ls="none", label="refined minima (as on the error map)"))
+        # numbered as on the error map, so that the two figures read together
+        handles += mark_minima(fig, ax, minima_shown(minima_from(refines), e1, e2), e1, e2,
+                               least_error(grid, g), values=False)
         ax.set_xlim(e1[0], e1[-1])
         ax.set_ylim(e2[0], e2[-1])
         ax.set_xlabel(D1_LABEL)
@@ -359,6 +362,96 @@ def plot_swap_time_map(grid, refines: Sequence = (), *, cmap: str = "viridis"):
                      fontweight="bold")
         ax.set_title(run_label(grid), fontsize=8.5, fontweight="normal", loc="left")
     return fig
+
+
+def minima_shown(every: Sequence[Minimum], e1: np.ndarray, e2: np.ndarray) -> list[Minimum]:
+    """The minima inside the map's range, in the order they are numbered (1, 2, ...)."""
+    return [m for m in every if e1[0] <= m.dtheta1 <= e1[-1] and e2[0] <= m.dtheta2 <= e2[-1]]
+
+
+@dataclass
+class LeastError:
+    """The grid point with the least error (as numpy's argmin: the first of ties)."""
+
+    dtheta1: float
+    dtheta2: float
+    error: float
+    t_switch: float
+    t_motor: float
+
+
+def least_error(grid, g: GridData) -> LeastError | None:
+    """The grid's least error and where it lies, None when no point has a gait."""
+    if not g.ok.any():
+        return None
+    i, j = np.unravel_index(np.nanargmin(np.where(g.ok, g.error, np.nan)), g.error.shape)
+    d1, d2 = float(g.dtheta1[i]), float(g.dtheta2[j])
+    times = []
+    for name in ("t_switch", "t_motor"):
+        if name not in grid:
+            times.append(math.nan)
+        elif "point" in grid.dims:
+            at = np.flatnonzero((grid["dtheta1"].values == d1) & (grid["dtheta2"].values == d2))
+            times.append(float(grid[name].values[at[0]]))
+        else:
+            times.append(float(grid[name].sel(dtheta1=d1, dtheta2=d2)))
+    return LeastError(d1, d2, float(g.error[i, j]), *times)
+
+
+#: how the grid's least error is marked on the maps
+LEAST_MARKER = dict(marker="*", ms=15, mfc="white", mec="black", mew=1.0, ls="none")
+
+
+def mark_minima(fig, ax, shown: Sequence[Minimum], e1: np.ndarray, e2: np.ndarray,
+                least: LeastError | None, *, values: bool) -> list:
+    """Mark the refined minima (green squares, numbered 1, 2, ... in ``shown``'s order) and
+    the grid's least error (a white star labelled "least e"); returns their legend entries,
+    with the values (``values``) or pointing to the error map for them."""
+    lo1, hi1, lo2, hi2 = e1[0], e1[-1], e2[0], e2[-1]
+    points = [(m.dtheta1, m.dtheta2) for m in shown]
+    if least is not None:
+        points.append((least.dtheta1, least.dtheta2))
+    offsets = _label_offsets([((x - lo1) / (hi1 - lo1), (y - lo2) / (hi2 - lo2))
+                              for x, y in points], fig.get_size_inches())
+    outline = [withStroke(linewidth=2.5, foreground="black")]
+    handles = []
+    for k, (m, off) in enumerate(zip(shown, offsets), 1):
+        # the square marks the minimum; its number keys the value in the legend (labels
+        # beside close minima would cover each other's markers)
+        ax.plot(m.dtheta1, m.dtheta2, marker="s", ms=8, mfc=MINIMUM_COLOUR, mec="black",
+                mew=1.0, ls="none", zorder=6, gid=f"minimum_{m.label}", clip_on=False)
+        ax.annotate(str(k), (m.dtheta1, m.dtheta2), xytext=off,
+                    textcoords="offset points", fontsize=9, fontweight="bold",
+                    color="white", path_effects=outline, zorder=7, gid=f"label_{m.label}",
+                    arrowprops=None if off == (6, 5) else dict(
+                        arrowstyle="-", color="white", lw=0.8, shrinkA=0, shrinkB=4))
+        if not values:
+            what = "as numbered on the error map"
+        elif m.ok and finite(m.error):
+            what = f"e = {m.error:.2g} at ({m.dtheta1:.3f}, {m.dtheta2:.3f})"
+        else:
+            what = f"no gait at ({m.dtheta1:.3f}, {m.dtheta2:.3f}): the search found none"
+        handles.append(Line2D([], [], marker="s", ms=8, mfc=MINIMUM_COLOUR, mec="black",
+                              ls="none", label=f"{k}: {m.label}, {what}"))
+    if least is not None:
+        ax.plot(least.dtheta1, least.dtheta2, zorder=8, gid="least_error", clip_on=False,
+                **LEAST_MARKER)
+        off = offsets[-1]
+        ax.annotate("least e", (least.dtheta1, least.dtheta2), xytext=(off[0], off[1]),
+                    textcoords="offset points", fontsize=8, fontweight="bold",
+                    color="white", path_effects=outline, zorder=8, gid="least_error_label")
+        if values:
+            times = ""
+            if finite(least.t_switch) and finite(least.t_motor):
+                times = (f", its swap at {least.t_switch:.3f} s, motor on for "
+                         f"{least.t_motor * 1e3:.3g} ms")
+            text = (f"least e: the grid's least error, e = {least.error:.2g} at "
+                    f"({least.dtheta1:.3f}, {least.dtheta2:.3f})\n{times[2:] + ' ' if times else ''}"
+                    "(a point of the grid, not refined)")
+        else:
+            text = "least e: the grid's least error (its value on the error map)"
+        handles.append(Line2D([], [], label=text, **LEAST_MARKER))
+    return handles
 
 
 def _label_offsets(points, fig_size, min_sep: float = 13.0) -> list[tuple[int, int]]:
@@ -399,8 +492,12 @@ def _row_minimum_panel(axp, g: GridData) -> None:
     low = row_minimum(g)
     axp.plot(low, g.dtheta2, color="black", lw=1.2, gid="row_minimum")
     axp.set_xscale("log")
-    axp.axvline(1.0, color="0.5", ls="--", lw=0.8)
-    axp.set_xlabel("lowest e of each\n" r"$\dot\theta_2$ row  [1]")
+    # e = 1: the 2009 study's fig. 9 reads its valley floor against it
+    axp.axvline(1.0, color="0.5", ls="--", lw=0.8, gid="e_one")
+    axp.annotate("e = 1", (1.0, 1.0), xycoords=("data", "axes fraction"), xytext=(-3, -3),
+                 textcoords="offset points", rotation=90, ha="right", va="top", fontsize=7.5,
+                 color="0.35")
+    axp.set_xlabel("lowest e of each\n" r"$\dot\theta_2$ row" "\n" + ERROR_UNITS)
     axp.tick_params(labelleft=False)
     finite = low[np.isfinite(low) & (low > 0)]
     if finite.size:
@@ -411,51 +508,76 @@ def _row_minimum_panel(axp, g: GridData) -> None:
 # ----------------------------------------------------------------------------------------------
 # 3-D surface (fig. 3)
 # ----------------------------------------------------------------------------------------------
-def plot_error_surface(grid, *, max_cells: int = 150, cmap: str = "magma",
+def plot_error_surface(grid, *, max_cells: int = 250, cmap: str = "magma",
                        elev: float = 50.0, azim: float = -118.0, title: str | None = None):
     """3-D surface of sqrt(error) over (dtheta1, dtheta2) (study fig. 3).
 
     Points without a gait form a flat floor at 0 in their category colours (the study's flat
-    "not enough energy" region), with a legend; the surface itself is only drawn where there is
-    a gait, and not across a jump of sqrt(e) by more than a tenth of its range between
-    neighbours (the gait's event sequence changes there: a gap, not a wall). The surface is
-    drawn cell by cell, only cells whose four corners all carry a value (matplotlib's
-    ``plot_surface`` keeps the triangles of cells with a missing corner, which line every gap
-    with teeth). Grids with more than ``max_cells`` points along an axis are drawn with every
-    n-th point (a uniform stride, no averaging), so the surface keeps the data's own values.
+    "not enough energy" region: each point's cell, as on the map), with a legend. The surface
+    (:func:`continuous_surface`) joins neighbouring points with a gait, and never across a
+    jump of sqrt(e) by more than a tenth of its range (the gait's event sequence changes
+    there: a gap, not a wall); regions of a few cells, too thin for the grid to resolve, are
+    left to the map. Points with a gait that belong to no drawn cell (a grid with one value
+    along an axis, a point among points without a gait) are drawn as dots at their height.
+    Grids with more than ``max_cells`` points along an axis are drawn with every n-th point
+    (a uniform stride, no averaging), so the surface keeps the data's own values.
 
-    Returns a Figure whose surface has ``gid`` ``sqrt_error`` and floors ``floor_<category>``.
+    Returns a Figure whose surface has ``gid`` ``sqrt_error``, its dots ``sqrt_error_points``
+    and floors ``floor_<category>``.
+
+    Raises
+    ------
+    NothingToDraw
+        No point of the grid has a gait.
     """
     g = grid_arrays(grid)
+    if not g.ok.any():
+        raise NothingToDraw("no point of the grid has a gait, so there is no error to draw a "
+                            "surface of (the error map shows why)")
     rs = -(-g.dtheta1.size // max_cells)          # uniform strides (ceil division)
     cs = -(-g.dtheta2.size // max_cells)
-    X, Y = np.meshgrid(g.dtheta1[::rs], g.dtheta2[::cs], indexing="ij")
+    d1, d2 = g.dtheta1[::rs], g.dtheta2[::cs]
+    X, Y = np.meshgrid(d1, d2, indexing="ij")
     Z = np.sqrt(g.error[::rs, ::cs])
-    zmax = float(np.nanmax(Z)) if np.isfinite(Z).any() else 1.0
-    # a surface drawn across a jump of the error is a wall of thin teeth; leave a gap there
-    # instead: the higher side of every jump is not drawn
-    Z = np.where(jump_points(Z, 0.1 * zmax), np.nan, Z)
+    zmax = float(np.nanmax(Z)) if np.isfinite(Z).any() else 0.0
+    zmax = zmax if zmax > 0 else 1.0               # every error 0: a flat surface at 0
+    e1, e2 = cell_edges(d1), cell_edges(d2)
     with style():
         fig = new_figure(figsize=(7.6, 6.2))
         ax = fig.add_subplot(projection="3d", computed_zorder=False)
         handles = []
         for key, mask, colour, hatch, label in g.category_masks():
-            Zf = np.where(mask[::rs, ::cs], 0.0, np.nan)
-            ax.plot_surface(X, Y, Zf, color=colour, rstride=1, cstride=1, linewidth=0,
-                            antialiased=False, shade=False, gid=f"floor_{key}", zorder=1)
+            floor = floor_tiles(mask[::rs, ::cs], e1, e2)
+            # edges in the face colour: no seams between the tiles
+            floor.set(facecolor=colour, edgecolor=colour, linewidth=0.4, gid=f"floor_{key}",
+                      zorder=1, rasterized=True)
+            ax.add_collection3d(floor)
             handles.append(Patch(facecolor=colour, edgecolor="#42526e", label=label))
-        surf = whole_cell_surface(X, Y, Z, cmap=cmap, vmax=zmax)
-        surf.set_gid("sqrt_error")
-        surf.set_zorder(2)
+        surf, loose = continuous_surface(X, Y, Z, cmap=cmap, vmax=zmax, jump=0.1 * zmax)
+        surf.set(gid="sqrt_error", zorder=2, rasterized=True)
         ax.add_collection3d(surf)
+        if min(Z.shape) == 1 and Z.size > 1:
+            # one value along an axis: the surface is a curve along the other
+            line = np.ravel(Z).copy()
+            with np.errstate(invalid="ignore"):
+                line[1:][np.abs(np.diff(line)) > 0.1 * zmax] = np.nan    # not across a jump
+            ax.plot(np.ravel(X), np.ravel(Y), np.where(np.isfinite(np.ravel(Z)), line, np.nan),
+                    color="0.25", lw=1.2, zorder=3, gid="sqrt_error_line")
+        if loose.any():
+            ax.scatter(X[loose], Y[loose], Z[loose], c=Z[loose], cmap=cmap, vmin=0.0,
+                       vmax=zmax, s=16 if Z.size <= 400 else 4, depthshade=False,
+                       edgecolors="black", linewidths=0.3, zorder=3, gid="sqrt_error_points")
+            handles.append(Line2D([], [], marker="o", ls="none", mfc="0.4", mec="black",
+                                  label=f"points with a gait in no whole cell of the surface "
+                                        f"({int(loose.sum())})"))
         cb = fig.colorbar(ScalarMappable(Normalize(0.0, zmax), cmap), ax=ax, shrink=0.6,
                           pad=0.08)
         cb.set_label(r"$\sqrt{e}$  (e in " + ERROR_UNITS[1:-1] + ")")
         ax.set_xlabel(D1_LABEL, labelpad=8)
         ax.set_ylabel(D2_LABEL, labelpad=8)
         ax.set_zlabel(r"$\sqrt{e}$", labelpad=6)
-        ax.set_xlim(g.dtheta1[0], g.dtheta1[-1])
-        ax.set_ylim(g.dtheta2[0], g.dtheta2[-1])
+        ax.set_xlim(e1[0], e1[-1])           # every point's cell, as on the map
+        ax.set_ylim(e2[0], e2[-1])
         ax.set_zlim(0.0, zmax)
         ax.view_init(elev=elev, azim=azim)
         if handles:
@@ -468,41 +590,85 @@ def plot_error_surface(grid, *, max_cells: int = 150, cmap: str = "magma",
     return fig
 
 
-def whole_cell_surface(X: np.ndarray, Y: np.ndarray, Z: np.ndarray, *, cmap: str,
-                       vmax: float) -> Poly3DCollection:
-    """The cells of the surface ``Z(X, Y)`` whose four corners are finite, as quadrilaterals
-    coloured by their mean height (``cmap`` over ``0..vmax``) and shaded by a light from the
-    upper left, as ``plot_surface`` shades."""
-    corners = [(slice(None, -1), slice(None, -1)), (slice(1, None), slice(None, -1)),
-               (slice(1, None), slice(1, None)), (slice(None, -1), slice(1, None))]
-    quads = np.stack([np.stack([A[c] for c in corners], axis=-1) for A in (X, Y, Z)], axis=-1)
-    quads = quads.reshape(-1, 4, 3)
-    quads = quads[np.isfinite(quads).all(axis=(1, 2))]
-    z_mean = quads[:, :, 2].mean(axis=1)
+def floor_tiles(mask: np.ndarray, e1: np.ndarray, e2: np.ndarray) -> Poly3DCollection:
+    """Flat tiles at height 0 over the cells of the points where ``mask[i1, i2]``
+    (consecutive cells along dtheta2 merged into one tile)."""
+    tiles = []
+    for i in range(mask.shape[0]):
+        col = np.concatenate([[False], mask[i], [False]])
+        starts = np.flatnonzero(~col[:-1] & col[1:])
+        stops = np.flatnonzero(col[:-1] & ~col[1:])
+        for a, b in zip(starts, stops):
+            x0, x1, y0, y1 = e1[i], e1[i + 1], e2[a], e2[b]
+            tiles.append([(x0, y0, 0.0), (x1, y0, 0.0), (x1, y1, 0.0), (x0, y1, 0.0)])
+    return Poly3DCollection(tiles, linewidths=0.0)
+
+
+#: corners of the cell (i, j) of a grid, counter-clockwise: (i, j), (i+1, j), (i+1, j+1),
+#: (i, j+1)
+_CORNERS = ((slice(None, -1), slice(None, -1)), (slice(1, None), slice(None, -1)),
+            (slice(1, None), slice(1, None)), (slice(None, -1), slice(1, None)))
+
+
+def continuous_surface(X: np.ndarray, Y: np.ndarray, Z: np.ndarray, *, cmap: str,
+                       vmax: float, jump: float, min_region: float = 5e-4
+                       ) -> tuple[Poly3DCollection, np.ndarray]:
+    """The surface ``Z(X, Y)`` drawn where it is continuous, and the points it leaves out.
+
+    A cell is drawn whole when its four corners are finite and span at most ``jump`` in Z;
+    otherwise its triangle of three such corners, if it has one (so that the surface's edge
+    along a gap or the grid's border runs across cells, not round them). Connected regions of
+    fewer than ``min_region`` times the grid's cells (at least 2) are left out: a strip the
+    grid cannot resolve. Faces are coloured by their mean height (``cmap`` over
+    ``0..vmax``) and shaded by a light from the upper left, as ``plot_surface`` shades.
+
+    Returns the collection and the mask of finite points in no drawn face.
+    """
+    cells = np.stack([np.stack([A[c] for c in _CORNERS], axis=-1) for A in (X, Y, Z)],
+                     axis=-1)                                # (n1 - 1, n2 - 1, 4, 3)
+    z = cells[..., 2]
+    finite = np.isfinite(z)
+
+    def good(corners: list[int]) -> np.ndarray:
+        zz = z[..., corners]
+        with np.errstate(invalid="ignore"):
+            span = np.max(zz, axis=-1) - np.min(zz, axis=-1)
+        return finite[..., corners].all(axis=-1) & (span <= jump)
+
+    whole = good([0, 1, 2, 3])
+    triangles = {k: good([j for j in range(4) if j != k]) & ~whole for k in range(4)}
+    drawn = whole | np.logical_or.reduce(list(triangles.values()))
+    if drawn.size:
+        labels, n = ndimage.label(drawn)
+        sizes = ndimage.sum(drawn, labels, index=np.arange(1, n + 1))
+        keep = np.isin(labels, 1 + np.flatnonzero(sizes >= max(2, min_region * drawn.size)))
+    else:
+        keep = drawn
+    covered = np.zeros(Z.shape, bool)
+    quads = cells[whole & keep]                                   # (n, 4, 3)
+    tris = [cells[m & keep][:, [j for j in range(4) if j != k]] for k, m in triangles.items()]
+    tris = np.concatenate(tris) if tris else np.zeros((0, 3, 3))  # (m, 3, 3)
+    for k, m in triangles.items():
+        for j in range(4):
+            if j != k:
+                covered[_CORNERS[j]] |= m & keep
+    for j in range(4):
+        covered[_CORNERS[j]] |= whole & keep
+    loose = np.isfinite(Z) & ~covered
+    if not len(quads) and not len(tris):
+        return Poly3DCollection([], linewidths=0.15), loose
+    z_mean = np.concatenate([quads[:, :, 2].mean(axis=1), tris[:, :, 2].mean(axis=1)])
     colours = colormaps[cmap](Normalize(0.0, vmax)(z_mean))
-    normals = np.cross(quads[:, 2] - quads[:, 0], quads[:, 3] - quads[:, 1])
+    normals = np.concatenate([np.cross(quads[:, 2] - quads[:, 0], quads[:, 3] - quads[:, 1]),
+                              np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])])
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
     # the sign of a normal is arbitrary: light the side facing up
     normals *= np.sign(normals[:, 2:3] + (normals[:, 2:3] == 0))
     shade = LightSource(azdeg=225, altdeg=19.4712).shade_normals(normals, fraction=1.0)
     colours[:, :3] *= (0.35 + 0.65 * shade)[:, None]
-    return Poly3DCollection(quads, facecolors=colours, edgecolors=(0, 0, 0, 0.15),
-                            linewidths=0.15)
-
-
-def jump_points(z: np.ndarray, jump: float) -> np.ndarray:
-    """Points of ``z`` that exceed a 4-neighbour by more than ``jump``: the high side of a
-    discontinuity."""
-    out = np.zeros(z.shape, bool)
-    with np.errstate(invalid="ignore"):
-        for axis in (0, 1):
-            d = np.diff(z, axis=axis)
-            lo = [slice(None)] * 2
-            hi = [slice(None)] * 2
-            lo[axis], hi[axis] = slice(None, -1), slice(1, None)
-            out[tuple(hi)] |= d > jump          # the later point is higher
-            out[tuple(lo)] |= -d > jump         # the earlier point is higher
-    return out
+    faces = list(quads) + list(tris)
+    return Poly3DCollection(faces, facecolors=colours, edgecolors=(0, 0, 0, 0.15),
+                            linewidths=0.15), loose
 
 
 # ----------------------------------------------------------------------------------------------
@@ -510,41 +676,69 @@ def jump_points(z: np.ndarray, jump: float) -> np.ndarray:
 # ----------------------------------------------------------------------------------------------
 def plot_refine_convergence(refine):
     """Best-vertex error per Nelder-Mead iteration of a ``refine`` dataset (log scale), one
-    line per start.
+    line per start, the iterations as the dataset holds them: iterate 0 is the start (ringed),
+    so a search of n iterations has n + 1 iterates.
 
     Shows where the search stalls (the tick-quantised error surface stops the simplex above
-    zero). Lines have ``gid`` ``iterate_error`` (one start) or ``iterate_error_<i>``.
+    zero). Lines have ``gid`` ``iterate_error`` (one start) or ``iterate_error_<i>``; the
+    start's marker ``start_error`` (or ``start_error_<i>``).
+
+    Raises
+    ------
+    NothingToDraw
+        No iterate of any start has a gait (so no error to draw).
     """
     starts = _split_starts(refine)
     mins = minima_from([refine])
+    series = []
+    for label, r in starts:
+        err = np.asarray(r["iterate_error"].values, float)
+        it = np.asarray(r["iteration"].values if "iteration" in r.coords
+                        else np.arange(err.size), float)
+        real = np.ones(err.size, bool)
+        if "iterate_nfev" in r:                         # multi-start padding is -1
+            real = np.asarray(r["iterate_nfev"].values) >= 0
+        series.append((label, it, err, real))
+    if not any(np.any(np.isfinite(e) & (e > 0) & real) for _, _, e, real in series):
+        raise NothingToDraw("no iterate of the search has a gait, so there is no error to "
+                            "draw (every point it tried failed)")
     with style():
         fig = new_figure(figsize=(7.0, 4.6))
         ax = fig.add_subplot()
-        lines = []
-        for k, ((label, r), m) in enumerate(zip(starts, mins)):
-            err = np.asarray(r["iterate_error"].values, float)
-            it = np.asarray(r["iteration"].values if "iteration" in r.coords
-                            else np.arange(err.size), float)
-            keep = np.isfinite(err) & (err > 0)
-            if "iterate_nfev" in r:                     # multi-start padding is -1
-                keep &= np.asarray(r["iterate_nfev"].values) >= 0
+        counts = []
+        for k, ((label, it, err, real), m) in enumerate(zip(series, mins)):
+            keep = np.isfinite(err) & (err > 0) & real
+            n_it = int(real.sum()) - 1          # iterate 0 is the start
+            counts.append(n_it)
             start = f"start ({m.start[0]:.3f}, {m.start[1]:.3f}) → " if m.start else ""
-            ax.plot(it[keep], err[keep], marker=".",
-                    gid="iterate_error" if len(starts) == 1 else f"iterate_error_{k}",
-                    label=f"{label}: {start}e = {m.error:.3g} at "
-                          f"({m.dtheta1:.4f}, {m.dtheta2:.4f})")
-            lines.append(m)
+            found = (f"e = {m.error:.3g} at ({m.dtheta1:.4f}, {m.dtheta2:.4f})"
+                     if finite(m.error) else "no gait found")
+            failed = int((real & ~keep).sum())
+            line, = ax.plot(it[keep], err[keep], marker=".",
+                            gid="iterate_error" if len(starts) == 1 else f"iterate_error_{k}",
+                            label=f"{label}: {start}{found}, {count(n_it, 'iteration')}"
+                                  + (f" ({count(failed, 'iterate')} without a gait, not "
+                                     "drawn)" if failed else ""))
+            if keep[0]:
+                ax.plot(it[:1], err[:1], marker="o", ms=9, mfc="none", mec=line.get_color(),
+                        mew=1.5, ls="none",
+                        gid="start_error" if len(starts) == 1 else f"start_error_{k}")
+        ax.plot([], [], marker="o", ms=9, mfc="none", mec="0.3", mew=1.5, ls="none",
+                label="iterate 0: the start")
         ax.set_yscale("log")
-        ax.set_xlabel("Nelder–Mead iteration")
+        ax.set_xlabel("Nelder–Mead iteration (0: the start)")
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
         ax.set_ylabel(("section" if is_sequence(refine) else "gait")
                       + f" error e of the best vertex  {ERROR_UNITS}")
         ax.legend(loc="upper right", fontsize=8)
         conv = refine["converged"] if "converged" in refine else refine.attrs.get("converged")
         conv = np.atleast_1d(np.asarray(getattr(conv, "values", conv) if conv is not None
                                         else [], dtype=float))
-        note = ("" if conv.size == 0 else "converged (xatol, fatol met)" if np.all(conv == 1)
-                else "stopped at the iteration limit" if np.all(conv == 0)
-                else f"{int(np.sum(conv == 1))} of {conv.size} starts converged")
+        after = f" after {count(counts[0], 'iteration')}" if len(counts) == 1 else ""
+        note = ("" if conv.size == 0 else f"converged (xatol, fatol met){after}"
+                if np.all(conv == 1) else f"stopped at the iteration limit{after}"
+                if np.all(conv == 0) else f"{int(np.sum(conv == 1))} of "
+                f"{count(conv.size, 'start')} converged")
         fig.suptitle(f"Nelder–Mead refinement {refine.attrs.get('step_name', '')}", x=0.02,
                      ha="left", fontweight="bold")
         ax.set_title((note + "\n" if note else "") + run_label(refine), fontsize=8.5,
@@ -567,8 +761,9 @@ def _has_iterations(path: Path, folder: Folder) -> bool:
 
 #: how the grid and refine steps' figures are drawn
 DRAWINGS = {
-    ("grid", "surface"): Drawing(lambda d: plot_error_surface(d[0])),
-    ("grid", "map"): Drawing(lambda d: plot_error_map(d[0], d[1:]), extra_inputs=_refines),
+    ("grid", "surface"): Drawing(lambda d: plot_error_surface(d[0]), cost=3.0),
+    ("grid", "map"): Drawing(lambda d: plot_error_map(d[0], d[1:]), extra_inputs=_refines,
+                             cost=2.0),
     ("grid", "swap_time"): Drawing(lambda d: plot_swap_time_map(d[0], d[1:]),
                                    extra_inputs=_refines, applies=_has_swap_times),
     ("refine", "convergence"): Drawing(lambda d: plot_refine_convergence(d[0]),

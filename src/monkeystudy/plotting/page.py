@@ -3,8 +3,9 @@
 The page says what was run and what came out: the study's description and file, the robot,
 gait and integrator, then every step in the study's order with its key numbers (what its step
 kind reports of its dataset, :meth:`~monkeystudy.study.steps.base.StepKind.describe`), a link
-to its dataset and its figures, each with the caption its kind declares (what to look at);
-last, the provenance of every dataset. It links only to files beside it (the figures) and
+to its dataset and its figures, each with the caption its kind declares (what to look at), or
+for a figure with nothing to show, why it was not drawn; last, the provenance of every
+dataset. It links only to files beside it (the figures) and
 one folder up (the datasets), so the study folder can be moved or zipped whole.
 """
 from __future__ import annotations
@@ -35,6 +36,8 @@ ul.numbers { font-family: ui-monospace, "DejaVu Sans Mono", monospace; font-size
 figure { margin: 1.2em 0 2em; } figure img, figure video { max-width: 100%; border: 1px solid #ddd; }
 figcaption { font-size: 14px; color: #333; margin-top: 0.3em; }
 nav { display: flex; flex-wrap: wrap; gap: 0.2em 1em; } .muted { color: #666; font-size: 13px; }
+.skipped { border: 1px dashed #bbb; padding: 0.8em 1em; background: #fafafa; }
+.skipped p { margin: 0 0 0.3em; }
 """
 
 
@@ -52,6 +55,31 @@ def _json(attrs: Mapping, name: str):
         return json.loads(attrs.get(name, ""))
     except (TypeError, ValueError):
         return None
+
+
+#: a value that is not a number, with the unit that would follow it
+_NOT_A_NUMBER = re.compile(r"\bnan\b(?: (?:rad s-1|rad|m|s|J|N m|kg|%))?", re.IGNORECASE)
+#: a count of one followed by a plural noun (``1 runs``)
+_ONE = re.compile(r"(?<![\d.×])1 (runs|cycles|points|starts|iterations|iterates|designs|levels|"
+                  r"solutions|blocks|samples|vertical crossings)\b")
+
+
+def tidy(line: str) -> str:
+    """A key-number line as the page shows it: a value that is not a number as "–" (its unit
+    dropped), a count of one in the singular."""
+    line = _NOT_A_NUMBER.sub("–", line)
+    return _ONE.sub(lambda m: "1 " + m.group(1)[:-1], line)
+
+
+def description(doc: str | None) -> str:
+    """A step kind's description for the page: the first sentence of its model's docstring,
+    whole (the docstring's first line may stop mid-sentence), on one line."""
+    para = re.split(r"\n\s*\n", (doc or "").strip(), maxsplit=1)[0]
+    text = " ".join(para.split())
+    # a sentence ends at ". " before a capital or markup, never inside ``literal`` text
+    ends = [m.end(1) for m in re.finditer(r"(\.)\s+(?=[A-Z`(])", text)
+            if text[:m.start()].count("``") % 2 == 0]
+    return text[:ends[0]] if ends else text
 
 
 def step_order(datasets: Mapping[str, object]) -> list[str]:
@@ -109,10 +137,19 @@ def _figure_html(name: str, outputs: Sequence[str], title: str, caption: str) ->
             + "</figcaption></figure>")
 
 
+def _skipped_html(name: str, title: str, caption: str, reason: str) -> str:
+    return (f'<figure id="{_e(name)}" class="skipped"><p><b>{_e(title)}</b>: not drawn, '
+            f"{_prose(reason)}.</p><figcaption class=\"muted\">{_prose(caption)}</figcaption>"
+            "</figure>")
+
+
 def render_page(study_dir: Path, datasets: Mapping[str, object],
-                figures: Mapping[str, Sequence[str]]) -> str:
-    """The page's HTML for the datasets of a study folder (``{step name: xarray Dataset}``)
-    and the figures drawn from them (``{figure name: [file names]}``)."""
+                figures: Mapping[str, Sequence[str]],
+                skipped: Mapping[str, str] | None = None) -> str:
+    """The page's HTML for the datasets of a study folder (``{step name: xarray Dataset}``),
+    the figures drawn from them (``{figure name: [file names]}``) and those skipped with
+    nothing to show (``{figure name: reason}``)."""
+    skipped = dict(skipped or {})
     order = step_order(datasets)
     first = datasets[order[0]].attrs if order else {}
     study = first.get("study_name", Path(study_dir).name)
@@ -141,13 +178,14 @@ def render_page(study_dir: Path, datasets: Mapping[str, object],
         out.append(f'<h3 id="step-{_e(name)}">{_e(name)} <small>[{_e(kind_name)}]'
                    f'</small></h3>')
         if kind is not None:
-            out.append(f"<p>{_prose(kind.summary)}</p>")
+            out.append(f"<p>{_prose(description(kind.model.__doc__))}</p>")
             try:
                 lines = kind.describe(ds)
             except Exception as exc:   # a dataset of another version: still show the rest
                 lines = [f"(key numbers unavailable: {type(exc).__name__}: {exc})"]
             if lines:
-                out.append('<ul class="numbers">' + "".join(f"<li>{_e(x)}</li>" for x in lines)
+                out.append('<ul class="numbers">' + "".join(f"<li>{_e(tidy(x))}</li>"
+                                                            for x in lines)
                            + "</ul>")
         out.append(f'<p class="muted">dataset <a href="../{_e(name)}.nc">{_e(name)}.nc</a>'
                    "</p>")
@@ -156,13 +194,19 @@ def render_page(study_dir: Path, datasets: Mapping[str, object],
             if key in figures:
                 out.append(_figure_html(key, figures[key], fig.title, fig.caption))
                 used.add(key)
+            elif key in skipped:
+                out.append(_skipped_html(key, fig.title, fig.caption, skipped[key]))
+                used.add(key)
     across = [(kind, fig) for kind in REGISTRY.values() for fig in kind.figures if fig.across
-              and f"{kind.name}_{fig.suffix}" in figures]
+              and f"{kind.name}_{fig.suffix}" in set(figures) | set(skipped)]
     if across:
         out.append("<h2>Across steps</h2>")
         for kind, fig in across:
             key = f"{kind.name}_{fig.suffix}"
-            out.append(_figure_html(key, figures[key], fig.title, fig.caption))
+            if key in figures:
+                out.append(_figure_html(key, figures[key], fig.title, fig.caption))
+            else:
+                out.append(_skipped_html(key, fig.title, fig.caption, skipped[key]))
             used.add(key)
     rest = sorted(set(figures) - used)
     if rest:

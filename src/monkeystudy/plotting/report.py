@@ -2,24 +2,35 @@
 
 ``report_study(DIR)`` reads the study's ``*.nc`` datasets (docs/datasets.md; classified by
 their ``step_kind`` attribute), plans the figures they support and writes each as PNG and PDF
-(the animation as GIF, and MP4 when ffmpeg exists) into ``DIR/figures/``. It never simulates.
+(the animation as MP4, or GIF without ffmpeg) into ``DIR/figures/``. It never simulates.
+The figures are drawn on one process per core (:mod:`monkeystudy.plotting.workers`), the
+longest first (the animations, by each drawing's ``cost``); every file is written to a temporary name and
+renamed into place, so an interrupted report leaves no half-written file.
+
+A figure whose datasets hold nothing it could show (:class:`~.drawing.NothingToDraw`: a
+swap-time map without a single gait, a replay that fell in its first cycle) is *skipped*: the
+log line and the study's page say why, and it is not a failure.
 
 A manifest, ``DIR/figures/manifest.json``, records per figure the SHA-256 of each input
-dataset, a hash of the plotting code and style file, and the drawing options. A figure is
-redrawn only when one of those changed or one of its files is missing, so a second call on
-unchanged datasets writes nothing. Figures whose datasets were deleted are removed.
+dataset, a hash of the plotting code and style file, the drawing options, and the files
+written (or why it was skipped). A figure is redrawn only when one of those changed or one of
+its files is missing, so a second call on unchanged datasets writes nothing, and a report
+interrupted by Ctrl-C redoes only what it had not finished. Figures whose datasets were
+deleted are removed.
 
 =====================================  ======================================  ==============
 file (``figures/``)                    what                                    study figure
 =====================================  ======================================  ==============
 ``<grid>_surface``                     sqrt(error) surface, no-gait floor      3
-``<grid>_map``                         error map truncated at 5, minima        4, 9, 10
-``<refine>_convergence``               best-vertex error per iteration         (text 4.2)
+``<grid>_map``                         error map truncated at 5, minima, the   4, 9, 10
+                                       grid's least error
+``<refine>_convergence``               best-vertex error per iteration (0:     (text 4.2)
+                                       the start)
 ``<stability>_error``                  error per cycle, log scale              5, 8
 ``<stability>_kinetic_energy``         kinetic energy per cycle                6
 ``<stability>_height``                 attached-end height per cycle           7
 ``<stability>_filmstrip``              one gait cycle, frame by frame          2 (from data)
-``<stability>_animation``              the whole run (GIF / MP4)               -
+``<stability>_animation``              the whole run (MP4, or GIF)             -
 ``stability_error_comparison``         all multi-cycle runs' errors            5 + 8
 ``<shoot>_newton``                     residual norm per Newton iteration      -
 ``<floquet>_multipliers``              multipliers and the unit circle         -
@@ -42,8 +53,8 @@ from __future__ import annotations
 
 import hashlib
 import json
-import traceback
-from dataclasses import dataclass, field
+import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -52,8 +63,9 @@ import xarray as xr
 from ..study.steps import REGISTRY
 from . import analysis, cycles, design, gait, maps, stress, survival
 from .common import STYLE_FILE, atomic_path, provenance, save_figure
-from .drawing import Drawing, Folder
+from .drawing import Drawing, Folder, NothingToDraw
 from .page import PAGE, render_page
+from .workers import available_cores, run_jobs
 
 MANIFEST = "manifest.json"
 MANIFEST_VERSION = 1
@@ -72,16 +84,39 @@ class ReportError(RuntimeError):
         super().__init__(f"{len(failures)} figure(s) failed:\n{lines}")
 
 
+class ReportInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a report: the figures finished before it are saved (``written``) and in
+    the manifest; no half-written file is left, and the same call again draws the rest."""
+
+    def __init__(self, written: list[Path], left: int):
+        self.written = written
+        self.left = left
+        super().__init__(f"interrupted: {len(written)} file(s) written, {left} figure(s) "
+                         "left to draw; run the same command again to finish")
+
+
 @dataclass
 class Job:
-    """One figure (or animation) to draw from some datasets."""
+    """One figure (or animation) to draw from some datasets.
+
+    The drawing is ``DRAWINGS[key]``; an ``across`` figure's inputs are the concatenated
+    groups of ``sizes`` datasets each (one group per step)."""
 
     name: str                      # file name stem in figures/
     inputs: list[Path]             # dataset files it reads
-    draw: Callable                 # (loaded datasets in ``inputs`` order) -> Figure
+    key: tuple[str, str]           # (step kind, figure suffix) in DRAWINGS
     title: str
     animation: bool = False
-    outputs: list[str] = field(default_factory=list)   # filled once drawn
+    sizes: tuple[int, ...] | None = None
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What drawing a job came to: the files written, or why there was nothing to draw."""
+
+    paths: tuple[Path, ...] = ()
+    skipped: str | None = None
+    seconds: float = 0.0
 
 
 # ----------------------------------------------------------------------------------------------
@@ -142,7 +177,8 @@ def _datasets(study_dir: Path) -> dict[str, list[Path]]:
     return out
 
 
-def _load(path: Path) -> xr.Dataset:
+def load_dataset(path: Path) -> xr.Dataset:
+    """A dataset file, read whole into memory (the file is closed again)."""
     with xr.open_dataset(path) as ds:
         return ds.load()
 
@@ -156,7 +192,7 @@ def plan(study_dir: Path, *, animation: bool = True, fps: float = 15.0,
 
     def loaded(path: Path) -> xr.Dataset:
         if path not in cache:
-            cache[path] = _load(path)
+            cache[path] = load_dataset(path)
         return cache[path]
 
     folder = Folder(study_dir, _datasets(study_dir), loaded)
@@ -164,38 +200,56 @@ def plan(study_dir: Path, *, animation: bool = True, fps: float = 15.0,
     for kind in REGISTRY.values():
         paths = folder.files[kind.name]
         for fig in kind.figures:
-            how = DRAWINGS[(kind.name, fig.suffix)]
+            key = (kind.name, fig.suffix)
+            how = DRAWINGS[key]
             if how.animation and not animation:
                 continue
             if fig.across:
                 groups = [[p] + how.extra_inputs(p, folder) for p in paths
                           if how.applies(p, folder)]
                 if len(groups) > 1:
-                    sizes = [len(g) for g in groups]
                     jobs.append(Job(f"{kind.name}_{fig.suffix}", [p for g in groups for p in g],
-                                    lambda d, how=how, sizes=sizes: how.draw(_split(d, sizes)),
-                                    fig.title))
+                                    key, fig.title, sizes=tuple(len(g) for g in groups)))
                 continue
             for p in paths:
-                if not how.applies(p, folder):
-                    continue
-                if how.animation:
-                    def draw(d, base, prov, how=how):
-                        return how.draw(d, base, prov, fps=fps, max_frames=max_frames)
-                else:
-                    draw = how.draw
-                jobs.append(Job(f"{p.stem}_{fig.suffix}", [p] + how.extra_inputs(p, folder),
-                                draw, f"{p.stem}: {fig.title}", animation=how.animation))
+                if how.applies(p, folder):
+                    jobs.append(Job(f"{p.stem}_{fig.suffix}", [p] + how.extra_inputs(p, folder),
+                                    key, f"{p.stem}: {fig.title}", animation=how.animation))
     return jobs
 
 
-def _split(datasets: list, sizes: list[int]) -> list[list]:
+def split_groups(datasets: list, sizes: Sequence[int]) -> list[list]:
     """``datasets`` cut into consecutive groups of ``sizes``."""
     out, k = [], 0
     for n in sizes:
         out.append(datasets[k:k + n])
         k += n
     return out
+
+
+def draw_job(job: Job, fig_dir: Path, *, formats: Sequence[str], fps: float, max_frames: int,
+             frames: Callable[[int, int], None] | None = None) -> Outcome:
+    """Draw one job into ``fig_dir`` (its datasets read here: on a worker, by the worker).
+
+    ``frames(done, total)`` follows an animation frame by frame. A drawing that raises
+    :class:`~.drawing.NothingToDraw` comes back as a skipped :class:`Outcome`.
+    """
+    t0 = time.perf_counter()
+    how = DRAWINGS[job.key]
+    data = [load_dataset(p) for p in job.inputs]
+    prov = provenance(data, job.inputs)
+    base = fig_dir / job.name
+    try:
+        if job.animation:
+            paths = how.draw(data, base, prov, fps=fps, max_frames=max_frames,
+                             progress=frames)
+        else:
+            fig = how.draw(split_groups(data, job.sizes) if job.sizes else data)
+            paths = save_figure(fig, base, prov, formats=formats, title=job.title)
+            fig.clear()
+    except NothingToDraw as why:
+        return Outcome(skipped=why.reason, seconds=time.perf_counter() - t0)
+    return Outcome(tuple(paths), seconds=time.perf_counter() - t0)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -233,6 +287,16 @@ def _prune(fig_dir: Path, manifest: dict, planned: set[str], study_dir: Path,
         _write_manifest(fig_dir / MANIFEST, manifest)
 
 
+def _current(old: dict, entry: dict, fig_dir: Path) -> bool:
+    """Whether a manifest entry still describes the figure: same inputs, code and options,
+    and its files all there (or skipped, with nothing to show)."""
+    if any(old.get(key) != entry[key] for key in entry):
+        return False
+    if "skipped" in old:
+        return True
+    return bool(old.get("outputs")) and all((fig_dir / o).exists() for o in old["outputs"])
+
+
 class NoStudyDatasets(ValueError):
     """A folder without study datasets (``*.nc`` written by ``monkeystudy run``)."""
 
@@ -254,10 +318,15 @@ def no_datasets_message(study_dir: Path) -> str:
     return msg
 
 
+def _quarters(total: int) -> set[int]:
+    """Frame counts at which an animation's progress is said: each quarter, and the end."""
+    return {max(1, (total * q) // 4) for q in (1, 2, 3, 4)}
+
+
 def report_study(study_dir: Path, *, force: bool = False,
                  formats: Sequence[str] = ("png", "pdf"), animation: bool = True,
                  fps: float = 15.0, max_frames: int = 240, dry_run: bool = False,
-                 progress: Progress | None = None) -> list[Path]:
+                 progress: Progress | None = None, workers: int | None = None) -> list[Path]:
     """Draw every figure the datasets in ``study_dir`` support into ``study_dir/figures``, and
     the study's page ``figures/index.html`` (:mod:`monkeystudy.plotting.page`).
 
@@ -272,12 +341,15 @@ def report_study(study_dir: Path, *, force: bool = False,
     animation : bool
         Also write each stability run's animation (MP4 with ffmpeg, else GIF).
     fps, max_frames : float, int
-        Animation frame rate and frame budget (longer runs play faster than real time).
+        Animation frame rate [s⁻¹] and frame budget (longer runs play faster than real time).
     dry_run : bool
         Draw nothing; return the files that would be written.
     progress : callable, optional
-        Called with one line of text per figure (drawn or up to date) and a last line that
+        Called with one line of text per figure (started, up to date, skipped with its
+        reason, failed), with an animation's frames at each quarter, and a last line that
         sums up.
+    workers : int, optional
+        Processes drawing at once (default: one per available core).
 
     Returns
     -------
@@ -291,6 +363,8 @@ def report_study(study_dir: Path, *, force: bool = False,
         ``study_dir`` holds no study dataset (the message names study folders below it).
     ReportError
         When some figures failed; the others are written (and listed in ``.written``).
+    ReportInterrupted
+        On Ctrl-C (a ``KeyboardInterrupt``): what was finished is saved and in the manifest.
     """
     study_dir = Path(study_dir)
     if not study_dir.is_dir():
@@ -307,76 +381,101 @@ def report_study(study_dir: Path, *, force: bool = False,
     manifest = _read_manifest(manifest_path)
     code = code_hash()
     hashes: dict[Path, str] = {}
-    loaded: dict[Path, xr.Dataset] = {}
     written: list[Path] = []
     failures: dict[str, str] = {}
     options = {"formats": formats, "fps": fps, "max_frames": max_frames}
     if animation and any(j.animation for j in jobs) and gait.ffmpeg_path() is None \
             and progress:
         progress("animations as GIF: no ffmpeg (install imageio-ffmpeg for MP4)")
-    drawn = 0
 
     def say(k: int, job: Job, what: str) -> None:
         if progress:
             progress(f"[{k}/{len(jobs)}] {job.name}: {what}")
 
+    todo: list[tuple[int, Job, dict]] = []
     for k, job in enumerate(jobs, 1):
         for p in job.inputs:
             if p not in hashes:
                 hashes[p] = file_sha256(p)
         entry = {"inputs": {p.name: hashes[p] for p in job.inputs}, "code": code,
                  "options": options if job.animation else {"formats": formats}}
-        old = manifest["figures"].get(job.name, {})
-        outputs_ok = bool(old.get("outputs")) and all((fig_dir / o).exists()
-                                                      for o in old["outputs"])
-        if not force and outputs_ok and all(old.get(key) == entry[key] for key in entry):
+        if not force and _current(manifest["figures"].get(job.name, {}), entry, fig_dir):
             say(k, job, "up to date")
-            continue
-        if dry_run:
+        elif dry_run:
             exts = ([gait.animation_format()] if job.animation else formats)
             written += [fig_dir / f"{job.name}.{e}" for e in exts]
             say(k, job, f"would draw ({job.title})")
-            continue
-        say(k, job, f"drawing ({job.title})")
-        try:
-            for p in job.inputs:
-                if p not in loaded:
-                    loaded[p] = _load(p)
-            data = [loaded[p] for p in job.inputs]
-            prov = provenance(data, job.inputs)
-            base = fig_dir / job.name
-            if job.animation:
-                paths = job.draw(data, base, prov)
+        else:
+            todo.append((k, job, entry))
+
+    counts = {"drawn": 0, "skipped": 0}
+    said: dict[int, set[int]] = {}
+
+    def run_one(i: int, send) -> Outcome:
+        return draw_job(todo[i][1], fig_dir, formats=formats, fps=fps, max_frames=max_frames,
+                        frames=lambda done, total: send((done, total)))
+
+    def handle(i: int, event: str, value) -> None:
+        k, job, entry = todo[i]
+        if event == "start":
+            say(k, job, f"drawing ({job.title})")
+        elif event == "message":
+            done, total = value
+            marks = said.setdefault(i, _quarters(total))
+            if done in marks:
+                marks.discard(done)
+                say(k, job, f"animation: {done}/{total} frames")
+        elif event == "failed":
+            failures[job.name] = value
+            say(k, job, f"failed: {value.strip().splitlines()[-1]}")
+        else:
+            _record(job, entry, value)
+            if value.skipped is not None:
+                counts["skipped"] += 1
+                say(k, job, f"skipped: {value.skipped}")
             else:
-                fig = job.draw(data)
-                paths = save_figure(fig, base, prov, formats=formats, title=job.title)
-                fig.clear()
-        except Exception:  # one broken figure must not stop the others
-            failures[job.name] = traceback.format_exc()
-            if progress:
-                progress(f"    failed: {failures[job.name].strip().splitlines()[-1]}")
-            continue
-        drawn += 1
-        written += paths
-        entry["outputs"] = [p.name for p in paths]
+                counts["drawn"] += 1
+                written.extend(value.paths)
+
+    def _record(job: Job, entry: dict, outcome: Outcome) -> None:
+        old = manifest["figures"].get(job.name, {})
+        if outcome.skipped is not None:
+            entry["outputs"] = []
+            entry["skipped"] = outcome.skipped
+            for o in old.get("outputs", []):       # a figure drawn before is no longer true
+                (fig_dir / o).unlink(missing_ok=True)
+        else:
+            entry["outputs"] = [p.name for p in outcome.paths]
         manifest["figures"][job.name] = entry
         _write_manifest(manifest_path, manifest)
+
+    # longest first (the animations, then the many-panel figures): the processes then finish
+    # close together; ties in the plan's order
+    order = sorted(range(len(todo)), key=lambda i: -DRAWINGS[todo[i][1].key].cost)
+    try:
+        run_jobs(order, run_one, handle, workers or available_cores())
+    except KeyboardInterrupt:
+        left = len(todo) - counts["drawn"] - counts["skipped"] - len(failures)
+        raise ReportInterrupted(written, left) from None
+    drawn, skipped = counts["drawn"], counts["skipped"]
     if not dry_run:
         _prune(fig_dir, manifest, {j.name for j in jobs}, study_dir, progress)
-        page = _write_page(study_dir, files, manifest, loaded)
+        page = _write_page(study_dir, files, manifest)
         if page is not None:
             written.append(page)
     elif written or not (fig_dir / PAGE).exists():
         written.append(fig_dir / PAGE)
     if progress:
-        up = len(jobs) - drawn - len(failures) if not dry_run else 0
+        up = len(jobs) - len(todo)
         page_path = fig_dir / PAGE
         if dry_run:
             progress(f"{study_dir}: {len(written)} file(s) would be written")
-        elif not written:
+        elif not written and not skipped:
             progress(f"{study_dir}: up to date ({len(jobs)} figures, {page_path})")
         else:
-            progress(f"{study_dir}: drew {drawn} figure(s), {up} up to date"
+            progress(f"{study_dir}: drew {drawn} figure(s), "
+                     + (f"{skipped} skipped (nothing to show), " if skipped else "")
+                     + f"{up} up to date"
                      + (f", {len(failures)} failed" if failures else "")
                      + f"; page {page_path}")
     if failures:
@@ -384,14 +483,15 @@ def report_study(study_dir: Path, *, force: bool = False,
     return written
 
 
-def _write_page(study_dir: Path, files: list[Path], manifest: dict,
-                loaded: dict[Path, xr.Dataset]) -> Path | None:
+def _write_page(study_dir: Path, files: list[Path], manifest: dict) -> Path | None:
     """Write ``figures/index.html`` if its content changed; return its path if written. The
     page shows every figure the manifest holds (those not drawn this time, e.g. animations
-    with ``animation=False``, are still there)."""
-    datasets = {p.stem: loaded[p] if p in loaded else _load(p) for p in files}
-    figures = {name: e.get("outputs", []) for name, e in manifest["figures"].items()}
-    text = render_page(study_dir, datasets, figures)
+    with ``animation=False``, are still there) and says why each skipped one has none."""
+    datasets = {p.stem: load_dataset(p) for p in files}
+    figures = {name: e.get("outputs", []) for name, e in manifest["figures"].items()
+               if "skipped" not in e}
+    skipped = {name: e["skipped"] for name, e in manifest["figures"].items() if "skipped" in e}
+    text = render_page(study_dir, datasets, figures, skipped)
     path = study_dir / FIGURES_DIR / PAGE
     if path.exists() and path.read_text() == text:
         return None

@@ -22,8 +22,8 @@ from matplotlib.lines import Line2D
 
 from .analysis import run_line, two_titles
 from .common import (
-    BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, fmt_tick, json_attr, new_figure,
-    style,
+    BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, count, finite, fmt_tick, json_attr,
+    new_figure, plain_log_labels, style,
 )
 from .drawing import Drawing
 
@@ -85,7 +85,7 @@ def gait_text(ds) -> str:
               else "state-based controller")
     start = f"({float(a['dtheta1']):.4g}, {float(a['dtheta2']):.4g}) rad/s"
     times = ""
-    if "t_switch" in a and math.isfinite(float(a["t_switch"])) and a.get("replay") == "open_loop":
+    if finite(a.get("t_switch")) and finite(a.get("t_motor")) and a.get("replay") == "open_loop":
         times = f", swap {float(a['t_switch']) * 1e3:.4g} ms, motor {float(a['t_motor']) * 1e3:.4g} ms"
     return f"{replay} from {start}{times}"
 
@@ -109,8 +109,8 @@ def _subtitle(ds) -> str:
                      + ([f"advanced < {advance:g} m in a cycle"] if math.isfinite(advance)
                         else []))
     fixed = fixed_noise(ds)
-    return (f"{gait_text(ds)}; {int(a['runs'])} runs per level, up to {int(a['max_cycles'])} "
-            f"cycles; failure: {fail}\n{fmt_tick(a.get('tick'))}, {a.get('noise_distribution')} "
+    return (f"{gait_text(ds)}; {count(a['runs'], 'run')} per level, up to "
+            f"{count(a['max_cycles'], 'cycle')}; failure: {fail}\n{fmt_tick(a.get('tick'))}, {a.get('noise_distribution')} "
             f"noise{' (at every level: ' + fixed + ')' if fixed else ''}, seed "
             f"{a.get('seed')}; " + run_line(ds, tick=False))
 
@@ -155,6 +155,7 @@ def plot_survival(ds):
             ax.step(c[keep], s[i, keep], where="post", color=col, lw=2,
                     gid=f"survival_{i}", label=level_text(ds, i))
         ax.set_xscale("log")
+        plain_log_labels(ax.xaxis)
         ax.set_ylim(-0.03, 1.03)
         ax.set_xlim(1, max(float(ds.attrs["max_cycles"]), 2))
         ax.set_xlabel("cycles completed  c")
@@ -205,6 +206,7 @@ def plot_mfpt(ds):
         est_open, bound = _mfpt_points(ax, x, ds, BLUE, "MFPT, 95 % interval", "mfpt")
         ax.set_xscale("log" if np.all(x > 0) else "linear")
         ax.set_yscale("log")
+        plain_log_labels(ax.yaxis)
         ax.set_xlabel(xlabel)
         ax.set_ylabel("mean cycles before failure")
         adv = np.asarray(ds["advance_per_cycle"].values, float)
@@ -213,6 +215,7 @@ def plot_mfpt(ds):
             a = float(np.mean(adv))
             sec = ax.secondary_yaxis("right", functions=(lambda v: v * a, lambda v: v / a))
             sec.set_ylabel(f"metres before failure (at {a:.3g} m per cycle)")
+            plain_log_labels(sec.yaxis)
         handles, _ = ax.get_legend_handles_labels()
         ax.legend(handles=handles + marker_handles(est_open, bound, BLUE), loc="best",
                   fontsize=8.5)

@@ -303,8 +303,7 @@ class GridKind(StepKind):
                "The study's figure 3: sqrt(error) over the grid; the flat floor is where no "
                "gait reaches the swap. Look for the valley along the floor's border. Gaps "
                "are jumps of the error (the swap moves to another swing), not missing data; "
-               "the teeth along the border are the grid sampling the valley's steep fall "
-               "there, row by row."),
+               "dots are points with a gait in no cell of the surface."),
         Figure("map", "error map with minima",
                "The study's figures 4, 9 and 10: the error truncated at 5, the refined minima "
                "marked. Dark is a small error: the gaits lie in the dark valley."),

@@ -255,7 +255,9 @@ class StabilityKind(StepKind):
         Figure("filmstrip", "one gait cycle",
                "The study's figure 2, from data: one cycle frame by frame."),
         Figure("animation", "animation",
-               "The whole run as a video (MP4; GIF when ffmpeg is missing)."),
+               "The whole run as a video, the view moving with the robot: the links coloured "
+               "by what the controller does, the magnets that held, and why the run stopped "
+               "if it stopped early."),
         Figure("error_comparison", "error per cycle of all multi-cycle runs",
                "Every multi-cycle run's error per cycle on one axis: which gait lasts "
                "longest, and whether they grow at the same rate.", across=True),
