@@ -143,6 +143,38 @@ def _skipped_html(name: str, title: str, caption: str, reason: str) -> str:
             "</figure>")
 
 
+#: the step-size controllers an integrator names, in words
+STEP_CONTROLLERS = {"scipy": "scipy's step-size control", "pi": "a PI step-size control"}
+
+
+def gait_text(gait: Mapping) -> str:
+    """The study's gait settings in words, with units."""
+    parts = [str(gait.get("kind", "?"))]
+    if "motor_torque" in gait:
+        parts.append(f"motor torque {float(gait['motor_torque']):g} N m")
+    if "tick" in gait:
+        tick = float(gait["tick"])
+        parts.append("exact event timing" if tick == 0 else f"controller tick {tick * 1e3:g} ms")
+    parts += [f"{k} {v}" for k, v in gait.items() if k not in ("kind", "motor_torque", "tick")
+              and not isinstance(v, (list, dict))]
+    return ", ".join(parts)
+
+
+def integrator_text(integ: Mapping) -> str:
+    """The integrator settings in words, with units: the method, its tolerances, the horizon
+    of a controller segment and the step-size control (not a controller of the robot)."""
+    parts = [str(integ.get("method", "?")).upper()]
+    for key in ("rtol", "atol"):
+        if key in integ:
+            parts.append(f"{key} {float(integ[key]):.0e}")
+    if "max_time" in integ:
+        parts.append(f"at most {float(integ['max_time']):g} s per controller segment")
+    if "controller" in integ:
+        parts.append(STEP_CONTROLLERS.get(str(integ["controller"]),
+                                          f"{integ['controller']} step-size control"))
+    return ", ".join(parts)
+
+
 def render_page(study_dir: Path, datasets: Mapping[str, object],
                 figures: Mapping[str, Sequence[str]],
                 skipped: Mapping[str, str] | None = None) -> str:
@@ -164,9 +196,8 @@ def render_page(study_dir: Path, datasets: Mapping[str, object],
            + '<a href="#provenance">provenance</a></nav>',
            "<h2>Set-up</h2>",
            f"<p>Robot <code>{_e(robot.get('name', '?'))}</code>:</p>", _robot_table(robot),
-           "<p>Gait: " + _e(", ".join(f"{k} {v}" for k, v in gait.items()
-                                      if not isinstance(v, (list, dict)))) + "; integrator: "
-           + _e(", ".join(f"{k} {v}" for k, v in integ.items())) + "</p>",
+           "<p>Gait: " + _e(gait_text(gait)) + ". Integrator: " + _e(integrator_text(integ))
+           + ".</p>",
            "<details><summary>study file</summary><pre>"
            + _e(first.get("study_text", "")) + "</pre></details>",
            "<h2>Steps</h2>"]
