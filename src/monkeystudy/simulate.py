@@ -21,7 +21,7 @@ from .controllers import (
     settings_vector,
 )
 from .kernel import layout as L
-from .kernel.dynamics import kinetic_energy, points8, potential_energy
+from .kernel.dynamics import kinetic_energy, points8, potential_energy, total_energy8
 from .kernel.gait import (
     N_RESULT, R_ERROR, R_FINAL, R_NFEV, R_REJECTED, R_STATUS, R_STEPS, R_T_END, R_T_MOTOR,
     R_T_SWITCH, horizontal_gait_batch, start_state,
@@ -167,16 +167,22 @@ def evaluate_gaits(points, *, robot: RobotLike = "seed2009", torque: float | Non
 
 
 def evaluate_cycle_gaits(points, gait: SequenceGait, *, robot: RobotLike = "seed2009",
-                         integrator: Integrator = Integrator()) -> dict[str, np.ndarray]:
+                         integrator: Integrator = Integrator(),
+                         skip_unreachable: bool = True) -> dict[str, np.ndarray]:
     """One cycle of a phase-sequence gait at many ``(dtheta1, dtheta2)`` [rad s-1] starts.
 
     Each start is on the gait's section (``theta1 = gait.section_theta1``, ``theta2 =
     gait.theta2``, hanging from A at the origin). Returns plain arrays, one entry per point:
-    ``error`` (the section error, :class:`~monkeystudy.controllers.SequenceGait`; NaN unless
-    ok), ``status``, ``t_end`` (the section crossing ending the cycle) [s], ``t_segment[n,
-    k]`` (exit time of segment ``k``, the section last) [s], ``x_advance``, ``y_advance``
+    ``error`` (the section error, :class:`~monkeystudy.controllers.SequenceGait`, wrapped or
+    not as the gait says; NaN unless ok), ``status``, ``t_end`` (the section crossing ending
+    the cycle, or the time the run failed) [s], ``t_segment[n, k]`` (exit time of segment
+    ``k``, the section last; NaN if never left) [s], ``x_advance``, ``y_advance``
     (displacement of the attached end over the cycle) [m], ``steps``, ``nfev``, ``rejected``,
     ``flipped`` (1: hanging from B at the end) and ``final_state``.
+
+    With ``skip_unreachable`` and a gait whose starts below the swap energy floor cannot
+    reach its first guard (``gait.unreachable_below_floor``), such starts are not
+    integrated: status ``unreachable``, no steps, every value NaN.
     """
     robot = as_robot(robot)
     pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
@@ -187,10 +193,30 @@ def evaluate_cycle_gaits(points, gait: SequenceGait, *, robot: RobotLike = "seed
                                max_cycles=1)
     out = np.empty((pts.shape[0], N_CYCLE_RESULT))
     seg = np.empty((pts.shape[0], prog.shape[0]))
-    cycle_gait_batch(kernel_method(settings, prog, L.PHASE_SWING), robot.params(), prog, obs,
-                     settings, gait.section_theta1, gait.theta2,
-                     pts, out, seg)
+    run = np.ones(pts.shape[0], bool)
+    if skip_unreachable and gait.unreachable_below_floor:
+        run = ~below_swap_floor(pts, gait, robot)
+        out[~run] = np.nan
+        out[~run, Q_STATUS] = L.ST_UNREACHABLE
+        for col in (Q_STEPS, Q_NFEV, Q_REJECTED, Q_FLIPPED):
+            out[~run, col] = 0.0
+        seg[~run] = np.nan
+    if run.all():
+        cycle_gait_batch(kernel_method(settings, prog, L.PHASE_SWING), robot.params(), prog,
+                         obs, settings, gait.section_theta1, gait.theta2, pts, out, seg)
+    elif run.any():
+        o, sg = out[run], seg[run]
+        cycle_gait_batch(kernel_method(settings, prog, L.PHASE_SWING), robot.params(), prog,
+                         obs, settings, gait.section_theta1, gait.theta2,
+                         np.ascontiguousarray(pts[run]), o, sg)
+        out[run], seg[run] = o, sg
     final = out[:, Q_FINAL:Q_FINAL + 8].copy()
+    if not gait.wrap_theta2:
+        # the kernel's error wraps theta2; this one is the difference as it is (the same
+        # floating-point expression as the 2009 error, docs/model.md section 4)
+        d = final[:, L.TH2] - gait.theta2
+        err = d * d + (pts[:, 0] - final[:, L.DTH1]) ** 2 + (pts[:, 1] - final[:, L.DTH2]) ** 2
+        out[:, Q_ERROR] = np.where(out[:, Q_STATUS] == L.ST_OK, err, np.nan)
     return {
         "error": out[:, Q_ERROR].copy(),
         "status": out[:, Q_STATUS].astype(np.int8),
@@ -204,6 +230,24 @@ def evaluate_cycle_gaits(points, gait: SequenceGait, *, robot: RobotLike = "seed
         "flipped": out[:, Q_FLIPPED].astype(np.int8),
         "final_state": final,
     }
+
+
+def below_swap_floor(points, gait: SequenceGait, robot: Robot) -> np.ndarray:
+    """Which ``(dtheta1, dtheta2)`` [rad s-1] starts on ``gait``'s section have less total
+    energy than the robot's swap energy floor (:meth:`~monkeystudy.Robot.
+    swap_energy_floor`, less a relative 1e-12 so a start on the floor is integrated): with
+    no motor and no swap, such a swing never brings the free end to the attached end's
+    height."""
+    pts = np.asarray(points, np.float64).reshape(-1, 2)
+    floor = robot.swap_energy_floor()
+    par = robot.params()[0]
+    state = np.zeros(8)
+    state[L.TH1], state[L.TH2] = gait.section_theta1, gait.theta2
+    below = np.empty(pts.shape[0], bool)
+    for i in range(pts.shape[0]):
+        state[L.DTH1], state[L.DTH2] = pts[i]
+        below[i] = total_energy8(par, state) < floor - 1e-12 * (1.0 + abs(floor))
+    return below
 
 
 def evaluate_horizontal_gait(dtheta1: float, dtheta2: float, **kwargs) -> GaitResult:

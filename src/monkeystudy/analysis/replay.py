@@ -29,7 +29,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..controllers import Integrator, OpenLoop, SequenceGait
+from ..controllers import Integrator, OpenLoop, PhaseSequence, SequenceGait
 from ..kernel import layout as L
 from ..robot import SEED2009_TORQUE
 from ..simulate import (
@@ -204,6 +204,8 @@ def open_loop_gait(gait: SequenceGait, segment_times) -> SequenceGait:
     section crossing), e.g. :func:`cycle_times` of the fixed point (the section's own entry,
     if given, is ignored). Entry actions are kept; each guard becomes a ticked ``time`` guard,
     so a controller tick rounds the times up to its grid, as the 2009 study's 1 ms loop did.
+    A gait with ``open_loop_section_ticked`` senses its section on the tick too (the 2009
+    controller restarted its clock at the tick after the vertical).
     """
     times = np.asarray(segment_times, float).ravel()
     n = len(gait.segments)
@@ -217,30 +219,46 @@ def open_loop_gait(gait: SequenceGait, segment_times) -> SequenceGait:
                              "recorded times would be on a different clock")
     segs = tuple(replace(s, until="time", value=float(t), ticked=True, direction="rising")
                  for s, t in zip(gait.segments, times[:n]))
-    return replace(gait, segments=segs)
+    # no segment swings freely to a guard any more: no start is provably unreachable
+    return replace(gait, segments=segs, unreachable_below_floor=False,
+                   section_ticked=gait.section_ticked or gait.open_loop_section_ticked)
 
 
 @dataclass
 class SequenceCycles:
-    """Per-cycle record of a multi-cycle run of a sequence gait (arrays over the cycles that
-    reached the section; ``run`` is the raw :class:`~monkeystudy.simulate.RunResult`)."""
+    """Per-cycle record of a multi-cycle run of a sequence gait (``run`` is the raw
+    :class:`~monkeystudy.simulate.RunResult`).
 
-    error: np.ndarray            # section error vs the start [1]
+    With the gait's ``records='section'``, one entry per cycle that reached its section. With
+    ``records='swap'``, ``pivot_height``, ``x_advance`` and ``t_swap`` have one entry per
+    swap (a last swap whose cycle failed included), the others one per swap up to the last
+    one followed by a section crossing (NaN where a swap saw none before the next).
+    """
+
+    error: np.ndarray            # section error vs the reference [rad2 + rad2 s-2]
     kinetic_energy: np.ndarray   # [J] at each section crossing
-    pivot_height: np.ndarray     # [m] world height of the attached end at the crossing
+    pivot_height: np.ndarray     # [m] world height of the attached end (see above)
     x_advance: np.ndarray        # [m] attached end's horizontal displacement in the cycle
     t_cross: np.ndarray          # [s] section crossing ending the cycle
     t_swap: np.ndarray           # [s] the cycle's first magnet action (NaN: none)
-    section_state: np.ndarray    # (n, 8) frame state at each crossing
+    section_state: np.ndarray    # (n, 8) frame state at each crossing (NaN: none)
     status: Status
     run: RunResult
 
 
-def _magnet_rows(gait: SequenceGait) -> np.ndarray:
-    """Rows whose exit enters a segment that acts on the magnets."""
-    segs = gait.all_segments()
-    n = len(segs)
-    return np.array([k for k in range(n) if segs[(k + 1) % n].magnets != "keep"], int)
+def cycle_error(states: np.ndarray, z, gait: SequenceGait) -> np.ndarray:
+    """The gait's error of frame states ``[n, 8]`` at its section against ``z``: the section
+    error (:func:`section_error`) or, for a gait that does not wrap theta2, the 2009 error
+    (:func:`~monkeystudy.simulate.gait_error`, ``theta2_f - theta2`` as it is) evaluated row
+    by row, as the study's stability records always were (numpy's scalar ``** 2`` can differ
+    from its array square in the last bit)."""
+    s = np.asarray(states, float).reshape(-1, 8)
+    if gait.wrap_theta2:
+        return section_error(s, z)
+    th2, w1, w2 = (float(v) for v in np.asarray(z, float)[-3:])
+    rows = s.copy()
+    rows[:, L.TH2] -= th2
+    return np.array([gait_error(r, w1, w2) for r in rows], dtype=float)
 
 
 def sequence_cycles(gait: SequenceGait, z0, *, cycles: int, robot: RobotLike = "seed2009",
@@ -256,7 +274,8 @@ def sequence_cycles(gait: SequenceGait, z0, *, cycles: int, robot: RobotLike = "
     ----------
     replay : {"gait", "open_loop"}
         The gait's own controller, or its open-loop replay (:func:`open_loop_gait`) with the
-        segment exit ``times`` [s] (default: :func:`cycle_times` at ``reference``).
+        segment exit ``times`` [s] (default: :func:`cycle_times` at ``reference``; a gait
+        found on another controller passes its recorded times).
     reference : array_like, optional
         The gait the error is measured against (default ``z0``), e.g. the fixed point when
         ``z0`` is a perturbed start.
@@ -271,8 +290,12 @@ def sequence_cycles(gait: SequenceGait, z0, *, cycles: int, robot: RobotLike = "
     Returns
     -------
     SequenceCycles
-        Per cycle that reached the section (ends at a fall, a missed guard or the horizon:
-        ``status``). A cycle ending on B needs mirror-image links (``ValueError``).
+        Per cycle (ends at a fall, a missed guard or the horizon: ``status``), recorded as
+        the gait's ``records`` says. Each cycle is measured where it reaches its section: at
+        the section row's exit when the section is exact, else (a section acted on at the
+        tick, or records from the swap) at an exact observer of the section crossing, which
+        logs the same time and state as an exact section's exit. A cycle ending on B needs
+        mirror-image links (``ValueError``).
     """
     if replay not in REPLAYS:
         raise ValueError(f"replay must be one of {REPLAYS}, got {replay!r}")
@@ -296,32 +319,69 @@ def sequence_cycles(gait: SequenceGait, z0, *, cycles: int, robot: RobotLike = "
                        tick_phase=gait.tick_phase if tick is None else float(tick_phase))
     if max_drop is None:
         max_drop = robot.link1.length
-    n_rows = len(run_gait.all_segments())
-    res = run_controller(run_gait.controller(), cycle_section_state(run_gait, z0), robot=robot,
+    rows = run_gait.all_segments()
+    observed = run_gait.section_ticked or run_gait.records == "swap"
+    observers = (run_gait.section_observer(),) if observed else ()
+    ctrl = PhaseSequence(rows, observers, run_gait.tick, run_gait.tick_phase)
+    res = run_controller(ctrl, cycle_section_state(run_gait, z0), robot=robot,
                          integrator=integrator, cycles=int(cycles), max_drop=float(max_drop),
-                         sample_dt=sample_dt, log_capacity=(n_rows + 2) * int(cycles) + 16)
+                         sample_dt=sample_dt,
+                         log_capacity=(len(rows) + 2 + len(observers)) * int(cycles) + 16)
     log = res.log
     seg_rows = log[log[:, L.L_KIND] == L.LOG_SEGMENT]
-    cross = seg_rows[seg_rows[:, L.L_ID] == n_rows - 1]
+    if observed:
+        cross = log[log[:, L.L_KIND] == L.LOG_OBSERVER]
+    else:
+        cross = seg_rows[seg_rows[:, L.L_ID] == len(rows) - 1]
+    swaps = seg_rows[np.isin(seg_rows[:, L.L_ID].astype(int), run_gait.magnet_rows())]
+    if run_gait.records == "swap":
+        return _per_swap(run_gait, res, swaps, cross, ref)
     states = cross[:, L.L_STATE:L.L_STATE + 8].copy()
-    flipped = cross[:, L.L_FLIPPED]
-    ke, _ = energies(res.params, states, flipped)
+    ke, _ = energies(res.params, states, cross[:, L.L_FLIPPED])
     x_prev = np.concatenate([[0.0], states[:-1, L.X]])
-    swaps = seg_rows[np.isin(seg_rows[:, L.L_ID].astype(int), _magnet_rows(run_gait))]
     t_start = np.concatenate([[-math.inf], cross[:-1, L.L_T]])
     t_swap = np.full(len(cross), math.nan)
     for c in range(len(cross)):
         k = np.flatnonzero((swaps[:, L.L_T] > t_start[c]) & (swaps[:, L.L_T] <= cross[c, L.L_T]))
         if k.size:
             t_swap[c] = swaps[k[0], L.L_T]
-    return SequenceCycles(section_error(states, ref), ke, states[:, L.Y].copy(),
+    return SequenceCycles(cycle_error(states, ref, run_gait), ke, states[:, L.Y].copy(),
                           states[:, L.X] - x_prev, cross[:, L.L_T].copy(), t_swap, states,
                           Status(int(res.status)), res)
 
 
+def _per_swap(gait: SequenceGait, res: RunResult, swaps: np.ndarray, cross: np.ndarray,
+              ref: np.ndarray) -> SequenceCycles:
+    """:class:`SequenceCycles` recorded from each swap: the attached end just after it, and
+    the first section crossing after it and before the next swap."""
+    pivots = swaps[:, L.L_STATE:L.L_STATE + 8]
+    x_prev = np.concatenate([[0.0], pivots[:-1, L.X]])   # the gait starts with A at x = 0
+    t_next = np.append(swaps[1:, L.L_T], math.inf)
+    picked = []
+    for t0, t1 in zip(swaps[:, L.L_T], t_next):
+        k = np.flatnonzero((cross[:, L.L_T] > t0) & (cross[:, L.L_T] < t1))
+        picked.append(int(k[0]) if k.size else -1)
+    while picked and picked[-1] < 0:
+        picked.pop()                      # swaps after the last crossing have no cycle end
+    n = len(picked)
+    states = np.full((n, 8), np.nan)
+    t_cross = np.full(n, np.nan)
+    ke = np.full(n, np.nan)
+    err = np.full(n, np.nan)
+    hit = np.array([k >= 0 for k in picked], bool)
+    if hit.any():
+        rows = cross[[k for k in picked if k >= 0]]
+        states[hit] = rows[:, L.L_STATE:L.L_STATE + 8]
+        t_cross[hit] = rows[:, L.L_T]
+        ke[hit], _ = energies(res.params, states[hit], rows[:, L.L_FLIPPED])
+        err[hit] = cycle_error(states[hit], ref, gait)
+    return SequenceCycles(err, ke, pivots[:, L.Y].copy(), pivots[:, L.X] - x_prev, t_cross,
+                          swaps[:, L.L_T].copy(), states, Status(int(res.status)), res)
+
+
 def sequence_basin(gait: SequenceGait, z_star, offsets1, offsets2, *, max_cycles: int = 60,
                    error_bound: float = 1e-2, robot: RobotLike = "seed2009",
-                   integrator: Integrator = TIGHT, replay: str = "gait",
+                   integrator: Integrator = TIGHT, replay: str = "gait", times=None,
                    tick: float | None = None, max_drop: float | None = None) -> np.ndarray:
     """Cycles a sequence gait survives from perturbed starts (a basin map).
 
@@ -329,13 +389,14 @@ def sequence_basin(gait: SequenceGait, z_star, offsets1, offsets2, *, max_cycles
     dtheta2 for ``b`` in ``offsets2`` [rad s-1];
     a run fails at the first section crossing whose error against ``z_star`` exceeds
     ``error_bound``, or when it falls or stops before. The open-loop replay keeps the fixed
-    point's times for every start. Returns int ``[len(offsets1), len(offsets2)]``;
-    ``max_cycles`` means it never failed.
+    point's segment exit ``times`` [s] for every start (default: :func:`cycle_times` at
+    ``z_star``). Returns int ``[len(offsets1), len(offsets2)]``; ``max_cycles`` means it
+    never failed.
     """
     robot = as_robot(robot)
     z_star = np.asarray(z_star, float)
-    times = cycle_times(gait, z_star, robot=robot, integrator=integrator) \
-        if replay == "open_loop" else None
+    if replay == "open_loop" and times is None:
+        times = cycle_times(gait, z_star, robot=robot, integrator=integrator)
     out = np.zeros((len(offsets1), len(offsets2)), np.int32)
     for i, a in enumerate(offsets1):
         for j, b in enumerate(offsets2):

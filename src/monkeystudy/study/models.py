@@ -19,7 +19,7 @@ from pydantic import (
     model_validator,
 )
 
-from ..controllers import Integrator, Segment, SequenceGait
+from ..controllers import Integrator, Segment, SequenceGait, horizontal_gait
 from ..kernel.layout import STATUS_NAMES
 from ..robot import PRESETS, Friction, Link, Robot
 
@@ -188,6 +188,11 @@ class Gait(StrictModel):
             raise ValueError("must be non-zero (the motor restores the energy lost in the "
                              "swap)")
         return v
+
+    def gait(self) -> SequenceGait:
+        """The horizontal gait as the phase sequence every step runs
+        (:func:`~monkeystudy.controllers.horizontal_gait`)."""
+        return horizontal_gait(self.motor_torque, self.tick)
 
 
 GuardName = Literal["time", "free_end_height", "energy_restored", "coord", "energy",

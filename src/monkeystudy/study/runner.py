@@ -99,7 +99,7 @@ def load_kernels(spec: GaitSpec, *, runs: bool = False, variational: bool = Fals
     """
     ctrl = None
     if runs:
-        ctrl = (spec.sequence.controller() if spec.sequence is not None else
+        ctrl = (spec.sequence.controller() if not spec.horizontal else
                 OpenLoop(0.01, 0.01, spec.torque, tick=spec.tick))
     helper = None
     if ahead:
@@ -115,7 +115,7 @@ def load_kernels(spec: GaitSpec, *, runs: bool = False, variational: bool = Fals
     if ctrl is not None:
         run_controller(ctrl, initial_state(1.0, 11.0), robot=spec.robot,
                        integrator=spec.integrator, t_end=0.05,
-                       sample_dt=0.01 if spec.sequence is None else 0.0)
+                       sample_dt=0.01 if spec.horizontal else 0.0)
     if variational:
         par = spec.robot.params()
         y = np.array([0.1, 0.2, 1.0, 10.0])

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..controllers import Integrator, SequenceGait
+from ..controllers import Integrator, SequenceGait, horizontal_gait
 from ..robot import Robot
 
 
@@ -28,8 +28,10 @@ class GaitSpec:
         carry their own).
     tick : float
         Controller tick [s]; 0 = exact event timing.
-    sequence : SequenceGait or None
-        A sequence gait, or None for the horizontal gait (docs/model.md section 4).
+    sequence : SequenceGait
+        The gait as a phase sequence: the study's sequence gait, or the horizontal gait's
+        (:func:`~monkeystudy.controllers.horizontal_gait` of ``torque`` and ``tick``, filled
+        in when not given).
     """
 
     robot: Robot
@@ -38,10 +40,19 @@ class GaitSpec:
     tick: float
     sequence: SequenceGait | None = None
 
+    def __post_init__(self):
+        if self.sequence is None:
+            object.__setattr__(self, "sequence", horizontal_gait(self.torque, self.tick))
+
+    @property
+    def horizontal(self) -> bool:
+        """The study's horizontal gait (a motor torque of its own; docs/model.md section 4)."""
+        return not math.isnan(self.torque)
+
     @property
     def n_cycle_segments(self) -> int:
         """Segments of a sequence gait's cycle, the section included (0: horizontal gait)."""
-        return 0 if self.sequence is None else len(self.sequence.segments) + 1
+        return 0 if self.horizontal else len(self.sequence.segments) + 1
 
 
 def gait_spec(study) -> GaitSpec:
@@ -50,7 +61,7 @@ def gait_spec(study) -> GaitSpec:
     robot, integ = study.to_robot(), study.integrator.to_integrator()
     if g.kind == "sequence":
         return GaitSpec(robot, integ, math.nan, float(g.tick), g.gait())
-    return GaitSpec(robot, integ, float(g.motor_torque), float(g.tick))
+    return GaitSpec(robot, integ, float(g.motor_torque), float(g.tick), g.gait())
 
 
 def integrator_fields(integrator: Integrator) -> dict:

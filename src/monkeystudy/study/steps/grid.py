@@ -84,7 +84,7 @@ class GridStep(StrictModel):
 
 def grid_variables(spec: GaitSpec) -> dict[str, type]:
     """The variables (name -> dtype) of the spec's grid blocks."""
-    return HORIZONTAL_VARIABLES if spec.sequence is None else SEQUENCE_VARIABLES
+    return HORIZONTAL_VARIABLES if spec.horizontal else SEQUENCE_VARIABLES
 
 
 def axes_points(a1: np.ndarray, a2: np.ndarray, lo: int, hi: int) -> np.ndarray:
@@ -110,7 +110,7 @@ def grid_block(spec: GaitSpec, points: np.ndarray, skip_unreachable: bool = True
     Returns the arrays of :func:`grid_variables` (``error`` NaN unless status is ok): the
     horizontal gait's, or one cycle of the spec's sequence gait.
     """
-    if spec.sequence is None:
+    if spec.horizontal:
         r = evaluate_gaits(points, robot=spec.robot, torque=spec.torque, tick=spec.tick,
                            integrator=spec.integrator, skip_unreachable=skip_unreachable)
     else:
@@ -354,7 +354,7 @@ class GridKind(StepKind):
                 d1, d2, robot=spec.robot, torque=spec.torque, tick=spec.tick,
                 integrator=spec.integrator)}
 
-        kind_attrs = least_error_kind if spec.sequence is None else None
+        kind_attrs = least_error_kind if spec.horizontal else None
         info = write_grid(ctx.path, attrs, blocks=blocks, variables=grid_variables(spec),
                           n_segments=spec.n_cycle_segments, least_error_attrs=kind_attrs, **where)
         text = f"{info['n_points']} points, skipped_fraction {info['skipped_fraction']:.3f}"

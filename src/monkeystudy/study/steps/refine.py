@@ -77,7 +77,7 @@ def refine_task(spec: GaitSpec, start: tuple[float, float], *, xatol: float, fat
     """:func:`~monkeystudy.analysis.search.refine_gait` on the spec's gait from ``start``
     (dtheta1, dtheta2) [rad s-1]: the horizontal gait (exact or ticked, unreachable starts
     skipped) or one cycle of the spec's sequence gait."""
-    seq = spec.sequence
+    seq = None if spec.horizontal else spec.sequence
 
     def gait(x: tuple[float, float]) -> dict[str, Any]:
         if seq is None:

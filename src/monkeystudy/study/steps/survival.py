@@ -276,7 +276,7 @@ def survival_controller(spec: GaitSpec, gait: dict, *, tick: float, clock: str):
         section = Observer("coord", "theta1", seq.section_theta1, seq.section_direction,
                            segment=n_rows - 1)
         return seq.controller(), cycle_section_state(seq, z), section
-    if spec.sequence is not None:
+    if not spec.horizontal:
         seq = spec.sequence
         if gait["replay"] == "open_loop":
             seq = open_loop_gait(seq, gait["t_segment"])
