@@ -144,12 +144,35 @@ def test_horizontal_preset_program_is_the_search_controllers_and_open_loops():
         np.testing.assert_array_equal(rep_obs[0], CYCLE_VERTICAL.row())
 
 
-def test_horizontal_preset_evaluation_is_evaluate_gaits():
-    """One cycle of the preset is the horizontal gait's evaluation, bit for bit: the same
-    kernel run, the 2009 error (theta2 not wrapped), the unreachable starts skipped."""
+def _search_controller_batch(points: np.ndarray, tick: float) -> dict:
+    """The kernel's own evaluation of the horizontal gait (the search controller's program,
+    the unreachable pre-check and the 2009 error in one compiled batch)."""
+    from monkeystudy import HorizontalSearch
+    from monkeystudy.controllers import kernel_method, settings_vector
+    from monkeystudy.kernel import gait as K
+
+    robot = Robot.preset("seed2009")
+    prog, _ = HorizontalSearch(TAU, tick=tick).program()
+    settings = settings_vector(Integrator(), tick=tick)
+    out = np.empty((points.shape[0], K.N_RESULT))
+    K.horizontal_gait_batch(kernel_method(settings, prog, L.PHASE_SWING), robot.params(), prog,
+                            settings, np.ascontiguousarray(points), robot.swap_energy_floor(),
+                            True, out)
+    return {"error": out[:, K.R_ERROR], "status": out[:, K.R_STATUS].astype(np.int8),
+            "t_switch": out[:, K.R_T_SWITCH], "t_motor": out[:, K.R_T_MOTOR],
+            "t_end": out[:, K.R_T_END], "steps": out[:, K.R_STEPS].astype(np.int64),
+            "nfev": out[:, K.R_NFEV].astype(np.int64),
+            "rejected": out[:, K.R_REJECTED].astype(np.int64),
+            "final_state": out[:, K.R_FINAL:K.R_FINAL + 8]}
+
+
+def test_horizontal_preset_evaluation_is_the_search_controllers():
+    """One cycle of the preset is the kernel's horizontal-gait evaluation, bit for bit: the
+    same run, the 2009 error (theta2 not wrapped), the unreachable starts skipped; and
+    evaluate_gaits names its times as that evaluation does."""
     from monkeystudy.controllers import horizontal_gait
 
-    h = evaluate_gaits(SMOKE_GRID, torque=TAU, tick=0.001)
+    h = _search_controller_batch(SMOKE_GRID, 0.001)
     s = evaluate_cycle_gaits(SMOKE_GRID, horizontal_gait(TAU, 0.001))
     ok = h["status"] == L.ST_OK
     assert np.sum(h["status"] == L.ST_UNREACHABLE) >= 5
@@ -160,6 +183,9 @@ def test_horizontal_preset_evaluation_is_evaluate_gaits():
     assert h["t_switch"].tobytes() == t[:, 0].tobytes()
     assert h["t_motor"].tobytes() == (t[:, 1] - t[:, 0]).tobytes()
     assert h["t_end"].tobytes() == t[:, 2].tobytes()
+    g = evaluate_gaits(SMOKE_GRID, torque=TAU, tick=0.001)
+    for key in h:
+        assert h[key].tobytes() == np.asarray(g[key]).tobytes(), key
     # without the pre-check the starts below the floor are integrated: they never swap
     every = evaluate_cycle_gaits(SMOKE_GRID, horizontal_gait(TAU, 0.001),
                                  skip_unreachable=False)

@@ -15,7 +15,7 @@ from pydantic import Field, model_validator
 
 from ...analysis.gait_kind import gait_kind_text, vertical_passes_before_swap
 from ...kernel.layout import STATUS_NAMES
-from ...simulate import evaluate_cycle_gaits, evaluate_gaits
+from ...simulate import evaluate_cycle_gaits, swap_motor_times
 from .. import datasets as D
 from ..blocks import Block, Task, make_blocks
 from ..models import Axis, Name, Point, StrictModel
@@ -107,16 +107,14 @@ def grid_block(spec: GaitSpec, points: np.ndarray, skip_unreachable: bool = True
                ) -> dict[str, np.ndarray]:
     """Evaluate the gait at ``points[n, 2]`` (dtheta1, dtheta2) [rad s-1].
 
-    Returns the arrays of :func:`grid_variables` (``error`` NaN unless status is ok): the
-    horizontal gait's, or one cycle of the spec's sequence gait.
+    Returns the arrays of :func:`grid_variables` (``error`` NaN unless status is ok) of one
+    cycle of the spec's gait (:func:`~monkeystudy.simulate.evaluate_cycle_gaits`); starts the
+    gait says cannot reach its first guard are skipped (``skip_unreachable``).
     """
+    r = evaluate_cycle_gaits(points, spec.sequence, robot=spec.robot,
+                             integrator=spec.integrator, skip_unreachable=skip_unreachable)
     if spec.horizontal:
-        r = evaluate_gaits(points, robot=spec.robot, torque=spec.torque, tick=spec.tick,
-                           integrator=spec.integrator, skip_unreachable=skip_unreachable)
-    else:
-        # no energy bound here: a sequence's motor may act before its swap
-        r = evaluate_cycle_gaits(points, spec.sequence, robot=spec.robot,
-                                 integrator=spec.integrator)
+        r.update(swap_motor_times(r["t_segment"]))
     return {name: np.asarray(r[name]).astype(dt, copy=False)
             for name, dt in grid_variables(spec).items()}
 
@@ -351,8 +349,7 @@ class GridKind(StepKind):
         # another gait than the study's; say which kind the map's best start is
         def least_error_kind(d1: float, d2: float) -> dict:
             return {"least_error_vertical_passes": vertical_passes_before_swap(
-                d1, d2, robot=spec.robot, torque=spec.torque, tick=spec.tick,
-                integrator=spec.integrator)}
+                d1, d2, robot=spec.robot, gait=spec.sequence, integrator=spec.integrator)}
 
         kind_attrs = least_error_kind if spec.horizontal else None
         info = write_grid(ctx.path, attrs, blocks=blocks, variables=grid_variables(spec),

@@ -13,7 +13,7 @@ from pydantic import Discriminator, Field, Tag
 from ...analysis.gait_kind import gait_kind_text, vertical_passes_before_swap
 from ...analysis.search import DEFAULT_PENALTY, FMINSEARCH_TOL, refine_gait
 from ...kernel.layout import ST_OK, STATUS_NAMES
-from ...simulate import evaluate_cycle_gaits, evaluate_gaits
+from ...simulate import evaluate_cycle_gaits, swap_motor_times
 from .. import datasets as D
 from ..blocks import Task
 from ..errors import RunFailed
@@ -75,30 +75,25 @@ def refine_task(spec: GaitSpec, start: tuple[float, float], *, xatol: float, fat
                 maxiter: int | None = None, maxfev: int | None = None,
                 penalty: float = DEFAULT_PENALTY) -> dict[str, Any]:
     """:func:`~monkeystudy.analysis.search.refine_gait` on the spec's gait from ``start``
-    (dtheta1, dtheta2) [rad s-1]: the horizontal gait (exact or ticked, unreachable starts
-    skipped) or one cycle of the spec's sequence gait."""
-    seq = None if spec.horizontal else spec.sequence
+    (dtheta1, dtheta2) [rad s-1]: one cycle of the spec's gait (starts it says cannot reach
+    its first guard skipped)."""
+    keys = (("error", "status", "t_switch", "t_motor", "t_end") if spec.horizontal else
+            ("error", "status", "t_end", "t_segment", "x_advance", "y_advance"))
 
     def gait(x: tuple[float, float]) -> dict[str, Any]:
-        if seq is None:
-            r = evaluate_gaits(np.array([x]), robot=spec.robot, torque=spec.torque,
-                               tick=spec.tick, integrator=spec.integrator,
-                               skip_unreachable=True)
-            keys = ("error", "status", "t_switch", "t_motor", "t_end")
-        else:
-            r = evaluate_cycle_gaits(np.array([x]), seq, robot=spec.robot,
-                                     integrator=spec.integrator)
-            keys = ("error", "status", "t_end", "t_segment", "x_advance", "y_advance")
+        r = evaluate_cycle_gaits(np.array([x]), spec.sequence, robot=spec.robot,
+                                 integrator=spec.integrator)
+        if spec.horizontal:
+            r.update(swap_motor_times(r["t_segment"]))
         return {k: (int(r[k][0]) if k == "status" else
                     r[k][0].copy() if k == "t_segment" else float(r[k][0])) for k in keys}
 
     r = refine_gait(gait, start, xatol=xatol, fatol=fatol, maxiter=maxiter, maxfev=maxfev,
                     penalty=penalty)
     # what kind of gait the result is: a late swap, after several swings, is another gait
-    r["vertical_passes"] = -1 if seq is not None or r["status"] != ST_OK else \
+    r["vertical_passes"] = -1 if not spec.horizontal or r["status"] != ST_OK else \
         vertical_passes_before_swap(float(r["x"][0]), float(r["x"][1]), robot=spec.robot,
-                                    torque=spec.torque, tick=spec.tick,
-                                    integrator=spec.integrator)
+                                    gait=spec.sequence, integrator=spec.integrator)
     return r
 
 
