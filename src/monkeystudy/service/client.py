@@ -112,8 +112,19 @@ def submit_run(path: str, study: Path, out: Path | None, *, command: str, dry_ru
         send_message(sock, req)
         messages = MessageReader(sock)
         while True:
+            # a signal may land while a line is relayed as well as while one is awaited
             try:
                 msg = messages.next()
+                if msg is None:
+                    print(f"monkeystudy: the server at {path} closed the connection before "
+                          "the run ended (it stopped or died); finished blocks are saved, "
+                          "rerun to resume", file=stderr, flush=True)
+                    return EXIT_INTERRUPTED
+                if "exit" in msg:
+                    return int(msg["exit"])
+                for key, stream in (("out", stdout), ("err", stderr)):
+                    if key in msg:
+                        print(msg[key], file=stream, flush=True)
             except KeyboardInterrupt:
                 if stopping:
                     print("monkeystudy: left without waiting for the server; finished blocks "
@@ -123,17 +134,6 @@ def submit_run(path: str, study: Path, out: Path | None, *, command: str, dry_ru
                 print("monkeystudy: interrupted; asking the server to stop the run "
                       "(Ctrl-C again to leave now)", file=stderr, flush=True)
                 sock.shutdown(socket.SHUT_WR)
-                continue
-            if msg is None:
-                print(f"monkeystudy: the server at {path} closed the connection before the "
-                      "run ended (it stopped or died); finished blocks are saved, rerun to "
-                      "resume", file=stderr, flush=True)
-                return EXIT_INTERRUPTED
-            if "exit" in msg:
-                return int(msg["exit"])
-            for key, stream in (("out", stdout), ("err", stderr)):
-                if key in msg:
-                    print(msg[key], file=stream, flush=True)
     except (BrokenPipeError, ConnectionResetError):
         print(f"monkeystudy: lost the connection to the server at {path}; finished blocks "
               "are saved, rerun to resume", file=stderr, flush=True)
