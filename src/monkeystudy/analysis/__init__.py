@@ -7,7 +7,7 @@
 * :mod:`.shooting` - exact fixed points of the horizontal gait (Gauss-Newton, grazing border).
 * :mod:`.search` - Nelder-Mead refinement of a gait start (the study's fminsearch).
 * :mod:`.continuation` - gait families in a robot or motor parameter, with bifurcations.
-* :mod:`.replay` - many cycles: open-loop replays, a sequence gait's own controller, basins.
+* :mod:`.replay` - many cycles: a gait's own controller or its open-loop replay, basins.
 * :mod:`.stress` - numerical stress scenarios (energy drift, long runs, extreme parameters).
 * :mod:`.precision` - run time against error for every integrator, and scipy's.
 
@@ -31,7 +31,7 @@ _EXPORTS = {
     "search": ("refine_gait",),
     "continuation": ("Branch", "CycleBranch", "continue_cycle", "continue_grazing",
                      "mirror_robot", "with_parameter"),
-    "replay": ("CycleRun", "SequenceCycles", "basin", "open_loop_cycles", "sequence_basin",
+    "replay": ("SequenceCycles", "motorless", "open_loop_gait", "sequence_basin",
                "sequence_cycles"),
     "precision": ("work_precision",),
 }

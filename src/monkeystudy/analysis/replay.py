@@ -1,117 +1,40 @@
-"""Many cycles of a gait: open-loop replays, a sequence gait's own controller, basins.
+"""Many cycles of a gait: its own controller or an open-loop replay, and basins.
 
-:func:`open_loop_cycles` replays the horizontal gait as the 2009 study did (swap at
-``t_switch``, motor for ``t_motor``, on the controller's clock) and measures every cycle;
-:func:`basin` counts the cycles it survives from perturbed starts.
-
-The 2009 study replayed its gaits open-loop (swap and motor at fixed times after the vertical
-crossing) and watched them drift. A sequence gait (:class:`~monkeystudy.controllers.
-SequenceGait`) can be run two ways from its fixed point:
+A gait (:class:`~monkeystudy.controllers.SequenceGait`; the study's horizontal gait is
+:func:`~monkeystudy.controllers.horizontal_gait`) can be run two ways from a start on its
+section:
 
 - ``replay="gait"``: the controller as written, state guards and all (the map whose Floquet
   multipliers the floquet step computes);
 - ``replay="open_loop"``: every segment before the section ends at the time it ended on the
   recorded cycle, counted on the controller clock, which restarts at each section crossing
-  (the study's ``reset_at_vertical``; :func:`open_loop_gait`). Entry actions (magnets, motor,
-  energy latch) are kept; only the guards become clocks.
+  (the study's ``reset_at_vertical``) or runs on with the gait's period (:func:`open_loop_gait`).
+  Entry actions (magnets, motor, energy latch) are kept; only the guards become clocks. This
+  is how the 2009 study replayed its gaits (swap at ``t_switch``, motor for ``t_motor``) and
+  watched them drift.
 
 Either way a controller tick (``tick`` [s]) delays each ticked guard to the next tick, so the
-same functions answer "was it the 1 ms grid?" for any sequence gait. Per cycle everything is
-measured where the cycle ends, on the section, in the frame of the end attached there: the
-section error against the start (the :class:`~monkeystudy.controllers.SequenceGait` error),
-the kinetic energy, the attached end's world position. Everything runs through
-:func:`monkeystudy.simulate.run_controller`: nothing here integrates on its own.
+same functions answer "was it the 1 ms grid?" for any gait. Per cycle everything is measured
+where the cycle reaches its section, in the frame of the end attached there
+(:func:`sequence_cycles`): the gait's error against the start, the kinetic energy, the
+attached end's world position; :func:`sequence_basin` counts the cycles a replay survives
+from perturbed starts. Everything runs through :func:`monkeystudy.simulate.run_controller`:
+nothing here integrates on its own.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..controllers import Integrator, OpenLoop, PhaseSequence, SequenceGait
+from ..controllers import Integrator, PhaseSequence, SequenceGait
 from ..kernel import layout as L
-from ..robot import SEED2009_TORQUE
 from ..simulate import (
     RobotLike, RunResult, Status, as_robot, energies, evaluate_cycle_gaits, gait_error,
-    initial_state, run_controller,
+    run_controller,
 )
 from .sections import TIGHT, check_cycle_frame, cycle_section_state
-
-# --- the horizontal gait, open loop -----------------------------------------------------------
-@dataclass
-class CycleRun:
-    """Per-cycle record of an open-loop run (docs/model.md section 4, the study's figs. 5-7)."""
-
-    error: np.ndarray            # at each vertical crossing, vs the gait start
-    kinetic_energy: np.ndarray   # [J] at each vertical crossing
-    pivot_height: np.ndarray     # [m] attached end after each swap
-    x_advance: np.ndarray        # [m] attached-end displacement per swap
-    t_cross: np.ndarray          # [s]
-    status: Status
-    crossing_state: np.ndarray = field(default_factory=lambda: np.zeros((0, 8)))
-
-    def error_vs(self, dtheta1: float, dtheta2: float) -> np.ndarray:
-        """Per-cycle error (docs/model.md section 4) against the rates of another gait."""
-        return gait_error(self.crossing_state, dtheta1, dtheta2)
-
-
-def open_loop_cycles(dtheta1: float, dtheta2: float, *, t_switch: float, t_motor: float,
-                     cycles: int, torque: float = SEED2009_TORQUE,
-                     robot: RobotLike = "seed2009", integrator: Integrator = TIGHT,
-                     tick: float = 0.0, tick_phase: float = 0.0,
-                     clock: str = "reset_at_vertical", period: float = math.nan,
-                     max_drop: float | None = None, theta2: float = 0.0) -> CycleRun:
-    """Replay a gait's times open-loop for ``cycles`` cycles and measure it per cycle."""
-    robot = as_robot(robot)
-    if max_drop is None:
-        max_drop = robot.link1.length
-    ctrl = OpenLoop(t_switch, t_motor, torque, tick=tick, tick_phase=tick_phase, clock=clock,
-                    period=period)
-    res = run_controller(ctrl, initial_state(dtheta1, dtheta2, theta2=theta2), robot=robot,
-                         integrator=integrator, cycles=cycles, max_drop=max_drop,
-                         log_capacity=8 * cycles + 16)
-    log = res.log
-    obs = log[log[:, L.L_KIND] == L.LOG_OBSERVER]
-    states = obs[:, L.L_STATE:L.L_STATE + 8]
-    flipped = obs[:, L.L_FLIPPED]
-    err = gait_error(states, dtheta1, dtheta2)
-    ke, _ = energies(res.params, states, flipped)
-    swaps = log[(log[:, L.L_KIND] == L.LOG_SEGMENT) & (log[:, L.L_ID] == 0)]
-    piv = swaps[:, L.L_STATE:L.L_STATE + 8]
-    x_prev = np.concatenate([[0.0], piv[:-1, L.X]])
-    return CycleRun(err, ke, piv[:, L.Y], piv[:, L.X] - x_prev, obs[:, L.L_T], res.status,
-                    states.copy())
-
-
-
-
-# ------------------------------------------------------------------------------------------
-# basins: cycles to failure around a gait
-# ------------------------------------------------------------------------------------------
-def basin(dtheta1: float, dtheta2: float, *, t_switch: float, t_motor: float, torque: float,
-          offsets1, offsets2, max_cycles: int = 60, error_bound: float = 1e-2,
-          robot: RobotLike = "seed2009", integrator: Integrator = TIGHT,
-          tick: float = 0.0) -> np.ndarray:
-    """Cycles an open-loop replay survives from perturbed starts (a basin map).
-
-    Start ``(dtheta1 + a, dtheta2 + b)`` for ``a`` in ``offsets1``, ``b`` in ``offsets2``
-    [rad s-1]; the run fails at the first vertical crossing whose error against the
-    *unperturbed* gait exceeds ``error_bound``, or when it falls or stops. Returns an int array
-    ``[len(offsets1), len(offsets2)]``; ``max_cycles`` means it never failed.
-    """
-    out = np.zeros((len(offsets1), len(offsets2)), np.int32)
-    for i, a in enumerate(offsets1):
-        for j, b in enumerate(offsets2):
-            run = open_loop_cycles(dtheta1 + a, dtheta2 + b, t_switch=t_switch,
-                                   t_motor=t_motor, cycles=max_cycles, torque=torque,
-                                   robot=robot, integrator=integrator, tick=tick)
-            err = run.error_vs(dtheta1, dtheta2)
-            bad = np.flatnonzero(~(err <= error_bound))
-            out[i, j] = int(bad[0]) if bad.size else len(err)
-    return out
-
-
 
 
 # --- per-cycle errors -------------------------------------------------------------------------
@@ -195,6 +118,14 @@ def cycle_times(gait: SequenceGait, z, *, robot: RobotLike = "seed2009",
         raise ValueError(f"the cycle from {tuple(float(v) for v in z)} does not close: "
                          f"{L.STATUS_NAMES[int(r['status'][0])]}")
     return r["t_segment"][0].copy()
+
+
+def motorless(gait: SequenceGait) -> SequenceGait:
+    """The gait with the motor off in every segment: a recorded schedule whose motor phase
+    lasts no time (a collisionless swap, ``t_motor = 0``) replays without one, so no motor
+    pulse is perturbed or reported where none acts."""
+    return replace(gait, segments=tuple(replace(seg, torque=0.0) for seg in gait.segments),
+                   section_torque=0.0)
 
 
 def open_loop_gait(gait: SequenceGait, segment_times) -> SequenceGait:
@@ -410,5 +341,5 @@ def sequence_basin(gait: SequenceGait, z_star, offsets1, offsets2, *, max_cycles
     return out
 
 
-__all__ = ["REPLAYS", "SequenceCycles", "cycle_times", "open_loop_gait", "section_error",
-           "sequence_basin", "sequence_cycles"]
+__all__ = ["REPLAYS", "SequenceCycles", "cycle_error", "cycle_times", "motorless",
+           "open_loop_gait", "section_error", "sequence_basin", "sequence_cycles"]

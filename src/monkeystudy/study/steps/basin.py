@@ -13,14 +13,16 @@ from typing import Literal, Optional
 import numpy as np
 from pydantic import Field
 
-from ...analysis.replay import basin, sequence_basin
+from ...analysis.replay import sequence_basin
+from ...controllers import SequenceGait
 from .. import datasets as D
 from ..blocks import Block, Task
 from ..models import Axis, Name, Replay, StrictModel
 from ..spec import GaitSpec
 from .base import Figure, StepContext, StepKind, no_earlier
 from .floquet import check_sequence_replay, sequence_attrs, sequence_start, sequence_torque
-from .shoot import ShootStep, gait_attrs, gait_line, replay_torque, shoot_gait
+from .gaits import schedule_replay
+from .shoot import ShootStep, gait_attrs, gait_line, shoot_gait
 
 
 class BasinOffsets(StrictModel):
@@ -70,30 +72,19 @@ class BasinStep(StrictModel):
 
 
 # --- tasks (run on the workers) ------------------------------------------------------------------
-def basin_block(spec: GaitSpec, gait: dict, offsets1: np.ndarray, offsets2: np.ndarray, *,
-                max_cycles: int, error_bound: float, tick: float) -> dict[str, np.ndarray]:
-    """Cycles survived from starts ``gait + (a, b)`` for ``a`` in ``offsets1`` (rows of the
-    basin), ``b`` in ``offsets2`` [rad s-1] (:func:`~monkeystudy.analysis.replay.basin`); returns
-    ``{"cycles": int32 array [len(offsets1) * len(offsets2)]}`` in C order."""
-    robot, integ = spec.robot, spec.integrator
-    B = basin(float(gait["dtheta1"]), float(gait["dtheta2"]), t_switch=float(gait["t_switch"]),
-              t_motor=float(gait["t_motor"]), torque=replay_torque(spec, gait),
-              offsets1=np.asarray(offsets1, float), offsets2=np.asarray(offsets2, float),
-              max_cycles=int(max_cycles), error_bound=float(error_bound), robot=robot,
-              integrator=integ, tick=float(tick))
-    return {"cycles": np.ascontiguousarray(B, np.int32).ravel()}
-
-
-def sequence_basin_block(spec: GaitSpec, z_star, offsets1: np.ndarray, offsets2: np.ndarray,
-                         *, max_cycles: int, error_bound: float, tick: float,
-                         replay: str) -> dict[str, np.ndarray]:
-    """:func:`basin_block` for the spec's sequence gait around its fixed point ``z_star``
-    (:func:`monkeystudy.analysis.replay.sequence_basin`)."""
-    robot, integ = spec.robot, spec.integrator
-    B = sequence_basin(spec.sequence, np.asarray(z_star, float),
-                       np.asarray(offsets1, float), np.asarray(offsets2, float),
-                       max_cycles=int(max_cycles), error_bound=float(error_bound), robot=robot,
-                       integrator=integ, replay=replay, tick=float(tick))
+def basin_block(spec: GaitSpec, gait: SequenceGait, z_star, offsets1: np.ndarray,
+                offsets2: np.ndarray, *, times, max_cycles: int, error_bound: float,
+                tick: float, replay: str) -> dict[str, np.ndarray]:
+    """Cycles ``gait`` survives from starts ``z_star + (0, a, b)`` for ``a`` in ``offsets1``
+    (rows of the basin), ``b`` in ``offsets2`` [rad s-1], as its own controller or replayed
+    open-loop with the fixed point's segment exit ``times`` [s] (None: its own cycle's;
+    :func:`~monkeystudy.analysis.replay.sequence_basin`); returns ``{"cycles": int32 array
+    [len(offsets1) * len(offsets2)]}`` in C order."""
+    B = sequence_basin(gait, np.asarray(z_star, float), np.asarray(offsets1, float),
+                       np.asarray(offsets2, float), max_cycles=int(max_cycles),
+                       error_bound=float(error_bound), robot=spec.robot,
+                       integrator=spec.integrator, replay=replay, times=times,
+                       tick=float(tick))
     return {"cycles": np.ascontiguousarray(B, np.int32).ravel()}
 
 
@@ -159,18 +150,20 @@ class BasinKind(StepKind):
             g = sequence_start(ctx)
             replay = st.replay or "gait"
             ctx.state.update(gait=g, replay=replay)
-            fn, gait, extra = sequence_basin_block, g["z"], {"replay": replay}
+            gait, z, extra = ctx.spec.sequence, g["z"], {"replay": replay, "times": None}
         else:
             g = shoot_gait(ctx, st.from_, st.solution)
             ctx.state["gait"] = g
-            fn, gait, extra = basin_block, g, {}
+            gait, z, times = schedule_replay(ctx.spec, g)
+            extra = {"replay": "open_loop", "times": times}
+        ctx.state["run_gait"] = gait
         tick = st.tick if st.tick is not None else ctx.study.gait.tick
         ctx.state["tick"] = tick
         o1, o2 = st.offsets.d_dtheta1.values(), st.offsets.d_dtheta2.values()
         n2 = o2.size
         kw = {"max_cycles": st.max_cycles, "error_bound": st.error_bound, "tick": tick,
               **extra}
-        return [Task(b, fn, (ctx.spec, gait, o1[b.lo // n2:b.hi // n2], o2), kw)
+        return [Task(b, basin_block, (ctx.spec, gait, z, o1[b.lo // n2:b.hi // n2], o2), kw)
                 for b in ctx.todo_blocks()]
 
     def finish(self, ctx: StepContext, attrs: dict) -> str:
@@ -181,11 +174,10 @@ class BasinKind(StepKind):
         cycles = cycles.reshape(st.offsets.d_dtheta1.num, st.offsets.d_dtheta2.num)
         g = ctx.state["gait"]
         if "replay" in ctx.state:
-            attrs.update(sequence_attrs(g, ctx.state["replay"]),
-                         motor_torque=sequence_torque(ctx.spec.sequence))
+            attrs.update(sequence_attrs(g, ctx.state["replay"]))
         else:
-            attrs.update(gait_attrs(st.from_, g), replay="open_loop",
-                         motor_torque=replay_torque(ctx.spec, g))
+            attrs.update(gait_attrs(st.from_, g), replay="open_loop")
+        attrs["motor_torque"] = sequence_torque(ctx.state["run_gait"])
         attrs.update(max_cycles=st.max_cycles, error_bound=st.error_bound,
                      tick=ctx.state["tick"], n_blocks=len(ctx.blocks))
         write_basin(ctx.path, attrs, st.offsets.d_dtheta1.values(),

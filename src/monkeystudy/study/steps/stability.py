@@ -9,7 +9,6 @@ against the start, the kinetic energy and the attached end's height; and a sampl
 from __future__ import annotations
 
 import dataclasses
-import math
 from pathlib import Path
 from typing import Any, Literal, Optional
 
@@ -18,18 +17,17 @@ from pydantic import Field
 
 from ...analysis.gait_kind import gait_kind_text
 from ...analysis.replay import sequence_cycles
-from ...controllers import OpenLoop
+from ...controllers import SequenceGait
 from ...kernel import layout as L
 from ...kernel.layout import STATUS_NAMES
-from ...simulate import (
-    energies, evaluate_cycle_gaits, gait_error, initial_state, physical_points, run_controller,
-)
+from ...simulate import evaluate_cycle_gaits, physical_points
 from .. import datasets as D
 from ..blocks import Task
 from ..models import Name, OpenLoopSettings, Replay, StrictModel
 from ..spec import GaitSpec
 from .base import Figure, StepContext, StepKind, max_drop_of, no_earlier
 from .floquet import check_sequence_replay, sequence_attrs, sequence_start
+from .gaits import schedule_replay
 from .refine import RefineStep, read_refined
 
 
@@ -89,83 +87,43 @@ def empty_record(cycles: int) -> dict[str, Any]:
     }
 
 
-def stability_task(spec: GaitSpec, gait: dict[str, float], *, cycles: int, tick: float,
-                   clock: str, sample_dt: float, max_drop: float) -> dict[str, Any]:
-    """Replay a refined gait open-loop (swap at ``t_switch``, motor for ``t_motor`` [s]).
+#: the per-cycle records of a stability dataset (:class:`~monkeystudy.analysis.replay.
+#: SequenceCycles` fields)
+PER_CYCLE = ("error", "kinetic_energy", "pivot_height", "x_advance", "t_cross", "t_swap")
 
-    ``gait`` holds the refined ``dtheta1``, ``dtheta2`` [rad s-1], ``t_switch``, ``t_motor``,
-    ``t_end`` [s] and ``status``. With ``clock='run_on'`` the period is ``t_end``. Per cycle
-    c = 1..N (from the run's log): the swap (segment 0 exit) starting it, the first vertical
-    crossing (observer) after that swap, and there the error against the initial rates
-    (docs/model.md section 4, with the frame's theta2, dtheta1, dtheta2) and the kinetic energy;
-    ``pivot_height`` and the world position of the attached end after the swap.
-    A gait that is not ok is not run: ``status`` is its status and every cycle is NaN.
+
+def stability_task(spec: GaitSpec, gait: SequenceGait, z0, *, times, cycles: int,
+                   tick: float | None, sample_dt: float, max_drop: float,
+                   replay: str) -> dict[str, Any]:
+    """Run ``gait`` for ``cycles`` cycles from section state ``z0 = (theta2 [rad], dtheta1,
+    dtheta2 [rad s-1])`` (a running clock: ``(theta1, theta2, dtheta1, dtheta2)``) as its own
+    controller or replayed open-loop (:func:`~monkeystudy.analysis.replay.sequence_cycles`),
+    on the controller ``tick`` [s] (None: the gait's).
+
+    ``times`` [s]: the start's recorded segment exit times, which an open-loop replay keeps
+    (None: the cycle's own from ``z0``). Per cycle, as the gait records it: the error against
+    the start, the kinetic energy, the attached end's height and advance, the section
+    crossing ``t_cross`` and the cycle's swap ``t_swap`` [s] (NaN padded to ``cycles``); the
+    run's status, counts and sampled trajectory; ``t_segment``, the cycle's segment exit
+    times from ``z0`` [s]. A start whose cycle does not close is not run: ``status`` is its
+    status and every cycle is NaN.
     """
     robot, integ = spec.robot, spec.integrator
-    out = dict(empty_record(cycles), status=int(gait["status"]))
-    times = (gait["t_switch"], gait["t_motor"], gait["t_end"])
-    if gait["status"] != L.ST_OK or not all(math.isfinite(t) for t in times):
-        return out
-    d1, d2 = float(gait["dtheta1"]), float(gait["dtheta2"])
-    ctrl = OpenLoop(gait["t_switch"], gait["t_motor"], spec.torque, tick=tick, clock=clock,
-                    period=gait["t_end"] if clock == "run_on" else math.nan)
-    res = run_controller(ctrl, initial_state(d1, d2), robot=robot, integrator=integ,
-                         cycles=cycles, sample_dt=sample_dt, max_drop=max_drop)
-    log = res.log
-    swaps = log[(log[:, L.L_KIND] == L.LOG_SEGMENT) & (log[:, L.L_ID] == 0)]
-    cross = log[log[:, L.L_KIND] == L.LOG_OBSERVER]
-    x_prev = 0.0                                  # the gait starts hanging from A at x = 0
-    for c in range(min(cycles, swaps.shape[0])):
-        s = swaps[c, L.L_STATE:L.L_STATE + 8]
-        out["t_swap"][c] = swaps[c, L.L_T]
-        out["pivot_height"][c] = s[L.Y]
-        out["x_advance"][c] = s[L.X] - x_prev
-        x_prev = s[L.X]
-        t0 = swaps[c, L.L_T]
-        t1 = swaps[c + 1, L.L_T] if c + 1 < swaps.shape[0] else math.inf
-        k = np.flatnonzero((cross[:, L.L_T] > t0) & (cross[:, L.L_T] < t1))
-        if k.size == 0:
-            continue
-        row = cross[k[0]]
-        f = row[L.L_STATE:L.L_STATE + 8]
-        out["t_cross"][c] = row[L.L_T]
-        out["error"][c] = gait_error(f, d1, d2)
-        ke, _ = energies(res.params, f[None, :], np.array([row[L.L_FLIPPED]]))
-        out["kinetic_energy"][c] = ke[0]
-    out.update(run_record(res))
-    return out
-
-
-def sequence_stability_task(spec: GaitSpec, z0, *, cycles: int, tick: float | None,
-                            sample_dt: float, max_drop: float, replay: str) -> dict[str, Any]:
-    """Run the spec's sequence gait for ``cycles`` cycles from section state ``z0 = (theta2
-    [rad], dtheta1, dtheta2 [rad s-1])`` (:func:`monkeystudy.analysis.replay.sequence_cycles`: its own
-    controller or its open-loop replay, ``tick`` [s] or the gait's).
-
-    Returns the keys of :func:`stability_task`, measured at each section crossing (``t_cross``)
-    with ``t_swap`` the cycle's first magnet action [s], plus ``t_segment`` (the replayed
-    segment times of an open-loop replay, else the recorded cycle's) [s]. A start whose cycle
-    does not close is not run: ``status`` is its status and every cycle is NaN.
-    """
-    robot, integ = spec.robot, spec.integrator
-    gait = spec.sequence
     out = dict(empty_record(cycles), t_segment=np.full(len(gait.all_segments()), np.nan))
     z0 = np.asarray(z0, float)
-    one = evaluate_cycle_gaits([[z0[1], z0[2]]], dataclasses.replace(gait, theta2=z0[0]),
+    one = evaluate_cycle_gaits([[z0[-2], z0[-1]]], dataclasses.replace(gait, theta2=z0[-3]),
                                robot=robot, integrator=integ)
     if int(one["status"][0]) != L.ST_OK:
         out["status"] = int(one["status"][0])
         return out
-    times = one["t_segment"][0].copy()
-    out["t_segment"] = times
+    out["t_segment"] = one["t_segment"][0].copy()
     r = sequence_cycles(gait, z0, cycles=cycles, robot=robot, integrator=integ,
-                        replay=replay, times=times, tick=tick, max_drop=max_drop,
-                        sample_dt=sample_dt)
-    n = min(cycles, len(r.error))
-    for key in ("error", "kinetic_energy", "pivot_height", "x_advance", "t_cross", "t_swap"):
-        out[key][:n] = getattr(r, key)[:n]
-    res = r.run
-    out.update(run_record(res))
+                        replay=replay, times=out["t_segment"] if times is None else times,
+                        tick=tick, max_drop=max_drop, sample_dt=sample_dt)
+    for key in PER_CYCLE:
+        v = getattr(r, key)[:cycles]
+        out[key][:len(v)] = v
+    out.update(run_record(r.run))
     return out
 
 
@@ -283,21 +241,22 @@ class StabilityKind(StepKind):
         if ctx.gait_kind == "sequence":
             gait = sequence_start(ctx)
             kw = {"cycles": st.cycles, "tick": tick, "sample_dt": st.sample_dt,
-                  "max_drop": max_drop, "replay": st.replay or "gait"}
+                  "max_drop": max_drop, "replay": st.replay or "gait", "times": None}
             ctx.state.update(gait=gait, options=kw)
-            return [Task(0, sequence_stability_task, (ctx.spec, gait["z"]), kw)]
+            return [Task(0, stability_task, (ctx.spec, ctx.spec.sequence, gait["z"]), kw)]
         gait, idx = read_refined(ctx.deps[st.from_].path, st.start_index)
         gait["start_index"] = idx
-        kw = {"cycles": st.cycles, "tick": tick, "clock": st.controller.clock,
-              "sample_dt": st.sample_dt, "max_drop": max_drop}
-        ctx.state.update(gait=gait, options=kw)
-        return [Task(0, stability_task, (ctx.spec, gait), kw)]
+        run_gait, z, times = schedule_replay(ctx.spec, gait, st.controller.clock)
+        kw = {"cycles": st.cycles, "tick": tick, "sample_dt": st.sample_dt,
+              "max_drop": max_drop, "replay": "open_loop", "times": times}
+        ctx.state.update(gait=gait, options=dict(kw, clock=st.controller.clock))
+        return [Task(0, stability_task, (ctx.spec, run_gait, z), kw)]
 
     def finish(self, ctx: StepContext, attrs: dict) -> str:
         st = ctx.step
         gait, kw = ctx.state["gait"], ctx.state["options"]
         r = ctx.results[0]
-        if "replay" in kw:   # a sequence gait
+        if "clock" not in kw:   # a sequence gait
             attrs.update(sequence_attrs(gait, kw["replay"]),
                          controller={"tick": kw["tick"], "clock": "reset_at_section"},
                          sample_dt=kw["sample_dt"], max_drop=kw["max_drop"],

@@ -22,11 +22,10 @@ from pydantic import BeforeValidator, Field, model_validator
 
 from ...analysis.design import PARAMETERS, DesignSpace
 from ...analysis.replay import open_loop_gait
-from ...analysis.sections import cycle_section_state, section_state
+from ...analysis.sections import cycle_section_state
 from ...analysis.survival import (
     MFPT, Noise, cycle_grid, mfpt, survival_curve, survival_runs,
 )
-from ...controllers import HorizontalSearch, Observer, OpenLoop
 from ...kernel import layout as L
 from ...kernel.layout import STATUS_NAMES
 from .. import datasets as D
@@ -35,7 +34,7 @@ from ..models import Name, OpenLoopSettings, Replay, StrictModel
 from ..spec import GaitSpec
 from .base import Figure, StepContext, StepKind, max_drop_of, no_earlier
 from .design import DesignStep
-from .gaits import MAX_MAP_DEFECT, step_gait
+from .gaits import MAX_MAP_DEFECT, schedule_replay, step_gait
 from .floquet import FloquetStep, check_sequence_replay
 from .refine import RefineStep
 from .shoot import ShootStep
@@ -267,30 +266,25 @@ def design_robot_dict(spec: GaitSpec, gait: dict, design_step: str) -> dict:
 
 
 def survival_controller(spec: GaitSpec, gait: dict, *, tick: float, clock: str):
-    """``(controller, start hybrid state, section observer or None)`` of a survival gait."""
+    """``(controller, start hybrid state, section observer)`` of a survival gait: the study's
+    gait (a design's from a design step) as its own controller or replayed open-loop with the
+    start's recorded times, on the controller ``tick`` [s], its cycles measured by an exact
+    observer of the section."""
     z = np.asarray(gait["z"], float)
     if "design" in gait:
-        seq = replace(design_of(spec, gait).gait(gait["design"]), theta2=float(z[0]),
-                      tick=float(tick))
-        n_rows = len(seq.all_segments())
-        section = Observer("coord", "theta1", seq.section_theta1, seq.section_direction,
-                           segment=n_rows - 1)
-        return seq.controller(), cycle_section_state(seq, z), section
-    if not spec.horizontal:
+        seq = design_of(spec, gait).gait(gait["design"])
+    elif "t_segment" in gait:
         seq = spec.sequence
         if gait["replay"] == "open_loop":
             seq = open_loop_gait(seq, gait["t_segment"])
-        seq = replace(seq, theta2=float(z[0]), tick=float(tick))
-        n_rows = len(seq.all_segments())
-        section = Observer("coord", "theta1", seq.section_theta1, seq.section_direction,
-                           segment=n_rows - 1)
-        return seq.controller(), cycle_section_state(seq, z), section
-    if gait["replay"] == "gait":
-        return (HorizontalSearch(gait["torque"], tick=tick, loop=True), section_state(z),
-                None)
-    period = gait["t_end"] if clock == "run_on" else math.nan
-    return (OpenLoop(gait["t_switch"], gait["t_motor"], gait["torque"], tick=tick,
-                     clock=clock, period=period), section_state(z), None)
+    elif gait["replay"] == "open_loop":
+        schedule = dict(gait, dtheta1=z[1], dtheta2=z[2])
+        seq, z, times = schedule_replay(spec, schedule, clock)
+        seq = open_loop_gait(seq, times)
+    else:
+        seq = spec.sequence
+    seq = replace(seq, theta2=float(z[-3]), tick=float(tick))
+    return seq.controller(), cycle_section_state(seq, z), seq.section_observer()
 
 
 # --- tasks (run on the workers) ------------------------------------------------------------------

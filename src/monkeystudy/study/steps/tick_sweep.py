@@ -18,10 +18,9 @@ import numpy as np
 from pydantic import Field, field_validator
 
 from ...analysis.floquet import floquet
-from ...analysis.replay import (
-    cycle_times, open_loop_cycles, open_loop_gait, sequence_cycles, sweep_ticks,
-)
+from ...analysis.replay import cycle_times, open_loop_gait, sequence_cycles, sweep_ticks
 from ...analysis.sections import cycle_return_map, open_loop_return_map
+from ...controllers import SequenceGait
 from ...kernel.layout import STATUS_NAMES
 from .. import datasets as D
 from ..blocks import Task
@@ -32,7 +31,8 @@ from .floquet import (
     FloquetStep, check_sequence_replay, read_floquet_multipliers, sequence_attrs,
     sequence_start, sequence_torque,
 )
-from .shoot import ShootStep, gait_attrs, gait_line, replay_torque, shoot_gait
+from .gaits import schedule_replay
+from .shoot import ShootStep, gait_attrs, gait_line, shoot_gait
 
 
 class TickSweepStep(StrictModel):
@@ -69,51 +69,25 @@ class TickSweepStep(StrictModel):
 
 
 # --- tasks (run on the workers) ------------------------------------------------------------------
-def tick_sweep_task(spec: GaitSpec, gait: dict, *, ticks, cycles: int, error_bound: float,
-                    max_drop: float, leading_multiplier: bool = True,
-                    fd_step: float = 1e-5) -> dict[str, Any]:
-    """The gait replayed open-loop from its fixed point once per controller tick [s].
+def tick_sweep_task(spec: GaitSpec, gait: SequenceGait, z_star, *, times, ticks,
+                    cycles: int, error_bound: float, max_drop: float, replay: str,
+                    leading_multiplier: bool, fd_step: float = 1e-5) -> dict[str, Any]:
+    """``gait`` run from its fixed point ``z_star = (theta2 [rad], dtheta1, dtheta2 [rad
+    s-1])`` once per controller tick [s], as its own controller or replayed open-loop with
+    the segment exit ``times`` [s] (None: the cycle's own at ``z_star``;
+    :func:`monkeystudy.analysis.replay.sequence_cycles`).
 
-    Per tick: the error per cycle (against the gait's start, docs/model.md section 4) and the pivot
-    height per swap (NaN padded to ``cycles``), ``cycles_to_bound``, ``cycles_completed``
-    (vertical crossings reached), the run's status and the fitted growth of sqrt(error) per
-    cycle. ``leading_multiplier``: also |lambda_max| of the exact-timing open-loop map by
-    finite differences (:func:`~monkeystudy.analysis.floquet.floquet`); NaN otherwise.
+    Per tick: the error per cycle against the start and the attached end's height per cycle
+    as the gait records them (NaN padded to ``cycles``), ``cycles_to_bound``,
+    ``cycles_completed`` (section crossings reached), the run's status and the fitted growth
+    of sqrt(error) per cycle. ``leading_multiplier``: |lambda_max| of the replayed
+    exact-timing map by finite differences, with all three (``multipliers``); NaN otherwise.
+    Also the replayed segment times (``t_segment`` [s]) and the motor torque [N m].
     """
     robot, integ = spec.robot, spec.integrator
-    torque = replay_torque(spec, gait)
-    d1, d2 = float(gait["dtheta1"]), float(gait["dtheta2"])
-    t_switch, t_motor = float(gait["t_switch"]), float(gait["t_motor"])
-
-    def run_one(tick):
-        run = open_loop_cycles(d1, d2, t_switch=t_switch, t_motor=t_motor, cycles=cycles,
-                               torque=torque, robot=robot, integrator=integ,
-                               tick=float(tick), max_drop=max_drop)
-        return run.error, run.pivot_height, run.status
-
-    out = sweep_ticks(ticks, cycles, error_bound, run_one)
-    lead = math.nan
-    if leading_multiplier:
-        fmap = partial(open_loop_return_map, t_switch=t_switch, t_motor=t_motor, torque=torque,
-                       robot=robot, integrator=integ)
-        fl = floquet(fmap, np.array([0.0, d1, d2]), step=fd_step)
-        lead = float(np.abs(fl.multipliers[0]))
-    return dict(out, leading_multiplier=lead, torque=torque)
-
-
-def sequence_tick_sweep_task(spec: GaitSpec, z_star, *, ticks, cycles: int,
-                             error_bound: float, max_drop: float, replay: str,
-                             leading_multiplier: bool, fd_step: float = 1e-5) -> dict[str, Any]:
-    """:func:`tick_sweep_task` for the spec's sequence gait from its fixed point ``z_star =
-    (theta2 [rad], dtheta1, dtheta2 [rad s-1])``, run as its own controller or open-loop
-    (``replay``; :func:`monkeystudy.analysis.replay.sequence_cycles`). ``pivot_height`` is the attached
-    end's height at each section crossing. ``leading_multiplier``: |lambda_max| of the
-    replayed exact-timing map by finite differences (NaN otherwise); also returns all three
-    (``multipliers``) and the replayed segment times (``t_segment`` [s])."""
-    robot, integ = spec.robot, spec.integrator
-    gait = spec.sequence
     z_star = np.asarray(z_star, float)
-    times = cycle_times(gait, z_star, robot=robot, integrator=integ)
+    if times is None:
+        times = cycle_times(gait, z_star, robot=robot, integrator=integ)
 
     def run_one(tick):
         r = sequence_cycles(gait, z_star, cycles=cycles, robot=robot, integrator=integ,
@@ -123,13 +97,19 @@ def sequence_tick_sweep_task(spec: GaitSpec, z_star, *, ticks, cycles: int,
     out = sweep_ticks(ticks, cycles, error_bound, run_one)
     lead, lam = math.nan, np.full(3, np.nan + 0j)
     if leading_multiplier:
-        g = open_loop_gait(gait, times) if replay == "open_loop" else gait
-        fl = floquet(partial(cycle_return_map, gait=dataclasses.replace(g, tick=0.0),
-                             robot=robot, integrator=integ), z_star, step=fd_step)
+        if spec.horizontal:
+            fmap = partial(open_loop_return_map, t_switch=float(times[0]),
+                           t_motor=float(times[1]) - float(times[0]),
+                           torque=sequence_torque(gait), robot=robot, integrator=integ)
+        else:
+            g = open_loop_gait(gait, times) if replay == "open_loop" else gait
+            fmap = partial(cycle_return_map, gait=dataclasses.replace(g, tick=0.0),
+                           robot=robot, integrator=integ)
+        fl = floquet(fmap, z_star, step=fd_step)
         lam = np.asarray(fl.multipliers, complex)
         lead = float(np.abs(lam[0]))
     return dict(out, leading_multiplier=lead, multipliers=lam, torque=sequence_torque(gait),
-                t_segment=times)
+                t_segment=np.asarray(times, float))
 
 
 # --- the dataset ---------------------------------------------------------------------------------
@@ -222,15 +202,18 @@ class TickSweepKind(StepKind):
             if replay == "gait":
                 lam = read_floquet_multipliers(ctx.deps[st.from_].path, "sequence")
                 ctx.state["leading"] = float(np.abs(lam[0]))
-            return [Task(0, sequence_tick_sweep_task, (ctx.spec, g["z"]),
-                         dict(kw, replay=replay, leading_multiplier=replay == "open_loop"))]
+            return [Task(0, tick_sweep_task, (ctx.spec, ctx.spec.sequence, g["z"]),
+                         dict(kw, replay=replay, times=None,
+                              leading_multiplier=replay == "open_loop"))]
         g = shoot_gait(ctx, st.from_, st.solution)
         ctx.state["gait"] = g
         if st.floquet is not None:
             lam = read_floquet_multipliers(ctx.deps[st.floquet].path, "open_loop")
             ctx.state["leading"] = float(np.abs(lam[0]))
-        return [Task(0, tick_sweep_task, (ctx.spec, g),
-                     dict(kw, leading_multiplier=st.floquet is None))]
+        gait, z, times = schedule_replay(ctx.spec, g)
+        return [Task(0, tick_sweep_task, (ctx.spec, gait, z),
+                     dict(kw, replay="open_loop", times=times,
+                          leading_multiplier=st.floquet is None))]
 
     def finish(self, ctx: StepContext, attrs: dict) -> str:
         st = ctx.step
