@@ -18,7 +18,7 @@ Every controller has a ``tick`` [s]: 0 acts exactly at events; ``0.001`` is the 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
@@ -416,6 +416,41 @@ class SequenceGait:
 
     def program(self):
         return self.controller().program()
+
+
+def motorless(gait: SequenceGait) -> SequenceGait:
+    """The gait with the motor off in every segment: a recorded schedule whose motor phase
+    lasts no time (a collisionless swap, ``t_motor = 0``) replays without one, so no motor
+    pulse is perturbed or reported where none acts."""
+    return replace(gait, segments=tuple(replace(seg, torque=0.0) for seg in gait.segments),
+                   section_torque=0.0)
+
+
+def open_loop_gait(gait: SequenceGait, segment_times) -> SequenceGait:
+    """The gait with every segment before the section ending at a fixed time.
+
+    ``segment_times`` [s]: the exit times on the controller clock (which restarts at each
+    section crossing), e.g. :func:`~monkeystudy.analysis.replay.cycle_times` of the fixed
+    point (the section's own entry, if given, is ignored). Entry actions are kept; each guard becomes a ticked ``time`` guard,
+    so a controller tick rounds the times up to its grid, as the 2009 study's 1 ms loop did.
+    A gait with ``open_loop_section_ticked`` senses its section on the tick too (the 2009
+    controller restarted its clock at the tick after the vertical).
+    """
+    times = np.asarray(segment_times, float).ravel()
+    n = len(gait.segments)
+    if times.size < n or not np.all(np.isfinite(times[:n])):
+        raise ValueError(f"need {n} finite segment exit times, got {times[:n]}")
+    if np.any(np.diff(np.concatenate([[0.0], times[:n]])) < 0.0):
+        raise ValueError(f"segment exit times must not decrease: {times[:n]}")
+    for k, s in enumerate(gait.segments):
+        if s.clock != "keep":
+            raise ValueError(f"segment {k} moves the controller clock (clock={s.clock!r}): "
+                             "recorded times would be on a different clock")
+    segs = tuple(replace(s, until="time", value=float(t), ticked=True, direction="rising")
+                 for s, t in zip(gait.segments, times[:n]))
+    # no segment swings freely to a guard any more: no start is provably unreachable
+    return replace(gait, segments=segs, unreachable_below_floor=False,
+                   section_ticked=gait.section_ticked or gait.open_loop_section_ticked)
 
 
 #: where a :class:`SequenceGait`'s multi-cycle runs record each cycle

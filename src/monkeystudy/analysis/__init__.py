@@ -1,7 +1,7 @@
 """Gait analysis on top of the simulation API, by topic.
 
-* :mod:`.sections` - Poincare sections and return maps (horizontal gait: open-loop replay and
-  the state-based search controller; any sequence gait).
+* :mod:`.sections` - Poincare sections and return maps of any sequence gait (the horizontal
+  gait's open-loop replay and state-based search controller by name).
 * :mod:`.floquet` - Floquet multipliers by finite differences, fixed points by Newton.
 * :mod:`.variational` - the same Jacobians by variational equations with saltation matrices.
 * :mod:`.shooting` - exact fixed points of the horizontal gait (Gauss-Newton, grazing border).
@@ -22,7 +22,7 @@ from .._lazy import lazy_exports
 _EXPORTS = {
     "sections": ("TIGHT", "check_cycle_frame", "check_mirror_links", "cycle_return_map",
                  "cycle_section_state", "open_loop_return_map", "search_return_map",
-                 "section_of", "section_state"),
+                 "section_state"),
     "floquet": ("FixedPointResult", "FloquetResult", "floquet", "jacobian_fd",
                 "solve_fixed_point", "sorted_eigs"),
     "variational": ("sequence_variational_jacobian", "variational_jacobian"),

@@ -28,7 +28,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..controllers import Integrator, PhaseSequence, SequenceGait
+from ..controllers import (
+    Integrator, PhaseSequence, SequenceGait, motorless, open_loop_gait,
+)
 from ..kernel import layout as L
 from ..simulate import (
     RobotLike, RunResult, Status, as_robot, energies, evaluate_cycle_gaits, gait_error,
@@ -118,41 +120,6 @@ def cycle_times(gait: SequenceGait, z, *, robot: RobotLike = "seed2009",
         raise ValueError(f"the cycle from {tuple(float(v) for v in z)} does not close: "
                          f"{L.STATUS_NAMES[int(r['status'][0])]}")
     return r["t_segment"][0].copy()
-
-
-def motorless(gait: SequenceGait) -> SequenceGait:
-    """The gait with the motor off in every segment: a recorded schedule whose motor phase
-    lasts no time (a collisionless swap, ``t_motor = 0``) replays without one, so no motor
-    pulse is perturbed or reported where none acts."""
-    return replace(gait, segments=tuple(replace(seg, torque=0.0) for seg in gait.segments),
-                   section_torque=0.0)
-
-
-def open_loop_gait(gait: SequenceGait, segment_times) -> SequenceGait:
-    """The gait with every segment before the section ending at a fixed time.
-
-    ``segment_times`` [s]: the exit times on the controller clock (which restarts at each
-    section crossing), e.g. :func:`cycle_times` of the fixed point (the section's own entry,
-    if given, is ignored). Entry actions are kept; each guard becomes a ticked ``time`` guard,
-    so a controller tick rounds the times up to its grid, as the 2009 study's 1 ms loop did.
-    A gait with ``open_loop_section_ticked`` senses its section on the tick too (the 2009
-    controller restarted its clock at the tick after the vertical).
-    """
-    times = np.asarray(segment_times, float).ravel()
-    n = len(gait.segments)
-    if times.size < n or not np.all(np.isfinite(times[:n])):
-        raise ValueError(f"need {n} finite segment exit times, got {times[:n]}")
-    if np.any(np.diff(np.concatenate([[0.0], times[:n]])) < 0.0):
-        raise ValueError(f"segment exit times must not decrease: {times[:n]}")
-    for k, s in enumerate(gait.segments):
-        if s.clock != "keep":
-            raise ValueError(f"segment {k} moves the controller clock (clock={s.clock!r}): "
-                             "recorded times would be on a different clock")
-    segs = tuple(replace(s, until="time", value=float(t), ticked=True, direction="rising")
-                 for s, t in zip(gait.segments, times[:n]))
-    # no segment swings freely to a guard any more: no start is provably unreachable
-    return replace(gait, segments=segs, unreachable_below_floor=False,
-                   section_ticked=gait.section_ticked or gait.open_loop_section_ticked)
 
 
 @dataclass

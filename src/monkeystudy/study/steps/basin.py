@@ -21,8 +21,7 @@ from ..models import Axis, Name, Replay, StrictModel
 from ..spec import GaitSpec
 from .base import Figure, StepContext, StepKind, no_earlier
 from .floquet import check_sequence_replay, sequence_attrs, sequence_start, sequence_torque
-from .gaits import schedule_replay
-from .shoot import ShootStep, gait_attrs, gait_line, shoot_gait
+from .shoot import ShootStep, gait_attrs, gait_line, schedule_replay, shoot_gait
 
 
 class BasinOffsets(StrictModel):

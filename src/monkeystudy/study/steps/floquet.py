@@ -20,12 +20,10 @@ from pydantic import Field, field_validator, model_validator
 
 from ...analysis.continuation import motor_torque
 from ...analysis.floquet import floquet, solve_fixed_point, sorted_eigs
-from ...analysis.sections import (
-    cycle_return_map, open_loop_return_map, search_return_map, section_state,
-)
-from ...analysis.variational import sequence_variational_jacobian, variational_jacobian
-from ...controllers import HorizontalSearch
-from ...simulate import evaluate_cycle_gaits, run_controller
+from ...analysis.sections import cycle_return_map
+from ...analysis.variational import sequence_variational_jacobian
+from ...controllers import SequenceGait, open_loop_gait
+from ...simulate import evaluate_cycle_gaits
 from .. import datasets as D
 from ..blocks import Task
 from ..errors import RunFailed
@@ -33,7 +31,7 @@ from ..models import Name, SectionPoint, StrictModel, unique
 from ..spec import GaitSpec, mirror_problem
 from .base import Figure, StepContext, StepKind, no_earlier
 from .refine import RefineStep, read_refined
-from .shoot import ShootStep, gait_attrs, gait_line, replay_torque, shoot_gait
+from .shoot import ShootStep, gait_attrs, gait_line, schedule_replay, shoot_gait
 
 #: multipliers within this distance of 1 are neutral (excluded from ``stable``)
 NEUTRAL_TOL = 1e-6
@@ -88,112 +86,71 @@ class FloquetStep(StrictModel):
 
 
 # --- tasks (run on the workers) ------------------------------------------------------------------
-def floquet_task(spec: GaitSpec, controller: str, *, gait: dict | None = None,
-                 search_start=None, fd_step: float = 1e-5) -> dict[str, Any]:
-    """Multipliers of one controller's return map on theta1 = 0 at its fixed point.
+def floquet_task(spec: GaitSpec, controller: str, *, gait: SequenceGait, z0,
+                 newton: bool, keep_unconverged: bool = False, schedule=None,
+                 fd_step: float = 1e-5) -> dict[str, Any]:
+    """Multipliers of ``gait``'s return map (:func:`~monkeystudy.analysis.cycle_return_map`,
+    exact timing) at a fixed point, labelled ``controller`` in the dataset.
 
-    ``open_loop``: the fixed point ``z = (0, dtheta1, dtheta2)`` of ``gait`` with its times;
-    ``search``: the state-based controller's fixed point, Newton from ``search_start``
-    (:func:`~monkeystudy.analysis.floquet.solve_fixed_point` with the variational Jacobian). The
-    Jacobian by variational equations and by central differences, both sets of multipliers
-    (sorted by decreasing modulus), ``map_defect = |P(z) - z|``, ``agreement = max|J - J_fd| /
-    max|J|``, ``stable`` (from the variational multipliers, neutral ones excluded).
+    ``z0 = (theta2 [rad], dtheta1, dtheta2 [rad s-1])`` is the fixed point, or with
+    ``newton`` the start of its Newton polish (:func:`~monkeystudy.analysis.floquet.
+    solve_fixed_point` with the variational Jacobian, ``theta2`` free); an unconverged
+    polish keeps its last iterate with ``keep_unconverged`` (a start far from the gait), the
+    start otherwise. ``schedule``: the recorded swap time and motor duration [s] of an
+    open-loop replay, reported as they are (else the cycle's). The Jacobian by variational
+    equations (:func:`~monkeystudy.analysis.variational.sequence_variational_jacobian`) and
+    by central differences, both sets of multipliers (sorted by decreasing modulus),
+    ``map_defect = |P(z) - z|``, ``agreement = max|J - J_fd| / max|J|``, ``stable`` (from
+    the variational multipliers, neutral ones excluded), and the cycle at the fixed point
+    (segment exit times [s], advance [m], error).
     """
     robot, integ = spec.robot, spec.integrator
-    out: dict[str, Any] = {"controller": controller, "newton_converged": 1,
-                           "newton_history": np.empty(0)}
-    if controller == "open_loop":
-        torque = replay_torque(spec, gait)
-        t_switch, t_motor = float(gait["t_switch"]), float(gait["t_motor"])
-        z = np.array([0.0, gait["dtheta1"], gait["dtheta2"]], float)
-        fmap = partial(open_loop_return_map, t_switch=t_switch, t_motor=t_motor, torque=torque,
-                       robot=robot, integrator=integ)
-        Jv = variational_jacobian("open_loop", z, t_switch=t_switch, t_motor=t_motor,
-                                  torque=torque, robot=robot, integrator=integ)
-    elif controller == "search":
-        torque = spec.torque
-        fmap = partial(search_return_map, torque=torque, robot=robot, integrator=integ)
-
-        def jac(q):
-            return variational_jacobian("search", q, torque=torque, robot=robot,
-                                        integrator=integ)
-
-        fp = solve_fixed_point(fmap, np.asarray(search_start, float), jacobian=jac)
-        z = fp.z
-        out["newton_converged"] = int(bool(fp.converged))
-        out["newton_history"] = np.asarray(fp.history, float)
-        Jv = jac(z)
-        res = run_controller(HorizontalSearch(torque), section_state(z), robot=robot,
-                             integrator=integ, log_capacity=16)
-        t_sw, t_off = (float(t) for t in res.segment_times[:2])
-        t_switch, t_motor = t_sw, t_off - t_sw
-    elif controller == "sequence":
-        return _sequence_floquet(spec, gait, fd_step, out)
-    else:
-        raise ValueError(f"controller must be 'open_loop', 'search' or 'sequence', got "
-                         f"{controller!r}")
-    fl = floquet(fmap, z, step=fd_step, neutral_tol=NEUTRAL_TOL)
-    lam = sorted_eigs(Jv)
-    neutral = np.abs(lam - 1.0) < NEUTRAL_TOL
-    out.update({
-        "fixed_point": np.asarray(z, float), "map_defect": float(fl.map_defect),
-        "jacobian": Jv, "jacobian_fd": fl.jacobian, "multipliers": lam,
-        "multipliers_fd": fl.multipliers,
-        "stable": int(bool(np.all(np.abs(lam[~neutral]) < 1.0))),
-        "neutral": int(neutral.sum()),
-        "agreement": float(np.abs(Jv - fl.jacobian).max() / np.abs(Jv).max()),
-        "t_switch": t_switch, "t_motor": t_motor, "torque": torque,
-    })
-    return out
-
-
-def _sequence_floquet(spec: GaitSpec, gait: dict, fd_step: float, out: dict) -> dict:
-    """Floquet analysis of a sequence gait's cycle from a refined start.
-
-    The refine step searched ``(dtheta1, dtheta2)`` at the section's ``theta2``; its best point
-    is close to, not on, a fixed point. Newton on the full return map (``theta2`` free, the
-    variational Jacobian) polishes it; the multipliers are taken at the polished point (or at
-    the refined one, with its ``map_defect``, if Newton fails: ``newton_converged`` 0).
-    """
-    robot, integ = spec.robot, spec.integrator
-    seq = spec.sequence
-    fmap = partial(cycle_return_map, gait=seq, robot=robot, integrator=integ)
+    gait = dataclasses.replace(gait, tick=0.0)
+    fmap = partial(cycle_return_map, gait=gait, robot=robot, integrator=integ)
 
     def jac(q):
-        return sequence_variational_jacobian(seq, q, robot=robot, integrator=integ)
+        return sequence_variational_jacobian(gait, q, robot=robot, integrator=integ)
 
-    z = np.array([seq.theta2, gait["dtheta1"], gait["dtheta2"]], float)
-    try:
-        fp = solve_fixed_point(fmap, z, jacobian=jac)
-        out["newton_converged"] = int(bool(fp.converged))
-        out["newton_history"] = np.asarray(fp.history, float)
-        if fp.converged:
-            z = fp.z
-    except RuntimeError:
-        out["newton_converged"] = 0
+    out: dict[str, Any] = {"controller": controller, "newton_converged": 1,
+                           "newton_history": np.empty(0)}
+    z = np.asarray(z0, float)
+    if newton:
+        try:
+            fp = solve_fixed_point(fmap, z, jacobian=jac)
+            out["newton_converged"] = int(bool(fp.converged))
+            out["newton_history"] = np.asarray(fp.history, float)
+            if fp.converged or keep_unconverged:
+                z = fp.z
+        except RuntimeError:
+            out["newton_converged"] = 0
     Jv = jac(z)
     fl = floquet(fmap, z, step=fd_step, neutral_tol=NEUTRAL_TOL)
     lam = sorted_eigs(Jv)
     neutral = np.abs(lam - 1.0) < NEUTRAL_TOL
-    at = dataclasses.replace(seq, theta2=float(z[0]))
+    at = dataclasses.replace(gait, theta2=float(z[0]))
     r = evaluate_cycle_gaits(np.array([[z[1], z[2]]]), at, robot=robot, integrator=integ)
+    t = r["t_segment"][0]
+    t_switch, t_motor = ((float(t[0]), float(t[1] - t[0])) if schedule is None else
+                         (float(schedule[0]), float(schedule[1])))
     out.update({
         "fixed_point": z, "map_defect": float(fl.map_defect), "jacobian": Jv,
         "jacobian_fd": fl.jacobian, "multipliers": lam, "multipliers_fd": fl.multipliers,
         "stable": int(bool(np.all(np.abs(lam[~neutral]) < 1.0))),
         "neutral": int(neutral.sum()),
         "agreement": float(np.abs(Jv - fl.jacobian).max() / np.abs(Jv).max()),
-        "t_switch": math.nan, "t_motor": math.nan, "torque": math.nan,
-        "t_segment": r["t_segment"][0], "x_advance": float(r["x_advance"][0]),
+        "t_switch": t_switch, "t_motor": t_motor, "torque": sequence_torque(gait),
+        "t_segment": t.copy(), "x_advance": float(r["x_advance"][0]),
         "y_advance": float(r["y_advance"][0]), "error": float(r["error"][0]),
     })
     return out
 
 
 # --- the dataset ---------------------------------------------------------------------------------
-def write_floquet(path: Path, attrs: dict, results: list[dict]) -> None:
-    """Write a floquet dataset from :func:`floquet_task`
-    results, one per controller (in the step's order)."""
+def write_floquet(path: Path, attrs: dict, results: list[dict], swap_motor: bool) -> None:
+    """Write a floquet dataset from :func:`floquet_task` results, one per controller (in the
+    step's order); the cycle's times as the 2009 study named them (``swap_motor``:
+    ``t_switch``, ``t_motor``, ``motor_torque``) or per segment (``t_segment``, the advance,
+    the error; the 2009 names NaN)."""
     with D.atomic_netcdf(path) as nc:
         D.add_label_coord(nc, "controller", [r["controller"] for r in results],
                      "return map: open_loop (recorded times) or search (state-based)")
@@ -231,15 +188,18 @@ def write_floquet(path: Path, attrs: dict, results: list[dict]) -> None:
              stack("neutral", np.int8))
         D.add_variable(nc, "agreement", ("controller",), np.float64,
              {"long_name": "max |J - J_fd| / max |J|", "units": "1"}, stack("agreement"))
+        def named(key):
+            return stack(key) if swap_motor else np.full(len(results), np.nan)
+
         D.add_variable(nc, "t_switch", ("controller",), np.float64,
              {"long_name": "swap time of the fixed point's cycle", "units": "s"},
-             stack("t_switch"))
+             named("t_switch"))
         D.add_variable(nc, "t_motor", ("controller",), np.float64,
              {"long_name": "motor-on duration of the fixed point's cycle", "units": "s"},
-             stack("t_motor"))
+             named("t_motor"))
         D.add_variable(nc, "motor_torque", ("controller",), np.float64,
-             {"long_name": "motor torque of the return map", "units": "N m"}, stack("torque"))
-        if "t_segment" in results[0]:       # a sequence gait's cycle
+             {"long_name": "motor torque of the return map", "units": "N m"}, named("torque"))
+        if not swap_motor:       # the cycle's segments
             D.add_index_coord(nc, "segment", len(results[0]["t_segment"]), D.SEGMENT_NOTE)
             D.add_variable(nc, "t_segment", ("controller", "segment"), np.float64,
                  D.GAIT_ATTRS["t_segment"], stack("t_segment"))
@@ -429,8 +389,21 @@ class FloquetKind(StepKind):
         else:
             g = shoot_gait(ctx, st.from_, st.solution) if "open_loop" in controllers else None
         ctx.state["gait"] = g
-        kw = {"gait": g, "search_start": list(st.search_start), "fd_step": st.fd_step}
-        return [Task(i, floquet_task, (ctx.spec, c), kw) for i, c in enumerate(controllers)]
+        tasks = []
+        for i, c in enumerate(controllers):
+            kw = {"fd_step": st.fd_step}
+            if c == "open_loop":       # the shoot's gait replayed with its times
+                gait, z, times = schedule_replay(ctx.spec, g)
+                kw.update(gait=open_loop_gait(gait, times), z0=z, newton=False,
+                          schedule=(float(g["t_switch"]), float(g["t_motor"])))
+            elif c == "search":        # the gait's own controller from search_start
+                kw.update(gait=ctx.spec.sequence, z0=list(st.search_start), newton=True,
+                          keep_unconverged=True)
+            else:                      # the gait's own controller from the refined start
+                kw.update(gait=ctx.spec.sequence, newton=True,
+                          z0=[ctx.spec.sequence.theta2, g["dtheta1"], g["dtheta2"]])
+            tasks.append(Task(i, floquet_task, (ctx.spec, c), kw))
+        return tasks
 
     def finish(self, ctx: StepContext, attrs: dict) -> str:
         st = ctx.step
@@ -444,7 +417,7 @@ class FloquetKind(StepKind):
             attrs.update(gait_attrs(st.from_, g))
             attrs["search_start"] = list(st.search_start)
         attrs.update(fd_step=st.fd_step, neutral_tol=NEUTRAL_TOL, controllers=controllers)
-        write_floquet(ctx.path, attrs, results)
+        write_floquet(ctx.path, attrs, results, swap_motor=ctx.spec.horizontal)
         parts = []
         for r in results:
             lam = np.abs(r["multipliers"])

@@ -7,14 +7,10 @@ import math
 
 import numpy as np
 
-from dataclasses import replace
-
-from ...analysis.replay import cycle_times, motorless
-from ...controllers import SequenceGait
+from ...analysis.replay import cycle_times
 from ...kernel import layout as L
 from ...kernel.layout import STATUS_NAMES
 from ..errors import RunFailed
-from ..spec import GaitSpec
 from .base import StepContext
 from .floquet import read_floquet_point, sequence_attrs, sequence_start
 from .refine import read_refined
@@ -74,19 +70,3 @@ def step_gait(ctx: StepContext, max_map_defect: float = MAX_MAP_DEFECT) -> dict:
             "t_switch": float(g["t_switch"]), "t_motor": float(g["t_motor"]),
             "t_end": float(g.get("t_end", math.nan)), "torque": replay_torque(ctx.spec, g),
             "source": source}
-
-
-
-
-def schedule_replay(spec: GaitSpec, g: dict,
-                    clock: str = "reset_at_vertical") -> tuple[SequenceGait, list, list]:
-    """The study's gait replayed open-loop with a recorded schedule ``g`` (``dtheta1``,
-    ``dtheta2`` [rad s-1], ``t_switch``, ``t_motor`` and, for a clock that runs on, its period
-    ``t_end`` [s]): ``(gait, section state, segment exit times [s])``. A schedule without a
-    motor phase (``t_motor`` 0) replays without the motor."""
-    gait = spec.sequence if float(g["t_motor"]) != 0.0 else motorless(spec.sequence)
-    z = [0.0, float(g["dtheta1"]), float(g["dtheta2"])]
-    if clock == "run_on":
-        gait, z = replace(gait, period=float(g["t_end"])), [0.0, *z]
-    t_switch = float(g["t_switch"])
-    return gait, z, [t_switch, t_switch + float(g["t_motor"])]

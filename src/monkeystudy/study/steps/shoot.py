@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Literal, Optional
 
@@ -16,7 +17,7 @@ from pydantic import Field, model_validator
 
 from ...analysis.sections import open_loop_return_map, section_state
 from ...analysis.shooting import shoot_grazing, shoot_horizontal
-from ...controllers import OpenLoop
+from ...controllers import OpenLoop, SequenceGait, motorless
 from ...kernel import layout as L
 from ...kernel.layout import STATUS_NAMES
 from ...simulate import evaluate_horizontal_gait, run_controller
@@ -81,6 +82,20 @@ class ShootStep(StrictModel):
 def replay_torque(spec: GaitSpec, gait: dict) -> float:
     """Motor torque [N m] of an open-loop replay of ``gait``: 0 if it has no motor phase."""
     return 0.0 if float(gait["t_motor"]) == 0.0 else float(spec.torque)
+
+
+def schedule_replay(spec: GaitSpec, g: dict,
+                    clock: str = "reset_at_vertical") -> tuple[SequenceGait, list, list]:
+    """The study's gait replayed open-loop with a recorded schedule ``g`` (``dtheta1``,
+    ``dtheta2`` [rad s-1], ``t_switch``, ``t_motor`` and, for a clock that runs on, its period
+    ``t_end`` [s]): ``(gait, section state, segment exit times [s])``. A schedule without a
+    motor phase (``t_motor`` 0) replays without the motor."""
+    gait = spec.sequence if float(g["t_motor"]) != 0.0 else motorless(spec.sequence)
+    z = [0.0, float(g["dtheta1"]), float(g["dtheta2"])]
+    if clock == "run_on":
+        gait, z = replace(gait, period=float(g["t_end"])), [0.0, *z]
+    t_switch = float(g["t_switch"])
+    return gait, z, [t_switch, t_switch + float(g["t_motor"])]
 
 
 def _norm_or_nan(v) -> float:

@@ -27,8 +27,8 @@ from ..models import Name, OpenLoopSettings, Replay, StrictModel
 from ..spec import GaitSpec
 from .base import Figure, StepContext, StepKind, max_drop_of, no_earlier
 from .floquet import check_sequence_replay, sequence_attrs, sequence_start
-from .gaits import schedule_replay
 from .refine import RefineStep, read_refined
+from .shoot import schedule_replay
 
 
 class StabilityStep(StrictModel):

@@ -34,10 +34,10 @@ from ..models import Name, OpenLoopSettings, Replay, StrictModel
 from ..spec import GaitSpec
 from .base import Figure, StepContext, StepKind, max_drop_of, no_earlier
 from .design import DesignStep
-from .gaits import MAX_MAP_DEFECT, schedule_replay, step_gait
+from .gaits import MAX_MAP_DEFECT, step_gait
 from .floquet import FloquetStep, check_sequence_replay
 from .refine import RefineStep
-from .shoot import ShootStep
+from .shoot import ShootStep, schedule_replay
 
 def _level(v):
     """A noise value: a number >= 0, or a non-empty list of them (one per level)."""

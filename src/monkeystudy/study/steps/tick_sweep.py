@@ -19,7 +19,7 @@ from pydantic import Field, field_validator
 
 from ...analysis.floquet import floquet
 from ...analysis.replay import cycle_times, open_loop_gait, sequence_cycles, sweep_ticks
-from ...analysis.sections import cycle_return_map, open_loop_return_map
+from ...analysis.sections import cycle_return_map
 from ...controllers import SequenceGait
 from ...kernel.layout import STATUS_NAMES
 from .. import datasets as D
@@ -31,8 +31,7 @@ from .floquet import (
     FloquetStep, check_sequence_replay, read_floquet_multipliers, sequence_attrs,
     sequence_start, sequence_torque,
 )
-from .gaits import schedule_replay
-from .shoot import ShootStep, gait_attrs, gait_line, shoot_gait
+from .shoot import ShootStep, gait_attrs, gait_line, schedule_replay, shoot_gait
 
 
 class TickSweepStep(StrictModel):
@@ -97,15 +96,9 @@ def tick_sweep_task(spec: GaitSpec, gait: SequenceGait, z_star, *, times, ticks,
     out = sweep_ticks(ticks, cycles, error_bound, run_one)
     lead, lam = math.nan, np.full(3, np.nan + 0j)
     if leading_multiplier:
-        if spec.horizontal:
-            fmap = partial(open_loop_return_map, t_switch=float(times[0]),
-                           t_motor=float(times[1]) - float(times[0]),
-                           torque=sequence_torque(gait), robot=robot, integrator=integ)
-        else:
-            g = open_loop_gait(gait, times) if replay == "open_loop" else gait
-            fmap = partial(cycle_return_map, gait=dataclasses.replace(g, tick=0.0),
-                           robot=robot, integrator=integ)
-        fl = floquet(fmap, z_star, step=fd_step)
+        g = open_loop_gait(gait, times) if replay == "open_loop" else gait
+        fl = floquet(partial(cycle_return_map, gait=dataclasses.replace(g, tick=0.0),
+                             robot=robot, integrator=integ), z_star, step=fd_step)
         lam = np.asarray(fl.multipliers, complex)
         lead = float(np.abs(lam[0]))
     return dict(out, leading_multiplier=lead, multipliers=lam, torque=sequence_torque(gait),
