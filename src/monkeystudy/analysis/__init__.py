@@ -4,7 +4,7 @@
   gait's open-loop replay and state-based search controller by name).
 * :mod:`.floquet` - Floquet multipliers by finite differences, fixed points by Newton.
 * :mod:`.variational` - the same Jacobians by variational equations with saltation matrices.
-* :mod:`.shooting` - exact fixed points of the horizontal gait (Gauss-Newton, grazing border).
+* :mod:`.shooting` - exact fixed points of a gait's cycle (Gauss-Newton; the grazing border).
 * :mod:`.search` - Nelder-Mead refinement of a gait start (the study's fminsearch).
 * :mod:`.continuation` - gait families in a robot or motor parameter, with bifurcations.
 * :mod:`.replay` - many cycles: a gait's own controller or its open-loop replay, basins.
@@ -26,8 +26,8 @@ _EXPORTS = {
     "floquet": ("FixedPointResult", "FloquetResult", "floquet", "jacobian_fd",
                 "solve_fixed_point", "sorted_eigs"),
     "variational": ("sequence_variational_jacobian", "variational_jacobian"),
-    "shooting": ("GrazingResult", "ShootResult", "free_end_after", "shoot_grazing",
-                 "shoot_horizontal"),
+    "shooting": ("GrazingResult", "ShootResult", "free_end_after", "shoot_cycle",
+                 "shoot_grazing", "shoot_horizontal"),
     "search": ("refine_gait",),
     "continuation": ("Branch", "CycleBranch", "continue_cycle", "continue_grazing",
                      "mirror_robot", "with_parameter"),

@@ -1,4 +1,4 @@
-"""The ``shoot`` step: exact fixed points of the horizontal gait by Newton shooting, from given
+"""The ``shoot`` step: exact fixed points of the study's gait by Newton shooting, from given
 starts or from a refine step's result (:mod:`monkeystudy.analysis.shooting`).
 
 Later steps (floquet, tick_sweep, basin, continuation) take their gait from a shoot step's
@@ -6,21 +6,21 @@ dataset: :func:`shoot_gait` picks the lowest-error usable solution (or ``solutio
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
-from dataclasses import replace
 from pathlib import Path
 from typing import Any, Literal, Optional
 
 import numpy as np
 from pydantic import Field, model_validator
 
-from ...analysis.sections import open_loop_return_map, section_state
-from ...analysis.shooting import shoot_grazing, shoot_horizontal
-from ...controllers import OpenLoop, SequenceGait, motorless
+from ...analysis.sections import cycle_return_map
+from ...analysis.shooting import shoot_cycle, shoot_grazing
+from ...controllers import SequenceGait, motorless, open_loop_gait
 from ...kernel import layout as L
 from ...kernel.layout import STATUS_NAMES
-from ...simulate import evaluate_horizontal_gait, run_controller
+from ...simulate import evaluate_cycle_gaits
 from .. import datasets as D
 from ..blocks import Task
 from ..errors import RunFailed
@@ -93,7 +93,7 @@ def schedule_replay(spec: GaitSpec, g: dict,
     gait = spec.sequence if float(g["t_motor"]) != 0.0 else motorless(spec.sequence)
     z = [0.0, float(g["dtheta1"]), float(g["dtheta2"])]
     if clock == "run_on":
-        gait, z = replace(gait, period=float(g["t_end"])), [0.0, *z]
+        gait, z = dataclasses.replace(gait, period=float(g["t_end"])), [0.0, *z]
     t_switch = float(g["t_switch"])
     return gait, z, [t_switch, t_switch + float(g["t_motor"])]
 
@@ -103,47 +103,40 @@ def _norm_or_nan(v) -> float:
     return float(np.linalg.norm(v)) if np.all(np.isfinite(v)) else math.nan
 
 
-# --- shoot -----------------------------------------------------------------------------------
-def open_loop_cycle_times(z, t_switch, t_motor, torque, robot, integ) -> tuple[float, int]:
-    """``(t_end [s], status)`` of one open-loop cycle from section state ``z``."""
-    res = run_controller(OpenLoop(t_switch, t_motor, torque, clock="reset_at_vertical"),
-                         section_state(z), robot=robot, integrator=integ, cycles=1,
-                         log_capacity=16)
-    return float(res.segment_times[2]), int(res.status)
-
-
 def shoot_task(spec: GaitSpec, start: tuple[float, float], *, method: str = "both",
                tol: float = 1e-14, max_iter: int = 40) -> dict[str, Any]:
-    """Shoot for exact gaits from one ``start`` (dtheta1, dtheta2) [rad s-1].
+    """Shoot for exact gaits of the study's gait from one ``start`` (dtheta1, dtheta2)
+    [rad s-1], with exact event timing.
 
     Returns ``{"start", "candidates": [...], "failures": [...]}``; a candidate is a dict
     ``dtheta1, dtheta2, t_switch, t_motor, t_end, error, residual_norm, converged, method,
-    status, history, message``. ``grazing``: :func:`~monkeystudy.analysis.shooting.shoot_grazing` from
-    the swap time of the gait at the start (exact events); its error is that of the open-loop
-    return map with no motor, ``|P(z) - z|^2``, ``t_motor = 0``. ``gauss_newton``:
-    :func:`~monkeystudy.analysis.shooting.shoot_horizontal` (its error, times and history as found).
+    status, history, message``. ``grazing``: :func:`~monkeystudy.analysis.shooting.shoot_grazing`
+    from the swap time of the gait's cycle at the start; its error is that of the motorless
+    open-loop replay's return map, ``|P(z) - z|^2``, ``t_motor = 0``, ``t_end`` that
+    replay's section crossing. ``gauss_newton``: :func:`~monkeystudy.analysis.shooting.
+    shoot_cycle` (its error, times and history as found).
     """
     robot, integ = spec.robot, spec.integrator
-    torque = spec.torque
+    gait = dataclasses.replace(spec.sequence, tick=0.0)
     d1, d2 = float(start[0]), float(start[1])
     cands: list[dict] = []
     failures: list[str] = []
     if method in ("grazing", "both"):
-        g = evaluate_horizontal_gait(d1, d2, robot=robot, torque=torque, tick=0.0,
-                                     integrator=integ)
-        if g.status != L.ST_OK or not math.isfinite(g.t_switch):
+        one = evaluate_cycle_gaits([[d1, d2]], gait, robot=robot, integrator=integ)
+        status, t_guess = int(one["status"][0]), float(one["t_segment"][0, 0])
+        if status != L.ST_OK or not math.isfinite(t_guess):
             failures.append(f"grazing: no gait at the start (status "
-                            f"{L.STATUS_NAMES[int(g.status)]}), no swap time to start from")
+                            f"{L.STATUS_NAMES[status]}), no swap time to start from")
         else:
-            gr = shoot_grazing((d1, d2), g.t_switch, robot=robot, integrator=integ, tol=tol,
+            gr = shoot_grazing((d1, d2), t_guess, robot=robot, integrator=integ, tol=tol,
                                max_iter=max_iter)
-            z = np.array([0.0, gr.dtheta1, gr.dtheta2])
+            z = np.array([gait.theta2, gr.dtheta1, gr.dtheta2])
             if not np.all(np.isfinite(z)) or not math.isfinite(gr.t_switch):
                 failures.append("grazing: Newton diverged (non-finite iterate)")
             else:
-                zn, st = open_loop_return_map(z, t_switch=gr.t_switch, t_motor=0.0, torque=0.0,
-                                              robot=robot, integrator=integ)
-                t_end, _ = open_loop_cycle_times(z, gr.t_switch, 0.0, 0.0, robot, integ)
+                replay = open_loop_gait(motorless(gait), [gr.t_switch, gr.t_switch])
+                zn, st = cycle_return_map(z, replay, robot=robot, integrator=integ)
+                t_end = cycle_times_or_nan(replay, z, robot, integ)
                 ok = int(st) == L.ST_OK
                 cands.append({
                     "dtheta1": gr.dtheta1, "dtheta2": gr.dtheta2, "t_switch": gr.t_switch,
@@ -152,13 +145,13 @@ def shoot_task(spec: GaitSpec, start: tuple[float, float], *, method: str = "bot
                     "residual_norm": _norm_or_nan(gr.residual),
                     "converged": int(bool(gr.converged)), "method": METHOD_GRAZING,
                     "status": int(st), "history": np.asarray(gr.history, float),
-                    "message": (f"grazing from t_guess {g.t_switch:.6g} s: "
+                    "message": (f"grazing from t_guess {t_guess:.6g} s: "
                                 + ("converged" if gr.converged else "not converged")
                                 + f" after {len(gr.history) - 1} iterations"),
                 })
     if method in ("gauss_newton", "both"):
-        sh = shoot_horizontal((d1, d2), robot=robot, torque=torque, integrator=integ, tol=tol,
-                              max_iter=max_iter)
+        sh = shoot_cycle((d1, d2), gait, robot=robot, integrator=integ, tol=tol,
+                         max_iter=max_iter)
         if not (math.isfinite(sh.dtheta1) and math.isfinite(sh.dtheta2)) or not sh.history:
             failures.append(f"gauss_newton: {sh.message} (status {sh.status.name.lower()})")
         else:
@@ -171,6 +164,14 @@ def shoot_task(spec: GaitSpec, start: tuple[float, float], *, method: str = "bot
                 "message": f"gauss_newton: {sh.message} after {sh.iterations} iterations",
             })
     return {"start": (d1, d2), "candidates": cands, "failures": failures}
+
+
+def cycle_times_or_nan(gait: SequenceGait, z, robot, integrator) -> float:
+    """The section crossing [s] ending one cycle of ``gait`` from section state ``z`` (NaN
+    when the cycle does not close)."""
+    r = evaluate_cycle_gaits([[z[1], z[2]]], dataclasses.replace(gait, theta2=float(z[0])),
+                             robot=robot, integrator=integrator)
+    return float(r["t_segment"][0, -1])
 
 
 def solutions_summary(sols: list[dict], failures: list[str]) -> str:
