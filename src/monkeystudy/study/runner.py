@@ -24,7 +24,7 @@ from typing import Any, Callable, Iterator
 import numpy as np
 
 from .. import __version__, compiling
-from ..controllers import Integrator, OpenLoop, program_may_fly
+from ..controllers import Integrator, program_may_fly
 from ..kernel import KERNEL_CACHE_DIR
 from ..kernel.layout import PHASE_SWING, ST_UNREACHABLE
 from ..kernel.variational import (
@@ -98,10 +98,7 @@ def load_kernels(spec: GaitSpec, *, runs: bool = False, variational: bool = Fals
     it is waited for or stopped once the gait evaluation is loaded, before anything else
     compiles.
     """
-    ctrl = None
-    if runs:
-        ctrl = (spec.sequence.controller() if not spec.horizontal else
-                OpenLoop(0.01, 0.01, spec.torque, tick=spec.tick))
+    ctrl = spec.sequence.controller() if runs else None
     helper = None
     if ahead:
         helper = compiling.start(spec.integrator.method,
@@ -115,8 +112,7 @@ def load_kernels(spec: GaitSpec, *, runs: bool = False, variational: bool = Fals
         compiling.stop(helper)
     if ctrl is not None:
         run_controller(ctrl, initial_state(1.0, 11.0), robot=spec.robot,
-                       integrator=spec.integrator, t_end=0.05,
-                       sample_dt=0.01 if spec.horizontal else 0.0)
+                       integrator=spec.integrator, t_end=0.05, sample_dt=0.01)
     if variational:
         # the variational equations' kernels, with the argument types
         # analysis.variational.sequence_variational_jacobian passes
@@ -186,7 +182,8 @@ class StudyRun:
 
     def _context(self, s: StepPlan) -> StepContext:
         out = self.plan.out
-        deps = {d: Dependency(self.by_name[d].step, self.by_name[d].path) for d in s.deps}
+        deps = {d: Dependency(self.by_name[d].step, self.by_name[d].path, self.by_name[d].kind)
+                for d in s.deps}
         return StepContext(step=s.step, study=self.plan.loaded.study, spec=self.spec,
                            path=s.path, out=out, key=s.key, deps=deps, blocks=s.blocks,
                            read_block=lambda b, s=s: self._block_arrays(s, b))

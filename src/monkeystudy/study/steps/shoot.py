@@ -1,8 +1,9 @@
 """The ``shoot`` step: exact fixed points of the study's gait by Newton shooting, from given
 starts or from a refine step's result (:mod:`monkeystudy.analysis.shooting`).
 
-Later steps (floquet, tick_sweep, basin, continuation) take their gait from a shoot step's
-dataset: :func:`shoot_gait` picks the lowest-error usable solution (or ``solution: i``).
+Later steps (floquet, tick_sweep, basin, continuation, survival, design) take their gait from a
+shoot step's dataset (:func:`~monkeystudy.study.steps.gait_source.shoot_start`): the
+lowest-error usable solution (or ``solution: i``).
 """
 from __future__ import annotations
 
@@ -26,12 +27,11 @@ from ..blocks import Task
 from ..errors import RunFailed
 from ..models import Name, Point, StrictModel
 from ..spec import GaitSpec
-from .base import Figure, StepContext, StepKind, no_earlier
-from .refine import RefineStep, read_refined
+from .base import Dependency, Figure, StepContext, StepKind
+from .gait_source import (
+    METHOD_GAUSS_NEWTON, METHOD_GRAZING, METHOD_NAMES, read_start, shoot_start,
+)
 
-#: shoot ``method`` flag values (dataset variable ``method``)
-METHOD_GAUSS_NEWTON, METHOD_GRAZING = 0, 1
-METHOD_NAMES = ("gauss_newton", "grazing")
 
 #: shoot ``method`` flags
 SHOOT_METHOD_ATTRS = {
@@ -56,9 +56,7 @@ class ShootStep(StrictModel):
     starts: Optional[list[Point]] = Field(None, min_length=1,
                                           description="start points (dtheta1, dtheta2) "
                                                       "[rad s-1]")
-    from_: Optional[Name] = Field(None, alias="from",
-                                  description="an earlier refine step: its lowest-error "
-                                              "result is the start (instead of starts)")
+    from_: Optional[Name] = Field(None, alias="from")  # described by the kind (accepts)
     method: Literal["grazing", "gauss_newton", "both"] = Field(
         "both", description="grazing (collisionless swap), gauss_newton (gait residual) or "
                             "both from every start")
@@ -79,25 +77,6 @@ class ShootStep(StrictModel):
 
 
 # --- tasks (run on the workers) ------------------------------------------------------------------
-def replay_torque(spec: GaitSpec, gait: dict) -> float:
-    """Motor torque [N m] of an open-loop replay of ``gait``: 0 if it has no motor phase."""
-    return 0.0 if float(gait["t_motor"]) == 0.0 else float(spec.torque)
-
-
-def schedule_replay(spec: GaitSpec, g: dict,
-                    clock: str = "reset_at_vertical") -> tuple[SequenceGait, list, list]:
-    """The study's gait replayed open-loop with a recorded schedule ``g`` (``dtheta1``,
-    ``dtheta2`` [rad s-1], ``t_switch``, ``t_motor`` and, for a clock that runs on, its period
-    ``t_end`` [s]): ``(gait, section state, segment exit times [s])``. A schedule without a
-    motor phase (``t_motor`` 0) replays without the motor."""
-    gait = spec.sequence if float(g["t_motor"]) != 0.0 else motorless(spec.sequence)
-    z = [0.0, float(g["dtheta1"]), float(g["dtheta2"])]
-    if clock == "run_on":
-        gait, z = dataclasses.replace(gait, period=float(g["t_end"])), [0.0, *z]
-    t_switch = float(g["t_switch"])
-    return gait, z, [t_switch, t_switch + float(g["t_motor"])]
-
-
 def _norm_or_nan(v) -> float:
     v = np.asarray(v, float)
     return float(np.linalg.norm(v)) if np.all(np.isfinite(v)) else math.nan
@@ -287,76 +266,13 @@ def write_shoot(path: Path, attrs: dict, solutions: list[dict]) -> None:
                                solution_starts=[s["starts"] for s in solutions]))
 
 
-def read_shoot(path: Path) -> list[dict]:
-    """The solutions of a shoot dataset: ``[{dtheta1, dtheta2, t_switch, t_motor, t_end,
-    error, residual_norm, converged, method, status}, ...]`` (solution order)."""
-    keys = ("dtheta1", "dtheta2", "t_switch", "t_motor", "t_end", "error", "residual_norm",
-            "converged", "method", "status")
-    vals = D.read_variables(path, keys)
-    n = len(vals["dtheta1"])
-    out = []
-    for i in range(n):
-        d = {k: float(vals[k][i]) for k in keys}
-        for k in ("converged", "method", "status"):
-            d[k] = int(d[k])
-        d["index"] = i
-        out.append(d)
-    return out
-
-
-# --- the gait later steps use --------------------------------------------------------------------
-def usable(g: dict, grazing: bool) -> bool:
-    keys = ("dtheta1", "dtheta2", "t_switch", "t_motor", "error")
-    ok = g["status"] == 0 and all(math.isfinite(g[k]) for k in keys)
-    if grazing:
-        ok = ok and g["method"] == METHOD_GRAZING and g["converged"] == 1
-    return ok
-
-
-def shoot_gait(ctx: StepContext, source: str, solution: int | None, grazing: bool = False) -> dict:
-    """The gait a step uses from shoot step ``source`` (its dataset must exist)."""
-    sols = read_shoot(ctx.deps[source].path)
-    what = "converged grazing gait" if grazing else "usable gait"
-    if solution is not None:
-        if solution >= len(sols):
-            raise RunFailed(f"{ctx.name}: solution {solution} requested, shoot step {source!r} "
-                            f"found {len(sols)}")
-        g = sols[solution]
-        if not usable(g, grazing):
-            raise RunFailed(f"{ctx.name}: solution {solution} of shoot step {source!r} is not a "
-                            f"{what} (status {g['status']}, error {g['error']:.3g}, method "
-                            f"{METHOD_NAMES[g['method']]}, converged {g['converged']})")
-        return g
-    good = [g for g in sols if usable(g, grazing)]
-    if not good:
-        found = "; ".join(f"{METHOD_NAMES[g['method']]} error {g['error']:.3g} status "
-                          f"{g['status']}" for g in sols) or "nothing"
-        raise RunFailed(f"{ctx.name}: shoot step {source!r} produced no {what} (found: {found})")
-    return min(good, key=lambda g: (g["error"], g["index"]))
-
-
-def gait_attrs(source: str, g: dict | None) -> dict:
-    if g is None:
-        return {"shoot_step": source or "", "solution": -1}
-    return {"shoot_step": source, "solution": int(g["index"]), "dtheta1": g["dtheta1"],
-            "dtheta2": g["dtheta2"], "t_switch": g["t_switch"], "t_motor": g["t_motor"],
-            "gait_error": g["error"], "gait_method": METHOD_NAMES[g["method"]]}
-
-
-def gait_line(a) -> str:
-    """One line naming the shoot gait a dataset's attributes say it used."""
-    if int(a.get("solution", -1)) < 0:
-        return "no shoot gait used"
-    return (f"gait: solution {a.get('solution')} of {a.get('shoot_step')!r} "
-            f"({a.get('gait_method')}), ({float(a['dtheta1']):.10g}, "
-            f"{float(a['dtheta2']):.10g}) rad s-1, t_switch {float(a['t_switch']):.6g} s, "
-            f"t_motor {float(a['t_motor']):.6g} s, error {float(a['gait_error']):.3g}")
-
-
 # --- the kind ------------------------------------------------------------------------------------
 class ShootKind(StepKind):
     name = "shoot"
     model = ShootStep
+    accepts = ("refine",)
+    takes = "its refined rates start the shooting (instead of starts)"
+    provides = "its lowest-error usable solution (or solution: i)"
     unit = "starts"
     figures = (
         Figure("newton", "residual norm per Newton iteration",
@@ -365,22 +281,19 @@ class ShootKind(StepKind):
                "converge."),
     )
 
-    def check(self, study, index, step: ShootStep, seen) -> list:
-        if step.from_ is not None and not isinstance(seen.get(step.from_), RefineStep):
-            return [(("steps", index, "from"), no_earlier(step.from_, "refine",
-                                                          seen.get(step.from_)))]
-        return []
-
-    def n_tasks(self, step: ShootStep, gait_kind: str) -> int:
+    def n_tasks(self, step: ShootStep, gait) -> int:
         return len(step.starts) if step.starts is not None else 1
+
+    def hand_on(self, dep: Dependency, ctx: StepContext, **options):
+        return read_start(shoot_start, dep, ctx, options)
 
     def start(self, ctx: StepContext) -> list[Task]:
         st = ctx.step
         if st.from_ is not None:
-            g, idx = read_refined(ctx.deps[st.from_].path)
-            if not (math.isfinite(g["dtheta1"]) and math.isfinite(g["dtheta2"])):
+            g = ctx.handed_on()
+            if not (math.isfinite(g.z[-2]) and math.isfinite(g.z[-1])):
                 raise RunFailed(f"{ctx.name}: refine step {st.from_!r} produced no usable start")
-            starts = [(g["dtheta1"], g["dtheta2"])]
+            starts = [(g.z[-2], g.z[-1])]
         else:
             starts = [(float(p[0]), float(p[1])) for p in st.starts]
         ctx.state["starts"] = starts

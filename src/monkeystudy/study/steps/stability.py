@@ -1,10 +1,10 @@
 """The ``stability`` step: a gait run for many cycles from its start, the study's figures 5-8.
 
-Horizontal gait: the refined gait replayed open-loop from its recorded ``t_switch``,
-``t_motor`` (the clock restarted at each vertical crossing, or running on with the gait's
-period). Sequence gait: from a floquet step's fixed point or a refine step's start, as its own
-controller or replayed open-loop (:mod:`monkeystudy.analysis.replay`). Per cycle: the error
-against the start, the kinetic energy and the attached end's height; and a sampled trajectory.
+From a refine step's start or a floquet step's fixed point (:mod:`.gait_source`), as its own
+controller or replayed open-loop (:mod:`monkeystudy.analysis.replay`): the horizontal gait's
+replay keeps the refined gait's recorded ``t_switch``, ``t_motor`` (the clock restarted at each
+vertical crossing, or running on with the gait's period). Per cycle: the error against the
+start, the kinetic energy and the attached end's height; and a sampled trajectory.
 """
 from __future__ import annotations
 
@@ -20,15 +20,13 @@ from ...analysis.replay import sequence_cycles
 from ...controllers import SequenceGait
 from ...kernel import layout as L
 from ...kernel.layout import STATUS_NAMES
-from ...simulate import evaluate_cycle_gaits, physical_points
+from ...simulate import evaluate_cycle_gaits
 from .. import datasets as D
 from ..blocks import Task
 from ..models import Name, OpenLoopSettings, Replay, StrictModel
 from ..spec import GaitSpec
-from .base import Figure, StepContext, StepKind, max_drop_of, no_earlier
-from .floquet import check_sequence_replay, sequence_attrs, sequence_start
-from .refine import RefineStep, read_refined
-from .shoot import schedule_replay
+from .base import Figure, StepContext, StepKind, max_drop_of
+from .gait_source import run_problems
 
 
 class StabilityStep(StrictModel):
@@ -36,8 +34,7 @@ class StabilityStep(StrictModel):
 
     name: Name
     kind: Literal["stability"]
-    from_: Name = Field(alias="from", description="an earlier refine step (a sequence gait: "
-                                                  "or a floquet step, its fixed point)")
+    from_: Name = Field(alias="from")  # described by the kind (accepts)
     cycles: int = Field(ge=1, le=100_000, description="number of cycles")
     controller: OpenLoopSettings = Field(default_factory=OpenLoopSettings)
     replay: Replay = None
@@ -51,28 +48,6 @@ class StabilityStep(StrictModel):
 
 
 # --- tasks (run on the workers) ------------------------------------------------------------------
-#: the frame's angles and rates a stability dataset samples: (name, index in the 8-state)
-TRAJECTORY_ANGLES = (("theta1", L.TH1), ("theta2", L.TH2), ("theta1_dot", L.DTH1),
-                     ("theta2_dot", L.DTH2))
-
-
-def run_record(res) -> dict[str, Any]:
-    """A multi-cycle run's status, counts and sampled trajectory for a stability dataset:
-    world positions [m] of A, the joint and B; the frame's angles [rad] and rates [rad s-1];
-    which end the frame hangs from; the phase; the motor torque [N m]."""
-    flipped = res.sample_mode[:, L.M_FLIPPED]
-    pts = physical_points(res.params, res.sample_state, flipped)
-    return {
-        "status": int(res.status), "cycles_completed": int(res.counts[L.K_CYCLES]),
-        "time": res.sample_t.copy(), "A": pts["A"], "joint": pts["joint"], "B": pts["B"],
-        **{name: res.sample_state[:, i].copy() for name, i in TRAJECTORY_ANGLES},
-        "attached_end": flipped.astype(np.int8),
-        "phase": res.sample_mode[:, L.M_PHASE].astype(np.int8),
-        "motor_torque": res.sample_mode[:, L.M_TORQUE].copy(),
-        "steps": int(res.counts[L.K_STEPS]), "nfev": int(res.counts[L.K_NFEV]),
-    }
-
-
 def empty_record(cycles: int) -> dict[str, Any]:
     """The record of a run that was not run: every cycle NaN, no samples."""
     nan = np.full(cycles, np.nan)
@@ -81,7 +56,7 @@ def empty_record(cycles: int) -> dict[str, Any]:
         "error": nan.copy(), "kinetic_energy": nan.copy(), "pivot_height": nan.copy(),
         "x_advance": nan.copy(), "t_cross": nan.copy(), "t_swap": nan.copy(),
         "time": np.empty(0), "A": np.empty((0, 2)), "joint": np.empty((0, 2)),
-        "B": np.empty((0, 2)), **{name: np.empty(0) for name, _ in TRAJECTORY_ANGLES},
+        "B": np.empty((0, 2)), **{name: np.empty(0) for name, _ in D.TRAJECTORY_ANGLES},
         "attached_end": np.empty(0, np.int8), "phase": np.empty(0, np.int8),
         "motor_torque": np.empty(0), "steps": 0, "nfev": 0,
     }
@@ -123,18 +98,19 @@ def stability_task(spec: GaitSpec, gait: SequenceGait, z0, *, times, cycles: int
     for key in PER_CYCLE:
         v = getattr(r, key)[:cycles]
         out[key][:len(v)] = v
-    out.update(run_record(r.run))
+    out.update(D.run_record(r.run))
     return out
 
 
 # --- the dataset ---------------------------------------------------------------------------------
-def write_stability(path: Path, attrs: dict, result: dict, gait: dict) -> None:
-    """Write a stability dataset from a :func:`stability_task`
-    result; ``gait`` is the replayed refined gait (rates [rad s-1], times [s])."""
+def write_stability(path: Path, attrs: dict, result: dict, z, records: str) -> None:
+    """Write a stability dataset from a :func:`stability_task` result run from section state
+    ``z`` (its rates [rad s-1] are the dataset's ``dtheta1``, ``dtheta2``), the cycles recorded
+    at the section or from the swap (``records``, :class:`~monkeystudy.controllers.
+    SequenceGait`)."""
     n = len(result["error"])
     ns = len(result["time"])
-    at = "section crossing" if attrs.get("replay") in ("gait", "open_loop") and \
-        "section_theta1" in attrs else "vertical crossing"
+    at = "section crossing" if records == "section" else "vertical crossing"
     with D.atomic_netcdf(path) as nc:
         nc.createDimension("cycle", n)
         nc.createDimension("sample", ns)
@@ -162,16 +138,16 @@ def write_stability(path: Path, attrs: dict, result: dict, gait: dict) -> None:
         D.add_variable(nc, "status", (), np.int8, dict(D.STATUS_ATTRS, long_name="why the run stopped "
                                              "(ok: all cycles ran)"), result["status"])
         D.add_variable(nc, "dtheta1", (), np.float64, dict(D.DTHETA1, long_name="replayed " +
-                                                 D.DTHETA1["long_name"]), gait["dtheta1"])
+                                                 D.DTHETA1["long_name"]), z[-2])
         D.add_variable(nc, "dtheta2", (), np.float64, dict(D.DTHETA2, long_name="replayed " +
-                                                 D.DTHETA2["long_name"]), gait["dtheta2"])
+                                                 D.DTHETA2["long_name"]), z[-1])
         D.add_variable(nc, "time", ("sample",), np.float64, {"long_name": "time", "units": "s"},
              result["time"])
         for key, what in (("A", "end A"), ("joint", "the joint"), ("B", "end B")):
             D.add_variable(nc, key, ("sample", "xy"), np.float64,
                  {"long_name": f"world position of {what}", "units": "m"}, result[key],
                  coordinates="time")
-        for name, _ in TRAJECTORY_ANGLES:
+        for name, _ in D.TRAJECTORY_ANGLES:
             rate = name.endswith("_dot")
             D.add_variable(nc, name, ("sample",), np.float64,
                            {"long_name": ("rate of " if rate else "") + (
@@ -188,8 +164,7 @@ def write_stability(path: Path, attrs: dict, result: dict, gait: dict) -> None:
         D.add_variable(nc, "motor_torque", ("sample",), np.float64,
              {"long_name": "motor torque on theta2 of the frame", "units": "N m"},
              result["motor_torque"], coordinates="time")
-        times = {k: float(gait[k]) for k in ("t_switch", "t_motor") if k in gait}
-        D.set_global_attrs(nc, dict(attrs, **times,
+        D.set_global_attrs(nc, dict(attrs,
                                cycles_completed=int(result["cycles_completed"]),
                                steps=int(result["steps"]), nfev=int(result["nfev"])))
 
@@ -199,6 +174,7 @@ class StabilityKind(StepKind):
     name = "stability"
     model = StabilityStep
     gait_kinds = ("horizontal", "sequence")
+    accepts = ("refine", "floquet")
     unit = "runs"
     figures = (
         Figure("error", "error per cycle",
@@ -219,56 +195,26 @@ class StabilityKind(StepKind):
                "longest, and whether they grow at the same rate.", across=True),
     )
 
-    def check(self, study, index, step: StabilityStep, seen) -> list:
-        if study.gait.kind == "sequence":
-            return check_sequence_replay(study, index, step, seen)
-        out = []
-        if step.replay == "gait":
-            out.append((("steps", index, "replay"), "the horizontal gait is replayed "
-                        "open-loop (replay: gait needs a sequence gait)"))
-        ref = seen.get(step.from_)
-        if not isinstance(ref, RefineStep):
-            out.append((("steps", index, "from"), no_earlier(step.from_, "refine", ref)))
-        elif step.start_index is not None and step.start_index >= ref.n_starts:
-            out.append((("steps", index, "start_index"),
-                        f"must be < {ref.n_starts} (the starts of {ref.name!r})"))
-        return out
+    def check_step(self, study, index, step: StabilityStep, ref, seen) -> list:
+        return run_problems(study, index, step, ref)
 
     def start(self, ctx: StepContext) -> list[Task]:
         st = ctx.step
         tick = st.controller.tick if st.controller.tick is not None else ctx.study.gait.tick
-        max_drop = max_drop_of(st, ctx.spec)
-        if ctx.gait_kind == "sequence":
-            gait = sequence_start(ctx)
-            kw = {"cycles": st.cycles, "tick": tick, "sample_dt": st.sample_dt,
-                  "max_drop": max_drop, "replay": st.replay or "gait", "times": None}
-            ctx.state.update(gait=gait, options=kw)
-            return [Task(0, stability_task, (ctx.spec, ctx.spec.sequence, gait["z"]), kw)]
-        gait, idx = read_refined(ctx.deps[st.from_].path, st.start_index)
-        gait["start_index"] = idx
-        run_gait, z, times = schedule_replay(ctx.spec, gait, st.controller.clock)
+        g = ctx.handed_on(start_index=st.start_index, replay=st.replay,
+                          clock=st.controller.clock)
         kw = {"cycles": st.cycles, "tick": tick, "sample_dt": st.sample_dt,
-              "max_drop": max_drop, "replay": "open_loop", "times": times}
-        ctx.state.update(gait=gait, options=dict(kw, clock=st.controller.clock))
-        return [Task(0, stability_task, (ctx.spec, run_gait, z), kw)]
+              "max_drop": max_drop_of(st, ctx.spec), "replay": g.replay, "times": g.times}
+        ctx.state.update(gait=g, options=kw)
+        return [Task(0, stability_task, (ctx.spec, g.gait, g.z), kw)]
 
     def finish(self, ctx: StepContext, attrs: dict) -> str:
-        st = ctx.step
-        gait, kw = ctx.state["gait"], ctx.state["options"]
+        g, kw = ctx.state["gait"], ctx.state["options"]
         r = ctx.results[0]
-        if "clock" not in kw:   # a sequence gait
-            attrs.update(sequence_attrs(gait, kw["replay"]),
-                         controller={"tick": kw["tick"], "clock": "reset_at_section"},
-                         sample_dt=kw["sample_dt"], max_drop=kw["max_drop"],
-                         cycles=kw["cycles"], t_segment=list(r["t_segment"]))
-            gait = {"dtheta1": gait["z"][1], "dtheta2": gait["z"][2]}
-        else:
-            attrs.update(controller={"tick": kw["tick"], "clock": kw["clock"]},
-                         sample_dt=kw["sample_dt"], max_drop=kw["max_drop"],
-                         cycles=kw["cycles"], refine_step=st.from_,
-                         refine_start=gait["start_index"], replay="open_loop",
-                         vertical_passes_before_swap=int(gait.get("vertical_passes", -1)))
-        write_stability(ctx.path, attrs, r, gait)
+        attrs.update(g.attrs("run", t_segment=r["t_segment"]),
+                     controller={"tick": kw["tick"], "clock": g.clock},
+                     sample_dt=kw["sample_dt"], max_drop=kw["max_drop"], cycles=kw["cycles"])
+        write_stability(ctx.path, attrs, r, g.z, g.gait.records)
         return f"{r['cycles_completed']} cycles, status {STATUS_NAMES[r['status']]}"
 
     def describe(self, ds) -> list[str]:
