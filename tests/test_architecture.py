@@ -135,6 +135,60 @@ def test_every_step_kind_is_registered_in_the_schema():
         assert kind.gait_kinds and set(kind.gait_kinds) <= {"horizontal", "sequence"}
 
 
+def _steps_imports() -> dict[str, set[str]]:
+    """The modules of ``study/steps`` each module there imports (inside functions too)."""
+    folder = PKG / "study" / "steps"
+    names = {p.stem for p in folder.glob("*.py")}
+    out = {}
+    for path in folder.glob("*.py"):
+        got = set()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.level == 1:
+                got |= ({node.module.split(".")[0]} if node.module else
+                        {a.name for a in node.names})
+        out[path.stem] = got & names
+    return out
+
+
+def test_step_kinds_stand_side_by_side():
+    """No kind imports another kind's module: what a step starts from comes through its
+    source's kind (``StepKind.hand_on``) and the one readers module, so the modules of
+    ``study/steps`` stand three levels deep (base and readers, the kinds, the registry)."""
+    graph = _steps_imports()
+    kinds = {type(k).__module__.rsplit(".", 1)[-1] for k in REGISTRY.values()}
+    for module in kinds:
+        assert graph[module] <= {"base", "gait_source"}, (module, graph[module])
+    assert graph["base"] == set() and graph["gait_source"] == set()
+
+    def depth(m):
+        return 1 + max((depth(d) for d in graph[m]), default=0)
+    assert max(depth(m) for m in graph) == 3
+
+
+def test_no_step_kind_asks_another_steps_type():
+    """Which steps a kind starts from is its declaration (``accepts``), never an
+    ``isinstance`` of another kind's model."""
+    bad = []
+    for path in sorted((PKG / "study").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Call) and getattr(node.func, "id", "") == "isinstance":
+                names = {n.id for n in ast.walk(node.args[1]) if isinstance(n, ast.Name)}
+                bad += [f"{path.relative_to(PKG)}:{node.lineno}: {n}" for n in names
+                        if n.endswith("Step")]
+    assert not bad, bad
+
+
+def test_what_a_kind_accepts_is_handed_on():
+    """Every kind a ``from:`` accepts says what it hands on and reads it."""
+    from monkeystudy.study.steps.base import StepKind
+
+    for kind in REGISTRY.values():
+        for source in kind.accepts:
+            provider = REGISTRY[source]
+            assert provider.provides, source
+            assert type(provider).hand_on is not StepKind.hand_on, source
+
+
 def test_every_step_kind_is_documented():
     """Each kind has a section in docs/datasets.md and is named in the README or docs."""
     datasets = (ROOT / "docs" / "datasets.md").read_text()

@@ -70,7 +70,7 @@ with ev.install_recorder("numba:compile") as rec:
     load_kernels(spec, runs=True, ahead=True)
 names = {e.data["dispatcher"].py_func.__qualname__ for _, e in rec.buffer if e.is_start}
 print(json.dumps({"runs_entry_compiled_here": "simulate" in names,
-                  "gait_entry_compiled_here": "horizontal_gait_batch" in names}))
+                  "gait_entry_compiled_here": "cycle_gait_batch" in names}))
 """ % str(Path(__file__).resolve().parents[1] / "studies" / "smoke.yaml")
 
 

@@ -17,7 +17,7 @@ __version__ = "0.1.0"
 
 _EXPORTS = {
     "controllers": ("HorizontalSearch", "Integrator", "Observer", "OpenLoop", "PhaseSequence",
-                    "Segment", "SequenceGait"),
+                    "Segment", "SequenceGait", "horizontal_gait"),
     "robot": ("Friction", "Link", "Robot", "SEED2009_TORQUE"),
     "simulate": ("GaitResult", "RunResult", "Status", "evaluate_cycle_gaits", "evaluate_gaits",
                  "evaluate_horizontal_gait", "initial_state", "run_controller", "simulate"),
@@ -27,6 +27,7 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, globals(), _EXPORTS)
 if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
     from .controllers import (  # noqa: F401
         HorizontalSearch, Integrator, Observer, OpenLoop, PhaseSequence, Segment, SequenceGait,
+        horizontal_gait,
     )
     from .robot import SEED2009_TORQUE, Friction, Link, Robot  # noqa: F401
     from .simulate import (  # noqa: F401

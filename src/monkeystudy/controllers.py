@@ -9,15 +9,16 @@
 * :class:`PhaseSequence` - any sequence of :class:`Segment` rows (multi-swing, flight, climbing
   gaits) without new kernel code.
 * :class:`SequenceGait` - a phase sequence closed into a gait cycle by a Poincare section
-  (link 1 crossing ``theta1 = c`` in the frame of the attached end): what grid, refine and
-  floquet steps search and analyse beyond the study's horizontal gait.
+  (link 1 crossing ``theta1 = c`` in the frame of the attached end): the gait every study step
+  searches, replays and analyses. :func:`horizontal_gait` is the study's horizontal gait as
+  one (``gait: {kind: horizontal}`` in a study file).
 
 Every controller has a ``tick`` [s]: 0 acts exactly at events; ``0.001`` is the study's loop.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Sequence
 
 import numpy as np
@@ -279,6 +280,33 @@ class SequenceGait:
     reaches ``period`` (no sensed event), the clock advances by it, and the section is clock
     phase zero, where the state is ``(theta1, theta2, dtheta1, dtheta2)`` (the error adds
     ``(theta1_f - theta1)^2``). ``section_theta1`` is then only the start's ``theta1``.
+
+    Attributes
+    ----------
+    wrap_theta2 : bool
+        The section error wraps ``theta2_f - theta2`` to [-pi, pi) [rad] (a link 2 that
+        turned a whole revolution is the same gait). False: the 2009 study's error, with the
+        difference as it is.
+    unreachable_below_floor : bool
+        A start whose total energy is below the robot's swap energy floor [J]
+        (:meth:`~monkeystudy.Robot.swap_energy_floor`) is marked ``unreachable`` by the
+        one-cycle evaluation without integrating it. Only for a gait whose first segment
+        swings freely up to the free end's height (:meth:`starts_by_free_swing`): energy
+        cannot grow before that guard, so the start provably never reaches it.
+    section_ticked : bool
+        The section acts on the controller tick: the cycle ends, and the clock restarts (or
+        advances), at the first tick after the crossing (or the period). Default exact.
+    open_loop_section_ticked : bool
+        The open-loop replay (:func:`~monkeystudy.analysis.replay.open_loop_gait`) senses
+        the section on the tick (``section_ticked`` there): the 2009 study's controller
+        restarted its clock on its 1 ms loop. The gait's own controller keeps its section.
+    records : {"section", "swap"}
+        Where a multi-cycle run records each cycle (:func:`~monkeystudy.analysis.replay.
+        sequence_cycles`): at its section crossing (the attached end there), or from its
+        swap (the attached end just after the swap, the error at the first section crossing
+        after it: the 2009 study's figures 5-7, also right for a clock that runs on, which
+        may pass the section twice or not at all in a cycle). ``'swap'`` needs exactly one
+        magnet action per cycle.
     """
 
     segments: Sequence[Segment]
@@ -289,6 +317,11 @@ class SequenceGait:
     tick: float = 0.0
     tick_phase: float = 0.0
     period: float = math.nan
+    wrap_theta2: bool = True
+    unreachable_below_floor: bool = False
+    section_ticked: bool = False
+    open_loop_section_ticked: bool = False
+    records: str = "section"
 
     def __post_init__(self):
         _check_tick(self.tick)
@@ -302,7 +335,32 @@ class SequenceGait:
                 raise ValueError(f"{name} must be finite, got {getattr(self, name)!r}")
         if self.section_direction not in DIRECTIONS:
             raise ValueError(f"section_direction must be one of {sorted(DIRECTIONS)}")
+        if self.records not in RECORDS:
+            raise ValueError(f"records must be one of {RECORDS}, got {self.records!r}")
+        if self.unreachable_below_floor and not self.starts_by_free_swing():
+            raise ValueError("unreachable_below_floor needs a first segment that swings "
+                             "freely (magnets keep, no torque, no delay) until the free end "
+                             "rises to the attached end's height: only then can a start "
+                             "below the swap energy floor not reach it")
+        if self.records == "swap" and len(self.magnet_rows()) != 1:
+            raise ValueError("records='swap' needs exactly one magnet action per cycle, got "
+                             f"{len(self.magnet_rows())}")
         self.end_attached()
+
+    def starts_by_free_swing(self) -> bool:
+        """The first segment swings freely (magnets kept, no torque, no delay) until the free
+        end rises to the attached end's height (``free_end_height`` 0, rising): the energy
+        of a start cannot grow before that guard fires."""
+        s = self.segments[0]
+        return (s.until == "free_end_height" and s.value == 0.0 and s.direction == "rising"
+                and s.magnets == "keep" and s.torque == 0.0 and s.delay == 0.0)
+
+    def magnet_rows(self) -> list[int]:
+        """Rows of :meth:`all_segments` whose exit enters a segment that acts on the magnets
+        (a swap, a catch, a release): where a cycle's magnet actions are logged."""
+        segs = self.all_segments()
+        n = len(segs)
+        return [k for k in range(n) if segs[(k + 1) % n].magnets != "keep"]
 
     @property
     def clocked(self) -> bool:
@@ -318,14 +376,22 @@ class SequenceGait:
         """The segments with the section segment appended (the cycle's last row)."""
         if self.clocked:
             section = Segment("time", value=self.period, torque=self.section_torque,
-                              ticked=False, clock="advance", cycle_end=True, next=0,
-                              fail_status=L.ST_HORIZON)
+                              ticked=self.section_ticked, clock="advance", cycle_end=True,
+                              next=0, fail_status=L.ST_HORIZON)
         else:
             section = Segment("coord", coord="theta1", value=self.section_theta1,
                               direction=self.section_direction, torque=self.section_torque,
-                              ticked=False, clock="reset", cycle_end=True, next=0,
-                              fail_status=L.ST_NO_RETURN)
+                              ticked=self.section_ticked, clock="reset", cycle_end=True,
+                              next=0, fail_status=L.ST_NO_RETURN)
         return [*self.segments, section]
+
+    def section_observer(self) -> Observer:
+        """An exact observer of link 1 crossing ``section_theta1`` in ``section_direction``,
+        watched in the section row: where a cycle is measured when its section acts on a
+        tick (its log row is the crossing itself, not the tick after it) or is a clock's
+        phase (:attr:`records` ``'swap'``)."""
+        return Observer("coord", "theta1", self.section_theta1, self.section_direction,
+                        segment=len(self.segments))
 
     def attached_ends(self) -> list[frozenset]:
         """Ends attached during each row of the cycle (``{'A'}``, ``{'B'}``, both, none),
@@ -350,6 +416,71 @@ class SequenceGait:
 
     def program(self):
         return self.controller().program()
+
+
+def motorless(gait: SequenceGait) -> SequenceGait:
+    """The gait with the motor off in every segment: a recorded schedule whose motor phase
+    lasts no time (a collisionless swap, ``t_motor = 0``) replays without one, so no motor
+    pulse is perturbed or reported where none acts."""
+    return replace(gait, segments=tuple(replace(seg, torque=0.0) for seg in gait.segments),
+                   section_torque=0.0)
+
+
+def open_loop_gait(gait: SequenceGait, segment_times) -> SequenceGait:
+    """The gait with every segment before the section ending at a fixed time.
+
+    ``segment_times`` [s]: the exit times on the controller clock (which restarts at each
+    section crossing), e.g. :func:`~monkeystudy.analysis.replay.cycle_times` of the fixed
+    point (the section's own entry, if given, is ignored). Entry actions are kept; each guard becomes a ticked ``time`` guard,
+    so a controller tick rounds the times up to its grid, as the 2009 study's 1 ms loop did.
+    A gait with ``open_loop_section_ticked`` senses its section on the tick too (the 2009
+    controller restarted its clock at the tick after the vertical).
+    """
+    times = np.asarray(segment_times, float).ravel()
+    n = len(gait.segments)
+    if times.size < n or not np.all(np.isfinite(times[:n])):
+        raise ValueError(f"need {n} finite segment exit times, got {times[:n]}")
+    if np.any(np.diff(np.concatenate([[0.0], times[:n]])) < 0.0):
+        raise ValueError(f"segment exit times must not decrease: {times[:n]}")
+    for k, s in enumerate(gait.segments):
+        if s.clock != "keep":
+            raise ValueError(f"segment {k} moves the controller clock (clock={s.clock!r}): "
+                             "recorded times would be on a different clock")
+    segs = tuple(replace(s, until="time", value=float(t), ticked=True, direction="rising")
+                 for s, t in zip(gait.segments, times[:n]))
+    # no segment swings freely to a guard any more: no start is provably unreachable
+    return replace(gait, segments=segs, unreachable_below_floor=False,
+                   section_ticked=gait.section_ticked or gait.open_loop_section_ticked)
+
+
+#: where a :class:`SequenceGait`'s multi-cycle runs record each cycle
+RECORDS = ("section", "swap")
+
+
+def horizontal_gait(torque: float, tick: float = 0.0, *, tick_phase: float = 0.0,
+                    period: float = math.nan) -> SequenceGait:
+    """The study's horizontal gait (docs/model.md section 4) as a :class:`SequenceGait`.
+
+    The search controller's first two rows (:class:`HorizontalSearch`: swing until the free
+    end rises to the attached end's height, then swap with motor torque ``torque`` [N m]
+    until the start's energy is restored), closed by the vertical (``theta1 = 0``, either
+    direction, motor off), ``theta2 = 0`` at the start. One cycle runs exactly as
+    :class:`HorizontalSearch` does; the gait carries the 2009 study's definitions:
+
+    * its error does not wrap ``theta2`` (``wrap_theta2=False``);
+    * a start below the swap energy floor is unreachable (``unreachable_below_floor``);
+    * replayed open loop (:class:`OpenLoop`'s program), its clock restarts on the tick
+      after the vertical (``open_loop_section_ticked``);
+    * a multi-cycle run records each cycle from its swap (``records='swap'``).
+
+    ``tick``, ``tick_phase`` [s]: the controller tick; ``period`` [s]: a clock that runs on
+    (the open-loop replay's ``clock: run_on``), NaN for a clock restarting at the vertical.
+    """
+    return SequenceGait(HorizontalSearch(torque).segments()[:2], section_theta1=0.0,
+                        section_direction="either", section_torque=0.0, theta2=0.0,
+                        tick=tick, tick_phase=tick_phase, period=period, wrap_theta2=False,
+                        unreachable_below_floor=True, open_loop_section_ticked=True,
+                        records="swap")
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,8 @@
 
 Thin wrappers that validate arguments, build the kernel's arrays, call the one compiled
 :func:`~monkeystudy.kernel.hybrid.simulate`, and label what comes back. Drivers (grid, refine,
-stability, ...) use :func:`evaluate_gaits` and :func:`run_controller`, which return plain numpy;
+stability, ...) use :func:`evaluate_cycle_gaits` and :func:`run_controller`, which return plain
+numpy; :func:`evaluate_gaits` is the horizontal gait's evaluation under its own names;
 :func:`simulate` builds an :class:`xarray.Dataset` for people.
 """
 from __future__ import annotations
@@ -17,15 +18,12 @@ import numpy as np
 from numba.core.dispatcher import Dispatcher
 
 from .controllers import (
-    HorizontalSearch, Integrator, OpenLoop, PhaseSequence, SequenceGait, kernel_method,
-    settings_vector,
+    HorizontalSearch, Integrator, OpenLoop, PhaseSequence, SequenceGait, horizontal_gait,
+    kernel_method, settings_vector,
 )
 from .kernel import layout as L
-from .kernel.dynamics import kinetic_energy, points8, potential_energy
-from .kernel.gait import (
-    N_RESULT, R_ERROR, R_FINAL, R_NFEV, R_REJECTED, R_STATUS, R_STEPS, R_T_END, R_T_MOTOR,
-    R_T_SWITCH, horizontal_gait_batch, start_state,
-)
+from .kernel.dynamics import kinetic_energy, points8, potential_energy, total_energy8
+from .kernel.gait import start_state
 from .kernel.gait import (
     N_CYCLE_RESULT, Q_ERROR, Q_FINAL, Q_FLIPPED, Q_NFEV, Q_REJECTED, Q_STATUS, Q_STEPS, Q_T_END,
     cycle_gait_batch,
@@ -138,45 +136,47 @@ def evaluate_gaits(points, *, robot: RobotLike = "seed2009", torque: float | Non
                    skip_unreachable: bool = True) -> dict[str, np.ndarray]:
     """Evaluate the horizontal gait at many ``(dtheta1, dtheta2)`` [rad s-1] points.
 
-    Returns plain arrays (``error``, ``status``, ``t_switch``, ``t_motor``, ``t_end``,
-    ``steps``, ``nfev``, ``rejected``, ``final_state``), one entry per point. Serial and
-    compiled: parallelism belongs to the caller (blocks of points on workers).
+    One cycle of :func:`~monkeystudy.controllers.horizontal_gait` (motor ``torque`` [N m],
+    default the 2009 study's; controller ``tick``, ``tick_phase`` [s]) by
+    :func:`evaluate_cycle_gaits`. Returns plain arrays (``error``, ``status``, ``t_switch``,
+    ``t_motor``, ``t_end``, ``steps``, ``nfev``, ``rejected``, ``final_state``), one entry
+    per point; the times as :func:`swap_motor_times` names them. Serial and compiled:
+    parallelism belongs to the caller (blocks of points on workers).
     """
-    robot = as_robot(robot)
     torque = SEED2009_TORQUE if torque is None else _finite("torque", torque)
-    pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
-    if not np.all(np.isfinite(pts)):
-        raise ValueError("points must be finite (dtheta1, dtheta2) pairs")
-    prog, _ = HorizontalSearch(torque, tick=tick, tick_phase=tick_phase).program()
-    settings = settings_vector(integrator, tick=tick, tick_phase=tick_phase)
-    out = np.empty((pts.shape[0], N_RESULT))
-    horizontal_gait_batch(kernel_method(settings, prog, L.PHASE_SWING), robot.params(), prog,
-                          settings, pts, robot.swap_energy_floor(),
-                          skip_unreachable, out)
-    return {
-        "error": out[:, R_ERROR].copy(),
-        "status": out[:, R_STATUS].astype(np.int8),
-        "t_switch": out[:, R_T_SWITCH].copy(),
-        "t_motor": out[:, R_T_MOTOR].copy(),
-        "t_end": out[:, R_T_END].copy(),
-        "steps": out[:, R_STEPS].astype(np.int64),
-        "nfev": out[:, R_NFEV].astype(np.int64),
-        "rejected": out[:, R_REJECTED].astype(np.int64),
-        "final_state": out[:, R_FINAL:R_FINAL + 8].copy(),
-    }
+    r = evaluate_cycle_gaits(points, horizontal_gait(torque, tick, tick_phase=tick_phase),
+                             robot=robot, integrator=integrator,
+                             skip_unreachable=skip_unreachable)
+    return {"error": r["error"], "status": r["status"], **swap_motor_times(r["t_segment"]),
+            "steps": r["steps"], "nfev": r["nfev"], "rejected": r["rejected"],
+            "final_state": r["final_state"]}
+
+
+def swap_motor_times(t_segment: np.ndarray) -> dict[str, np.ndarray]:
+    """The horizontal gait's times [s] from its segment exit times ``t_segment[n, 3]``:
+    ``t_switch`` (the swap), ``t_motor`` (how long the motor ran), ``t_end`` (the vertical
+    crossing ending the gait); NaN where the cycle never got there."""
+    t = np.asarray(t_segment, np.float64)
+    return {"t_switch": t[:, 0].copy(), "t_motor": t[:, 1] - t[:, 0], "t_end": t[:, 2].copy()}
 
 
 def evaluate_cycle_gaits(points, gait: SequenceGait, *, robot: RobotLike = "seed2009",
-                         integrator: Integrator = Integrator()) -> dict[str, np.ndarray]:
+                         integrator: Integrator = Integrator(),
+                         skip_unreachable: bool = True) -> dict[str, np.ndarray]:
     """One cycle of a phase-sequence gait at many ``(dtheta1, dtheta2)`` [rad s-1] starts.
 
     Each start is on the gait's section (``theta1 = gait.section_theta1``, ``theta2 =
     gait.theta2``, hanging from A at the origin). Returns plain arrays, one entry per point:
-    ``error`` (the section error, :class:`~monkeystudy.controllers.SequenceGait`; NaN unless
-    ok), ``status``, ``t_end`` (the section crossing ending the cycle) [s], ``t_segment[n,
-    k]`` (exit time of segment ``k``, the section last) [s], ``x_advance``, ``y_advance``
+    ``error`` (the section error, :class:`~monkeystudy.controllers.SequenceGait`, wrapped or
+    not as the gait says; NaN unless ok), ``status``, ``t_end`` (the section crossing ending
+    the cycle, or the time the run failed) [s], ``t_segment[n, k]`` (exit time of segment
+    ``k``, the section last; NaN if never left) [s], ``x_advance``, ``y_advance``
     (displacement of the attached end over the cycle) [m], ``steps``, ``nfev``, ``rejected``,
     ``flipped`` (1: hanging from B at the end) and ``final_state``.
+
+    With ``skip_unreachable`` and a gait whose starts below the swap energy floor cannot
+    reach its first guard (``gait.unreachable_below_floor``), such starts are not
+    integrated: status ``unreachable``, no steps, every value NaN.
     """
     robot = as_robot(robot)
     pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
@@ -187,10 +187,30 @@ def evaluate_cycle_gaits(points, gait: SequenceGait, *, robot: RobotLike = "seed
                                max_cycles=1)
     out = np.empty((pts.shape[0], N_CYCLE_RESULT))
     seg = np.empty((pts.shape[0], prog.shape[0]))
-    cycle_gait_batch(kernel_method(settings, prog, L.PHASE_SWING), robot.params(), prog, obs,
-                     settings, gait.section_theta1, gait.theta2,
-                     pts, out, seg)
+    run = np.ones(pts.shape[0], bool)
+    if skip_unreachable and gait.unreachable_below_floor:
+        run = ~below_swap_floor(pts, gait, robot)
+        out[~run] = np.nan
+        out[~run, Q_STATUS] = L.ST_UNREACHABLE
+        for col in (Q_STEPS, Q_NFEV, Q_REJECTED, Q_FLIPPED):
+            out[~run, col] = 0.0
+        seg[~run] = np.nan
+    if run.all():
+        cycle_gait_batch(kernel_method(settings, prog, L.PHASE_SWING), robot.params(), prog,
+                         obs, settings, gait.section_theta1, gait.theta2, pts, out, seg)
+    elif run.any():
+        o, sg = out[run], seg[run]
+        cycle_gait_batch(kernel_method(settings, prog, L.PHASE_SWING), robot.params(), prog,
+                         obs, settings, gait.section_theta1, gait.theta2,
+                         np.ascontiguousarray(pts[run]), o, sg)
+        out[run], seg[run] = o, sg
     final = out[:, Q_FINAL:Q_FINAL + 8].copy()
+    if not gait.wrap_theta2:
+        # the kernel's error wraps theta2; this one is the difference as it is (the same
+        # floating-point expression as the 2009 error, docs/model.md section 4)
+        d = final[:, L.TH2] - gait.theta2
+        err = d * d + (pts[:, 0] - final[:, L.DTH1]) ** 2 + (pts[:, 1] - final[:, L.DTH2]) ** 2
+        out[:, Q_ERROR] = np.where(out[:, Q_STATUS] == L.ST_OK, err, np.nan)
     return {
         "error": out[:, Q_ERROR].copy(),
         "status": out[:, Q_STATUS].astype(np.int8),
@@ -204,6 +224,42 @@ def evaluate_cycle_gaits(points, gait: SequenceGait, *, robot: RobotLike = "seed
         "flipped": out[:, Q_FLIPPED].astype(np.int8),
         "final_state": final,
     }
+
+
+def below_swap_floor(points, gait: SequenceGait, robot: Robot) -> np.ndarray:
+    """Which ``(dtheta1, dtheta2)`` [rad s-1] starts on ``gait``'s section have less total
+    energy than the robot's swap energy floor (:meth:`~monkeystudy.Robot.
+    swap_energy_floor`, less a relative 1e-12 so a start on the floor is integrated): with
+    no motor and no swap, such a swing never brings the free end to the attached end's
+    height.
+
+    Decided on the kernel's own energy (:func:`~monkeystudy.kernel.dynamics.total_energy8`),
+    as the compiled horizontal-gait evaluation decides: a start on the section swings
+    (``dx = dy = 0``), so its energy is a quadratic form in the rates plus a constant, which
+    sorts every start far from the floor at once; the few within 1e-9 of it are evaluated
+    one by one by the kernel.
+    """
+    pts = np.asarray(points, np.float64).reshape(-1, 2)
+    floor = robot.swap_energy_floor()
+    bound = floor - 1e-12 * (1.0 + abs(floor))
+    par = robot.params()[0]
+    state = np.zeros(8)
+    state[L.TH1], state[L.TH2] = gait.section_theta1, gait.theta2
+
+    def energy(w1: float, w2: float) -> float:
+        state[L.DTH1], state[L.DTH2] = w1, w2
+        return float(total_energy8(par, state))
+
+    e0 = energy(0.0, 0.0)
+    k1, k2 = energy(1.0, 0.0) - e0, energy(0.0, 1.0) - e0
+    k12 = energy(1.0, 1.0) - e0 - k1 - k2
+    w1, w2 = pts[:, 0], pts[:, 1]
+    approx = e0 + k1 * w1 * w1 + k12 * w1 * w2 + k2 * w2 * w2
+    below = approx < bound
+    near = np.flatnonzero(np.abs(approx - bound) <= 1e-9 * (1.0 + abs(bound) + np.abs(approx)))
+    for i in near:
+        below[i] = energy(w1[i], w2[i]) < bound
+    return below
 
 
 def evaluate_horizontal_gait(dtheta1: float, dtheta2: float, **kwargs) -> GaitResult:
@@ -310,8 +366,9 @@ def gait_error(states, dtheta1: float, dtheta2: float) -> np.ndarray:
     """The study's repeatability error (docs/model.md section 4) of frame states at a vertical
     crossing: ``theta2^2 + (dtheta1 - dtheta1_f)^2 + (dtheta2 - dtheta2_f)^2``.
 
-    ``states[..., 8]`` are ``[x, y, th1, th2, dx, dy, dth1, dth2]``; the compiled gait
-    evaluation (:func:`monkeystudy.kernel.gait.horizontal_gait`) computes the same expression.
+    ``states[..., 8]`` are ``[x, y, th1, th2, dx, dy, dth1, dth2]``; the one-cycle evaluation
+    of a gait that does not wrap theta2 (:func:`evaluate_cycle_gaits`) computes the same
+    expression.
     """
     s = np.asarray(states, dtype=np.float64)
     return s[..., L.TH2] ** 2 + (dtheta1 - s[..., L.DTH1]) ** 2 + (dtheta2 - s[..., L.DTH2]) ** 2

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from monkeystudy import Status
+from monkeystudy import Status, horizontal_gait
 from monkeystudy.analysis import (
-    floquet, jacobian_fd, open_loop_cycles, open_loop_return_map, shoot_grazing,
+    floquet, jacobian_fd, motorless, open_loop_return_map, sequence_cycles, shoot_grazing,
 )
 
 #: A start near the study's valley (the Nelder-Mead iterates from (1, 12) drift here)
@@ -15,6 +15,14 @@ START, T_GUESS = (1.44, 10.31), 0.433
 @pytest.fixture(scope="module")
 def grazing():
     return shoot_grazing(START, T_GUESS)
+
+
+def _replay(grazing, cycles: int, tick: float = 0.0):
+    """The grazing gait replayed open loop: swap at its time, no motor phase."""
+    return sequence_cycles(motorless(horizontal_gait(0.6354)),
+                           [0.0, grazing.dtheta1, grazing.dtheta2], cycles=cycles,
+                           replay="open_loop", times=[grazing.t_switch, grazing.t_switch],
+                           tick=tick)
 
 
 def test_grazing_newton_converges_quadratically(grazing):
@@ -61,8 +69,7 @@ def test_open_loop_gait_is_unstable_and_simulation_confirms_the_multiplier(grazi
     fl = floquet(fmap, z)
     lead = abs(fl.multipliers[0])
     assert not fl.stable and lead > 1.2
-    run = open_loop_cycles(grazing.dtheta1, grazing.dtheta2, t_switch=grazing.t_switch,
-                           t_motor=0.0, torque=0.0, cycles=60)
+    run = _replay(grazing, 60)
     e = np.sqrt(run.error)
     # error sqrt grows geometrically by |lambda_max| per cycle in the linear regime
     lin = (e > 1e-10) & (e < 1e-4)
@@ -75,8 +82,7 @@ def test_the_1ms_tick_only_seeds_the_instability(grazing):
     """Finer ticks delay the fall, exact timing too falls: the grid was not the cause."""
     fails = {}
     for tick in (1e-3, 1e-5, 0.0):
-        run = open_loop_cycles(grazing.dtheta1, grazing.dtheta2, t_switch=grazing.t_switch,
-                               t_motor=0.0, torque=0.0, cycles=80, tick=tick)
+        run = _replay(grazing, 80, tick)
         assert run.status == Status.FELL
         fails[tick] = int(np.argmax(run.error > 1e-2)) + 1
     assert fails[1e-3] < fails[1e-5] < fails[0.0] < 80
@@ -135,8 +141,10 @@ def test_continuation_recovers_the_gravity_scaling_branch(grazing):
 
 
 def test_basin_is_peaked_at_the_exact_gait(grazing):
-    from monkeystudy.analysis import basin
+    from monkeystudy.analysis import sequence_basin
     off = np.array([-1e-3, 0.0, 1e-3])
-    B = basin(grazing.dtheta1, grazing.dtheta2, t_switch=grazing.t_switch, t_motor=0.0,
-              torque=0.0, offsets1=off, offsets2=off, max_cycles=60)
+    B = sequence_basin(motorless(horizontal_gait(0.6354)), [0.0, grazing.dtheta1,
+                                                             grazing.dtheta2], off, off,
+                       max_cycles=60, replay="open_loop",
+                       times=[grazing.t_switch, grazing.t_switch])
     assert B[1, 1] == B.max() and B[1, 1] > 3 * np.delete(B.ravel(), 4).max()

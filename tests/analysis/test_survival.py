@@ -8,11 +8,11 @@ import math
 import numpy as np
 import pytest
 
-from monkeystudy.analysis.replay import open_loop_cycles, section_error
+from monkeystudy.analysis.replay import section_error, sequence_cycles
 from monkeystudy.analysis.survival import (
     Noise, cycle_grid, hazard, mfpt, noise_roles, run_robot, survival_curve, survival_runs,
 )
-from monkeystudy.controllers import HorizontalSearch, Integrator, OpenLoop
+from monkeystudy.controllers import HorizontalSearch, Integrator, OpenLoop, horizontal_gait
 from monkeystudy.kernel import layout as L
 from monkeystudy.robot import Robot
 from monkeystudy.simulate import initial_state
@@ -21,6 +21,14 @@ from monkeystudy.simulate import initial_state
 GAIT = dict(dtheta1=0.902, dtheta2=10.935, t_switch=0.428, t_motor=0.025)
 INTEG = Integrator(rtol=1e-10, atol=1e-12)
 REF = (0.0, GAIT["dtheta1"], GAIT["dtheta2"])
+
+
+def _replay(cycles: int, tick: float = 0.001):
+    """The deterministic open-loop replay of the gait (its swap and motor times)."""
+    return sequence_cycles(horizontal_gait(0.6354), REF, cycles=cycles, integrator=INTEG,
+                           replay="open_loop",
+                           times=[GAIT["t_switch"], GAIT["t_switch"] + GAIT["t_motor"]],
+                           tick=tick)
 
 
 def _open_loop(tick=0.001):
@@ -122,15 +130,14 @@ def test_a_runs_robot_draws_its_parameters_and_keeps_the_cg_on_the_link():
 def test_without_noise_a_run_is_the_deterministic_replay_bit_for_bit():
     """One compiled call per cycle continues exactly where the previous one stopped: cycle by
     cycle the same section state as one long open-loop run, until the same fall."""
-    ref = open_loop_cycles(GAIT["dtheta1"], GAIT["dtheta2"], t_switch=GAIT["t_switch"],
-                           t_motor=GAIT["t_motor"], cycles=40, tick=0.001, integrator=INTEG)
+    ref = _replay(40)
     assert ref.status == L.ST_FELL
-    err = section_error(ref.crossing_state, REF)
+    err = section_error(ref.section_state, REF)
     n = len(err)
     for k in (1, 7, n):
         r = _runs(Noise(), [0], max_cycles=k)
         assert r.cycles[0] == k and r.error[0] == err[k - 1]
-        assert r.distance[0] == ref.crossing_state[k - 1][L.X]
+        assert r.distance[0] == ref.section_state[k - 1][L.X]
     full = _runs(Noise(), [0, 1])
     assert list(full.cycles) == [n, n] and list(full.failure) == [L.ST_FELL] * 2
 
@@ -154,9 +161,8 @@ def test_more_timing_jitter_shortens_the_open_loop_gait():
 
 
 def test_the_error_bound_fails_a_run_at_the_first_cycle_beyond_it():
-    ref = open_loop_cycles(GAIT["dtheta1"], GAIT["dtheta2"], t_switch=GAIT["t_switch"],
-                           t_motor=GAIT["t_motor"], cycles=40, tick=0.001, integrator=INTEG)
-    err = section_error(ref.crossing_state, REF)
+    ref = _replay(40)
+    err = section_error(ref.section_state, REF)
     bound = 1e-2
     first = int(np.flatnonzero(err > bound)[0])            # 0-based cycle beyond the bound
     r = _runs(Noise(), [0], error_bound=bound)

@@ -114,6 +114,15 @@ def gait_attrs(gait: dict) -> dict:
             "gait_error": gait["error"], "gait_method": "grazing"}
 
 
+def _grazing_replay(dtheta1: float, dtheta2: float, t_switch: float, *, cycles: int,
+                    tick: float = 0.0):
+    """A motorless gait swapping at ``t_switch`` [s] replayed open loop (the shoot's grazing
+    gait as the tick_sweep and basin steps run it)."""
+    return A.sequence_cycles(A.motorless(monkeystudy.horizontal_gait(0.6354)),
+                             [0.0, dtheta1, dtheta2], cycles=cycles, replay="open_loop",
+                             times=[t_switch, t_switch], tick=tick)
+
+
 # --- shoot -----------------------------------------------------------------------------------
 def shoot_solutions() -> list[dict]:
     """The grazing solution from :data:`GRAZING_START` and the Gauss-Newton one from
@@ -121,8 +130,7 @@ def shoot_solutions() -> list[dict]:
     gr = A.shoot_grazing(GRAZING_START, T_GUESS)
     z = np.array([0.0, gr.dtheta1, gr.dtheta2])
     zn, st = A.open_loop_return_map(z, t_switch=gr.t_switch, t_motor=0.0, torque=0.0)
-    one = A.open_loop_cycles(gr.dtheta1, gr.dtheta2, t_switch=gr.t_switch, t_motor=0.0,
-                             cycles=1, torque=0.0)
+    one = _grazing_replay(gr.dtheta1, gr.dtheta2, gr.t_switch, cycles=1)
     grazing = {"dtheta1": gr.dtheta1, "dtheta2": gr.dtheta2, "t_switch": gr.t_switch,
                "t_motor": 0.0, "t_end": float(one.t_cross[0]),
                "error": float(np.sum((zn - z) ** 2)),
@@ -282,8 +290,8 @@ def tick_sweep_dataset(gait: dict, leading: float, attrs: dict) -> xr.Dataset:
     to_bound, done, status, growth = (np.zeros(n, np.int32), np.zeros(n, np.int32),
                                       np.zeros(n, np.int8), np.full(n, np.nan))
     for i, tick in enumerate(TICKS):
-        run = A.open_loop_cycles(gait["dtheta1"], gait["dtheta2"], t_switch=gait["t_switch"],
-                                 t_motor=0.0, torque=0.0, cycles=TICK_CYCLES, tick=tick)
+        run = _grazing_replay(gait["dtheta1"], gait["dtheta2"], gait["t_switch"],
+                              cycles=TICK_CYCLES, tick=tick)
         e = np.asarray(run.error)[:TICK_CYCLES]
         p = np.asarray(run.pivot_height)[:TICK_CYCLES]
         err[i, :e.size], piv[i, :p.size] = e, p
@@ -318,9 +326,10 @@ def tick_sweep_dataset(gait: dict, leading: float, attrs: dict) -> xr.Dataset:
 
 # --- basin -----------------------------------------------------------------------------------
 def basin_dataset(gait: dict, attrs: dict) -> xr.Dataset:
-    B = A.basin(gait["dtheta1"], gait["dtheta2"], t_switch=gait["t_switch"], t_motor=0.0,
-                torque=0.0, offsets1=BASIN_OFFSETS, offsets2=BASIN_OFFSETS,
-                max_cycles=BASIN_CYCLES, error_bound=ERROR_BOUND)
+    B = A.sequence_basin(A.motorless(monkeystudy.horizontal_gait(0.6354)),
+                         [0.0, gait["dtheta1"], gait["dtheta2"]], BASIN_OFFSETS,
+                         BASIN_OFFSETS, max_cycles=BASIN_CYCLES, error_bound=ERROR_BOUND,
+                         replay="open_loop", times=[gait["t_switch"], gait["t_switch"]])
     off = {"units": "rad s-1"}
     return xr.Dataset(
         {"cycles": _v(("d_dtheta1", "d_dtheta2"), B.astype(np.int32), "cycles survived "

@@ -160,8 +160,11 @@ BAD = [
      f"{EXTRA_LINE}: steps[8].startz: unknown key; did you mean 'starts'?"),
     ("{name: x, kind: shoot, starts: [[1.0]]}", None,
      f"{EXTRA_LINE}: steps[8].starts[0]: must have exactly 2 items, got 1"),
+    # a floquet step analyses a shoot step's gait or polishes a refine step's start
     ("{name: x, kind: floquet, from: bs}", None,
-     f"{EXTRA_LINE}: steps[8].from: 'bs' is a basin step, expected a shoot step"),
+     f"{EXTRA_LINE}: steps[8].from: 'bs' is a basin step, expected a shoot or refine step"),
+    ("{name: x, kind: floquet, from: rf}", None,
+     f"{EXTRA_LINE}: steps[8].from: the open_loop controller analyses a shoot step's gait"),
     ("{name: x, kind: floquet, from: later}", None,
      f"{EXTRA_LINE}: steps[8].from: no earlier step named 'later'"),
     ("{name: x, kind: floquet, from: sh, controllers: [open_loop, open_loop]}", None,
@@ -222,6 +225,9 @@ BAD = [
     # one-cycle return maps need mirror-image links: refused before any work
     ("", NON_MIRROR, "7: steps[1].kind: a floquet step needs mirror-image links"),
     ("", NON_MIRROR, "10: steps[4].kind: a continuation step needs mirror-image links"),
+    # so do multi-cycle runs: each cycle is measured in the frame of the end it ends on
+    ("", NON_MIRROR, "8: steps[2].kind: a tick_sweep step needs mirror-image links"),
+    ("", NON_MIRROR, "9: steps[3].kind: a basin step needs mirror-image links"),
 ]
 
 
@@ -234,12 +240,17 @@ def test_bad_analysis_step_is_rejected_with_file_line_key(extra, robot, want):
 
 
 def test_mirror_links_are_not_required_by_the_other_kinds():
-    text = BASE.format(robot=NON_MIRROR).replace(
-        "  - {name: fl, kind: floquet, from: sh}\n", "").replace(", floquet: fl", "").replace(
-        "  - {name: co, kind: continuation, from: sh, parameter: com, ds: 0.01}\n", "")
+    """Shooting, refining and timing the integrators need no return map of one cycle."""
+    text = BASE.format(robot=NON_MIRROR)
+    for line in ("  - {name: fl, kind: floquet, from: sh}\n",
+                 "  - {name: ts, kind: tick_sweep, from: sh, floquet: fl}\n",
+                 "  - {name: co, kind: continuation, from: sh, parameter: com, ds: 0.01}\n"):
+        assert line in text
+        text = text.replace(line, "")
+    text = "\n".join(t for t in text.splitlines() if "kind: basin" not in t) + "\n"
     loaded = parse_study(text)      # raises StudyError if any remaining step is refused
-    assert "fl" not in [s.name for s in loaded.study.steps]
-    assert len(loaded.study.steps) >= 3
+    kinds = {s.kind for s in loaded.study.steps}
+    assert kinds == {"shoot", "refine", "work_precision"}
 
 
 # --- end to end --------------------------------------------------------------------------------

@@ -96,16 +96,15 @@ def test_a_survival_step_runs_the_best_design(smoke):
 
 def test_runs_of_a_redesigned_robot_name_that_robot():
     """A survival dataset's ``robot`` is the robot its runs used: a design's own."""
-    from monkeystudy.study.spec import GaitSpec
-    from monkeystudy.study.steps.survival import design_robot_dict
+    from monkeystudy.study.steps.gait_source import robot_attr
 
     base = Robot.preset("seed2009")
-    spec = GaitSpec(base, Integrator(), 0.6354, 0.0)
-    values = DesignSpace(base).values({"t_switch": 0.47})
-    same = design_robot_dict(spec, {"design": values, "two_step": False}, "as_built")
+    space = DesignSpace(base)
+    values = space.values({"t_switch": 0.47})
+    same = robot_attr(base, space.robot_for(values), "as_built")
     assert same == base.to_dict()
     values["com"] = 0.45
-    other = design_robot_dict(spec, {"design": values, "two_step": False}, "redesign")
+    other = robot_attr(base, space.robot_for(values), "redesign")
     assert other["name"] == "redesign design (from seed2009)"
     assert other["link1"]["com"] == pytest.approx(0.45)
     assert other["link1"]["mass"] + other["link2"]["mass"] == pytest.approx(2.0)

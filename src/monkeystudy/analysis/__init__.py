@@ -1,13 +1,13 @@
 """Gait analysis on top of the simulation API, by topic.
 
-* :mod:`.sections` - Poincare sections and return maps (horizontal gait: open-loop replay and
-  the state-based search controller; any sequence gait).
+* :mod:`.sections` - Poincare sections and return maps of any sequence gait (the horizontal
+  gait's open-loop replay and state-based search controller by name).
 * :mod:`.floquet` - Floquet multipliers by finite differences, fixed points by Newton.
 * :mod:`.variational` - the same Jacobians by variational equations with saltation matrices.
-* :mod:`.shooting` - exact fixed points of the horizontal gait (Gauss-Newton, grazing border).
+* :mod:`.shooting` - exact fixed points of a gait's cycle (Gauss-Newton; the grazing border).
 * :mod:`.search` - Nelder-Mead refinement of a gait start (the study's fminsearch).
 * :mod:`.continuation` - gait families in a robot or motor parameter, with bifurcations.
-* :mod:`.replay` - many cycles: open-loop replays, a sequence gait's own controller, basins.
+* :mod:`.replay` - many cycles: a gait's own controller or its open-loop replay, basins.
 * :mod:`.stress` - numerical stress scenarios (energy drift, long runs, extreme parameters).
 * :mod:`.precision` - run time against error for every integrator, and scipy's.
 
@@ -22,16 +22,16 @@ from .._lazy import lazy_exports
 _EXPORTS = {
     "sections": ("TIGHT", "check_cycle_frame", "check_mirror_links", "cycle_return_map",
                  "cycle_section_state", "open_loop_return_map", "search_return_map",
-                 "section_of", "section_state"),
+                 "section_state"),
     "floquet": ("FixedPointResult", "FloquetResult", "floquet", "jacobian_fd",
                 "solve_fixed_point", "sorted_eigs"),
     "variational": ("sequence_variational_jacobian", "variational_jacobian"),
-    "shooting": ("GrazingResult", "ShootResult", "free_end_after", "shoot_grazing",
-                 "shoot_horizontal"),
+    "shooting": ("GrazingResult", "ShootResult", "free_end_after", "shoot_cycle",
+                 "shoot_grazing", "shoot_horizontal"),
     "search": ("refine_gait",),
     "continuation": ("Branch", "CycleBranch", "continue_cycle", "continue_grazing",
                      "mirror_robot", "with_parameter"),
-    "replay": ("CycleRun", "SequenceCycles", "basin", "open_loop_cycles", "sequence_basin",
+    "replay": ("SequenceCycles", "motorless", "open_loop_gait", "sequence_basin",
                "sequence_cycles"),
     "precision": ("work_precision",),
 }

@@ -3,8 +3,8 @@ Floquet multipliers and bifurcations along the branch.
 
 The collisionless family of the horizontal gait (:func:`continue_grazing`) continues the
 grazing border's own equations (a grazing swap is a border, not a smooth fixed point of the
-return map). A sequence gait's family (:func:`continue_cycle`) continues the fixed point of
-its return map (:func:`monkeystudy.analysis.sections.cycle_return_map`), whose Jacobian comes
+return map); its multipliers are those of the motorless open-loop replay's return map. A
+sequence gait's family (:func:`continue_cycle`) continues the fixed point of its return map (:func:`monkeystudy.analysis.sections.cycle_return_map`), whose Jacobian comes
 from the variational equations through every phase
 (:func:`monkeystudy.analysis.variational.sequence_variational_jacobian`).
 
@@ -24,12 +24,12 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..controllers import Integrator, SequenceGait
+from ..controllers import Integrator, SequenceGait, horizontal_gait, open_loop_gait
 from ..robot import Robot
 from ..simulate import RobotLike, Status, as_robot
 from .sections import TIGHT, cycle_return_map
 from .shooting import GrazingResult, free_end_after
-from .variational import sequence_variational_jacobian, variational_jacobian
+from .variational import sequence_variational_jacobian
 
 # --- the horizontal gait's collisionless family -----------------------------------------------
 # ------------------------------------------------------------------------------------------
@@ -130,8 +130,10 @@ def continue_grazing(start: GrazingResult, parameter: str, value0: float, *,
     if multipliers:
         for i, (d1, d2, ts, mu) in enumerate(U):
             rb = mirror_robot(base, parameter, mu)
-            Jm = variational_jacobian("open_loop", np.array([0.0, d1, d2]), t_switch=ts,
-                                      t_motor=0.0, torque=0.0, robot=rb, integrator=integrator)
+            # the motorless open-loop replay of the horizontal gait: swap at ts, no motor
+            replay = open_loop_gait(horizontal_gait(0.0), [ts, ts])
+            Jm = sequence_variational_jacobian(replay, np.array([0.0, d1, d2]), robot=rb,
+                                               integrator=integrator)
             lam = np.linalg.eigvals(Jm)
             mult[i] = lam[np.argsort(-np.abs(lam))]
     dmu = np.diff(U[:, 3])

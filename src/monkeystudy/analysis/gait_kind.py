@@ -8,29 +8,33 @@ but it is another gait, and replayed open loop it behaves differently. Counting 
 """
 from __future__ import annotations
 
-from ..controllers import HorizontalSearch, Integrator, Observer, PhaseSequence
+from ..controllers import (
+    Integrator, Observer, PhaseSequence, SequenceGait, horizontal_gait,
+)
 from ..kernel import layout as L
 from ..robot import SEED2009_TORQUE
-from ..simulate import RobotLike, initial_state, run_controller
-
-#: link 1 through the vertical, watched before the swap only (program row 0)
-VERTICAL_BEFORE_SWAP = Observer("coord", "theta1", 0.0, "either", segment=0)
+from ..simulate import RobotLike, run_controller
+from .sections import cycle_section_state
 
 
 def vertical_passes_before_swap(dtheta1: float, dtheta2: float, *,
                                 robot: RobotLike = "seed2009",
                                 torque: float = SEED2009_TORQUE, tick: float = 0.0,
-                                integrator: Integrator = Integrator()) -> int:
-    """How many times link 1 passes the vertical before the horizontal gait's swap, started
-    hanging from A with rates ``(dtheta1, dtheta2)`` [rad s-1]; -1 when it never swaps.
+                                integrator: Integrator = Integrator(),
+                                gait: SequenceGait | None = None) -> int:
+    """How many times link 1 passes the vertical before the gait's swap, started on its
+    section with rates ``(dtheta1, dtheta2)`` [rad s-1]; -1 when it never swaps.
 
-    The same controller and integrator as the gait evaluation, with an observer on
-    ``theta1 = 0`` during the swing to the swap (observers never change a run's steps).
+    ``gait``: a gait whose first segment ends in its swap (default the horizontal gait,
+    :func:`~monkeystudy.controllers.horizontal_gait` of ``torque`` [N m] and ``tick`` [s]).
+    The same program and integrator as the gait's evaluation, with an observer on
+    ``theta1 = 0`` during the first segment (observers never change a run's steps).
     """
-    search = HorizontalSearch(torque, tick=tick)
-    ctrl = PhaseSequence(search.segments(), (VERTICAL_BEFORE_SWAP,), tick)
-    res = run_controller(ctrl, initial_state(dtheta1, dtheta2), robot=robot,
-                         integrator=integrator, log_capacity=4096)
+    gait = horizontal_gait(torque, tick) if gait is None else gait
+    vertical = Observer("coord", "theta1", 0.0, "either", segment=0)
+    ctrl = PhaseSequence(gait.all_segments(), (vertical,), gait.tick, gait.tick_phase)
+    res = run_controller(ctrl, cycle_section_state(gait, [gait.theta2, dtheta1, dtheta2]),
+                         robot=robot, integrator=integrator, cycles=1, log_capacity=4096)
     log = res.log
     swaps = log[(log[:, L.L_KIND] == L.LOG_SEGMENT) & (log[:, L.L_ID] == 0)]
     if swaps.shape[0] == 0:

@@ -1,117 +1,42 @@
-"""Many cycles of a gait: open-loop replays, a sequence gait's own controller, basins.
+"""Many cycles of a gait: its own controller or an open-loop replay, and basins.
 
-:func:`open_loop_cycles` replays the horizontal gait as the 2009 study did (swap at
-``t_switch``, motor for ``t_motor``, on the controller's clock) and measures every cycle;
-:func:`basin` counts the cycles it survives from perturbed starts.
-
-The 2009 study replayed its gaits open-loop (swap and motor at fixed times after the vertical
-crossing) and watched them drift. A sequence gait (:class:`~monkeystudy.controllers.
-SequenceGait`) can be run two ways from its fixed point:
+A gait (:class:`~monkeystudy.controllers.SequenceGait`; the study's horizontal gait is
+:func:`~monkeystudy.controllers.horizontal_gait`) can be run two ways from a start on its
+section:
 
 - ``replay="gait"``: the controller as written, state guards and all (the map whose Floquet
   multipliers the floquet step computes);
 - ``replay="open_loop"``: every segment before the section ends at the time it ended on the
   recorded cycle, counted on the controller clock, which restarts at each section crossing
-  (the study's ``reset_at_vertical``; :func:`open_loop_gait`). Entry actions (magnets, motor,
-  energy latch) are kept; only the guards become clocks.
+  (the study's ``reset_at_vertical``) or runs on with the gait's period (:func:`open_loop_gait`).
+  Entry actions (magnets, motor, energy latch) are kept; only the guards become clocks. This
+  is how the 2009 study replayed its gaits (swap at ``t_switch``, motor for ``t_motor``) and
+  watched them drift.
 
 Either way a controller tick (``tick`` [s]) delays each ticked guard to the next tick, so the
-same functions answer "was it the 1 ms grid?" for any sequence gait. Per cycle everything is
-measured where the cycle ends, on the section, in the frame of the end attached there: the
-section error against the start (the :class:`~monkeystudy.controllers.SequenceGait` error),
-the kinetic energy, the attached end's world position. Everything runs through
-:func:`monkeystudy.simulate.run_controller`: nothing here integrates on its own.
+same functions answer "was it the 1 ms grid?" for any gait. Per cycle everything is measured
+where the cycle reaches its section, in the frame of the end attached there
+(:func:`sequence_cycles`): the gait's error against the start, the kinetic energy, the
+attached end's world position; :func:`sequence_basin` counts the cycles a replay survives
+from perturbed starts. Everything runs through :func:`monkeystudy.simulate.run_controller`:
+nothing here integrates on its own.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..controllers import Integrator, OpenLoop, SequenceGait
+from ..controllers import (
+    Integrator, PhaseSequence, SequenceGait, motorless, open_loop_gait,
+)
 from ..kernel import layout as L
-from ..robot import SEED2009_TORQUE
 from ..simulate import (
     RobotLike, RunResult, Status, as_robot, energies, evaluate_cycle_gaits, gait_error,
-    initial_state, run_controller,
+    run_controller,
 )
 from .sections import TIGHT, check_cycle_frame, cycle_section_state
-
-# --- the horizontal gait, open loop -----------------------------------------------------------
-@dataclass
-class CycleRun:
-    """Per-cycle record of an open-loop run (docs/model.md section 4, the study's figs. 5-7)."""
-
-    error: np.ndarray            # at each vertical crossing, vs the gait start
-    kinetic_energy: np.ndarray   # [J] at each vertical crossing
-    pivot_height: np.ndarray     # [m] attached end after each swap
-    x_advance: np.ndarray        # [m] attached-end displacement per swap
-    t_cross: np.ndarray          # [s]
-    status: Status
-    crossing_state: np.ndarray = field(default_factory=lambda: np.zeros((0, 8)))
-
-    def error_vs(self, dtheta1: float, dtheta2: float) -> np.ndarray:
-        """Per-cycle error (docs/model.md section 4) against the rates of another gait."""
-        return gait_error(self.crossing_state, dtheta1, dtheta2)
-
-
-def open_loop_cycles(dtheta1: float, dtheta2: float, *, t_switch: float, t_motor: float,
-                     cycles: int, torque: float = SEED2009_TORQUE,
-                     robot: RobotLike = "seed2009", integrator: Integrator = TIGHT,
-                     tick: float = 0.0, tick_phase: float = 0.0,
-                     clock: str = "reset_at_vertical", period: float = math.nan,
-                     max_drop: float | None = None, theta2: float = 0.0) -> CycleRun:
-    """Replay a gait's times open-loop for ``cycles`` cycles and measure it per cycle."""
-    robot = as_robot(robot)
-    if max_drop is None:
-        max_drop = robot.link1.length
-    ctrl = OpenLoop(t_switch, t_motor, torque, tick=tick, tick_phase=tick_phase, clock=clock,
-                    period=period)
-    res = run_controller(ctrl, initial_state(dtheta1, dtheta2, theta2=theta2), robot=robot,
-                         integrator=integrator, cycles=cycles, max_drop=max_drop,
-                         log_capacity=8 * cycles + 16)
-    log = res.log
-    obs = log[log[:, L.L_KIND] == L.LOG_OBSERVER]
-    states = obs[:, L.L_STATE:L.L_STATE + 8]
-    flipped = obs[:, L.L_FLIPPED]
-    err = gait_error(states, dtheta1, dtheta2)
-    ke, _ = energies(res.params, states, flipped)
-    swaps = log[(log[:, L.L_KIND] == L.LOG_SEGMENT) & (log[:, L.L_ID] == 0)]
-    piv = swaps[:, L.L_STATE:L.L_STATE + 8]
-    x_prev = np.concatenate([[0.0], piv[:-1, L.X]])
-    return CycleRun(err, ke, piv[:, L.Y], piv[:, L.X] - x_prev, obs[:, L.L_T], res.status,
-                    states.copy())
-
-
-
-
-# ------------------------------------------------------------------------------------------
-# basins: cycles to failure around a gait
-# ------------------------------------------------------------------------------------------
-def basin(dtheta1: float, dtheta2: float, *, t_switch: float, t_motor: float, torque: float,
-          offsets1, offsets2, max_cycles: int = 60, error_bound: float = 1e-2,
-          robot: RobotLike = "seed2009", integrator: Integrator = TIGHT,
-          tick: float = 0.0) -> np.ndarray:
-    """Cycles an open-loop replay survives from perturbed starts (a basin map).
-
-    Start ``(dtheta1 + a, dtheta2 + b)`` for ``a`` in ``offsets1``, ``b`` in ``offsets2``
-    [rad s-1]; the run fails at the first vertical crossing whose error against the
-    *unperturbed* gait exceeds ``error_bound``, or when it falls or stops. Returns an int array
-    ``[len(offsets1), len(offsets2)]``; ``max_cycles`` means it never failed.
-    """
-    out = np.zeros((len(offsets1), len(offsets2)), np.int32)
-    for i, a in enumerate(offsets1):
-        for j, b in enumerate(offsets2):
-            run = open_loop_cycles(dtheta1 + a, dtheta2 + b, t_switch=t_switch,
-                                   t_motor=t_motor, cycles=max_cycles, torque=torque,
-                                   robot=robot, integrator=integrator, tick=tick)
-            err = run.error_vs(dtheta1, dtheta2)
-            bad = np.flatnonzero(~(err <= error_bound))
-            out[i, j] = int(bad[0]) if bad.size else len(err)
-    return out
-
-
 
 
 # --- per-cycle errors -------------------------------------------------------------------------
@@ -197,50 +122,41 @@ def cycle_times(gait: SequenceGait, z, *, robot: RobotLike = "seed2009",
     return r["t_segment"][0].copy()
 
 
-def open_loop_gait(gait: SequenceGait, segment_times) -> SequenceGait:
-    """The gait with every segment before the section ending at a fixed time.
-
-    ``segment_times`` [s]: the exit times on the controller clock (which restarts at each
-    section crossing), e.g. :func:`cycle_times` of the fixed point (the section's own entry,
-    if given, is ignored). Entry actions are kept; each guard becomes a ticked ``time`` guard,
-    so a controller tick rounds the times up to its grid, as the 2009 study's 1 ms loop did.
-    """
-    times = np.asarray(segment_times, float).ravel()
-    n = len(gait.segments)
-    if times.size < n or not np.all(np.isfinite(times[:n])):
-        raise ValueError(f"need {n} finite segment exit times, got {times[:n]}")
-    if np.any(np.diff(np.concatenate([[0.0], times[:n]])) < 0.0):
-        raise ValueError(f"segment exit times must not decrease: {times[:n]}")
-    for k, s in enumerate(gait.segments):
-        if s.clock != "keep":
-            raise ValueError(f"segment {k} moves the controller clock (clock={s.clock!r}): "
-                             "recorded times would be on a different clock")
-    segs = tuple(replace(s, until="time", value=float(t), ticked=True, direction="rising")
-                 for s, t in zip(gait.segments, times[:n]))
-    return replace(gait, segments=segs)
-
-
 @dataclass
 class SequenceCycles:
-    """Per-cycle record of a multi-cycle run of a sequence gait (arrays over the cycles that
-    reached the section; ``run`` is the raw :class:`~monkeystudy.simulate.RunResult`)."""
+    """Per-cycle record of a multi-cycle run of a sequence gait (``run`` is the raw
+    :class:`~monkeystudy.simulate.RunResult`).
 
-    error: np.ndarray            # section error vs the start [1]
+    With the gait's ``records='section'``, one entry per cycle that reached its section. With
+    ``records='swap'``, ``pivot_height``, ``x_advance`` and ``t_swap`` have one entry per
+    swap (a last swap whose cycle failed included), the others one per swap up to the last
+    one followed by a section crossing (NaN where a swap saw none before the next).
+    """
+
+    error: np.ndarray            # section error vs the reference [rad2 + rad2 s-2]
     kinetic_energy: np.ndarray   # [J] at each section crossing
-    pivot_height: np.ndarray     # [m] world height of the attached end at the crossing
+    pivot_height: np.ndarray     # [m] world height of the attached end (see above)
     x_advance: np.ndarray        # [m] attached end's horizontal displacement in the cycle
     t_cross: np.ndarray          # [s] section crossing ending the cycle
     t_swap: np.ndarray           # [s] the cycle's first magnet action (NaN: none)
-    section_state: np.ndarray    # (n, 8) frame state at each crossing
+    section_state: np.ndarray    # (n, 8) frame state at each crossing (NaN: none)
     status: Status
     run: RunResult
 
 
-def _magnet_rows(gait: SequenceGait) -> np.ndarray:
-    """Rows whose exit enters a segment that acts on the magnets."""
-    segs = gait.all_segments()
-    n = len(segs)
-    return np.array([k for k in range(n) if segs[(k + 1) % n].magnets != "keep"], int)
+def cycle_error(states: np.ndarray, z, gait: SequenceGait) -> np.ndarray:
+    """The gait's error of frame states ``[n, 8]`` at its section against ``z``: the section
+    error (:func:`section_error`) or, for a gait that does not wrap theta2, the 2009 error
+    (:func:`~monkeystudy.simulate.gait_error`, ``theta2_f - theta2`` as it is) evaluated row
+    by row, as the study's stability records always were (numpy's scalar ``** 2`` can differ
+    from its array square in the last bit)."""
+    s = np.asarray(states, float).reshape(-1, 8)
+    if gait.wrap_theta2:
+        return section_error(s, z)
+    th2, w1, w2 = (float(v) for v in np.asarray(z, float)[-3:])
+    rows = s.copy()
+    rows[:, L.TH2] -= th2
+    return np.array([gait_error(r, w1, w2) for r in rows], dtype=float)
 
 
 def sequence_cycles(gait: SequenceGait, z0, *, cycles: int, robot: RobotLike = "seed2009",
@@ -256,7 +172,8 @@ def sequence_cycles(gait: SequenceGait, z0, *, cycles: int, robot: RobotLike = "
     ----------
     replay : {"gait", "open_loop"}
         The gait's own controller, or its open-loop replay (:func:`open_loop_gait`) with the
-        segment exit ``times`` [s] (default: :func:`cycle_times` at ``reference``).
+        segment exit ``times`` [s] (default: :func:`cycle_times` at ``reference``; a gait
+        found on another controller passes its recorded times).
     reference : array_like, optional
         The gait the error is measured against (default ``z0``), e.g. the fixed point when
         ``z0`` is a perturbed start.
@@ -271,8 +188,12 @@ def sequence_cycles(gait: SequenceGait, z0, *, cycles: int, robot: RobotLike = "
     Returns
     -------
     SequenceCycles
-        Per cycle that reached the section (ends at a fall, a missed guard or the horizon:
-        ``status``). A cycle ending on B needs mirror-image links (``ValueError``).
+        Per cycle (ends at a fall, a missed guard or the horizon: ``status``), recorded as
+        the gait's ``records`` says. Each cycle is measured where it reaches its section: at
+        the section row's exit when the section is exact, else (a section acted on at the
+        tick, or records from the swap) at an exact observer of the section crossing, which
+        logs the same time and state as an exact section's exit. A cycle ending on B needs
+        mirror-image links (``ValueError``).
     """
     if replay not in REPLAYS:
         raise ValueError(f"replay must be one of {REPLAYS}, got {replay!r}")
@@ -296,32 +217,69 @@ def sequence_cycles(gait: SequenceGait, z0, *, cycles: int, robot: RobotLike = "
                        tick_phase=gait.tick_phase if tick is None else float(tick_phase))
     if max_drop is None:
         max_drop = robot.link1.length
-    n_rows = len(run_gait.all_segments())
-    res = run_controller(run_gait.controller(), cycle_section_state(run_gait, z0), robot=robot,
+    rows = run_gait.all_segments()
+    observed = run_gait.section_ticked or run_gait.records == "swap"
+    observers = (run_gait.section_observer(),) if observed else ()
+    ctrl = PhaseSequence(rows, observers, run_gait.tick, run_gait.tick_phase)
+    res = run_controller(ctrl, cycle_section_state(run_gait, z0), robot=robot,
                          integrator=integrator, cycles=int(cycles), max_drop=float(max_drop),
-                         sample_dt=sample_dt, log_capacity=(n_rows + 2) * int(cycles) + 16)
+                         sample_dt=sample_dt,
+                         log_capacity=(len(rows) + 2 + len(observers)) * int(cycles) + 16)
     log = res.log
     seg_rows = log[log[:, L.L_KIND] == L.LOG_SEGMENT]
-    cross = seg_rows[seg_rows[:, L.L_ID] == n_rows - 1]
+    if observed:
+        cross = log[log[:, L.L_KIND] == L.LOG_OBSERVER]
+    else:
+        cross = seg_rows[seg_rows[:, L.L_ID] == len(rows) - 1]
+    swaps = seg_rows[np.isin(seg_rows[:, L.L_ID].astype(int), run_gait.magnet_rows())]
+    if run_gait.records == "swap":
+        return _per_swap(run_gait, res, swaps, cross, ref)
     states = cross[:, L.L_STATE:L.L_STATE + 8].copy()
-    flipped = cross[:, L.L_FLIPPED]
-    ke, _ = energies(res.params, states, flipped)
+    ke, _ = energies(res.params, states, cross[:, L.L_FLIPPED])
     x_prev = np.concatenate([[0.0], states[:-1, L.X]])
-    swaps = seg_rows[np.isin(seg_rows[:, L.L_ID].astype(int), _magnet_rows(run_gait))]
     t_start = np.concatenate([[-math.inf], cross[:-1, L.L_T]])
     t_swap = np.full(len(cross), math.nan)
     for c in range(len(cross)):
         k = np.flatnonzero((swaps[:, L.L_T] > t_start[c]) & (swaps[:, L.L_T] <= cross[c, L.L_T]))
         if k.size:
             t_swap[c] = swaps[k[0], L.L_T]
-    return SequenceCycles(section_error(states, ref), ke, states[:, L.Y].copy(),
+    return SequenceCycles(cycle_error(states, ref, run_gait), ke, states[:, L.Y].copy(),
                           states[:, L.X] - x_prev, cross[:, L.L_T].copy(), t_swap, states,
                           Status(int(res.status)), res)
 
 
+def _per_swap(gait: SequenceGait, res: RunResult, swaps: np.ndarray, cross: np.ndarray,
+              ref: np.ndarray) -> SequenceCycles:
+    """:class:`SequenceCycles` recorded from each swap: the attached end just after it, and
+    the first section crossing after it and before the next swap."""
+    pivots = swaps[:, L.L_STATE:L.L_STATE + 8]
+    x_prev = np.concatenate([[0.0], pivots[:-1, L.X]])   # the gait starts with A at x = 0
+    t_next = np.append(swaps[1:, L.L_T], math.inf)
+    picked = []
+    for t0, t1 in zip(swaps[:, L.L_T], t_next):
+        k = np.flatnonzero((cross[:, L.L_T] > t0) & (cross[:, L.L_T] < t1))
+        picked.append(int(k[0]) if k.size else -1)
+    while picked and picked[-1] < 0:
+        picked.pop()                      # swaps after the last crossing have no cycle end
+    n = len(picked)
+    states = np.full((n, 8), np.nan)
+    t_cross = np.full(n, np.nan)
+    ke = np.full(n, np.nan)
+    err = np.full(n, np.nan)
+    hit = np.array([k >= 0 for k in picked], bool)
+    if hit.any():
+        rows = cross[[k for k in picked if k >= 0]]
+        states[hit] = rows[:, L.L_STATE:L.L_STATE + 8]
+        t_cross[hit] = rows[:, L.L_T]
+        ke[hit], _ = energies(res.params, states[hit], rows[:, L.L_FLIPPED])
+        err[hit] = cycle_error(states[hit], ref, gait)
+    return SequenceCycles(err, ke, pivots[:, L.Y].copy(), pivots[:, L.X] - x_prev, t_cross,
+                          swaps[:, L.L_T].copy(), states, Status(int(res.status)), res)
+
+
 def sequence_basin(gait: SequenceGait, z_star, offsets1, offsets2, *, max_cycles: int = 60,
                    error_bound: float = 1e-2, robot: RobotLike = "seed2009",
-                   integrator: Integrator = TIGHT, replay: str = "gait",
+                   integrator: Integrator = TIGHT, replay: str = "gait", times=None,
                    tick: float | None = None, max_drop: float | None = None) -> np.ndarray:
     """Cycles a sequence gait survives from perturbed starts (a basin map).
 
@@ -329,13 +287,14 @@ def sequence_basin(gait: SequenceGait, z_star, offsets1, offsets2, *, max_cycles
     dtheta2 for ``b`` in ``offsets2`` [rad s-1];
     a run fails at the first section crossing whose error against ``z_star`` exceeds
     ``error_bound``, or when it falls or stops before. The open-loop replay keeps the fixed
-    point's times for every start. Returns int ``[len(offsets1), len(offsets2)]``;
-    ``max_cycles`` means it never failed.
+    point's segment exit ``times`` [s] for every start (default: :func:`cycle_times` at
+    ``z_star``). Returns int ``[len(offsets1), len(offsets2)]``; ``max_cycles`` means it
+    never failed.
     """
     robot = as_robot(robot)
     z_star = np.asarray(z_star, float)
-    times = cycle_times(gait, z_star, robot=robot, integrator=integrator) \
-        if replay == "open_loop" else None
+    if replay == "open_loop" and times is None:
+        times = cycle_times(gait, z_star, robot=robot, integrator=integrator)
     out = np.zeros((len(offsets1), len(offsets2)), np.int32)
     for i, a in enumerate(offsets1):
         for j, b in enumerate(offsets2):
@@ -349,5 +308,5 @@ def sequence_basin(gait: SequenceGait, z_star, offsets1, offsets2, *, max_cycles
     return out
 
 
-__all__ = ["REPLAYS", "SequenceCycles", "cycle_times", "open_loop_gait", "section_error",
-           "sequence_basin", "sequence_cycles"]
+__all__ = ["REPLAYS", "SequenceCycles", "cycle_error", "cycle_times", "motorless",
+           "open_loop_gait", "section_error", "sequence_basin", "sequence_cycles"]

@@ -1,4 +1,4 @@
-"""Poincare sections and return maps of the horizontal and sequence gaits.
+"""Poincare sections and return maps of gaits (the horizontal gait is one sequence gait).
 
 Return maps live on the section "link 1 passes the vertical" (``theta1 = 0``; a sequence gait
 names its own ``theta1``). The section state is ``z = (theta2, dtheta1, dtheta2)``: ``theta1``
@@ -11,11 +11,9 @@ for what it needs; nothing integrates on its own.
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from ..controllers import HorizontalSearch, Integrator, OpenLoop, SequenceGait
+from ..controllers import Integrator, SequenceGait, horizontal_gait, open_loop_gait
 from ..kernel import layout as L
 from ..kernel.gait import wrapped_difference
 from ..robot import SEED2009_TORQUE
@@ -33,36 +31,28 @@ def section_state(z) -> np.ndarray:
     return initial_state(w1, w2, theta2=th2)
 
 
-def section_of(hyb) -> np.ndarray:
-    """Section coordinates of a hybrid state; theta2 modulo 2 pi, in [-pi, pi) (a gait may
-    turn link 2 a full revolution per cycle)."""
-    th2 = (hyb[L.TH2] + math.pi) % (2 * math.pi) - math.pi
-    return np.array([th2, hyb[L.DTH1], hyb[L.DTH2]])
-
-
 def open_loop_return_map(z, *, t_switch: float, t_motor: float,
                          torque: float = SEED2009_TORQUE, robot: RobotLike = "seed2009",
                          integrator: Integrator = TIGHT, tick: float = 0.0,
                          tick_phase: float = 0.0) -> tuple[np.ndarray, Status]:
-    """One cycle of the open-loop controller with its clock reset at the vertical.
+    """One cycle of the horizontal gait's open-loop replay, the clock restarted at the
+    vertical: :func:`cycle_return_map` of :func:`~monkeystudy.controllers.open_loop_gait` of
+    :func:`~monkeystudy.controllers.horizontal_gait` (motor ``torque`` [N m]).
 
-    From ``z`` on the section: swap at ``t_switch``, motor ``torque`` for ``t_motor``, then on
-    to the next vertical crossing. Returns the next section state and the run status.
+    From ``z`` on the section: swap at ``t_switch``, motor for ``t_motor`` [s], then on to
+    the next vertical crossing. Returns the next section state and the run status.
     """
-    ctrl = OpenLoop(t_switch, t_motor, torque, tick=tick, tick_phase=tick_phase,
-                    clock="reset_at_vertical")
-    res = run_controller(ctrl, section_state(z), robot=robot, integrator=integrator, cycles=1,
-                         log_capacity=0)
-    return section_of(res.state), res.status
+    gait = open_loop_gait(horizontal_gait(torque, tick, tick_phase=tick_phase),
+                          [t_switch, t_switch + t_motor])
+    return cycle_return_map(z, gait, robot=robot, integrator=integrator)
 
 
 def search_return_map(z, *, torque: float = SEED2009_TORQUE, robot: RobotLike = "seed2009",
                       integrator: Integrator = TIGHT) -> tuple[np.ndarray, Status]:
     """One cycle of the state-based search controller (swap at B height, motor until the
-    cycle-start energy is restored, stop at the vertical) from section state ``z``."""
-    res = run_controller(HorizontalSearch(torque), section_state(z), robot=robot,
-                         integrator=integrator, log_capacity=0)
-    return section_of(res.state), res.status
+    cycle-start energy is restored, stop at the vertical) from section state ``z``:
+    :func:`cycle_return_map` of :func:`~monkeystudy.controllers.horizontal_gait`."""
+    return cycle_return_map(z, horizontal_gait(torque), robot=robot, integrator=integrator)
 
 
 def cycle_section_state(gait: SequenceGait, z) -> np.ndarray:

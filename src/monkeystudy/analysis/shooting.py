@@ -1,6 +1,7 @@
-"""Exact fixed points of the horizontal gait by shooting (docs/model.md section 4).
+"""Exact fixed points of a gait by shooting (docs/model.md section 4).
 
-:func:`shoot_horizontal` solves the study's repeatability residual by Gauss-Newton;
+:func:`shoot_cycle` solves the repeatability residual of one cycle of any gait (its section's
+``theta2`` held) by Gauss-Newton, :func:`shoot_horizontal` the horizontal gait's;
 :func:`shoot_grazing` solves the grazing border's own equations (end B at end A's height at
 rest), whose solution is an exact, motorless, collisionless gait for mirror-image links.
 """
@@ -11,20 +12,27 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..controllers import Integrator, PhaseSequence, Segment
+from ..controllers import Integrator, PhaseSequence, Segment, SequenceGait, horizontal_gait
 from ..kernel import layout as L
+from ..kernel.gait import wrapped_difference
 from ..robot import SEED2009_TORQUE
-from ..simulate import RobotLike, Status, as_robot, evaluate_gaits, initial_state, run_controller
+from ..simulate import (
+    RobotLike, Status, as_robot, evaluate_cycle_gaits, initial_state, run_controller,
+    swap_motor_times,
+)
 from .sections import TIGHT
 
 
 @dataclass
 class ShootResult:
-    """Fixed point of the horizontal gait (docs/model.md section 4) found by shooting.
+    """Fixed point of a gait's cycle (docs/model.md section 4) found by shooting.
 
-    ``residual`` is ``(theta2_f, dtheta1_f - dtheta1, dtheta2_f - dtheta2)`` [rad, rad s-1,
-    rad s-1]; the study's error is its squared norm. ``history`` holds the residual norm per
-    iteration (quadratic convergence shows as the exponent doubling).
+    ``residual`` is ``(theta2_f - theta2, dtheta1_f - dtheta1, dtheta2_f - dtheta2)`` [rad,
+    rad s-1, rad s-1] (the theta2 difference wrapped as the gait's error wraps it); the
+    error is its squared norm. Times of the cycle [s]: ``t_switch`` the first segment's exit
+    (the swap), ``t_motor`` the second segment's duration (the motor phase), ``t_end`` the
+    section. ``history`` holds the residual norm per iteration (quadratic convergence shows as
+    the exponent doubling).
     """
 
     dtheta1: float
@@ -42,22 +50,36 @@ class ShootResult:
     message: str = ""
 
 
-def _residuals(points, robot, torque, integrator):
-    r = evaluate_gaits(points, robot=robot, torque=torque, integrator=integrator,
-                       skip_unreachable=True)
+def _residuals(points, gait, robot, integrator):
+    r = evaluate_cycle_gaits(points, gait, robot=robot, integrator=integrator)
     fs = r["final_state"]
     pts = np.asarray(points, float).reshape(-1, 2)
-    res = np.column_stack([fs[:, L.TH2], fs[:, L.DTH1] - pts[:, 0], fs[:, L.DTH2] - pts[:, 1]])
+    d2 = fs[:, L.TH2] - gait.theta2
+    if gait.wrap_theta2:
+        d2 = np.array([wrapped_difference(th2, gait.theta2) for th2 in fs[:, L.TH2]])
+    res = np.column_stack([d2, fs[:, L.DTH1] - pts[:, 0], fs[:, L.DTH2] - pts[:, 1]])
     res[r["status"] != 0] = np.nan
-    return res, r
+    return res, dict(r, **swap_motor_times(r["t_segment"][:, [0, 1, -1]]))
 
 
 def shoot_horizontal(start, *, robot: RobotLike = "seed2009", torque: float = SEED2009_TORQUE,
                      integrator: Integrator = TIGHT, tol: float = 1e-14, max_iter: int = 40,
                      fd_step: float = 1e-6) -> ShootResult:
-    """Solve the horizontal gait's repeatability residual for ``(dtheta1, dtheta2)``.
+    """:func:`shoot_cycle` of the horizontal gait (:func:`~monkeystudy.controllers.
+    horizontal_gait`, motor ``torque`` [N m], exact events): its repeatability residual in
+    ``(dtheta1, dtheta2)`` [rad s-1] from ``start``."""
+    return shoot_cycle(start, horizontal_gait(torque), robot=robot, integrator=integrator,
+                       tol=tol, max_iter=max_iter, fd_step=fd_step)
 
-    Three residuals, two unknowns: the motor restores the energy, which ties the residuals
+
+def shoot_cycle(start, gait: SequenceGait, *, robot: RobotLike = "seed2009",
+                integrator: Integrator = TIGHT, tol: float = 1e-14, max_iter: int = 40,
+                fd_step: float = 1e-6) -> ShootResult:
+    """Solve the repeatability residual of one cycle of ``gait`` (a gait with at least two
+    segments before its section) for the start's ``(dtheta1, dtheta2)`` [rad s-1], its
+    ``theta2`` held at the section's.
+
+    Three residuals, two unknowns: a motor that restores the energy ties the residuals
     together, so an exact gait is a zero of all three (a square system on the energy surface).
     Gauss-Newton with a central-difference Jacobian and a backtracking line search on the
     residual norm (a step that crosses the grazing border, where the swap jumps a whole swing,
@@ -67,7 +89,7 @@ def shoot_horizontal(start, *, robot: RobotLike = "seed2009", torque: float = SE
     """
     robot = as_robot(robot)
     x = np.array(start, dtype=float).reshape(2)
-    r, info = _residuals(x[None], robot, torque, integrator)
+    r, info = _residuals(x[None], gait, robot, integrator)
     r = r[0]
     if not np.all(np.isfinite(r)):
         return ShootResult(x[0], x[1], math.nan, r, Status(int(info["status"][0])), math.nan,
@@ -81,7 +103,7 @@ def shoot_horizontal(start, *, robot: RobotLike = "seed2009", torque: float = SE
     for it in range(1, max_iter + 1):
         h = fd_step * np.maximum(1.0, np.abs(x))
         pts = np.array([x + [h[0], 0], x - [h[0], 0], x + [0, h[1]], x - [0, h[1]]])
-        rr, _ = _residuals(pts, robot, torque, integrator)
+        rr, _ = _residuals(pts, gait, robot, integrator)
         if not np.all(np.isfinite(rr)):
             message = "finite-difference stencil left the gait region (grazing border)"
             break
@@ -91,7 +113,7 @@ def shoot_horizontal(start, *, robot: RobotLike = "seed2009", torque: float = SE
         accepted = False
         for _ in range(30):
             xn = x + lam * step
-            rn, _ = _residuals(xn[None], robot, torque, integrator)
+            rn, _ = _residuals(xn[None], gait, robot, integrator)
             rn = rn[0]
             if np.all(np.isfinite(rn)) and np.linalg.norm(rn) < np.linalg.norm(r):
                 accepted = True
@@ -109,7 +131,7 @@ def shoot_horizontal(start, *, robot: RobotLike = "seed2009", torque: float = SE
             converged = True
             message = "converged"
             break
-    _, info = _residuals(x[None], robot, torque, integrator)
+    _, info = _residuals(x[None], gait, robot, integrator)
     return ShootResult(float(x[0]), float(x[1]), float(r @ r), r, Status(int(info["status"][0])),
                        float(info["t_switch"][0]), float(info["t_motor"][0]),
                        float(info["t_end"][0]), converged, it, history, J, message)

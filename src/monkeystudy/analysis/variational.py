@@ -1,12 +1,12 @@
 """Jacobians of return maps by variational equations, with saltation matrices at the events.
 
-:func:`variational_jacobian` is written out by hand for the horizontal gait's two controllers
-(swing only: the open-loop replay and the state-based search controller).
-:func:`sequence_variational_jacobian` does the same for any
+:func:`sequence_variational_jacobian` differentiates the return map of any
 :class:`~monkeystudy.controllers.SequenceGait`: swings, flights, catches with either end,
-energy-latched and clock-timed guards, viscous friction.
+energy-latched and clock-timed guards, viscous friction. The horizontal gait is one
+(:func:`~monkeystudy.controllers.horizontal_gait`); :func:`variational_jacobian` names its two
+controllers (its open-loop replay and its state-based search controller).
 
-Method for a sequence gait (the standard one for hybrid systems):
+The method (the standard one for hybrid systems):
 
 1. One kernel run (:func:`~monkeystudy.simulate.run_controller`) gives the event sequence:
    which segments ran, and when. The kernel's times only seed the event location; the state
@@ -35,18 +35,16 @@ import math
 
 import numpy as np
 
-from ..controllers import HorizontalSearch, Integrator, OpenLoop, SequenceGait
+from ..controllers import Integrator, SequenceGait, horizontal_gait, open_loop_gait
 from ..kernel import layout as L
 from ..kernel.dynamics import total_energy8
 from ..kernel.variational import (
     energy8_gradient, entry_reset, field8, field8_jacobian, guard8, guard8_gradient,
-    swap_jacobian, swap_state, swing_energy_gradient, swing_field, swing_variational_rhs,
     variational_rhs8,
 )
 from ..robot import SEED2009_TORQUE
 from ..simulate import RobotLike, Status, as_robot, run_controller
-from .sections import TIGHT, check_cycle_frame, check_mirror_links, cycle_section_state, \
-    section_state
+from .sections import TIGHT, check_cycle_frame, cycle_section_state
 
 #: rows/columns of the section coordinates ``z = (theta2, dtheta1, dtheta2)`` in the 8-state
 SECTION_INDEX = (L.TH2, L.DTH1, L.DTH2)
@@ -58,97 +56,6 @@ _STATE_TOL = 1e-7
 #: a segment's condition within this relative distance of its threshold on entry counts as
 #: on it (the kernel's own band is 1e-12; the re-integration differs from it by ~1e-12)
 _THRESHOLD_MARGIN = 1e-9
-
-
-# --- the horizontal gait's two controllers ----------------------------------------------------
-def _integrate_variational(p, tau, y0, Phi0, t0, t1, rtol):
-    """State and transition matrix of the swing phase from ``t0`` to ``t1``."""
-    # scipy.integrate loads in ~0.2 s: only the callers that integrate variations pay it
-    from scipy.integrate import solve_ivp
-
-    fm = np.ones(2)
-    dY = np.empty(20)
-
-    def fun(t, Y):
-        swing_variational_rhs(p, tau, fm, Y, dY)
-        return dY.copy()
-
-    Y0 = np.concatenate([y0, Phi0.ravel()])
-    if t1 <= t0:
-        return y0.copy(), Phi0.copy()
-    sol = solve_ivp(fun, (t0, t1), Y0, method="DOP853", rtol=rtol, atol=rtol * 1e-2)
-    Y = sol.y[:, -1]
-    return Y[:4].copy(), Y[4:].reshape(4, 4).copy()
-
-
-def variational_jacobian(controller: str, z, *, t_switch: float = math.nan,
-                         t_motor: float = math.nan, torque: float = SEED2009_TORQUE,
-                         robot: RobotLike = "seed2009", integrator: Integrator = TIGHT,
-                         rtol: float = 1e-12) -> np.ndarray:
-    """Jacobian of the return map on ``theta1 = 0`` by variational equations.
-
-    ``controller`` is ``"open_loop"`` (exact times ``t_switch``, ``t_motor``, clock reset at
-    the vertical) or ``"search"`` (the state-based controller). Event times come from one
-    kernel run; the state and its transition matrix ``Phi`` are then integrated through each
-    phase (``dPhi/dt = A Phi``, ``A`` by complex step), and at each event
-
-    * a time-triggered swap maps ``Phi -> DR Phi`` (``DR`` the flip-and-impact Jacobian);
-    * a state-triggered swap (guard ``g``) uses the saltation matrix
-      ``S = DR + (f+ - DR f-) grad(g)^T / (grad(g) . f-)``;
-    * motor off when the energy is restored (``g = E(x) - E(x0)``, whose reference depends on
-      the start): ``Phi -> Phi + (f+ - f-)(grad E^T Phi - grad E0^T) / (grad E . f-)``;
-    * the section itself (``theta1 = 0``, free end time): ``(I - f e1^T / f_1) Phi``.
-    """
-    robot = as_robot(robot)
-    check_mirror_links(robot)
-    par = robot.params()
-    z = np.asarray(z, float)
-    if controller == "open_loop":
-        ctrl = OpenLoop(t_switch, t_motor, torque, clock="reset_at_vertical")
-        res = run_controller(ctrl, section_state(z), robot=robot, integrator=integrator,
-                             cycles=1, log_capacity=16)
-    elif controller == "search":
-        res = run_controller(HorizontalSearch(torque), section_state(z), robot=robot,
-                             integrator=integrator, log_capacity=16)
-    else:
-        raise ValueError(f"controller must be 'open_loop' or 'search', got {controller!r}")
-    if res.status != Status.OK:
-        raise RuntimeError(f"no cycle from z (status {res.status.name})")
-    t_sw, t_off, t_end = res.segment_times[:3]
-    L1, L2 = par[0][L.P_L1], par[0][L.P_L2]
-    y0 = np.array([0.0, z[0], z[1], z[2]])
-    fa, fb = np.empty(4), np.empty(4)
-    # swing about A until the swap
-    y, Phi = _integrate_variational(par[0], 0.0, y0, np.eye(4), 0.0, t_sw, rtol)
-    DR = np.empty((4, 4))
-    swap_jacobian(par[0], par[1], y, DR)
-    y_plus = swap_state(par[0], par[1], y)
-    if controller == "search":
-        swing_field(par[0], 0.0, np.ones(2), y, fa)
-        swing_field(par[1], torque, np.ones(2), y_plus, fb)
-        s1, s12 = math.sin(y[0]), math.sin(y[0] + y[1])
-        grad = np.array([L1 * s1 + L2 * s12, L2 * s12, 0.0, 0.0])
-        Phi = (DR + np.outer(fb - DR @ fa, grad) / (grad @ fa)) @ Phi
-    else:
-        Phi = DR @ Phi
-    y = y_plus
-    # motor on until it stops
-    y, Phi = _integrate_variational(par[1], torque, y, Phi, t_sw, t_off, rtol)
-    if controller == "search" and t_off > t_sw:
-        swing_field(par[1], torque, np.ones(2), y, fa)
-        swing_field(par[1], 0.0, np.ones(2), y, fb)
-        gE, gE0 = np.empty(4), np.empty(4)
-        swing_energy_gradient(par[1], 0.0, y, gE)
-        swing_energy_gradient(par[0], 0.0, y0, gE0)
-        Phi = Phi + np.outer(fb - fa, gE @ Phi - gE0) / (gE @ fa)
-    # to the vertical; the section's crossing time is free
-    y, Phi = _integrate_variational(par[1], 0.0, y, Phi, t_off, t_end, rtol)
-    swing_field(par[1], 0.0, np.ones(2), y, fa)
-    e1 = np.array([1.0, 0.0, 0.0, 0.0])
-    M = (np.eye(4) - np.outer(fa, e1) / fa[0]) @ Phi
-    return M[1:, 1:]
-
-
 
 
 # --- any sequence gait ------------------------------------------------------------------------
@@ -375,3 +282,24 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
             raise RuntimeError(f"phase/frame after segment {int(row[L.L_ID])} differ from "
                                "the kernel's")
     raise RuntimeError("the kernel log has no segment exits")
+
+
+def variational_jacobian(controller: str, z, *, t_switch: float = math.nan,
+                         t_motor: float = math.nan, torque: float = SEED2009_TORQUE,
+                         robot: RobotLike = "seed2009", integrator: Integrator = TIGHT,
+                         rtol: float = 1e-12) -> np.ndarray:
+    """Jacobian of the horizontal gait's return map on ``theta1 = 0`` by variational
+    equations: :func:`sequence_variational_jacobian` of
+    :func:`~monkeystudy.controllers.horizontal_gait` (motor ``torque`` [N m]).
+
+    ``controller`` is ``"open_loop"`` (its open-loop replay: swap at ``t_switch``, motor off
+    at ``t_switch + t_motor`` [s], the clock restarting at the vertical) or ``"search"`` (the
+    state-based controller). ``z = (theta2 [rad], dtheta1, dtheta2 [rad s-1])``.
+    """
+    gait = horizontal_gait(torque)
+    if controller == "open_loop":
+        gait = open_loop_gait(gait, [t_switch, t_switch + t_motor])
+    elif controller != "search":
+        raise ValueError(f"controller must be 'open_loop' or 'search', got {controller!r}")
+    return sequence_variational_jacobian(gait, z, robot=robot, integrator=integrator,
+                                         rtol=rtol)

@@ -325,13 +325,12 @@ CLASS_COLOUR = {"unstable": VERMILLION, "stable": BLUE, "neutral": "0.45"}
 
 
 def _section_of(ds) -> float:
-    """The return map's section theta1 [rad]: a sequence gait's, else the vertical."""
+    """The return map's section theta1 [rad]: the gait's section, the vertical by default."""
     try:
         g = json.loads(ds.attrs.get("gait", "{}"))
     except (TypeError, ValueError):
         return 0.0
-    return float(g.get("section", {}).get("theta1", 0.0)) if g.get("kind") == "sequence" \
-        else 0.0
+    return float(g.get("section", {}).get("theta1", 0.0))
 
 
 def _cycle_of(ds) -> str:

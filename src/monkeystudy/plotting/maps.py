@@ -105,11 +105,9 @@ def grid_arrays(ds) -> GridData:
 
 
 def is_sequence(ds) -> bool:
-    """Whether a dataset holds a sequence gait's results (its ``gait`` attribute)."""
-    try:
-        return json.loads(ds.attrs.get("gait", "{}")).get("kind") == "sequence"
-    except (TypeError, ValueError):
-        return False
+    """Whether a grid or refine dataset names its gait's cycle per segment (``t_segment``):
+    a sequence gait's, whose error is the section error."""
+    return "t_segment" in ds.variables
 
 
 def cell_edges(v: np.ndarray) -> np.ndarray:

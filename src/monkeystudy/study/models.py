@@ -11,7 +11,9 @@ study itself in :mod:`monkeystudy.study.schema`.
 from __future__ import annotations
 
 import contextvars
-from typing import Annotated, Any, Literal, Optional, Union
+import math
+from dataclasses import dataclass
+from typing import Annotated, Any, ClassVar, Literal, Optional, Union
 
 import numpy as np
 from pydantic import (
@@ -19,7 +21,7 @@ from pydantic import (
     model_validator,
 )
 
-from ..controllers import Integrator, Segment, SequenceGait
+from ..controllers import Integrator, Segment, SequenceGait, horizontal_gait
 from ..kernel.layout import STATUS_NAMES
 from ..robot import PRESETS, Friction, Link, Robot
 
@@ -172,6 +174,60 @@ def to_robot(spec: str | RobotParams) -> Robot:
 
 
 # --- gait, integrator -------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Conventions:
+    """How the study's steps name and run a kind of gait where the 2009 study's conventions
+    and a sequence gait's differ. Each gait model declares its own
+    (:attr:`Gait.conventions`, :attr:`SequenceGaitSpec.conventions`); the steps read them,
+    never the gait's kind.
+
+    Attributes
+    ----------
+    name : str
+        The gait in a message (``horizontal gait``).
+    swap_motor_times : bool
+        Datasets name a cycle's times as the 2009 study did, ``t_switch`` (the swap),
+        ``t_motor`` (the motor phase), ``t_end`` (the vertical; NaN when the cycle fails), and
+        say whether the swap comes on the first swing (``vertical_passes``); else per segment,
+        ``t_segment`` (dim ``segment``), with the cycle's advance.
+    replay : str
+        How a multi-cycle step runs the gait by default (``open_loop``: its recorded
+        schedule; ``gait``: its own controller).
+    replays : tuple of str
+        The replays stability, tick_sweep and basin steps accept.
+    clocks : tuple of str
+        The open-loop clock modes a multi-cycle step accepts (``controller.clock``).
+    clock : str
+        How datasets name a clock restarting at each cycle's end.
+    floquet_controllers : tuple of str
+        The return maps a floquet step analyses (its default, and all it accepts): the
+        open-loop replay of a shoot step's gait (``open_loop``), the gait's own controller
+        polished from ``search_start`` (``search``) or from a refine step's start
+        (``sequence``).
+    """
+
+    name: str
+    swap_motor_times: bool
+    replay: str
+    replays: tuple[str, ...]
+    clocks: tuple[str, ...]
+    clock: str
+    floquet_controllers: tuple[str, ...]
+
+
+#: the horizontal gait's conventions: the 2009 study's
+HORIZONTAL_CONVENTIONS = Conventions(
+    name="horizontal gait", swap_motor_times=True, replay="open_loop", replays=("open_loop",),
+    clocks=("reset_at_vertical", "run_on"), clock="reset_at_vertical",
+    floquet_controllers=("open_loop", "search"))
+
+#: a sequence gait's conventions
+SEQUENCE_CONVENTIONS = Conventions(
+    name="sequence gait", swap_motor_times=False, replay="gait", replays=("gait", "open_loop"),
+    clocks=("reset_at_vertical",), clock="reset_at_section",
+    floquet_controllers=("sequence",))
+
+
 class Gait(StrictModel):
     """The gait and its search controller (docs/model.md section 4)."""
 
@@ -188,6 +244,14 @@ class Gait(StrictModel):
             raise ValueError("must be non-zero (the motor restores the energy lost in the "
                              "swap)")
         return v
+
+    #: how the study's steps name and run it
+    conventions: ClassVar[Conventions] = HORIZONTAL_CONVENTIONS
+
+    def gait(self) -> SequenceGait:
+        """The horizontal gait as the phase sequence every step runs
+        (:func:`~monkeystudy.controllers.horizontal_gait`)."""
+        return horizontal_gait(self.motor_torque, self.tick)
 
 
 GuardName = Literal["time", "free_end_height", "energy_restored", "coord", "energy",
@@ -252,6 +316,9 @@ class SequenceGaitSpec(StrictModel):
     error: the section error, wrap(theta2_f - theta2)^2 + (dtheta1_f - dtheta1)^2 +
     (dtheta2_f - dtheta2)^2."""
 
+    #: how the study's steps name and run it
+    conventions: ClassVar[Conventions] = SEQUENCE_CONVENTIONS
+
     kind: Literal["sequence"] = Field(description="the gait: 'sequence' (a phase sequence)")
     segments: list[SegmentSpec] = Field(min_length=1, max_length=64,
                                         description="the cycle's segments, in order")
@@ -263,6 +330,11 @@ class SequenceGaitSpec(StrictModel):
     def _closes(self) -> "SequenceGaitSpec":
         self.gait()  # a cycle that reaches its section in flight or pinned is refused here
         return self
+
+    @property
+    def motor_torque(self) -> float:
+        """NaN: a sequence gait's segments carry their own torques."""
+        return math.nan
 
     def gait(self) -> SequenceGait:
         sec = self.section

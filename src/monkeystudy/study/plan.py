@@ -33,7 +33,7 @@ class StepPlan:
     deps: tuple[str, ...]
     up_to_date: bool
     key: str                   # step_keys(): what the dataset depends on, hashed
-    gait_kind: str = "horizontal"
+    gait: Any = None           # the study's gait (its model)
     blocks: list[Block] = field(default_factory=list)
     saved: set[int] = field(default_factory=set)
 
@@ -43,7 +43,7 @@ class StepPlan:
 
     @property
     def n_tasks(self) -> int:
-        return len(self.blocks) if self.blocks else self.kind.n_tasks(self.step, self.gait_kind)
+        return len(self.blocks) if self.blocks else self.kind.n_tasks(self.step, self.gait)
 
     def todo_blocks(self) -> list[Block]:
         return [b for b in self.blocks if b.index not in self.saved]
@@ -149,7 +149,7 @@ def plan_study(loaded: LoadedStudy, out: str | Path | None = None) -> Plan:
             not (set(deps) & stale)
         if not current:
             stale.add(s.name)
-        sp = StepPlan(s, kind, path, deps, current, keys[s.name], gait_kind=study.gait.kind,
+        sp = StepPlan(s, kind, path, deps, current, keys[s.name], gait=study.gait,
                       blocks=kind.blocks(s))
         if sp.blocks and not current:
             sp.saved = saved_blocks(shard_dir(out, s.name, sp.key), sp.blocks)

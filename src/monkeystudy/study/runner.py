@@ -24,11 +24,12 @@ from typing import Any, Callable, Iterator
 import numpy as np
 
 from .. import __version__, compiling
-from ..controllers import Integrator, OpenLoop, program_may_fly
+from ..controllers import Integrator, program_may_fly
 from ..kernel import KERNEL_CACHE_DIR
 from ..kernel.layout import PHASE_SWING, ST_UNREACHABLE
 from ..kernel.variational import (
-    swap_jacobian, swap_state, swing_energy_gradient, swing_field, swing_variational_rhs,
+    energy8_gradient, entry_reset, field8, field8_jacobian, guard8, guard8_gradient,
+    variational_rhs8,
 )
 from ..robot import SEED2009_TORQUE
 from ..simulate import RobotLike, as_robot, initial_state, loaded_kernels, run_controller
@@ -97,10 +98,7 @@ def load_kernels(spec: GaitSpec, *, runs: bool = False, variational: bool = Fals
     it is waited for or stopped once the gait evaluation is loaded, before anything else
     compiles.
     """
-    ctrl = None
-    if runs:
-        ctrl = (spec.sequence.controller() if spec.sequence is not None else
-                OpenLoop(0.01, 0.01, spec.torque, tick=spec.tick))
+    ctrl = spec.sequence.controller() if runs else None
     helper = None
     if ahead:
         helper = compiling.start(spec.integrator.method,
@@ -114,17 +112,22 @@ def load_kernels(spec: GaitSpec, *, runs: bool = False, variational: bool = Fals
         compiling.stop(helper)
     if ctrl is not None:
         run_controller(ctrl, initial_state(1.0, 11.0), robot=spec.robot,
-                       integrator=spec.integrator, t_end=0.05,
-                       sample_dt=0.01 if spec.sequence is None else 0.0)
+                       integrator=spec.integrator, t_end=0.05, sample_dt=0.01)
     if variational:
+        # the variational equations' kernels, with the argument types
+        # analysis.variational.sequence_variational_jacobian passes
         par = spec.robot.params()
-        y = np.array([0.1, 0.2, 1.0, 10.0])
-        swing_variational_rhs(par[0], 0.0, np.ones(2),
-                              np.concatenate([y, np.eye(4).ravel()]), np.empty(20))
-        swap_jacobian(par[0], par[1], y, np.empty((4, 4)))
-        swap_state(par[0], par[1], y)
-        swing_field(par[0], 0.0, np.ones(2), y, np.empty(4))
-        swing_energy_gradient(par[0], 0.0, y, np.empty(4))
+        s = np.array([0.0, 0.0, 0.1, 0.2, 0.0, 0.0, 1.0, 10.0])
+        f, grad, A = np.empty(8), np.empty(8), np.empty((8, 8))
+        for m in (3, 4):     # section states of 3 (clock reset) and 4 (running clock)
+            y = np.concatenate([s, np.eye(8)[:, :m].ravel()])
+            variational_rhs8(PHASE_SWING, par[0], 0.0, y, np.empty_like(y))
+        field8(PHASE_SWING, par[0], 0.0, s, f)
+        field8_jacobian(PHASE_SWING, par[0], 0.0, s, A)
+        guard8(1, 0, 0.0, par[0], s, 0.0)
+        guard8_gradient(1, 0, 0.0, par[0], s, 0.0, grad)
+        energy8_gradient(par[0], s, grad)
+        entry_reset(par, s, PHASE_SWING, 0, -1.0, -1.0, True, np.empty(8), A)
     marker = kernels_marker(spec.integrator.method, runs=runs, variational=variational)
     if marker is not None:
         try:
@@ -179,7 +182,8 @@ class StudyRun:
 
     def _context(self, s: StepPlan) -> StepContext:
         out = self.plan.out
-        deps = {d: Dependency(self.by_name[d].step, self.by_name[d].path) for d in s.deps}
+        deps = {d: Dependency(self.by_name[d].step, self.by_name[d].path, self.by_name[d].kind)
+                for d in s.deps}
         return StepContext(step=s.step, study=self.plan.loaded.study, spec=self.spec,
                            path=s.path, out=out, key=s.key, deps=deps, blocks=s.blocks,
                            read_block=lambda b, s=s: self._block_arrays(s, b))

@@ -6,12 +6,11 @@ nothing rebuilt on the workers), and datasets record it as ``Robot.to_dict()`` J
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..controllers import Integrator, SequenceGait
+from ..controllers import Integrator, SequenceGait, horizontal_gait
 from ..robot import Robot
 
 
@@ -28,8 +27,14 @@ class GaitSpec:
         carry their own).
     tick : float
         Controller tick [s]; 0 = exact event timing.
-    sequence : SequenceGait or None
-        A sequence gait, or None for the horizontal gait (docs/model.md section 4).
+    sequence : SequenceGait
+        The gait as a phase sequence: the study's sequence gait, or the horizontal gait's
+        (:func:`~monkeystudy.controllers.horizontal_gait` of ``torque`` and ``tick``, filled
+        in when not given).
+    swap_motor_times : bool
+        Datasets name a cycle's times as the 2009 study did (``t_switch``, ``t_motor``,
+        ``t_end``), else per segment (:class:`~monkeystudy.study.models.Conventions`; default:
+        the 2009 names when no sequence is given).
     """
 
     robot: Robot
@@ -37,20 +42,26 @@ class GaitSpec:
     torque: float
     tick: float
     sequence: SequenceGait | None = None
+    swap_motor_times: bool | None = None
+
+    def __post_init__(self):
+        if self.swap_motor_times is None:
+            object.__setattr__(self, "swap_motor_times", self.sequence is None)
+        if self.sequence is None:
+            object.__setattr__(self, "sequence", horizontal_gait(self.torque, self.tick))
 
     @property
     def n_cycle_segments(self) -> int:
-        """Segments of a sequence gait's cycle, the section included (0: horizontal gait)."""
-        return 0 if self.sequence is None else len(self.sequence.segments) + 1
+        """Segments of the gait's cycle, the section included, as datasets record them per
+        segment (0: named the 2009 way)."""
+        return 0 if self.swap_motor_times else len(self.sequence.segments) + 1
 
 
 def gait_spec(study) -> GaitSpec:
     """The :class:`GaitSpec` of a validated :class:`~monkeystudy.study.schema.Study`."""
     g = study.gait
-    robot, integ = study.to_robot(), study.integrator.to_integrator()
-    if g.kind == "sequence":
-        return GaitSpec(robot, integ, math.nan, float(g.tick), g.gait())
-    return GaitSpec(robot, integ, float(g.motor_torque), float(g.tick))
+    return GaitSpec(study.to_robot(), study.integrator.to_integrator(), float(g.motor_torque),
+                    float(g.tick), g.gait(), g.conventions.swap_motor_times)
 
 
 def integrator_fields(integrator: Integrator) -> dict:
@@ -61,10 +72,7 @@ def integrator_fields(integrator: Integrator) -> dict:
 
 def gait_json(study) -> dict:
     """The study's gait as datasets and step keys record it."""
-    if study.gait.kind == "sequence":
-        return study.gait.model_dump(mode="json")
-    return {"kind": study.gait.kind, "motor_torque": study.gait.motor_torque,
-            "tick": study.gait.tick}
+    return study.gait.model_dump(mode="json")
 
 
 def mirror_problem(robot: Robot) -> str | None:

@@ -13,6 +13,7 @@ from monkeystudy.study.blocks import make_blocks
 from monkeystudy.study.runner import load_kernels, run_grid
 from monkeystudy.study.spec import GaitSpec
 from monkeystudy.study.steps import grid
+from monkeystudy.study.steps.gait_source import best_grid_points
 
 TORQUE = 0.6354
 INTEG = Integrator(rtol=1e-8, atol=1e-10)
@@ -42,12 +43,12 @@ def test_best_grid_points_prefers_local_minima():
     e = np.add.outer((d1 - 0.25) ** 2, (d2 - 0.2) ** 2) + 1.0
     e[4, 5] = 0.5                     # a corner minimum, lower than the bowl
     e[0, 0] = np.nan                  # failed point: ignored
-    pts = grid.best_grid_points(e, d1, d2, 3)
+    pts = best_grid_points(e, d1, d2, 3)
     np.testing.assert_array_equal(pts[0], [1.0, 1.0])
     np.testing.assert_array_equal(pts[1], [0.25, 0.2])
     assert len(pts) == 3
     with pytest.raises(ValueError):
-        grid.best_grid_points(np.full((2, 2), np.nan), d1[:2], d2[:2], 1)
+        best_grid_points(np.full((2, 2), np.nan), d1[:2], d2[:2], 1)
 
 
 @pytest.mark.parametrize("block_size", [1, 4, 7, 9, 11, 40])

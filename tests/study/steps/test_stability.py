@@ -25,10 +25,10 @@ def spec():
 
 def test_stability_first_cycle_repeats_the_refined_gait(spec):
     r = refine.refine_task(spec, (1.0, 12.0), xatol=1e-4, fatol=1e-4)
-    gait = {"dtheta1": r["x"][0], "dtheta2": r["x"][1], "t_switch": r["t_switch"],
-            "t_motor": r["t_motor"], "t_end": r["t_end"], "status": r["status"]}
-    s = stability.stability_task(spec, gait, cycles=5, tick=0.001, clock="reset_at_vertical",
-                               sample_dt=0.005, max_drop=0.61)
+    s = stability.stability_task(spec, spec.sequence, [0.0, r["x"][0], r["x"][1]],
+                                 times=[r["t_switch"], r["t_switch"] + r["t_motor"]],
+                                 cycles=5, tick=0.001, sample_dt=0.005, max_drop=0.61,
+                                 replay="open_loop")
     assert s["status"] == ST_OK and s["cycles_completed"] == 5
     # the open-loop replay of the recorded times is the search controller's first cycle
     assert s["error"][0] == pytest.approx(r["error"], rel=1e-6, abs=1e-12)
@@ -43,9 +43,9 @@ def test_stability_first_cycle_repeats_the_refined_gait(spec):
 
 
 def test_stability_of_a_failed_gait_is_not_run(spec):
-    gait = {"dtheta1": 0.1, "dtheta2": 5.0, "t_switch": math.nan, "t_motor": math.nan,
-            "t_end": math.nan, "status": ST_UNREACHABLE}
-    s = stability.stability_task(spec, gait, cycles=3, tick=0.001, clock="reset_at_vertical",
-                               sample_dt=0.005, max_drop=0.61)
+    # below the swap energy floor: the gait's one cycle says unreachable, nothing runs
+    s = stability.stability_task(spec, spec.sequence, [0.0, 0.1, 5.0],
+                                 times=[math.nan, math.nan], cycles=3, tick=0.001,
+                                 sample_dt=0.005, max_drop=0.61, replay="open_loop")
     assert s["status"] == ST_UNREACHABLE and np.isnan(s["error"]).all()
     assert len(s["time"]) == 0

@@ -1,10 +1,13 @@
 """What a step kind is: one class that declares everything the runner, the planner, the
 dataset layer, ``monkeystudy inspect`` and the report need to know about a kind of step.
 
-A kind names its study-file model, the steps it depends on, the checks it makes across steps,
-its tasks (:meth:`StepKind.start`), how its results become a dataset (:meth:`StepKind.finish`),
-the key numbers of that dataset (:meth:`StepKind.describe`) and its figures. The runner sees a
-step only through its kind and a :class:`StepContext`; it never looks at the step's type.
+A kind names its study-file model, the kinds its ``from:`` accepts (:attr:`StepKind.accepts`)
+and what its own datasets hand on (:attr:`StepKind.provides`, :meth:`StepKind.hand_on`), the
+checks it makes across steps, its tasks (:meth:`StepKind.start`), how its results become a
+dataset (:meth:`StepKind.finish`), the key numbers of that dataset (:meth:`StepKind.describe`)
+and its figures. The runner sees a step only through its kind and a :class:`StepContext`; it
+never looks at the step's type, and no kind looks at another's: what a step starts from comes
+through the source's kind (:meth:`StepContext.handed_on`).
 """
 from __future__ import annotations
 
@@ -41,10 +44,12 @@ class Figure:
 
 @dataclass
 class Dependency:
-    """A step another step depends on: its model and the path of its dataset."""
+    """A step another step depends on: its model, the path of its dataset and its kind (what
+    reads what the dataset hands on)."""
 
     step: Any
     path: Path
+    provider: "StepKind | None" = None
 
     @property
     def kind(self) -> str:
@@ -78,8 +83,17 @@ class StepContext:
         return self.step.name
 
     @property
-    def gait_kind(self) -> str:
-        return self.study.gait.kind
+    def conventions(self):
+        """How the study's gait is named and run (:class:`~monkeystudy.study.models.
+        Conventions`)."""
+        return self.study.gait.conventions
+
+    def handed_on(self, source: str | None = None, **options):
+        """What step ``source`` (default: this step's ``from:``) hands on, read by its kind
+        (:meth:`StepKind.hand_on`; for a gait, a :class:`~monkeystudy.study.steps.gait_source.
+        GaitStart`) with this step's choices ``options``."""
+        dep = self.deps[source if source is not None else source_name(self.step)]
+        return dep.provider.hand_on(dep, self, **options)
 
     def todo_blocks(self) -> list[Block]:
         """The blocks without a saved shard."""
@@ -94,6 +108,21 @@ class StepContext:
         return [self.results[t] for t in sorted(self.results)]
 
 
+def source_name(step) -> str | None:
+    """The step named in a step's ``from:`` (None: none), wherever its model keeps it."""
+    for holder in (step, getattr(step, "start", None)):
+        name = getattr(holder, "from_", None)
+        if isinstance(name, str):
+            return name
+    return None
+
+
+def kinds_text(kinds) -> str:
+    """``'a'``, ``'a or b'``, ``'a, b or c'``."""
+    kinds = list(kinds)
+    return kinds[0] if len(kinds) == 1 else ", ".join(kinds[:-1]) + " or " + kinds[-1]
+
+
 class StepKind:
     """One kind of study step. Subclasses set the class attributes and override the methods
     their kind needs; :mod:`monkeystudy.study.steps` registers one instance of each."""
@@ -102,6 +131,15 @@ class StepKind:
     name: ClassVar[str] = ""
     #: its pydantic model (:mod:`monkeystudy.study.models` building blocks)
     model: ClassVar[type] = object
+    #: the kinds of step its ``from:`` may name (none: it has no ``from:``)
+    accepts: ClassVar[tuple[str, ...]] = ()
+    #: where its ``from:`` is in a study file (keys below the step) and the model holding it
+    from_key: ClassVar[tuple[str, ...]] = ("from",)
+    from_model: ClassVar[type | None] = None
+    #: what it takes from that step (the schema's description of ``from:``)
+    takes: ClassVar[str] = "the gait it hands on"
+    #: what its datasets hand on to a later step's ``from:`` (:meth:`hand_on`; "" none)
+    provides: ClassVar[str] = ""
     #: the gaits it supports (``horizontal``, ``sequence``)
     gait_kinds: ClassVar[tuple[str, ...]] = ("horizontal",)
     #: what its progress counts (tasks, or ``blocks`` for a resumable kind)
@@ -112,6 +150,18 @@ class StepKind:
     no_figures: ClassVar[str] = ""
     #: its dataset is bit-reproducible (same numbers for any workers, resumed or not)
     reproducible: ClassVar[bool] = True
+
+    def __init_subclass__(cls, **kwargs):
+        # the declaration is the schema's description of from:
+        super().__init_subclass__(**kwargs)
+        holder = cls.from_model or cls.model
+        fields = getattr(holder, "model_fields", {})
+        if cls.accepts and "from_" in fields:
+            fields["from_"].description = (f"an earlier {kinds_text(cls.accepts)} step: "
+                                           f"{cls.takes}")
+            holder.model_rebuild(force=True)
+            if holder is not cls.model:
+                cls.model.model_rebuild(force=True)
 
     @property
     def code_sha256(self) -> str:
@@ -131,7 +181,23 @@ class StepKind:
         return (name,) if name is not None else ()
 
     def check(self, study, index: int, step, seen: dict[str, Any]) -> list[Problem]:
-        """Problems across steps (``seen``: the earlier steps by name); none by default."""
+        """Problems across steps (``seen``: the earlier steps by name): its ``from:`` names an
+        earlier step of a kind it :attr:`accepts`, then the kind's own
+        (:meth:`check_step`, given that step or None)."""
+        name = source_name(step)
+        ref = None
+        problems: list[Problem] = []
+        if name is not None and self.accepts:
+            ref = seen.get(name)
+            if ref is None or ref.kind not in self.accepts:
+                problems.append((("steps", index) + self.from_key,
+                                 no_earlier(name, kinds_text(self.accepts), ref)))
+                ref = None
+        return problems + self.check_step(study, index, step, ref, seen)
+
+    def check_step(self, study, index: int, step, ref, seen: dict[str, Any]) -> list[Problem]:
+        """The kind's own problems; ``ref`` is the step its ``from:`` names when that is of a
+        kind it accepts (else None), ``seen`` the earlier steps by name. None by default."""
         return []
 
     def blocks(self, step) -> list[Block]:
@@ -142,8 +208,9 @@ class StepKind:
         """What a resumable step's blocks hold, for the plan's line."""
         return f"{sum(b.size for b in self.blocks(step))} points"
 
-    def n_tasks(self, step, gait_kind: str) -> int:
-        """How many tasks the step queues (``--dry-run`` shows it)."""
+    def n_tasks(self, step, gait) -> int:
+        """How many tasks the step queues (``--dry-run`` shows it) for the study's ``gait``
+        (its model)."""
         return 1
 
     def needs_runs(self, step) -> bool:
@@ -165,6 +232,11 @@ class StepKind:
         """Write the step's dataset to ``ctx.path`` (``attrs``: the study's global attributes)
         and return the one-line summary shown when it is done."""
         raise NotImplementedError
+
+    def hand_on(self, dep: Dependency, ctx: StepContext, **options):
+        """What a step of this kind hands on to ``ctx``'s step (:attr:`provides`), read from
+        its dataset ``dep`` with that step's choices ``options``."""
+        raise NotImplementedError(f"a {self.name} step hands nothing on")
 
     # --- reading ----------------------------------------------------------------------------
     def describe(self, ds) -> list[str]:

@@ -13,14 +13,14 @@ from typing import Literal, Optional
 import numpy as np
 from pydantic import Field
 
-from ...analysis.replay import basin, sequence_basin
+from ...analysis.replay import sequence_basin
+from ...controllers import SequenceGait
 from .. import datasets as D
 from ..blocks import Block, Task
 from ..models import Axis, Name, Replay, StrictModel
 from ..spec import GaitSpec
-from .base import Figure, StepContext, StepKind, no_earlier
-from .floquet import check_sequence_replay, sequence_attrs, sequence_start, sequence_torque
-from .shoot import ShootStep, gait_attrs, gait_line, replay_torque, shoot_gait
+from .base import Figure, StepContext, StepKind
+from .gait_source import gait_line, run_problems
 
 
 class BasinOffsets(StrictModel):
@@ -43,8 +43,7 @@ class BasinStep(StrictModel):
 
     name: Name
     kind: Literal["basin"]
-    from_: Name = Field(alias="from", description="an earlier shoot step (a sequence gait: "
-                                                  "a floquet step, its fixed point)")
+    from_: Name = Field(alias="from")  # described by the kind (accepts)
     replay: Replay = None
     offsets: BasinOffsets = Field(description="start offsets (d_dtheta1, d_dtheta2) [rad s-1]")
     max_cycles: int = Field(60, ge=1, le=100_000, description="cycles per run (a start that "
@@ -70,30 +69,19 @@ class BasinStep(StrictModel):
 
 
 # --- tasks (run on the workers) ------------------------------------------------------------------
-def basin_block(spec: GaitSpec, gait: dict, offsets1: np.ndarray, offsets2: np.ndarray, *,
-                max_cycles: int, error_bound: float, tick: float) -> dict[str, np.ndarray]:
-    """Cycles survived from starts ``gait + (a, b)`` for ``a`` in ``offsets1`` (rows of the
-    basin), ``b`` in ``offsets2`` [rad s-1] (:func:`~monkeystudy.analysis.replay.basin`); returns
-    ``{"cycles": int32 array [len(offsets1) * len(offsets2)]}`` in C order."""
-    robot, integ = spec.robot, spec.integrator
-    B = basin(float(gait["dtheta1"]), float(gait["dtheta2"]), t_switch=float(gait["t_switch"]),
-              t_motor=float(gait["t_motor"]), torque=replay_torque(spec, gait),
-              offsets1=np.asarray(offsets1, float), offsets2=np.asarray(offsets2, float),
-              max_cycles=int(max_cycles), error_bound=float(error_bound), robot=robot,
-              integrator=integ, tick=float(tick))
-    return {"cycles": np.ascontiguousarray(B, np.int32).ravel()}
-
-
-def sequence_basin_block(spec: GaitSpec, z_star, offsets1: np.ndarray, offsets2: np.ndarray,
-                         *, max_cycles: int, error_bound: float, tick: float,
-                         replay: str) -> dict[str, np.ndarray]:
-    """:func:`basin_block` for the spec's sequence gait around its fixed point ``z_star``
-    (:func:`monkeystudy.analysis.replay.sequence_basin`)."""
-    robot, integ = spec.robot, spec.integrator
-    B = sequence_basin(spec.sequence, np.asarray(z_star, float),
-                       np.asarray(offsets1, float), np.asarray(offsets2, float),
-                       max_cycles=int(max_cycles), error_bound=float(error_bound), robot=robot,
-                       integrator=integ, replay=replay, tick=float(tick))
+def basin_block(spec: GaitSpec, gait: SequenceGait, z_star, offsets1: np.ndarray,
+                offsets2: np.ndarray, *, times, max_cycles: int, error_bound: float,
+                tick: float, replay: str) -> dict[str, np.ndarray]:
+    """Cycles ``gait`` survives from starts ``z_star + (0, a, b)`` for ``a`` in ``offsets1``
+    (rows of the basin), ``b`` in ``offsets2`` [rad s-1], as its own controller or replayed
+    open-loop with the fixed point's segment exit ``times`` [s] (None: its own cycle's;
+    :func:`~monkeystudy.analysis.replay.sequence_basin`); returns ``{"cycles": int32 array
+    [len(offsets1) * len(offsets2)]}`` in C order."""
+    B = sequence_basin(gait, np.asarray(z_star, float), np.asarray(offsets1, float),
+                       np.asarray(offsets2, float), max_cycles=int(max_cycles),
+                       error_bound=float(error_bound), robot=spec.robot,
+                       integrator=spec.integrator, replay=replay, times=times,
+                       tick=float(tick))
     return {"cycles": np.ascontiguousarray(B, np.int32).ravel()}
 
 
@@ -120,6 +108,7 @@ class BasinKind(StepKind):
     name = "basin"
     model = BasinStep
     gait_kinds = ("horizontal", "sequence")
+    accepts = ("shoot", "floquet")
     unit = "blocks"
     figures = (
         Figure("cycles_map", "cycles to failure around the gait",
@@ -128,17 +117,8 @@ class BasinKind(StepKind):
                "only a thin band, or nothing."),
     )
 
-    def check(self, study, index, step: BasinStep, seen) -> list:
-        if study.gait.kind == "sequence":
-            return check_sequence_replay(study, index, step, seen)
-        out = []
-        if not isinstance(seen.get(step.from_), ShootStep):
-            out.append((("steps", index, "from"), no_earlier(step.from_, "shoot",
-                                                             seen.get(step.from_))))
-        if step.replay == "gait":
-            out.append((("steps", index, "replay"), "the horizontal gait is replayed "
-                        "open-loop (replay: gait needs a sequence gait)"))
-        return out
+    def check_step(self, study, index, step: BasinStep, ref, seen) -> list:
+        return run_problems(study, index, step, ref)
 
     def blocks(self, step: BasinStep) -> list[Block]:
         """Blocks of whole rows of d_dtheta1 (flat C-order point indices ``lo..hi``)."""
@@ -150,28 +130,20 @@ class BasinKind(StepKind):
     def block_summary(self, step: BasinStep) -> str:
         return f"{step.n_points} starts"
 
-    def n_tasks(self, step: BasinStep, gait_kind: str) -> int:
+    def n_tasks(self, step: BasinStep, gait) -> int:
         return len(self.blocks(step))
 
     def start(self, ctx: StepContext) -> list[Task]:
         st = ctx.step
-        if ctx.gait_kind == "sequence":
-            g = sequence_start(ctx)
-            replay = st.replay or "gait"
-            ctx.state.update(gait=g, replay=replay)
-            fn, gait, extra = sequence_basin_block, g["z"], {"replay": replay}
-        else:
-            g = shoot_gait(ctx, st.from_, st.solution)
-            ctx.state["gait"] = g
-            fn, gait, extra = basin_block, g, {}
+        g = ctx.handed_on(solution=st.solution, replay=st.replay)
         tick = st.tick if st.tick is not None else ctx.study.gait.tick
-        ctx.state["tick"] = tick
+        ctx.state.update(gait=g, tick=tick)
         o1, o2 = st.offsets.d_dtheta1.values(), st.offsets.d_dtheta2.values()
         n2 = o2.size
         kw = {"max_cycles": st.max_cycles, "error_bound": st.error_bound, "tick": tick,
-              **extra}
-        return [Task(b, fn, (ctx.spec, gait, o1[b.lo // n2:b.hi // n2], o2), kw)
-                for b in ctx.todo_blocks()]
+              "replay": g.replay, "times": g.times}
+        return [Task(b, basin_block, (ctx.spec, g.gait, g.z, o1[b.lo // n2:b.hi // n2], o2),
+                     kw) for b in ctx.todo_blocks()]
 
     def finish(self, ctx: StepContext, attrs: dict) -> str:
         st = ctx.step
@@ -180,14 +152,9 @@ class BasinKind(StepKind):
             cycles[b.lo:b.hi] = ctx.block_arrays(b)["cycles"]
         cycles = cycles.reshape(st.offsets.d_dtheta1.num, st.offsets.d_dtheta2.num)
         g = ctx.state["gait"]
-        if "replay" in ctx.state:
-            attrs.update(sequence_attrs(g, ctx.state["replay"]),
-                         motor_torque=sequence_torque(ctx.spec.sequence))
-        else:
-            attrs.update(gait_attrs(st.from_, g), replay="open_loop",
-                         motor_torque=replay_torque(ctx.spec, g))
-        attrs.update(max_cycles=st.max_cycles, error_bound=st.error_bound,
-                     tick=ctx.state["tick"], n_blocks=len(ctx.blocks))
+        attrs.update(g.attrs("run"), motor_torque=g.torque, max_cycles=st.max_cycles,
+                     error_bound=st.error_bound, tick=ctx.state["tick"],
+                     n_blocks=len(ctx.blocks))
         write_basin(ctx.path, attrs, st.offsets.d_dtheta1.values(),
                     st.offsets.d_dtheta2.values(), cycles)
         i0 = int(np.argmin(np.abs(st.offsets.d_dtheta1.values())))

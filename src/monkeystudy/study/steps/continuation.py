@@ -2,9 +2,9 @@
 multipliers along the branch and its folds and bifurcations
 (:mod:`monkeystudy.analysis.continuation`).
 
-Horizontal gait (``from:`` a shoot step): the collisionless (grazing) family in a
-mirror-symmetric parameter. Sequence gait (``from:`` a floquet step, its Newton-polished fixed
-point): any parameter, with an adaptive step.
+From a shoot step's grazing solution: the collisionless family in a mirror-symmetric parameter
+(the grazing border's own equations). From a floquet step's Newton-polished fixed point: any
+parameter, with an adaptive step. The source says which (its start's ``found_by``).
 """
 from __future__ import annotations
 
@@ -18,16 +18,15 @@ from pydantic import Field, field_validator
 
 from ...analysis.continuation import continue_cycle, continue_grazing, with_parameter
 from ...analysis.shooting import GrazingResult
+from ...controllers import SequenceGait
 from ...robot import Robot
 from ...simulate import evaluate_cycle_gaits
 from .. import datasets as D
 from ..blocks import Task
-from ..errors import RunFailed
 from ..models import Name, StrictModel
 from ..spec import GaitSpec, mirror_problem
-from .base import Figure, StepContext, StepKind, no_earlier
-from .floquet import FloquetStep, read_floquet_point
-from .shoot import ShootStep, gait_attrs, gait_line, shoot_gait
+from .base import Figure, StepContext, StepKind
+from .gait_source import gait_line
 
 
 #: continuation parameters of the horizontal gait's collisionless family (mirror-symmetric)
@@ -38,18 +37,15 @@ class ContinuationStep(StrictModel):
     """Pseudo-arclength continuation of a gait family in one parameter, with the Floquet
     multipliers along the branch and its folds and bifurcations.
 
-    Horizontal gait (``from:`` a shoot step): the collisionless (grazing) family in a
-    mirror-symmetric parameter (com, inertia, gravity). Sequence gait (``from:`` a floquet
-    step, whose Newton-polished fixed point starts the branch at the section's theta2): any
-    parameter, ``monkeystudy.continuation``.
+    ``from:`` a shoot step: the collisionless (grazing) family of its grazing solution in a
+    mirror-symmetric parameter (com, inertia, gravity). ``from:`` a floquet step, whose
+    Newton-polished fixed point starts the branch at the section's theta2: any parameter,
+    ``monkeystudy.continuation``.
     """
 
     name: Name
     kind: Literal["continuation"]
-    from_: Name = Field(alias="from", description="an earlier step: a shoot step (horizontal "
-                                                  "gait: its best grazing solution) or a "
-                                                  "floquet step (sequence gait: its fixed "
-                                                  "point)")
+    from_: Name = Field(alias="from")  # described by the kind (accepts)
     parameter: Literal["com", "inertia", "gravity", "torque", "mass_ratio", "joint_viscous",
                        "pivot_viscous"] = Field(
         description="com: link 1's CG from A [m] (link 2's mirrored); inertia: both links' "
@@ -95,39 +91,40 @@ def parameter_value(robot: Robot, parameter: str) -> float:
     raise ValueError(f"parameter must be 'com', 'inertia' or 'gravity', got {parameter!r}")
 
 
-def continuation_task(spec: GaitSpec, gait: dict, *, parameter: str, ds: float, steps: int,
+def continuation_task(spec: GaitSpec, gait: SequenceGait, z, *, method: str,
+                      t_switch: float, parameter: str, ds: float, steps: int,
+                      ds_max: float | None = None,
                       bounds=(-math.inf, math.inf)) -> dict[str, Any]:
-    """Continue the collisionless gait family from a grazing solution in ``parameter``
-    (:func:`~monkeystudy.analysis.continuation.continue_grazing`), starting at the robot's own value."""
-    robot, integ = spec.robot, spec.integrator
-    value0 = parameter_value(robot, parameter)
-    start = GrazingResult(float(gait["dtheta1"]), float(gait["dtheta2"]),
-                          float(gait["t_switch"]), np.zeros(3), True, [])
-    b = continue_grazing(start, parameter, value0, robot=robot, ds=float(ds), steps=int(steps),
-                         bounds=tuple(bounds), integrator=integ)
-    return {"parameter": b.parameter, "value0": value0, "value": np.asarray(b.value, float),
-            "dtheta1": np.asarray(b.dtheta1, float), "dtheta2": np.asarray(b.dtheta2, float),
-            "t_switch": np.asarray(b.t_switch, float), "residual": np.asarray(b.residual, float),
-            "multipliers": np.asarray(b.multipliers, complex), "folds": list(b.folds),
-            "period_doublings": list(b.period_doublings)}
+    """Continue a gait family in ``parameter`` from the study's own value.
 
-
-def sequence_continuation_task(spec: GaitSpec, fixed_point, *, parameter: str, ds: float,
-                               steps: int, ds_max: float | None = None,
-                               bounds=(-math.inf, math.inf)) -> dict[str, Any]:
-    """Continue a sequence gait's fixed point ``(theta2, dtheta1, dtheta2)`` in ``parameter``
-    (:func:`~monkeystudy.analysis.continuation.continue_cycle`), starting at the study's own value;
-    with each branch point's segment end times and advance per cycle."""
+    ``method="grazing"``: the collisionless family through the grazing solution ``z =
+    (theta2, dtheta1, dtheta2)`` swapping at ``t_switch`` [s]
+    (:func:`~monkeystudy.analysis.continuation.continue_grazing`, fixed step); ``"cycle"``:
+    ``gait``'s fixed point ``z`` (:func:`~monkeystudy.analysis.continuation.continue_cycle`,
+    adaptive step up to ``ds_max``), with each branch point's segment exit times [s] and
+    advance per cycle [m].
+    """
     robot, integ = spec.robot, spec.integrator
-    seq = spec.sequence
-    z0 = np.asarray(fixed_point, float)
-    b = continue_cycle(seq, z0, parameter, robot=robot, ds=float(ds), steps=int(steps),
+    if method == "grazing":
+        value0 = parameter_value(robot, parameter)
+        start = GrazingResult(float(z[1]), float(z[2]), float(t_switch), np.zeros(3), True, [])
+        b = continue_grazing(start, parameter, value0, robot=robot, ds=float(ds),
+                             steps=int(steps), bounds=tuple(bounds), integrator=integ)
+        return {"parameter": b.parameter, "value0": value0,
+                "value": np.asarray(b.value, float), "dtheta1": np.asarray(b.dtheta1, float),
+                "dtheta2": np.asarray(b.dtheta2, float),
+                "t_switch": np.asarray(b.t_switch, float),
+                "residual": np.asarray(b.residual, float),
+                "multipliers": np.asarray(b.multipliers, complex), "folds": list(b.folds),
+                "period_doublings": list(b.period_doublings)}
+    z0 = np.asarray(z, float)
+    b = continue_cycle(gait, z0, parameter, robot=robot, ds=float(ds), steps=int(steps),
                        ds_max=ds_max, bounds=tuple(bounds), integrator=integ)
     n = len(b.value)
-    t_seg = np.full((n, spec.n_cycle_segments), np.nan)
+    t_seg = np.full((n, len(gait.all_segments())), np.nan)
     adv = np.full((n, 2), np.nan)
     for i in range(n):
-        rb, g = with_parameter(robot, seq, parameter, b.value[i])
+        rb, g = with_parameter(robot, gait, parameter, b.value[i])
         g = dataclasses.replace(g, theta2=float(b.theta2[i]))
         r = evaluate_cycle_gaits(np.array([[b.dtheta1[i], b.dtheta2[i]]]), g, robot=rb,
                                  integrator=integ)
@@ -147,9 +144,8 @@ def sequence_continuation_task(spec: GaitSpec, fixed_point, *, parameter: str, d
 
 # --- the dataset ---------------------------------------------------------------------------------
 def write_continuation(path: Path, attrs: dict, result: dict) -> None:
-    """Write a continuation dataset from a
-    :func:`continuation_task` (horizontal gait) or
-    :func:`sequence_continuation_task` result."""
+    """Write a continuation dataset from a :func:`continuation_task` result (the grazing
+    family's, or a fixed point's with its segment times)."""
     n = len(result["value"])
     par = result["parameter"]
     sequence = "t_segment" in result
@@ -216,12 +212,10 @@ def write_continuation(path: Path, attrs: dict, result: dict) -> None:
 
 
 # --- the kind ------------------------------------------------------------------------------------
-def check_sequence_continuation(study, i: int, s: ContinuationStep, seen: dict) -> list:
-    """A sequence gait's continuation: from a floquet step, exact timing, a smooth flow, a
-    motor to continue in, mirror symmetry where the cycle needs it."""
+def cycle_problems(study, i: int, s: ContinuationStep) -> list:
+    """A fixed point's continuation: exact timing, a smooth flow, a motor to continue in,
+    mirror symmetry where the cycle needs it."""
     out: list[tuple[tuple, str]] = []
-    if not isinstance(seen.get(s.from_), FloquetStep):
-        out.append((("steps", i, "from"), no_earlier(s.from_, "floquet", seen.get(s.from_))))
     gait = study.gait.gait()
     if gait.tick != 0.0:
         out.append((("steps", i, "kind"), "continuation needs exact event timing (gait tick "
@@ -246,10 +240,29 @@ def check_sequence_continuation(study, i: int, s: ContinuationStep, seen: dict) 
     return out
 
 
+def grazing_problems(study, i: int, s: ContinuationStep) -> list:
+    """The collisionless family of a shoot step's grazing solution: a mirror-symmetric
+    parameter, a fixed step, mirror-image links."""
+    out = []
+    if s.parameter not in GRAZING_PARAMETERS:
+        out.append((("steps", i, "parameter"), f"the horizontal gait's collisionless "
+                    f"family is continued in {', '.join(GRAZING_PARAMETERS)} (it is "
+                    f"motorless and needs mirror-image links); {s.parameter} needs a "
+                    f"sequence gait"))
+    if s.ds_max is not None:
+        out.append((("steps", i, "ds_max"), "the collisionless family is continued "
+                    "with a fixed step; ds_max applies to sequence gaits"))
+    problem = mirror_problem(study.to_robot())
+    if problem:
+        out.append((("steps", i, "kind"), f"a {s.kind} step {problem}"))
+    return out
+
+
 class ContinuationKind(StepKind):
     name = "continuation"
     model = ContinuationStep
     gait_kinds = ("horizontal", "sequence")
+    accepts = ("shoot", "floquet")
     unit = "branches"
     figures = (
         Figure("branch", "gait family, |lambda| along it",
@@ -258,25 +271,14 @@ class ContinuationKind(StepKind):
                "stability; folds and bifurcations are marked."),
     )
 
-    def check(self, study, index, step: ContinuationStep, seen) -> list:
-        if study.gait.kind == "sequence":
-            return check_sequence_continuation(study, index, step, seen)
-        out = []
-        if not isinstance(seen.get(step.from_), ShootStep):
-            out.append((("steps", index, "from"), no_earlier(step.from_, "shoot",
-                                                             seen.get(step.from_))))
-        if step.parameter not in GRAZING_PARAMETERS:
-            out.append((("steps", index, "parameter"), f"the horizontal gait's collisionless "
-                        f"family is continued in {', '.join(GRAZING_PARAMETERS)} (it is "
-                        f"motorless and needs mirror-image links); {step.parameter} needs a "
-                        f"sequence gait"))
-        if step.ds_max is not None:
-            out.append((("steps", index, "ds_max"), "the collisionless family is continued "
-                        "with a fixed step; ds_max applies to sequence gaits"))
-        problem = mirror_problem(study.to_robot())
-        if problem:
-            out.append((("steps", index, "kind"), f"a {step.kind} step {problem}"))
-        return out
+    def check_step(self, study, index, step: ContinuationStep, ref, seen) -> list:
+        # a shoot step hands on a grazing solution (a border: its family's own equations),
+        # a floquet step a fixed point of the return map
+        if ref is None:
+            return []
+        if ref.kind == "shoot":
+            return grazing_problems(study, index, step)
+        return cycle_problems(study, index, step)
 
     def needs_variational(self, step) -> bool:
         return True
@@ -284,31 +286,22 @@ class ContinuationKind(StepKind):
     def start(self, ctx: StepContext) -> list[Task]:
         st = ctx.step
         bounds = tuple(st.bounds) if st.bounds is not None else (-math.inf, math.inf)
-        kw = {"parameter": st.parameter, "ds": st.ds, "steps": st.steps, "bounds": bounds}
-        if ctx.gait_kind == "sequence":
-            fp = read_floquet_point(ctx.deps[st.from_].path, "sequence")
-            if fp["newton_converged"] == 0 or not np.all(np.isfinite(fp["fixed_point"])):
-                raise RunFailed(f"{ctx.name}: floquet step {st.from_!r} did not converge to a "
-                                f"fixed point (map defect {fp['map_defect']:.3g}): nothing "
-                                f"to continue")
-            ctx.state["gait"] = fp
-            return [Task(0, sequence_continuation_task, (ctx.spec, fp["fixed_point"]),
-                         dict(kw, ds_max=st.ds_max))]
-        g = shoot_gait(ctx, st.from_, None, grazing=True)
-        ctx.state["gait"] = g
-        return [Task(0, continuation_task, (ctx.spec, g), kw)]
+        g = ctx.handed_on(grazing=True, replay="gait", require="continue")
+        method = "grazing" if g.found_by == "shoot_grazing" else "cycle"
+        ctx.state.update(gait=g, method=method)
+        kw = {"method": method, "t_switch": g.source.get("t_switch", math.nan),
+              "parameter": st.parameter, "ds": st.ds, "steps": st.steps, "bounds": bounds}
+        if method == "cycle":
+            kw["ds_max"] = st.ds_max
+        return [Task(0, continuation_task, (ctx.spec, g.gait, g.z), kw)]
 
     def finish(self, ctx: StepContext, attrs: dict) -> str:
         st = ctx.step
         r = ctx.results[0]
-        sequence = "t_segment" in r
-        if sequence:
-            fp = ctx.state["gait"]
-            attrs.update(floquet_step=st.from_, fixed_point=list(fp["fixed_point"]),
-                         map_defect=fp["map_defect"],
-                         ds_max=st.ds_max if st.ds_max is not None else abs(st.ds))
-        else:
-            attrs.update(gait_attrs(st.from_, ctx.state["gait"]))
+        cycle = ctx.state["method"] == "cycle"
+        attrs.update(ctx.state["gait"].attrs("analysis"))
+        if cycle:
+            attrs["ds_max"] = st.ds_max if st.ds_max is not None else abs(st.ds)
         attrs.update(ds=st.ds, steps=st.steps,
                      bounds=list(st.bounds) if st.bounds is not None else [])
         write_continuation(ctx.path, attrs, r)
@@ -316,7 +309,7 @@ class ContinuationKind(StepKind):
         msg = (f"{len(v)} points, {st.parameter} {v[0]:.6g} -> {v[-1]:.6g} "
                f"{D.PARAMETER_UNITS[st.parameter]}, folds {r['folds']}, period doublings "
                f"{r['period_doublings']}, max residual {float(np.max(r['residual'])):.2g}")
-        if sequence:
+        if cycle:
             msg += (f", through +1 {r['through_plus_one']}, Neimark-Sacker "
                     f"{r['neimark_sacker']}, stopped: {r['stop_reason']}")
         return msg

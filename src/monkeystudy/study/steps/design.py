@@ -37,12 +37,10 @@ from .. import datasets as D
 from ..blocks import Block, Task
 from ..errors import RunFailed
 from ..models import Name, StrictModel
-from .base import Figure, StepContext, StepKind, no_earlier
-from .floquet import FloquetStep
-from .refine import RefineStep
-from .shoot import ShootStep
-from .stability import run_record
-from .gaits import step_gait
+from .base import Dependency, Figure, StepContext, StepKind
+from .gait_source import (
+    MAX_MAP_DEFECT, GaitStart, design_start, option_problems, read_start,
+)
 
 #: designs per block at most (whole lines of the last axis; a design costs ~10 ms)
 BLOCK_DESIGNS = 400
@@ -104,8 +102,7 @@ class DesignStep(StrictModel):
 
     name: Name
     kind: Literal["design"]
-    from_: Name = Field(alias="from", description="the starting gait: an earlier shoot, "
-                        "refine or floquet step (its open-loop fixed point)")
+    from_: Name = Field(alias="from")  # described by the kind (accepts)
     parameters: dict[str, DesignAxis] = Field(description="free design parameters, 1 to 4, "
                                               "each a grid axis (see docs/model.md for "
                                               "names, units and bounds)")
@@ -208,12 +205,13 @@ def _check_parameter(name: str, values) -> None:
 
 
 # --- the starting gait and the design space ------------------------------------------------------
-def design_space(ctx: StepContext, gait: dict) -> DesignSpace:
+def design_space(ctx: StepContext, gait: GaitStart) -> DesignSpace:
     """The step's :class:`~monkeystudy.analysis.design.DesignSpace`: the study's robot, the
     starting gait's schedule (swap at ``t_switch``, motor ``torque`` from the swap for
     ``t_motor``) under the step's ``fixed`` values."""
     st = ctx.step
-    base = {"t_switch": gait["t_switch"], "t_motor": gait["t_motor"], "torque": gait["torque"]}
+    src = gait.source
+    base = {"t_switch": src["t_switch"], "t_motor": src["t_motor"], "torque": src["torque"]}
     base.update(st.fixed)
     for name in st.parameters:
         base.pop(name, None)
@@ -555,7 +553,7 @@ def write_design(path: Path, attrs: dict, st: DesignStep, space: DesignSpace, ax
                        {"long_name": "cycles survived from the offset start (exact timing; "
                                      f"{st.verify.basin_cycles}: never failed)",
                         "units": "1"}, checks["basin"])
-        rec = run_record(found["film"])
+        rec = D.run_record(found["film"])
         nc.createDimension("sample", rec["time"].size)
         nc.createDimension("xy", 2)
         D.add_variable(nc, "time", ("sample",), np.float64,
@@ -643,6 +641,8 @@ class DesignKind(StepKind):
     name = "design"
     model = DesignStep
     gait_kinds = ("horizontal",)
+    accepts = ("shoot", "refine", "floquet")
+    provides = "its best design (schedule, robot and fixed point)"
     unit = "blocks"
     figures = (
         Figure("map", "spectral radius over the design grid",
@@ -663,24 +663,15 @@ class DesignKind(StepKind):
                "The best design's gait cycle frame by frame, with its schedule below."),
     )
 
-    def check(self, study, index, step: DesignStep, seen) -> list:
+    def check_step(self, study, index, step: DesignStep, ref, seen) -> list:
         out = []
-        ref = seen.get(step.from_)
-        if not isinstance(ref, (ShootStep, RefineStep, FloquetStep)):
-            out.append((("steps", index, "from"),
-                        no_earlier(step.from_, "shoot, refine or floquet", ref)))
-        elif isinstance(ref, FloquetStep) and "open_loop" not in ref.controllers:
+        if ref is not None and ref.kind == "floquet" and "open_loop" not in ref.controllers:
             out.append((("steps", index, "from"), f"floquet step {ref.name!r} has no "
                         "open_loop fixed point"))
         if study.gait.tick != 0.0:
             out.append((("gait", "tick"), "a design step solves gaits with exact timing "
                         "(gait tick 0); verify.tick sets the replay's tick"))
-        if step.solution is not None and not isinstance(ref, ShootStep):
-            out.append((("steps", index, "solution"), "solution picks a shoot step's solution"))
-        if step.start_index is not None and not isinstance(ref, RefineStep):
-            out.append((("steps", index, "start_index"), "start_index picks a refine step's "
-                        "start"))
-        return out
+        return out + option_problems(step, ref, index)
 
     def blocks(self, step: DesignStep) -> list[Block]:
         n = int(np.prod(step.shape))
@@ -690,19 +681,23 @@ class DesignKind(StepKind):
     def block_summary(self, step: DesignStep) -> str:
         return " x ".join(f"{n} {a.num}" for n, a in step.parameters.items()) + " designs"
 
-    def n_tasks(self, step: DesignStep, gait_kind: str) -> int:
+    def n_tasks(self, step: DesignStep, gait) -> int:
         return len(self.blocks(step))
+
+    def hand_on(self, dep: Dependency, ctx: StepContext, **options):
+        return read_start(design_start, dep, ctx, options)
 
     def needs_variational(self, step) -> bool:
         return True
 
     def start(self, ctx: StepContext) -> list[Task]:
         st = ctx.step
-        gait = step_gait(ctx)
+        gait = ctx.handed_on(solution=st.solution, start_index=st.start_index,
+                             replay="open_loop", max_map_defect=MAX_MAP_DEFECT, require="run")
         space = design_space(ctx, gait)
         axes = [a.values() for a in st.parameters.values()]
         ctx.state.update(gait=gait, space=space, axes=axes)
-        starts = [(list(gait["z"]), None)] + [
+        starts = [(list(gait.z), None)] + [
             (list(x[:3]), x[3] if len(x) == 4 else None) for x in st.starts]
         ctx.state["starts"] = starts
         return [Task(b, design_block, (space, st.names, axes, starts, b.lo, b.hi))
@@ -726,9 +721,10 @@ class DesignKind(StepKind):
         grid["objective"] = (rho if st.objective == "spectral_radius"
                              else rho + st.energy_weight * grid["energy_per_metre"])
         found = refine_and_verify(space, st, axes, grid, ctx.state["starts"])
-        attrs.update(gait["source"], start_theta2=gait["z"][0], start_dtheta1=gait["z"][1],
-                     start_dtheta2=gait["z"][2], start_t_switch=gait["t_switch"],
-                     start_t_motor=gait["t_motor"], motor_torque=gait["torque"],
+        src = gait.source
+        attrs.update(gait.attrs("source"), start_theta2=gait.z[0], start_dtheta1=gait.z[1],
+                     start_dtheta2=gait.z[2], start_t_switch=src["t_switch"],
+                     start_t_motor=src["t_motor"], motor_torque=src["torque"],
                      n_blocks=len(ctx.blocks), designs=n,
                      designs_with_gait=int(np.sum(grid["status"] == DS_OK)),
                      grid_min_spectral_radius=float(np.nanmin(rho)) if np.any(

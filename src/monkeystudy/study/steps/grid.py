@@ -15,12 +15,13 @@ from pydantic import Field, model_validator
 
 from ...analysis.gait_kind import gait_kind_text, vertical_passes_before_swap
 from ...kernel.layout import STATUS_NAMES
-from ...simulate import evaluate_cycle_gaits, evaluate_gaits
+from ...simulate import evaluate_cycle_gaits, swap_motor_times
 from .. import datasets as D
 from ..blocks import Block, Task, make_blocks
 from ..models import Axis, Name, Point, StrictModel
 from ..spec import GaitSpec
-from .base import Figure, StepContext, StepKind
+from .base import Dependency, Figure, StepContext, StepKind
+from .gait_source import grid_minima, read_start
 
 #: Variables of a horizontal gait's grid block, with their dtype in blocks, shards and datasets.
 HORIZONTAL_VARIABLES = {
@@ -83,8 +84,9 @@ class GridStep(StrictModel):
 
 
 def grid_variables(spec: GaitSpec) -> dict[str, type]:
-    """The variables (name -> dtype) of the spec's grid blocks."""
-    return HORIZONTAL_VARIABLES if spec.sequence is None else SEQUENCE_VARIABLES
+    """The variables (name -> dtype) of the spec's grid blocks: the 2009 study's names or
+    per segment (:attr:`~monkeystudy.study.spec.GaitSpec.swap_motor_times`)."""
+    return HORIZONTAL_VARIABLES if spec.swap_motor_times else SEQUENCE_VARIABLES
 
 
 def axes_points(a1: np.ndarray, a2: np.ndarray, lo: int, hi: int) -> np.ndarray:
@@ -103,29 +105,24 @@ def grid_points(step: GridStep, lo: int = 0, hi: int | None = None) -> np.ndarra
 
 
 # --- tasks (run on the workers) ------------------------------------------------------------------
-def grid_block(spec: GaitSpec, points: np.ndarray, skip_unreachable: bool = True
+def grid_block(spec: GaitSpec, points, skip_unreachable: bool = True
                ) -> dict[str, np.ndarray]:
-    """Evaluate the gait at ``points[n, 2]`` (dtheta1, dtheta2) [rad s-1].
+    """Evaluate the gait at ``points[n, 2]`` (dtheta1, dtheta2) [rad s-1], or at flat indices
+    ``lo..hi`` of the grid ``a1 x a2`` given as ``points = (a1, a2, lo, hi)`` (the points are
+    then made on the worker: a task carries the two axes, not its points).
 
-    Returns the arrays of :func:`grid_variables` (``error`` NaN unless status is ok): the
-    horizontal gait's, or one cycle of the spec's sequence gait.
+    Returns the arrays of :func:`grid_variables` (``error`` NaN unless status is ok) of one
+    cycle of the spec's gait (:func:`~monkeystudy.simulate.evaluate_cycle_gaits`); starts the
+    gait says cannot reach its first guard are skipped (``skip_unreachable``).
     """
-    if spec.sequence is None:
-        r = evaluate_gaits(points, robot=spec.robot, torque=spec.torque, tick=spec.tick,
-                           integrator=spec.integrator, skip_unreachable=skip_unreachable)
-    else:
-        # no energy bound here: a sequence's motor may act before its swap
-        r = evaluate_cycle_gaits(points, spec.sequence, robot=spec.robot,
-                                 integrator=spec.integrator)
+    if isinstance(points, tuple):
+        points = axes_points(*points)
+    r = evaluate_cycle_gaits(points, spec.sequence, robot=spec.robot,
+                             integrator=spec.integrator, skip_unreachable=skip_unreachable)
+    if spec.swap_motor_times:
+        r.update(swap_motor_times(r["t_segment"]))
     return {name: np.asarray(r[name]).astype(dt, copy=False)
             for name, dt in grid_variables(spec).items()}
-
-
-def grid_axes_block(spec: GaitSpec, a1: np.ndarray, a2: np.ndarray, lo: int, hi: int,
-                    skip_unreachable: bool = True) -> dict[str, np.ndarray]:
-    """:func:`grid_block` at flat indices ``lo..hi`` of the grid ``a1 x a2`` (the points are
-    made on the worker: a task carries the two axes, not its points)."""
-    return grid_block(spec, axes_points(a1, a2, lo, hi), skip_unreachable)
 
 
 # --- the dataset ---------------------------------------------------------------------------------
@@ -253,50 +250,12 @@ def write_flat(var, shape: tuple, lo: int, data: np.ndarray) -> None:
             k += m
 
 
-def read_grid_error(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(error, dtheta1, dtheta2)`` of a grid dataset (2-D for axes, 1-D for points)."""
-    v = D.read_variables(path, ("error", "dtheta1", "dtheta2"))
-    return v["error"], v["dtheta1"], v["dtheta2"]
-
-
-def best_grid_points(error: np.ndarray, d1: np.ndarray, d2: np.ndarray, k: int) -> np.ndarray:
-    """The ``k`` best starts of a grid, ``[k, 2]``: local minima of the error map (no finite
-    8-neighbour lower), lowest first, then the lowest remaining points; ties by flat index."""
-    e = np.asarray(error, np.float64)
-    finite = np.isfinite(e)
-    if int(finite.sum()) < k:
-        raise ValueError(f"the grid has {int(finite.sum())} points with an error value, "
-                         f"{k} requested")
-    if e.ndim == 2:
-        big = np.where(finite, e, np.inf)
-        pad = np.pad(big, 1, constant_values=np.inf)
-        local = finite.copy()
-        n1, n2 = e.shape
-        for di in (-1, 0, 1):
-            for dj in (-1, 0, 1):
-                if di or dj:
-                    local &= big <= pad[1 + di:1 + di + n1, 1 + dj:1 + dj + n2]
-        g1, g2 = np.meshgrid(d1, d2, indexing="ij")
-        pts = np.stack([g1.ravel(), g2.ravel()], axis=1)
-        local = local.ravel()
-    else:
-        pts = np.stack([d1, d2], axis=1)
-        local = np.zeros(e.size, bool)
-    flat = e.ravel()
-    idx = np.arange(flat.size)
-    fin = np.isfinite(flat)
-    order_local = idx[local][np.lexsort((idx[local], flat[local]))]
-    rest = idx[fin & ~local]
-    order_rest = rest[np.lexsort((rest, flat[rest]))]
-    chosen = np.concatenate([order_local, order_rest])[:k]
-    return pts[chosen]
-
-
 # --- the kind ------------------------------------------------------------------------------------
 class GridKind(StepKind):
     name = "grid"
     model = GridStep
     gait_kinds = ("horizontal", "sequence")
+    provides = "its best minima (starts of a refinement)"
     unit = "blocks"
     figures = (
         Figure("surface", "sqrt(error) surface",
@@ -319,8 +278,11 @@ class GridKind(StepKind):
     def block_summary(self, step: GridStep) -> str:
         return f"{step.n_points} points, {step.points_per_block} per block"
 
-    def n_tasks(self, step: GridStep, gait_kind: str) -> int:
+    def n_tasks(self, step: GridStep, gait) -> int:
         return step.n_blocks
+
+    def hand_on(self, dep: Dependency, ctx: StepContext, **options):
+        return read_start(grid_minima, dep, ctx, options)
 
     def needs_runs(self, step) -> bool:
         # the finish runs the controller once (the kind of the map's best start): load
@@ -335,7 +297,7 @@ class GridKind(StepKind):
             return [Task(b, grid_block, (ctx.spec, pts[b.lo:b.hi], skip))
                     for b in ctx.todo_blocks()]
         a1, a2 = st.dtheta1.values(), st.dtheta2.values()
-        return [Task(b, grid_axes_block, (ctx.spec, a1, a2, b.lo, b.hi, skip))
+        return [Task(b, grid_block, (ctx.spec, (a1, a2, b.lo, b.hi), skip))
                 for b in ctx.todo_blocks()]
 
     def finish(self, ctx: StepContext, attrs: dict) -> str:
@@ -350,10 +312,9 @@ class GridKind(StepKind):
         # another gait than the study's; say which kind the map's best start is
         def least_error_kind(d1: float, d2: float) -> dict:
             return {"least_error_vertical_passes": vertical_passes_before_swap(
-                d1, d2, robot=spec.robot, torque=spec.torque, tick=spec.tick,
-                integrator=spec.integrator)}
+                d1, d2, robot=spec.robot, gait=spec.sequence, integrator=spec.integrator)}
 
-        kind_attrs = least_error_kind if spec.sequence is None else None
+        kind_attrs = least_error_kind if spec.swap_motor_times else None
         info = write_grid(ctx.path, attrs, blocks=blocks, variables=grid_variables(spec),
                           n_segments=spec.n_cycle_segments, least_error_attrs=kind_attrs, **where)
         text = f"{info['n_points']} points, skipped_fraction {info['skipped_fraction']:.3f}"

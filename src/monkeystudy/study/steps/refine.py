@@ -13,20 +13,19 @@ from pydantic import Discriminator, Field, Tag
 from ...analysis.gait_kind import gait_kind_text, vertical_passes_before_swap
 from ...analysis.search import DEFAULT_PENALTY, FMINSEARCH_TOL, refine_gait
 from ...kernel.layout import ST_OK, STATUS_NAMES
-from ...simulate import evaluate_cycle_gaits, evaluate_gaits
+from ...simulate import evaluate_cycle_gaits, swap_motor_times
 from .. import datasets as D
 from ..blocks import Task
-from ..errors import RunFailed
 from ..models import Name, Point, StrictModel
 from ..spec import GaitSpec
-from .base import Figure, StepContext, StepKind, no_earlier
-from .grid import GridStep, best_grid_points, read_grid_error
+from .base import Dependency, Figure, StepContext, StepKind
+from .gait_source import read_start, refine_start
 
 
 class BestOfGrid(StrictModel):
     """Start from the ``best`` lowest-error minima of an earlier grid step."""
 
-    from_: Name = Field(alias="from", description="an earlier grid step")
+    from_: Name = Field(alias="from")  # described by the kind (accepts)
     best: int = Field(1, ge=1, le=1000, description="number of grid minima to refine "
                                                     "(one refinement each, dim 'start')")
 
@@ -75,30 +74,25 @@ def refine_task(spec: GaitSpec, start: tuple[float, float], *, xatol: float, fat
                 maxiter: int | None = None, maxfev: int | None = None,
                 penalty: float = DEFAULT_PENALTY) -> dict[str, Any]:
     """:func:`~monkeystudy.analysis.search.refine_gait` on the spec's gait from ``start``
-    (dtheta1, dtheta2) [rad s-1]: the horizontal gait (exact or ticked, unreachable starts
-    skipped) or one cycle of the spec's sequence gait."""
-    seq = spec.sequence
+    (dtheta1, dtheta2) [rad s-1]: one cycle of the spec's gait (starts it says cannot reach
+    its first guard skipped)."""
+    keys = (("error", "status", "t_switch", "t_motor", "t_end") if spec.swap_motor_times else
+            ("error", "status", "t_end", "t_segment", "x_advance", "y_advance"))
 
     def gait(x: tuple[float, float]) -> dict[str, Any]:
-        if seq is None:
-            r = evaluate_gaits(np.array([x]), robot=spec.robot, torque=spec.torque,
-                               tick=spec.tick, integrator=spec.integrator,
-                               skip_unreachable=True)
-            keys = ("error", "status", "t_switch", "t_motor", "t_end")
-        else:
-            r = evaluate_cycle_gaits(np.array([x]), seq, robot=spec.robot,
-                                     integrator=spec.integrator)
-            keys = ("error", "status", "t_end", "t_segment", "x_advance", "y_advance")
+        r = evaluate_cycle_gaits(np.array([x]), spec.sequence, robot=spec.robot,
+                                 integrator=spec.integrator)
+        if spec.swap_motor_times:
+            r.update(swap_motor_times(r["t_segment"]))
         return {k: (int(r[k][0]) if k == "status" else
                     r[k][0].copy() if k == "t_segment" else float(r[k][0])) for k in keys}
 
     r = refine_gait(gait, start, xatol=xatol, fatol=fatol, maxiter=maxiter, maxfev=maxfev,
                     penalty=penalty)
     # what kind of gait the result is: a late swap, after several swings, is another gait
-    r["vertical_passes"] = -1 if seq is not None or r["status"] != ST_OK else \
+    r["vertical_passes"] = -1 if not spec.swap_motor_times or r["status"] != ST_OK else \
         vertical_passes_before_swap(float(r["x"][0]), float(r["x"][1]), robot=spec.robot,
-                                    torque=spec.torque, tick=spec.tick,
-                                    integrator=spec.integrator)
+                                    gait=spec.sequence, integrator=spec.integrator)
     return r
 
 
@@ -209,25 +203,16 @@ def write_refine(path: Path, attrs: dict, results: list[dict], multi: bool) -> N
         ))
 
 
-def read_refined(path: Path, start_index: int | None = None) -> tuple[dict, int]:
-    """The refined gait of a refine dataset: ``({dtheta1, dtheta2, t_switch, t_motor, t_end,
-    status}, start index)``; for a multi-start dataset the given start or the lowest error."""
-    keys = ("dtheta1", "dtheta2", "t_switch", "t_motor", "t_end", "error", "status",
-            "vertical_passes")
-    vals = D.read_variables(path, keys)       # a sequence gait's has no t_switch, t_motor
-    if start_index is None:
-        err = np.where(np.isfinite(vals["error"]), vals["error"], np.inf)
-        start_index = int(np.argmin(err))
-    g = {k: float(v[start_index]) for k, v in vals.items()}
-    g["status"] = int(g["status"])
-    return g, start_index
-
-
 # --- the kind ------------------------------------------------------------------------------------
 class RefineKind(StepKind):
     name = "refine"
     model = RefineStep
     gait_kinds = ("horizontal", "sequence")
+    accepts = ("grid",)
+    from_key = ("start", "from")
+    from_model = BestOfGrid
+    takes = "its best minima start the refinements"
+    provides = "its refined gait (the lowest error, or start_index)"
     unit = "refinements"
     figures = (
         Figure("convergence", "Nelder-Mead convergence",
@@ -239,19 +224,17 @@ class RefineKind(StepKind):
     def deps(self, step: RefineStep) -> tuple[str, ...]:
         return (step.start.from_,) if isinstance(step.start, BestOfGrid) else ()
 
-    def check(self, study, index, step: RefineStep, seen) -> list:
-        if not isinstance(step.start, BestOfGrid):
-            return []
-        ref = seen.get(step.start.from_)
-        if not isinstance(ref, GridStep):
-            return [(("steps", index, "start", "from"), no_earlier(step.start.from_, "grid", ref))]
-        if step.start.best > ref.n_points:
+    def check_step(self, study, index, step: RefineStep, ref, seen) -> list:
+        if ref is not None and step.start.best > ref.n_points:
             return [(("steps", index, "start", "best"),
                      f"must be <= the {ref.n_points} points of {ref.name!r}")]
         return []
 
-    def n_tasks(self, step: RefineStep, gait_kind: str) -> int:
+    def n_tasks(self, step: RefineStep, gait) -> int:
         return step.n_starts
+
+    def hand_on(self, dep: Dependency, ctx: StepContext, **options):
+        return read_start(refine_start, dep, ctx, options)
 
     def needs_runs(self, step) -> bool:
         return False
@@ -259,11 +242,7 @@ class RefineKind(StepKind):
     def start(self, ctx: StepContext) -> list[Task]:
         st = ctx.step
         if isinstance(st.start, BestOfGrid):
-            err, d1, d2 = read_grid_error(ctx.deps[st.start.from_].path)
-            try:
-                starts = best_grid_points(err, d1, d2, st.start.best)
-            except ValueError as exc:
-                raise RunFailed(f"{ctx.name}: {exc}") from None
+            starts = ctx.handed_on(best=st.start.best)
         else:
             starts = np.array([st.start], dtype=np.float64)
         kw = {"xatol": st.xatol, "fatol": st.fatol, "maxiter": st.maxiter,
@@ -285,7 +264,7 @@ class RefineKind(StepKind):
         best = min(range(len(results)), key=lambda i: results[i]["error"]
                    if math.isfinite(results[i]["error"]) else math.inf)
         b = results[best]
-        kind = (f", {gait_kind_text(b['vertical_passes'])}" if ctx.gait_kind == "horizontal"
+        kind = (f", {gait_kind_text(b['vertical_passes'])}" if ctx.spec.swap_motor_times
                 else "")
         msg = (f"best error {b['error']:.3g} at ({b['x'][0]:.6g}, {b['x'][1]:.6g}){kind}, "
                f"{outcome_text(b['converged'], b['message'], len(b['iterate_error']) - 1)}")

@@ -1,11 +1,13 @@
-"""The ``shoot`` step: exact fixed points of the horizontal gait by Newton shooting, from given
+"""The ``shoot`` step: exact fixed points of the study's gait by Newton shooting, from given
 starts or from a refine step's result (:mod:`monkeystudy.analysis.shooting`).
 
-Later steps (floquet, tick_sweep, basin, continuation) take their gait from a shoot step's
-dataset: :func:`shoot_gait` picks the lowest-error usable solution (or ``solution: i``).
+Later steps (floquet, tick_sweep, basin, continuation, survival, design) take their gait from a
+shoot step's dataset (:func:`~monkeystudy.study.steps.gait_source.shoot_start`): the
+lowest-error usable solution (or ``solution: i``).
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -14,23 +16,22 @@ from typing import Any, Literal, Optional
 import numpy as np
 from pydantic import Field, model_validator
 
-from ...analysis.sections import open_loop_return_map, section_state
-from ...analysis.shooting import shoot_grazing, shoot_horizontal
-from ...controllers import OpenLoop
+from ...analysis.sections import cycle_return_map
+from ...analysis.shooting import shoot_cycle, shoot_grazing
+from ...controllers import SequenceGait, motorless, open_loop_gait
 from ...kernel import layout as L
 from ...kernel.layout import STATUS_NAMES
-from ...simulate import evaluate_horizontal_gait, run_controller
+from ...simulate import evaluate_cycle_gaits
 from .. import datasets as D
 from ..blocks import Task
 from ..errors import RunFailed
 from ..models import Name, Point, StrictModel
 from ..spec import GaitSpec
-from .base import Figure, StepContext, StepKind, no_earlier
-from .refine import RefineStep, read_refined
+from .base import Dependency, Figure, StepContext, StepKind
+from .gait_source import (
+    METHOD_GAUSS_NEWTON, METHOD_GRAZING, METHOD_NAMES, read_start, shoot_start,
+)
 
-#: shoot ``method`` flag values (dataset variable ``method``)
-METHOD_GAUSS_NEWTON, METHOD_GRAZING = 0, 1
-METHOD_NAMES = ("gauss_newton", "grazing")
 
 #: shoot ``method`` flags
 SHOOT_METHOD_ATTRS = {
@@ -55,9 +56,7 @@ class ShootStep(StrictModel):
     starts: Optional[list[Point]] = Field(None, min_length=1,
                                           description="start points (dtheta1, dtheta2) "
                                                       "[rad s-1]")
-    from_: Optional[Name] = Field(None, alias="from",
-                                  description="an earlier refine step: its lowest-error "
-                                              "result is the start (instead of starts)")
+    from_: Optional[Name] = Field(None, alias="from")  # described by the kind (accepts)
     method: Literal["grazing", "gauss_newton", "both"] = Field(
         "both", description="grazing (collisionless swap), gauss_newton (gait residual) or "
                             "both from every start")
@@ -78,57 +77,45 @@ class ShootStep(StrictModel):
 
 
 # --- tasks (run on the workers) ------------------------------------------------------------------
-def replay_torque(spec: GaitSpec, gait: dict) -> float:
-    """Motor torque [N m] of an open-loop replay of ``gait``: 0 if it has no motor phase."""
-    return 0.0 if float(gait["t_motor"]) == 0.0 else float(spec.torque)
-
-
 def _norm_or_nan(v) -> float:
     v = np.asarray(v, float)
     return float(np.linalg.norm(v)) if np.all(np.isfinite(v)) else math.nan
 
 
-# --- shoot -----------------------------------------------------------------------------------
-def open_loop_cycle_times(z, t_switch, t_motor, torque, robot, integ) -> tuple[float, int]:
-    """``(t_end [s], status)`` of one open-loop cycle from section state ``z``."""
-    res = run_controller(OpenLoop(t_switch, t_motor, torque, clock="reset_at_vertical"),
-                         section_state(z), robot=robot, integrator=integ, cycles=1,
-                         log_capacity=16)
-    return float(res.segment_times[2]), int(res.status)
-
-
 def shoot_task(spec: GaitSpec, start: tuple[float, float], *, method: str = "both",
                tol: float = 1e-14, max_iter: int = 40) -> dict[str, Any]:
-    """Shoot for exact gaits from one ``start`` (dtheta1, dtheta2) [rad s-1].
+    """Shoot for exact gaits of the study's gait from one ``start`` (dtheta1, dtheta2)
+    [rad s-1], with exact event timing.
 
     Returns ``{"start", "candidates": [...], "failures": [...]}``; a candidate is a dict
     ``dtheta1, dtheta2, t_switch, t_motor, t_end, error, residual_norm, converged, method,
-    status, history, message``. ``grazing``: :func:`~monkeystudy.analysis.shooting.shoot_grazing` from
-    the swap time of the gait at the start (exact events); its error is that of the open-loop
-    return map with no motor, ``|P(z) - z|^2``, ``t_motor = 0``. ``gauss_newton``:
-    :func:`~monkeystudy.analysis.shooting.shoot_horizontal` (its error, times and history as found).
+    status, history, message``. ``grazing``: :func:`~monkeystudy.analysis.shooting.shoot_grazing`
+    from the swap time of the gait's cycle at the start; its error is that of the motorless
+    open-loop replay's return map, ``|P(z) - z|^2``, ``t_motor = 0``, ``t_end`` that
+    replay's section crossing. ``gauss_newton``: :func:`~monkeystudy.analysis.shooting.
+    shoot_cycle` (its error, times and history as found).
     """
     robot, integ = spec.robot, spec.integrator
-    torque = spec.torque
+    gait = dataclasses.replace(spec.sequence, tick=0.0)
     d1, d2 = float(start[0]), float(start[1])
     cands: list[dict] = []
     failures: list[str] = []
     if method in ("grazing", "both"):
-        g = evaluate_horizontal_gait(d1, d2, robot=robot, torque=torque, tick=0.0,
-                                     integrator=integ)
-        if g.status != L.ST_OK or not math.isfinite(g.t_switch):
+        one = evaluate_cycle_gaits([[d1, d2]], gait, robot=robot, integrator=integ)
+        status, t_guess = int(one["status"][0]), float(one["t_segment"][0, 0])
+        if status != L.ST_OK or not math.isfinite(t_guess):
             failures.append(f"grazing: no gait at the start (status "
-                            f"{L.STATUS_NAMES[int(g.status)]}), no swap time to start from")
+                            f"{L.STATUS_NAMES[status]}), no swap time to start from")
         else:
-            gr = shoot_grazing((d1, d2), g.t_switch, robot=robot, integrator=integ, tol=tol,
+            gr = shoot_grazing((d1, d2), t_guess, robot=robot, integrator=integ, tol=tol,
                                max_iter=max_iter)
-            z = np.array([0.0, gr.dtheta1, gr.dtheta2])
+            z = np.array([gait.theta2, gr.dtheta1, gr.dtheta2])
             if not np.all(np.isfinite(z)) or not math.isfinite(gr.t_switch):
                 failures.append("grazing: Newton diverged (non-finite iterate)")
             else:
-                zn, st = open_loop_return_map(z, t_switch=gr.t_switch, t_motor=0.0, torque=0.0,
-                                              robot=robot, integrator=integ)
-                t_end, _ = open_loop_cycle_times(z, gr.t_switch, 0.0, 0.0, robot, integ)
+                replay = open_loop_gait(motorless(gait), [gr.t_switch, gr.t_switch])
+                zn, st = cycle_return_map(z, replay, robot=robot, integrator=integ)
+                t_end = cycle_times_or_nan(replay, z, robot, integ)
                 ok = int(st) == L.ST_OK
                 cands.append({
                     "dtheta1": gr.dtheta1, "dtheta2": gr.dtheta2, "t_switch": gr.t_switch,
@@ -137,13 +124,13 @@ def shoot_task(spec: GaitSpec, start: tuple[float, float], *, method: str = "bot
                     "residual_norm": _norm_or_nan(gr.residual),
                     "converged": int(bool(gr.converged)), "method": METHOD_GRAZING,
                     "status": int(st), "history": np.asarray(gr.history, float),
-                    "message": (f"grazing from t_guess {g.t_switch:.6g} s: "
+                    "message": (f"grazing from t_guess {t_guess:.6g} s: "
                                 + ("converged" if gr.converged else "not converged")
                                 + f" after {len(gr.history) - 1} iterations"),
                 })
     if method in ("gauss_newton", "both"):
-        sh = shoot_horizontal((d1, d2), robot=robot, torque=torque, integrator=integ, tol=tol,
-                              max_iter=max_iter)
+        sh = shoot_cycle((d1, d2), gait, robot=robot, integrator=integ, tol=tol,
+                         max_iter=max_iter)
         if not (math.isfinite(sh.dtheta1) and math.isfinite(sh.dtheta2)) or not sh.history:
             failures.append(f"gauss_newton: {sh.message} (status {sh.status.name.lower()})")
         else:
@@ -156,6 +143,14 @@ def shoot_task(spec: GaitSpec, start: tuple[float, float], *, method: str = "bot
                 "message": f"gauss_newton: {sh.message} after {sh.iterations} iterations",
             })
     return {"start": (d1, d2), "candidates": cands, "failures": failures}
+
+
+def cycle_times_or_nan(gait: SequenceGait, z, robot, integrator) -> float:
+    """The section crossing [s] ending one cycle of ``gait`` from section state ``z`` (NaN
+    when the cycle does not close)."""
+    r = evaluate_cycle_gaits([[z[1], z[2]]], dataclasses.replace(gait, theta2=float(z[0])),
+                             robot=robot, integrator=integrator)
+    return float(r["t_segment"][0, -1])
 
 
 def solutions_summary(sols: list[dict], failures: list[str]) -> str:
@@ -271,76 +266,13 @@ def write_shoot(path: Path, attrs: dict, solutions: list[dict]) -> None:
                                solution_starts=[s["starts"] for s in solutions]))
 
 
-def read_shoot(path: Path) -> list[dict]:
-    """The solutions of a shoot dataset: ``[{dtheta1, dtheta2, t_switch, t_motor, t_end,
-    error, residual_norm, converged, method, status}, ...]`` (solution order)."""
-    keys = ("dtheta1", "dtheta2", "t_switch", "t_motor", "t_end", "error", "residual_norm",
-            "converged", "method", "status")
-    vals = D.read_variables(path, keys)
-    n = len(vals["dtheta1"])
-    out = []
-    for i in range(n):
-        d = {k: float(vals[k][i]) for k in keys}
-        for k in ("converged", "method", "status"):
-            d[k] = int(d[k])
-        d["index"] = i
-        out.append(d)
-    return out
-
-
-# --- the gait later steps use --------------------------------------------------------------------
-def usable(g: dict, grazing: bool) -> bool:
-    keys = ("dtheta1", "dtheta2", "t_switch", "t_motor", "error")
-    ok = g["status"] == 0 and all(math.isfinite(g[k]) for k in keys)
-    if grazing:
-        ok = ok and g["method"] == METHOD_GRAZING and g["converged"] == 1
-    return ok
-
-
-def shoot_gait(ctx: StepContext, source: str, solution: int | None, grazing: bool = False) -> dict:
-    """The gait a step uses from shoot step ``source`` (its dataset must exist)."""
-    sols = read_shoot(ctx.deps[source].path)
-    what = "converged grazing gait" if grazing else "usable gait"
-    if solution is not None:
-        if solution >= len(sols):
-            raise RunFailed(f"{ctx.name}: solution {solution} requested, shoot step {source!r} "
-                            f"found {len(sols)}")
-        g = sols[solution]
-        if not usable(g, grazing):
-            raise RunFailed(f"{ctx.name}: solution {solution} of shoot step {source!r} is not a "
-                            f"{what} (status {g['status']}, error {g['error']:.3g}, method "
-                            f"{METHOD_NAMES[g['method']]}, converged {g['converged']})")
-        return g
-    good = [g for g in sols if usable(g, grazing)]
-    if not good:
-        found = "; ".join(f"{METHOD_NAMES[g['method']]} error {g['error']:.3g} status "
-                          f"{g['status']}" for g in sols) or "nothing"
-        raise RunFailed(f"{ctx.name}: shoot step {source!r} produced no {what} (found: {found})")
-    return min(good, key=lambda g: (g["error"], g["index"]))
-
-
-def gait_attrs(source: str, g: dict | None) -> dict:
-    if g is None:
-        return {"shoot_step": source or "", "solution": -1}
-    return {"shoot_step": source, "solution": int(g["index"]), "dtheta1": g["dtheta1"],
-            "dtheta2": g["dtheta2"], "t_switch": g["t_switch"], "t_motor": g["t_motor"],
-            "gait_error": g["error"], "gait_method": METHOD_NAMES[g["method"]]}
-
-
-def gait_line(a) -> str:
-    """One line naming the shoot gait a dataset's attributes say it used."""
-    if int(a.get("solution", -1)) < 0:
-        return "no shoot gait used"
-    return (f"gait: solution {a.get('solution')} of {a.get('shoot_step')!r} "
-            f"({a.get('gait_method')}), ({float(a['dtheta1']):.10g}, "
-            f"{float(a['dtheta2']):.10g}) rad s-1, t_switch {float(a['t_switch']):.6g} s, "
-            f"t_motor {float(a['t_motor']):.6g} s, error {float(a['gait_error']):.3g}")
-
-
 # --- the kind ------------------------------------------------------------------------------------
 class ShootKind(StepKind):
     name = "shoot"
     model = ShootStep
+    accepts = ("refine",)
+    takes = "its refined rates start the shooting (instead of starts)"
+    provides = "its lowest-error usable solution (or solution: i)"
     unit = "starts"
     figures = (
         Figure("newton", "residual norm per Newton iteration",
@@ -349,22 +281,19 @@ class ShootKind(StepKind):
                "converge."),
     )
 
-    def check(self, study, index, step: ShootStep, seen) -> list:
-        if step.from_ is not None and not isinstance(seen.get(step.from_), RefineStep):
-            return [(("steps", index, "from"), no_earlier(step.from_, "refine",
-                                                          seen.get(step.from_)))]
-        return []
-
-    def n_tasks(self, step: ShootStep, gait_kind: str) -> int:
+    def n_tasks(self, step: ShootStep, gait) -> int:
         return len(step.starts) if step.starts is not None else 1
+
+    def hand_on(self, dep: Dependency, ctx: StepContext, **options):
+        return read_start(shoot_start, dep, ctx, options)
 
     def start(self, ctx: StepContext) -> list[Task]:
         st = ctx.step
         if st.from_ is not None:
-            g, idx = read_refined(ctx.deps[st.from_].path)
-            if not (math.isfinite(g["dtheta1"]) and math.isfinite(g["dtheta2"])):
+            g = ctx.handed_on()
+            if not (math.isfinite(g.z[-2]) and math.isfinite(g.z[-1])):
                 raise RunFailed(f"{ctx.name}: refine step {st.from_!r} produced no usable start")
-            starts = [(g["dtheta1"], g["dtheta2"])]
+            starts = [(g.z[-2], g.z[-1])]
         else:
             starts = [(float(p[0]), float(p[1])) for p in st.starts]
         ctx.state["starts"] = starts

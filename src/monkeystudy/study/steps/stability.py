@@ -1,15 +1,14 @@
 """The ``stability`` step: a gait run for many cycles from its start, the study's figures 5-8.
 
-Horizontal gait: the refined gait replayed open-loop from its recorded ``t_switch``,
-``t_motor`` (the clock restarted at each vertical crossing, or running on with the gait's
-period). Sequence gait: from a floquet step's fixed point or a refine step's start, as its own
-controller or replayed open-loop (:mod:`monkeystudy.analysis.replay`). Per cycle: the error
-against the start, the kinetic energy and the attached end's height; and a sampled trajectory.
+From a refine step's start or a floquet step's fixed point (:mod:`.gait_source`), as its own
+controller or replayed open-loop (:mod:`monkeystudy.analysis.replay`): the horizontal gait's
+replay keeps the refined gait's recorded ``t_switch``, ``t_motor`` (the clock restarted at each
+vertical crossing, or running on with the gait's period). Per cycle: the error against the
+start, the kinetic energy and the attached end's height; and a sampled trajectory.
 """
 from __future__ import annotations
 
 import dataclasses
-import math
 from pathlib import Path
 from typing import Any, Literal, Optional
 
@@ -18,19 +17,16 @@ from pydantic import Field
 
 from ...analysis.gait_kind import gait_kind_text
 from ...analysis.replay import sequence_cycles
-from ...controllers import OpenLoop
+from ...controllers import SequenceGait
 from ...kernel import layout as L
 from ...kernel.layout import STATUS_NAMES
-from ...simulate import (
-    energies, evaluate_cycle_gaits, gait_error, initial_state, physical_points, run_controller,
-)
+from ...simulate import evaluate_cycle_gaits
 from .. import datasets as D
 from ..blocks import Task
 from ..models import Name, OpenLoopSettings, Replay, StrictModel
 from ..spec import GaitSpec
-from .base import Figure, StepContext, StepKind, max_drop_of, no_earlier
-from .floquet import check_sequence_replay, sequence_attrs, sequence_start
-from .refine import RefineStep, read_refined
+from .base import Figure, StepContext, StepKind, max_drop_of
+from .gait_source import run_problems
 
 
 class StabilityStep(StrictModel):
@@ -38,8 +34,7 @@ class StabilityStep(StrictModel):
 
     name: Name
     kind: Literal["stability"]
-    from_: Name = Field(alias="from", description="an earlier refine step (a sequence gait: "
-                                                  "or a floquet step, its fixed point)")
+    from_: Name = Field(alias="from")  # described by the kind (accepts)
     cycles: int = Field(ge=1, le=100_000, description="number of cycles")
     controller: OpenLoopSettings = Field(default_factory=OpenLoopSettings)
     replay: Replay = None
@@ -53,28 +48,6 @@ class StabilityStep(StrictModel):
 
 
 # --- tasks (run on the workers) ------------------------------------------------------------------
-#: the frame's angles and rates a stability dataset samples: (name, index in the 8-state)
-TRAJECTORY_ANGLES = (("theta1", L.TH1), ("theta2", L.TH2), ("theta1_dot", L.DTH1),
-                     ("theta2_dot", L.DTH2))
-
-
-def run_record(res) -> dict[str, Any]:
-    """A multi-cycle run's status, counts and sampled trajectory for a stability dataset:
-    world positions [m] of A, the joint and B; the frame's angles [rad] and rates [rad s-1];
-    which end the frame hangs from; the phase; the motor torque [N m]."""
-    flipped = res.sample_mode[:, L.M_FLIPPED]
-    pts = physical_points(res.params, res.sample_state, flipped)
-    return {
-        "status": int(res.status), "cycles_completed": int(res.counts[L.K_CYCLES]),
-        "time": res.sample_t.copy(), "A": pts["A"], "joint": pts["joint"], "B": pts["B"],
-        **{name: res.sample_state[:, i].copy() for name, i in TRAJECTORY_ANGLES},
-        "attached_end": flipped.astype(np.int8),
-        "phase": res.sample_mode[:, L.M_PHASE].astype(np.int8),
-        "motor_torque": res.sample_mode[:, L.M_TORQUE].copy(),
-        "steps": int(res.counts[L.K_STEPS]), "nfev": int(res.counts[L.K_NFEV]),
-    }
-
-
 def empty_record(cycles: int) -> dict[str, Any]:
     """The record of a run that was not run: every cycle NaN, no samples."""
     nan = np.full(cycles, np.nan)
@@ -83,100 +56,61 @@ def empty_record(cycles: int) -> dict[str, Any]:
         "error": nan.copy(), "kinetic_energy": nan.copy(), "pivot_height": nan.copy(),
         "x_advance": nan.copy(), "t_cross": nan.copy(), "t_swap": nan.copy(),
         "time": np.empty(0), "A": np.empty((0, 2)), "joint": np.empty((0, 2)),
-        "B": np.empty((0, 2)), **{name: np.empty(0) for name, _ in TRAJECTORY_ANGLES},
+        "B": np.empty((0, 2)), **{name: np.empty(0) for name, _ in D.TRAJECTORY_ANGLES},
         "attached_end": np.empty(0, np.int8), "phase": np.empty(0, np.int8),
         "motor_torque": np.empty(0), "steps": 0, "nfev": 0,
     }
 
 
-def stability_task(spec: GaitSpec, gait: dict[str, float], *, cycles: int, tick: float,
-                   clock: str, sample_dt: float, max_drop: float) -> dict[str, Any]:
-    """Replay a refined gait open-loop (swap at ``t_switch``, motor for ``t_motor`` [s]).
+#: the per-cycle records of a stability dataset (:class:`~monkeystudy.analysis.replay.
+#: SequenceCycles` fields)
+PER_CYCLE = ("error", "kinetic_energy", "pivot_height", "x_advance", "t_cross", "t_swap")
 
-    ``gait`` holds the refined ``dtheta1``, ``dtheta2`` [rad s-1], ``t_switch``, ``t_motor``,
-    ``t_end`` [s] and ``status``. With ``clock='run_on'`` the period is ``t_end``. Per cycle
-    c = 1..N (from the run's log): the swap (segment 0 exit) starting it, the first vertical
-    crossing (observer) after that swap, and there the error against the initial rates
-    (docs/model.md section 4, with the frame's theta2, dtheta1, dtheta2) and the kinetic energy;
-    ``pivot_height`` and the world position of the attached end after the swap.
-    A gait that is not ok is not run: ``status`` is its status and every cycle is NaN.
+
+def stability_task(spec: GaitSpec, gait: SequenceGait, z0, *, times, cycles: int,
+                   tick: float | None, sample_dt: float, max_drop: float,
+                   replay: str) -> dict[str, Any]:
+    """Run ``gait`` for ``cycles`` cycles from section state ``z0 = (theta2 [rad], dtheta1,
+    dtheta2 [rad s-1])`` (a running clock: ``(theta1, theta2, dtheta1, dtheta2)``) as its own
+    controller or replayed open-loop (:func:`~monkeystudy.analysis.replay.sequence_cycles`),
+    on the controller ``tick`` [s] (None: the gait's).
+
+    ``times`` [s]: the start's recorded segment exit times, which an open-loop replay keeps
+    (None: the cycle's own from ``z0``). Per cycle, as the gait records it: the error against
+    the start, the kinetic energy, the attached end's height and advance, the section
+    crossing ``t_cross`` and the cycle's swap ``t_swap`` [s] (NaN padded to ``cycles``); the
+    run's status, counts and sampled trajectory; ``t_segment``, the cycle's segment exit
+    times from ``z0`` [s]. A start whose cycle does not close is not run: ``status`` is its
+    status and every cycle is NaN.
     """
     robot, integ = spec.robot, spec.integrator
-    out = dict(empty_record(cycles), status=int(gait["status"]))
-    times = (gait["t_switch"], gait["t_motor"], gait["t_end"])
-    if gait["status"] != L.ST_OK or not all(math.isfinite(t) for t in times):
-        return out
-    d1, d2 = float(gait["dtheta1"]), float(gait["dtheta2"])
-    ctrl = OpenLoop(gait["t_switch"], gait["t_motor"], spec.torque, tick=tick, clock=clock,
-                    period=gait["t_end"] if clock == "run_on" else math.nan)
-    res = run_controller(ctrl, initial_state(d1, d2), robot=robot, integrator=integ,
-                         cycles=cycles, sample_dt=sample_dt, max_drop=max_drop)
-    log = res.log
-    swaps = log[(log[:, L.L_KIND] == L.LOG_SEGMENT) & (log[:, L.L_ID] == 0)]
-    cross = log[log[:, L.L_KIND] == L.LOG_OBSERVER]
-    x_prev = 0.0                                  # the gait starts hanging from A at x = 0
-    for c in range(min(cycles, swaps.shape[0])):
-        s = swaps[c, L.L_STATE:L.L_STATE + 8]
-        out["t_swap"][c] = swaps[c, L.L_T]
-        out["pivot_height"][c] = s[L.Y]
-        out["x_advance"][c] = s[L.X] - x_prev
-        x_prev = s[L.X]
-        t0 = swaps[c, L.L_T]
-        t1 = swaps[c + 1, L.L_T] if c + 1 < swaps.shape[0] else math.inf
-        k = np.flatnonzero((cross[:, L.L_T] > t0) & (cross[:, L.L_T] < t1))
-        if k.size == 0:
-            continue
-        row = cross[k[0]]
-        f = row[L.L_STATE:L.L_STATE + 8]
-        out["t_cross"][c] = row[L.L_T]
-        out["error"][c] = gait_error(f, d1, d2)
-        ke, _ = energies(res.params, f[None, :], np.array([row[L.L_FLIPPED]]))
-        out["kinetic_energy"][c] = ke[0]
-    out.update(run_record(res))
-    return out
-
-
-def sequence_stability_task(spec: GaitSpec, z0, *, cycles: int, tick: float | None,
-                            sample_dt: float, max_drop: float, replay: str) -> dict[str, Any]:
-    """Run the spec's sequence gait for ``cycles`` cycles from section state ``z0 = (theta2
-    [rad], dtheta1, dtheta2 [rad s-1])`` (:func:`monkeystudy.analysis.replay.sequence_cycles`: its own
-    controller or its open-loop replay, ``tick`` [s] or the gait's).
-
-    Returns the keys of :func:`stability_task`, measured at each section crossing (``t_cross``)
-    with ``t_swap`` the cycle's first magnet action [s], plus ``t_segment`` (the replayed
-    segment times of an open-loop replay, else the recorded cycle's) [s]. A start whose cycle
-    does not close is not run: ``status`` is its status and every cycle is NaN.
-    """
-    robot, integ = spec.robot, spec.integrator
-    gait = spec.sequence
     out = dict(empty_record(cycles), t_segment=np.full(len(gait.all_segments()), np.nan))
     z0 = np.asarray(z0, float)
-    one = evaluate_cycle_gaits([[z0[1], z0[2]]], dataclasses.replace(gait, theta2=z0[0]),
+    one = evaluate_cycle_gaits([[z0[-2], z0[-1]]], dataclasses.replace(gait, theta2=z0[-3]),
                                robot=robot, integrator=integ)
     if int(one["status"][0]) != L.ST_OK:
         out["status"] = int(one["status"][0])
         return out
-    times = one["t_segment"][0].copy()
-    out["t_segment"] = times
+    out["t_segment"] = one["t_segment"][0].copy()
     r = sequence_cycles(gait, z0, cycles=cycles, robot=robot, integrator=integ,
-                        replay=replay, times=times, tick=tick, max_drop=max_drop,
-                        sample_dt=sample_dt)
-    n = min(cycles, len(r.error))
-    for key in ("error", "kinetic_energy", "pivot_height", "x_advance", "t_cross", "t_swap"):
-        out[key][:n] = getattr(r, key)[:n]
-    res = r.run
-    out.update(run_record(res))
+                        replay=replay, times=out["t_segment"] if times is None else times,
+                        tick=tick, max_drop=max_drop, sample_dt=sample_dt)
+    for key in PER_CYCLE:
+        v = getattr(r, key)[:cycles]
+        out[key][:len(v)] = v
+    out.update(D.run_record(r.run))
     return out
 
 
 # --- the dataset ---------------------------------------------------------------------------------
-def write_stability(path: Path, attrs: dict, result: dict, gait: dict) -> None:
-    """Write a stability dataset from a :func:`stability_task`
-    result; ``gait`` is the replayed refined gait (rates [rad s-1], times [s])."""
+def write_stability(path: Path, attrs: dict, result: dict, z, records: str) -> None:
+    """Write a stability dataset from a :func:`stability_task` result run from section state
+    ``z`` (its rates [rad s-1] are the dataset's ``dtheta1``, ``dtheta2``), the cycles recorded
+    at the section or from the swap (``records``, :class:`~monkeystudy.controllers.
+    SequenceGait`)."""
     n = len(result["error"])
     ns = len(result["time"])
-    at = "section crossing" if attrs.get("replay") in ("gait", "open_loop") and \
-        "section_theta1" in attrs else "vertical crossing"
+    at = "section crossing" if records == "section" else "vertical crossing"
     with D.atomic_netcdf(path) as nc:
         nc.createDimension("cycle", n)
         nc.createDimension("sample", ns)
@@ -204,16 +138,16 @@ def write_stability(path: Path, attrs: dict, result: dict, gait: dict) -> None:
         D.add_variable(nc, "status", (), np.int8, dict(D.STATUS_ATTRS, long_name="why the run stopped "
                                              "(ok: all cycles ran)"), result["status"])
         D.add_variable(nc, "dtheta1", (), np.float64, dict(D.DTHETA1, long_name="replayed " +
-                                                 D.DTHETA1["long_name"]), gait["dtheta1"])
+                                                 D.DTHETA1["long_name"]), z[-2])
         D.add_variable(nc, "dtheta2", (), np.float64, dict(D.DTHETA2, long_name="replayed " +
-                                                 D.DTHETA2["long_name"]), gait["dtheta2"])
+                                                 D.DTHETA2["long_name"]), z[-1])
         D.add_variable(nc, "time", ("sample",), np.float64, {"long_name": "time", "units": "s"},
              result["time"])
         for key, what in (("A", "end A"), ("joint", "the joint"), ("B", "end B")):
             D.add_variable(nc, key, ("sample", "xy"), np.float64,
                  {"long_name": f"world position of {what}", "units": "m"}, result[key],
                  coordinates="time")
-        for name, _ in TRAJECTORY_ANGLES:
+        for name, _ in D.TRAJECTORY_ANGLES:
             rate = name.endswith("_dot")
             D.add_variable(nc, name, ("sample",), np.float64,
                            {"long_name": ("rate of " if rate else "") + (
@@ -230,8 +164,7 @@ def write_stability(path: Path, attrs: dict, result: dict, gait: dict) -> None:
         D.add_variable(nc, "motor_torque", ("sample",), np.float64,
              {"long_name": "motor torque on theta2 of the frame", "units": "N m"},
              result["motor_torque"], coordinates="time")
-        times = {k: float(gait[k]) for k in ("t_switch", "t_motor") if k in gait}
-        D.set_global_attrs(nc, dict(attrs, **times,
+        D.set_global_attrs(nc, dict(attrs,
                                cycles_completed=int(result["cycles_completed"]),
                                steps=int(result["steps"]), nfev=int(result["nfev"])))
 
@@ -241,6 +174,7 @@ class StabilityKind(StepKind):
     name = "stability"
     model = StabilityStep
     gait_kinds = ("horizontal", "sequence")
+    accepts = ("refine", "floquet")
     unit = "runs"
     figures = (
         Figure("error", "error per cycle",
@@ -263,55 +197,26 @@ class StabilityKind(StepKind):
                "longest, and whether they grow at the same rate.", across=True),
     )
 
-    def check(self, study, index, step: StabilityStep, seen) -> list:
-        if study.gait.kind == "sequence":
-            return check_sequence_replay(study, index, step, seen)
-        out = []
-        if step.replay == "gait":
-            out.append((("steps", index, "replay"), "the horizontal gait is replayed "
-                        "open-loop (replay: gait needs a sequence gait)"))
-        ref = seen.get(step.from_)
-        if not isinstance(ref, RefineStep):
-            out.append((("steps", index, "from"), no_earlier(step.from_, "refine", ref)))
-        elif step.start_index is not None and step.start_index >= ref.n_starts:
-            out.append((("steps", index, "start_index"),
-                        f"must be < {ref.n_starts} (the starts of {ref.name!r})"))
-        return out
+    def check_step(self, study, index, step: StabilityStep, ref, seen) -> list:
+        return run_problems(study, index, step, ref)
 
     def start(self, ctx: StepContext) -> list[Task]:
         st = ctx.step
         tick = st.controller.tick if st.controller.tick is not None else ctx.study.gait.tick
-        max_drop = max_drop_of(st, ctx.spec)
-        if ctx.gait_kind == "sequence":
-            gait = sequence_start(ctx)
-            kw = {"cycles": st.cycles, "tick": tick, "sample_dt": st.sample_dt,
-                  "max_drop": max_drop, "replay": st.replay or "gait"}
-            ctx.state.update(gait=gait, options=kw)
-            return [Task(0, sequence_stability_task, (ctx.spec, gait["z"]), kw)]
-        gait, idx = read_refined(ctx.deps[st.from_].path, st.start_index)
-        gait["start_index"] = idx
-        kw = {"cycles": st.cycles, "tick": tick, "clock": st.controller.clock,
-              "sample_dt": st.sample_dt, "max_drop": max_drop}
-        ctx.state.update(gait=gait, options=kw)
-        return [Task(0, stability_task, (ctx.spec, gait), kw)]
+        g = ctx.handed_on(start_index=st.start_index, replay=st.replay,
+                          clock=st.controller.clock)
+        kw = {"cycles": st.cycles, "tick": tick, "sample_dt": st.sample_dt,
+              "max_drop": max_drop_of(st, ctx.spec), "replay": g.replay, "times": g.times}
+        ctx.state.update(gait=g, options=kw)
+        return [Task(0, stability_task, (ctx.spec, g.gait, g.z), kw)]
 
     def finish(self, ctx: StepContext, attrs: dict) -> str:
-        st = ctx.step
-        gait, kw = ctx.state["gait"], ctx.state["options"]
+        g, kw = ctx.state["gait"], ctx.state["options"]
         r = ctx.results[0]
-        if "replay" in kw:   # a sequence gait
-            attrs.update(sequence_attrs(gait, kw["replay"]),
-                         controller={"tick": kw["tick"], "clock": "reset_at_section"},
-                         sample_dt=kw["sample_dt"], max_drop=kw["max_drop"],
-                         cycles=kw["cycles"], t_segment=list(r["t_segment"]))
-            gait = {"dtheta1": gait["z"][1], "dtheta2": gait["z"][2]}
-        else:
-            attrs.update(controller={"tick": kw["tick"], "clock": kw["clock"]},
-                         sample_dt=kw["sample_dt"], max_drop=kw["max_drop"],
-                         cycles=kw["cycles"], refine_step=st.from_,
-                         refine_start=gait["start_index"], replay="open_loop",
-                         vertical_passes_before_swap=int(gait.get("vertical_passes", -1)))
-        write_stability(ctx.path, attrs, r, gait)
+        attrs.update(g.attrs("run", t_segment=r["t_segment"]),
+                     controller={"tick": kw["tick"], "clock": g.clock},
+                     sample_dt=kw["sample_dt"], max_drop=kw["max_drop"], cycles=kw["cycles"])
+        write_stability(ctx.path, attrs, r, g.z, g.gait.records)
         return f"{r['cycles_completed']} cycles, status {STATUS_NAMES[r['status']]}"
 
     def describe(self, ds) -> list[str]:

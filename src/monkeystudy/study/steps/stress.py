@@ -307,7 +307,7 @@ class StressKind(StepKind):
                "ended. Right: the status counts of the extreme cases."),
     )
 
-    def n_tasks(self, step: StressStep, gait_kind: str) -> int:
+    def n_tasks(self, step: StressStep, gait) -> int:
         return len(stress_tasks(step))
 
     def start(self, ctx: StepContext) -> list[Task]:

@@ -13,32 +13,25 @@ cycle)``, so the dataset is the same for any number of workers and after a resum
 from __future__ import annotations
 
 import math
-from dataclasses import astuple, replace
 from pathlib import Path
 from typing import Annotated, Literal, Optional, Union
 
 import numpy as np
 from pydantic import BeforeValidator, Field, model_validator
 
-from ...analysis.design import PARAMETERS, DesignSpace
-from ...analysis.replay import open_loop_gait
-from ...analysis.sections import cycle_section_state, section_state
+from ...analysis.sections import cycle_section_state
 from ...analysis.survival import (
     MFPT, Noise, cycle_grid, mfpt, survival_curve, survival_runs,
 )
-from ...controllers import HorizontalSearch, Observer, OpenLoop
 from ...kernel import layout as L
 from ...kernel.layout import STATUS_NAMES
 from .. import datasets as D
 from ..blocks import Block, Task
 from ..models import Name, OpenLoopSettings, Replay, StrictModel
 from ..spec import GaitSpec
-from .base import Figure, StepContext, StepKind, max_drop_of, no_earlier
-from .design import DesignStep
-from .gaits import MAX_MAP_DEFECT, step_gait
-from .floquet import FloquetStep, check_sequence_replay
-from .refine import RefineStep
-from .shoot import ShootStep
+from .base import Figure, StepContext, StepKind, max_drop_of
+from .gait_source import MAX_MAP_DEFECT, GaitStart, robot_attr, run_problems
+
 
 def _level(v):
     """A noise value: a number >= 0, or a non-empty list of them (one per level)."""
@@ -188,9 +181,7 @@ class SurvivalStep(StrictModel):
 
     name: Name
     kind: Literal["survival"]
-    from_: Name = Field(alias="from", description="the gait: an earlier shoot, refine, "
-                        "floquet or design step (its best design; a sequence gait: a floquet "
-                        "or refine step)")
+    from_: Name = Field(alias="from")  # described by the kind (accepts)
     replay: Replay = None
     controller: OpenLoopSettings = Field(default_factory=OpenLoopSettings)
     runs: int = Field(ge=1, le=1_000_000, description="independent runs per noise level")
@@ -225,84 +216,27 @@ class SurvivalStep(StrictModel):
 
 
 # --- the gait a survival step runs ---------------------------------------------------------------
-def survival_gait(ctx: StepContext) -> dict:
-    """The gait of a survival step as plain values (:func:`~monkeystudy.study.steps.gaits.
-    step_gait`); from a design step, its best design: the schedule and robot values
-    (``design``), the cycle's steps and the fixed point."""
-    st = ctx.step
-    src = ctx.deps[st.from_]
-    if src.kind != "design":
-        return step_gait(ctx, MAX_MAP_DEFECT)
-    a = D.read_attrs(src.path) or {}
-    values = {n: float(a[f"best_{n}"]) for n in PARAMETERS}
-    return {"replay": "open_loop", "design": values, "two_step": int(a["steps_per_cycle"]) == 2,
-            "z": [float(a["best_theta2"]), float(a["best_dtheta1"]), float(a["best_dtheta2"])],
-            "t_switch": values["t_switch"], "t_motor": values["t_motor"],
-            "torque": values["torque"],
-            "source": {"design_step": st.from_,
-                       "design_spectral_radius": float(a["best_spectral_radius"]),
-                       "gait_error": float(a["best_error"])}}
-
-
-def design_of(spec: GaitSpec, gait: dict) -> DesignSpace:
-    """The design space a design gait's values are read in (the study's robot as base)."""
-    return DesignSpace(spec.robot, two_step=gait["two_step"], balance="none")
-
-
-def gait_robot(spec: GaitSpec, gait: dict):
-    """The robot a survival gait runs on: a design's own, else the study's."""
-    return design_of(spec, gait).robot_for(gait["design"]) if "design" in gait else spec.robot
-
-
-def design_robot_dict(spec: GaitSpec, gait: dict, design_step: str) -> dict:
-    """The ``robot`` attribute of runs of a design gait: the study's robot if the design
-    kept it (a schedule-only design), else the design's, named after the design step."""
-    robot = gait_robot(spec, gait)
-    links = [astuple(link) for link in (robot.link1, robot.link2, spec.robot.link1,
-                                         spec.robot.link2)]
-    # the design's links are rebuilt from ratios: equal to the base's to round-off
-    if np.allclose(links[:2], links[2:], rtol=1e-12, atol=0.0):
-        return spec.robot.to_dict()
-    return dict(robot.to_dict(), name=f"{design_step} design (from {spec.robot.name})")
-
-
-def survival_controller(spec: GaitSpec, gait: dict, *, tick: float, clock: str):
-    """``(controller, start hybrid state, section observer or None)`` of a survival gait."""
-    z = np.asarray(gait["z"], float)
-    if "design" in gait:
-        seq = replace(design_of(spec, gait).gait(gait["design"]), theta2=float(z[0]),
-                      tick=float(tick))
-        n_rows = len(seq.all_segments())
-        section = Observer("coord", "theta1", seq.section_theta1, seq.section_direction,
-                           segment=n_rows - 1)
-        return seq.controller(), cycle_section_state(seq, z), section
-    if spec.sequence is not None:
-        seq = spec.sequence
-        if gait["replay"] == "open_loop":
-            seq = open_loop_gait(seq, gait["t_segment"])
-        seq = replace(seq, theta2=float(z[0]), tick=float(tick))
-        n_rows = len(seq.all_segments())
-        section = Observer("coord", "theta1", seq.section_theta1, seq.section_direction,
-                           segment=n_rows - 1)
-        return seq.controller(), cycle_section_state(seq, z), section
-    if gait["replay"] == "gait":
-        return (HorizontalSearch(gait["torque"], tick=tick, loop=True), section_state(z),
-                None)
-    period = gait["t_end"] if clock == "run_on" else math.nan
-    return (OpenLoop(gait["t_switch"], gait["t_motor"], gait["torque"], tick=tick,
-                     clock=clock, period=period), section_state(z), None)
+def survival_controller(start: GaitStart, *, tick: float, integrator):
+    """``(controller, start hybrid state, section observer)`` of a survival start: its gait
+    as its own controller or replayed open-loop with the start's recorded times
+    (:meth:`~monkeystudy.study.steps.gait_source.GaitStart.program`), on the controller
+    ``tick`` [s], its cycles measured by an exact observer of the section."""
+    seq = start.program(tick, integrator)
+    return seq.controller(), cycle_section_state(seq, start.z), seq.section_observer()
 
 
 # --- tasks (run on the workers) ------------------------------------------------------------------
-def survival_block(spec: GaitSpec, gait: dict, runs: np.ndarray, *, noise: dict,
+def survival_block(spec: GaitSpec, start: GaitStart, runs: np.ndarray, *, noise: dict,
                    max_cycles: int, error_bound: float, min_advance: float, max_drop: float,
-                   tick: float, clock: str, seed: int) -> dict[str, np.ndarray]:
-    """Runs number ``runs`` of the gait under ``noise`` (a :class:`~monkeystudy.analysis.
-    survival.Noise` as a mapping): per run the cycles completed, why it stopped, the distance
-    travelled [m], the time [s] and error at its last completed cycle, its RHS evaluations."""
-    controller, start, section = survival_controller(spec, gait, tick=tick, clock=clock)
-    r = survival_runs(controller, start, gait["z"], runs=runs, max_cycles=max_cycles,
-                      noise=Noise(**noise), seed=seed, robot=gait_robot(spec, gait),
+                   tick: float, seed: int) -> dict[str, np.ndarray]:
+    """Runs number ``runs`` of the start's gait under ``noise`` (a :class:`~monkeystudy.
+    analysis.survival.Noise` as a mapping), on its robot: per run the cycles completed, why it
+    stopped, the distance travelled [m], the time [s] and error at its last completed cycle,
+    its RHS evaluations."""
+    controller, hyb, section = survival_controller(start, tick=tick,
+                                                   integrator=spec.integrator)
+    r = survival_runs(controller, hyb, start.z[-3:], runs=runs, max_cycles=max_cycles,
+                      noise=Noise(**noise), seed=seed, robot=start.robot,
                       integrator=spec.integrator, error_bound=error_bound,
                       min_advance=min_advance, max_drop=max_drop, section=section)
     return {"cycles": r.cycles.astype(np.int64), "failure": r.failure.astype(np.int8),
@@ -414,6 +348,7 @@ class SurvivalKind(StepKind):
     name = "survival"
     model = SurvivalStep
     gait_kinds = ("horizontal", "sequence")
+    accepts = ("shoot", "refine", "floquet", "design")
     unit = "blocks"
     figures = (
         Figure("survival", "survival per cycle",
@@ -432,19 +367,12 @@ class SurvivalKind(StepKind):
                "each noise level.", across=True),
     )
 
-    def check(self, study, index, step: SurvivalStep, seen) -> list:
-        out = []
-        ref = seen.get(step.from_)
-        if study.gait.kind == "sequence":
-            out += [p for p in check_sequence_replay(study, index, step, seen)
-                    if p[0][-1] != "from"]
-            if not isinstance(ref, (FloquetStep, RefineStep)):
-                out.append((("steps", index, "from"),
-                            no_earlier(step.from_, "floquet or refine", ref)))
-            if step.controller.clock != "reset_at_vertical":
-                out.append((("steps", index, "controller", "clock"), "a sequence gait's clock "
-                            "restarts at each section crossing (reset_at_vertical)"))
-        elif isinstance(ref, DesignStep):
+    def check_step(self, study, index, step: SurvivalStep, ref, seen) -> list:
+        out = run_problems(study, index, step, ref, replays=False)
+        if ref is None:
+            return out
+        conv = study.gait.conventions
+        if ref.kind == "design":
             if step.replay == "gait":
                 out.append((("steps", index, "replay"), "a design's gait is open loop: replay "
                             "open_loop"))
@@ -455,30 +383,22 @@ class SurvivalKind(StepKind):
                 out.append((("steps", index, "from"), f"design step {ref.name!r} runs its "
                             "clock on (clock: run_on): survival runs designs whose clock "
                             "restarts at the vertical only"))
-        else:
-            if not isinstance(ref, (ShootStep, RefineStep, FloquetStep)):
-                out.append((("steps", index, "from"),
-                            no_earlier(step.from_, "shoot, refine, floquet or design", ref)))
-            elif step.replay == "gait":
-                if not isinstance(ref, FloquetStep) or "search" not in ref.controllers:
-                    out.append((("steps", index, "replay"), "replay: gait runs the state-based "
-                                "search controller from its fixed point: from: a floquet step "
-                                "with the search controller"))
-            elif isinstance(ref, FloquetStep) and "open_loop" not in ref.controllers:
-                out.append((("steps", index, "from"), f"floquet step {ref.name!r} has no "
-                            "open_loop fixed point to replay"))
-            if step.replay == "gait" and step.controller.clock != "reset_at_vertical":
-                out.append((("steps", index, "controller", "clock"), "the search controller "
-                            "has no clock to run on"))
-        if step.solution is not None and not isinstance(ref, ShootStep):
-            out.append((("steps", index, "solution"), "solution picks a shoot step's solution"))
-        if step.start_index is not None:
-            if not isinstance(ref, RefineStep):
-                out.append((("steps", index, "start_index"), "start_index picks a refine "
-                            "step's start"))
-            elif step.start_index >= ref.n_starts:
-                out.append((("steps", index, "start_index"),
-                            f"must be < {ref.n_starts} (the starts of {ref.name!r})"))
+            return out
+        replay = step.replay or conv.replay
+        if replay == "gait" and "gait" not in conv.replays and not (
+                ref.kind == "floquet" and "search" in ref.controllers):
+            # the gait's own controller runs from a fixed point of it
+            out.append((("steps", index, "replay"), "replay: gait runs the state-based "
+                        "search controller from its fixed point: from: a floquet step "
+                        "with the search controller"))
+        elif (replay == "open_loop" and ref.kind == "floquet"
+              and "open_loop" in conv.floquet_controllers
+              and "open_loop" not in ref.controllers_for(study.gait)):
+            out.append((("steps", index, "from"), f"floquet step {ref.name!r} has no "
+                        "open_loop fixed point to replay"))
+        if replay == "gait" and step.controller.clock != "reset_at_vertical":
+            out.append((("steps", index, "controller", "clock"), "the gait's own controller "
+                        "has no clock to run on (replay: gait)"))
         return out
 
     def blocks(self, step: SurvivalStep) -> list[Block]:
@@ -495,19 +415,20 @@ class SurvivalKind(StepKind):
         return (f"{step.n_levels} noise level(s) x {step.runs} runs of up to "
                 f"{step.max_cycles} cycles")
 
-    def n_tasks(self, step: SurvivalStep, gait_kind: str) -> int:
+    def n_tasks(self, step: SurvivalStep, gait) -> int:
         return len(self.blocks(step))
 
     def start(self, ctx: StepContext) -> list[Task]:
         st = ctx.step
-        gait = survival_gait(ctx)
+        gait = ctx.handed_on(solution=st.solution, start_index=st.start_index,
+                             replay=st.replay, clock=st.controller.clock,
+                             max_map_defect=MAX_MAP_DEFECT, require="run")
         tick = st.controller.tick if st.controller.tick is not None else ctx.study.gait.tick
         kw = {"max_cycles": st.max_cycles,
               "error_bound": st.error_bound if st.error_bound is not None else math.inf,
               "min_advance": st.min_advance if st.min_advance is not None else -math.inf,
-              "max_drop": max_drop_of(st, ctx.spec), "tick": float(tick),
-              "clock": st.controller.clock, "seed": st.seed}
-        ctx.state.update(gait=gait, options=kw)
+              "max_drop": max_drop_of(st, ctx.spec), "tick": float(tick), "seed": st.seed}
+        ctx.state.update(gait=gait, options=dict(kw, clock=st.controller.clock))
         tasks = []
         for b in ctx.todo_blocks():
             level, r0 = divmod(b.lo, st.runs)
@@ -528,21 +449,19 @@ class SurvivalKind(StepKind):
                 arrays[k][b.lo:b.hi] = got[k]
         arrays = {k: v.reshape(st.n_levels, st.runs) for k, v in arrays.items()}
         gait, kw = ctx.state["gait"], ctx.state["options"]
-        attrs.update(gait["source"], replay=gait["replay"],
-                     start_theta2=gait["z"][0], dtheta1=gait["z"][1], dtheta2=gait["z"][2],
+        z = gait.z
+        run = ({"t_segment": gait.schedule(ctx.spec.integrator)}
+               if gait.replay == "open_loop" else {})
+        attrs.update(gait.attrs("survival", **run), replay=gait.replay,
+                     start_theta2=z[-3], dtheta1=z[-2], dtheta2=z[-1],
                      tick=kw["tick"], clock=kw["clock"], seed=st.seed, runs=st.runs,
                      max_cycles=st.max_cycles, error_bound=kw["error_bound"],
                      min_advance=kw["min_advance"],
                      max_drop=kw["max_drop"], noise_distribution=st.noise.distribution,
                      swept=st.noise.swept(), n_blocks=len(ctx.blocks))
-        if "design" in gait:
-            # the runs used the design's robot: the dataset names it, not the study's
-            attrs["robot"] = design_robot_dict(ctx.spec, gait, st.from_)
-        for key in ("t_switch", "t_motor", "torque"):
-            if key in gait:
-                attrs["motor_torque" if key == "torque" else key] = gait[key]
-        if "t_segment" in gait:
-            attrs["t_segment"] = gait["t_segment"]
+        if gait.robot is not ctx.spec.robot:
+            # the runs used their source's robot (a design's): the dataset names it
+            attrs["robot"] = robot_attr(ctx.spec.robot, gait.robot, st.from_)
         write_survival(ctx.path, attrs, st, arrays)
         parts = []
         for i in range(st.n_levels):

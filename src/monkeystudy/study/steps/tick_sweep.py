@@ -2,9 +2,9 @@
 per controller tick, error per cycle, cycles until it leaves the gait, growth per cycle against
 the leading Floquet multiplier.
 
-Horizontal gait: a shoot step's exact gait replayed open-loop with its times on each tick.
-Sequence gait: from a floquet step's fixed point, as its own controller (guards acted on at the
-ticks) or open-loop (``replay``).
+From a shoot step's exact gait (replayed open-loop with its recorded times on each tick) or a
+floquet step's fixed point, as its own controller (guards acted on at the ticks) or open-loop
+(``replay``; the study's gait names its default).
 """
 from __future__ import annotations
 
@@ -18,21 +18,16 @@ import numpy as np
 from pydantic import Field, field_validator
 
 from ...analysis.floquet import floquet
-from ...analysis.replay import (
-    cycle_times, open_loop_cycles, open_loop_gait, sequence_cycles, sweep_ticks,
-)
-from ...analysis.sections import cycle_return_map, open_loop_return_map
+from ...analysis.replay import cycle_times, open_loop_gait, sequence_cycles, sweep_ticks
+from ...analysis.sections import cycle_return_map
+from ...controllers import SequenceGait
 from ...kernel.layout import STATUS_NAMES
 from .. import datasets as D
 from ..blocks import Task
 from ..models import Name, Replay, StrictModel, unique
 from ..spec import GaitSpec
 from .base import Figure, StepContext, StepKind, max_drop_of, no_earlier
-from .floquet import (
-    FloquetStep, check_sequence_replay, read_floquet_multipliers, sequence_attrs,
-    sequence_start, sequence_torque,
-)
-from .shoot import ShootStep, gait_attrs, gait_line, replay_torque, shoot_gait
+from .gait_source import gait_line, motor_torque_of, read_floquet_multipliers, run_problems
 
 
 class TickSweepStep(StrictModel):
@@ -43,8 +38,7 @@ class TickSweepStep(StrictModel):
 
     name: Name
     kind: Literal["tick_sweep"]
-    from_: Name = Field(alias="from", description="an earlier shoot step (a sequence gait: "
-                                                  "a floquet step, its fixed point)")
+    from_: Name = Field(alias="from")  # described by the kind (accepts)
     replay: Replay = None
     ticks: list[Annotated[float, Field(ge=0, le=1.0)]] = Field(
         [1e-3, 1e-4, 1e-5, 0.0], min_length=1, description="controller ticks [s]; 0 = exact "
@@ -69,51 +63,25 @@ class TickSweepStep(StrictModel):
 
 
 # --- tasks (run on the workers) ------------------------------------------------------------------
-def tick_sweep_task(spec: GaitSpec, gait: dict, *, ticks, cycles: int, error_bound: float,
-                    max_drop: float, leading_multiplier: bool = True,
-                    fd_step: float = 1e-5) -> dict[str, Any]:
-    """The gait replayed open-loop from its fixed point once per controller tick [s].
+def tick_sweep_task(spec: GaitSpec, gait: SequenceGait, z_star, *, times, ticks,
+                    cycles: int, error_bound: float, max_drop: float, replay: str,
+                    leading_multiplier: bool, fd_step: float = 1e-5) -> dict[str, Any]:
+    """``gait`` run from its fixed point ``z_star = (theta2 [rad], dtheta1, dtheta2 [rad
+    s-1])`` once per controller tick [s], as its own controller or replayed open-loop with
+    the segment exit ``times`` [s] (None: the cycle's own at ``z_star``;
+    :func:`monkeystudy.analysis.replay.sequence_cycles`).
 
-    Per tick: the error per cycle (against the gait's start, docs/model.md section 4) and the pivot
-    height per swap (NaN padded to ``cycles``), ``cycles_to_bound``, ``cycles_completed``
-    (vertical crossings reached), the run's status and the fitted growth of sqrt(error) per
-    cycle. ``leading_multiplier``: also |lambda_max| of the exact-timing open-loop map by
-    finite differences (:func:`~monkeystudy.analysis.floquet.floquet`); NaN otherwise.
+    Per tick: the error per cycle against the start and the attached end's height per cycle
+    as the gait records them (NaN padded to ``cycles``), ``cycles_to_bound``,
+    ``cycles_completed`` (section crossings reached), the run's status and the fitted growth
+    of sqrt(error) per cycle. ``leading_multiplier``: |lambda_max| of the replayed
+    exact-timing map by finite differences, with all three (``multipliers``); NaN otherwise.
+    Also the replayed segment times (``t_segment`` [s]) and the motor torque [N m].
     """
     robot, integ = spec.robot, spec.integrator
-    torque = replay_torque(spec, gait)
-    d1, d2 = float(gait["dtheta1"]), float(gait["dtheta2"])
-    t_switch, t_motor = float(gait["t_switch"]), float(gait["t_motor"])
-
-    def run_one(tick):
-        run = open_loop_cycles(d1, d2, t_switch=t_switch, t_motor=t_motor, cycles=cycles,
-                               torque=torque, robot=robot, integrator=integ,
-                               tick=float(tick), max_drop=max_drop)
-        return run.error, run.pivot_height, run.status
-
-    out = sweep_ticks(ticks, cycles, error_bound, run_one)
-    lead = math.nan
-    if leading_multiplier:
-        fmap = partial(open_loop_return_map, t_switch=t_switch, t_motor=t_motor, torque=torque,
-                       robot=robot, integrator=integ)
-        fl = floquet(fmap, np.array([0.0, d1, d2]), step=fd_step)
-        lead = float(np.abs(fl.multipliers[0]))
-    return dict(out, leading_multiplier=lead, torque=torque)
-
-
-def sequence_tick_sweep_task(spec: GaitSpec, z_star, *, ticks, cycles: int,
-                             error_bound: float, max_drop: float, replay: str,
-                             leading_multiplier: bool, fd_step: float = 1e-5) -> dict[str, Any]:
-    """:func:`tick_sweep_task` for the spec's sequence gait from its fixed point ``z_star =
-    (theta2 [rad], dtheta1, dtheta2 [rad s-1])``, run as its own controller or open-loop
-    (``replay``; :func:`monkeystudy.analysis.replay.sequence_cycles`). ``pivot_height`` is the attached
-    end's height at each section crossing. ``leading_multiplier``: |lambda_max| of the
-    replayed exact-timing map by finite differences (NaN otherwise); also returns all three
-    (``multipliers``) and the replayed segment times (``t_segment`` [s])."""
-    robot, integ = spec.robot, spec.integrator
-    gait = spec.sequence
     z_star = np.asarray(z_star, float)
-    times = cycle_times(gait, z_star, robot=robot, integrator=integ)
+    if times is None:
+        times = cycle_times(gait, z_star, robot=robot, integrator=integ)
 
     def run_one(tick):
         r = sequence_cycles(gait, z_star, cycles=cycles, robot=robot, integrator=integ,
@@ -128,16 +96,17 @@ def sequence_tick_sweep_task(spec: GaitSpec, z_star, *, ticks, cycles: int,
                              robot=robot, integrator=integ), z_star, step=fd_step)
         lam = np.asarray(fl.multipliers, complex)
         lead = float(np.abs(lam[0]))
-    return dict(out, leading_multiplier=lead, multipliers=lam, torque=sequence_torque(gait),
-                t_segment=times)
+    return dict(out, leading_multiplier=lead, multipliers=lam, torque=motor_torque_of(gait),
+                t_segment=np.asarray(times, float))
 
 
 # --- the dataset ---------------------------------------------------------------------------------
-def write_tick_sweep(path: Path, attrs: dict, ticks, result: dict) -> None:
-    """Write a tick_sweep dataset from a
-    :func:`tick_sweep_task` result."""
+def write_tick_sweep(path: Path, attrs: dict, ticks, result: dict, records: str) -> None:
+    """Write a tick_sweep dataset from a :func:`tick_sweep_task` result, the cycles recorded
+    at the section or from the swap (``records``, :class:`~monkeystudy.controllers.
+    SequenceGait`)."""
     err = np.asarray(result["error"], float)
-    section = "section_theta1" in attrs
+    section = records == "section"
     at = "section crossing" if section else "vertical crossing"
     with D.atomic_netcdf(path) as nc:
         nc.createDimension("tick", len(ticks))
@@ -174,6 +143,7 @@ class TickSweepKind(StepKind):
     name = "tick_sweep"
     model = TickSweepStep
     gait_kinds = ("horizontal", "sequence")
+    accepts = ("shoot", "floquet")
     unit = "runs"
     figures = (
         Figure("error_growth", "error per cycle per tick, |lambda|^2n",
@@ -185,79 +155,59 @@ class TickSweepKind(StepKind):
     def deps(self, step: TickSweepStep) -> tuple[str, ...]:
         return (step.from_,) + ((step.floquet,) if step.floquet is not None else ())
 
-    def check(self, study, index, step: TickSweepStep, seen) -> list:
-        if study.gait.kind == "sequence":
-            return check_sequence_replay(study, index, step, seen)
-        out = []
-        if not isinstance(seen.get(step.from_), ShootStep):
-            out.append((("steps", index, "from"), no_earlier(step.from_, "shoot",
-                                                             seen.get(step.from_))))
-        if step.replay == "gait":
-            out.append((("steps", index, "replay"), "the horizontal gait is replayed "
-                        "open-loop (replay: gait needs a sequence gait)"))
-        if step.floquet is not None:
-            ref = seen.get(step.floquet)
-            if not isinstance(ref, FloquetStep):
-                out.append((("steps", index, "floquet"), no_earlier(step.floquet, "floquet",
-                                                                    ref)))
-            elif "open_loop" not in ref.controllers:
-                out.append((("steps", index, "floquet"),
-                            f"{ref.name!r} has no open_loop controller"))
-            elif ref.from_ != step.from_:
-                out.append((("steps", index, "floquet"),
-                            f"{ref.name!r} analyses shoot step {ref.from_!r}, this step "
-                            f"{step.from_!r}: they must be the same"))
+    def check_step(self, study, index, step: TickSweepStep, ref, seen) -> list:
+        out = run_problems(study, index, step, ref)
+        if step.floquet is None:
+            return out
+        if ref is not None and ref.kind == "floquet":
+            return out + [(("steps", index, "floquet"), "a tick_sweep from a floquet step takes "
+                           "its fixed point and multipliers from that step")]
+        other = seen.get(step.floquet)
+        if other is None or other.kind != "floquet":
+            out.append((("steps", index, "floquet"), no_earlier(step.floquet, "floquet",
+                                                                other)))
+        elif "open_loop" not in other.controllers:
+            out.append((("steps", index, "floquet"),
+                        f"{other.name!r} has no open_loop controller"))
+        elif other.from_ != step.from_:
+            out.append((("steps", index, "floquet"),
+                        f"{other.name!r} analyses shoot step {other.from_!r}, this step "
+                        f"{step.from_!r}: they must be the same"))
         return out
 
     def start(self, ctx: StepContext) -> list[Task]:
         st = ctx.step
         max_drop = max_drop_of(st, ctx.spec)
-        ctx.state["max_drop"] = max_drop
-        kw = {"ticks": list(st.ticks), "cycles": st.cycles, "error_bound": st.error_bound,
-              "max_drop": max_drop}
-        if ctx.gait_kind == "sequence":
-            g = sequence_start(ctx)
-            replay = st.replay or "gait"
-            ctx.state.update(gait=g, replay=replay)
-            if replay == "gait":
-                lam = read_floquet_multipliers(ctx.deps[st.from_].path, "sequence")
-                ctx.state["leading"] = float(np.abs(lam[0]))
-            return [Task(0, sequence_tick_sweep_task, (ctx.spec, g["z"]),
-                         dict(kw, replay=replay, leading_multiplier=replay == "open_loop"))]
-        g = shoot_gait(ctx, st.from_, st.solution)
-        ctx.state["gait"] = g
+        g = ctx.handed_on(solution=st.solution, replay=st.replay)
+        ctx.state.update(gait=g, max_drop=max_drop)
+        # the leading multiplier: a floquet step's (variational equations), else finite
+        # differences of the replayed exact-timing map (by the task)
         if st.floquet is not None:
             lam = read_floquet_multipliers(ctx.deps[st.floquet].path, "open_loop")
-            ctx.state["leading"] = float(np.abs(lam[0]))
-        return [Task(0, tick_sweep_task, (ctx.spec, g),
-                     dict(kw, leading_multiplier=st.floquet is None))]
+            ctx.state["leading"] = (float(np.abs(lam[0])), f"floquet step {st.floquet} "
+                                    "(variational equations)")
+        elif g.replay == "gait":
+            lam = read_floquet_multipliers(ctx.deps[st.from_].path, g.source["controller"])
+            ctx.state["leading"] = (float(np.abs(lam[0])), f"floquet step {st.from_} "
+                                    "(variational equations of the gait's own controller)")
+        kw = {"ticks": list(st.ticks), "cycles": st.cycles, "error_bound": st.error_bound,
+              "max_drop": max_drop, "replay": g.replay, "times": g.times,
+              "leading_multiplier": "leading" not in ctx.state}
+        return [Task(0, tick_sweep_task, (ctx.spec, g.gait, g.z), kw)]
 
     def finish(self, ctx: StepContext, attrs: dict) -> str:
         st = ctx.step
         r = ctx.results[0]
         g = ctx.state["gait"]
-        sequence = "replay" in ctx.state
-        if sequence and "leading" in ctx.state:
-            lead, source = ctx.state["leading"], (f"floquet step {st.from_} (variational "
-                                                  "equations of the gait's own controller)")
-        elif "leading" in ctx.state:
-            lead, source = ctx.state["leading"], (f"floquet step {st.floquet} (variational "
-                                                  "equations)")
-        else:
-            lead, source = r["leading_multiplier"], "finite differences of the exact-timing " \
-                                                    "open-loop map"
-        if sequence:
-            attrs.update(sequence_attrs(g, ctx.state["replay"]), t_segment=list(r["t_segment"]))
-            if ctx.state["replay"] == "open_loop":
-                lam = np.asarray(r["multipliers"], complex)
-                attrs.update(open_loop_multipliers_real=lam.real.tolist(),
-                             open_loop_multipliers_imag=lam.imag.tolist())
-        else:
-            attrs.update(gait_attrs(st.from_, g), replay="open_loop")
+        fd = "leading" not in ctx.state
+        lead, source = ctx.state.get("leading", (
+            r["leading_multiplier"], "finite differences of the exact-timing open-loop map"))
+        attrs.update(g.attrs("run", t_segment=r["t_segment"],
+                             open_loop_multipliers=r["multipliers"] if fd else None))
         attrs.update(leading_multiplier=lead, leading_multiplier_source=source,
                      error_bound=st.error_bound, cycles=st.cycles, motor_torque=r["torque"],
                      max_drop=ctx.state["max_drop"])
-        write_tick_sweep(ctx.path, attrs, st.ticks, r)
+        write_tick_sweep(ctx.path, attrs, st.ticks, r, g.gait.records)
         rows = ", ".join(f"{t:g} s: {int(c)}" for t, c in zip(st.ticks, r["cycles_to_bound"]))
         return f"cycles to bound {rows}; leading multiplier {lead:.4g}"
 
