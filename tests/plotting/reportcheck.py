@@ -34,6 +34,7 @@ RUN_REFUSALS = (
     r"no design of the grid has a gait",
     r"did not converge to a fixed point",
     r"has no \w+ fixed point",
+    r"could not analyse its \w+ return map",
 )
 
 #: text no figure may show: a number that is not one, a count in the wrong number

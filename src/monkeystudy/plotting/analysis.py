@@ -25,6 +25,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import textwrap
 
 import matplotlib
 import numpy as np
@@ -34,7 +35,7 @@ from matplotlib.patches import Circle
 from matplotlib.patheffects import withStroke
 from matplotlib.ticker import MaxNLocator
 
-from .drawing import Drawing
+from .drawing import Drawing, NothingToDraw
 from .common import (
     BLACK, BLUE, ERROR_UNITS, GREEN, ORANGE, PURPLE, SKY, VERMILLION, count, fmt_tick,
     gait_settings, json_attr, new_figure, robot_name, status_name, style,
@@ -357,6 +358,11 @@ def plot_floquet_multipliers(ds):
     ``multipliers_fd_<c>``, ``unit_circle_<c>``, ``modulus_<c>_<k>`` (the labels).
     """
     ctrls = [str(c) for c in np.atleast_1d(ds["controller"].values)]
+    failures = ([str(f) for f in np.atleast_1d(ds["failure"].values)] if "failure" in ds
+                else [""] * len(ctrls))
+    if all(failures):
+        raise NothingToDraw("no return map was analysed: " + "; ".join(
+            f"{c}: {f}" for c, f in zip(ctrls, failures)))
     lam_all = _complex(ds, "multipliers")
     fd_all = _complex(ds, "multipliers_fd") if "multipliers_fd_real" in ds else None
     ntol = attr_float(ds, "neutral_tol", NEUTRAL_TOL)
@@ -380,6 +386,13 @@ def plot_floquet_multipliers(ds):
         finite = np.abs(lam_all[np.isfinite(lam_all)])
         R = max(1.2, 1.18 * float(finite.max()) if finite.size else 1.2)   # one scale
         for j, (ax, c) in enumerate(zip(axes, ctrls)):
+            if failures[j]:
+                ax.set_axis_off()
+                ax.set_title(f"{CONTROLLERS.get(c, c)}: NOT ANALYSED", loc="left",
+                             fontsize=8.5, fontweight="normal", color=VERMILLION)
+                ax.text(0.0, 0.9, textwrap.fill(failures[j], 48), transform=ax.transAxes,
+                        va="top", fontsize=8.5, gid=f"failure_{c}")
+                continue
             lam = lam_all[j]
             cls = _classify(lam, ntol)
             ax.add_patch(Circle((0, 0), 1.0, fill=False, color="0.3", lw=1.2, ls="-",

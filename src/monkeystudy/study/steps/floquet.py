@@ -11,6 +11,7 @@ Conventions`). Later steps start from the fixed point
 from __future__ import annotations
 
 import dataclasses
+import math
 from functools import partial
 from pathlib import Path
 from typing import Any, Literal, Optional
@@ -121,16 +122,22 @@ def floquet_task(spec: GaitSpec, controller: str, *, gait: SequenceGait, z0,
                 z = fp.z
         except RuntimeError:
             out["newton_converged"] = 0
-    Jv = jac(z)
-    fl = floquet(fmap, z, step=fd_step, neutral_tol=NEUTRAL_TOL)
-    lam = sorted_eigs(Jv)
-    neutral = np.abs(lam - 1.0) < NEUTRAL_TOL
     at = dataclasses.replace(gait, theta2=float(z[0]))
     r = evaluate_cycle_gaits(np.array([[z[1], z[2]]]), at, robot=robot, integrator=integ)
+    try:
+        Jv = jac(z)
+        fl = floquet(fmap, z, step=fd_step, neutral_tol=NEUTRAL_TOL)
+    except RuntimeError as exc:
+        # no cycle from z, or one whose events the variational run meets in another order:
+        # a finding about this gait at this point, recorded rather than ending the run
+        return not_analysed(out, z, gait, r, schedule, str(exc))
+    lam = sorted_eigs(Jv)
+    neutral = np.abs(lam - 1.0) < NEUTRAL_TOL
     t = r["t_segment"][0]
     t_switch, t_motor = ((float(t[0]), float(t[1] - t[0])) if schedule is None else
                          (float(schedule[0]), float(schedule[1])))
     out.update({
+        "failure": "",
         "fixed_point": z, "map_defect": float(fl.map_defect), "jacobian": Jv,
         "jacobian_fd": fl.jacobian, "multipliers": lam, "multipliers_fd": fl.multipliers,
         "stable": int(bool(np.all(np.abs(lam[~neutral]) < 1.0))),
@@ -139,6 +146,27 @@ def floquet_task(spec: GaitSpec, controller: str, *, gait: SequenceGait, z0,
         "t_switch": t_switch, "t_motor": t_motor, "torque": motor_torque_of(gait),
         "t_segment": t.copy(), "x_advance": float(r["x_advance"][0]),
         "y_advance": float(r["y_advance"][0]), "error": float(r["error"][0]),
+    })
+    return out
+
+
+def not_analysed(out: dict, z, gait: SequenceGait, cycle: dict, schedule,
+                 reason: str) -> dict[str, Any]:
+    """The result of a return map that could not be analysed at ``z``: the point tried, its
+    ``cycle`` as :func:`~monkeystudy.simulate.evaluate_cycle_gaits` ran it, NaN multipliers
+    and Jacobians, not stable, and the ``reason`` (the analysis' error)."""
+    nan3, nan33 = np.full(3, np.nan), np.full((3, 3), np.nan)
+    t = cycle["t_segment"][0]
+    t_switch, t_motor = ((float(t[0]), float(t[1] - t[0])) if schedule is None else
+                         (float(schedule[0]), float(schedule[1])))
+    out.update({
+        "failure": reason, "fixed_point": np.asarray(z, float), "map_defect": math.nan,
+        "jacobian": nan33, "jacobian_fd": nan33, "multipliers": nan3.astype(complex),
+        "multipliers_fd": nan3.astype(complex), "stable": 0, "neutral": 0,
+        "agreement": math.nan, "t_switch": t_switch, "t_motor": t_motor,
+        "torque": motor_torque_of(gait), "t_segment": cycle["t_segment"][0].copy(),
+        "x_advance": float(cycle["x_advance"][0]), "y_advance": float(cycle["y_advance"][0]),
+        "error": float(cycle["error"][0]),
     })
     return out
 
@@ -205,6 +233,10 @@ def write_floquet(path: Path, attrs: dict, results: list[dict], swap_motor: bool
                 D.add_variable(nc, key, ("controller",), np.float64, D.GAIT_ATTRS[key], stack(key))
             D.add_variable(nc, "error", ("controller",), np.float64, D.SEQUENCE_ATTRS["error"],
                  stack("error"))
+        D.add_variable(nc, "failure", ("controller",), str,
+             {"long_name": "why the return map was not analysed at its point (empty: "
+                           "analysed)", "units": "1"},
+             np.array([r["failure"] for r in results], object))
         D.add_variable(nc, "newton_converged", ("controller",), np.int8,
              {"long_name": "Newton polish of the fixed point converged (1; open_loop: the "
                            "shoot's point, 1)", "units": "1"},
@@ -297,6 +329,9 @@ class FloquetKind(StepKind):
         write_floquet(ctx.path, attrs, results, swap_motor=ctx.spec.swap_motor_times)
         parts = []
         for r in results:
+            if r["failure"]:
+                parts.append(f"{r['controller']}: not analysed ({r['failure']})")
+                continue
             lam = np.abs(r["multipliers"])
             parts.append(f"{r['controller']}: |lambda| {', '.join(f'{x:.4g}' for x in lam)} "
                          f"({'stable' if r['stable'] else 'unstable'}, agreement "
@@ -307,8 +342,13 @@ class FloquetKind(StepKind):
         a = ds.attrs
         out = [gait_line(a)]
         lam, lam_fd = D.dataset_complex(ds, "multipliers"), D.dataset_complex(ds, "multipliers_fd")
+        failures = ds["failure"].values if "failure" in ds else [""] * ds.sizes["controller"]
         for i, c in enumerate(ds["controller"].values):
             fp = ds["fixed_point"].values[i]
+            if failures[i]:
+                out.append(f"{c}: not analysed at ({fp[0]:.8g}, {fp[1]:.8g}, {fp[2]:.8g}): "
+                           f"{failures[i]}")
+                continue
             out.append(f"{c}: multipliers {np.array2string(lam[i], precision=6)} (|lambda| "
                        f"{D.moduli(lam[i])}), {'stable' if int(ds['stable'][i]) else 'unstable'}")
             out.append(f"  finite differences |lambda| {D.moduli(lam_fd[i])}; agreement "

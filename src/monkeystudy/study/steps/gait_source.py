@@ -361,6 +361,9 @@ def floquet_start(path: Path, name: str, ctx, req: StartRequest) -> GaitStart:
     controller = ("open_loop" if replay == "open_loop" and "open_loop" in labels else
                   next((c for c in ("sequence", "search") if c in labels), labels[0]))
     fp = read_floquet_point(path, controller)
+    if fp["failure"]:
+        raise RunFailed(f"{ctx.name}: floquet step {name!r} could not analyse its "
+                        f"{controller} return map: {fp['failure']}")
     z = tuple(float(v) for v in fp["fixed_point"])
     close = (fp["map_defect"] <= req.max_map_defect if req.max_map_defect is not None
              else fp["newton_converged"] != 0)
@@ -515,8 +518,9 @@ def floquet_controllers(path: Path) -> list[str]:
 
 def read_floquet_point(path: Path, controller: str) -> dict:
     """One controller's analysed point of a floquet dataset: ``{fixed_point (3,), map_defect,
-    newton_converged, t_switch, t_motor [s], motor_torque [N m]}`` (``newton_converged`` -1
-    when the dataset has none; the times NaN for a gait named per segment)."""
+    newton_converged, t_switch, t_motor [s], motor_torque [N m], failure}`` (``newton_converged``
+    -1 when the dataset has none; the times NaN for a gait named per segment; ``failure``
+    why the map was not analysed, empty when it was)."""
     with netCDF4.Dataset(path, "r") as nc:
         nc.set_auto_mask(False)
         labels = [str(x) for x in np.atleast_1d(nc.variables["controller"][...])]
@@ -529,6 +533,8 @@ def read_floquet_point(path: Path, controller: str) -> dict:
         out["newton_converged"] = int(nc_conv[i]) if nc_conv is not None else -1
         for key in ("t_switch", "t_motor", "motor_torque"):
             out[key] = float(nc.variables[key][i]) if key in nc.variables else math.nan
+        failure = nc.variables.get("failure")
+        out["failure"] = str(np.atleast_1d(failure[...])[i]) if failure is not None else ""
     return out
 
 

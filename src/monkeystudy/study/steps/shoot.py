@@ -16,9 +16,8 @@ from typing import Any, Literal, Optional
 import numpy as np
 from pydantic import Field, model_validator
 
-from ...analysis.sections import cycle_return_map
 from ...analysis.shooting import shoot_cycle, shoot_grazing
-from ...controllers import SequenceGait, motorless, open_loop_gait
+from ...controllers import motorless, open_loop_gait
 from ...kernel import layout as L
 from ...kernel.layout import STATUS_NAMES
 from ...simulate import evaluate_cycle_gaits
@@ -90,9 +89,9 @@ def shoot_task(spec: GaitSpec, start: tuple[float, float], *, method: str = "bot
     Returns ``{"start", "candidates": [...], "failures": [...]}``; a candidate is a dict
     ``dtheta1, dtheta2, t_switch, t_motor, t_end, error, residual_norm, converged, method,
     status, history, message``. ``grazing``: :func:`~monkeystudy.analysis.shooting.shoot_grazing`
-    from the swap time of the gait's cycle at the start; its error is that of the motorless
-    open-loop replay's return map, ``|P(z) - z|^2``, ``t_motor = 0``, ``t_end`` that
-    replay's section crossing. ``gauss_newton``: :func:`~monkeystudy.analysis.shooting.
+    from the swap time of the gait's cycle at the start; its error is the gait's error of the
+    motorless open-loop replay (:func:`~monkeystudy.simulate.evaluate_cycle_gaits`),
+    ``t_motor = 0``, ``t_end`` that replay's section crossing. ``gauss_newton``: :func:`~monkeystudy.analysis.shooting.
     shoot_cycle` (its error, times and history as found).
     """
     robot, integ = spec.robot, spec.integrator
@@ -113,14 +112,17 @@ def shoot_task(spec: GaitSpec, start: tuple[float, float], *, method: str = "bot
             if not np.all(np.isfinite(z)) or not math.isfinite(gr.t_switch):
                 failures.append("grazing: Newton diverged (non-finite iterate)")
             else:
+                # the gait's error of its motorless open-loop replay (as the grid's, the
+                # refine's and gauss_newton's: defined on any robot)
                 replay = open_loop_gait(motorless(gait), [gr.t_switch, gr.t_switch])
-                zn, st = cycle_return_map(z, replay, robot=robot, integrator=integ)
-                t_end = cycle_times_or_nan(replay, z, robot, integ)
-                ok = int(st) == L.ST_OK
+                cyc = evaluate_cycle_gaits([[z[1], z[2]]], replay, robot=robot,
+                                           integrator=integ)
+                st = int(cyc["status"][0])
+                ok = st == L.ST_OK
                 cands.append({
                     "dtheta1": gr.dtheta1, "dtheta2": gr.dtheta2, "t_switch": gr.t_switch,
-                    "t_motor": 0.0, "t_end": t_end if ok else math.nan,
-                    "error": float(np.sum((zn - z) ** 2)) if ok else math.nan,
+                    "t_motor": 0.0, "t_end": float(cyc["t_segment"][0, -1]) if ok else math.nan,
+                    "error": float(cyc["error"][0]) if ok else math.nan,
                     "residual_norm": _norm_or_nan(gr.residual),
                     "converged": int(bool(gr.converged)), "method": METHOD_GRAZING,
                     "status": int(st), "history": np.asarray(gr.history, float),
@@ -143,14 +145,6 @@ def shoot_task(spec: GaitSpec, start: tuple[float, float], *, method: str = "bot
                 "message": f"gauss_newton: {sh.message} after {sh.iterations} iterations",
             })
     return {"start": (d1, d2), "candidates": cands, "failures": failures}
-
-
-def cycle_times_or_nan(gait: SequenceGait, z, robot, integrator) -> float:
-    """The section crossing [s] ending one cycle of ``gait`` from section state ``z`` (NaN
-    when the cycle does not close)."""
-    r = evaluate_cycle_gaits([[z[1], z[2]]], dataclasses.replace(gait, theta2=float(z[0])),
-                             robot=robot, integrator=integrator)
-    return float(r["t_segment"][0, -1])
 
 
 def solutions_summary(sols: list[dict], failures: list[str]) -> str:
