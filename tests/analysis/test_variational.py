@@ -8,7 +8,6 @@ gait's two controllers by name (:func:`~monkeystudy.analysis.variational_jacobia
 same Jacobian of :func:`~monkeystudy.controllers.horizontal_gait` and of its open-loop replay.
 The measured values at the time of writing are noted beside each assertion.
 """
-import time
 
 import numpy as np
 import pytest
@@ -353,11 +352,3 @@ def test_refuses_ticks_coulomb_friction_and_failed_cycles():
     with pytest.raises(RuntimeError, match="no cycle"):
         sequence_variational_jacobian(SEARCH, [0.0, 0.1, 0.1])         # never swaps
 
-
-def test_speed():
-    sequence_variational_jacobian(FLIGHT, [0.0, 3.0, 8.0])             # compiled, warm
-    t0 = time.perf_counter()
-    for _ in range(5):
-        sequence_variational_jacobian(FLIGHT, [0.0, 3.0, 8.0])
-        sequence_variational_jacobian(SEARCH, Z_SEARCH)
-    assert (time.perf_counter() - t0) / 10 < 1.0                       # measured ~5 ms

@@ -211,6 +211,11 @@ def write_continuation(path: Path, attrs: dict, result: dict) -> None:
                                period_doublings=list(result["period_doublings"]), **extra))
 
 
+def unit_suffix(units) -> str:
+    """``" N m"`` after a value; nothing for a ratio (units ``1``) or none."""
+    return "" if units in (None, "", "1") else f" {units}"
+
+
 # --- the kind ------------------------------------------------------------------------------------
 def cycle_problems(study, i: int, s: ContinuationStep) -> list:
     """A fixed point's continuation: exact timing, a smooth flow, a motor to continue in,
@@ -306,8 +311,8 @@ class ContinuationKind(StepKind):
                      bounds=list(st.bounds) if st.bounds is not None else [])
         write_continuation(ctx.path, attrs, r)
         v = r["value"]
-        msg = (f"{len(v)} points, {st.parameter} {v[0]:.6g} -> {v[-1]:.6g} "
-               f"{D.PARAMETER_UNITS[st.parameter]}, folds {r['folds']}, period doublings "
+        msg = (f"{len(v)} points, {st.parameter} {v[0]:.6g} -> {v[-1]:.6g}"
+               f"{unit_suffix(D.PARAMETER_UNITS[st.parameter])}, folds {r['folds']}, period doublings "
                f"{r['period_doublings']}, max residual {float(np.max(r['residual'])):.2g}")
         if cycle:
             msg += (f", through +1 {r['through_plus_one']}, Neimark-Sacker "
@@ -334,8 +339,8 @@ class ContinuationKind(StepKind):
             head = gait_line(a)
             marks = f"folds {a.get('folds')}, period doublings {a.get('period_doublings')}"
         return [head,
-                f"{v.size} points, {a.get('parameter')} {v[0]:.8g} -> {v[-1]:.8g} "
-                f"{a.get('parameter_units')}; max residual {float(np.nanmax(ds['residual'])):.2g}",
+                f"{v.size} points, {a.get('parameter')} {v[0]:.8g} -> {v[-1]:.8g}"
+                f"{unit_suffix(a.get('parameter_units'))}; max residual {float(np.nanmax(ds['residual'])):.2g}",
                 f"dtheta1 {float(ds['dtheta1'][0]):.8g} -> {float(ds['dtheta1'][-1]):.8g}, dtheta2 "
                 f"{float(ds['dtheta2'][0]):.8g} -> {float(ds['dtheta2'][-1]):.8g} rad s-1",
                 f"leading |lambda| {lead[0]:.6g} -> {lead[-1]:.6g}; " + marks]

@@ -354,8 +354,13 @@ class FloquetKind(StepKind):
             out.append(f"  finite differences |lambda| {D.moduli(lam_fd[i])}; agreement "
                        f"{float(ds['agreement'][i]):.2g}; map defect "
                        f"{float(ds['map_defect'][i]):.2g}")
+            if "t_segment" in ds:      # a cycle named per segment
+                times = ("segment exit times " + ", ".join(
+                    f"{t:.6g}" for t in ds["t_segment"].values[i]) + " s")
+            else:
+                times = (f"t_switch {float(ds['t_switch'][i]):.6g} s, t_motor "
+                         f"{float(ds['t_motor'][i]):.6g} s")
             out.append(f"  fixed point (theta2, dtheta1, dtheta2) = ({fp[0]:.8g}, {fp[1]:.8g}, "
-                       f"{fp[2]:.8g}); t_switch {float(ds['t_switch'][i]):.6g} s, t_motor "
-                       f"{float(ds['t_motor'][i]):.6g} s")
+                       f"{fp[2]:.8g}); {times}")
         return out
 

@@ -218,8 +218,11 @@ class TickSweepKind(StepKind):
                f"({a.get('leading_multiplier_source', '')}); error bound "
                f"{a.get('error_bound')}"]
         for i, t in enumerate(ds["tick"].values):
+            growth = float(ds["growth_per_cycle"][i])
             out.append(f"tick {t:g} s: {int(ds['cycles_to_bound'][i])} cycles to bound, "
                        f"{int(ds['cycles_completed'][i])} completed, status "
-                       f"{STATUS_NAMES[int(ds['status'][i])]}, growth per cycle "
-                       f"{float(ds['growth_per_cycle'][i]):.4g}")
+                       f"{STATUS_NAMES[int(ds['status'][i])]}, " +
+                       (f"growth per cycle {growth:.4g}" if math.isfinite(growth) else
+                        "growth per cycle not fitted (fewer than 3 cycles with 1e-10 < "
+                        "sqrt(error) < 1e-4)"))
         return out
