@@ -185,7 +185,7 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
     res = run_controller(gait.controller(), hyb0, robot=robot, integrator=integrator,
                          cycles=1, log_capacity=64)
     if res.status != Status.OK:
-        raise RuntimeError(f"no cycle from z (status {res.status.name})")
+        raise RuntimeError(f"no cycle from this point (status {res.status.name.lower()})")
     log = res.log[res.log[:, L.L_KIND] == L.LOG_SEGMENT]
 
     n = len(cols)

@@ -390,8 +390,11 @@ def plot_floquet_multipliers(ds):
                 ax.set_axis_off()
                 ax.set_title(f"{CONTROLLERS.get(c, c)}: NOT ANALYSED", loc="left",
                              fontsize=8.5, fontweight="normal", color=VERMILLION)
-                ax.text(0.0, 0.9, textwrap.fill(failures[j], 48), transform=ax.transAxes,
-                        va="top", fontsize=8.5, gid=f"failure_{c}")
+                z = values_of(ds, "fixed_point")[j]
+                tried = (rf"at $\theta_2$ = {z[0]:.4g} rad, {D1} = {z[1]:.4g}, {D2} = "
+                         f"{z[2]:.4g} rad s⁻¹:\n")
+                ax.text(0.0, 0.9, tried + textwrap.fill(failures[j], 48),
+                        transform=ax.transAxes, va="top", fontsize=8.5, gid=f"failure_{c}")
                 continue
             lam = lam_all[j]
             cls = _classify(lam, ntol)

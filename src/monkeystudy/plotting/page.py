@@ -98,13 +98,19 @@ def step_order(datasets: Mapping[str, object]) -> list[str]:
     return [n for n in names if n in datasets] + sorted(set(datasets) - set(names))
 
 
+def _num(value) -> str:
+    """A robot parameter as a person reads it: ten significant digits at most (a preset's
+    inertia computed as m L^2 / 12 would print its binary round-off)."""
+    return f"{value:.10g}" if isinstance(value, float) else str(value)
+
+
 def _robot_table(robot: Mapping) -> str:
     rows = []
     for key, label in (("link1", "link 1 (end A)"), ("link2", "link 2 (end B)")):
         lk = robot.get(key, {})
-        rows.append(f"<tr><td>{_e(label)}</td><td>{lk.get('mass')} kg</td>"
-                    f"<td>{lk.get('length')} m</td><td>{lk.get('com')} m</td>"
-                    f"<td>{lk.get('inertia')} kg m²</td></tr>")
+        rows.append(f"<tr><td>{_e(label)}</td><td>{_num(lk.get('mass'))} kg</td>"
+                    f"<td>{_num(lk.get('length'))} m</td><td>{_num(lk.get('com'))} m</td>"
+                    f"<td>{_num(lk.get('inertia'))} kg m²</td></tr>")
     friction = []
     for key, label in (("pivot_friction", "pivot"), ("joint_friction", "joint")):
         f = robot.get(key) or {}
