@@ -189,6 +189,13 @@ def test_what_a_kind_accepts_is_handed_on():
             assert type(provider).hand_on is not StepKind.hand_on, source
 
 
+def test_every_step_kind_has_its_tests():
+    """Tests mirror the package: each registered kind has tests/study/steps/test_<kind>.py."""
+    folder = ROOT / "tests" / "study" / "steps"
+    missing = [k for k in REGISTRY if not (folder / f"test_{k}.py").is_file()]
+    assert not missing, missing
+
+
 def test_every_step_kind_is_documented():
     """Each kind has a section in docs/datasets.md and is named in the README or docs."""
     datasets = (ROOT / "docs" / "datasets.md").read_text()

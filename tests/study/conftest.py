@@ -17,3 +17,19 @@ def tiny_reference(tmp_path_factory):
     summary = run_study(load_study(study), out, workers=2)
     assert sorted(p.name for p in summary.written) == sorted(TINY_FILES)
     return study, out
+
+
+@pytest.fixture(scope="session")
+def analysis_smoke(tmp_path_factory):
+    """The analysis smoke study through ``monkeystudy run`` on 2 workers: (output folder, the
+    CLI's result)."""
+    from click.testing import CliRunner
+
+    from monkeystudy.cli import app
+    from studyhelpers import ANALYSIS_SMOKE
+
+    out = tmp_path_factory.mktemp("analysis_smoke") / "out"
+    result = CliRunner().invoke(app, ["run", str(ANALYSIS_SMOKE), "--out", str(out),
+                                      "--workers", "2"])
+    assert result.exit_code == 0, result.output
+    return out, result

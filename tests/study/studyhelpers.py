@@ -63,3 +63,13 @@ def assert_same_datasets(a: Path, b: Path, names=None) -> None:
 def _reproducible(path: Path) -> bool:
     with xr.open_dataset(path, engine="netcdf4") as ds:
         return int(ds.attrs.get("bit_reproducible", 1)) != 0
+
+
+#: the analysis smoke study (every analysis kind on the seed2009 gait, small budgets)
+ANALYSIS_SMOKE = Path(__file__).resolve().parents[2] / "studies" / "analysis_smoke.yaml"
+
+
+def open_dataset(folder: Path, name: str) -> xr.Dataset:
+    """Dataset ``name`` of a study output ``folder``, loaded and closed."""
+    with xr.open_dataset(Path(folder) / name) as ds:
+        return ds.load()

@@ -1,36 +1,27 @@
-"""The analysis step kinds (shoot, floquet, tick_sweep, basin, continuation, work_precision):
-validation with file:line: key, end-to-end runs through the CLI and the runner, the dataset
-contract of docs/datasets.md, and the physics the datasets must show."""
+"""The analysis step kinds together (shoot, floquet, tick_sweep, basin, continuation,
+work_precision): validation with file:line: key, the analysis smoke study end to end through
+the CLI and the runner (``analysis_smoke``, tests/study/conftest.py), the dataset contract of
+docs/datasets.md. Each kind's own physics is tested in tests/study/steps/test_<kind>.py."""
 from __future__ import annotations
 
-import json
-import shutil
 from pathlib import Path
 
-import numpy as np
 import pytest
-import xarray as xr
 from click.testing import CliRunner
 
 from monkeystudy.cli import app
-from monkeystudy.study import StudyError, load_study, parse_study, plan_study, run_study
-from monkeystudy.analysis.replay import cycles_to_bound, growth_per_cycle
-from monkeystudy.study.blocks import shard_dir, write_shard
+from monkeystudy.study import StudyError, load_study, parse_study, run_study
 from monkeystudy.study.errors import RunFailed
-from monkeystudy.study.steps import REGISTRY
 from monkeystudy.study.steps.basin import BasinStep
 from monkeystudy.study.steps.continuation import ContinuationStep
 from monkeystudy.study.steps.floquet import FloquetStep
-from monkeystudy.study.steps.shoot import (
-    METHOD_GAUSS_NEWTON, METHOD_GRAZING, ShootStep, dedup_solutions,
-)
+from monkeystudy.study.steps.shoot import ShootStep
 from monkeystudy.study.steps.tick_sweep import TickSweepStep
 from monkeystudy.study.steps.work_precision import WorkPrecisionStep
 
-from studyhelpers import assert_same_datasets, write_study
+from studyhelpers import ANALYSIS_SMOKE as SMOKE, assert_same_datasets, open_dataset, write_study
 
 ROOT = Path(__file__).resolve().parents[2]
-SMOKE = ROOT / "studies" / "analysis_smoke.yaml"
 SMOKE_FILES = ("shoot.nc", "nm.nc", "shoot_nm.nc", "floquet.nc", "ticks.nc", "ticks_var.nc",
                "basin.nc", "family.nc", "timing.nc")
 REPRODUCIBLE = tuple(n for n in SMOKE_FILES if n != "timing.nc")
@@ -254,29 +245,15 @@ def test_mirror_links_are_not_required_by_the_other_kinds():
 
 
 # --- end to end --------------------------------------------------------------------------------
-@pytest.fixture(scope="module")
-def smoke(tmp_path_factory):
-    """The analysis smoke study through ``monkeystudy run`` on 2 workers."""
-    out = tmp_path_factory.mktemp("analysis_smoke") / "out"
-    result = CliRunner().invoke(app, ["run", str(SMOKE), "--out", str(out), "--workers", "2"])
-    assert result.exit_code == 0, result.output
-    return out, result
-
-
-def _open(out: Path, name: str) -> xr.Dataset:
-    with xr.open_dataset(out / name) as ds:
-        return ds.load()
-
-
-def test_smoke_runs_every_analysis_kind_through_the_cli(smoke):
-    out, result = smoke
+def test_smoke_runs_every_analysis_kind_through_the_cli(analysis_smoke):
+    out, result = analysis_smoke
     assert sorted(p.name for p in out.glob("*.nc")) == sorted(SMOKE_FILES)
     assert not list(out.glob(".*"))                        # no shards or temp files left
     for name in SMOKE_FILES:
         assert f"wrote {out / name}" in result.stdout
     text = SMOKE.read_text()
     for name in SMOKE_FILES:
-        ds = _open(out, name)
+        ds = open_dataset(out, name)
         kind = ds.attrs["step_kind"]
         for a in GLOBAL_ATTRS:
             assert a in ds.attrs, (name, a)
@@ -290,118 +267,8 @@ def test_smoke_runs_every_analysis_kind_through_the_cli(smoke):
             assert a in ds.attrs, (name, a)
 
 
-def test_shoot_finds_the_exact_grazing_gait_once(smoke):
-    ds = _open(smoke[0], "shoot.nc")
-    method = ds["method"].values
-    grazing = np.flatnonzero(method == METHOD_GRAZING)
-    # both starts land on the same collisionless gait: merged into one solution
-    assert grazing.size == 1
-    g = int(grazing[0])
-    assert json.loads(ds.attrs["solution_starts"])[g] == [0, 1]
-    assert ds["error"].values[g] < 1e-20                   # exact by construction
-    assert ds["converged"].values[g] == 1 and ds["status"].values[g] == 0
-    assert ds["t_motor"].values[g] == 0.0
-    assert ds["t_end"].values[g] == pytest.approx(2 * ds["t_switch"].values[g], rel=1e-9)
-    assert ds["dtheta1"].values[g] == pytest.approx(1.49524375, abs=1e-6)
-    assert ds["dtheta2"].values[g] == pytest.approx(10.2468454, abs=1e-6)
-    assert int(ds.attrs["best_solution"]) == g
-    h = ds["history"].values[g]
-    assert h[np.isfinite(h)][-1] < 1e-13
-    # gauss_newton stalls on the grazing border (the error is not smooth there)
-    assert np.all(ds["error"].values[method == METHOD_GAUSS_NEWTON] > 1e-8)
-    assert len(json.loads(ds.attrs["message"])) == ds.sizes["solution"]
-
-
-def test_floquet_multipliers_and_agreement(smoke):
-    ds = _open(smoke[0], "floquet.nc")
-    assert list(ds["controller"].values) == ["open_loop", "search"]
-    lam = ds["multipliers_real"].values + 1j * ds["multipliers_imag"].values
-    lam_fd = ds["multipliers_fd_real"].values + 1j * ds["multipliers_fd_imag"].values
-    assert np.all(ds["agreement"].values < 1e-7)            # var-eq vs finite differences
-    np.testing.assert_allclose(np.abs(lam), np.abs(lam_fd), rtol=1e-6)
-    assert np.all(ds["map_defect"].values < 1e-11)
-    ol, se = 0, 1
-    # the open-loop exact gait is unstable, its leading multiplier ~1.75
-    assert ds["stable"].values[ol] == 0 and abs(lam[ol, 0]) == pytest.approx(1.748, abs=2e-3)
-    np.testing.assert_array_equal(ds["fixed_point"].values[ol, 0], 0.0)
-    assert ds["t_motor"].values[ol] == 0.0
-    # the state-based controller: one neutral multiplier (energy), the others inside
-    assert ds["stable"].values[se] == 1 and ds["neutral"].values[se] == 1
-    assert np.min(np.abs(lam[se] - 1.0)) < 1e-7
-    assert np.all(np.abs(lam[se][np.abs(lam[se] - 1.0) > 1e-6]) < 1.0)
-    assert ds["t_motor"].values[se] > 0.0
-
-
-def test_tick_sweep_exact_timing_lasts_longest(smoke):
-    ds = _open(smoke[0], "ticks.nc")
-    fl = _open(smoke[0], "floquet.nc")
-    c = dict(zip(ds["tick"].values, ds["cycles_to_bound"].values))
-    assert c[0.0] > c[0.001]                               # the tick only seeds the fall
-    assert ds.sizes["cycle"] == 60 and list(ds["cycle"].values[:2]) == [1, 2]
-    lead = float(ds.attrs["leading_multiplier"])
-    lam = fl["multipliers_real"].values[0, 0] + 1j * fl["multipliers_imag"].values[0, 0]
-    assert lead == pytest.approx(abs(lam), rel=1e-6)      # FD here, var-eq in floquet
-    exact = int(np.flatnonzero(ds["tick"].values == 0.0)[0])
-    assert float(ds["growth_per_cycle"][exact]) == pytest.approx(lead, rel=0.02)
-    e = ds["error"].values[exact]
-    k = int(ds["cycles_to_bound"][exact])
-    assert e[k - 1] > 1e-2 and np.all(e[:k - 1] <= 1e-2)
-    assert np.all(np.isnan(e[int(ds["cycles_completed"][exact]):]))
-
-
-def test_tick_sweep_takes_the_multiplier_of_a_floquet_step(smoke):
-    ds = _open(smoke[0], "ticks_var.nc")
-    fl = _open(smoke[0], "floquet.nc")
-    lam = fl["multipliers_real"].values[0, 0] + 1j * fl["multipliers_imag"].values[0, 0]
-    assert float(ds.attrs["leading_multiplier"]) == abs(lam)
-    assert "floquet step floquet" in ds.attrs["leading_multiplier_source"]
-
-
-def test_shoot_from_a_refine_step(smoke):
-    nm = _open(smoke[0], "nm.nc")
-    ds = _open(smoke[0], "shoot_nm.nc")
-    sh = _open(smoke[0], "shoot.nc")
-    assert json.loads(ds.attrs["starts"]) == [[float(nm["dtheta1"]), float(nm["dtheta2"])]]
-    assert ds.attrs["refine_step"] == "nm" and ds.sizes["solution"] == 1
-    g = int(sh.attrs["best_solution"])
-    assert ds["error"].values[0] < 1e-20
-    assert ds["dtheta1"].values[0] == pytest.approx(sh["dtheta1"].values[g], abs=1e-9)
-
-
-def test_basin_is_peaked_at_the_gait(smoke):
-    ds = _open(smoke[0], "basin.nc")
-    c = ds["cycles"].values
-    assert c.shape == (21, 21) and c.dtype == np.int32
-    assert c[10, 10] == c.max() and c[10, 10] > 2 * np.delete(c.ravel(), 220).max()
-    assert int(ds.attrs["n_blocks"]) > 1                   # > 400 points: blocks on the pool
-    assert float(ds.attrs["tick"]) == 0.0 and int(ds.attrs["max_cycles"]) == 55
-
-
-def test_continuation_follows_the_family(smoke):
-    ds = _open(smoke[0], "family.nc")
-    sh = _open(smoke[0], "shoot.nc")
-    g = int(sh.attrs["best_solution"])
-    assert ds.sizes["point"] == 4 and ds.attrs["parameter"] == "com"
-    assert ds["parameter_value"].values[0] == 0.543754     # seed2009's link 1 CG
-    assert ds["dtheta1"].values[0] == sh["dtheta1"].values[g]
-    assert np.all(ds["residual"].values < 1e-12)
-    assert np.all(np.diff(ds["parameter_value"].values) > 0)
-    assert json.loads(ds.attrs["folds"]) == [] and json.loads(ds.attrs["period_doublings"]) == []
-
-
-def test_work_precision_dataset_is_marked_not_reproducible(smoke):
-    ds = _open(smoke[0], "timing.nc")
-    assert list(ds["method"].values) == ["dop853"] and list(ds["rtol"].values) == [1e-6, 1e-8]
-    assert list(ds["scipy_method"].values) == ["DOP853"]
-    assert int(ds.attrs["bit_reproducible"]) == 0 and "timings" in ds.attrs["reproducibility"]
-    assert np.all(ds["time_per_gait"].values > 0)
-    e = ds["error_value"].values[0]
-    assert e[1] < e[0]                                     # tighter tolerance, smaller error
-    assert np.all(ds["status_mismatch"].values == 0)
-
-
-def test_inspect_summarizes_every_analysis_dataset(smoke):
-    out = smoke[0]
+def test_inspect_summarizes_every_analysis_dataset(analysis_smoke):
+    out = analysis_smoke[0]
     want = {"shoot.nc": "(best)", "floquet.nc": "open_loop: multipliers",
             "ticks.nc": "cycles to bound", "basin.nc": "cycles: at the least offset",
             "family.nc": "folds", "timing.nc": "time per gait"}
@@ -411,7 +278,7 @@ def test_inspect_summarizes_every_analysis_dataset(smoke):
         assert "summary:" in r.output and text in r.output, (name, r.output)
 
 
-def test_dry_run_lists_the_analysis_steps_and_their_dependencies(smoke, tmp_path):
+def test_dry_run_lists_the_analysis_steps_and_their_dependencies(analysis_smoke, tmp_path):
     r = CliRunner().invoke(app, ["run", str(SMOKE), "--out", str(tmp_path / "o"), "--dry-run"])
     assert r.exit_code == 0, r.output
     for line in ("shoot [shoot] -> shoot.nc: 2 tasks",
@@ -422,37 +289,15 @@ def test_dry_run_lists_the_analysis_steps_and_their_dependencies(smoke, tmp_path
                  "timing [work_precision] -> timing.nc: 1 task"):
         assert line in r.output, (line, r.output)
     assert not (tmp_path / "o").exists()
-    r = CliRunner().invoke(app, ["run", str(SMOKE), "--out", str(smoke[0]), "--dry-run"])
+    r = CliRunner().invoke(app, ["run", str(SMOKE), "--out", str(analysis_smoke[0]), "--dry-run"])
     assert "everything is up to date" in r.output
 
 
-def test_one_worker_equals_two_except_timings(smoke, tmp_path):
+def test_one_worker_equals_two_except_timings(analysis_smoke, tmp_path):
     """Bit for bit, like the other steps; the work-precision timings are skipped."""
     run_study(load_study(SMOKE), tmp_path / "one", workers=1)
-    assert_same_datasets(smoke[0], tmp_path / "one", list(REPRODUCIBLE))
-    assert_same_datasets(smoke[0], tmp_path / "one")       # skips timing.nc by itself
-
-
-def test_basin_resumes_from_saved_blocks(smoke, tmp_path):
-    """Finished basin blocks are shards: a rerun computes only the missing ones and writes
-    the same dataset."""
-    out = tmp_path / "out"
-    shutil.copytree(smoke[0], out)
-    loaded = load_study(SMOKE)
-    ref = _open(out, "basin.nc")
-    (out / "basin.nc").unlink()
-    plan = plan_study(loaded, out)
-    sp = next(s for s in plan.steps if s.name == "basin")
-    assert [s.name for s in plan.steps if not s.up_to_date] == ["basin"]
-    folder = shard_dir(out, "basin", sp.key)
-    flat = ref["cycles"].values.ravel()
-    for b in sp.blocks[:4]:
-        write_shard(folder, b, {"cycles": flat[b.lo:b.hi]})
-    summary = run_study(loaded, out, workers=2)
-    assert summary.blocks_reused == 4 and summary.blocks_computed == len(sp.blocks) - 4
-    assert [p.name for p in summary.written] == ["basin.nc"]
-    assert not list(out.glob(".basin.parts"))
-    assert_same_datasets(smoke[0], out, ["basin.nc"])
+    assert_same_datasets(analysis_smoke[0], tmp_path / "one", list(REPRODUCIBLE))
+    assert_same_datasets(analysis_smoke[0], tmp_path / "one")       # skips timing.nc by itself
 
 
 def test_a_dependency_without_a_usable_gait_fails_clearly(tmp_path):
@@ -475,39 +320,5 @@ steps:
 
 
 # --- task functions ------------------------------------------------------------------------------
-def test_dedup_keeps_the_lower_error_and_every_start():
-    def cand(d1, err, method=1):
-        return {"dtheta1": d1, "dtheta2": 10.0, "error": err, "method": method,
-                "t_switch": 0.4, "message": f"found {err:g}"}
-    results = [{"start": (1.0, 12.0), "candidates": [cand(1.5, 400.0), cand(1.2, 1e-3, 0)],
-                "failures": []},
-               {"start": (1.4, 10.3), "candidates": [cand(1.5 + 1e-8, 1e-27)],
-                "failures": ["gauss_newton: no gait"]}]
-    sols, fails = dedup_solutions(results, 1e-6)
-    assert [s["dtheta1"] for s in sols] == [1.5 + 1e-8, 1.2]
-    assert sols[0]["error"] == 1e-27 and sols[0]["starts"] == [0, 1]
-    assert sols[0]["start_index"] == 0
-    assert sols[0]["message"] == ("found 1e-27; the same rates were also reached from start 0 "
-                                  "by grazing with the swap at 0.4 s and gait error 400; the "
-                                  "lower error is kept")
-    assert sols[1]["message"] == "found 0.001"
-    assert fails == ["start 1 [1.4, 10.3]: gauss_newton: no gait"]
 
 
-def test_growth_and_cycles_to_bound():
-    e = (1e-9 * 1.5 ** np.arange(40)) ** 2
-    assert growth_per_cycle(e) == pytest.approx(1.5, rel=1e-9)
-    assert np.isnan(growth_per_cycle(np.array([1e-3, 1e-2])))
-    assert cycles_to_bound(np.array([1e-5, 1e-3, 2e-2, 1.0]), 1e-2) == 3
-    assert cycles_to_bound(np.array([1e-5, 1e-3]), 1e-2) == 2
-
-
-def test_basin_blocks_are_whole_rows():
-    st = parse_study(study_text(
-        "{name: big, kind: basin, from: sh, offsets: {d_dtheta1: {start: 0.0, stop: 1.0, "
-        "num: 30}, d_dtheta2: {start: 0.0, stop: 1.0, num: 21}}}")).study.step("big")
-    blocks = REGISTRY["basin"].blocks(st)
-    assert blocks[0].lo == 0 and blocks[-1].hi == 630
-    assert all(b.lo % 21 == 0 and b.hi % 21 == 0 for b in blocks)
-    assert all(blocks[i].hi == blocks[i + 1].lo for i in range(len(blocks) - 1))
-    assert len(blocks) == 8                                # 4 rows (84 points) per block

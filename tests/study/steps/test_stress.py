@@ -25,7 +25,7 @@ from monkeystudy.study.steps.stress import StressStep, stress_tasks
 
 from studyhelpers import assert_same_datasets
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 SMOKE = ROOT / "studies" / "stress_smoke.yaml"
 FULL = ROOT / "studies" / "stress.yaml"
 

@@ -18,7 +18,7 @@ from monkeystudy.study import load_study, run_study
 
 from studyhelpers import assert_same_datasets
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 SMOKE = ROOT / "studies" / "open_loop_design_smoke.yaml"
 
 #: the names other tools read (docs/datasets.md), with units and dims

@@ -18,7 +18,7 @@ from monkeystudy.study.steps.survival import FAILURE_NAMES, SurvivalStep
 
 from studyhelpers import assert_same_datasets
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 SMOKE = ROOT / "studies" / "survival_smoke.yaml"
 
 #: the survival dataset's variables (docs/datasets.md), with units and dims
