@@ -196,6 +196,13 @@ def test_every_step_kind_has_its_tests():
     assert not missing, missing
 
 
+def test_architecture_lists_the_registered_kinds():
+    """docs/architecture.md names the kinds the registry holds, no more and no fewer."""
+    text = (ROOT / "docs" / "architecture.md").read_text()
+    listed = re.search(r"one module each:\s*(.*?)\)", text, re.S).group(1)
+    assert set(re.findall(r"`(\w+)`", listed)) == set(REGISTRY)
+
+
 def test_every_step_kind_is_documented():
     """Each kind has a section in docs/datasets.md and is named in the README or docs."""
     datasets = (ROOT / "docs" / "datasets.md").read_text()
