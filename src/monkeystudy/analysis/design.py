@@ -90,6 +90,8 @@ BALANCES = ("t_switch", "torque", "t_motor", "none")
 CLOCKS = ("reset_at_vertical", "run_on")
 #: what a design search minimises
 OBJECTIVES = ("spectral_radius", "spectral_radius_energy")
+#: status of a design whose gait converged (the others: :data:`STATUS_NAMES`)
+DESIGN_OK = DS_OK
 #: status of a design that breaks a bound (not simulated)
 OUT_OF_BOUNDS = len(DESIGN_STATUS_NAMES)
 STATUS_NAMES = (*DESIGN_STATUS_NAMES, "out_of_bounds")

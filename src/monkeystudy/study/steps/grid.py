@@ -14,8 +14,7 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from ...analysis.gait_kind import gait_kind_text, vertical_passes_before_swap
-from ...kernel.layout import STATUS_NAMES
-from ...simulate import evaluate_cycle_gaits, swap_motor_times
+from ...simulate import Status, evaluate_cycle_gaits, swap_motor_times
 from .. import datasets as D
 from ..blocks import Block, Task, make_blocks
 from ..models import Axis, Name, Point, StrictModel
@@ -172,7 +171,7 @@ def write_grid(path: Path, attrs: dict, *, axes: tuple[np.ndarray, np.ndarray] |
             for name, v in vs.items():
                 write_flat(v, shape, lo, arrays[name])
             written += len(arrays["status"])
-            skipped += int(np.count_nonzero(arrays["status"] == STATUS_NAMES.index("unreachable")))
+            skipped += int(np.count_nonzero(arrays["status"] == Status.UNREACHABLE))
             err = np.asarray(arrays["error"], np.float64)
             if np.isfinite(err).any() and np.nanmin(err) < least:
                 least, least_at = float(np.nanmin(err)), lo + int(np.nanargmin(err))

@@ -21,7 +21,7 @@ from ...analysis.floquet import floquet
 from ...analysis.replay import cycle_times, open_loop_gait, sequence_cycles, sweep_ticks
 from ...analysis.sections import cycle_return_map
 from ...controllers import SequenceGait
-from ...kernel.layout import STATUS_NAMES
+from ...simulate import STATUS_NAMES
 from .. import datasets as D
 from ..blocks import Task
 from ..models import Name, Replay, StrictModel, unique
