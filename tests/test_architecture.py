@@ -54,6 +54,12 @@ def test_import_contracts_are_kept():
     ("service/client.py", "import numpy  # noqa\n", "The thin client"),
     # the kernel loads scipy
     ("kernel/roots.py", "import scipy  # noqa\n", "The kernel imports nothing"),
+    # a step kind reads a kernel constant instead of the simulation API's name for it
+    ("study/steps/grid.py", "\n\ndef _f():\n    from ...kernel import layout  # noqa\n",
+     "Study and plotting do not import the kernel"),
+    # a figure calls a kernel function
+    ("plotting/cycles.py", "from ..kernel.dynamics import kinetic_energy  # noqa\n",
+     "Study and plotting do not import the kernel"),
 ])
 def test_a_violation_breaks_a_contract(tmp_path, file, code, contract):
     """A copy of the package with one deliberate violation fails the check, naming it."""

@@ -40,7 +40,7 @@ from .common import (
     BLACK, BLUE, ERROR_UNITS, GREEN, ORANGE, PURPLE, SKY, VERMILLION, count, fmt_tick,
     gait_settings, json_attr, new_figure, robot_name, status_name, style,
 )
-from ..kernel import layout as L
+from ..simulate import Status
 
 D1 = r"$\dot\theta_1$"
 D2 = r"$\dot\theta_2$"
@@ -586,7 +586,7 @@ def plot_tick_sweep(ds):
             else:
                 when = f"error ≤ {bound:g} for all {count(done[i], 'cycle')}"
             stop = ""
-            if status[i] not in (L.ST_OK, L.ST_END_TIME) and done[i] < n_cycles:
+            if status[i] not in (Status.OK, Status.END_TIME) and done[i] < n_cycles:
                 ok = np.flatnonzero(np.isfinite(e) & (e > 0))
                 if ok.size:
                     ax.plot([cyc[ok[-1]]], [e[ok[-1]]], marker="X", ms=10, mfc=c, mec="black",
