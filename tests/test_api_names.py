@@ -8,7 +8,7 @@ import pytest
 from monkeystudy import OpenLoop, Robot, evaluate_horizontal_gait
 from monkeystudy.kernel import layout as L
 from monkeystudy.kernel.dynamics import kinetic_energy as kernel_kinetic_energy
-from monkeystudy.simulate import (
+from monkeystudy.simulation import (
     STATUS_NAMES, Phase, StateIndex, Status, initial_state, kinetic_energy, run_controller,
     status_name,
 )

@@ -82,7 +82,7 @@ def compile_callees(method: str) -> int:
 
 
 def runs_signature(method: str, flies: bool) -> tuple:
-    """The argument types :func:`monkeystudy.simulate.run_controller` calls the hybrid loop's
+    """The argument types :func:`monkeystudy.simulation.run_controller` calls the hybrid loop's
     entry (``kernel/hybrid.simulate``) with, for ``method`` and a run that can fly or not."""
     F1, F2, I1 = nb.float64[::1], nb.float64[:, ::1], nb.int64[::1]
     return (typeof(method_scalar(METHODS[method][0], flies)), F2, F2, F2, F1, F1, I1, F1, F2,

@@ -10,7 +10,7 @@ import xarray as xr
 
 from monkeystudy.analysis import cycle_return_map
 from monkeystudy.controllers import Integrator
-from monkeystudy.simulate import evaluate_cycle_gaits
+from monkeystudy.simulation import evaluate_cycle_gaits
 from monkeystudy.study import load_study, run_study
 from monkeystudy.study.spec import gait_spec
 

@@ -49,14 +49,14 @@ from ..kernel import layout as L
 from ..kernel.noise import PER_RUN_CYCLE, standard_draw
 from ..kernel.survival import survival_runs as run_block
 from ..robot import Link, Robot
-from ..simulate import RobotLike, as_robot
+from ..simulation import RobotLike, as_robot
 
 #: noise distributions: name -> the kernel's NZ_UNIFORM flag
 DISTRIBUTIONS = {"gaussian": 0.0, "uniform": 1.0}
 
 #: a survival run's failure (:attr:`SurvivalRuns.failure`) when a cycle ended farther than the
 #: error bound from the gait; the other failures are the failing cycle's
-#: :class:`~monkeystudy.simulate.Status`
+#: :class:`~monkeystudy.simulation.Status`
 ERROR_BOUND = L.ST_ERROR_BOUND
 #: a survival run's failure when a cycle advanced less than the minimum advance
 STALLED = L.ST_STALLED

@@ -40,7 +40,7 @@ from .common import (
     BLACK, BLUE, ERROR_UNITS, GREEN, ORANGE, PURPLE, SKY, VERMILLION, count, fmt_tick,
     gait_settings, json_attr, new_figure, robot_name, status_name, style,
 )
-from ..simulate import Status
+from ..simulation import Status
 
 D1 = r"$\dot\theta_1$"
 D2 = r"$\dot\theta_2$"

@@ -24,7 +24,7 @@ from matplotlib.ticker import FuncFormatter
 
 import monkeystudy
 from ..robot import Robot
-from ..simulate import STATUS_NAMES
+from ..simulation import STATUS_NAMES
 
 #: The package's style file.
 STYLE_FILE = Path(str(resources.files("monkeystudy") / "monkeystudy.mplstyle"))

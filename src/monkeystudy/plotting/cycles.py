@@ -22,7 +22,7 @@ from .common import (
     run_label, status_name, style,
 )
 from ..analysis.gait_kind import gait_kind_text
-from ..simulate import Status, kinetic_energy
+from ..simulation import Status, kinetic_energy
 from .drawing import Drawing, Folder, NothingToDraw
 
 #: Statuses that mean "the run went as long as asked" (not worth a warning on the plot).

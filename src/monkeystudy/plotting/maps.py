@@ -26,7 +26,7 @@ from matplotlib.ticker import MaxNLocator
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 from scipy import ndimage
 
-from ..simulate import Status
+from ..simulation import Status
 from .common import (
     ERROR_UNITS, MINIMUM_COLOUR, count, finite, new_figure, run_label, status_name, style,
 )

@@ -27,7 +27,7 @@ from .common import (
     new_figure, style,
 )
 from .analysis import OUTLINE, SUB, attr_float, sci, two_titles, values_of, run_line
-from ..simulate import STATUS_NAMES
+from ..simulation import STATUS_NAMES
 
 #: colour of each status in the outcome panels
 STATUS_COLOUR = {

@@ -22,7 +22,7 @@ from typing import Any, Iterator
 import netCDF4
 import numpy as np
 
-from ..simulate import STATUS_NAMES, StateIndex, physical_points
+from ..simulation import STATUS_NAMES, StateIndex, physical_points
 
 CONVENTIONS = "CF-1.10"
 

@@ -23,7 +23,7 @@ from pydantic import (
 
 from ..controllers import Integrator, Segment, SequenceGait, horizontal_gait
 from ..robot import PRESETS, Friction, Link, Robot
-from ..simulate import STATUS_NAMES
+from ..simulation import STATUS_NAMES
 
 SCHEMA_VERSION = 1
 

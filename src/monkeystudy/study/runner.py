@@ -27,7 +27,7 @@ from .. import __version__, compiling
 from ..compiling import KERNEL_CACHE_DIR
 from ..controllers import Integrator, program_may_fly
 from ..robot import SEED2009_TORQUE
-from ..simulate import (
+from ..simulation import (
     Phase, RobotLike, Status, as_robot, initial_state, loaded_kernels, run_controller,
 )
 from . import datasets as D

@@ -31,7 +31,7 @@ from ...analysis.design import (
     DesignSpace, design_basin, design_cycle_run, evaluate_design, perturbation_decay,
     replay_design, with_variational,
 )
-from ...simulate import Status
+from ...simulation import Status
 from .. import datasets as D
 from ..blocks import Block, Task
 from ..errors import RunFailed

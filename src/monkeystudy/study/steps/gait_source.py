@@ -19,7 +19,7 @@ from ...analysis.design import PARAMETERS, DesignSpace
 from ...analysis.replay import cycle_times
 from ...controllers import SequenceGait, motorless, open_loop_gait
 from ...robot import Robot
-from ...simulate import STATUS_NAMES, Status
+from ...simulation import STATUS_NAMES, Status
 from .. import datasets as D
 from ..errors import RunFailed
 from ..spec import mirror_problem

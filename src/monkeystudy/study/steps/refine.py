@@ -12,7 +12,7 @@ from pydantic import Discriminator, Field, Tag
 
 from ...analysis.gait_kind import gait_kind_text, vertical_passes_before_swap
 from ...analysis.search import DEFAULT_PENALTY, FMINSEARCH_TOL, refine_gait
-from ...simulate import STATUS_NAMES, Status, evaluate_cycle_gaits, swap_motor_times
+from ...simulation import STATUS_NAMES, Status, evaluate_cycle_gaits, swap_motor_times
 from .. import datasets as D
 from ..blocks import Task
 from ..models import Name, Point, StrictModel

@@ -18,7 +18,7 @@ from pydantic import Field, model_validator
 
 from ...analysis.shooting import shoot_cycle, shoot_grazing
 from ...controllers import motorless, open_loop_gait
-from ...simulate import STATUS_NAMES, Status, evaluate_cycle_gaits, status_name
+from ...simulation import STATUS_NAMES, Status, evaluate_cycle_gaits, status_name
 from .. import datasets as D
 from ..blocks import Task
 from ..errors import RunFailed
@@ -88,7 +88,7 @@ def shoot_task(spec: GaitSpec, start: tuple[float, float], *, method: str = "bot
     ``dtheta1, dtheta2, t_switch, t_motor, t_end, error, residual_norm, converged, method,
     status, history, message``. ``grazing``: :func:`~monkeystudy.analysis.shooting.shoot_grazing`
     from the swap time of the gait's cycle at the start; its error is the gait's error of the
-    motorless open-loop replay (:func:`~monkeystudy.simulate.evaluate_cycle_gaits`),
+    motorless open-loop replay (:func:`~monkeystudy.simulation.evaluate_cycle_gaits`),
     ``t_motor = 0``, ``t_end`` that replay's section crossing. ``gauss_newton``: :func:`~monkeystudy.analysis.shooting.
     shoot_cycle` (its error, times and history as found).
     """

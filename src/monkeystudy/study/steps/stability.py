@@ -18,7 +18,7 @@ from pydantic import Field
 from ...analysis.gait_kind import gait_kind_text
 from ...analysis.replay import sequence_cycles
 from ...controllers import SequenceGait
-from ...simulate import STATUS_NAMES, Status, evaluate_cycle_gaits
+from ...simulation import STATUS_NAMES, Status, evaluate_cycle_gaits
 from .. import datasets as D
 from ..blocks import Task
 from ..models import Name, OpenLoopSettings, Replay, StrictModel

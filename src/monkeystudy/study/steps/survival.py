@@ -23,7 +23,7 @@ from ...analysis.sections import cycle_section_state
 from ...analysis.survival import (
     ERROR_BOUND, MFPT, STALLED, Noise, cycle_grid, mfpt, survival_curve, survival_runs,
 )
-from ...simulate import STATUS_NAMES, Status
+from ...simulation import STATUS_NAMES, Status
 from .. import datasets as D
 from ..blocks import Block, Task
 from ..models import Name, OpenLoopSettings, Replay, StrictModel

@@ -5,6 +5,10 @@ Thin wrappers that validate arguments, build the kernel's arrays, call the one c
 stability, ...) use :func:`evaluate_cycle_gaits` and :func:`run_controller`, which return plain
 numpy; :func:`evaluate_gaits` is the horizontal gait's evaluation under its own names;
 :func:`simulate` builds an :class:`xarray.Dataset` for people.
+
+The kernel's plain numbers have names here (:class:`Status`, :data:`STATUS_NAMES`,
+:class:`Phase`, :class:`StateIndex`, the properties of :class:`RunResult`), so that the layers
+above read results without importing the kernel.
 """
 from __future__ import annotations
 
