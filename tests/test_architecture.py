@@ -195,6 +195,15 @@ def test_what_a_kind_accepts_is_handed_on():
             assert type(provider).hand_on is not StepKind.hand_on, source
 
 
+def test_every_step_kind_draws_its_figures_in_its_own_plotting_module():
+    """plotting/kinds/<kind>.py of each registered kind draws exactly the figures it declares."""
+    import importlib
+
+    for name, kind in REGISTRY.items():
+        module = importlib.import_module(f"monkeystudy.plotting.kinds.{name}")
+        assert set(module.DRAWINGS) == {(name, f.suffix) for f in kind.figures}, name
+
+
 def test_every_step_kind_is_documented():
     """Each kind has a section in docs/datasets.md and is named in the README or docs."""
     datasets = (ROOT / "docs" / "datasets.md").read_text()

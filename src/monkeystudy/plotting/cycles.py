@@ -23,7 +23,7 @@ from .common import (
 )
 from ..analysis.gait_kind import gait_kind_text
 from ..simulation import Status, kinetic_energy
-from .drawing import Drawing, Folder, NothingToDraw
+from .drawing import Folder, NothingToDraw
 
 #: Statuses that mean "the run went as long as asked" (not worth a warning on the plot).
 NORMAL_END = (Status.OK, Status.END_TIME)
@@ -362,25 +362,3 @@ def stability_inputs(path: Path, folder: Folder) -> list[Path]:
     if named in refines:
         return [named]
     return [p for p in refines if matching_refine(sds, [folder.loaded(p)]) is not None][:1]
-
-
-def _gait(d) -> tuple[float, float] | None:
-    return gait_point(d[0], d[1:])
-
-
-def _comparison(groups):
-    return plot_error_comparison([g[0] for g in groups],
-                                 gaits=[gait_point(g[0], g[1:]) for g in groups])
-
-
-#: how the stability step's per-cycle figures are drawn
-DRAWINGS = {
-    ("stability", "error"): Drawing(lambda d: plot_error_per_cycle(d[0], gait=_gait(d)),
-                                    extra_inputs=stability_inputs),
-    ("stability", "kinetic_energy"): Drawing(
-        lambda d: plot_kinetic_energy(d[0], gait=_gait(d)), extra_inputs=stability_inputs),
-    ("stability", "height"): Drawing(lambda d: plot_pivot_height(d[0], gait=_gait(d)),
-                                     extra_inputs=stability_inputs),
-    ("stability", "error_comparison"): Drawing(_comparison, extra_inputs=stability_inputs,
-                                               across=True),
-}

@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -30,7 +29,7 @@ from ..simulation import Status
 from .common import (
     ERROR_UNITS, MINIMUM_COLOUR, count, finite, new_figure, run_label, status_name, style,
 )
-from .drawing import Drawing, Folder, NothingToDraw
+from .drawing import NothingToDraw
 
 D1_LABEL = r"initial $\dot\theta_1$  [rad s$^{-1}$]"
 D2_LABEL = r"initial $\dot\theta_2$  [rad s$^{-1}$]"
@@ -742,28 +741,3 @@ def plot_refine_convergence(refine):
         ax.set_title((note + "\n" if note else "") + run_label(refine), fontsize=8.5,
                      fontweight="normal", loc="left")
     return fig
-
-
-def _refines(path: Path, folder: Folder) -> list[Path]:
-    return list(folder.files.get("refine", []))
-
-
-def _has_swap_times(path: Path, folder: Folder) -> bool:
-    return "t_switch" in folder.loaded(path)
-
-
-def _has_iterations(path: Path, folder: Folder) -> bool:
-    ds = folder.loaded(path)
-    return ds.sizes.get("iteration", 0) > 0 and "iterate_error" in ds
-
-
-#: how the grid and refine steps' figures are drawn
-DRAWINGS = {
-    ("grid", "surface"): Drawing(lambda d: plot_error_surface(d[0]), cost=3.0),
-    ("grid", "map"): Drawing(lambda d: plot_error_map(d[0], d[1:]), extra_inputs=_refines,
-                             cost=2.0),
-    ("grid", "swap_time"): Drawing(lambda d: plot_swap_time_map(d[0], d[1:]),
-                                   extra_inputs=_refines, applies=_has_swap_times),
-    ("refine", "convergence"): Drawing(lambda d: plot_refine_convergence(d[0]),
-                                       applies=_has_iterations),
-}
