@@ -54,6 +54,12 @@ def test_import_contracts_are_kept():
     ("service/client.py", "import numpy  # noqa\n", "The thin client"),
     # the kernel loads scipy
     ("kernel/roots.py", "import scipy  # noqa\n", "The kernel imports nothing"),
+    # a step kind reads a kernel constant instead of the simulation API's name for it
+    ("study/steps/grid.py", "\n\ndef _f():\n    from ...kernel import layout  # noqa\n",
+     "Study and plotting do not import the kernel"),
+    # a figure calls a kernel function
+    ("plotting/cycles.py", "from ..kernel.dynamics import kinetic_energy  # noqa\n",
+     "Study and plotting do not import the kernel"),
 ])
 def test_a_violation_breaks_a_contract(tmp_path, file, code, contract):
     """A copy of the package with one deliberate violation fails the check, naming it."""
@@ -201,6 +207,15 @@ def test_architecture_lists_the_registered_kinds():
     text = (ROOT / "docs" / "architecture.md").read_text()
     listed = re.search(r"one module each:\s*(.*?)\)", text, re.S).group(1)
     assert set(re.findall(r"`(\w+)`", listed)) == set(REGISTRY)
+
+
+def test_every_step_kind_draws_its_figures_in_its_own_plotting_module():
+    """plotting/kinds/<kind>.py of each registered kind draws exactly the figures it declares."""
+    import importlib
+
+    for name, kind in REGISTRY.items():
+        module = importlib.import_module(f"monkeystudy.plotting.kinds.{name}")
+        assert set(module.DRAWINGS) == {(name, f.suffix) for f in kind.figures}, name
 
 
 def test_every_step_kind_is_documented():

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from monkeystudy import OpenLoop, compiling, initial_state, run_controller
-from monkeystudy.simulate import evaluate_gaits
+from monkeystudy.simulation import evaluate_gaits
 
 POINTS = [[1.0, 11.0], [0.9, 10.9], [1.3, 10.5], [0.2, 12.5]]
 
@@ -22,7 +22,7 @@ import json, numpy as np
 from numba.core import event as ev
 from monkeystudy.compiling import compile_callees
 from monkeystudy.kernel.hybrid import loop_callees
-from monkeystudy.simulate import evaluate_gaits
+from monkeystudy.simulation import evaluate_gaits
 def compiled(rec):
     return {e.data["dispatcher"] for _, e in rec.buffer
             if e.is_start and hasattr(e.data.get("dispatcher"), "signatures")}
@@ -46,7 +46,7 @@ GAITS = """
 import json, numpy as np
 from numba.core import event as ev
 from monkeystudy import OpenLoop, initial_state, run_controller
-from monkeystudy.simulate import evaluate_gaits
+from monkeystudy.simulation import evaluate_gaits
 with ev.install_recorder("numba:compile") as rec:
     r = evaluate_gaits(np.array(%r))
     run = run_controller(OpenLoop(0.43, 0.024, 0.6354, tick=0.001), initial_state(0.9, 10.93),

@@ -5,6 +5,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
 
 
 def _fresh(code: str) -> str:
@@ -14,20 +15,29 @@ def _fresh(code: str) -> str:
 
 def test_every_export_resolves_to_its_object():
     from monkeystudy import controllers, robot, simulate as simulate_fn  # noqa: F401
-    import monkeystudy.simulate  # noqa: F401  (the submodule sets itself on the package)
+    import monkeystudy.simulation  # noqa: F401
     assert callable(monkeystudy.simulate) and monkeystudy.simulate.__name__ == "simulate"
-    assert sys.modules["monkeystudy.simulate"].simulate is monkeystudy.simulate
+    assert monkeystudy.simulation.simulate is monkeystudy.simulate is simulate_fn
     for name in monkeystudy.__all__:
         assert getattr(monkeystudy, name) is not None
         assert name in dir(monkeystudy)
     assert monkeystudy.Robot is robot.Robot and monkeystudy.OpenLoop is controllers.OpenLoop
 
 
-def test_the_function_wins_over_its_submodule_in_a_fresh_process():
-    out = _fresh("import monkeystudy.study.runner\n"       # imports monkeystudy.simulate first
+def test_an_export_is_the_function_whichever_module_loaded_first():
+    """No exported name is its submodule's (the submodule, set on the package when imported,
+    would hide it): ``simulate`` lives in ``simulation``, ``floquet`` in ``multipliers``."""
+    out = _fresh("import monkeystudy.study.runner, monkeystudy.study.steps\n"   # load both
                  "from monkeystudy import simulate\n"
-                 "print(type(simulate).__name__)")
-    assert out == "function"
+                 "from monkeystudy.analysis import floquet\n"
+                 "print(type(simulate).__name__, type(floquet).__name__)")
+    assert out == "function function"
+
+
+def test_an_export_named_as_its_submodule_is_refused():
+    from monkeystudy._lazy import lazy_exports
+    with pytest.raises(ValueError, match="simulate"):
+        lazy_exports("monkeystudy", {}, {"simulate": ("simulate", "run_controller")})
 
 
 def test_light_entry_points_do_not_import_numba():

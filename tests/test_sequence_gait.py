@@ -1,4 +1,4 @@
-"""Sequence gaits (controllers.SequenceGait, simulate.evaluate_cycle_gaits): the study's gait
+"""Sequence gaits (controllers.SequenceGait, simulation.evaluate_cycle_gaits): the study's gait
 written as a sequence, the guard values that make climbing gaits, the static frame walk."""
 import math
 
@@ -9,7 +9,7 @@ from monkeystudy import Robot, Segment, SequenceGait, evaluate_cycle_gaits, eval
 from monkeystudy.analysis import cycle_return_map, search_return_map
 from monkeystudy.controllers import Integrator
 from monkeystudy.kernel import layout as L
-from monkeystudy.simulate import energies
+from monkeystudy.simulation import energies
 
 TIGHT = Integrator(rtol=1e-12, atol=1e-13)
 HORIZONTAL = SequenceGait([
@@ -257,7 +257,7 @@ def test_per_swap_records_read_the_open_loop_run():
     from monkeystudy import OpenLoop, initial_state, run_controller
     from monkeystudy.analysis.replay import sequence_cycles
     from monkeystudy.controllers import horizontal_gait
-    from monkeystudy.simulate import gait_error
+    from monkeystudy.simulation import gait_error
 
     d1, d2, t_sw, t_m = 0.89938149, 10.93372088, 0.43, 0.024
     r = sequence_cycles(horizontal_gait(TAU, 0.001), [0.0, d1, d2], cycles=30,

@@ -19,8 +19,8 @@ _EXPORTS = {
     "controllers": ("HorizontalSearch", "Integrator", "Observer", "OpenLoop", "PhaseSequence",
                     "Segment", "SequenceGait", "horizontal_gait"),
     "robot": ("Friction", "Link", "Robot", "SEED2009_TORQUE"),
-    "simulate": ("GaitResult", "RunResult", "Status", "evaluate_cycle_gaits", "evaluate_gaits",
-                 "evaluate_horizontal_gait", "initial_state", "run_controller", "simulate"),
+    "simulation": ("GaitResult", "RunResult", "Status", "evaluate_cycle_gaits", "evaluate_gaits",
+                   "evaluate_horizontal_gait", "initial_state", "run_controller", "simulate"),
 }
 __getattr__, __dir__, __all__ = lazy_exports(__name__, globals(), _EXPORTS)
 
@@ -30,7 +30,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
         horizontal_gait,
     )
     from .robot import SEED2009_TORQUE, Friction, Link, Robot  # noqa: F401
-    from .simulate import (  # noqa: F401
+    from .simulation import (  # noqa: F401
         GaitResult, RunResult, Status, evaluate_cycle_gaits, evaluate_gaits,
         evaluate_horizontal_gait, initial_state, run_controller, simulate,
     )

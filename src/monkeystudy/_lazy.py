@@ -3,8 +3,6 @@ the submodule is imported on the first access of one of its names."""
 from __future__ import annotations
 
 import importlib
-import sys
-import types
 from typing import Any, Callable
 
 
@@ -13,34 +11,25 @@ def lazy_exports(package: str, namespace: dict,
     """``(__getattr__, __dir__, __all__)`` for ``package`` whose globals are ``namespace``;
     ``exports`` maps a submodule (relative name) to the names it provides.
 
-    A name equal to its submodule's (``monkeystudy.simulate``, the function in
-    ``simulate.py``) would be shadowed by the submodule itself: importing a submodule sets it
-    as an attribute of its package, and ``__getattr__`` only sees missing names. Those names
-    become properties of the package's module class instead, which win over both (as the eager
-    ``from .simulate import simulate`` did)."""
+    No name may be its submodule's: importing a submodule sets it as an attribute of its
+    package, which would hide a name of the same spelling (``__getattr__`` only sees missing
+    names), so such a name is refused at once.
+    """
     module_of = {name: module for module, names in exports.items() for name in names}
+    shadowed = sorted(name for name, module in module_of.items() if name == module)
+    if shadowed:
+        raise ValueError(f"{package}: exported names equal to their submodule's would be "
+                         f"hidden by it: {', '.join(shadowed)}")
     names = sorted(module_of)
-
-    def load(name: str) -> Any:
-        return getattr(importlib.import_module(f".{module_of[name]}", package), name)
 
     def __getattr__(name: str) -> Any:
         if name not in module_of:
             raise AttributeError(f"module {package!r} has no attribute {name!r}")
-        value = load(name)
+        value = getattr(importlib.import_module(f".{module_of[name]}", package), name)
         namespace[name] = value   # later lookups do not come here
         return value
 
     def __dir__() -> list[str]:
         return sorted(set(namespace) | set(names))
 
-    shadowed = [name for name, module in module_of.items() if name == module]
-    if shadowed:
-        def exported(name: str) -> property:
-            # the setter drops the import system's "package.simulate = <submodule>"
-            return property(lambda self: load(name), lambda self, value: None,
-                            doc=f"{package}.{name}")
-        module = sys.modules[package]
-        module.__class__ = type(f"{package}.<package>", (types.ModuleType,),
-                                {name: exported(name) for name in shadowed})
     return __getattr__, __dir__, names

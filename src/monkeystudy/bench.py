@@ -46,7 +46,7 @@ from .kernel.trig import sincos
 from .reference.scipy_gait import ScipyGait
 from .robot import SEED2009_TORQUE, Robot
 from .service.client import ServiceError, request
-from .simulate import initial_state, run_controller
+from .simulation import initial_state, run_controller
 
 # ------------------------------------------------------------------------------------------
 # kernel timings
@@ -240,7 +240,7 @@ def startup_seconds(cold: bool, method: str = "dop853") -> float:
     """Seconds from interpreter start to the first simulated gait integrated with ``method``,
     in a fresh process (each method is its own compiled specialisation)."""
     code = ("from monkeystudy.controllers import Integrator; "
-            "from monkeystudy.simulate import evaluate_gaits; "
+            "from monkeystudy.simulation import evaluate_gaits; "
             f"evaluate_gaits([[0.9, 10.9]], integrator=Integrator(method={method!r}))")
     t0 = time.perf_counter()
     subprocess.run([sys.executable, "-c", code], env=_cold_env(cold), capture_output=True,

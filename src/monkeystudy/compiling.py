@@ -35,13 +35,24 @@ import sys
 import types
 from pathlib import Path
 
+import numpy as np
 from numba import typeof
 from numba.core import types as nb
 
+from . import kernel
 from .controllers import METHODS
-from .kernel import KERNEL_CACHE_DIR
 from .kernel.hybrid import loop_callees, simulate
 from .kernel.integrate import method_scalar
+from .kernel.layout import PHASE_SWING
+from .kernel.variational import (
+    energy8_gradient, entry_reset, field8, field8_jacobian, guard8, guard8_gradient,
+    variational_rhs8,
+)
+
+#: the directory of the kernels' on-disk cache, keyed by a hash of every kernel source
+#: (``monkeystudy/kernel/__init__.py``); "" when it could not be created (a read-only home:
+#: numba then caches beside the sources)
+KERNEL_CACHE_DIR = kernel.KERNEL_CACHE_DIR
 
 
 def _call(f):
@@ -71,7 +82,7 @@ def compile_callees(method: str) -> int:
 
 
 def runs_signature(method: str, flies: bool) -> tuple:
-    """The argument types :func:`monkeystudy.simulate.run_controller` calls the hybrid loop's
+    """The argument types :func:`monkeystudy.simulation.run_controller` calls the hybrid loop's
     entry (``kernel/hybrid.simulate``) with, for ``method`` and a run that can fly or not."""
     F1, F2, I1 = nb.float64[::1], nb.float64[:, ::1], nb.int64[::1]
     return (typeof(method_scalar(METHODS[method][0], flies)), F2, F2, F2, F1, F1, I1, F1, F2,
@@ -81,6 +92,29 @@ def runs_signature(method: str, flies: bool) -> tuple:
 def compile_runs(method: str, flies: bool) -> None:
     """Compile (or load) the entry multi-cycle runs call, for ``method`` and ``flies``."""
     simulate.compile(runs_signature(method, flies))
+
+
+def compile_variational(params: np.ndarray) -> None:
+    """Compile (or load from the cache) the variational-equation kernels of floquet and
+    continuation steps, with the argument types
+    :func:`~monkeystudy.analysis.variational.sequence_variational_jacobian` passes them.
+
+    Parameters
+    ----------
+    params : numpy.ndarray
+        A robot's parameter rows (:meth:`~monkeystudy.robot.Robot.params`), shape ``(2, n)``.
+    """
+    s = np.array([0.0, 0.0, 0.1, 0.2, 0.0, 0.0, 1.0, 10.0])
+    f, grad, A = np.empty(8), np.empty(8), np.empty((8, 8))
+    for m in (3, 4):     # section states of 3 (clock reset) and 4 (running clock)
+        y = np.concatenate([s, np.eye(8)[:, :m].ravel()])
+        variational_rhs8(PHASE_SWING, params[0], 0.0, y, np.empty_like(y))
+    field8(PHASE_SWING, params[0], 0.0, s, f)
+    field8_jacobian(PHASE_SWING, params[0], 0.0, s, A)
+    guard8(1, 0, 0.0, params[0], s, 0.0)
+    guard8_gradient(1, 0, 0.0, params[0], s, 0.0, grad)
+    energy8_gradient(params[0], s, grad)
+    entry_reset(params, s, PHASE_SWING, 0, -1.0, -1.0, True, np.empty(8), A)
 
 
 #: what the helper prints once its list of callees is compiled (then it compiles the runs)

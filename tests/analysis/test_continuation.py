@@ -14,7 +14,7 @@ from monkeystudy.analysis.continuation import (
 from monkeystudy.controllers import Segment, SequenceGait
 from monkeystudy.robot import Robot
 from monkeystudy.analysis.variational import sequence_variational_jacobian
-from monkeystudy.simulate import evaluate_cycle_gaits
+from monkeystudy.simulation import evaluate_cycle_gaits
 
 from sequencegaits import INTEG, TORQUE, two_step, two_swing
 

@@ -13,7 +13,7 @@ from monkeystudy.kernel import layout as L
 from monkeystudy.analysis.replay import (
     cycle_times, open_loop_gait, section_error, sequence_basin, sequence_cycles,
 )
-from monkeystudy.simulate import evaluate_cycle_gaits
+from monkeystudy.simulation import evaluate_cycle_gaits
 
 from sequencegaits import INTEG, two_step
 

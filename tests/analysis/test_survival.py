@@ -15,7 +15,7 @@ from monkeystudy.analysis.survival import (
 from monkeystudy.controllers import HorizontalSearch, Integrator, OpenLoop, horizontal_gait
 from monkeystudy.kernel import layout as L
 from monkeystudy.robot import Robot
-from monkeystudy.simulate import initial_state
+from monkeystudy.simulation import initial_state
 
 #: the 2009 gait refined on the 1 ms tick (studies/horizontal.yaml, gait1)
 GAIT = dict(dtheta1=0.902, dtheta2=10.935, t_switch=0.428, t_motor=0.025)
@@ -210,7 +210,7 @@ def test_a_runs_latency_delays_every_actuation_by_its_one_draw():
 def test_the_height_is_the_attached_ends_height_where_the_last_cycle_is_measured():
     """Without noise, a run's height change after k cycles is the attached end's height at
     its k-th vertical crossing in one deterministic open-loop run."""
-    from monkeystudy.simulate import run_controller
+    from monkeystudy.simulation import run_controller
 
     res = run_controller(_open_loop(), initial_state(GAIT["dtheta1"], GAIT["dtheta2"]),
                          integrator=INTEG, cycles=12, max_drop=0.61)

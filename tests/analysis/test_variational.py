@@ -21,7 +21,7 @@ from monkeystudy.controllers import SequenceGait, Segment, horizontal_gait
 from monkeystudy.kernel import layout as L
 from monkeystudy.robot import Friction, Link, Robot
 from monkeystudy.analysis.variational import sequence_variational_jacobian
-from monkeystudy.simulate import run_controller
+from monkeystudy.simulation import run_controller
 
 TORQUE = 0.6354
 #: near the state-based controller's attracting gait (tests/analysis/test_analysis.py)

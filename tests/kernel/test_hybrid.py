@@ -5,7 +5,7 @@ import pytest
 
 from monkeystudy.controllers import Integrator, PhaseSequence, Segment
 from monkeystudy.kernel import layout as L
-from monkeystudy.simulate import initial_state, run_controller
+from monkeystudy.simulation import initial_state, run_controller
 
 INTEG = Integrator(rtol=1e-12, atol=1e-12)
 

@@ -28,7 +28,7 @@ from monkeystudy import (
 )
 from monkeystudy.kernel import layout as L
 from monkeystudy.kernel.dynamics import kinetic_energy
-from monkeystudy.simulate import physical_points
+from monkeystudy.simulation import physical_points
 
 TORQUE = 0.6354
 TICK = 0.001

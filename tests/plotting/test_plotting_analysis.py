@@ -16,7 +16,11 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from PIL import Image
 
-from monkeystudy.plotting import analysis as PA
+from monkeystudy.plotting.kinds import (
+    basin, continuation, floquet, shoot, tick_sweep, work_precision,
+)
+from monkeystudy.plotting.labels import sci
+from monkeystudy.plotting.report import DRAWINGS
 from monkeystudy.plotting.page import PAGE
 from monkeystudy.plotting.report import MANIFEST, plan, report_study
 
@@ -96,8 +100,9 @@ def finite(y):
 # --- every figure ---------------------------------------------------------------------------
 def test_every_kind_has_a_figure_and_the_study_data_are_as_expected(ds):
     kinds = {d.attrs["step_kind"] for d in ds.values()}
-    assert kinds == {k for k, _ in PA.DRAWINGS} == {"shoot", "floquet", "tick_sweep", "basin",
-                                                     "continuation", "work_precision"}
+    analysis = (shoot, floquet, tick_sweep, basin, continuation, work_precision)
+    assert kinds == {k for m in analysis for k, _ in m.DRAWINGS} == {
+        "shoot", "floquet", "tick_sweep", "basin", "continuation", "work_precision"}
     # the physics the figures show (so a change in the data is noticed here)
     assert ds["shoot"]["converged"].values.tolist() == [1, 0]
     assert ds["floquet"]["stable"].values.tolist() == [0, 1]
@@ -108,7 +113,7 @@ def test_every_kind_has_a_figure_and_the_study_data_are_as_expected(ds):
 @pytest.mark.parametrize("step", list(STEMS))
 def test_axes_have_units_and_titles_say_what_was_run(ds, step):
     d = ds[step]
-    (how,) = [v for (k, _), v in PA.DRAWINGS.items() if k == d.attrs["step_kind"]]
+    (how,) = [v for (k, _), v in DRAWINGS.items() if k == d.attrs["step_kind"]]
     fig = how.draw([d])
     title, sub = titles(fig)
     assert title and sub
@@ -128,7 +133,7 @@ def test_axes_have_units_and_titles_say_what_was_run(ds, step):
 # --- shoot ----------------------------------------------------------------------------------
 def test_shoot_lines_are_the_newton_histories(ds):
     d = ds["shoot"]
-    fig = PA.plot_shoot_convergence(d)
+    fig = shoot.plot_shoot_convergence(d)
     hist = d["history"].values
     for i in range(d.sizes["solution"]):
         h = hist[i][np.isfinite(hist[i])]
@@ -138,7 +143,7 @@ def test_shoot_lines_are_the_newton_histories(ds):
         ratio = by_gid(fig, f"ratio_{i}")
         np.testing.assert_array_equal(ratio.get_xdata(), h[:-1])
         np.testing.assert_array_equal(ratio.get_ydata(), h[1:])
-        assert by_gid(fig, f"final_{i}").get_text() == f"e = {PA.sci(float(d['error'][i]))}"
+        assert by_gid(fig, f"final_{i}").get_text() == f"e = {sci(float(d['error'][i]))}"
     assert ax_yscale(fig, "history_0") == "log"
     # the quadratic guide has slope 2 in log-log and passes near the converged iterates
     g = by_gid(fig, "quadratic_guide")
@@ -161,7 +166,7 @@ def ax_yscale(fig, gid):
 # --- floquet --------------------------------------------------------------------------------
 def test_floquet_markers_are_the_multipliers(ds):
     d = ds["floquet"]
-    fig = PA.plot_floquet_multipliers(d)
+    fig = floquet.plot_floquet_multipliers(d)
     for j, c in enumerate(d["controller"].values):
         lam = d["multipliers_real"].values[j] + 1j * d["multipliers_imag"].values[j]
         fd = d["multipliers_fd_real"].values[j] + 1j * d["multipliers_fd_imag"].values[j]
@@ -190,7 +195,7 @@ def test_floquet_markers_are_the_multipliers(ds):
 # --- tick sweep -----------------------------------------------------------------------------
 def test_tick_sweep_lines_and_the_multiplier_prediction(ds):
     d = ds["ticks"]
-    fig = PA.plot_tick_sweep(d)
+    fig = tick_sweep.plot_tick_sweep(d)
     err = d["error"].values
     cyc = d["cycle"].values
     for i in range(d.sizes["tick"]):
@@ -229,7 +234,7 @@ def test_tick_sweep_title_when_exact_timing_holds(ds):
     e = d["error"].values
     e[2] = np.where(np.isfinite(e[2]), np.minimum(e[2], 1e-6), np.nan)   # exact run holds
     d["cycles_to_bound"].values[2] = int(np.isfinite(e[2]).sum())
-    title, sub = titles(PA.plot_tick_sweep(d))
+    title, sub = titles(tick_sweep.plot_tick_sweep(d))
     assert "Yes: with exact timing the gait holds" in title
     assert "the tick's rounding is what drives the runs off the gait" in sub
 
@@ -237,7 +242,7 @@ def test_tick_sweep_title_when_exact_timing_holds(ds):
 # --- basin ----------------------------------------------------------------------------------
 def test_basin_image_is_the_cycles_map(ds):
     d = ds["basin"]
-    fig = PA.plot_basin(d)
+    fig = basin.plot_basin(d)
     mesh = by_gid(fig, "cycles")
     cyc = d["cycles"].transpose("d_dtheta1", "d_dtheta2").values
     np.testing.assert_array_equal(np.asarray(mesh.get_array()).reshape(cyc.T.shape), cyc.T)
@@ -261,7 +266,7 @@ def test_basin_image_is_the_cycles_map(ds):
 @pytest.mark.parametrize("step", ["family", "family_com"])
 def test_continuation_lines_are_the_branch(ds, step):
     d = ds[step]
-    fig = PA.plot_continuation(d)
+    fig = continuation.plot_continuation(d)
     mu = d["parameter_value"].values
     for var in ("dtheta1", "dtheta2", "t_switch"):
         line = by_gid(fig, var)
@@ -280,7 +285,7 @@ def test_continuation_lines_are_the_branch(ds, step):
 def test_continuation_marks_folds_and_period_doublings(ds):
     d = ds["family"].copy()
     d.attrs.update(folds=json.dumps([2]), period_doublings=json.dumps([3]))  # as if found
-    fig = PA.plot_continuation(d)
+    fig = continuation.plot_continuation(d)
     mu = d["parameter_value"].values
     assert by_gid(fig, "fold_2").get_xdata()[0] == mu[2]
     span = by_gid(fig, "period_doubling_3").get_path().vertices    # a band, not a line:
@@ -298,7 +303,7 @@ def test_continuation_marks_folds_and_period_doublings(ds):
 # --- work precision -------------------------------------------------------------------------
 def test_work_precision_lines_are_time_against_error(ds):
     d = ds["timing"]
-    fig = PA.plot_work_precision(d)
+    fig = work_precision.plot_work_precision(d)
     t = d["time_per_gait"].values
     for which in ("value", "times"):
         e = d[f"error_{which}"].values
@@ -319,7 +324,7 @@ def test_work_precision_lines_are_time_against_error(ds):
                 assert not fig.findobj(lambda a, g=f"rtol_{m}_{j}": a.get_gid() == g)
                 continue
             lab = by_gid(fig, f"rtol_{m}_{j}")
-            assert lab.get_text() == PA.sci(r, 1)
+            assert lab.get_text() == sci(r, 1)
             assert lab.xy == (d["error_value"].values[i, j], t[i, j])
     pi, pair = by_gid(fig, "kernel_dop853+pi_times"), by_gid(fig, "kernel_dop853_times")
     assert pi.get_color() == pair.get_color() and pi.get_linestyle() == ":"

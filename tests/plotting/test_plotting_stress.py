@@ -18,7 +18,7 @@ from PIL import Image
 
 from monkeystudy.kernel import layout as L
 from monkeystudy.plotting import DRAWINGS, plot_stress
-from monkeystudy.plotting import stress as PS
+from monkeystudy.plotting.kinds import stress as PS
 from monkeystudy.plotting.report import MANIFEST, plan, report_study
 
 from plotdata import write_nc

@@ -69,7 +69,7 @@ def test_a_kind_is_keyed_by_its_own_import_closure():
         assert "plotting/report.py" not in files and "cli.py" not in files, name
     assert "study/steps/design.py" not in sources["grid"] | sources["refine"] | \
         sources["stability"]
-    assert {"kernel/hybrid.py", "simulate.py", "study/steps/grid.py"} <= sources["grid"]
+    assert {"kernel/hybrid.py", "simulation.py", "study/steps/grid.py"} <= sources["grid"]
     # every kind's sources are among those of all kinds together
     assert set().union(*sources.values()) == {p.relative_to(PKG).as_posix()
                                               for p in P.result_sources()}

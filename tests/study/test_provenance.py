@@ -36,7 +36,7 @@ def test_the_line_scan_finds_the_imports_the_parser_finds():
 
 def test_the_code_hash_covers_the_computation_and_not_the_presentation():
     names = {p.relative_to(PKG).as_posix() for p in P.result_sources()}
-    for must in ("kernel/hybrid.py", "kernel/rk_explicit.py", "simulate.py", "robot.py",
+    for must in ("kernel/hybrid.py", "kernel/rk_explicit.py", "simulation.py", "robot.py",
                  "controllers.py", "analysis/continuation.py", "analysis/variational.py",
                  "reference/scipy_gait.py", "study/steps/grid.py", "study/datasets.py",
                  "study/models.py"):

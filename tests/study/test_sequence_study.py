@@ -10,7 +10,7 @@ import xarray as xr
 
 from monkeystudy.analysis import cycle_return_map
 from monkeystudy.controllers import Integrator
-from monkeystudy.simulate import evaluate_cycle_gaits
+from monkeystudy.simulation import evaluate_cycle_gaits
 from monkeystudy.study import load_study, run_study
 from monkeystudy.study.spec import gait_spec
 
@@ -157,7 +157,7 @@ def test_sequence_continuation_end_to_end(tmp_path):
         v = ds2["parameter_value"].values
         assert ds2.attrs["stop_reason"] == "bounds" and v[0] == pytest.approx(0.6354)
         assert np.all(v <= 0.7) and v.size >= 2
-    from monkeystudy.plotting.analysis import plot_continuation
+    from monkeystudy.plotting import plot_continuation
     import matplotlib.pyplot as plt
     fig = plot_continuation(ds)
     gids = {a.get_gid() for ax in fig.axes for a in ax.get_children() if a.get_gid()}
@@ -221,7 +221,7 @@ def test_sequence_replays_end_to_end(tmp_path):
         b.load()
     assert b.attrs["replay"] == "gait" and b["cycles"].values[1, 1] == 4
     assert b["cycles"].values[0, 0] < 4
-    from monkeystudy.plotting.analysis import plot_basin, plot_tick_sweep
+    from monkeystudy.plotting import plot_basin, plot_tick_sweep
     from monkeystudy.plotting.cycles import plot_error_comparison
     import matplotlib.pyplot as plt
     for fig, want in ((plot_tick_sweep(t_open), {"error_0", "error_1", "prediction"}),

@@ -2,7 +2,7 @@
 
 * :mod:`.sections` - Poincare sections and return maps of any sequence gait (the horizontal
   gait's open-loop replay and state-based search controller by name).
-* :mod:`.floquet` - Floquet multipliers by finite differences, fixed points by Newton.
+* :mod:`.multipliers` - Floquet multipliers by finite differences, fixed points by Newton.
 * :mod:`.variational` - the same Jacobians by variational equations with saltation matrices.
 * :mod:`.shooting` - exact fixed points of a gait's cycle (Gauss-Newton; the grazing border).
 * :mod:`.search` - Nelder-Mead refinement of a gait start (the study's fminsearch).
@@ -11,7 +11,7 @@
 * :mod:`.stress` - numerical stress scenarios (energy drift, long runs, extreme parameters).
 * :mod:`.precision` - run time against error for every integrator, and scipy's.
 
-Everything asks the one simulation path (:mod:`monkeystudy.simulate`) for what it needs. The
+Everything asks the one simulation path (:mod:`monkeystudy.simulation`) for what it needs. The
 names below are importable from this package directly (loaded on first use); the modules of
 the package import each other by their own names.
 """
@@ -23,7 +23,7 @@ _EXPORTS = {
     "sections": ("TIGHT", "check_cycle_frame", "check_mirror_links", "cycle_return_map",
                  "cycle_section_state", "open_loop_return_map", "search_return_map",
                  "section_state"),
-    "floquet": ("FixedPointResult", "FloquetResult", "floquet", "jacobian_fd",
+    "multipliers": ("FixedPointResult", "FloquetResult", "floquet", "jacobian_fd",
                 "solve_fixed_point", "sorted_eigs"),
     "variational": ("sequence_variational_jacobian", "variational_jacobian"),
     "shooting": ("GrazingResult", "ShootResult", "free_end_after", "shoot_cycle",

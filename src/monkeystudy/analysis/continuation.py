@@ -26,7 +26,7 @@ import numpy as np
 
 from ..controllers import Integrator, SequenceGait, horizontal_gait, open_loop_gait
 from ..robot import Robot
-from ..simulate import RobotLike, Status, as_robot
+from ..simulation import RobotLike, Status, as_robot
 from .sections import TIGHT, cycle_return_map
 from .shooting import GrazingResult, free_end_after
 from .variational import sequence_variational_jacobian

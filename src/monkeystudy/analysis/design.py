@@ -39,8 +39,8 @@ from ..kernel.design import (
     I_NFEV, I_PERIOD, I_RISE, N_INFO, clocked_jacobian, fixed_point,
 )
 from ..robot import Link, Robot
-from ..simulate import run_controller
-from .floquet import sorted_eigs
+from ..simulation import run_controller
+from .multipliers import sorted_eigs
 from .replay import cycles_to_bound, growth_per_cycle, sequence_basin, sequence_cycles
 from .sections import TIGHT, cycle_section_state
 from .variational import sequence_variational_jacobian
@@ -90,6 +90,8 @@ BALANCES = ("t_switch", "torque", "t_motor", "none")
 CLOCKS = ("reset_at_vertical", "run_on")
 #: what a design search minimises
 OBJECTIVES = ("spectral_radius", "spectral_radius_energy")
+#: status of a design whose gait converged (the others: :data:`STATUS_NAMES`)
+DESIGN_OK = DS_OK
 #: status of a design that breaks a bound (not simulated)
 OUT_OF_BOUNDS = len(DESIGN_STATUS_NAMES)
 STATUS_NAMES = (*DESIGN_STATUS_NAMES, "out_of_bounds")
@@ -536,7 +538,7 @@ def design_basin(space: DesignSpace, result: DesignResult, offsets1, offsets2, *
 
 def design_cycle_run(space: DesignSpace, result: DesignResult, *, sample_dt: float):
     """One cycle of the design's gait from its fixed point, sampled every ``sample_dt`` [s]
-    (a :class:`~monkeystudy.simulate.RunResult`, for the filmstrip)."""
+    (a :class:`~monkeystudy.simulation.RunResult`, for the filmstrip)."""
     gait = space.cycle_gait(result.values, result.period)
     return run_controller(gait.controller(), cycle_section_state(gait, result.state),
                           robot=space.robot_for(result.values), integrator=space.integrator,

@@ -13,7 +13,7 @@ from ..controllers import (
 )
 from ..kernel import layout as L
 from ..robot import SEED2009_TORQUE
-from ..simulate import RobotLike, run_controller
+from ..simulation import RobotLike, run_controller
 from .sections import cycle_section_state
 
 

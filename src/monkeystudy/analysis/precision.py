@@ -22,7 +22,7 @@ from ..kernel.gait import (
 from ..kernel.layout import PHASE_SWING
 from ..reference.scipy_gait import ScipyGait
 from ..robot import SEED2009_TORQUE
-from ..simulate import RobotLike, as_robot
+from ..simulation import RobotLike, as_robot
 
 def best_of(fn, repeat: int = 5) -> float:
     """Smallest wall time of ``repeat`` calls [s] (the least disturbed one)."""

@@ -18,7 +18,7 @@ same functions answer "was it the 1 ms grid?" for any gait. Per cycle everything
 where the cycle reaches its section, in the frame of the end attached there
 (:func:`sequence_cycles`): the gait's error against the start, the kinetic energy, the
 attached end's world position; :func:`sequence_basin` counts the cycles a replay survives
-from perturbed starts. Everything runs through :func:`monkeystudy.simulate.run_controller`:
+from perturbed starts. Everything runs through :func:`monkeystudy.simulation.run_controller`:
 nothing here integrates on its own.
 """
 from __future__ import annotations
@@ -32,7 +32,7 @@ from ..controllers import (
     Integrator, PhaseSequence, SequenceGait, motorless, open_loop_gait,
 )
 from ..kernel import layout as L
-from ..simulate import (
+from ..simulation import (
     RobotLike, RunResult, Status, as_robot, energies, evaluate_cycle_gaits, gait_error,
     run_controller,
 )
@@ -125,7 +125,7 @@ def cycle_times(gait: SequenceGait, z, *, robot: RobotLike = "seed2009",
 @dataclass
 class SequenceCycles:
     """Per-cycle record of a multi-cycle run of a sequence gait (``run`` is the raw
-    :class:`~monkeystudy.simulate.RunResult`).
+    :class:`~monkeystudy.simulation.RunResult`).
 
     With the gait's ``records='section'``, one entry per cycle that reached its section. With
     ``records='swap'``, ``pivot_height``, ``x_advance`` and ``t_swap`` have one entry per
@@ -147,7 +147,7 @@ class SequenceCycles:
 def cycle_error(states: np.ndarray, z, gait: SequenceGait) -> np.ndarray:
     """The gait's error of frame states ``[n, 8]`` at its section against ``z``: the section
     error (:func:`section_error`) or, for a gait that does not wrap theta2, the 2009 error
-    (:func:`~monkeystudy.simulate.gait_error`, ``theta2_f - theta2`` as it is) evaluated row
+    (:func:`~monkeystudy.simulation.gait_error`, ``theta2_f - theta2`` as it is) evaluated row
     by row, as the study's stability records always were (numpy's scalar ``** 2`` can differ
     from its array square in the last bit)."""
     s = np.asarray(states, float).reshape(-1, 8)

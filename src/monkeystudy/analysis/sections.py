@@ -6,7 +6,7 @@ is fixed by the section, the attached end's position is neutral (the gait is tra
 invariant, so height and x drop out), and after a cycle the frame has flipped to the other end,
 which plays the same role when the links are mirror images.
 
-Everything here asks the one simulation path (:func:`monkeystudy.simulate.run_controller`)
+Everything here asks the one simulation path (:func:`monkeystudy.simulation.run_controller`)
 for what it needs; nothing integrates on its own.
 """
 from __future__ import annotations
@@ -17,7 +17,7 @@ from ..controllers import Integrator, SequenceGait, horizontal_gait, open_loop_g
 from ..kernel import layout as L
 from ..kernel.gait import wrapped_difference
 from ..robot import SEED2009_TORQUE
-from ..simulate import RobotLike, Status, as_robot, initial_state, run_controller
+from ..simulation import RobotLike, Status, as_robot, initial_state, run_controller
 
 #: Tight integrator for analysis: the return map must be far more accurate than the finite
 #: difference steps used on it.

@@ -16,7 +16,7 @@ from ..controllers import Integrator, PhaseSequence, Segment, SequenceGait, hori
 from ..kernel import layout as L
 from ..kernel.gait import wrapped_difference
 from ..robot import SEED2009_TORQUE
-from ..simulate import (
+from ..simulation import (
     RobotLike, Status, as_robot, evaluate_cycle_gaits, initial_state, run_controller,
     swap_motor_times,
 )

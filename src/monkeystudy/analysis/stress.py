@@ -27,7 +27,7 @@ from ..controllers import HorizontalSearch, Integrator, OpenLoop, PhaseSequence,
 from ..kernel import layout as L
 from ..kernel.dynamics import kinetic_energy, potential_energy
 from ..robot import Friction, Link, Robot
-from ..simulate import evaluate_gaits, initial_state, run_controller
+from ..simulation import evaluate_gaits, initial_state, run_controller
 
 #: an unforced run: no segment guard, no observers (only ``t_end`` stops it)
 FREE = PhaseSequence([Segment("none")], ())

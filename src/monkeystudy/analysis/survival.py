@@ -49,10 +49,17 @@ from ..kernel import layout as L
 from ..kernel.noise import PER_RUN_CYCLE, standard_draw
 from ..kernel.survival import survival_runs as run_block
 from ..robot import Link, Robot
-from ..simulate import RobotLike, as_robot
+from ..simulation import RobotLike, as_robot
 
 #: noise distributions: name -> the kernel's NZ_UNIFORM flag
 DISTRIBUTIONS = {"gaussian": 0.0, "uniform": 1.0}
+
+#: a survival run's failure (:attr:`SurvivalRuns.failure`) when a cycle ended farther than the
+#: error bound from the gait; the other failures are the failing cycle's
+#: :class:`~monkeystudy.simulation.Status`
+ERROR_BOUND = L.ST_ERROR_BOUND
+#: a survival run's failure when a cycle advanced less than the minimum advance
+STALLED = L.ST_STALLED
 
 #: per-run draws (cycle word PER_RUN_CYCLE): slots 0-2 are the initial state's (kernel);
 #: the robot's uncertain parameters take these
@@ -192,8 +199,8 @@ class SurvivalRuns:
     """Outcome of a block of runs (arrays over the runs).
 
     ``cycles`` completed within bounds; ``failure`` the failing cycle's status (``ok``: the
-    run completed ``max_cycles`` and is censored; ``ST_ERROR_BOUND``: the error bound;
-    ``ST_STALLED``: the minimum advance);
+    run completed ``max_cycles`` and is censored; :data:`ERROR_BOUND`: the error bound;
+    :data:`STALLED`: the minimum advance);
     ``distance`` the attached end's horizontal travel to the last completed cycle [m];
     ``time`` of that cycle's end [s]; ``error`` there [rad2 + rad2 s-2]; ``nfev`` the
     right-hand-side evaluations; ``height`` the attached end's height there less its height

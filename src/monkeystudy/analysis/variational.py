@@ -8,7 +8,7 @@ controllers (its open-loop replay and its state-based search controller).
 
 The method (the standard one for hybrid systems):
 
-1. One kernel run (:func:`~monkeystudy.simulate.run_controller`) gives the event sequence:
+1. One kernel run (:func:`~monkeystudy.simulation.run_controller`) gives the event sequence:
    which segments ran, and when. The kernel's times only seed the event location; the state
    and its transition matrix are integrated afresh here, leg by leg (scipy ``solve_ivp``,
    DOP853), on the full 8-state ``[x, y, th1, th2, dx, dy, dth1, dth2]`` in *both* phases
@@ -43,7 +43,7 @@ from ..kernel.variational import (
     variational_rhs8,
 )
 from ..robot import SEED2009_TORQUE
-from ..simulate import RobotLike, Status, as_robot, run_controller
+from ..simulation import RobotLike, Status, as_robot, run_controller
 from .sections import TIGHT, check_cycle_frame, cycle_section_state
 
 #: rows/columns of the section coordinates ``z = (theta2, dtheta1, dtheta2)`` in the 8-state

@@ -23,8 +23,8 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter
 
 import monkeystudy
-from ..kernel.layout import STATUS_NAMES
 from ..robot import Robot
+from ..simulation import STATUS_NAMES
 
 #: The package's style file.
 STYLE_FILE = Path(str(resources.files("monkeystudy") / "monkeystudy.mplstyle"))

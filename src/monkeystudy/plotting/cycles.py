@@ -22,12 +22,11 @@ from .common import (
     run_label, status_name, style,
 )
 from ..analysis.gait_kind import gait_kind_text
-from ..kernel import layout as L
-from ..kernel.dynamics import kinetic_energy
-from .drawing import Drawing, Folder, NothingToDraw
+from ..simulation import Status, kinetic_energy
+from .drawing import Folder, NothingToDraw
 
 #: Statuses that mean "the run went as long as asked" (not worth a warning on the plot).
-NORMAL_END = (L.ST_OK, L.ST_END_TIME)
+NORMAL_END = (Status.OK, Status.END_TIME)
 
 
 def gait_point(stab, refines: Sequence = ()) -> tuple[float, float] | None:
@@ -110,7 +109,7 @@ def stop_note(stab, who: str = "run") -> str | None:
     if done is None:
         done = int(np.sum(np.isfinite(np.asarray(stab["error"].values, float))))
     why = status_name(code).replace("_", " ")
-    if code == L.ST_FELL and "max_drop" in stab.attrs:
+    if code == Status.FELL and "max_drop" in stab.attrs:
         why += f" (attached end over {float(stab.attrs['max_drop']):g} m below the start)"
     return f"{who} stopped after cycle {int(done)}: {why}"
 
@@ -284,10 +283,9 @@ def _start_kinetic_energy(stab, gait) -> float | None:
     robot = robot_object(stab)
     if robot is None:
         return None
-    p = robot.params()[0]
     th1 = float(stab.attrs.get("section_theta1", 0.0))   # a sequence gait's section state
     th2 = float(stab.attrs.get("start_theta2", 0.0))
-    return float(kinetic_energy(p, th1, th2, 0.0, 0.0, float(gait[0]), float(gait[1])))
+    return kinetic_energy(robot, [0.0, 0.0, th1, th2, 0.0, 0.0, float(gait[0]), float(gait[1])])
 
 
 def plot_pivot_height(stab, *, gait=None):
@@ -364,25 +362,3 @@ def stability_inputs(path: Path, folder: Folder) -> list[Path]:
     if named in refines:
         return [named]
     return [p for p in refines if matching_refine(sds, [folder.loaded(p)]) is not None][:1]
-
-
-def _gait(d) -> tuple[float, float] | None:
-    return gait_point(d[0], d[1:])
-
-
-def _comparison(groups):
-    return plot_error_comparison([g[0] for g in groups],
-                                 gaits=[gait_point(g[0], g[1:]) for g in groups])
-
-
-#: how the stability step's per-cycle figures are drawn
-DRAWINGS = {
-    ("stability", "error"): Drawing(lambda d: plot_error_per_cycle(d[0], gait=_gait(d)),
-                                    extra_inputs=stability_inputs),
-    ("stability", "kinetic_energy"): Drawing(
-        lambda d: plot_kinetic_energy(d[0], gait=_gait(d)), extra_inputs=stability_inputs),
-    ("stability", "height"): Drawing(lambda d: plot_pivot_height(d[0], gait=_gait(d)),
-                                     extra_inputs=stability_inputs),
-    ("stability", "error_comparison"): Drawing(_comparison, extra_inputs=stability_inputs,
-                                               across=True),
-}

@@ -23,8 +23,8 @@ from matplotlib.lines import Line2D
 from PIL import Image
 from matplotlib.patches import Patch
 
-from .cycles import gait_point, gait_text, own_controller, stability_inputs, stop_note
-from .drawing import Drawing, Folder, NothingToDraw
+from .cycles import gait_text, own_controller, stop_note
+from .drawing import NothingToDraw
 from .common import (
     BLUE, GREEN, PURPLE, VERMILLION, atomic_path, link_lengths, new_figure, run_label, style,
 )
@@ -573,25 +573,3 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
             finally:
                 sink.abort()
     return [path]
-
-
-# ----------------------------------------------------------------------------------------------
-def _has_trajectory(path: Path, folder: Folder) -> bool:
-    return has_trajectory(folder.loaded(path))
-
-
-def _animation(d, base: Path, prov: dict, *, fps: float, max_frames: int,
-               progress=None) -> list[Path]:
-    return write_animation(d[0], base, prov, gait=gait_point(d[0], d[1:]), fps=fps,
-                           max_frames=max_frames, progress=progress)
-
-
-#: how the stability step's trajectory figures are drawn
-DRAWINGS = {
-    ("stability", "filmstrip"): Drawing(
-        lambda d: plot_filmstrip(d[0], gait=gait_point(d[0], d[1:])),
-        extra_inputs=stability_inputs, applies=_has_trajectory, cost=3.0),
-    ("stability", "animation"): Drawing(_animation, extra_inputs=stability_inputs,
-                                        applies=_has_trajectory, animation=True,
-                                        cost=8.0),
-}

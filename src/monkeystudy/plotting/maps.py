@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -26,11 +25,11 @@ from matplotlib.ticker import MaxNLocator
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 from scipy import ndimage
 
-from ..kernel import layout as L
+from ..simulation import Status
 from .common import (
     ERROR_UNITS, MINIMUM_COLOUR, count, finite, new_figure, run_label, status_name, style,
 )
-from .drawing import Drawing, Folder, NothingToDraw
+from .drawing import NothingToDraw
 
 D1_LABEL = r"initial $\dot\theta_1$  [rad s$^{-1}$]"
 D2_LABEL = r"initial $\dot\theta_2$  [rad s$^{-1}$]"
@@ -38,9 +37,9 @@ D2_LABEL = r"initial $\dot\theta_2$  [rad s$^{-1}$]"
 #: No-gait categories: (key, status codes or None for "every other failure", colour, hatch,
 #: legend text). The first two are the study's flat "not enough energy" region.
 NO_GAIT = (
-    ("unreachable", (L.ST_UNREACHABLE,), "#7f98bd", "///",
+    ("unreachable", (Status.UNREACHABLE,), "#7f98bd", "///",
      "no gait: B cannot reach A's height (energy bound, not integrated)"),
-    ("no_switch", (L.ST_NO_SWITCH,), "#b3d1ee", "\\\\\\",
+    ("no_switch", (Status.NO_SWITCH,), "#b3d1ee", "\\\\\\",
      "no gait: B never reached A's height"),
     ("other", None, "#33b5a5", "xx", "no gait: {names}"),
 )
@@ -62,11 +61,11 @@ class GridData:
 
     @property
     def ok(self) -> np.ndarray:
-        return (self.status == L.ST_OK) & np.isfinite(self.error)
+        return (self.status == Status.OK) & np.isfinite(self.error)
 
     def category_masks(self) -> list[tuple[str, np.ndarray, str, str, str]]:
         """``(key, mask, colour, hatch, label)`` for each no-gait category present."""
-        failed = (self.status != L.ST_OK) & (self.status != MISSING)
+        failed = (self.status != Status.OK) & (self.status != MISSING)
         out, claimed = [], np.zeros_like(failed)
         for key, codes, colour, hatch, label in NO_GAIT:
             if self.sequence:
@@ -100,7 +99,7 @@ def grid_arrays(ds) -> GridData:
         d2 = np.asarray(ds["dtheta2"].values, float)
         err = np.asarray(ds["error"].transpose("dtheta1", "dtheta2").values, float)
         st = np.asarray(ds["status"].transpose("dtheta1", "dtheta2").values, int)
-    err = np.where(st == L.ST_OK, err, np.nan)    # a no-gait point never shows a number
+    err = np.where(st == Status.OK, err, np.nan)    # a no-gait point never shows a number
     return GridData(d1, d2, err, st, is_sequence(ds))
 
 
@@ -200,7 +199,7 @@ def minima_from(refines: Sequence) -> list[Minimum]:
             keep = np.isfinite(p1) & np.isfinite(p2)          # multi-start padding is NaN
             out.append(Minimum(label, float(r["dtheta1"]), float(r["dtheta2"]),
                                float(r["error"]),
-                               int(r["status"]) == L.ST_OK if "status" in r else True,
+                               int(r["status"]) == Status.OK if "status" in r else True,
                                p1[keep], p2[keep], _start_point(r, refine.attrs)))
     return out
 
@@ -331,7 +330,7 @@ def plot_swap_time_map(grid, refines: Sequence = (), *, cmap: str = "viridis"):
         ts[i1, i2] = np.asarray(grid["t_switch"].values, float)
     else:
         ts = np.asarray(grid["t_switch"].transpose("dtheta1", "dtheta2").values, float)
-    ts = np.where(g.status == L.ST_OK, ts, np.nan)
+    ts = np.where(g.status == Status.OK, ts, np.nan)
     if not np.isfinite(ts).any():
         raise NothingToDraw("no point of the grid has a gait, so there is no swap time (the "
                             "error map shows why)")
@@ -742,28 +741,3 @@ def plot_refine_convergence(refine):
         ax.set_title((note + "\n" if note else "") + run_label(refine), fontsize=8.5,
                      fontweight="normal", loc="left")
     return fig
-
-
-def _refines(path: Path, folder: Folder) -> list[Path]:
-    return list(folder.files.get("refine", []))
-
-
-def _has_swap_times(path: Path, folder: Folder) -> bool:
-    return "t_switch" in folder.loaded(path)
-
-
-def _has_iterations(path: Path, folder: Folder) -> bool:
-    ds = folder.loaded(path)
-    return ds.sizes.get("iteration", 0) > 0 and "iterate_error" in ds
-
-
-#: how the grid and refine steps' figures are drawn
-DRAWINGS = {
-    ("grid", "surface"): Drawing(lambda d: plot_error_surface(d[0]), cost=3.0),
-    ("grid", "map"): Drawing(lambda d: plot_error_map(d[0], d[1:]), extra_inputs=_refines,
-                             cost=2.0),
-    ("grid", "swap_time"): Drawing(lambda d: plot_swap_time_map(d[0], d[1:]),
-                                   extra_inputs=_refines, applies=_has_swap_times),
-    ("refine", "convergence"): Drawing(lambda d: plot_refine_convergence(d[0]),
-                                       applies=_has_iterations),
-}

@@ -47,11 +47,13 @@ file (``figures/``)                    what                                    s
 
 Which figures a dataset gets is what its step kind declares
 (:attr:`monkeystudy.study.steps.base.StepKind.figures`); how each is drawn is registered by the
-figure modules (their ``DRAWINGS``, merged in :data:`DRAWINGS`).
+kind's own plotting module, ``monkeystudy.plotting.kinds.<kind>`` (its ``DRAWINGS``), loaded for
+every kind of the step registry (:data:`DRAWINGS`).
 """
 from __future__ import annotations
 
 import hashlib
+import importlib
 import json
 import time
 from dataclasses import dataclass
@@ -61,7 +63,7 @@ from typing import Callable, Sequence
 import xarray as xr
 
 from ..study.steps import REGISTRY
-from . import analysis, cycles, design, gait, maps, stress, survival
+from . import gait
 from .common import STYLE_FILE, atomic_path, provenance, save_figure
 from .drawing import Drawing, Folder, NothingToDraw
 from .page import PAGE, render_page
@@ -131,18 +133,23 @@ def file_sha256(path: Path) -> str:
 def code_hash() -> str:
     """Hash of the plotting package's source and the style file (a change redraws all)."""
     h = hashlib.sha256()
-    files = sorted(Path(__file__).parent.glob("*.py")) + [STYLE_FILE]
-    for p in files:
-        h.update(p.name.encode())
+    package = Path(__file__).parent
+    files = [(str(p.relative_to(package)), p) for p in sorted(package.rglob("*.py"))]
+    for name, p in files + [(STYLE_FILE.name, STYLE_FILE)]:
+        h.update(name.encode())
         h.update(p.read_bytes())
     return h.hexdigest()
 
 
 #: how each declared figure is drawn, by (step kind, suffix), from every figure module
+def kind_drawings(name: str) -> dict[tuple[str, str], Drawing]:
+    """The drawings of step kind ``name``: its module ``monkeystudy.plotting.kinds.<name>``'s
+    ``DRAWINGS`` (every kind the step registry holds has one)."""
+    return importlib.import_module(f"{__package__}.kinds.{name}").DRAWINGS
+
+
 DRAWINGS: dict[tuple[str, str], Drawing] = {
-    **maps.DRAWINGS, **cycles.DRAWINGS, **gait.DRAWINGS, **analysis.DRAWINGS, **stress.DRAWINGS,
-    **survival.DRAWINGS, **design.DRAWINGS,
-}
+    key: how for name in REGISTRY for key, how in kind_drawings(name).items()}
 
 
 def _kind(ds) -> str | None:

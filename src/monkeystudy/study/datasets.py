@@ -22,9 +22,7 @@ from typing import Any, Iterator
 import netCDF4
 import numpy as np
 
-from ..kernel import layout as L
-from ..kernel.layout import STATUS_NAMES
-from ..simulate import physical_points
+from ..simulation import STATUS_NAMES, StateIndex, physical_points
 
 CONVENTIONS = "CF-1.10"
 
@@ -248,22 +246,23 @@ def read_variables(path: Path, names) -> dict[str, np.ndarray]:
 
 # --- multi-cycle runs ------------------------------------------------------------------------
 #: the frame's angles and rates a dataset of a multi-cycle run samples: (name, index in the 8-state)
-TRAJECTORY_ANGLES = (("theta1", L.TH1), ("theta2", L.TH2), ("theta1_dot", L.DTH1),
-                     ("theta2_dot", L.DTH2))
+TRAJECTORY_ANGLES = (("theta1", StateIndex.THETA1), ("theta2", StateIndex.THETA2),
+                     ("theta1_dot", StateIndex.THETA1_DOT),
+                     ("theta2_dot", StateIndex.THETA2_DOT))
 
 
 def run_record(res) -> dict[str, Any]:
     """A multi-cycle run's status, counts and sampled trajectory for a stability dataset:
     world positions [m] of A, the joint and B; the frame's angles [rad] and rates [rad s-1];
     which end the frame hangs from; the phase; the motor torque [N m]."""
-    flipped = res.sample_mode[:, L.M_FLIPPED]
+    flipped = res.sample_flipped
     pts = physical_points(res.params, res.sample_state, flipped)
     return {
-        "status": int(res.status), "cycles_completed": int(res.counts[L.K_CYCLES]),
+        "status": int(res.status), "cycles_completed": res.cycles,
         "time": res.sample_t.copy(), "A": pts["A"], "joint": pts["joint"], "B": pts["B"],
         **{name: res.sample_state[:, i].copy() for name, i in TRAJECTORY_ANGLES},
         "attached_end": flipped.astype(np.int8),
-        "phase": res.sample_mode[:, L.M_PHASE].astype(np.int8),
-        "motor_torque": res.sample_mode[:, L.M_TORQUE].copy(),
-        "steps": int(res.counts[L.K_STEPS]), "nfev": int(res.counts[L.K_NFEV]),
+        "phase": res.sample_phase.astype(np.int8),
+        "motor_torque": res.sample_torque.copy(),
+        "steps": res.steps, "nfev": res.nfev,
     }

@@ -22,8 +22,8 @@ from pydantic import (
 )
 
 from ..controllers import Integrator, Segment, SequenceGait, horizontal_gait
-from ..kernel.layout import STATUS_NAMES
 from ..robot import PRESETS, Friction, Link, Robot
+from ..simulation import STATUS_NAMES
 
 SCHEMA_VERSION = 1
 

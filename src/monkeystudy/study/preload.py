@@ -17,7 +17,7 @@ import numpy as np  # noqa: E402
 
 from . import steps  # noqa: F401,E402  (the tasks the workers run)
 from ..controllers import OpenLoop  # noqa: E402
-from ..simulate import evaluate_gaits, initial_state, run_controller  # noqa: E402
+from ..simulation import evaluate_gaits, initial_state, run_controller  # noqa: E402
 
 evaluate_gaits(np.array([[1.0, 11.0]]))
 run_controller(OpenLoop(0.01, 0.01, 0.6354), initial_state(1.0, 11.0), t_end=0.05,

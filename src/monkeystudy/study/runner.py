@@ -24,15 +24,12 @@ from typing import Any, Callable, Iterator
 import numpy as np
 
 from .. import __version__, compiling
+from ..compiling import KERNEL_CACHE_DIR
 from ..controllers import Integrator, program_may_fly
-from ..kernel import KERNEL_CACHE_DIR
-from ..kernel.layout import PHASE_SWING, ST_UNREACHABLE
-from ..kernel.variational import (
-    energy8_gradient, entry_reset, field8, field8_jacobian, guard8, guard8_gradient,
-    variational_rhs8,
-)
 from ..robot import SEED2009_TORQUE
-from ..simulate import RobotLike, as_robot, initial_state, loaded_kernels, run_controller
+from ..simulation import (
+    Phase, RobotLike, Status, as_robot, initial_state, loaded_kernels, run_controller,
+)
 from . import datasets as D
 from . import provenance as P
 from .blocks import Block, Task, clean_parts, make_blocks, read_shard, saved_blocks, shard_dir, \
@@ -103,7 +100,7 @@ def load_kernels(spec: GaitSpec, *, runs: bool = False, variational: bool = Fals
     if ahead:
         helper = compiling.start(spec.integrator.method,
                                  None if ctrl is None else program_may_fly(ctrl.program()[0],
-                                                                           PHASE_SWING))
+                                                                           Phase.SWING))
     try:
         grid_block(spec, np.array([[1.0, 11.0]]))
         if ctrl is not None:
@@ -114,20 +111,7 @@ def load_kernels(spec: GaitSpec, *, runs: bool = False, variational: bool = Fals
         run_controller(ctrl, initial_state(1.0, 11.0), robot=spec.robot,
                        integrator=spec.integrator, t_end=0.05, sample_dt=0.01)
     if variational:
-        # the variational equations' kernels, with the argument types
-        # analysis.variational.sequence_variational_jacobian passes
-        par = spec.robot.params()
-        s = np.array([0.0, 0.0, 0.1, 0.2, 0.0, 0.0, 1.0, 10.0])
-        f, grad, A = np.empty(8), np.empty(8), np.empty((8, 8))
-        for m in (3, 4):     # section states of 3 (clock reset) and 4 (running clock)
-            y = np.concatenate([s, np.eye(8)[:, :m].ravel()])
-            variational_rhs8(PHASE_SWING, par[0], 0.0, y, np.empty_like(y))
-        field8(PHASE_SWING, par[0], 0.0, s, f)
-        field8_jacobian(PHASE_SWING, par[0], 0.0, s, A)
-        guard8(1, 0, 0.0, par[0], s, 0.0)
-        guard8_gradient(1, 0, 0.0, par[0], s, 0.0, grad)
-        energy8_gradient(par[0], s, grad)
-        entry_reset(par, s, PHASE_SWING, 0, -1.0, -1.0, True, np.empty(8), A)
+        compiling.compile_variational(spec.robot.params())
     marker = kernels_marker(spec.integrator.method, runs=runs, variational=variational)
     if marker is not None:
         try:
@@ -532,7 +516,7 @@ def run_grid(dtheta1, dtheta2=None, *, robot: RobotLike = "seed2009",
                 for f in finished:
                     put(pending.pop(f), f.result())
     res: dict[str, Any] = {k: v.reshape(shape) for k, v in out.items()}
-    res["skipped_fraction"] = float(np.mean(out["status"] == ST_UNREACHABLE)) if n else 0.0
+    res["skipped_fraction"] = float(np.mean(out["status"] == Status.UNREACHABLE)) if n else 0.0
     return res
 
 

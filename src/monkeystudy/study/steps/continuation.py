@@ -20,7 +20,7 @@ from ...analysis.continuation import continue_cycle, continue_grazing, with_para
 from ...analysis.shooting import GrazingResult
 from ...controllers import SequenceGait
 from ...robot import Robot
-from ...simulate import evaluate_cycle_gaits
+from ...simulation import evaluate_cycle_gaits
 from .. import datasets as D
 from ..blocks import Task
 from ..models import Name, StrictModel

@@ -27,12 +27,11 @@ import numpy as np
 from pydantic import Field, field_validator, model_validator
 
 from ...analysis.design import (
-    BALANCES, CLOCKS, OBJECTIVES, PARAMETERS, STATUS_NAMES, DesignResult, DesignSpace,
-    design_basin, design_cycle_run, evaluate_design, perturbation_decay, replay_design,
-    with_variational,
+    BALANCES, CLOCKS, DESIGN_OK, OBJECTIVES, PARAMETERS, STATUS_NAMES, DesignResult,
+    DesignSpace, design_basin, design_cycle_run, evaluate_design, perturbation_decay,
+    replay_design, with_variational,
 )
-from ...kernel.design import DS_OK
-from ...kernel.layout import ST_OK
+from ...simulation import Status
 from .. import datasets as D
 from ..blocks import Block, Task
 from ..errors import RunFailed
@@ -579,7 +578,7 @@ def walks_on(replay, cycles: int) -> bool:
     exact-timing fixed point: on the tick each action waits for the next tick, a delay of up
     to a tick that differs from cycle to cycle, and a stable gait keeps walking near its
     orbit with an error that this delay keeps up (its height drifting)."""
-    return replay.status == ST_OK and replay.cycles_walked >= cycles
+    return replay.status == Status.OK and replay.cycles_walked >= cycles
 
 
 def walked_on(replay, cycles: int) -> str:
@@ -726,7 +725,7 @@ class DesignKind(StepKind):
                      start_dtheta2=gait.z[2], start_t_switch=src["t_switch"],
                      start_t_motor=src["t_motor"], motor_torque=src["torque"],
                      n_blocks=len(ctx.blocks), designs=n,
-                     designs_with_gait=int(np.sum(grid["status"] == DS_OK)),
+                     designs_with_gait=int(np.sum(grid["status"] == DESIGN_OK)),
                      grid_min_spectral_radius=float(np.nanmin(rho)) if np.any(
                          np.isfinite(rho)) else math.nan,
                      total_nfev=int(np.nansum(grid["nfev"])))

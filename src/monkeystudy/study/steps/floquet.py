@@ -19,11 +19,11 @@ from typing import Any, Literal, Optional
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
-from ...analysis.floquet import floquet, solve_fixed_point, sorted_eigs
+from ...analysis.multipliers import floquet, solve_fixed_point, sorted_eigs
 from ...analysis.sections import cycle_return_map
 from ...analysis.variational import sequence_variational_jacobian
 from ...controllers import SequenceGait, open_loop_gait
-from ...simulate import evaluate_cycle_gaits
+from ...simulation import evaluate_cycle_gaits
 from .. import datasets as D
 from ..blocks import Task
 from ..models import Name, SectionPoint, StrictModel, unique
@@ -92,7 +92,7 @@ def floquet_task(spec: GaitSpec, controller: str, *, gait: SequenceGait, z0,
     exact timing) at a fixed point, labelled ``controller`` in the dataset.
 
     ``z0 = (theta2 [rad], dtheta1, dtheta2 [rad s-1])`` is the fixed point, or with
-    ``newton`` the start of its Newton polish (:func:`~monkeystudy.analysis.floquet.
+    ``newton`` the start of its Newton polish (:func:`~monkeystudy.analysis.multipliers.
     solve_fixed_point` with the variational Jacobian, ``theta2`` free); an unconverged
     polish keeps its last iterate with ``keep_unconverged`` (a start far from the gait), the
     start otherwise. ``schedule``: the recorded swap time and motor duration [s] of an
@@ -153,7 +153,7 @@ def floquet_task(spec: GaitSpec, controller: str, *, gait: SequenceGait, z0,
 def not_analysed(out: dict, z, gait: SequenceGait, cycle: dict, schedule,
                  reason: str) -> dict[str, Any]:
     """The result of a return map that could not be analysed at ``z``: the point tried, its
-    ``cycle`` as :func:`~monkeystudy.simulate.evaluate_cycle_gaits` ran it, NaN multipliers
+    ``cycle`` as :func:`~monkeystudy.simulation.evaluate_cycle_gaits` ran it, NaN multipliers
     and Jacobians, not stable, and the ``reason`` (the analysis' error)."""
     nan3, nan33 = np.full(3, np.nan), np.full((3, 3), np.nan)
     t = cycle["t_segment"][0]

@@ -18,8 +18,8 @@ import numpy as np
 from ...analysis.design import PARAMETERS, DesignSpace
 from ...analysis.replay import cycle_times
 from ...controllers import SequenceGait, motorless, open_loop_gait
-from ...kernel.layout import ST_OK, STATUS_NAMES
 from ...robot import Robot
+from ...simulation import STATUS_NAMES, Status
 from .. import datasets as D
 from ..errors import RunFailed
 from ..spec import mirror_problem
@@ -308,7 +308,7 @@ def refine_start(path: Path, name: str, ctx, req: StartRequest) -> GaitStart:
     section's theta2, with its recorded swap and motor times when the study names them so
     (with ``req.require``, refused when its cycle failed)."""
     g, idx = read_refined(path, req.start_index)
-    if req.require is not None and (g["status"] != ST_OK or not math.isfinite(g["error"])):
+    if req.require is not None and (g["status"] != Status.OK or not math.isfinite(g["error"])):
         raise RunFailed(f"{ctx.name}: refine step {name!r} found no gait to {req.require} "
                         f"(status {STATUS_NAMES[g['status']]})")
     spec = ctx.spec

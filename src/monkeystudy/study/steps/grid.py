@@ -14,8 +14,7 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from ...analysis.gait_kind import gait_kind_text, vertical_passes_before_swap
-from ...kernel.layout import STATUS_NAMES
-from ...simulate import evaluate_cycle_gaits, swap_motor_times
+from ...simulation import Status, evaluate_cycle_gaits, swap_motor_times
 from .. import datasets as D
 from ..blocks import Block, Task, make_blocks
 from ..models import Axis, Name, Point, StrictModel
@@ -112,7 +111,7 @@ def grid_block(spec: GaitSpec, points, skip_unreachable: bool = True
     then made on the worker: a task carries the two axes, not its points).
 
     Returns the arrays of :func:`grid_variables` (``error`` NaN unless status is ok) of one
-    cycle of the spec's gait (:func:`~monkeystudy.simulate.evaluate_cycle_gaits`); starts the
+    cycle of the spec's gait (:func:`~monkeystudy.simulation.evaluate_cycle_gaits`); starts the
     gait says cannot reach its first guard are skipped (``skip_unreachable``).
     """
     if isinstance(points, tuple):
@@ -172,7 +171,7 @@ def write_grid(path: Path, attrs: dict, *, axes: tuple[np.ndarray, np.ndarray] |
             for name, v in vs.items():
                 write_flat(v, shape, lo, arrays[name])
             written += len(arrays["status"])
-            skipped += int(np.count_nonzero(arrays["status"] == STATUS_NAMES.index("unreachable")))
+            skipped += int(np.count_nonzero(arrays["status"] == Status.UNREACHABLE))
             err = np.asarray(arrays["error"], np.float64)
             if np.isfinite(err).any() and np.nanmin(err) < least:
                 least, least_at = float(np.nanmin(err)), lo + int(np.nanargmin(err))

@@ -12,8 +12,7 @@ from pydantic import Discriminator, Field, Tag
 
 from ...analysis.gait_kind import gait_kind_text, vertical_passes_before_swap
 from ...analysis.search import DEFAULT_PENALTY, FMINSEARCH_TOL, refine_gait
-from ...kernel.layout import ST_OK, STATUS_NAMES
-from ...simulate import evaluate_cycle_gaits, swap_motor_times
+from ...simulation import STATUS_NAMES, Status, evaluate_cycle_gaits, swap_motor_times
 from .. import datasets as D
 from ..blocks import Task
 from ..models import Name, Point, StrictModel
@@ -90,7 +89,7 @@ def refine_task(spec: GaitSpec, start: tuple[float, float], *, xatol: float, fat
     r = refine_gait(gait, start, xatol=xatol, fatol=fatol, maxiter=maxiter, maxfev=maxfev,
                     penalty=penalty)
     # what kind of gait the result is: a late swap, after several swings, is another gait
-    r["vertical_passes"] = -1 if not spec.swap_motor_times or r["status"] != ST_OK else \
+    r["vertical_passes"] = -1 if not spec.swap_motor_times or r["status"] != Status.OK else \
         vertical_passes_before_swap(float(r["x"][0]), float(r["x"][1]), robot=spec.robot,
                                     gait=spec.sequence, integrator=spec.integrator)
     return r

@@ -18,9 +18,7 @@ from pydantic import Field, model_validator
 
 from ...analysis.shooting import shoot_cycle, shoot_grazing
 from ...controllers import motorless, open_loop_gait
-from ...kernel import layout as L
-from ...kernel.layout import STATUS_NAMES
-from ...simulate import evaluate_cycle_gaits
+from ...simulation import STATUS_NAMES, Status, evaluate_cycle_gaits, status_name
 from .. import datasets as D
 from ..blocks import Task
 from ..errors import RunFailed
@@ -90,7 +88,7 @@ def shoot_task(spec: GaitSpec, start: tuple[float, float], *, method: str = "bot
     ``dtheta1, dtheta2, t_switch, t_motor, t_end, error, residual_norm, converged, method,
     status, history, message``. ``grazing``: :func:`~monkeystudy.analysis.shooting.shoot_grazing`
     from the swap time of the gait's cycle at the start; its error is the gait's error of the
-    motorless open-loop replay (:func:`~monkeystudy.simulate.evaluate_cycle_gaits`),
+    motorless open-loop replay (:func:`~monkeystudy.simulation.evaluate_cycle_gaits`),
     ``t_motor = 0``, ``t_end`` that replay's section crossing. ``gauss_newton``: :func:`~monkeystudy.analysis.shooting.
     shoot_cycle` (its error, times and history as found).
     """
@@ -102,9 +100,9 @@ def shoot_task(spec: GaitSpec, start: tuple[float, float], *, method: str = "bot
     if method in ("grazing", "both"):
         one = evaluate_cycle_gaits([[d1, d2]], gait, robot=robot, integrator=integ)
         status, t_guess = int(one["status"][0]), float(one["t_segment"][0, 0])
-        if status != L.ST_OK or not math.isfinite(t_guess):
+        if status != Status.OK or not math.isfinite(t_guess):
             failures.append(f"grazing: no gait at the start (status "
-                            f"{L.STATUS_NAMES[status]}), no swap time to start from")
+                            f"{status_name(status)}), no swap time to start from")
         else:
             gr = shoot_grazing((d1, d2), t_guess, robot=robot, integrator=integ, tol=tol,
                                max_iter=max_iter)
@@ -118,7 +116,7 @@ def shoot_task(spec: GaitSpec, start: tuple[float, float], *, method: str = "bot
                 cyc = evaluate_cycle_gaits([[z[1], z[2]]], replay, robot=robot,
                                            integrator=integ)
                 st = int(cyc["status"][0])
-                ok = st == L.ST_OK
+                ok = st == Status.OK
                 cands.append({
                     "dtheta1": gr.dtheta1, "dtheta2": gr.dtheta2, "t_switch": gr.t_switch,
                     "t_motor": 0.0, "t_end": float(cyc["t_segment"][0, -1]) if ok else math.nan,

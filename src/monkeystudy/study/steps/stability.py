@@ -18,9 +18,7 @@ from pydantic import Field
 from ...analysis.gait_kind import gait_kind_text
 from ...analysis.replay import sequence_cycles
 from ...controllers import SequenceGait
-from ...kernel import layout as L
-from ...kernel.layout import STATUS_NAMES
-from ...simulate import evaluate_cycle_gaits
+from ...simulation import STATUS_NAMES, Status, evaluate_cycle_gaits
 from .. import datasets as D
 from ..blocks import Task
 from ..models import Name, OpenLoopSettings, Replay, StrictModel
@@ -52,7 +50,7 @@ def empty_record(cycles: int) -> dict[str, Any]:
     """The record of a run that was not run: every cycle NaN, no samples."""
     nan = np.full(cycles, np.nan)
     return {
-        "status": L.ST_OK, "cycles_completed": 0,
+        "status": int(Status.OK), "cycles_completed": 0,
         "error": nan.copy(), "kinetic_energy": nan.copy(), "pivot_height": nan.copy(),
         "x_advance": nan.copy(), "t_cross": nan.copy(), "t_swap": nan.copy(),
         "time": np.empty(0), "A": np.empty((0, 2)), "joint": np.empty((0, 2)),
@@ -88,7 +86,7 @@ def stability_task(spec: GaitSpec, gait: SequenceGait, z0, *, times, cycles: int
     z0 = np.asarray(z0, float)
     one = evaluate_cycle_gaits([[z0[-2], z0[-1]]], dataclasses.replace(gait, theta2=z0[-3]),
                                robot=robot, integrator=integ)
-    if int(one["status"][0]) != L.ST_OK:
+    if int(one["status"][0]) != Status.OK:
         out["status"] = int(one["status"][0])
         return out
     out["t_segment"] = one["t_segment"][0].copy()

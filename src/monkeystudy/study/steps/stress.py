@@ -14,7 +14,7 @@ from ...analysis.stress import (
     COULOMB_START, COULOMB_T_END, DRIFT_FLOOR, EXTREME_CASES, FLIGHT_START, HUGE_VELOCITIES,
     LONG_RUNS, PERIOD_RTOL, PERIOD_WINDOW, SWING_START, energy_drift, extreme_case, long_run,
 )
-from ...kernel.layout import STATUS_NAMES
+from ...simulation import STATUS_NAMES
 from .. import datasets as D
 from ..blocks import Task
 from ..models import Name, Point, StrictModel, unique

@@ -21,10 +21,9 @@ from pydantic import BeforeValidator, Field, model_validator
 
 from ...analysis.sections import cycle_section_state
 from ...analysis.survival import (
-    MFPT, Noise, cycle_grid, mfpt, survival_curve, survival_runs,
+    ERROR_BOUND, MFPT, STALLED, Noise, cycle_grid, mfpt, survival_curve, survival_runs,
 )
-from ...kernel import layout as L
-from ...kernel.layout import STATUS_NAMES
+from ...simulation import STATUS_NAMES, Status
 from .. import datasets as D
 from ..blocks import Block, Task
 from ..models import Name, OpenLoopSettings, Replay, StrictModel
@@ -56,11 +55,12 @@ Level = Annotated[Union[float, list[float]], BeforeValidator(_level)]
 BLOCK_CYCLES = 200_000
 
 #: why a run stopped: its failing cycle's status, ``ok`` when it completed max_cycles
-FAILURE_CODES = (L.ST_OK, L.ST_NO_SWITCH, L.ST_ENERGY_NOT_RESTORED, L.ST_NO_RETURN,
-                 L.ST_NONFINITE, L.ST_STEP_FAILURE, L.ST_BUFFER_FULL, L.ST_HORIZON,
-                 L.ST_FELL, L.ST_ERROR_BOUND, L.ST_STALLED)
-FAILURE_NAMES = tuple({L.ST_OK: "survived", L.ST_ERROR_BOUND: "error_bound",
-                       L.ST_STALLED: "stalled"}.get(c) or STATUS_NAMES[c]
+FAILURE_CODES = tuple(int(c) for c in (
+    Status.OK, Status.NO_SWITCH, Status.ENERGY_NOT_RESTORED, Status.NO_RETURN_TO_VERTICAL,
+    Status.NON_FINITE, Status.STEP_FAILURE, Status.BUFFER_FULL, Status.HORIZON, Status.FELL,
+    ERROR_BOUND, STALLED))
+FAILURE_NAMES = tuple({Status.OK: "survived", ERROR_BOUND: "error_bound",
+                       STALLED: "stalled"}.get(c) or STATUS_NAMES[c]
                       for c in FAILURE_CODES)
 MFPT_METHODS = ("mean", "tail", "lower_bound", "none")
 
@@ -247,7 +247,7 @@ def survival_block(spec: GaitSpec, start: GaitStart, runs: np.ndarray, *, noise:
 def level_summary(cycles: np.ndarray, failure: np.ndarray, distance: np.ndarray,
                   max_cycles: int) -> dict:
     """One noise level's estimates from its runs (:func:`~monkeystudy.analysis.survival.mfpt`)."""
-    failed = failure != L.ST_OK
+    failed = failure != Status.OK
     m: MFPT = mfpt(cycles, failed, max_cycles)
     total = int(cycles.sum())
     advance = float(distance.sum() / total) if total else math.nan

@@ -17,11 +17,11 @@ from typing import Annotated, Any, Literal, Optional
 import numpy as np
 from pydantic import Field, field_validator
 
-from ...analysis.floquet import floquet
+from ...analysis.multipliers import floquet
 from ...analysis.replay import cycle_times, open_loop_gait, sequence_cycles, sweep_ticks
 from ...analysis.sections import cycle_return_map
 from ...controllers import SequenceGait
-from ...kernel.layout import STATUS_NAMES
+from ...simulation import STATUS_NAMES
 from .. import datasets as D
 from ..blocks import Task
 from ..models import Name, Replay, StrictModel, unique

@@ -21,13 +21,13 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 from matplotlib.ticker import MaxNLocator
 
-from .drawing import Drawing
-from .common import (
+from ..drawing import Drawing
+from ..common import (
     BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, YELLOW, fmt_tick, json_attr,
     new_figure, style,
 )
-from .analysis import OUTLINE, SUB, attr_float, sci, two_titles, values_of, run_line
-from ..kernel.layout import STATUS_NAMES
+from ..labels import OUTLINE, SUB, attr_float, sci, two_titles, values_of, run_line
+from ...simulation import STATUS_NAMES
 
 #: colour of each status in the outcome panels
 STATUS_COLOUR = {

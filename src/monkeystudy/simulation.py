@@ -5,6 +5,10 @@ Thin wrappers that validate arguments, build the kernel's arrays, call the one c
 stability, ...) use :func:`evaluate_cycle_gaits` and :func:`run_controller`, which return plain
 numpy; :func:`evaluate_gaits` is the horizontal gait's evaluation under its own names;
 :func:`simulate` builds an :class:`xarray.Dataset` for people.
+
+The kernel's plain numbers have names here (:class:`Status`, :data:`STATUS_NAMES`,
+:class:`Phase`, :class:`StateIndex`, the properties of :class:`RunResult`), so that the layers
+above read results without importing the kernel.
 """
 from __future__ import annotations
 
@@ -21,8 +25,9 @@ from .controllers import (
     HorizontalSearch, Integrator, OpenLoop, PhaseSequence, SequenceGait, horizontal_gait,
     kernel_method, settings_vector,
 )
+from .kernel import dynamics
 from .kernel import layout as L
-from .kernel.dynamics import kinetic_energy, points8, potential_energy, total_energy8
+from .kernel.dynamics import points8, potential_energy, total_energy8
 from .kernel.gait import start_state
 from .kernel.gait import (
     N_CYCLE_RESULT, Q_ERROR, Q_FINAL, Q_FLIPPED, Q_NFEV, Q_REJECTED, Q_STATUS, Q_STEPS, Q_T_END,
@@ -73,6 +78,58 @@ STATUS_MESSAGES = {
     Status.HORIZON: "a segment reached its horizon before its guard fired",
     Status.FELL: "the attached end sank farther than the fall bound",
 }
+
+#: every status's name as datasets and reports write it (CF ``flag_meanings``), in code order:
+#: ``STATUS_NAMES[code] == Status(code).name.lower()``
+STATUS_NAMES = tuple(s.name.lower() for s in Status)
+
+
+def status_name(code: int) -> str:
+    """The name of a status code as datasets and reports write it.
+
+    Parameters
+    ----------
+    code : int
+        A :class:`Status` value (an ``int`` or a numpy integer read from a dataset).
+
+    Returns
+    -------
+    str
+        ``Status(code).name.lower()``, e.g. ``"no_switch"``.
+
+    Raises
+    ------
+    ValueError
+        If ``code`` is not a :class:`Status` value.
+    """
+    return Status(int(code)).name.lower()
+
+
+class Phase(IntEnum):
+    """Phase of motion of a hybrid state (:attr:`RunResult.sample_phase`; a dataset's
+    ``phase``, whose ``flag_meanings`` are these names in lower case)."""
+
+    SWING = L.PHASE_SWING     # one end attached: 2 degrees of freedom
+    FLIGHT = L.PHASE_FLIGHT   # nothing attached: 4 degrees of freedom
+    FIXED = L.PHASE_FIXED     # both ends attached: no motion
+
+
+class StateIndex(IntEnum):
+    """Index of each component of a frame state ``[x, y, theta1, theta2, x_dot, y_dot,
+    theta1_dot, theta2_dot]`` (the first 8 values of a hybrid state, a row of
+    :attr:`RunResult.sample_state`, :attr:`GaitResult.final_state`), named as
+    :func:`simulate`'s variables: ``x``, ``y`` [m] of the attached end, ``theta1`` [rad] of
+    link 1 from the downward vertical, ``theta2`` [rad] of link 2 relative to link 1, their
+    rates [m s-1, rad s-1]."""
+
+    X = L.X
+    Y = L.Y
+    THETA1 = L.TH1
+    THETA2 = L.TH2
+    X_DOT = L.DX
+    Y_DOT = L.DY
+    THETA1_DOT = L.DTH1
+    THETA2_DOT = L.DTH2
 
 
 RobotLike = Union[Robot, str]
@@ -275,7 +332,12 @@ def evaluate_horizontal_gait(dtheta1: float, dtheta2: float, **kwargs) -> GaitRe
 
 @dataclass
 class RunResult:
-    """Raw outcome of :func:`run_controller` (numpy only)."""
+    """Raw outcome of :func:`run_controller` (numpy only).
+
+    The named properties read the raw arrays: the run's counts (:attr:`steps`, :attr:`nfev`,
+    :attr:`rejected`, :attr:`cycles`) and each sample's mode (:attr:`sample_phase`,
+    :attr:`sample_flipped`, :attr:`sample_torque`, :attr:`sample_segment`).
+    """
 
     status: Status
     state: np.ndarray        # final hybrid state (layout H_*), feed back to continue
@@ -286,6 +348,46 @@ class RunResult:
     sample_state: np.ndarray
     sample_mode: np.ndarray
     params: np.ndarray       # (2, N_PARAMS) rows used
+
+    @property
+    def steps(self) -> int:
+        """Accepted integration steps of the run."""
+        return int(self.counts[L.K_STEPS])
+
+    @property
+    def nfev(self) -> int:
+        """Evaluations of the equations of motion."""
+        return int(self.counts[L.K_NFEV])
+
+    @property
+    def rejected(self) -> int:
+        """Rejected integration steps."""
+        return int(self.counts[L.K_REJECTED])
+
+    @property
+    def cycles(self) -> int:
+        """Cycles the controller completed."""
+        return int(self.counts[L.K_CYCLES])
+
+    @property
+    def sample_phase(self) -> np.ndarray:
+        """Each sample's phase of motion (:class:`Phase` values, as floats; a view)."""
+        return self.sample_mode[:, L.M_PHASE]
+
+    @property
+    def sample_flipped(self) -> np.ndarray:
+        """Which end each sample's frame hangs from (0: A, 1: B; as floats; a view)."""
+        return self.sample_mode[:, L.M_FLIPPED]
+
+    @property
+    def sample_torque(self) -> np.ndarray:
+        """The motor torque [N m] at each sample, on theta2 of the frame (a view)."""
+        return self.sample_mode[:, L.M_TORQUE]
+
+    @property
+    def sample_segment(self) -> np.ndarray:
+        """The controller program row of each sample (as floats; a view)."""
+        return self.sample_mode[:, L.M_SEGMENT]
 
 
 def initial_state(dtheta1: float = 0.0, dtheta2: float = 0.0, *, theta1: float = 0.0,
@@ -380,9 +482,32 @@ def energies(params: np.ndarray, states: np.ndarray, flipped: np.ndarray):
     v = np.empty(states.shape[0])
     for i, s in enumerate(states):
         p = params[int(flipped[i])]
-        k[i] = kinetic_energy(p, s[2], s[3], s[4], s[5], s[6], s[7])
+        k[i] = dynamics.kinetic_energy(p, s[2], s[3], s[4], s[5], s[6], s[7])
         v[i] = potential_energy(p, s[1], s[2], s[3])
     return k, v
+
+
+def kinetic_energy(robot: RobotLike, state, *, flipped: bool = False) -> float:
+    """Kinetic energy [J] of one frame state, as the kernel computes it.
+
+    Parameters
+    ----------
+    robot : Robot or str
+        The robot, or the name of a preset.
+    state : array_like
+        The frame state ``[x, y, theta1, theta2, x_dot, y_dot, theta1_dot, theta2_dot]``
+        (:class:`StateIndex`) [m, rad, m s-1, rad s-1].
+    flipped : bool
+        Whether the frame hangs from end B (the robot's parameters flipped).
+
+    Returns
+    -------
+    float
+        The kinetic energy [J].
+    """
+    p = as_robot(robot).params()[int(flipped)]
+    s = np.asarray(state, np.float64)
+    return float(dynamics.kinetic_energy(p, s[2], s[3], s[4], s[5], s[6], s[7]))
 
 
 #: the hybrid state's components as dataset variables: (name, index, units, what)

@@ -24,12 +24,12 @@ from matplotlib.colors import LogNorm
 from matplotlib.patches import Circle
 from matplotlib.ticker import MaxNLocator
 
-from .analysis import attr_float, run_line, two_titles
-from .common import (
+from ..labels import attr_float, run_line, two_titles
+from ..common import (
     BLACK, BLUE, GREEN, ORANGE, VERMILLION, count, json_attr, new_figure, style,
 )
-from .drawing import Drawing
-from .gait import plot_filmstrip
+from ..drawing import Drawing
+from ..gait import plot_filmstrip
 
 #: axis labels of the design parameters (name -> label with units)
 LABELS = {

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..simulate import Status
+from ..simulation import Status
 
 
 def sorted_eigs(J: np.ndarray) -> np.ndarray:

@@ -20,12 +20,12 @@ import matplotlib
 import numpy as np
 from matplotlib.lines import Line2D
 
-from .analysis import run_line, two_titles
-from .common import (
+from ..labels import run_line, two_titles
+from ..common import (
     BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, count, finite, fmt_tick, json_attr,
     new_figure, plain_log_labels, style,
 )
-from .drawing import Drawing
+from ..drawing import Drawing
 
 #: each noise source: (variable, label, unit text, scale to the label's unit)
 SOURCES = {

@@ -1,0 +1,28 @@
+"""The grid step's figures: the error surface, the error map with the refined minima, the
+swap-time map (drawn in :mod:`monkeystudy.plotting.maps`)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..drawing import Drawing, Folder
+from ..maps import plot_error_map, plot_error_surface, plot_swap_time_map
+
+
+def refine_datasets(path: Path, folder: Folder) -> list[Path]:
+    """The study's refine datasets (their minima are marked on the maps)."""
+    return list(folder.files.get("refine", []))
+
+
+def has_swap_times(path: Path, folder: Folder) -> bool:
+    """The grid names its cycles' swap times (the horizontal gait's datasets do)."""
+    return "t_switch" in folder.loaded(path)
+
+
+#: how the grid step's figures are drawn
+DRAWINGS = {
+    ("grid", "surface"): Drawing(lambda d: plot_error_surface(d[0]), cost=3.0),
+    ("grid", "map"): Drawing(lambda d: plot_error_map(d[0], d[1:]),
+                             extra_inputs=refine_datasets, cost=2.0),
+    ("grid", "swap_time"): Drawing(lambda d: plot_swap_time_map(d[0], d[1:]),
+                                   extra_inputs=refine_datasets, applies=has_swap_times),
+}

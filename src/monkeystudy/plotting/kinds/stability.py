@@ -1,0 +1,54 @@
+"""The stability step's figures: error, kinetic energy and the attached end's height per
+cycle, all runs' errors side by side (drawn in :mod:`monkeystudy.plotting.cycles`), and the
+filmstrip and animation of the replay (:mod:`monkeystudy.plotting.gait`)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..cycles import (
+    gait_point, plot_error_comparison, plot_error_per_cycle, plot_kinetic_energy,
+    plot_pivot_height, stability_inputs,
+)
+from ..drawing import Drawing, Folder
+from ..gait import has_trajectory, plot_filmstrip, write_animation
+
+
+def run_gait(d) -> tuple[float, float] | None:
+    """The gait's rates of a stability dataset and its inputs ``d``."""
+    return gait_point(d[0], d[1:])
+
+
+def comparison(groups):
+    """All stability runs of a study side by side."""
+    return plot_error_comparison([g[0] for g in groups],
+                                 gaits=[gait_point(g[0], g[1:]) for g in groups])
+
+
+def replay_recorded(path: Path, folder: Folder) -> bool:
+    """The run recorded its trajectory (a filmstrip and an animation need it)."""
+    return has_trajectory(folder.loaded(path))
+
+
+def animation(d, base: Path, prov: dict, *, fps: float, max_frames: int,
+              progress=None) -> list[Path]:
+    """The replay's animation, written beside the figures."""
+    return write_animation(d[0], base, prov, gait=gait_point(d[0], d[1:]), fps=fps,
+                           max_frames=max_frames, progress=progress)
+
+
+#: how the stability step's figures are drawn
+DRAWINGS = {
+    ("stability", "error"): Drawing(lambda d: plot_error_per_cycle(d[0], gait=run_gait(d)),
+                                    extra_inputs=stability_inputs),
+    ("stability", "kinetic_energy"): Drawing(
+        lambda d: plot_kinetic_energy(d[0], gait=run_gait(d)), extra_inputs=stability_inputs),
+    ("stability", "height"): Drawing(lambda d: plot_pivot_height(d[0], gait=run_gait(d)),
+                                     extra_inputs=stability_inputs),
+    ("stability", "error_comparison"): Drawing(comparison, extra_inputs=stability_inputs,
+                                               across=True),
+    ("stability", "filmstrip"): Drawing(
+        lambda d: plot_filmstrip(d[0], gait=gait_point(d[0], d[1:])),
+        extra_inputs=stability_inputs, applies=replay_recorded, cost=3.0),
+    ("stability", "animation"): Drawing(animation, extra_inputs=stability_inputs,
+                                        applies=replay_recorded, animation=True, cost=8.0),
+}
