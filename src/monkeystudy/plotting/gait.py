@@ -220,7 +220,8 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
     Each frame draws the robot at one sample: the links as a line coloured by the stage, end A
     a filled circle, end B an open square, the attached end ringed (magnet on). Frames are
     evenly spaced in time plus one at every stage change (swap, motor on/off). A timeline
-    below shows the stages and the motor torque.
+    below shows the stages and the motor torque (in the motor frame for a gait whose study
+    writes its torques so: attribute ``torque_frame``).
 
     Pose lines have ``gid`` ``pose``; their data are ``[A, joint, B]`` of a sample.
     """
@@ -299,7 +300,8 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
         # room above for the frame numbers; negative torques (a pulse the other way) shown
         tl.set_ylim(tmin - 0.1 * span, tmax + 0.45 * span)
         tl.set_xlabel("time  [s]")
-        tl.set_ylabel("motor torque\n[N m]")
+        tl.set_ylabel("motor torque\n(motor frame)\n[N m]" if
+                      stab.attrs.get("torque_frame") == "motor" else "motor torque\n[N m]")
         handles = [Patch(color=STAGES[k][0], alpha=0.5, label=STAGES[k][1]) for k in seen]
         handles += [Line2D([], [], color=SWAP_COLOUR, ls="--", label="magnet swap"),
                     Line2D([], [], label="end A", **END_A),

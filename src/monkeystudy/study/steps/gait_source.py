@@ -248,6 +248,12 @@ def run_problems(study, index: int, step, ref, replays: bool = True) -> list:
     if replays and replay is not None and replay not in conv.replays:
         out.append((("steps", index, "replay"), f"the {conv.name} is replayed open-loop "
                     f"(replay: {replay} needs a sequence gait)"))
+    resets = [k for k, seg in enumerate(study.gait.gait().segments) if seg.clock != "keep"]
+    if (replay or conv.replay) == "open_loop" and resets and (ref is None
+                                                              or ref.kind != "design"):
+        out.append((("steps", index, "replay"), f"an open-loop replay ends every segment at "
+                    f"its recorded time on the clock of the cycle's start, and segment "
+                    f"{resets[0]} resets the clock (clock: reset): replay: gait"))
     controller = getattr(step, "controller", None)
     if controller is not None and controller.clock not in conv.clocks:
         out.append((("steps", index, "controller", "clock"), f"a {conv.name}'s clock "
