@@ -205,7 +205,12 @@ def no_start_attrs(source: str | None) -> dict:
 
 
 def gait_line(a) -> str:
-    """One line naming the shoot gait a dataset's attributes say it used."""
+    """One line naming the gait a dataset's attributes say it used: a shoot step's solution
+    or a refine step's start."""
+    if "refine_step" in a and "refine_start" in a:
+        return (f"gait: start {a.get('refine_start')} of refine step {a.get('refine_step')!r}, "
+                f"({float(a['dtheta1']):.10g}, {float(a['dtheta2']):.10g}) rad s-1, error "
+                f"{float(a['gait_error']):.3g}")
     if int(a.get("solution", -1)) < 0:
         return "no shoot gait used"
     return (f"gait: solution {a.get('solution')} of {a.get('shoot_step')!r} "
