@@ -490,7 +490,9 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
             artist.set_animated(True)
         ax.set_xlabel("x  [m]", labelpad=1)
         ax.set_ylabel("y  [m]")
-        fig.suptitle(f"Open-loop run, {gait_text(stab, gait)}", fontsize=9, x=0.02,
+        run = ("Run under the gait's own controller" if own_controller(stab)
+               else "Open-loop run")
+        fig.suptitle(f"{run}, {gait_text(stab, gait)}", fontsize=9, x=0.02,
                      ha="left", fontweight="bold")
         ax.set_title(run_label(stab) + (f"; playback ×{speed:.1f}" if speed > 1 else ""),
                      fontsize=6.5, fontweight="normal", loc="left")
