@@ -402,6 +402,19 @@ class SequenceGait:
             out.append(ends)
         return out
 
+    def frame_ends(self) -> list[str]:
+        """The end (``'A'`` or ``'B'``) whose frame each row of the cycle
+        (:meth:`all_segments`) runs in, from the magnet actions alone: the end the robot
+        hangs from after the row's entry actions, or in flight (or pinned at both ends) the
+        last end it hung from. The kernel states the state, and the motor torque on
+        ``theta2``, in that frame (docs/model.md section 3)."""
+        frame, out = "A", []
+        for ends in self.attached_ends():
+            if len(ends) == 1:
+                frame = next(iter(ends))
+            out.append(frame)
+        return out
+
     def end_attached(self) -> str:
         """The end (``'A'`` or ``'B'``) the robot hangs from when it reaches the section."""
         ends = self.attached_ends()[-1]
@@ -416,6 +429,40 @@ class SequenceGait:
 
     def program(self):
         return self.controller().program()
+
+
+#: the frames a sequence gait's torques may be written in: ``attached_end`` (the kernel's:
+#: each torque acts on theta2 of the frame of the end attached at the time) or ``motor`` (the
+#: physical motor torque, its sign fixed to the links for the whole cycle)
+TORQUE_FRAMES = ("attached_end", "motor")
+
+
+def motor_frame_signs(gait: SequenceGait) -> np.ndarray:
+    """Per row of the cycle (:meth:`SequenceGait.all_segments`), the factor (+1 or -1) that
+    turns a torque in the motor frame into the kernel's, and back.
+
+    The kernel applies a row's torque on ``theta2`` of the frame it runs in
+    (:meth:`SequenceGait.frame_ends`); a flip to the other end's frame negates ``theta2``
+    (docs/model.md section 3), so the same physical motor torque is ``+tau`` in rows that run
+    in the frame of the end the cycle starts from (A) and ``-tau`` in rows that run in the
+    other end's frame (after a swap within the cycle).
+    """
+    return np.array([1.0 if end == "A" else -1.0 for end in gait.frame_ends()])
+
+
+def torques_from_motor_frame(gait: SequenceGait) -> SequenceGait:
+    """The gait whose segment and section torques [N m] were written in the motor frame, with
+    each converted to the kernel's frame (:func:`motor_frame_signs`): a row that runs in the
+    frame of the other end than the cycle's start end gets the negated torque. Applied twice
+    it returns the gait (a zero torque stays +0.0)."""
+    signs = motor_frame_signs(gait)
+
+    def kernel(torque: float, sign: float) -> float:
+        return torque if sign > 0.0 or torque == 0.0 else -torque
+
+    segs = tuple(replace(seg, torque=kernel(seg.torque, sign))
+                 for seg, sign in zip(gait.segments, signs))
+    return replace(gait, segments=segs, section_torque=kernel(gait.section_torque, signs[-1]))
 
 
 def motorless(gait: SequenceGait) -> SequenceGait:

@@ -214,3 +214,30 @@ steps:
 """)
     assert floquet_failures(out.folder) == {"sequence": ""}
     assert "multipliers_multipliers" in out.drawn
+
+
+def test_a_motor_frame_gait_with_its_height_in_the_map_and_survival_height(tmp_path):
+    """A gait written in the motor frame, caught at the start's world height, its floquet
+    step with the height in the map, a stability run on the tick and a survival step with
+    latency and a height tolerance: every figure draws, the new ones (the full map's row,
+    the height change of each run) among them."""
+    out = report(tmp_path, """\
+robot: seed2009
+gait:
+  kind: sequence
+  torque_frame: motor
+  section: {theta1: 0.0, direction: either, theta2: 0.43159965929540284}
+  segments:
+    - {until: time, value: 7.519090701371105e-08}
+    - {until: free_end_y, value: 0.0, direction: rising, torque: 0.3213454663367762,
+       clock: reset}
+    - {until: time, value: 0.28929574705023964, magnets: swap, torque: -0.40251722486466324}
+steps:
+  - {name: r, kind: refine, start: [4.844445533376672, -1.6124995598690839], maxiter: 50}
+  - {name: f, kind: floquet, from: r, height_in_map: true}
+  - {name: c, kind: stability, from: f, cycles: 3, controller: {tick: 0.001}}
+  - {name: s, kind: survival, from: f, runs: 4, max_cycles: 10, height_tolerance: 0.01,
+     controller: {tick: 0.001}, noise: {timing: 1.0e-3, latency: 1.0e-3}}
+""")
+    assert {"f_multipliers", "c_filmstrip", "c_height", "s_height_drift",
+            "s_mfpt"} <= set(out.drawn)

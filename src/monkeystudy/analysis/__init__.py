@@ -20,7 +20,7 @@ from __future__ import annotations
 from .._lazy import lazy_exports
 
 _EXPORTS = {
-    "sections": ("TIGHT", "check_cycle_frame", "check_mirror_links", "cycle_return_map",
+    "sections": ("TIGHT", "check_cycle_frame", "check_mirror_links", "cycle_full_map", "cycle_return_map",
                  "cycle_section_state", "open_loop_return_map", "search_return_map",
                  "section_state"),
     "multipliers": ("FixedPointResult", "FloquetResult", "floquet", "jacobian_fd",

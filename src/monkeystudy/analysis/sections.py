@@ -55,16 +55,16 @@ def search_return_map(z, *, torque: float = SEED2009_TORQUE, robot: RobotLike = 
     return cycle_return_map(z, horizontal_gait(torque), robot=robot, integrator=integrator)
 
 
-def cycle_section_state(gait: SequenceGait, z) -> np.ndarray:
-    """Hybrid state on a sequence gait's section: hanging from A at the origin, ``theta1 =
-    gait.section_theta1``, ``z = (theta2 [rad], dtheta1, dtheta2 [rad s-1])``; with a running
-    clock (``gait.clocked``) ``z = (theta1, theta2 [rad], dtheta1, dtheta2 [rad s-1])`` at
-    clock phase zero."""
+def cycle_section_state(gait: SequenceGait, z, *, height: float = 0.0) -> np.ndarray:
+    """Hybrid state on a sequence gait's section: hanging from A at ``(0, height)`` [m],
+    ``theta1 = gait.section_theta1``, ``z = (theta2 [rad], dtheta1, dtheta2 [rad s-1])``; with
+    a running clock (``gait.clocked``) ``z = (theta1, theta2 [rad], dtheta1, dtheta2
+    [rad s-1])`` at clock phase zero."""
     if gait.clocked:
         th1, th2, w1, w2 = (float(v) for v in z)
-        return initial_state(w1, w2, theta1=th1, theta2=th2)
+        return initial_state(w1, w2, theta1=th1, theta2=th2, y=float(height))
     th2, w1, w2 = (float(v) for v in z)
-    return initial_state(w1, w2, theta1=gait.section_theta1, theta2=th2)
+    return initial_state(w1, w2, theta1=gait.section_theta1, theta2=th2, y=float(height))
 
 
 def check_cycle_frame(gait: SequenceGait, robot) -> None:
@@ -89,6 +89,36 @@ def cycle_return_map(z, gait: SequenceGait, *, robot: RobotLike = "seed2009",
     return np.array([th2, res.state[L.DTH1], res.state[L.DTH2]]), res.status
 
 
+
+
+def cycle_full_map(w, gait: SequenceGait, *, robot: RobotLike = "seed2009",
+                   integrator: Integrator = TIGHT) -> tuple[np.ndarray, Status]:
+    """One cycle of a sequence gait in the full section state ``w = (y [m], theta2 [rad],
+    dtheta1, dtheta2 [rad s-1])``, ``y`` the attached end's height (the cycle starts hanging
+    from A at ``(0, y)``).
+
+    The reduced map (:func:`cycle_return_map`) leaves the height out: for a gait whose
+    guards sense only the joint angles, rates, relative heights and time, every guard, the
+    dynamics and the impacts are invariant under ``y -> y + c``, so the full map's
+    y-column is exactly ``e_y`` (a multiplier 1: the height is neutral). A guard on a world
+    height (``free_end_y``) breaks that symmetry and can hold the height.
+
+    Returns the full state at the cycle's end (``y`` of the end attached there, ``theta2``
+    continued from ``w[1]`` across whole turns) and the run status. Needs a clock that
+    restarts at the section (``ValueError`` for a running clock) and, for a cycle ending on
+    B, mirror-image links.
+    """
+    robot = as_robot(robot)
+    if gait.clocked:
+        raise ValueError("the full map (height included) is defined on a section, not at a "
+                         "running clock's phase")
+    check_cycle_frame(gait, robot)
+    w = np.asarray(w, float)
+    res = run_controller(gait.controller(), cycle_section_state(gait, w[1:], height=w[0]),
+                         robot=robot, integrator=integrator, cycles=1, log_capacity=0)
+    th2 = float(w[1]) + wrapped_difference(res.state[L.TH2], float(w[1]))
+    return (np.array([res.state[L.Y], th2, res.state[L.DTH1], res.state[L.DTH2]]),
+            res.status)
 
 
 def check_mirror_links(robot):

@@ -28,6 +28,8 @@ The method (the standard one for hybrid systems):
    previous event's ``dt_e``, so that its two resets compose exactly.
 3. The section (``theta1 = c``, free time) projects: ``Phi + f- dt_e``. The start perturbs
    ``(theta2, dtheta1, dtheta2)`` (columns 3, 6, 7 of the 8-state); the answer is rows 3, 6, 7.
+   The full map (``height=True``) adds the attached end's height ``y`` (column and row 1):
+   ``(y, theta2, dtheta1, dtheta2)``.
 """
 from __future__ import annotations
 
@@ -50,6 +52,9 @@ from .sections import TIGHT, check_cycle_frame, cycle_section_state
 SECTION_INDEX = (L.TH2, L.DTH1, L.DTH2)
 #: rows/columns of a running clock's section state ``(theta1, theta2, dtheta1, dtheta2)``
 CLOCKED_INDEX = (L.TH1, L.TH2, L.DTH1, L.DTH2)
+#: rows/columns of the full section state ``(y, theta2, dtheta1, dtheta2)``: the attached
+#: end's height [m] with the section coordinates
+FULL_INDEX = (L.Y, L.TH2, L.DTH1, L.DTH2)
 #: largest relative difference between the re-integrated states and the kernel's log: beyond
 #: it the two did not follow the same event sequence
 _STATE_TOL = 1e-7
@@ -131,9 +136,10 @@ def _check_zero_length(kind, index, value, p, s, eref, t, dt, clock0, dclock, se
 
 
 def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "seed2009",
-                                  integrator: Integrator = TIGHT,
-                                  rtol: float = 1e-12) -> np.ndarray:
-    """Jacobian of :func:`~monkeystudy.analysis.cycle_return_map` by variational equations.
+                                  integrator: Integrator = TIGHT, rtol: float = 1e-12,
+                                  height: bool = False) -> np.ndarray:
+    """Jacobian of :func:`~monkeystudy.analysis.cycle_return_map` by variational equations
+    (with ``height``, of :func:`~monkeystudy.analysis.cycle_full_map`).
 
     Parameters
     ----------
@@ -153,6 +159,11 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
         Settings of the kernel run that finds the event sequence.
     rtol : float
         Relative tolerance of the variational integration (absolute: ``rtol / 100``).
+    height : bool
+        Differentiate the full map: ``z = (y [m], theta2 [rad], dtheta1, dtheta2
+        [rad s-1])``, ``y`` the attached end's height at the start (the cycle starts hanging
+        from A at ``(0, y)``) and at the end (the end attached there). Not with a running
+        clock.
 
     Returns
     -------
@@ -178,10 +189,14 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
         raise ValueError("Coulomb friction makes the return map non-smooth (stick-slip "
                          "events): no variational Jacobian")
     check_cycle_frame(gait, robot)
-    cols = list(CLOCKED_INDEX if gait.clocked else SECTION_INDEX)
+    if height and gait.clocked:
+        raise ValueError("the full map (height included) is defined on a section, not at a "
+                         "running clock's phase")
+    cols = list(FULL_INDEX if height else CLOCKED_INDEX if gait.clocked else SECTION_INDEX)
     z = np.asarray(z, dtype=float).reshape(len(cols))
     prog, _ = gait.program()
-    hyb0 = cycle_section_state(gait, z)
+    hyb0 = (cycle_section_state(gait, z[1:], height=z[0]) if height
+            else cycle_section_state(gait, z))
     res = run_controller(gait.controller(), hyb0, robot=robot, integrator=integrator,
                          cycles=1, log_capacity=64)
     if res.status != Status.OK:

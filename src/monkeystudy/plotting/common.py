@@ -109,13 +109,17 @@ def fmt_tick(tick) -> str:
 
 
 def run_label(ds, step: bool = True) -> str:
-    """One line saying what was run: robot, torque, controller tick, integrator, study (and
-    step unless ``step`` is false)."""
+    """One line saying what was run: robot, torque, controller tick (the run's own, a
+    ``controller`` attribute's, else the gait's), integrator, study (and step unless
+    ``step`` is false)."""
     g = gait_settings(ds)
     parts = [f"robot {robot_name(ds)}"]
     if "motor_torque" in g:
         parts.append(f"τ = {float(g['motor_torque']):g} N m")
-    if "tick" in g:
+    controller = json_attr(ds, "controller", {})
+    if isinstance(controller, dict) and "tick" in controller:
+        parts.append(fmt_tick(controller["tick"]))
+    elif "tick" in g:
         parts.append(fmt_tick(g["tick"]))
     integ = json_attr(ds, "integrator", {})
     if isinstance(integ, dict) and "method" in integ:

@@ -293,8 +293,9 @@ def plot_pivot_height(stab, *, gait=None):
 
     Reference lines: the start height (0) and one link length below it, so the drop reads
     against the robot's size; a second panel shows the horizontal advance per cycle
-    (``x_advance``) when the dataset has it. Lines: ``gid`` ``pivot_height``, ``x_advance``,
-    ``start_height``, ``link_length``.
+    (``x_advance``) when the dataset has it; a height held within 5 % of a link length gets
+    an inset in millimetres. Lines: ``gid`` ``pivot_height``, ``x_advance``,
+    ``start_height``, ``link_length``, ``pivot_height_mm`` (the inset).
     """
     x = _cycle(stab)
     y = np.asarray(stab["pivot_height"].values, float)
@@ -318,6 +319,17 @@ def plot_pivot_height(stab, *, gait=None):
                        label=f"one link length ({L1:g} m) below the start")
         _annotate_stop(ax, stab, x, y, at_swap="section_theta1" not in stab.attrs)
         _cycle_limits(ax, [stab])
+        spread = float(np.nanmax(np.abs(y)))
+        if lengths is not None and spread < 0.05 * lengths[0]:
+            # a height held within millimetres is a flat line at the link's scale: zoom in
+            inset = ax.inset_axes([0.3, 0.3, 0.66, 0.4])
+            inset.plot(x, y * 1e3, marker=".", ms=3, lw=0.8, color=BLUE,
+                       gid="pivot_height_mm")
+            inset.axhline(0.0, ls="--", color="0.35", lw=1.0)
+            inset.set_xlim(ax.get_xlim())
+            inset.set_ylabel("[mm]", fontsize=8)
+            inset.set_title("the same height in millimetres", fontsize=8, loc="left")
+            inset.tick_params(labelsize=7)
         # two short lines each: one line is taller than its panel, and the labels met
         ax.set_ylabel("height of the\nattached end  [m]" if has_adv
                       else "height of the attached end  [m]")

@@ -220,7 +220,8 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
     Each frame draws the robot at one sample: the links as a line coloured by the stage, end A
     a filled circle, end B an open square, the attached end ringed (magnet on). Frames are
     evenly spaced in time plus one at every stage change (swap, motor on/off). A timeline
-    below shows the stages and the motor torque.
+    below shows the stages and the motor torque (in the motor frame for a gait whose study
+    writes its torques so: attribute ``torque_frame``).
 
     Pose lines have ``gid`` ``pose``; their data are ``[A, joint, B]`` of a sample.
     """
@@ -299,7 +300,8 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
         # room above for the frame numbers; negative torques (a pulse the other way) shown
         tl.set_ylim(tmin - 0.1 * span, tmax + 0.45 * span)
         tl.set_xlabel("time  [s]")
-        tl.set_ylabel("motor torque\n[N m]")
+        tl.set_ylabel("motor torque\n(motor frame)\n[N m]" if
+                      stab.attrs.get("torque_frame") == "motor" else "motor torque\n[N m]")
         handles = [Patch(color=STAGES[k][0], alpha=0.5, label=STAGES[k][1]) for k in seen]
         handles += [Line2D([], [], color=SWAP_COLOUR, ls="--", label="magnet swap"),
                     Line2D([], [], label="end A", **END_A),
@@ -488,7 +490,9 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
             artist.set_animated(True)
         ax.set_xlabel("x  [m]", labelpad=1)
         ax.set_ylabel("y  [m]")
-        fig.suptitle(f"Open-loop run, {gait_text(stab, gait)}", fontsize=9, x=0.02,
+        run = ("Run under the gait's own controller" if own_controller(stab)
+               else "Open-loop run")
+        fig.suptitle(f"{run}, {gait_text(stab, gait)}", fontsize=9, x=0.02,
                      ha="left", fontweight="bold")
         ax.set_title(run_label(stab) + (f"; playback ×{speed:.1f}" if speed > 1 else ""),
                      fontsize=6.5, fontweight="normal", loc="left")

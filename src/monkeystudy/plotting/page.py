@@ -161,7 +161,13 @@ def gait_text(gait: Mapping) -> str:
     if "tick" in gait:
         tick = float(gait["tick"])
         parts.append("exact event timing" if tick == 0 else f"controller tick {tick * 1e3:g} ms")
-    parts += [f"{k} {v}" for k, v in gait.items() if k not in ("kind", "motor_torque", "tick")
+    frames = {"motor": "torques in the motor frame (the physical motor torque, its sign "
+                       "fixed to the links over each cycle)",
+              "attached_end": "torques on theta2 of the attached end's frame"}
+    if "torque_frame" in gait:
+        parts.append(frames.get(str(gait["torque_frame"]), f"torque_frame {gait['torque_frame']}"))
+    parts += [f"{k} {v}" for k, v in gait.items() if k not in ("kind", "motor_torque", "tick",
+                                                                "torque_frame")
               and not isinstance(v, (list, dict))]
     return ", ".join(parts)
 

@@ -17,11 +17,14 @@ from typing import Annotated, Any, ClassVar, Literal, Optional, Union
 
 import numpy as np
 from pydantic import (
-    BaseModel, ConfigDict, Discriminator, Field, Tag, ValidationInfo, field_validator,
-    model_validator,
+    BaseModel, ConfigDict, Discriminator, Field, SerializerFunctionWrapHandler, Tag,
+    ValidationInfo, field_validator, model_serializer, model_validator,
 )
 
-from ..controllers import Integrator, Segment, SequenceGait, horizontal_gait
+from ..controllers import (
+    TORQUE_FRAMES, Integrator, Segment, SequenceGait, horizontal_gait,
+    torques_from_motor_frame,
+)
 from ..robot import PRESETS, Friction, Link, Robot
 from ..simulation import STATUS_NAMES
 
@@ -55,6 +58,21 @@ class StrictModel(BaseModel):
     @classmethod
     def allowed_keys(cls) -> list[str]:
         return [f.alias or name for name, f in cls.model_fields.items()]
+
+    #: keys added to schema version 1 after studies without them were run: a model's dump
+    #: (the ``step`` and ``gait`` attributes of its datasets, the step keys) names them only
+    #: when the study file sets them, so a study that does not use them keeps its step keys
+    #: and its datasets' attributes
+    recorded_when_set: ClassVar[frozenset[str]] = frozenset()
+
+    @model_serializer(mode="wrap")
+    def _without_unset_later_keys(self, handler: SerializerFunctionWrapHandler) -> Any:
+        data = handler(self)
+        if self.recorded_when_set and isinstance(data, dict):
+            fields = type(self).model_fields
+            for name in self.recorded_when_set - self.model_fields_set:
+                data.pop(fields[name].alias or name, None)
+        return data
 
 
 Name = Annotated[str, Field(pattern=NAME_PATTERN, max_length=100,
@@ -289,12 +307,19 @@ class SegmentSpec(StrictModel):
                                                   "reference of energy_restored guards")
     ticked: bool = Field(True, description="act on the controller tick (when the gait has "
                                            "one)")
+    clock: Literal["keep", "reset"] = Field(
+        "keep", description="the controller clock at this segment's exit: keep it, or reset "
+                            "it (it restarts there, so the time guards of the segments after "
+                            "it count from this exit, e.g. a pulse timed from a catch)")
+
+    recorded_when_set: ClassVar[frozenset[str]] = frozenset({"clock"})
 
     def segment(self) -> Segment:
         fail = STATUS_NAMES.index(SEGMENT_FAIL.get(self.until, "horizon"))
         return Segment(self.until, value=self.value, coord=self.coord,
                        direction=self.direction, magnets=self.magnets, torque=self.torque,
-                       latch_energy=self.latch_energy, ticked=self.ticked, fail_status=fail)
+                       latch_energy=self.latch_energy, ticked=self.ticked, clock=self.clock,
+                       fail_status=fail)
 
 
 class SectionSpec(StrictModel):
@@ -325,6 +350,16 @@ class SequenceGaitSpec(StrictModel):
     section: SectionSpec = Field(default_factory=SectionSpec)
     tick: float = Field(0.0, ge=0, le=1.0, description="controller tick [s]; 0 = exact "
                                                        "event timing")
+    torque_frame: Literal[TORQUE_FRAMES] = Field(  # type: ignore[valid-type]
+        "attached_end", description="the frame the segments' and the section's torques [N m] "
+                                    "are written in: attached_end (on theta2 of the frame of "
+                                    "the end attached at the time: the sign flips with the "
+                                    "frame at a swap) or motor (the physical motor torque, "
+                                    "its sign fixed to the links for the whole cycle: a "
+                                    "torque after a swap within the cycle is negated when the "
+                                    "gait is built)")
+
+    recorded_when_set: ClassVar[frozenset[str]] = frozenset({"torque_frame"})
 
     @model_validator(mode="after")
     def _closes(self) -> "SequenceGaitSpec":
@@ -337,10 +372,14 @@ class SequenceGaitSpec(StrictModel):
         return math.nan
 
     def gait(self) -> SequenceGait:
+        """The gait the kernel runs: its torques in the kernel's frame (converted from the
+        motor frame when ``torque_frame`` is ``motor``,
+        :func:`~monkeystudy.controllers.torques_from_motor_frame`)."""
         sec = self.section
-        return SequenceGait([s.segment() for s in self.segments], section_theta1=sec.theta1,
+        gait = SequenceGait([s.segment() for s in self.segments], section_theta1=sec.theta1,
                             section_direction=sec.direction, section_torque=sec.torque,
                             theta2=sec.theta2, tick=self.tick)
+        return torques_from_motor_frame(gait) if self.torque_frame == "motor" else gait
 
 
 #: the study's ``gait``: the horizontal gait or a sequence gait

@@ -55,8 +55,11 @@ class RunSummary:
 
 
 def step_attrs(loaded: LoadedStudy, step, history: str) -> dict:
-    """Global attributes of a step's dataset (docs/datasets.md), before the step's own."""
+    """Global attributes of a step's dataset (docs/datasets.md), before the step's own; a
+    gait that states its torques' frame (``torque_frame``) is named with it."""
     study = loaded.study
+    frame = ({"torque_frame": study.gait.torque_frame}
+             if "torque_frame" in study.gait.model_fields_set else {})
     return {
         "title": f"{study.name}: {step.name}",
         "study_name": study.name, "step_name": step.name, "step_kind": step.kind,
@@ -68,6 +71,7 @@ def step_attrs(loaded: LoadedStudy, step, history: str) -> dict:
         "monkeystudy_version": __version__, "git_revision": P.git_revision(),
         "code_sha256": kind_of(step).code_sha256, "library_versions": P.library_versions(),
         "history": history, "Conventions": D.CONVENTIONS, "source": "monkeystudy",
+        **frame,
     }
 
 

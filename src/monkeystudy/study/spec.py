@@ -35,6 +35,10 @@ class GaitSpec:
         Datasets name a cycle's times as the 2009 study did (``t_switch``, ``t_motor``,
         ``t_end``), else per segment (:class:`~monkeystudy.study.models.Conventions`; default:
         the 2009 names when no sequence is given).
+    torque_frame : str
+        The frame the study wrote the gait's torques in (``attached_end`` or ``motor``,
+        :data:`~monkeystudy.controllers.TORQUE_FRAMES`); ``sequence`` carries them in the
+        kernel's frame either way. Datasets that record torques over time state them in it.
     """
 
     robot: Robot
@@ -43,6 +47,7 @@ class GaitSpec:
     tick: float
     sequence: SequenceGait | None = None
     swap_motor_times: bool | None = None
+    torque_frame: str = "attached_end"
 
     def __post_init__(self):
         if self.swap_motor_times is None:
@@ -61,7 +66,8 @@ def gait_spec(study) -> GaitSpec:
     """The :class:`GaitSpec` of a validated :class:`~monkeystudy.study.schema.Study`."""
     g = study.gait
     return GaitSpec(study.to_robot(), study.integrator.to_integrator(), float(g.motor_torque),
-                    float(g.tick), g.gait(), g.conventions.swap_motor_times)
+                    float(g.tick), g.gait(), g.conventions.swap_motor_times,
+                    getattr(g, "torque_frame", "attached_end"))
 
 
 def integrator_fields(integrator: Integrator) -> dict:

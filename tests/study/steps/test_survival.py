@@ -32,6 +32,7 @@ CONTRACT = {
     "distance": ("m", ("level", "run")), "time_survived": ("s", ("level", "run")),
     "final_error": ("rad2 + rad2 s-2", ("level", "run")),
     "survival": ("1", ("level", "cycle")), "failure_count": ("1", ("level", "failure_mode")),
+    "height_drift": ("m", ("level", "run")), "noise_latency": ("s", ("level",)),
 }
 
 
@@ -95,7 +96,8 @@ def test_one_worker_equals_two_and_a_resume_equals_both(smoke, tmp_path):
     assert len(sp.blocks) >= 2
     flat = {"cycles": ref["cycles_completed"].values.ravel(),
             "failure": ref["failure"].values.ravel(), "distance": ref["distance"].values.ravel(),
-            "time": ref["time_survived"].values.ravel(), "error": ref["final_error"].values.ravel()}
+            "time": ref["time_survived"].values.ravel(), "error": ref["final_error"].values.ravel(),
+            "height": ref["height_drift"].values.ravel()}
     b = sp.blocks[0]
     # nfev is not in the dataset per run: only its total; a shard carries what a block computed
     nfev = np.full(b.size, int(ref.attrs["total_nfev"]) // ref["cycles_completed"].size)

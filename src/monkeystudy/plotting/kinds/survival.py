@@ -6,6 +6,7 @@ noise.
 * :func:`plot_mfpt` - the mean first-passage time against the swept noise (log-log), 95 %
   intervals, lower bounds as arrows; the right axis in metres;
 * :func:`plot_failure_modes` - for each level, the share of runs by how they ended;
+* :func:`plot_height_drift` - each completed run's height change after its cycles;
 * :func:`plot_mfpt_comparison` - every survival step of a study on one MFPT axis.
 
 :data:`DRAWINGS` registers them under ``("survival", suffix)``. Artists carry ``gid`` s (in
@@ -25,11 +26,12 @@ from ..common import (
     BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, count, finite, fmt_tick, json_attr,
     new_figure, plain_log_labels, style,
 )
-from ..drawing import Drawing
+from ..drawing import Drawing, NothingToDraw
 
 #: each noise source: (variable, label, unit text, scale to the label's unit)
 SOURCES = {
     "timing": ("noise_timing", "timing jitter", "ms", 1e3),
+    "latency": ("noise_latency", "actuation latency (per run, uniform up to)", "ms", 1e3),
     "angle": ("noise_angle", "angle-sensor noise", "rad", 1.0),
     "rate": ("noise_rate", "rate-sensor noise", "rad/s", 1.0),
     "height": ("noise_height", "height-sensor noise", "mm", 1e3),
@@ -44,7 +46,9 @@ SOURCES = {
 }
 FAILURE_COLOURS = {"survived": GREEN, "fell": VERMILLION, "no_switch": ORANGE,
                    "energy_not_restored": PURPLE, "no_return_to_vertical": SKY,
-                   "error_bound": BLUE, "stalled": "#999999"}
+                   "error_bound": BLUE, "stalled": "#999999", "horizon": BLACK}
+#: failure modes in words where the flag's name is terse
+FAILURE_WORDS = {"horizon": "horizon (a guard never fired)"}
 METHOD_MEAN, METHOD_TAIL, METHOD_LOWER_BOUND = 0, 1, 2
 
 
@@ -203,7 +207,19 @@ def plot_mfpt(ds):
         body = two_titles(fig, f"Mean first-passage time to failure: "
                           f"{ds.attrs.get('step_name')}", _subtitle(ds))
         ax = body.subplots()
-        est_open, bound = _mfpt_points(ax, x, ds, BLUE, "MFPT, 95 % interval", "mfpt")
+        method = np.asarray(ds["mfpt_method"].values, int)
+        estimated = bool(np.any((method != METHOD_LOWER_BOUND)
+                                & np.isfinite(np.asarray(ds["mfpt"].values, float))))
+        # with no estimate at all, the bounds carry the lower bound's own legend entry
+        est_open, bound = _mfpt_points(ax, x, ds, BLUE, "MFPT, 95 % interval" if estimated
+                                       else "MFPT: " + LOWER_BOUND_LABEL, "mfpt")
+        bound_values = np.asarray(ds["mfpt_low"].values, float)
+        for xi, lo, m in zip(x, bound_values, method):
+            if m == METHOD_LOWER_BOUND and np.isfinite(lo):
+                ax.annotate(f"≥ {lo:.3g} cycles", (xi, lo), xytext=(12, 0),
+                            textcoords="offset points", va="center", fontsize=8.5,
+                            color=BLUE, gid="mfpt_bound_value")
+        bound = bound and estimated
         ax.set_xscale("log" if np.all(x > 0) else "linear")
         ax.set_yscale("log")
         plain_log_labels(ax.yaxis)
@@ -243,8 +259,9 @@ def plot_failure_modes(ds):
         extra = [BLACK, "#999999", "#F0E442"]
         for j, k in enumerate(used):
             col = FAILURE_COLOURS.get(modes[k], extra[j % len(extra)])
-            ax.barh(np.arange(n), share[:, k], left=left, color=col, label=modes[k],
-                    gid=f"mode_{modes[k]}", height=0.6)
+            ax.barh(np.arange(n), share[:, k], left=left, color=col,
+                    label=FAILURE_WORDS.get(modes[k], modes[k]), gid=f"mode_{modes[k]}",
+                    height=0.6)
             left += share[:, k]
         ax.set_yticks(np.arange(n), [level_text(ds, i) for i in range(n)])
         ax.invert_yaxis()
@@ -298,11 +315,65 @@ def plot_mfpt_comparison(datasets: Sequence):
     return fig
 
 
+def plot_height_drift(ds):
+    """The attached end's height change of each run that completed ``max_cycles``
+    (``height_drift``), a histogram per noise level, with the tolerance (attribute
+    ``height_tolerance``) when the step set one.
+
+    gids: ``height_drift_<level>`` (the histogram's bars), ``tolerance`` (the bounds).
+    """
+    if "height_drift" not in ds:
+        raise NothingToDraw("the dataset has no height_drift (made before the survival step "
+                            "wrote it)")
+    drift = np.asarray(ds["height_drift"].values, float) * 1e3
+    done = np.asarray(ds["failure"].values) == 0
+    n = ds.sizes["level"]
+    if not done.any():
+        raise NothingToDraw("no run completed max_cycles: no height after them to show")
+    tol = float(ds.attrs["height_tolerance"]) * 1e3 if "height_tolerance" in ds.attrs \
+        else math.nan
+    finite_done = drift[done]
+    lo, hi = float(finite_done.min()), float(finite_done.max())
+    if math.isfinite(tol):
+        lo, hi = min(lo, -tol), max(hi, tol)
+    pad = 0.05 * max(hi - lo, 1e-3)
+    edges = np.linspace(lo - pad, hi + pad, 61)
+    with style():
+        fig = new_figure(figsize=(7.4, 5.0))
+        body = two_titles(fig, f"Height change of each run: {ds.attrs.get('step_name')}",
+                          _subtitle(ds))
+        ax = body.subplots()
+        for i, col in enumerate(_colours(n)):
+            d = drift[i][done[i]]
+            if not d.size:
+                continue
+            label = (f"{level_text(ds, i)}:\n{d.size} of {drift.shape[1]} runs completed, "
+                     f"median {np.median(d):+.3g} mm")
+            if "height_within_tolerance" in ds:
+                label += (f", {100 * float(ds['height_within_tolerance'].values[i]):.4g} % "
+                          f"within ±{tol:g} mm")
+            ax.hist(d, bins=edges, histtype="stepfilled" if n == 1 else "step",
+                    color=col, alpha=0.75 if n == 1 else 1.0, lw=1.8, label=label,
+                    gid=f"height_drift_{i}")
+        if math.isfinite(tol):
+            for k, v in enumerate((-tol, tol)):
+                ax.axvline(v, color=VERMILLION, ls="--", lw=1.4,
+                           label=f"tolerance ±{tol:g} mm" if k == 0 else None,
+                           gid="tolerance")
+        ax.axvline(0.0, color="0.4", lw=0.8, ls=":", label="start height")
+        ax.set_xlabel(f"attached end's height after {count(ds.attrs['max_cycles'], 'cycle')} "
+                      "less its start height  [mm]")
+        ax.set_ylabel("runs")
+        ax.legend(loc="best", fontsize=8)
+    return fig
+
+
 #: how the survival step's figures are drawn
 DRAWINGS = {
     ("survival", "survival"): Drawing(lambda d: plot_survival(d[0])),
     ("survival", "mfpt"): Drawing(lambda d: plot_mfpt(d[0])),
     ("survival", "failure_modes"): Drawing(lambda d: plot_failure_modes(d[0])),
+    ("survival", "height_drift"): Drawing(lambda d: plot_height_drift(d[0])),
     ("survival", "mfpt_comparison"): Drawing(lambda groups: plot_mfpt_comparison(
         [g[0] for g in groups]), across=True),
 }

@@ -14,13 +14,13 @@ import dataclasses
 import math
 from functools import partial
 from pathlib import Path
-from typing import Any, Literal, Optional
+from typing import Any, ClassVar, Literal, Optional
 
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
-from ...analysis.multipliers import floquet, solve_fixed_point, sorted_eigs
-from ...analysis.sections import cycle_return_map
+from ...analysis.multipliers import floquet, jacobian_fd, solve_fixed_point, sorted_eigs
+from ...analysis.sections import cycle_full_map, cycle_return_map
 from ...analysis.variational import sequence_variational_jacobian
 from ...controllers import SequenceGait, open_loop_gait
 from ...simulation import evaluate_cycle_gaits
@@ -64,6 +64,14 @@ class FloquetStep(StrictModel):
                                     "step (default: the lowest error)")
     fd_step: float = Field(1e-5, gt=0, le=1e-2, description="relative finite-difference "
                                                             "step [1]")
+    height_in_map: bool = Field(False, description="also analyse the full map (y, theta2, "
+                                "dtheta1, dtheta2), y the attached end's height relative to "
+                                "the start [m]: its Jacobian by variational equations and by "
+                                "finite differences, its multipliers and spectral radius "
+                                "(the height is neutral unless a guard senses a world "
+                                "height, e.g. a catch until: free_end_y)")
+
+    recorded_when_set: ClassVar[frozenset[str]] = frozenset({"height_in_map"})
 
     @field_validator("controllers")
     @classmethod
@@ -87,7 +95,7 @@ class FloquetStep(StrictModel):
 # --- tasks (run on the workers) ------------------------------------------------------------------
 def floquet_task(spec: GaitSpec, controller: str, *, gait: SequenceGait, z0,
                  newton: bool, keep_unconverged: bool = False, schedule=None,
-                 fd_step: float = 1e-5) -> dict[str, Any]:
+                 fd_step: float = 1e-5, height: bool = False) -> dict[str, Any]:
     """Multipliers of ``gait``'s return map (:func:`~monkeystudy.analysis.cycle_return_map`,
     exact timing) at a fixed point, labelled ``controller`` in the dataset.
 
@@ -101,7 +109,8 @@ def floquet_task(spec: GaitSpec, controller: str, *, gait: SequenceGait, z0,
     by central differences, both sets of multipliers (sorted by decreasing modulus),
     ``map_defect = |P(z) - z|``, ``agreement = max|J - J_fd| / max|J|``, ``stable`` (from
     the variational multipliers, neutral ones excluded), and the cycle at the fixed point
-    (segment exit times [s], advance [m], error).
+    (segment exit times [s], advance [m], error). With ``height``, the same for the full
+    map (:func:`full_map_analysis`): keys ``full_*``.
     """
     robot, integ = spec.robot, spec.integrator
     gait = dataclasses.replace(gait, tick=0.0)
@@ -127,10 +136,12 @@ def floquet_task(spec: GaitSpec, controller: str, *, gait: SequenceGait, z0,
     try:
         Jv = jac(z)
         fl = floquet(fmap, z, step=fd_step, neutral_tol=NEUTRAL_TOL)
+        if height:
+            out.update(full_map_analysis(spec, gait, z, fd_step))
     except RuntimeError as exc:
         # no cycle from z, or one whose events the variational run meets in another order:
         # a finding about this gait at this point, recorded rather than ending the run
-        return not_analysed(out, z, gait, r, schedule, str(exc))
+        return not_analysed(out, z, gait, r, schedule, str(exc), height)
     lam = sorted_eigs(Jv)
     neutral = np.abs(lam - 1.0) < NEUTRAL_TOL
     t = r["t_segment"][0]
@@ -150,12 +161,42 @@ def floquet_task(spec: GaitSpec, controller: str, *, gait: SequenceGait, z0,
     return out
 
 
+def full_map_analysis(spec: GaitSpec, gait: SequenceGait, z, fd_step: float) -> dict:
+    """The full map (:func:`~monkeystudy.analysis.cycle_full_map`: ``(y [m], theta2 [rad],
+    dtheta1, dtheta2 [rad s-1])``, the cycle started at height ``y = 0``) at the section
+    state ``z``: its Jacobian by variational equations and by fourth-order central
+    differences (relative step ``fd_step``), both sets of multipliers (decreasing modulus),
+    the spectral radius of each, ``max|J - J_fd| / max|J|`` and ``full_stable`` (every
+    multiplier inside the unit circle: a neutral height is not stable). ``RuntimeError`` when
+    the cycle or its variational run fails."""
+    robot, integ = spec.robot, spec.integrator
+    w = np.concatenate([[0.0], np.asarray(z, float)])
+    Jv = sequence_variational_jacobian(gait, w, robot=robot, integrator=integ, height=True)
+    Jfd = jacobian_fd(partial(cycle_full_map, gait=gait, robot=robot, integrator=integ), w,
+                      fd_step)
+    lam, lam_fd = sorted_eigs(Jv), sorted_eigs(Jfd)
+    return {"full_jacobian": Jv, "full_jacobian_fd": Jfd, "full_multipliers": lam,
+            "full_multipliers_fd": lam_fd,
+            "full_spectral_radius": float(np.abs(lam).max()),
+            "full_spectral_radius_fd": float(np.abs(lam_fd).max()),
+            "full_agreement": float(np.abs(Jv - Jfd).max() / np.abs(Jv).max()),
+            "full_stable": int(bool(np.all(np.abs(lam) < 1.0)))}
+
+
 def not_analysed(out: dict, z, gait: SequenceGait, cycle: dict, schedule,
-                 reason: str) -> dict[str, Any]:
+                 reason: str, height: bool = False) -> dict[str, Any]:
     """The result of a return map that could not be analysed at ``z``: the point tried, its
     ``cycle`` as :func:`~monkeystudy.simulation.evaluate_cycle_gaits` ran it, NaN multipliers
-    and Jacobians, not stable, and the ``reason`` (the analysis' error)."""
+    and Jacobians (the full map's too, with ``height``), not stable, and the ``reason`` (the
+    analysis' error)."""
     nan3, nan33 = np.full(3, np.nan), np.full((3, 3), np.nan)
+    if height:
+        nan4, nan44 = np.full(4, np.nan), np.full((4, 4), np.nan)
+        out.update({"full_jacobian": nan44, "full_jacobian_fd": nan44.copy(),
+                    "full_multipliers": nan4.astype(complex),
+                    "full_multipliers_fd": nan4.astype(complex),
+                    "full_spectral_radius": math.nan, "full_spectral_radius_fd": math.nan,
+                    "full_agreement": math.nan, "full_stable": 0})
     t = cycle["t_segment"][0]
     t_switch, t_motor = ((float(t[0]), float(t[1] - t[0])) if schedule is None else
                          (float(schedule[0]), float(schedule[1])))
@@ -172,11 +213,13 @@ def not_analysed(out: dict, z, gait: SequenceGait, cycle: dict, schedule,
 
 
 # --- the dataset ---------------------------------------------------------------------------------
-def write_floquet(path: Path, attrs: dict, results: list[dict], swap_motor: bool) -> None:
+def write_floquet(path: Path, attrs: dict, results: list[dict], swap_motor: bool,
+                  height: bool = False) -> None:
     """Write a floquet dataset from :func:`floquet_task` results, one per controller (in the
     step's order); the cycle's times as the 2009 study named them (``swap_motor``:
     ``t_switch``, ``t_motor``, ``motor_torque``) or per segment (``t_segment``, the advance,
-    the error; the 2009 names NaN)."""
+    the error; the 2009 names NaN); with ``height`` the full map's variables
+    (:func:`write_full_map`)."""
     with D.atomic_netcdf(path) as nc:
         D.add_label_coord(nc, "controller", [r["controller"] for r in results],
                      "return map: open_loop (recorded times) or search (state-based)")
@@ -241,7 +284,57 @@ def write_floquet(path: Path, attrs: dict, results: list[dict], swap_motor: bool
              {"long_name": "Newton polish of the fixed point converged (1; open_loop: the "
                            "shoot's point, 1)", "units": "1"},
              stack("newton_converged", np.int8))
+        if height:
+            write_full_map(nc, results)
         D.set_global_attrs(nc, attrs)
+
+
+#: the full map's components, with units
+FULL_COMPONENTS = "y theta2 dtheta1 dtheta2"
+FULL_UNITS = "m, rad, rad s-1, rad s-1"
+FULL_NOTE = ("of the full map on the section, components (y [m]: the attached end's height "
+             "relative to the start, theta2 [rad], dtheta1 [rad s-1], dtheta2 [rad s-1])")
+
+
+def write_full_map(nc, results: list[dict]) -> None:
+    """The full map's variables of a floquet dataset (dims ``full_k``, ``full_row``,
+    ``full_col``: 4), from :func:`full_map_analysis` results."""
+    D.add_index_coord(nc, "full_k", 4, "full-map multiplier (by decreasing modulus)")
+    D.add_index_coord(nc, "full_row", 4, "full-map Jacobian row: d(y, theta2, dtheta1, "
+                      "dtheta2) after a cycle")
+    D.add_index_coord(nc, "full_col", 4, "full-map Jacobian column: d(y, theta2, dtheta1, "
+                      "dtheta2) before")
+
+    def stack(key, dtype=np.float64):
+        return np.array([r[key] for r in results], dtype=dtype)
+
+    D.add_complex(nc, "full_multipliers", ("controller", "full_k"),
+                  stack("full_multipliers", complex),
+                  "multipliers of the full map (height included) by variational equations "
+                  "(decreasing modulus)")
+    D.add_complex(nc, "full_multipliers_fd", ("controller", "full_k"),
+                  stack("full_multipliers_fd", complex),
+                  "multipliers of the full map (height included) by finite differences "
+                  "(decreasing modulus)")
+    for key, how in (("full_jacobian", "variational equations (saltation matrices at the "
+                      "events)"), ("full_jacobian_fd", "fourth-order central differences")):
+        D.add_variable(nc, key, ("controller", "full_row", "full_col"), np.float64,
+                       {"long_name": f"Jacobian by {how} " + FULL_NOTE, "units": "1",
+                        "components": FULL_COMPONENTS, "component_units": FULL_UNITS},
+                       stack(key))
+    for key, how in (("full_spectral_radius", "variational equations"),
+                     ("full_spectral_radius_fd", "finite differences")):
+        D.add_variable(nc, key, ("controller",), np.float64,
+                       {"long_name": f"spectral radius of the full map (height included) by "
+                                     f"{how}: the largest multiplier modulus", "units": "1"},
+                       stack(key))
+    D.add_variable(nc, "full_agreement", ("controller",), np.float64,
+                   {"long_name": "max |J - J_fd| / max |J| of the full map", "units": "1"},
+                   stack("full_agreement"))
+    D.add_variable(nc, "full_stable", ("controller",), np.int8,
+                   {"long_name": "every multiplier of the full map inside the unit circle (1; "
+                                 "a neutral height, multiplier 1, is not stable)", "units": "1"},
+                   stack("full_stable", np.int8))
 
 
 # --- the kind ------------------------------------------------------------------------------------
@@ -256,7 +349,9 @@ class FloquetKind(StepKind):
         Figure("multipliers", "multipliers and the unit circle",
                "The return map's Floquet multipliers in the complex plane: any outside the "
                "unit circle makes the gait unstable; variational equations (filled) and finite "
-               "differences (open) must coincide."),
+               "differences (open) must coincide. With height_in_map, a second row: the full "
+               "map's multipliers, the attached end's height included (a multiplier 1 there "
+               "is the neutral height; a catch at a sensed height makes it 0)."),
     )
 
     def check_step(self, study, index, step: FloquetStep, ref, seen) -> list:
@@ -305,7 +400,7 @@ class FloquetKind(StepKind):
         ctx.state["gait"] = g
         tasks = []
         for i, c in enumerate(controllers):
-            kw = {"fd_step": st.fd_step}
+            kw = {"fd_step": st.fd_step, "height": st.height_in_map}
             if c == "open_loop":       # the shoot's gait replayed with its times
                 kw.update(gait=open_loop_gait(g.gait, g.times), z0=list(g.z), newton=False,
                           schedule=(g.source["t_switch"], g.source["t_motor"]))
@@ -326,7 +421,10 @@ class FloquetKind(StepKind):
         if "search" in ctx.conventions.floquet_controllers:
             attrs["search_start"] = list(st.search_start)
         attrs.update(fd_step=st.fd_step, neutral_tol=NEUTRAL_TOL, controllers=controllers)
-        write_floquet(ctx.path, attrs, results, swap_motor=ctx.spec.swap_motor_times)
+        if st.height_in_map:
+            attrs.update(height_in_map=1, full_components=FULL_COMPONENTS)
+        write_floquet(ctx.path, attrs, results, swap_motor=ctx.spec.swap_motor_times,
+                      height=st.height_in_map)
         parts = []
         for r in results:
             if r["failure"]:
@@ -336,6 +434,9 @@ class FloquetKind(StepKind):
             parts.append(f"{r['controller']}: |lambda| {', '.join(f'{x:.4g}' for x in lam)} "
                          f"({'stable' if r['stable'] else 'unstable'}, agreement "
                          f"{r['agreement']:.2g})")
+            if st.height_in_map:
+                parts[-1] += (f", full map rho {r['full_spectral_radius']:.6g} (finite "
+                              f"differences {r['full_spectral_radius_fd']:.6g})")
         return "; ".join(parts)
 
     def describe(self, ds) -> list[str]:
@@ -354,13 +455,24 @@ class FloquetKind(StepKind):
             out.append(f"  finite differences |lambda| {D.moduli(lam_fd[i])}; agreement "
                        f"{float(ds['agreement'][i]):.2g}; map defect "
                        f"{float(ds['map_defect'][i]):.2g}")
-            if "t_segment" in ds:      # a cycle named per segment
-                times = ("segment exit times " + ", ".join(
-                    f"{t:.6g}" for t in ds["t_segment"].values[i]) + " s")
+            if "t_segment" in ds:       # a cycle named per segment
+                times = ", ".join(f"{t:.6g}" for t in ds["t_segment"].values[i])
+                when = (f"segment exits ({times}) s, x advance "
+                        f"{float(ds['x_advance'][i]):.6g} m")
             else:
-                times = (f"t_switch {float(ds['t_switch'][i]):.6g} s, t_motor "
-                         f"{float(ds['t_motor'][i]):.6g} s")
+                when = (f"t_switch {float(ds['t_switch'][i]):.6g} s, t_motor "
+                        f"{float(ds['t_motor'][i]):.6g} s")
             out.append(f"  fixed point (theta2, dtheta1, dtheta2) = ({fp[0]:.8g}, {fp[1]:.8g}, "
-                       f"{fp[2]:.8g}); {times}")
+                       f"{fp[2]:.8g}); {when}")
+            if int(a.get("height_in_map", 0)):
+                full = D.dataset_complex(ds, "full_multipliers")[i]
+                full_fd = D.dataset_complex(ds, "full_multipliers_fd")[i]
+                out.append(f"  full map (y, theta2, dtheta1, dtheta2): |lambda| "
+                           f"{D.moduli(full)} (finite differences {D.moduli(full_fd)}); "
+                           f"spectral radius {float(ds['full_spectral_radius'][i]):.10g} "
+                           f"(finite differences {float(ds['full_spectral_radius_fd'][i]):.10g}"
+                           f"), agreement {float(ds['full_agreement'][i]):.2g}; "
+                           f"{'stable' if int(ds['full_stable'][i]) else 'not stable'}, "
+                           f"height included")
         return out
 

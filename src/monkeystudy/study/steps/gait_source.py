@@ -205,7 +205,12 @@ def no_start_attrs(source: str | None) -> dict:
 
 
 def gait_line(a) -> str:
-    """One line naming the shoot gait a dataset's attributes say it used."""
+    """One line naming the gait a dataset's attributes say it used: a shoot step's solution
+    or a refine step's start."""
+    if "refine_step" in a and "refine_start" in a:
+        return (f"gait: start {a.get('refine_start')} of refine step {a.get('refine_step')!r}, "
+                f"({float(a['dtheta1']):.10g}, {float(a['dtheta2']):.10g}) rad s-1, error "
+                f"{float(a['gait_error']):.3g}")
     if int(a.get("solution", -1)) < 0:
         return "no shoot gait used"
     return (f"gait: solution {a.get('solution')} of {a.get('shoot_step')!r} "
@@ -248,6 +253,12 @@ def run_problems(study, index: int, step, ref, replays: bool = True) -> list:
     if replays and replay is not None and replay not in conv.replays:
         out.append((("steps", index, "replay"), f"the {conv.name} is replayed open-loop "
                     f"(replay: {replay} needs a sequence gait)"))
+    resets = [k for k, seg in enumerate(study.gait.gait().segments) if seg.clock != "keep"]
+    if (replay or conv.replay) == "open_loop" and resets and (ref is None
+                                                              or ref.kind != "design"):
+        out.append((("steps", index, "replay"), f"an open-loop replay ends every segment at "
+                    f"its recorded time on the clock of the cycle's start, and segment "
+                    f"{resets[0]} resets the clock (clock: reset): replay: gait"))
     controller = getattr(step, "controller", None)
     if controller is not None and controller.clock not in conv.clocks:
         out.append((("steps", index, "controller", "clock"), f"a {conv.name}'s clock "

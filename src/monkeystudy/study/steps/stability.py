@@ -9,6 +9,7 @@ start, the kinetic energy and the attached end's height; and a sampled trajector
 from __future__ import annotations
 
 import dataclasses
+import json
 from pathlib import Path
 from typing import Any, Literal, Optional
 
@@ -100,12 +101,30 @@ def stability_task(spec: GaitSpec, gait: SequenceGait, z0, *, times, cycles: int
     return out
 
 
+def motor_frame_torque(torque: np.ndarray, frame: np.ndarray, time: np.ndarray,
+                       t_cross: np.ndarray, gait: SequenceGait) -> np.ndarray:
+    """Sampled motor torques [N m] on ``theta2`` of the frame (``frame``: 0 hanging from A,
+    1 from B) restated in the motor frame of each sample's cycle: the frame of the end that
+    cycle started from (A for the first; for a gait whose cycle ends on B, the ends take
+    turns), so the values are the ones the study wrote
+    (:func:`~monkeystudy.controllers.motor_frame_signs`). ``time`` [s] of the samples,
+    ``t_cross`` [s] the section crossings that end the cycles (NaN: not reached)."""
+    crossings = np.sort(np.asarray(t_cross, float)[np.isfinite(t_cross)])
+    cycle = np.searchsorted(crossings, np.asarray(time, float), side="right")
+    start_frame = (cycle % 2) if gait.end_attached() == "B" else np.zeros_like(cycle)
+    torque = np.asarray(torque, float)
+    sign = np.where(np.asarray(frame) == start_frame, 1.0, -1.0)
+    return np.where(torque == 0.0, torque, sign * torque)
+
+
 # --- the dataset ---------------------------------------------------------------------------------
-def write_stability(path: Path, attrs: dict, result: dict, z, records: str) -> None:
+def write_stability(path: Path, attrs: dict, result: dict, z, records: str,
+                    torque_frame: str = "attached_end") -> None:
     """Write a stability dataset from a :func:`stability_task` result run from section state
     ``z`` (its rates [rad s-1] are the dataset's ``dtheta1``, ``dtheta2``), the cycles recorded
     at the section or from the swap (``records``, :class:`~monkeystudy.controllers.
-    SequenceGait`)."""
+    SequenceGait`); the sampled ``motor_torque`` as it is stated in ``torque_frame``
+    (``motor``: already restated by :func:`motor_frame_torque`)."""
     n = len(result["error"])
     ns = len(result["time"])
     at = "section crossing" if records == "section" else "vertical crossing"
@@ -159,8 +178,12 @@ def write_stability(path: Path, attrs: dict, result: dict, z, records: str) -> N
                        result["attached_end"], coordinates="time")
         D.add_variable(nc, "phase", ("sample",), np.int8, D.PHASE_ATTRS, result["phase"],
              coordinates="time")
+        torque_name = ("motor torque in the motor frame (the physical torque, its sign "
+                       "fixed to the links over each cycle: on theta2 of the frame of the end "
+                       "the cycle started from)" if torque_frame == "motor"
+                       else "motor torque on theta2 of the frame")
         D.add_variable(nc, "motor_torque", ("sample",), np.float64,
-             {"long_name": "motor torque on theta2 of the frame", "units": "N m"},
+             {"long_name": torque_name, "units": "N m"},
              result["motor_torque"], coordinates="time")
         D.set_global_attrs(nc, dict(attrs,
                                cycles_completed=int(result["cycles_completed"]),
@@ -214,7 +237,11 @@ class StabilityKind(StepKind):
         attrs.update(g.attrs("run", t_segment=r["t_segment"]),
                      controller={"tick": kw["tick"], "clock": g.clock},
                      sample_dt=kw["sample_dt"], max_drop=kw["max_drop"], cycles=kw["cycles"])
-        write_stability(ctx.path, attrs, r, g.z, g.gait.records)
+        frame = ctx.spec.torque_frame
+        if frame == "motor":
+            r = dict(r, motor_torque=motor_frame_torque(r["motor_torque"], r["attached_end"],
+                                                        r["time"], r["t_cross"], g.gait))
+        write_stability(ctx.path, attrs, r, g.z, g.gait.records, frame)
         return f"{r['cycles_completed']} cycles, status {STATUS_NAMES[r['status']]}"
 
     def describe(self, ds) -> list[str]:
@@ -231,8 +258,16 @@ class StabilityKind(StepKind):
             lines.append(f"pivot height: first {ph[0]:.4g} m, last "
                          f"{ph[np.isfinite(ph)][-1]:.4g} m")
         # times on a tick are differences of tick instants: 12 digits hide the last-bit noise
-        lines.append(f"replayed t_switch {_seconds(a.get('t_switch'))} s, t_motor "
-                     f"{_seconds(a.get('t_motor'))} s, controller {a.get('controller')}")
+        if "t_switch" in a:
+            lines.append(f"replayed t_switch {_seconds(a.get('t_switch'))} s, t_motor "
+                         f"{_seconds(a.get('t_motor'))} s, controller {a.get('controller')}")
+        else:                          # a sequence gait: its cycle's segment exits
+            recorded = a.get("t_segment", [])
+            if isinstance(recorded, str):     # a list attribute is stored as JSON
+                recorded = json.loads(recorded)
+            times = ", ".join(_seconds(t) for t in np.atleast_1d(recorded))
+            lines.append(f"{a.get('replay')} replay, its cycle's segment exits ({times}) s, "
+                         f"controller {a.get('controller')}")
         if int(a.get("vertical_passes_before_swap", -1)) >= 0:
             lines.append(f"the replayed gait {gait_kind_text(int(a['vertical_passes_before_swap']))}")
         return lines

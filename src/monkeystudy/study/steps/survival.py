@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Annotated, Literal, Optional, Union
+from typing import Annotated, ClassVar, Literal, Optional, Union
 
 import numpy as np
 from pydantic import BeforeValidator, Field, model_validator
@@ -81,7 +81,12 @@ SOURCES = (
      "perturbation of the start's dtheta1"),
     (("initial_state", "dtheta2"), "dtheta2", "rad s-1",
      "perturbation of the start's dtheta2"),
+    (("latency",), "latency", "s", "actuation latency, drawn once per run uniformly on [0, "
+     "value): the upper end of its range"),
 )
+
+#: sources whose value is not a draw's scale of the step's distribution
+UNIFORM_PER_RUN = ("latency",)
 
 
 def _level_field(description: str, bound: float | None = None):
@@ -129,6 +134,12 @@ class NoiseSpec(StrictModel):
     torque: Level = _level_field("relative torque error of each motor pulse [1]", 1.0)
     parameters: ParameterNoise = Field(default_factory=ParameterNoise)
     initial_state: InitialNoise = Field(default_factory=InitialNoise)
+    latency: Level = _level_field("actuation latency [s]: each run draws one value uniformly "
+                                  "on [0, latency) (uniform whatever the distribution: a "
+                                  "build's actuator delay), added to the delay of every magnet "
+                                  "and motor action of the run, before the jitter", 1.0)
+
+    recorded_when_set: ClassVar[frozenset[str]] = frozenset({"latency"})
 
     def value(self, path: tuple) -> Level:
         node = self
@@ -145,7 +156,7 @@ class NoiseSpec(StrictModel):
                 lengths[".".join(path)] = len(v)
         for path, _, _, _ in SOURCES:
             bound = {"timing": 1.0, "torque": 1.0, "mass": 0.5, "com": 0.5,
-                     "inertia": 0.5}.get(path[-1])
+                     "inertia": 0.5, "latency": 1.0}.get(path[-1])
             v = self.value(path)
             if bound is not None and max(v if isinstance(v, list) else [v]) > bound:
                 raise ValueError(f"noise.{'.'.join(path)} must be <= {bound}")
@@ -205,6 +216,13 @@ class SurvivalStep(StrictModel):
                                     "(default: the lowest error)")
     start_index: Optional[int] = Field(None, ge=0, description="which start of a refine step "
                                        "(default: the lowest error)")
+    height_tolerance: Optional[float] = Field(None, gt=0, description="report, per noise "
+                                              "level, the fraction of the runs that completed "
+                                              "max_cycles whose attached end ended within this "
+                                              "of its start height [m] (default: not reported; "
+                                              "every run's height_drift is written)")
+
+    recorded_when_set: ClassVar[frozenset[str]] = frozenset({"height_tolerance"})
 
     @property
     def n_levels(self) -> int:
@@ -232,7 +250,7 @@ def survival_block(spec: GaitSpec, start: GaitStart, runs: np.ndarray, *, noise:
     """Runs number ``runs`` of the start's gait under ``noise`` (a :class:`~monkeystudy.
     analysis.survival.Noise` as a mapping), on its robot: per run the cycles completed, why it
     stopped, the distance travelled [m], the time [s] and error at its last completed cycle,
-    its RHS evaluations."""
+    its RHS evaluations, the attached end's height change there [m]."""
     controller, hyb, section = survival_controller(start, tick=tick,
                                                    integrator=spec.integrator)
     r = survival_runs(controller, hyb, start.z[-3:], runs=runs, max_cycles=max_cycles,
@@ -240,7 +258,8 @@ def survival_block(spec: GaitSpec, start: GaitStart, runs: np.ndarray, *, noise:
                       integrator=spec.integrator, error_bound=error_bound,
                       min_advance=min_advance, max_drop=max_drop, section=section)
     return {"cycles": r.cycles.astype(np.int64), "failure": r.failure.astype(np.int8),
-            "distance": r.distance, "time": r.time, "error": r.error, "nfev": r.nfev}
+            "distance": r.distance, "time": r.time, "error": r.error, "nfev": r.nfev,
+            "height": r.height}
 
 
 # --- the dataset ---------------------------------------------------------------------------------
@@ -253,6 +272,16 @@ def level_summary(cycles: np.ndarray, failure: np.ndarray, distance: np.ndarray,
     advance = float(distance.sum() / total) if total else math.nan
     return {"mfpt": m, "advance": advance,
             "counts": np.array([int(np.sum(failure == c)) for c in FAILURE_CODES], np.int64)}
+
+
+def height_within(height_drift: np.ndarray, failure: np.ndarray, tolerance: float) -> float:
+    """The fraction of the runs that completed their cycles (``failure`` ok) whose attached
+    end ended within ``tolerance`` [m] of its start height (``height_drift`` [m]); NaN when no
+    run completed them."""
+    done = failure == L.ST_OK
+    if not done.any():
+        return math.nan
+    return float(np.mean(np.abs(height_drift[done]) <= tolerance))
 
 
 def write_survival(path: Path, attrs: dict, step: SurvivalStep, arrays: dict) -> None:
@@ -273,10 +302,10 @@ def write_survival(path: Path, attrs: dict, step: SurvivalStep, arrays: dict) ->
         D.add_label_coord(nc, "failure_mode", list(FAILURE_NAMES),
                           "why a run stopped (survived: it completed max_cycles)")
         for i, (path_, name, units, what) in enumerate(SOURCES):
+            shape = ("" if name in UNIFORM_PER_RUN else " (standard deviation)"
+                     if step.noise.distribution == "gaussian" else " (half-width of a uniform)")
             D.add_variable(nc, f"noise_{name}", ("level",), np.float64,
-                           {"long_name": what + (" (standard deviation)" if
-                                                 step.noise.distribution == "gaussian"
-                                                 else " (half-width of a uniform)"),
+                           {"long_name": what + shape,
                             "units": units, "key": "noise." + ".".join(path_)},
                            [step.noise.level(k).to_dict()[name] for k in range(n_levels)])
         D.add_variable(nc, "cycles_completed", ("level", "run"), np.int64,
@@ -293,6 +322,18 @@ def write_survival(path: Path, attrs: dict, step: SurvivalStep, arrays: dict) ->
         D.add_variable(nc, "time_survived", ("level", "run"), np.float64,
                        {"long_name": "time of the last completed cycle's end", "units": "s"},
                        arrays["time"])
+        D.add_variable(nc, "height_drift", ("level", "run"), np.float64,
+                       {"long_name": "height of the attached end at the last completed cycle's "
+                                     "end less its height at the start (after max_cycles for "
+                                     "a run that completed them; 0 when none completed)",
+                        "units": "m"}, arrays["height"])
+        if step.height_tolerance is not None:
+            D.add_variable(nc, "height_within_tolerance", ("level",), np.float64,
+                           {"long_name": "fraction of the runs that completed max_cycles whose "
+                                         "height_drift is within height_tolerance (attribute) "
+                                         "of 0", "units": "1"},
+                           [height_within(arrays["height"][i], arrays["failure"][i],
+                                          step.height_tolerance) for i in range(n_levels)])
         D.add_variable(nc, "final_error", ("level", "run"), np.float64,
                        {"long_name": "section error against the gait at the last completed "
                                      "cycle's end (at the start when none completed)",
@@ -362,6 +403,11 @@ class SurvivalKind(StepKind):
         Figure("failure_modes", "how the runs ended",
                "For each noise level, the share of runs by the way they stopped: fell, no "
                "swap, missed return, error bound, or survived all cycles."),
+        Figure("height_drift", "height change of each run",
+               "How far each run that completed all its cycles ended above or below its "
+               "start height, a histogram per noise level, with the tolerance when the step "
+               "sets one: a gait whose height is neutral wanders off, one that senses its "
+               "height stays within millimetres."),
         Figure("mfpt_comparison", "MFPT of every gait against noise",
                "Every survival step of the study on one axis: which gait lasts longest at "
                "each noise level.", across=True),
@@ -442,7 +488,7 @@ class SurvivalKind(StepKind):
         n = st.n_levels * st.runs
         arrays = {"cycles": np.empty(n, np.int64), "failure": np.empty(n, np.int8),
                   "distance": np.empty(n), "time": np.empty(n), "error": np.empty(n),
-                  "nfev": np.empty(n, np.int64)}
+                  "nfev": np.empty(n, np.int64), "height": np.empty(n)}
         for b in ctx.blocks:
             got = ctx.block_arrays(b)
             for k in arrays:
@@ -459,6 +505,8 @@ class SurvivalKind(StepKind):
                      min_advance=kw["min_advance"],
                      max_drop=kw["max_drop"], noise_distribution=st.noise.distribution,
                      swept=st.noise.swept(), n_blocks=len(ctx.blocks))
+        if st.height_tolerance is not None:
+            attrs["height_tolerance"] = st.height_tolerance
         if gait.robot is not ctx.spec.robot:
             # the runs used their source's robot (a design's): the dataset names it
             attrs["robot"] = robot_attr(ctx.spec.robot, gait.robot, st.from_)
@@ -491,7 +539,26 @@ class SurvivalKind(StepKind):
             walked = (f", {distance:.4g} m walked on average before a failure"
                       if math.isfinite(distance) else "")
             lines.append(f"level {i} ({noise}): MFPT {mfpt_text(m)}{walked}; runs: {ended}")
+            if "height_drift" in ds:
+                lines.append("  " + height_text(ds, i))
         return lines
+
+
+def height_text(ds, level: int) -> str:
+    """The height change of one level's completed runs, as ``inspect`` prints it."""
+    done = np.asarray(ds["failure"].values[level]) == L.ST_OK
+    drift = np.asarray(ds["height_drift"].values[level], float)[done]
+    if drift.size == 0:
+        return "height: no run completed max_cycles"
+    lo, med, hi = np.quantile(drift, [0.025, 0.5, 0.975])
+    out = (f"height after {ds.attrs.get('max_cycles')} cycles ({drift.size} completed runs): "
+           f"median {med * 1e3:+.3g} mm, 95 % of runs in [{lo * 1e3:+.3g}, {hi * 1e3:+.3g}] "
+           f"mm, largest |change| {np.abs(drift).max() * 1e3:.3g} mm")
+    if "height_within_tolerance" in ds:
+        tol = float(ds.attrs["height_tolerance"])
+        out += (f"; within +-{tol * 1e3:g} mm: "
+                f"{100 * float(ds['height_within_tolerance'][level]):.4g} %")
+    return out
 
 
 def mfpt_text(m: MFPT) -> str:
