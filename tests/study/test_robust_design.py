@@ -206,10 +206,10 @@ def _by_gid(fig, gid: str):
 def test_the_figures_show_the_full_map_the_motor_frame_torque_and_the_height(small):
     import matplotlib.pyplot as plt
 
-    from monkeystudy.plotting.analysis import plot_floquet_multipliers
+    from monkeystudy.plotting.kinds.floquet import plot_floquet_multipliers
     from monkeystudy.plotting.cycles import plot_pivot_height
     from monkeystudy.plotting.gait import plot_filmstrip
-    from monkeystudy.plotting.survival import plot_height_drift
+    from monkeystudy.plotting.kinds.survival import plot_height_drift
 
     data = small[1]
     fl = data["floquet"]

@@ -278,7 +278,7 @@ def height_within(height_drift: np.ndarray, failure: np.ndarray, tolerance: floa
     """The fraction of the runs that completed their cycles (``failure`` ok) whose attached
     end ended within ``tolerance`` [m] of its start height (``height_drift`` [m]); NaN when no
     run completed them."""
-    done = failure == L.ST_OK
+    done = failure == Status.OK
     if not done.any():
         return math.nan
     return float(np.mean(np.abs(height_drift[done]) <= tolerance))
@@ -527,7 +527,8 @@ class SurvivalKind(StepKind):
                  f"cycles, seed {a.get('seed')}; swept: {swept}"]
         modes = [str(x) for x in ds["failure_mode"].values]
         for i in range(ds.sizes["level"]):
-            noise = ", ".join(f"{v[6:]} {float(ds[v][i]):.3g} {ds[v].attrs['units']}"
+            noise = ", ".join(f"{v[6:]} {float(ds[v][i]):.3g}"
+                              + ("" if ds[v].attrs["units"] == "1" else f" {ds[v].attrs['units']}")
                               for v in ds.data_vars if v.startswith("noise_")
                               and float(ds[v][i]) > 0) or "no noise"
             m = MFPT(float(ds["mfpt"][i]), float(ds["mfpt_low"][i]), float(ds["mfpt_high"][i]),
@@ -546,7 +547,7 @@ class SurvivalKind(StepKind):
 
 def height_text(ds, level: int) -> str:
     """The height change of one level's completed runs, as ``inspect`` prints it."""
-    done = np.asarray(ds["failure"].values[level]) == L.ST_OK
+    done = np.asarray(ds["failure"].values[level]) == Status.OK
     drift = np.asarray(ds["height_drift"].values[level], float)[done]
     if drift.size == 0:
         return "height: no run completed max_cycles"
