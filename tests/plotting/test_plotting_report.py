@@ -357,9 +357,11 @@ def test_an_interrupted_report_leaves_no_half_written_file_and_resumes(study_dir
     assert len(json.loads((figs / MANIFEST).read_text())["figures"]) == len(STILLS)
 
 
-def test_ctrl_c_stops_the_drawing_processes_and_their_files(study_dir, monkeypatch):
+@pytest.mark.parametrize("deaf", [False, True], ids=["stops_on_sigterm", "killed"])
+def test_ctrl_c_stops_the_drawing_processes_and_their_files(study_dir, monkeypatch, deaf):
     """With figures drawn on worker processes, Ctrl-C (SIGINT to the report) stops them all:
-    the file a worker was writing is removed, and no worker is left running."""
+    the file a worker was writing is removed, and no worker is left running -- also one that
+    does not answer SIGTERM (``deaf``: as if stuck in native code), killed after the grace."""
     import signal
     import threading
     import time
@@ -370,6 +372,8 @@ def test_ctrl_c_stops_the_drawing_processes_and_their_files(study_dir, monkeypat
     started = study_dir / "started"
 
     def slow(d):                    # a drawing caught in the middle of writing its file
+        if deaf:
+            signal.signal(signal.SIGTERM, signal.SIG_IGN)
         with atomic_path(study_dir / "figures" / "slow.png") as tmp:
             tmp.write_bytes(b"partial")
             started.write_text(str(os.getpid()))

@@ -369,6 +369,33 @@ def spectral_radius(J: np.ndarray, steps: int) -> float:
     return float(np.max(np.abs(np.linalg.eigvals(J)))) ** (1.0 / steps)
 
 
+def motor_frame_pulses(values: Mapping[str, float]) -> list[tuple[float, float, float]]:
+    """A design's pulses in the motor frame: ``(from [s], to [s], torque [N m])`` of the
+    cycle's first step, times from the vertical crossing.
+
+    A design states each pulse as the kernel applies it, on theta2 of the frame of the end
+    attached at the time; theta2 changes sign at the swap (``t_switch``), so the part of a
+    pulse after the swap is the opposite physical torque: it is returned as a pulse of its
+    own, its torque negated (the motor frame is the frame of the end attached at the step's
+    start). ``motor_start`` and ``pulse2_start`` count from the swap.
+    """
+    ts = values["t_switch"]
+    kernel = [(ts + values["motor_start"], ts + values["motor_start"] + values["t_motor"],
+               values["torque"])]
+    if values.get("pulse2_duration", 0.0) > 0 and values.get("pulse2_torque", 0.0) != 0:
+        on = ts + values["pulse2_start"]
+        kernel.append((on, on + values["pulse2_duration"], values["pulse2_torque"]))
+    out = []
+    for a, b, tau in kernel:
+        if b <= a or tau == 0:
+            continue
+        if a < ts:
+            out.append((a, min(b, ts), tau))
+        if b > ts:
+            out.append((max(a, ts), b, -tau))
+    return sorted(out)
+
+
 def evaluate_design(space: DesignSpace, free: Mapping[str, float], z0,
                     *, variational: bool = False) -> DesignResult:
     """Solve a design's gait from the section-state guess ``z0`` and measure its stability.

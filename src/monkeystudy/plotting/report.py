@@ -462,6 +462,10 @@ def report_study(study_dir: Path, *, force: bool = False,
     try:
         run_jobs(order, run_one, handle, workers or available_cores())
     except KeyboardInterrupt:
+        # a drawing process killed while writing leaves its temporary file (.<name>.*)
+        for tmp in fig_dir.glob(".*"):
+            if tmp.is_file():
+                tmp.unlink(missing_ok=True)
         left = len(todo) - counts["drawn"] - counts["skipped"] - len(failures)
         raise ReportInterrupted(written, left) from None
     drawn, skipped = counts["drawn"], counts["skipped"]

@@ -10,8 +10,9 @@ report's manifest), so a worker never races another for them.
 Workers are forked, so they share the caller's loaded modules and the job list without
 pickling either; only the events cross the process boundary. They ignore Ctrl-C (the whole
 terminal's process group receives it): the caller stops them with SIGTERM, which each turns
-into ``SystemExit`` so that the file being written is removed by its ``finally`` clause, and
-then re-raises the ``KeyboardInterrupt``. A worker that dies fails the job it held; the other
+into ``SystemExit`` so that the file being written is removed by its ``finally`` clause, kills
+one still running after :data:`STOP_GRACE` (the report then removes the temporary file it
+left), and re-raises the ``KeyboardInterrupt``. A worker that dies fails the job it held; the other
 jobs go on. Where ``fork`` is not available, or with one worker or one job, the jobs run one
 after the other in the calling process, with the same events.
 """
@@ -21,6 +22,7 @@ import multiprocessing as mp
 import os
 import queue
 import signal
+import time
 import traceback
 from typing import Any, Callable, Sequence
 
@@ -31,6 +33,8 @@ Handle = Callable[[int, str, Any], None]
 
 #: how often the calling process looks for a worker that died [s]
 POLL = 0.2
+#: how long a worker stopped with SIGTERM may take to clean up before it is killed [s]
+STOP_GRACE = 5.0
 
 
 def available_cores() -> int:
@@ -118,14 +122,25 @@ def _run_forked(order: list[int], run_one: RunOne, handle: Handle, n: int) -> No
     except BaseException:
         # Ctrl-C (or a failure in ``handle``): stop the workers; each removes the file it
         # was writing on its way out
-        for p in procs:
-            if p.is_alive():
-                p.terminate()
-        for p in procs:
-            p.join()
+        stop(procs)
         raise
     for p in procs:
         p.join()
+
+
+def stop(procs) -> None:
+    """Stop the workers: SIGTERM (each removes the file it was writing), then, for one still
+    running after :data:`STOP_GRACE`, SIGKILL (the caller removes what it left)."""
+    for p in procs:
+        if p.is_alive():
+            p.terminate()
+    deadline = time.monotonic() + STOP_GRACE
+    for p in procs:
+        p.join(max(0.0, deadline - time.monotonic()))
+    for p in procs:
+        if p.is_alive():
+            p.kill()
+            p.join()
 
 
 def _dead_workers(procs, running: dict[int, int], remaining: set[int],

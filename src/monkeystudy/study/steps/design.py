@@ -28,8 +28,8 @@ from pydantic import Field, field_validator, model_validator
 
 from ...analysis.design import (
     BALANCES, CLOCKS, DESIGN_OK, OBJECTIVES, PARAMETERS, STATUS_NAMES, DesignResult,
-    DesignSpace, design_basin, design_cycle_run, evaluate_design, perturbation_decay,
-    replay_design, with_variational,
+    DesignSpace, design_basin, design_cycle_run, evaluate_design, motor_frame_pulses,
+    perturbation_decay, replay_design, with_variational,
 )
 from ...simulation import Status
 from .. import datasets as D
@@ -747,12 +747,25 @@ class DesignKind(StepKind):
                 f"best: {best}; rho {float(a['best_spectral_radius']):.6g} (variational), "
                 f"{float(a['best_spectral_radius_fd']):.6g} (fd); grid min "
                 f"{float(a['grid_min_spectral_radius']):.6g}",
+                "best in the motor frame (the sign fixed to the links; times from "
+                + ("the clock's phase zero" if a.get("clock") == "run_on" else "the vertical")
+                + "): "
+                + "; ".join(f"{tau:+.4g} N m from {t0:.4g} s for {t1 - t0:.4g} s"
+                            for t0, t1, tau in motor_frame_pulses(best_schedule(a)))
+                + f"; swap at {float(a['best_t_switch']):.4g} s",
                 f"replays: {', '.join(str(int(c)) for c in ds['cycles_completed'].values)} "
                 f"cycles within the error bound"
                 + (f", {', '.join(str(int(c)) for c in ds['cycles_walked'].values)} walked"
                    if "cycles_walked" in ds else "")
                 + f" (tick {', '.join(f'{float(t):g}' for t in ds['replay_tick'].values)} "
                 f"s); {a.get('verdict')}"]
+
+
+def best_schedule(attrs) -> dict[str, float]:
+    """The best design's schedule from a design dataset's ``best_*`` attributes."""
+    keys = ("t_switch", "motor_start", "t_motor", "torque", "pulse2_start", "pulse2_duration",
+            "pulse2_torque")
+    return {k: float(attrs["best_" + k]) for k in keys if "best_" + k in attrs}
 
 
 def json_list(text) -> list:

@@ -1,0 +1,143 @@
+"""The numbers docs/findings.md section 6 states about the designed gaits, from a run of
+``studies/open_loop_design.yaml``.
+
+Usage::
+
+    monkeystudy run studies/open_loop_design.yaml
+    python tools/design_checks.py outputs/open_loop_design
+
+Prints, for every design step's best design: its torque profile in the motor frame (the
+physical torque, its sign fixed to the links: the kernel applies a pulse on theta2 of the
+frame of the end attached at the time, and theta2 changes sign at the swap, so a pulse that
+runs across the swap is the opposite physical torque after it); for ``as_built``: the
+multipliers and period as the dataset holds them, a start 0.05 rad/s off in dtheta1 (the next
+cycle's dtheta1 and the height of the new hold, by the return map with the height in it), the
+free end's rise above the wall line and its velocity at the catch; for ``as_built_clock``: the
+same schedule under the restarting clock. Times are from the vertical crossing [s], torques in
+N m.
+"""
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from monkeystudy.analysis import cycle_full_map
+from monkeystudy.analysis.variational import sequence_variational_jacobian
+from monkeystudy.analysis.design import (
+    DesignSpace, design_cycle_run, evaluate_design, motor_frame_pulses, with_variational,
+)
+from monkeystudy.robot import P_L1, P_L2, Robot
+from monkeystudy.simulation import StateIndex as S, physical_points
+
+SCHEDULE = ("t_switch", "motor_start", "t_motor", "torque", "pulse2_start",
+            "pulse2_duration", "pulse2_torque")
+
+
+def best_values(attrs) -> dict[str, float]:
+    """The best design's schedule and robot values (dataset attributes ``best_*``)."""
+    return {k[5:]: float(v) for k, v in attrs.items()
+            if k.startswith("best_") and k[5:] in SCHEDULE + ("com", "inertia", "mass_ratio",
+                                                              "length_ratio")}
+
+
+def profile_text(v: dict[str, float]) -> str:
+    parts = [f"{tau:+.4f} N m from {a:.4f} s for {b - a:.4g} s"
+             for a, b, tau in motor_frame_pulses(v)]
+    return "; ".join(parts) + f" (the swap at {v['t_switch']:.4f} s)"
+
+
+def space_of(ds, values) -> DesignSpace:
+    a = ds.attrs
+    clock = str(a.get("clock", "reset_at_vertical"))
+    return DesignSpace(Robot.preset("seed2009"), base=values,
+                       balance=str(a.get("balance", "t_switch")), clock=clock)
+
+
+def as_built_checks(ds) -> None:
+    a = ds.attrs
+    v = best_values(a)
+    lam = ds["best_multipliers_real"].values + 1j * ds["best_multipliers_imag"].values
+    print(f"  multipliers {np.array2string(lam, precision=7)}; period {a['best_period']:.6f} s")
+    space = DesignSpace(Robot.preset("seed2009"), base=v, balance="t_switch")
+    gait = space.gait(space.values())
+    w = np.array([0.0, a["best_theta2"], a["best_dtheta1"], a["best_dtheta2"]])
+    jac = sequence_variational_jacobian(gait, w, height=True)
+    for d in (0.05, -0.05):
+        p, _ = cycle_full_map(w + [0.0, 0.0, d, 0.0], gait)
+        print(f"  start dtheta1 {d:+.2f} rad/s: next dtheta1 {p[2] - w[2]:+.6f} rad/s from the "
+              f"gait's (linear {jac[2, 2] * d:+.6f}), the new hold {1e3 * p[0]:+.3f} mm")
+    run_on = DesignSpace(Robot.preset("seed2009"), base=v, balance="t_switch", clock="run_on")
+    clocked = with_variational(run_on, evaluate_design(run_on, {}, w[1:]))
+    print(f"  with the clock running on: rho {clocked.spectral_radius:.6f} (finite differences "
+          f"{clocked.spectral_radius_fd:.6f})")
+    res = evaluate_design(space, {}, [a["best_theta2"], a["best_dtheta1"], a["best_dtheta2"]])
+    run = design_cycle_run(space, res, sample_dt=1e-5)
+    pts = physical_points(run.params, run.sample_state, run.sample_flipped)
+    b = pts["B"]
+    held = np.flatnonzero(run.sample_flipped > 0)
+    i = int(held[0]) - 1                            # the last sample before the catch
+    rise = float(b[: i + 1, 1].max())
+    # B's velocity from the state (frame of A, still attached): d/dt of its position
+    th1, th2, w1, w2 = (run.sample_state[i, k] for k in (S.THETA1, S.THETA2, S.THETA1_DOT,
+                                                          S.THETA2_DOT))
+    l1, l2 = run.params[0][P_L1], run.params[0][P_L2]
+    v_catch = (l1 * math.cos(th1) * w1 + l2 * math.cos(th1 + th2) * (w1 + w2),
+               l1 * math.sin(th1) * w1 + l2 * math.sin(th1 + th2) * (w1 + w2))
+    print(f"  free end B: highest {1e3 * rise:.3f} mm above the wall line (t = "
+          f"{run.sample_t[int(np.argmax(b[: i + 1, 1]))]:.4f} s); at the catch (t = "
+          f"{run.sample_t[i]:.4f} s) moving at v_x {v_catch[0]:+.3f}, v_y {v_catch[1]:+.4f} m/s")
+
+
+def before_the_swap(ds) -> None:
+    """The least rho on the grid among the designs whose pulse ends by the swap (no reversal
+    in the motor frame)."""
+    r = ds["spectral_radius"]
+    ends = ds["motor_start"] + ds["t_motor"]            # relative to the swap [s]
+    r = r.where((ends <= 0) & np.isfinite(r))
+    if not np.isfinite(r).any():
+        print("  no grid design whose pulse ends by the swap has a gait")
+        return
+    i = np.unravel_index(int(np.nanargmin(r.values)), r.shape)
+    at = {d: float(ds[d].values[k]) for d, k in zip(r.dims, i)}
+    print(f"  least rho of a grid design whose pulse ends by the swap: {float(r.values[i]):.4f} "
+          f"(" + ", ".join(f"{k} {v:+.4g}" for k, v in at.items()) + ")")
+
+
+def restarting_clock_check(ds) -> None:
+    a = ds.attrs
+    v = best_values(a)
+    space = DesignSpace(Robot.preset("seed2009"), base=v, balance="t_switch",
+                        clock="reset_at_vertical")
+    z = [a["best_theta2"], a["best_dtheta1"], a["best_dtheta2"]]
+    res = with_variational(space, evaluate_design(space, {}, z))
+    print(f"  under the restarting clock: rho {res.spectral_radius:.6f} (finite differences "
+          f"{res.spectral_radius_fd:.6f}), multipliers "
+          f"{np.array2string(res.multipliers, precision=4)}")
+
+
+def main(folder: str) -> int:
+    folder = Path(folder)
+    for path in sorted(folder.glob("*.nc")):
+        with xr.open_dataset(path) as ds:
+            if ds.attrs.get("step_kind") != "design" or "best_t_switch" not in ds.attrs:
+                continue
+            ds.load()
+        v = best_values(ds.attrs)
+        print(f"{path.stem}: rho {ds.attrs['best_spectral_radius']:.6f}; motor frame: "
+              f"{profile_text(v)}")
+        if path.stem == "as_built":
+            as_built_checks(ds)
+            before_the_swap(ds)
+        if path.stem == "as_built_clock":
+            restarting_clock_check(ds)
+    return 0
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 2:
+        raise SystemExit(__doc__)
+    raise SystemExit(main(sys.argv[1]))
