@@ -241,3 +241,24 @@ steps:
 """)
     assert {"f_multipliers", "c_filmstrip", "c_height", "s_height_drift",
             "s_mfpt"} <= set(out.drawn)
+
+
+def test_grazing_shoot_on_links_that_are_not_mirror_images(tmp_path):
+    """Found by the property test: the shoot step's grazing solution measured its error with
+    the one-cycle return map, which refuses links that are not mirror images (ValueError, the
+    run failed). Its error is now the gait's error of its motorless replay, as the grid's."""
+    out = report(tmp_path, """\
+robot:
+  name: drawn
+  gravity: 3.0
+  links:
+    - {mass: 1.0, length: 0.5, com: 0.25, inertia: 0.0625}
+    - {mass: 1.0, length: 1.0, com: 0.5, inertia: 0.25}
+gait: {kind: horizontal, motor_torque: -1.0, tick: 0.0}
+steps:
+  - {name: map, kind: grid, points: [[0.0, 4.0]]}
+  - {name: exact, kind: shoot, starts: [[0.0, 4.886]], method: grazing, max_iter: 1}
+""", max_time=1.0)
+    assert out.refused is None
+    with xr.open_dataset(out.folder / "exact.nc") as ds:
+        assert ds.sizes["solution"] == 1
