@@ -26,7 +26,8 @@ from matplotlib.patches import Patch
 from .cycles import gait_text, own_controller, stop_note
 from .drawing import NothingToDraw
 from .common import (
-    BLUE, GREEN, PURPLE, VERMILLION, atomic_path, link_lengths, new_figure, run_label, style,
+    BLUE, GREEN, ORANGE, PURPLE, VERMILLION, atomic_path, link_lengths, new_figure, run_label,
+    style,
 )
 
 PHASE_SWING, PHASE_FLIGHT, PHASE_FIXED = 0, 1, 2
@@ -36,7 +37,7 @@ STAGES = {
     "A": (BLUE, "hanging from A, motor off"),
     "B": (GREEN, "hanging from B, motor off"),
     "A+motor": (VERMILLION, "hanging from A, motor on"),
-    "B+motor": (VERMILLION, "hanging from B, motor on"),
+    "B+motor": (ORANGE, "hanging from B, motor on"),     # told apart from A's in the legend
     "flight": (PURPLE, "free flight"),
     "fixed": ("0.45", "both ends attached"),
 }
