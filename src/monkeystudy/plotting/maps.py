@@ -118,19 +118,25 @@ def cell_edges(v: np.ndarray) -> np.ndarray:
     return np.concatenate([[v[0] - (mid[0] - v[0])], mid, [v[-1] + (v[-1] - mid[-1])]])
 
 
-def mask_path(mask: np.ndarray, e1: np.ndarray, e2: np.ndarray) -> MplPath:
-    """One compound path of the cells where ``mask[i1, i2]`` (x = dtheta1, y = dtheta2),
-    consecutive cells along dtheta2 merged into one rectangle."""
-    verts, codes = [], []
+def cell_runs(mask: np.ndarray, e1: np.ndarray, e2: np.ndarray):
+    """``(x0, x1, y0, y1)`` of each run of consecutive cells along dtheta2 where
+    ``mask[i1, i2]`` (cell edges ``e1``, ``e2``), column by column."""
     for i in range(mask.shape[0]):
         col = np.concatenate([[False], mask[i], [False]])
         starts = np.flatnonzero(~col[:-1] & col[1:])
         stops = np.flatnonzero(col[:-1] & ~col[1:])
         for a, b in zip(starts, stops):
-            x0, x1, y0, y1 = e1[i], e1[i + 1], e2[a], e2[b]
-            verts += [(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)]
-            codes += [MplPath.MOVETO, MplPath.LINETO, MplPath.LINETO, MplPath.LINETO,
-                      MplPath.CLOSEPOLY]
+            yield e1[i], e1[i + 1], e2[a], e2[b]
+
+
+def mask_path(mask: np.ndarray, e1: np.ndarray, e2: np.ndarray) -> MplPath:
+    """One compound path of the cells where ``mask[i1, i2]`` (x = dtheta1, y = dtheta2),
+    consecutive cells along dtheta2 merged into one rectangle."""
+    verts, codes = [], []
+    for x0, x1, y0, y1 in cell_runs(mask, e1, e2):
+        verts += [(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)]
+        codes += [MplPath.MOVETO, MplPath.LINETO, MplPath.LINETO, MplPath.LINETO,
+                  MplPath.CLOSEPOLY]
     return MplPath(np.array(verts, float).reshape(-1, 2), codes)
 
 
@@ -590,14 +596,8 @@ def plot_error_surface(grid, *, max_cells: int = 250, cmap: str = "magma",
 def floor_tiles(mask: np.ndarray, e1: np.ndarray, e2: np.ndarray) -> Poly3DCollection:
     """Flat tiles at height 0 over the cells of the points where ``mask[i1, i2]``
     (consecutive cells along dtheta2 merged into one tile)."""
-    tiles = []
-    for i in range(mask.shape[0]):
-        col = np.concatenate([[False], mask[i], [False]])
-        starts = np.flatnonzero(~col[:-1] & col[1:])
-        stops = np.flatnonzero(col[:-1] & ~col[1:])
-        for a, b in zip(starts, stops):
-            x0, x1, y0, y1 = e1[i], e1[i + 1], e2[a], e2[b]
-            tiles.append([(x0, y0, 0.0), (x1, y0, 0.0), (x1, y1, 0.0), (x0, y1, 0.0)])
+    tiles = [[(x0, y0, 0.0), (x1, y0, 0.0), (x1, y1, 0.0), (x0, y1, 0.0)]
+             for x0, x1, y0, y1 in cell_runs(mask, e1, e2)]
     return Poly3DCollection(tiles, linewidths=0.0)
 
 

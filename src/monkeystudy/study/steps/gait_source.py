@@ -527,6 +527,14 @@ def floquet_controllers(path: Path) -> list[str]:
         return [str(x) for x in np.atleast_1d(nc.variables["controller"][...])]
 
 
+def controller_row(nc, path: Path, controller: str) -> int:
+    """The row of ``controller`` in an open floquet dataset ``nc`` (read from ``path``)."""
+    labels = [str(x) for x in np.atleast_1d(nc.variables["controller"][...])]
+    if controller not in labels:
+        raise ValueError(f"{Path(path).name} has no {controller} controller")
+    return labels.index(controller)
+
+
 def read_floquet_point(path: Path, controller: str) -> dict:
     """One controller's analysed point of a floquet dataset: ``{fixed_point (3,), map_defect,
     newton_converged, t_switch, t_motor [s], motor_torque [N m], failure}`` (``newton_converged``
@@ -534,10 +542,7 @@ def read_floquet_point(path: Path, controller: str) -> dict:
     why the map was not analysed, empty when it was)."""
     with netCDF4.Dataset(path, "r") as nc:
         nc.set_auto_mask(False)
-        labels = [str(x) for x in np.atleast_1d(nc.variables["controller"][...])]
-        if controller not in labels:
-            raise ValueError(f"{Path(path).name} has no {controller} controller")
-        i = labels.index(controller)
+        i = controller_row(nc, path, controller)
         out = {"fixed_point": np.array(nc.variables["fixed_point"][i, :], float),
                "map_defect": float(nc.variables["map_defect"][i])}
         nc_conv = nc.variables.get("newton_converged")
@@ -553,10 +558,7 @@ def read_floquet_multipliers(path: Path, controller: str) -> np.ndarray:
     """The variational multipliers of one controller of a floquet dataset (complex)."""
     with netCDF4.Dataset(path, "r") as nc:
         nc.set_auto_mask(False)
-        labels = [str(x) for x in np.atleast_1d(nc.variables["controller"][...])]
-        if controller not in labels:
-            raise ValueError(f"{Path(path).name} has no {controller} controller")
-        i = labels.index(controller)
+        i = controller_row(nc, path, controller)
         re = np.array(nc.variables["multipliers_real"][i, :])
         im = np.array(nc.variables["multipliers_imag"][i, :])
     return re + 1j * im
