@@ -29,7 +29,11 @@ COMMON = dict(deadline=None, database=None, derandomize=True,
 
 
 def check(study: dict, root) -> None:
-    run_and_report(study_text(study), root.mktemp("study") / "out")
+    """Run and report the study (``run_and_report`` asserts every property of the result);
+    either the run refused with one of the run's stated reasons, or every planned figure was
+    drawn or skipped with its reason."""
+    out = run_and_report(study_text(study), root.mktemp("study") / "out")
+    assert out.refused or out.drawn or out.skipped, "nothing was run, drawn or skipped"
 
 
 @settings(max_examples=12, **COMMON)
