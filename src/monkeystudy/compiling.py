@@ -32,6 +32,7 @@ import os
 import select
 import subprocess
 import sys
+import threading
 import types
 from pathlib import Path
 
@@ -115,6 +116,44 @@ def compile_variational(params: np.ndarray) -> None:
     guard8_gradient(1, 0, 0.0, params[0], s, 0.0, grad)
     energy8_gradient(params[0], s, grad)
     entry_reset(params, s, PHASE_SWING, 0, -1.0, -1.0, True, np.empty(8), A)
+
+
+#: stack of the thread a compile runs on (:func:`on_own_thread`): numba's compiler recurses
+#: deeply in C as well; reserved address space, committed only as used
+COMPILE_THREAD_STACK = 256 * 2**20
+
+
+def on_own_thread(f):
+    """``f()`` (a compile) run on a thread of its own, with frame room
+    (:func:`call_with_frame_room`), while the calling thread waits; returns its result or
+    raises its exception.
+
+    A Ctrl-C's ``KeyboardInterrupt`` is raised in the main thread wherever it is: inside
+    numba's compiler it can land in a callback from LLVM, where ctypes prints "Exception
+    ignored" and drops it (the run then goes on to its end), or leave the compiler half way
+    with a traceback of its own. Waiting here, the main thread receives it between two waits
+    and raises it at once; the compile, left on its daemon thread, ends with the process
+    (numba saves each cache file whole, so nothing half written is taken for cached).
+    """
+    outcome: dict = {}
+
+    def body():
+        try:
+            outcome["value"] = call_with_frame_room(f)
+        except BaseException as exc:   # handed to the waiting thread
+            outcome["error"] = exc
+
+    previous = threading.stack_size(COMPILE_THREAD_STACK)
+    try:
+        thread = threading.Thread(target=body, name="monkeystudy-compile", daemon=True)
+        thread.start()
+    finally:
+        threading.stack_size(previous)
+    while thread.is_alive():
+        thread.join(0.05)
+    if "error" in outcome:
+        raise outcome["error"]
+    return outcome.get("value")
 
 
 #: what the helper prints once its list of callees is compiled (then it compiles the runs)

@@ -105,17 +105,25 @@ def load_kernels(spec: GaitSpec, *, runs: bool = False, variational: bool = Fals
         helper = compiling.start(spec.integrator.method,
                                  None if ctrl is None else program_may_fly(ctrl.program()[0],
                                                                            Phase.SWING))
-    try:
-        grid_block(spec, np.array([[1.0, 11.0]]))
+
+    def compile_all():
+        try:
+            grid_block(spec, np.array([[1.0, 11.0]]))
+            if ctrl is not None:
+                compiling.finish_runs(helper)
+        finally:
+            compiling.stop(helper)
         if ctrl is not None:
-            compiling.finish_runs(helper)
+            run_controller(ctrl, initial_state(1.0, 11.0), robot=spec.robot,
+                           integrator=spec.integrator, t_end=0.05, sample_dt=0.01)
+        if variational:
+            compiling.compile_variational(spec.robot.params())
+
+    try:
+        # on a thread of its own, so that a Ctrl-C stops the wait at once (compiling.py)
+        compiling.on_own_thread(compile_all)
     finally:
-        compiling.stop(helper)
-    if ctrl is not None:
-        run_controller(ctrl, initial_state(1.0, 11.0), robot=spec.robot,
-                       integrator=spec.integrator, t_end=0.05, sample_dt=0.01)
-    if variational:
-        compiling.compile_variational(spec.robot.params())
+        compiling.stop(helper)      # an interrupted wait leaves no helper compiling on
     marker = kernels_marker(spec.integrator.method, runs=runs, variational=variational)
     if marker is not None:
         try:
@@ -383,8 +391,7 @@ def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
             first = marker is not None and not any(marker.parent.glob(f"loaded-{method}*"))
 
             def load():
-                compiling.call_with_frame_room(lambda: load_kernels(spec, **needs,
-                                                                     ahead=first))
+                load_kernels(spec, **needs, ahead=first)
             if pool is not None or marker is None or marker.exists():
                 load()     # cached: loads in about a second, silently
                 return
