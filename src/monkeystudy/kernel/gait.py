@@ -152,41 +152,39 @@ def wrapped_difference(a, b):
 
 
 @njit(cache=True, error_model="numpy")
-def cycle_gait(method, par, prog, obs, settings, theta1, theta2, dtheta1, dtheta2, out, seg_out):
-    """One cycle of a phase-sequence gait from the section state into ``out``/``seg_out``.
-
-    Starts hanging from A at the origin with ``(theta1, theta2)`` [rad] and rates
-    ``(dtheta1, dtheta2)`` [rad s-1]; runs ``prog`` until it completes one cycle (the caller
-    sets ``C_MAX_CYCLES = 1``). The section error generalises docs/model.md section 4's:
-    ``wrap(theta2_f - theta2)^2 + (dtheta1_f - dtheta1)^2 + (dtheta2_f - dtheta2)^2`` in the
-    frame of the end attached at the cycle's end (NaN unless ``ST_OK``); ``seg_out[k]`` is the
-    time segment ``k`` was left [s] (NaN if never).
-    """
-    hyb, counts, _, _, no_log, no_t, no_y, no_mode = search_scratch(0)
-    start_state(dtheta1, dtheta2, hyb)
-    hyb[2] = theta1
-    hyb[3] = theta2
-    out[:] = np.nan
-    status = simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_out, no_log, no_t,
-                           no_y, no_mode)
-    out[Q_STATUS] = status
-    out[Q_T_END] = hyb[H_T]
-    out[Q_STEPS] = counts[K_STEPS]
-    out[Q_NFEV] = counts[K_NFEV]
-    out[Q_REJECTED] = counts[K_REJECTED]
-    out[Q_FLIPPED] = hyb[H_FLIPPED]
-    out[Q_PHASE] = hyb[H_PHASE]
-    for i in range(8):
-        out[Q_FINAL + i] = hyb[i]
-    if status == ST_OK:
-        d2 = wrapped_difference(hyb[3], theta2)
-        out[Q_ERROR] = d2 * d2 + (hyb[6] - dtheta1) ** 2 + (hyb[7] - dtheta2) ** 2
-
-
-@njit(cache=True, error_model="numpy")
 def cycle_gait_batch(method, par, prog, obs, settings, theta1, theta2, points, out, seg_out):
-    """:func:`cycle_gait` over ``points[N, 2]`` into ``out[N, N_CYCLE_RESULT]`` and
-    ``seg_out[N, n_segments]`` (serial)."""
+    """One cycle of a phase-sequence gait from each section state of ``points[N, 2]`` (serial)
+    into ``out[N, N_CYCLE_RESULT]`` and ``seg_out[N, n_segments]``.
+
+    Each starts hanging from A at the origin with ``(theta1, theta2)`` [rad] and rates
+    ``points[i] = (dtheta1, dtheta2)`` [rad s-1]; runs ``prog`` until it completes one cycle
+    (the caller sets ``C_MAX_CYCLES = 1``). The section error generalises docs/model.md
+    section 4's: ``wrap(theta2_f - theta2)^2 + (dtheta1_f - dtheta1)^2 + (dtheta2_f -
+    dtheta2)^2`` in the frame of the end attached at the cycle's end (NaN unless ``ST_OK``);
+    ``seg_out[i, k]`` is the time segment ``k`` was left [s] (NaN if never).
+    """
+    # one function, not a per-point function called in a loop: numba links (and LLVM
+    # optimises again) a copy of the hybrid loop into every separately compiled caller, so
+    # each level between the loop and Python costs a first run about 1.5 s
     for i in range(points.shape[0]):
-        cycle_gait(method, par, prog, obs, settings, theta1, theta2, points[i, 0], points[i, 1],
-                   out[i], seg_out[i])
+        dtheta1, dtheta2 = points[i, 0], points[i, 1]
+        row = out[i]
+        hyb, counts, _, _, no_log, no_t, no_y, no_mode = search_scratch(0)
+        start_state(dtheta1, dtheta2, hyb)
+        hyb[2] = theta1
+        hyb[3] = theta2
+        row[:] = np.nan
+        status = simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_out[i],
+                               no_log, no_t, no_y, no_mode)
+        row[Q_STATUS] = status
+        row[Q_T_END] = hyb[H_T]
+        row[Q_STEPS] = counts[K_STEPS]
+        row[Q_NFEV] = counts[K_NFEV]
+        row[Q_REJECTED] = counts[K_REJECTED]
+        row[Q_FLIPPED] = hyb[H_FLIPPED]
+        row[Q_PHASE] = hyb[H_PHASE]
+        for j in range(8):
+            row[Q_FINAL + j] = hyb[j]
+        if status == ST_OK:
+            d2 = wrapped_difference(hyb[3], theta2)
+            row[Q_ERROR] = d2 * d2 + (hyb[6] - dtheta1) ** 2 + (hyb[7] - dtheta2) ** 2
