@@ -12,7 +12,9 @@ frame of the end attached at the time, and theta2 changes sign at the swap, so a
 runs across the swap is the opposite physical torque after it); for ``as_built``: the
 multipliers and period as the dataset holds them, a start 0.05 rad/s off in dtheta1 (the next
 cycle's dtheta1 and the height of the new hold, by the return map with the height in it), the
-free end's rise above the wall line and its velocity at the catch; for ``as_built_clock``: the
+free end's rise above the wall line and its velocity at the catch, the impact loss of the
+gait and of the two starts, and the design with its pulse's part after the swap held as the
+same physical torque or cut (re-solved); for ``as_built_clock``: the
 same schedule under the restarting clock. Times are from the vertical crossing [s], torques in
 N m.
 """
@@ -26,12 +28,13 @@ import numpy as np
 import xarray as xr
 
 from monkeystudy.analysis import cycle_full_map
+from monkeystudy.analysis.sections import TIGHT, cycle_section_state
 from monkeystudy.analysis.variational import sequence_variational_jacobian
 from monkeystudy.analysis.design import (
     DesignSpace, design_cycle_run, evaluate_design, motor_frame_pulses, with_variational,
 )
 from monkeystudy.robot import P_L1, P_L2, Robot
-from monkeystudy.simulation import StateIndex as S, physical_points
+from monkeystudy.simulation import StateIndex as S, physical_points, simulate
 
 SCHEDULE = ("t_switch", "motor_start", "t_motor", "torque", "pulse2_start",
             "pulse2_duration", "pulse2_torque")
@@ -57,6 +60,40 @@ def space_of(ds, values) -> DesignSpace:
                        balance=str(a.get("balance", "t_switch")), clock=clock)
 
 
+def impact_loss(gait, z) -> float:
+    """Energy [J] the impacts of one cycle of ``gait`` from the section state ``z = (theta2,
+    dtheta1, dtheta2)`` take (the motor's switchings change no energy: every other event
+    leaves it as it was)."""
+    run = simulate(gait.controller(), state=cycle_section_state(gait, z), cycles=1,
+                   integrator=TIGHT, sample_dt=1.0)
+    return float((run["event_energy_before"] - run["event_energy_after"]).sum())
+
+
+def motor_frame_variants(v: dict[str, float], z) -> None:
+    """The best design with its pulse's part after the swap changed, each re-solved as the
+    design step solves a design (the swap time balanced, pulse times from the swap): the same
+    physical torque held across the swap (in the kernel's frame a second pulse of the opposite
+    sign), and the pulse cut at the swap."""
+    ms, tm, tq = v["motor_start"], v["t_motor"], v["torque"]
+    if not ms < 0 < ms + tm:
+        return
+    variants = {
+        "the same physical torque held across the swap":
+            dict(v, t_motor=-ms, pulse2_start=0.0, pulse2_duration=ms + tm, pulse2_torque=-tq),
+        "the pulse cut at the swap": dict(v, t_motor=-ms),
+    }
+    for what, values in variants.items():
+        space = DesignSpace(Robot.preset("seed2009"), base=values, balance="t_switch")
+        found = [r for z0 in (z, z + np.array([0, 0.05, 0]), z - np.array([0, 0.05, 0]))
+                 if (r := evaluate_design(space, {}, z0, variational=True)).ok]
+        if not found:
+            print(f"  {what}: no gait")
+            continue
+        r = min(found, key=lambda r: r.spectral_radius_fd)
+        print(f"  {what}: rho {r.spectral_radius:.6f} (finite differences "
+              f"{r.spectral_radius_fd:.6f}), swap at {r.values['t_switch']:.4f} s")
+
+
 def as_built_checks(ds) -> None:
     a = ds.attrs
     v = best_values(a)
@@ -69,7 +106,10 @@ def as_built_checks(ds) -> None:
     for d in (0.05, -0.05):
         p, _ = cycle_full_map(w + [0.0, 0.0, d, 0.0], gait)
         print(f"  start dtheta1 {d:+.2f} rad/s: next dtheta1 {p[2] - w[2]:+.6f} rad/s from the "
-              f"gait's (linear {jac[2, 2] * d:+.6f}), the new hold {1e3 * p[0]:+.3f} mm")
+              f"gait's (linear {jac[2, 2] * d:+.6f}), the new hold {1e3 * p[0]:+.3f} mm, "
+              f"impact loss {impact_loss(gait, w[1:] + [0.0, d, 0.0]):.4f} J")
+    print(f"  impact loss on the gait {impact_loss(gait, w[1:]):.4f} J")
+    motor_frame_variants(v, w[1:])
     run_on = DesignSpace(Robot.preset("seed2009"), base=v, balance="t_switch", clock="run_on")
     clocked = with_variational(run_on, evaluate_design(run_on, {}, w[1:]))
     print(f"  with the clock running on: rho {clocked.spectral_radius:.6f} (finite differences "
