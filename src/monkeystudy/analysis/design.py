@@ -27,12 +27,16 @@ phase reference, so errors in the timing of the orbit count too).
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field, replace
-from typing import Mapping
+from functools import partial
+from typing import ClassVar, Mapping
 
 import numpy as np
 
-from ..controllers import Integrator, Segment, SequenceGait, kernel_method, settings_vector
+from ..controllers import (
+    Integrator, Segment, SequenceGait, kernel_method, motor_frame_signs, settings_vector,
+)
 from ..kernel import layout as L
 from ..kernel.design import (
     DESIGN_STATUS_NAMES, DS_OK, DS_STENCIL, I_ADVANCE, I_DEFECT, I_ERROR, I_ITERATIONS, I_LOSS,
@@ -40,9 +44,9 @@ from ..kernel.design import (
 )
 from ..robot import Link, Robot
 from ..simulation import run_controller
-from .multipliers import sorted_eigs
+from .multipliers import jacobian_fd, sorted_eigs
 from .replay import cycles_to_bound, growth_per_cycle, sequence_basin, sequence_cycles
-from .sections import TIGHT, cycle_section_state
+from .sections import TIGHT, cycle_full_map, cycle_section_state
 from .variational import sequence_variational_jacobian
 
 
@@ -149,6 +153,14 @@ class DesignSpace:
     fd_step: float = 1e-5
     clock: str = "reset_at_vertical"
 
+    #: the return map's state leaves the height out (neutral for every schedule of this
+    #: space: its guards sense time and the vertical crossing only)
+    height_in_map: ClassVar[bool] = False
+    #: the section: link 1 at the vertical
+    section_theta1: ClassVar[float] = 0.0
+    #: what a run of a design's gait for many cycles is called (its schedule runs on time)
+    replay_name: ClassVar[str] = "open-loop replay"
+
     def __post_init__(self):
         if self.balance not in BALANCES:
             raise ValueError(f"balance must be one of {BALANCES}, got {self.balance!r}")
@@ -174,6 +186,15 @@ class DesignSpace:
     def n_multipliers(self) -> int:
         """Size of the return map's state: 3 on the section, 4 with a running clock."""
         return 4 if self.clock == "run_on" else 3
+
+    def parameter(self, name: str) -> Parameter:
+        """A design parameter's unit, bounds and meaning."""
+        return PARAMETERS[name]
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """Every parameter a design of this space has a value of."""
+        return tuple(PARAMETERS)
 
     def defaults(self) -> dict[str, float]:
         """The base robot's values of the robot parameters, and a schedule without pulses
@@ -271,6 +292,10 @@ class DesignSpace:
         return SequenceGait(rows, section_theta1=0.0, section_direction="either",
                             section_torque=tau)
 
+    def gait_for(self, values: Mapping[str, float]) -> SequenceGait:
+        """The design's gait (:meth:`gait`; the name every design space shares)."""
+        return self.gait(values)
+
     def cycle_gait(self, values: Mapping[str, float], period: float) -> SequenceGait:
         """The gait whose cycles the design's stability and replays are about: :meth:`gait`,
         or with a running clock the same rows closed at ``period`` [s] (the gait's) instead
@@ -310,6 +335,172 @@ class DesignSpace:
         if not np.allclose(base + q * dprog, prog, rtol=1e-14, atol=1e-14):
             raise RuntimeError(f"the program is not affine in {self.balance} at this design")
         return base, dprog
+
+
+#: names of a segment design's parameters: ``segment<k>_value``, ``segment<k>_torque`` (k
+#: from 1, the gait's segments in the order the study lists them)
+SEGMENT_PARAMETER = re.compile(r"segment([1-9][0-9]*)_(value|torque)")
+
+#: units of a segment's guard value, by guard (``coord`` guards: by coordinate)
+GUARD_VALUE_UNITS = {"time": "s", "free_end_height": "m", "energy_restored": "J",
+                     "energy": "J", "free_end_y": "m"}
+COORD_UNITS = {"x": "m", "y": "m", "theta1": "rad", "theta2": "rad", "dx": "m s-1",
+               "dy": "m s-1", "dtheta1": "rad s-1", "dtheta2": "rad s-1"}
+#: bounds of a segment design's values: a torque the motor model accepts [N m], a time on the
+#: controller clock [s] and any other guard value (in its units)
+SEGMENT_TORQUE_BOUND = 2.0
+SEGMENT_TIME_BOUND = 3.0
+SEGMENT_VALUE_BOUND = 100.0
+
+
+@dataclass(frozen=True)
+class SegmentDesignSpace:
+    """The base of a design search over a sequence gait's segments: the values of their
+    guards and their torques, the rest of the gait as it is.
+
+    A design's gait is solved as a fixed point of the return map on the gait's section
+    (Newton on the section state, no balance: a gait that holds its height does so by a
+    guard on a world height, e.g. a catch at ``free_end_y``), and its stability is measured
+    on the full map, the attached end's height included (``height_in_map``: four
+    multipliers; :func:`~monkeystudy.analysis.cycle_full_map`), or on the section map.
+
+    Parameters
+    ----------
+    base_gait : SequenceGait
+        The base gait, torques in the kernel's frame (as
+        :meth:`~monkeystudy.study.models.SequenceGaitSpec.gait` builds it); its section
+        restarts the clock.
+    robot : Robot
+        The robot (mirror-image links: each cycle is measured in the frame of the end it
+        ends on).
+    base : mapping
+        Values of the parameters that are not searched (missing: the gait's own).
+    motor_frame : bool
+        Torque parameters are the physical motor torque (the sign fixed to the links for the
+        cycle, :func:`~monkeystudy.controllers.motor_frame_signs`), else the kernel's.
+    height_in_map : bool
+        Stability of the full map (height included) instead of the section map.
+    integrator, tol, max_iter, fd_step
+        As :class:`DesignSpace`'s.
+    """
+
+    base_gait: SequenceGait
+    robot: Robot
+    base: Mapping[str, float] = field(default_factory=dict)
+    motor_frame: bool = False
+    height_in_map: bool = True
+    integrator: Integrator = TIGHT
+    tol: float = 1e-11
+    max_iter: int = 12
+    fd_step: float = 1e-5
+
+    balance: ClassVar[str] = "none"
+    clock: ClassVar[str] = "reset_at_vertical"
+    two_step: ClassVar[bool] = False
+    steps: ClassVar[int] = 1
+    #: a run of the design's gait for many cycles: by its own controller, guards and all
+    replay_name: ClassVar[str] = "replay"
+
+    def __post_init__(self):
+        if self.base_gait.clocked:
+            raise ValueError("a segment design needs a gait whose clock restarts at its "
+                             "section (no period)")
+        par = self.robot.params()
+        if not np.allclose(par[0], par[1], rtol=0, atol=1e-14):
+            raise ValueError("the robot of a design search needs mirror-image links")
+        for name in self.base:
+            self.parameter(name)
+
+    @property
+    def section_theta1(self) -> float:
+        """Link 1's angle on the section [rad]."""
+        return float(self.base_gait.section_theta1)
+
+    @property
+    def n_multipliers(self) -> int:
+        """Size of the map's state: 4 with the height, else 3."""
+        return 4 if self.height_in_map else 3
+
+    def _signs(self) -> np.ndarray:
+        return (motor_frame_signs(self.base_gait)[:len(self.base_gait.segments)] if self.motor_frame
+                else np.ones(len(self.base_gait.segments)))
+
+    def parameter(self, name: str) -> Parameter:
+        """The unit, bounds and meaning of ``segment<k>_value`` or ``segment<k>_torque``
+        (``ValueError`` for another name or a segment the gait does not have)."""
+        m = SEGMENT_PARAMETER.fullmatch(name)
+        n = len(self.base_gait.segments)
+        if m is None or not 1 <= int(m.group(1)) <= n:
+            raise ValueError(f"unknown design parameter {name!r}: a segment design's are "
+                             f"segment<k>_value and segment<k>_torque, k from 1 to {n}")
+        k = int(m.group(1))
+        seg = self.base_gait.segments[k - 1]
+        if m.group(2) == "torque":
+            frame = "motor" if self.motor_frame else "attached end's"
+            return Parameter("N m", -SEGMENT_TORQUE_BOUND, SEGMENT_TORQUE_BOUND,
+                             f"segment {k}'s motor torque ({frame} frame)", "schedule")
+        if seg.until == "coord":
+            unit, what = COORD_UNITS[seg.coord], f"{seg.coord} {seg.direction}"
+        else:
+            unit, what = GUARD_VALUE_UNITS.get(seg.until, "1"), seg.until
+        if seg.until == "time":
+            return Parameter(unit, 0.0, SEGMENT_TIME_BOUND,
+                             f"segment {k} ends at this time on the controller clock",
+                             "schedule")
+        return Parameter(unit, -SEGMENT_VALUE_BOUND, SEGMENT_VALUE_BOUND,
+                         f"segment {k} ends when {what} crosses this value", "schedule")
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return tuple(f"segment{k}_{what}" for k in range(1, len(self.base_gait.segments) + 1)
+                     for what in ("value", "torque"))
+
+    def values(self, free: Mapping[str, float] | None = None) -> dict[str, float]:
+        """Every parameter's value: the gait's, then the base, then ``free``."""
+        out = {}
+        for k, (seg, sign) in enumerate(zip(self.base_gait.segments, self._signs()), start=1):
+            out[f"segment{k}_value"] = float(seg.value)
+            out[f"segment{k}_torque"] = float(sign * seg.torque) if seg.torque else 0.0
+        out.update({k: float(v) for k, v in self.base.items()})
+        out.update({k: float(v) for k, v in (free or {}).items()})
+        return out
+
+    def robot_for(self, values: Mapping[str, float]) -> Robot:
+        """The robot (a segment design does not reshape it)."""
+        return self.robot
+
+    def buildable(self, values: Mapping[str, float]) -> str:
+        """Why a design cannot run ('' if it can): a value outside its bounds."""
+        for name in self.parameter_names:
+            p = self.parameter(name)
+            v = values[name]
+            if not p.lower <= v <= p.upper:
+                return f"{name} = {v!r} {p.unit} outside [{p.lower}, {p.upper}]"
+        return ""
+
+    def gait_for(self, values: Mapping[str, float]) -> SequenceGait:
+        """The design's gait: the base gait with its segments' values and torques (in the
+        kernel's frame)."""
+        segs = tuple(replace(seg, value=values[f"segment{k}_value"],
+                             torque=sign * values[f"segment{k}_torque"] + 0.0)
+                     for k, (seg, sign) in enumerate(zip(self.base_gait.segments, self._signs()),
+                                                     start=1))
+        return replace(self.base_gait, segments=segs)
+
+    def cycle_gait(self, values: Mapping[str, float], period: float) -> SequenceGait:
+        """The gait whose cycles the design's stability and replays are about."""
+        return self.gait_for(values)
+
+    def programs(self, values: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+        """``(prog, 0)``: the design's program (no balance)."""
+        prog, _ = self.gait_for(values).program()
+        return prog, np.zeros_like(prog)
+
+
+def full_map_state(space, res: "DesignResult") -> np.ndarray:
+    """The full map's state at a design's fixed point: ``(y = 0, theta2, dtheta1,
+    dtheta2)``."""
+    return np.concatenate([[0.0], res.z])
 
 
 @dataclass
@@ -439,7 +630,7 @@ def evaluate_design(space: DesignSpace, free: Mapping[str, float], z0,
     info = np.empty(N_INFO)
     status = fixed_point(kernel_method(settings, prog0, L.PHASE_SWING), robot.params(), prog0,
                          dprog, np.empty((0, L.N_OBS_COLS)), settings,
-                         0.0, balance, u0, space.tol, space.max_iter,
+                         space.section_theta1, balance, u0, space.tol, space.max_iter,
                          space.fd_step, u, DP, info)
     if balance:
         values[space.balance] = float(u[n])
@@ -455,6 +646,8 @@ def evaluate_design(space: DesignSpace, free: Mapping[str, float], z0,
                        why if status == OUT_OF_BOUNDS else "", clocked)
     if status == DS_OK and clocked:
         clocked_stability(space, res, robot, settings)
+    if status == DS_OK and space.height_in_map:
+        full_map_stability(space, res)
     if res.status != DS_OK:
         res.spectral_radius_fd = math.nan
         res.jacobian_fd, res.multipliers_fd = nank.copy(), np.full(k, np.nan)
@@ -489,12 +682,35 @@ def clocked_stability(space: DesignSpace, res: DesignResult, robot: Robot,
     res.spectral_radius_fd = spectral_radius(DP, space.steps)
 
 
+def full_map_stability(space: SegmentDesignSpace, res: DesignResult) -> None:
+    """A solved gait's stability on the full map (the height included), in place: the
+    Jacobian at ``(0, z)`` by fourth-order central differences of
+    :func:`~monkeystudy.analysis.cycle_full_map` (the step relative, ``space.fd_step``), its
+    multipliers and spectral radius (status ``stencil_failed`` if a run of the stencil left
+    the gait)."""
+    gait = space.cycle_gait(res.values, res.period)
+    fmap = partial(cycle_full_map, gait=gait, robot=space.robot_for(res.values),
+                   integrator=space.integrator)
+    try:
+        J = jacobian_fd(fmap, full_map_state(space, res), space.fd_step)
+    except RuntimeError as exc:
+        res.status = DS_STENCIL
+        res.message = f"stencil_failed: the full map's {exc}"
+        return
+    res.jacobian_fd = J
+    res.multipliers_fd = sorted_eigs(J)
+    res.spectral_radius_fd = spectral_radius(J, space.steps)
+
+
 def with_variational(space: DesignSpace, res: DesignResult) -> DesignResult:
     """A solved design's Jacobian, multipliers and spectral radius by variational equations
-    with saltation matrices (in place; returns ``res``)."""
-    J = sequence_variational_jacobian(space.cycle_gait(res.values, res.period), res.state,
+    with saltation matrices (in place; returns ``res``); of the full map with a space's
+    ``height_in_map``."""
+    height = space.height_in_map
+    J = sequence_variational_jacobian(space.cycle_gait(res.values, res.period),
+                                      full_map_state(space, res) if height else res.state,
                                       robot=space.robot_for(res.values),
-                                      integrator=space.integrator)
+                                      integrator=space.integrator, height=height)
     res.jacobian = J
     res.multipliers = sorted_eigs(J)
     res.spectral_radius = spectral_radius(J, space.steps)
@@ -544,7 +760,10 @@ def perturbation_decay(space: DesignSpace, result: DesignResult, *, size: float 
     along the leading eigenvector (real part, unit length), exact timing, and the growth per
     cycle fitted to it (:func:`~monkeystudy.analysis.replay.growth_per_cycle`; compare with
     ``rho ** steps``)."""
-    lam, vec = np.linalg.eig(result.jacobian_fd)
+    # with the height in the map the replay starts at the start's height: perturb the
+    # section state along the section map's leading direction
+    J = result.jacobian_fd[1:, 1:] if space.height_in_map else result.jacobian_fd
+    lam, vec = np.linalg.eig(J)
     v = np.real(vec[:, int(np.argmax(np.abs(lam)))])
     v /= np.linalg.norm(v)
     rep = replay_design(space, result, cycles=cycles, start=result.state + size * v,

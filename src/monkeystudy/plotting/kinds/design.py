@@ -47,6 +47,15 @@ LABELS = {
 }
 
 
+def axis_label(ds, name: str) -> str:
+    """The axis label of design parameter ``name``: a schedule's or robot's from
+    :data:`LABELS`, a segment's from its coordinate (meaning and units)."""
+    if name in LABELS:
+        return LABELS[name]
+    v = ds[name].attrs if name in ds else {}
+    return f"{v.get('long_name', name)}  [{v.get('units', '1')}]"
+
+
 def influence(rho: np.ndarray, dims: list[str]) -> list[str]:
     """The free parameters ordered by influence on ``log rho``: the spread (max - min) of
     the least ``log rho`` over the others, along each parameter."""
@@ -67,8 +76,9 @@ def influence(rho: np.ndarray, dims: list[str]) -> list[str]:
 
 def _best_text(ds) -> str:
     names = json_attr(ds, "parameters", [])
-    # the pulse always, then the searched parameters
-    shown = [n for n in ("torque", "motor_start", "t_motor") if n not in names] + names
+    # a schedule's pulse always, then the searched parameters
+    shown = [n for n in ("torque", "motor_start", "t_motor")
+             if n not in names and "best_" + n in ds.attrs] + names
     parts = [f"{n} {attr_float(ds, 'best_' + n):.4g}" for n in shown]
     bal = ds.attrs.get("balance", "none")
     if bal != "none":
@@ -96,8 +106,10 @@ def plot_design_map(ds):
         if len(dims) > 2 else ""
     with style():
         fig = new_figure(figsize=(8.0, 7.0))
-        body = two_titles(fig, "Spectral radius of the open-loop return map over the design "
-                          "grid", f"{count(ds.attrs.get('designs', r.size), 'design')}, {n_ok} "
+        body = two_titles(fig, ("Spectral radius of the full return map (the height "
+                                "included) over the design grid" if ds.attrs.get("height_in_map")
+                                else "Spectral radius of the open-loop return map over the "
+                                "design grid"), f"{count(ds.attrs.get('designs', r.size), 'design')}, {n_ok} "
                           f"with a gait{more}; balance: {ds.attrs.get('balance')}; ρ = 1 contour "
                           f"in red. {ds.attrs.get('verdict', '')}. {run_line(ds, tick=False)}")
         ax = body.add_subplot()
@@ -105,7 +117,7 @@ def plot_design_map(ds):
             x = ds[kept[0]].values
             ax.plot(x, r, "o-", color=BLUE, gid="rho_map")
             ax.axhline(1.0, color=VERMILLION, ls="--", lw=1.2, label="ρ = 1", gid="rho_one")
-            ax.set_xlabel(LABELS.get(kept[0], kept[0]))
+            ax.set_xlabel(axis_label(ds, kept[0]))
             ax.set_ylabel("spectral radius ρ per step")
             ax.set_yscale("log")
             ax.legend(loc="best", fontsize=8.5)
@@ -121,8 +133,8 @@ def plot_design_map(ds):
                 cs = ax.contour(x, y, np.where(fin, r, np.nan), levels=[1.0],
                                 colors=VERMILLION, linewidths=2.0)
                 cs.set_gid("rho_one")
-            ax.set_xlabel(LABELS.get(xd, xd))
-            ax.set_ylabel(LABELS.get(yd, yd))
+            ax.set_xlabel(axis_label(ds, xd))
+            ax.set_ylabel(axis_label(ds, yd))
             gb = np.unravel_index(np.nanargmin(np.where(fin, r, np.inf)), r.shape) \
                 if fin.any() else None
             if gb is not None:
@@ -156,7 +168,11 @@ def plot_design_multipliers(ds):
     steps = int(ds.attrs.get("steps_per_cycle", 1))
     with style():
         fig = new_figure(figsize=(7.0, 7.2))
-        body = two_titles(fig, "Multipliers of the best open-loop design",
+        body = two_titles(fig, ("Multipliers of the best open-loop design"
+                                if "best_t_switch" in ds.attrs else
+                                "Multipliers of the best design" + (
+                                    ": the full map, the height included"
+                                    if ds.attrs.get("height_in_map") else "")),
                           f"{_best_text(ds)}; ρ per step "
                           f"{attr_float(ds, 'best_spectral_radius'):.6g} (fd "
                           f"{attr_float(ds, 'best_spectral_radius_fd'):.6g})"
@@ -195,7 +211,9 @@ def plot_design_replay(ds):
     colours = [BLUE, VERMILLION, GREEN, ORANGE]
     with style():
         fig = new_figure(figsize=(11.0, 8.6))
-        body = two_titles(fig, "Open-loop replay of the best design from its fixed point",
+        body = two_titles(fig, ("Open-loop replay" if "best_t_switch" in ds.attrs else
+                                "Replay (the gait's own controller)")
+                          + " of the best design from its fixed point",
                           f"{_best_text(ds)}; ρ per step "
                           f"{attr_float(ds, 'best_spectral_radius'):.6g}. "
                           f"{ds.attrs.get('verdict', '')}. {run_line(ds, tick=False)}")

@@ -21,15 +21,15 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Literal, Optional
+from typing import ClassVar, Literal, Optional
 
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
 from ...analysis.design import (
-    BALANCES, CLOCKS, DESIGN_OK, OBJECTIVES, PARAMETERS, STATUS_NAMES, DesignResult,
-    DesignSpace, design_basin, design_cycle_run, evaluate_design, motor_frame_pulses,
-    perturbation_decay, replay_design, with_variational,
+    BALANCES, CLOCKS, DESIGN_OK, OBJECTIVES, PARAMETERS, SEGMENT_PARAMETER, STATUS_NAMES,
+    DesignResult, DesignSpace, SegmentDesignSpace, design_basin, design_cycle_run,
+    evaluate_design, motor_frame_pulses, perturbation_decay, replay_design, with_variational,
 )
 from ...simulation import Status
 from .. import datasets as D
@@ -97,20 +97,25 @@ class DesignStep(StrictModel):
     """Search schedules and robots for the open-loop gait with the smallest spectral radius.
 
     A grid over the free parameters, Nelder-Mead from its best designs, and checks of the best
-    (docs/model.md section 9)."""
+    (docs/model.md section 9). For a sequence gait the free parameters are its segments'
+    guard values and torques (``segment<k>_value``, ``segment<k>_torque``, k from 1), and the
+    stability is that of the full map, the height included."""
 
     name: Name
     kind: Literal["design"]
     from_: Name = Field(alias="from")  # described by the kind (accepts)
     parameters: dict[str, DesignAxis] = Field(description="free design parameters, 1 to 4, "
                                               "each a grid axis (see docs/model.md for "
-                                              "names, units and bounds)")
+                                              "names, units and bounds; a sequence gait's: "
+                                              "segment<k>_value, segment<k>_torque)")
     fixed: dict[str, float] = Field(default_factory=dict, description="values of other "
                                     "design parameters (default: the starting gait's "
                                     "schedule and the study's robot)")
     balance: Literal[BALANCES] = Field("t_switch", description="schedule value solved so the "
                                        "gait returns to its height each step (its grid or "
-                                       "fixed value is Newton's start); none: free")
+                                       "fixed value is Newton's start); none: free. The "
+                                       "horizontal gait's only: a sequence gait holds its "
+                                       "height by a guard, or not at all")
     objective: Literal[OBJECTIVES] = Field("spectral_radius", description="what Nelder-Mead "
                                            "minimises: the spectral radius per step, or plus "
                                            "energy_weight times the energy per metre")
@@ -127,10 +132,17 @@ class DesignStep(StrictModel):
                                       "balance value; a design keeps its most stable gait")
     refine: DesignRefine = Field(default_factory=DesignRefine)
     verify: DesignVerify = Field(default_factory=DesignVerify)
+    height_in_map: Optional[bool] = Field(None, description="a sequence gait's designs: the "
+                                          "stability of the full map, the attached end's "
+                                          "height included (four multipliers; default), or "
+                                          "false: of the section map. The horizontal "
+                                          "gait's schedules sense no height: not for them")
     solution: Optional[int] = Field(None, ge=0, description="which solution of a shoot step "
                                     "(default: the lowest error)")
     start_index: Optional[int] = Field(None, ge=0, description="which start of a refine step "
                                        "(default: the lowest error)")
+
+    recorded_when_set: ClassVar[frozenset[str]] = frozenset({"height_in_map"})
 
     @field_validator("parameters")
     @classmethod
@@ -194,6 +206,8 @@ class DesignStep(StrictModel):
 
 
 def _check_parameter(name: str, values) -> None:
+    if SEGMENT_PARAMETER.fullmatch(name):
+        return       # a sequence gait's segment: checked against the study's gait (check_step)
     if name not in PARAMETERS:
         raise ValueError(f"unknown design parameter {name!r}; known: {sorted(PARAMETERS)}")
     p = PARAMETERS[name]
@@ -216,6 +230,23 @@ def design_space(ctx: StepContext, gait: GaitStart) -> DesignSpace:
         base.pop(name, None)
     return DesignSpace(ctx.spec.robot, base=base, balance=st.balance, two_step=st.two_step,
                        integrator=ctx.spec.integrator, clock=st.clock)
+
+
+def segment_space(gait, robot, step: DesignStep, torque_frame: str, integrator=None):
+    """The :class:`~monkeystudy.analysis.design.SegmentDesignSpace` of a design step on a
+    sequence gait (``gait``, torques in the kernel's frame; parameters' torques in the
+    study's ``torque_frame``), the step's ``fixed`` values as its base."""
+    kw = {} if integrator is None else {"integrator": integrator}
+    return SegmentDesignSpace(gait, robot, base=dict(step.fixed),
+                              motor_frame=torque_frame == "motor",
+                              height_in_map=step.height_in_map is not False, **kw)
+
+
+def schedule_design(spec) -> bool:
+    """Whether a study's designs are schedules of the horizontal gait (swap and motor times,
+    :class:`~monkeystudy.analysis.design.DesignSpace`) or segment values of its sequence
+    gait."""
+    return bool(spec.swap_motor_times)
 
 
 # --- tasks (run on the workers) ------------------------------------------------------------------
@@ -439,18 +470,21 @@ def write_design(path: Path, attrs: dict, st: DesignStep, space: DesignSpace, ax
     ``cycle``, ``decay_cycle``, ``basin_d_dtheta1``, ``basin_d_dtheta2``, ``sample``)."""
     names, shape = st.names, st.shape
     best, checks = found["best"], found["checks"]
-    units = {n: PARAMETERS[n].unit for n in names}
+    units = {n: space.parameter(n).unit for n in names}
     with D.atomic_netcdf(path) as nc:
         for n, a in zip(names, axes):
             nc.createDimension(n, len(a))
-            D.add_variable(nc, n, (n,), np.float64, {"long_name": PARAMETERS[n].meaning,
+            D.add_variable(nc, n, (n,), np.float64, {"long_name": space.parameter(n).meaning,
                                                      "units": units[n]}, a)
         k = space.n_multipliers
         D.add_index_coord(nc, "k", k, "multiplier, by decreasing modulus")
         for key, (what, unit) in GRID_VARIABLES.items():
             if key == "balance_value":
-                unit = PARAMETERS[space.balance].unit if space.balance != "none" else "1"
+                unit = space.parameter(space.balance).unit if space.balance != "none" else "1"
                 what += f" ({space.balance})"
+            if key.startswith("spectral_radius") and space.height_in_map:
+                what = what.replace("the return map", "the full map (the attached end's "
+                                    "height included)")
             data = grid[key].reshape(shape)
             extra = {}
             if key == "status":
@@ -487,13 +521,13 @@ def write_design(path: Path, attrs: dict, st: DesignStep, space: DesignSpace, ax
                        {"long_name": "controller tick of the replay (0: exact timing)",
                         "units": "s"}, [0.0, st.verify.tick])
         D.add_variable(nc, "refined_cycles_completed", ("start", "replay"), np.int64,
-                       {"long_name": "cycles the refined design's open-loop replay completed "
+                       {"long_name": f"cycles the refined design's {space.replay_name} completed "
                                      "before it fell, stopped or left the error bound",
                         "units": "1"},
                        np.array([r["cycles_completed"] for r in refined],
                                 np.int64).reshape(len(refined), 2))
         D.add_variable(nc, "refined_cycles_walked", ("start", "replay"), np.int64,
-                       {"long_name": "cycles the refined design's open-loop replay ran before "
+                       {"long_name": f"cycles the refined design's {space.replay_name} ran before "
                                      "it fell, stopped or advanced less than half a gait "
                                      "cycle (whatever its error)", "units": "1"},
                        np.array([r["cycles_walked"] for r in refined],
@@ -523,7 +557,7 @@ def write_design(path: Path, attrs: dict, st: DesignStep, space: DesignSpace, ax
                 v = getattr(r, key)[:n_cyc]
                 data[i, :v.size] = v
             D.add_variable(nc, f"replay_{key}", ("replay", "cycle"), np.float64,
-                           {"long_name": f"open-loop replay: {what}", "units": unit}, data)
+                           {"long_name": f"{space.replay_name}: {what}", "units": unit}, data)
         D.add_variable(nc, "cycles_completed", ("replay",), np.int64,
                        {"long_name": "cycles the replay completed before it fell, stopped "
                                      "or left the error bound", "units": "1"},
@@ -567,8 +601,14 @@ def write_design(path: Path, attrs: dict, st: DesignStep, space: DesignSpace, ax
         D.add_variable(nc, "phase", ("sample",), np.int8,
                        {"long_name": "phase (0 swing, 1 flight, 2 fixed)", "units": "1"},
                        rec["phase"])
+        torque, what = rec["motor_torque"], "motor torque"
+        if attrs.get("torque_frame") == "motor":
+            # the cycle starts hanging from A: after its swap the kernel's torque acts on
+            # theta2 of B's frame, the opposite physical torque
+            torque = np.where((rec["attached_end"] == 0) | (torque == 0.0), torque, -torque)
+            what = "motor torque in the motor frame (the sign fixed to the links)"
         D.add_variable(nc, "motor_torque", ("sample",), np.float64,
-                       {"long_name": "motor torque", "units": "N m"}, rec["motor_torque"])
+                       {"long_name": what, "units": "N m"}, torque)
         D.set_global_attrs(nc, attrs)
 
 
@@ -592,6 +632,11 @@ def walked_on(replay, cycles: int) -> str:
             f"over the last {tail.size})")
 
 
+def cycles_text(n: int) -> str:
+    """``1 cycle``, ``25 cycles``."""
+    return f"{n} cycle{'' if n == 1 else 's'}"
+
+
 def best_attrs(space: DesignSpace, st: DesignStep, found: dict) -> dict:
     """The best design's numbers and the verdict, as global attributes."""
     best, checks = found["best"], found["checks"]
@@ -600,22 +645,23 @@ def best_attrs(space: DesignSpace, st: DesignStep, found: dict) -> dict:
     stable = rho < 1.0
     n = st.verify.cycles
     tick_ms = f"{st.verify.tick * 1e3:g} ms tick"
+    replay = space.replay_name
     if not stable:
         verdict = f"unstable: rho = {rho:.6g} per step (no design with rho < 1 found)"
     elif ticked.cycles_completed >= n:
-        verdict = (f"stable: rho = {rho:.6g}; the open-loop replay completes {n} cycles "
+        verdict = (f"stable: rho = {rho:.6g}; the {replay} completes {n} cycles "
                    f"with exact timing and on the {tick_ms}")
     elif exact.cycles_completed >= n and walks_on(ticked, n):
-        verdict = (f"stable: rho = {rho:.6g}; the open-loop replay completes {n} cycles "
+        verdict = (f"stable: rho = {rho:.6g}; the {replay} completes {n} cycles "
                    f"with exact timing; on the {tick_ms} it stays "
-                   f"{ticked.cycles_completed} cycles{walked_on(ticked, n)}")
+                   f"{cycles_text(ticked.cycles_completed)}{walked_on(ticked, n)}")
     elif exact.cycles_completed >= n:
         verdict = (f"stable with exact timing only: rho = {rho:.6g}; on the {tick_ms} the "
-                   f"replay lasts {ticked.cycles_completed} cycles")
+                   f"replay lasts {cycles_text(ticked.cycles_completed)}")
     else:
         verdict = (f"linearly stable (rho = {rho:.6g}) but the replay lasts "
-                   f"{exact.cycles_completed} cycles with exact timing")
-    out = {f"best_{n_}": float(best.values[n_]) for n_ in PARAMETERS}
+                   f"{cycles_text(exact.cycles_completed)} with exact timing")
+    out = {f"best_{n_}": float(best.values[n_]) for n_ in space.parameter_names}
     out.update(best_spectral_radius=rho, best_spectral_radius_fd=rho_fd,
                spectral_radius_agreement=abs(rho - rho_fd),
                best_theta2=float(best.z[0]), best_dtheta1=float(best.z[1]),
@@ -630,8 +676,47 @@ def best_attrs(space: DesignSpace, st: DesignStep, found: dict) -> dict:
                stable=bool(stable), stable_exact=bool(stable and exact.cycles_completed >= n),
                stable_tick=bool(stable and ticked.cycles_completed >= n),
                tick_walks_on=bool(stable and walks_on(ticked, n)),
-               verify_tick=st.verify.tick, verify_cycles=n, error_bound=st.verify.error_bound, verdict=verdict,
-               t_switch=float(best.values["t_switch"]), t_motor=float(best.values["t_motor"]))
+               verify_tick=st.verify.tick, verify_cycles=n, error_bound=st.verify.error_bound,
+               verdict=verdict)
+    if "t_switch" in best.values:
+        out.update(t_switch=float(best.values["t_switch"]),
+                   t_motor=float(best.values["t_motor"]))
+    if space.height_in_map:
+        out["height_in_map"] = 1
+    return out
+
+
+def segment_problems(study, index: int, step: DesignStep, names: list[str]) -> list:
+    """Problems with a design step on a sequence gait: parameters that are not its segments'
+    values and torques or outside their bounds, a balance, a running clock."""
+    out = []
+    where = ("steps", index, "parameters")
+    try:
+        space = SegmentDesignSpace(study.gait.gait(), study.to_robot(),
+                                   motor_frame=study.gait.torque_frame == "motor")
+    except ValueError as exc:
+        return [(("steps", index), f"a design step on this gait: {exc}")]
+    for name in names:
+        if not SEGMENT_PARAMETER.fullmatch(name):
+            out.append((where, f"{name!r} is a horizontal gait's schedule parameter; a "
+                        f"sequence gait's design parameters: {', '.join(space.parameter_names)}"))
+            continue
+        try:
+            p = space.parameter(name)
+        except ValueError as exc:
+            out.append((where, str(exc)))
+            continue
+        values = ([step.parameters[name].start, step.parameters[name].stop]
+                  if name in step.parameters else [step.fixed[name]])
+        for v in values:
+            if not p.lower <= v <= p.upper:
+                out.append((where, f"{name}: {v!r} {p.unit} outside [{p.lower}, {p.upper}]"))
+    if "balance" in step.model_fields_set and step.balance != "none":
+        out.append((("steps", index, "balance"), "a sequence gait's design has no balance: "
+                    "it holds its height by a guard on a world height, or not at all"))
+    if step.clock != "reset_at_vertical":
+        out.append((("steps", index, "clock"), "a sequence gait's design runs its own "
+                    "clock, restarted at its section"))
     return out
 
 
@@ -639,7 +724,7 @@ def best_attrs(space: DesignSpace, st: DesignStep, found: dict) -> dict:
 class DesignKind(StepKind):
     name = "design"
     model = DesignStep
-    gait_kinds = ("horizontal",)
+    gait_kinds = ("horizontal", "sequence")
     accepts = ("shoot", "refine", "floquet")
     provides = "its best design (schedule, robot and fixed point)"
     unit = "blocks"
@@ -670,7 +755,19 @@ class DesignKind(StepKind):
         if study.gait.tick != 0.0:
             out.append((("gait", "tick"), "a design step solves gaits with exact timing "
                         "(gait tick 0); verify.tick sets the replay's tick"))
-        return out + option_problems(step, ref, index)
+        names = list(step.parameters) + list(step.fixed)
+        segments = [n for n in names if SEGMENT_PARAMETER.fullmatch(n)]
+        if study.gait.conventions.swap_motor_times:
+            if segments:
+                out.append((("steps", index, "parameters"), f"{segments[0]!r} is a sequence "
+                            f"gait's segment; the horizontal gait's design parameters: "
+                            f"{sorted(PARAMETERS)}"))
+            if step.height_in_map:
+                out.append((("steps", index, "height_in_map"), "the horizontal gait's "
+                            "schedules sense no height: its full map has a multiplier 1"))
+            return out + option_problems(step, ref, index)
+        return out + option_problems(step, ref, index) + segment_problems(study, index, step,
+                                                                          names)
 
     def blocks(self, step: DesignStep) -> list[Block]:
         n = int(np.prod(step.shape))
@@ -691,9 +788,13 @@ class DesignKind(StepKind):
 
     def start(self, ctx: StepContext) -> list[Task]:
         st = ctx.step
+        schedule = schedule_design(ctx.spec)
         gait = ctx.handed_on(solution=st.solution, start_index=st.start_index,
-                             replay="open_loop", max_map_defect=MAX_MAP_DEFECT, require="run")
-        space = design_space(ctx, gait)
+                             replay="open_loop" if schedule else "gait",
+                             max_map_defect=MAX_MAP_DEFECT, require="run")
+        space = (design_space(ctx, gait) if schedule else
+                 segment_space(gait.gait, ctx.spec.robot, st, ctx.spec.torque_frame,
+                               ctx.spec.integrator))
         axes = [a.values() for a in st.parameters.values()]
         ctx.state.update(gait=gait, space=space, axes=axes)
         starts = [(list(gait.z), None)] + [
@@ -721,9 +822,11 @@ class DesignKind(StepKind):
                              else rho + st.energy_weight * grid["energy_per_metre"])
         found = refine_and_verify(space, st, axes, grid, ctx.state["starts"])
         src = gait.source
+        if schedule_design(ctx.spec):
+            attrs.update(start_t_switch=src["t_switch"], start_t_motor=src["t_motor"],
+                         motor_torque=src["torque"])
         attrs.update(gait.attrs("source"), start_theta2=gait.z[0], start_dtheta1=gait.z[1],
-                     start_dtheta2=gait.z[2], start_t_switch=src["t_switch"],
-                     start_t_motor=src["t_motor"], motor_torque=src["torque"],
+                     start_dtheta2=gait.z[2],
                      n_blocks=len(ctx.blocks), designs=n,
                      designs_with_gait=int(np.sum(grid["status"] == DESIGN_OK)),
                      grid_min_spectral_radius=float(np.nanmin(rho)) if np.any(
@@ -738,27 +841,41 @@ class DesignKind(StepKind):
     def describe(self, ds) -> list[str]:
         a = ds.attrs
         names = [str(x) for x in json_list(a.get("parameters", "[]"))]
-        best = ", ".join(f"{n} {float(a['best_' + n]):.6g} {PARAMETERS[n].unit}"
+        best = ", ".join(f"{n} {float(a['best_' + n]):.6g} {ds[n].attrs.get('units', '')}"
                          for n in names)
-        return [f"{int(a['designs'])} designs over {', '.join(names)} "
+        lines = [f"{int(a['designs'])} designs over {', '.join(names)} "
                 f"({int(a['designs_with_gait'])} with a gait); balance {a.get('balance')}; "
                 f"clock {a.get('clock', 'reset_at_vertical')}; "
                 f"{int(a['steps_per_cycle'])} step(s) per cycle",
                 f"best: {best}; rho {float(a['best_spectral_radius']):.6g} (variational), "
-                f"{float(a['best_spectral_radius_fd']):.6g} (fd); grid min "
-                f"{float(a['grid_min_spectral_radius']):.6g}",
+                f"{float(a['best_spectral_radius_fd']):.6g} (fd)"
+                + (" of the full map, the height included" if a.get("height_in_map") else "")
+                + f"; grid min {float(a['grid_min_spectral_radius']):.6g}"]
+        if "best_t_switch" in a:
+            lines.append(
                 "best in the motor frame (the sign fixed to the links; times from "
                 + ("the clock's phase zero" if a.get("clock") == "run_on" else "the vertical")
                 + "): "
                 + "; ".join(f"{tau:+.4g} N m from {t0:.4g} s for {t1 - t0:.4g} s"
                             for t0, t1, tau in motor_frame_pulses(best_schedule(a)))
-                + f"; swap at {float(a['best_t_switch']):.4g} s",
+                + f"; swap at {float(a['best_t_switch']):.4g} s")
+        else:
+            k = 1
+            parts = []
+            while f"best_segment{k}_value" in a:
+                parts.append(f"segment {k}: {float(a[f'best_segment{k}_value']):.6g}, torque "
+                             f"{float(a[f'best_segment{k}_torque']):+.6g} N m")
+                k += 1
+            lines.append(f"best gait ({a.get('torque_frame', 'attached_end')} frame): "
+                         + "; ".join(parts))
+        lines.append(
                 f"replays: {', '.join(str(int(c)) for c in ds['cycles_completed'].values)} "
                 f"cycles within the error bound"
                 + (f", {', '.join(str(int(c)) for c in ds['cycles_walked'].values)} walked"
                    if "cycles_walked" in ds else "")
                 + f" (tick {', '.join(f'{float(t):g}' for t in ds['replay_tick'].values)} "
-                f"s); {a.get('verdict')}"]
+                f"s); {a.get('verdict')}")
+        return lines
 
 
 def best_schedule(attrs) -> dict[str, float]:

@@ -15,7 +15,7 @@ from pathlib import Path
 import netCDF4
 import numpy as np
 
-from ...analysis.design import PARAMETERS, DesignSpace
+from ...analysis.design import PARAMETERS, DesignSpace, SegmentDesignSpace
 from ...analysis.replay import cycle_times
 from ...controllers import SequenceGait, motorless, open_loop_gait
 from ...robot import Robot
@@ -185,6 +185,9 @@ class GaitStart:
                "dtheta2": float(self.z[-1]), "section_theta1": float(self.gait.section_theta1)}
         if src["kind"] == "refine":
             out.update(refine_start=int(src["index"]), gait_error=float(src["error"]))
+        elif src["kind"] == "design":
+            out.update(design_spectral_radius=float(src["spectral_radius"]),
+                       gait_error=float(src["error"]))
         else:
             out["map_defect"] = float(src["map_defect"])
         return out
@@ -396,12 +399,24 @@ def floquet_start(path: Path, name: str, ctx, req: StartRequest) -> GaitStart:
 
 def design_start(path: Path, name: str, ctx, req: StartRequest) -> GaitStart:
     """The best design of a design dataset: its own schedule (an open-loop gait) and robot,
-    from its fixed point."""
+    from its fixed point; of a sequence gait's design, the gait with the best design's
+    segment values, run as the study's gait runs."""
     a = D.read_attrs(path) or {}
+    z = (float(a["best_theta2"]), float(a["best_dtheta1"]), float(a["best_dtheta2"]))
+    if "best_segment1_value" in a:   # a design of a sequence gait's segments
+        spec = ctx.spec
+        space = SegmentDesignSpace(spec.sequence, spec.robot,
+                                   motor_frame=spec.torque_frame == "motor")
+        values = {n: float(a[f"best_{n}"]) for n in space.parameter_names}
+        replay, clock_name = _replay_and_clock(req, ctx.conventions)
+        source = {"step": name, "kind": "design", "error": float(a["best_error"]),
+                  "spectral_radius": float(a["best_spectral_radius"]),
+                  "t_switch": math.nan, "t_motor": math.nan, "torque": math.nan}
+        return GaitStart(space.gait_for(values), z, spec.robot, None, replay, clock_name,
+                         "design", spec.swap_motor_times, source)
     values = {n: float(a[f"best_{n}"]) for n in PARAMETERS}
     space = DesignSpace(ctx.spec.robot, two_step=int(a["steps_per_cycle"]) == 2,
                         balance="none")
-    z = (float(a["best_theta2"]), float(a["best_dtheta1"]), float(a["best_dtheta2"]))
     source = {"step": name, "kind": "design", "error": float(a["best_error"]),
               "spectral_radius": float(a["best_spectral_radius"]),
               "t_switch": values["t_switch"], "t_motor": values["t_motor"],
