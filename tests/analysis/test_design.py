@@ -38,3 +38,83 @@ def test_a_pulse_before_the_swap_keeps_its_sign_and_one_after_it_is_negated():
 def test_no_torque_or_no_time_is_no_pulse():
     assert motor_frame_pulses(dict(AS_BUILT, torque=0.0)) == []
     assert motor_frame_pulses(dict(AS_BUILT, t_motor=0.0)) == []
+
+
+# --- designs of a sequence gait's segments ---------------------------------------------------------
+import numpy as np  # noqa: E402
+
+from monkeystudy.analysis.design import (  # noqa: E402
+    SegmentDesignSpace, evaluate_design, with_variational,
+)
+from monkeystudy.analysis.multipliers import sorted_eigs  # noqa: E402
+from monkeystudy.controllers import Integrator  # noqa: E402
+from monkeystudy.robot import Robot  # noqa: E402
+from monkeystudy.study.models import SequenceGaitSpec  # noqa: E402
+
+from test_motor_frame import DESIGN_B, Z_B, program_bytes  # noqa: E402
+
+TIGHT = Integrator(method="dop853", rtol=1e-12, atol=1e-13, max_time=3.0)
+
+
+def design_b_space(**kw) -> SegmentDesignSpace:
+    gait = SequenceGaitSpec.model_validate(DESIGN_B).gait()      # kernel frame
+    return SegmentDesignSpace(gait, Robot.preset("seed2009"), motor_frame=True,
+                              integrator=TIGHT, **kw)
+
+
+def test_a_segment_design_states_its_torques_as_the_study_wrote_them():
+    """Motor frame: the values are the study's torques (+0.3213 before the catch, -0.4025
+    after the swap, which the kernel applies negated), and they rebuild the same program."""
+    space = design_b_space()
+    v = space.values()
+    written = [s["torque"] if "torque" in s else 0.0 for s in DESIGN_B["segments"]]
+    assert [v[f"segment{k}_torque"] for k in (1, 2, 3)] == written
+    assert [v[f"segment{k}_value"] for k in (1, 2, 3)] == [s["value"] for s in
+                                                          DESIGN_B["segments"]]
+    assert program_bytes(space.gait_for(v)) == program_bytes(space.base_gait)
+    kernel = space.gait_for(dict(v, segment3_torque=-0.5)).segments[2].torque
+    assert kernel == 0.5                 # after the swap: the opposite sign in the kernel
+    assert space.parameter("segment2_value").unit == "m"     # a free_end_y guard
+    assert space.parameter("segment3_value").unit == "s"
+    with pytest.raises(ValueError, match="k from 1 to 3"):
+        space.parameter("segment4_torque")
+    with pytest.raises(ValueError, match="unknown design parameter"):
+        space.parameter("t_switch")
+    assert "outside" in space.buildable(dict(v, segment3_torque=-2.5))
+
+
+def test_design_b_as_a_segment_design_holds_its_height_and_contracts():
+    """Design B solved by the compiled Newton (no balance) lands on the fixed point the
+    study's refine and floquet steps find; the full map's multipliers by variational
+    equations and finite differences agree to 1e-6, the section map's multipliers are among
+    them, and the height's is ~0 (the catch at the start's height sets the next height)."""
+    space = design_b_space()
+    res = with_variational(space, evaluate_design(space, {}, Z_B + [0.01, 0.02, -0.02]))
+    assert res.ok, res.message
+    np.testing.assert_allclose(res.z, Z_B, atol=1e-9)
+    assert abs(res.rise) < 1e-12                # the next hold is at the start's height
+    assert res.jacobian.shape == res.jacobian_fd.shape == (4, 4)
+    assert abs(res.spectral_radius - res.spectral_radius_fd) < 1e-6
+    assert res.spectral_radius == pytest.approx(0.3041373, abs=1e-6)
+    # every catch is at the start's world height: the next height depends on nothing (its
+    # row is zero), so the full map's multipliers are the section map's and 0
+    np.testing.assert_allclose(res.jacobian[0], 0.0, atol=1e-9)
+    assert abs(res.multipliers[-1]) < 1e-9
+    reduced = sorted_eigs(res.jacobian[1:, 1:])
+    np.testing.assert_allclose(np.sort_complex(res.multipliers[:3]), np.sort_complex(reduced),
+                               atol=1e-9)
+    section_only = design_b_space(height_in_map=False)
+    r3 = evaluate_design(section_only, {}, Z_B)
+    assert r3.jacobian_fd.shape == (3, 3)
+    assert r3.spectral_radius_fd == pytest.approx(res.spectral_radius_fd, abs=1e-6)
+
+
+def test_a_heavier_pre_catch_torque_moves_the_fixed_point_and_changes_rho():
+    """A free parameter changes the gait: another torque before the catch, another fixed
+    point and spectral radius, the height still held."""
+    space = design_b_space()
+    base = evaluate_design(space, {}, Z_B)
+    other = evaluate_design(space, {"segment2_torque": 0.35, "segment3_torque": -0.42}, Z_B)
+    assert other.ok and abs(other.rise) < 1e-12
+    assert np.max(np.abs(other.z - base.z)) > 1e-2
+    assert abs(other.spectral_radius_fd - base.spectral_radius_fd) > 1e-2

@@ -124,3 +124,20 @@ def test_json_schema_states_units_and_forbids_unknown_keys():
     assert "[kg]" in link["properties"]["mass"]["description"]
     assert "[rad s-1]" in s["$defs"]["Axis"]["properties"]["start"]["description"]
     assert s["properties"]["schema_version"]["const"] == 1
+
+
+def test_a_problem_in_a_key_merged_from_an_anchor_names_the_step_that_merges_it():
+    """A step written as ``{<<: *other, name: ...}`` takes its keys from the anchor: a problem
+    in one of them is reported on the merging step's line (ruamel keeps no line for a merged
+    key), not lost in a KeyError."""
+    from monkeystudy.study.loader import parse_study
+
+    text = (ROOT / "studies" / "open_loop_design_smoke.yaml").read_text()
+    bad = text.replace("t_motor: {start: 0.14", "t_motor: {start: -0.14", 1)
+    assert bad != text
+    with pytest.raises(StudyError) as err:
+        parse_study(bad, "bad.yaml")
+    merged = [i for i in err.value.issues if i.key.startswith("steps[2]")]
+    assert merged, str(err.value)
+    line = next(n for n, row in enumerate(bad.splitlines(), 1) if "name: schedule_clock" in row)
+    assert all(i.line == line for i in merged), str(err.value)

@@ -203,7 +203,10 @@ def _line_of(tree: Any, loc: tuple) -> int:
         pass
     for part in loc:
         if isinstance(node, CommentedMap) and part in node:
-            line = node.lc.key(part)[0] + 1
+            try:
+                line = node.lc.key(part)[0] + 1
+            except KeyError:    # a key merged in from an anchor (<<: *name): the mapping's line
+                pass
             node = node[part]
         elif (isinstance(node, CommentedSeq) and isinstance(part, int)
               and 0 <= part < len(node)):

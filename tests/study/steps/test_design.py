@@ -237,3 +237,126 @@ def test_the_verdict_tells_a_tick_replay_that_walks_on_from_one_that_falls():
     stalls = Replay(0.001, settles, np.ones(100), np.zeros(100), 0, ST_OK, 60)
     assert walked_on(stalls, 100) == ""
     assert walked_on(short, 100) == ""
+
+
+# --- a sequence gait's segments --------------------------------------------------------------------
+SEGMENTS = """\
+schema_version: 1
+name: segment_design
+robot: seed2009
+gait:
+  kind: sequence
+  torque_frame: motor
+  section: {theta1: 0.0, direction: either, theta2: 0.43159965929540284}
+  segments:
+    - {until: time, value: 7.519090701371105e-08}
+    - {until: free_end_y, value: 0.0, direction: rising, torque: 0.3213454663367762,
+       clock: reset}
+    - {until: time, value: 0.28929574705023964, magnets: swap, torque: -0.40251722486466324}
+integrator: {method: dop853, rtol: 1.0e-12, atol: 1.0e-13, max_time: 3.0}
+steps:
+  - {name: refine, kind: refine, start: [4.844445533376672, -1.6124995598690839],
+     maxiter: 300}
+  - {name: floquet, kind: floquet, from: refine}
+  - name: design
+    kind: design
+    from: floquet
+    parameters:
+      segment2_torque: {start: 0.30, stop: 0.34, num: 2}
+      segment3_torque: {start: -0.42, stop: -0.38, num: 2}
+    refine: {starts: 1, max_evaluations: 12}
+    verify: {cycles: 20, decay_cycles: 8, basin_num: 3, basin_cycles: 5}
+  - {name: design_survival, kind: survival, from: design, controller: {tick: 0.001},
+     runs: 4, max_cycles: 10, seed: 30, min_advance: 0.5761}
+"""
+
+
+@pytest.fixture(scope="module")
+def segments(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("segment_design")
+    path = folder / "segments.yaml"
+    path.write_text(SEGMENTS)
+    run_study(load_study(path), folder / "out", workers=2)
+    with xr.open_dataset(folder / "out" / "design.nc") as ds:
+        return folder / "out", ds.load()
+
+
+def test_a_segment_design_writes_the_full_maps_radius_in_the_motor_frame(segments):
+    """The design dataset of a sequence gait in the motor frame: its axes are the segments'
+    torques [N m] as the study writes them, the grid and the best design carry the full
+    map's spectral radius (four multipliers, attribute height_in_map = 1) by variational
+    equations and finite differences agreeing to 1e-6, every design holds its height, and
+    the best cycle's torque is stated in the motor frame (the study's signs: + before the
+    catch, - after it)."""
+    out, ds = segments
+    assert ds.attrs["torque_frame"] == "motor" and ds.attrs["height_in_map"] == 1
+    assert ds["status"].dims == ("segment2_torque", "segment3_torque")
+    assert ds["segment2_torque"].attrs["units"] == "N m"
+    assert "motor frame" in ds["segment2_torque"].attrs["long_name"]
+    assert "full map" in ds["spectral_radius"].attrs["long_name"]
+    assert ds.sizes["k"] == 4 and ds["best_jacobian"].shape == (4, 4)
+    ok = ds["status"].values == 0
+    assert ok.all()
+    rho, rho_fd = ds["spectral_radius"].values, ds["spectral_radius_fd"].values
+    assert np.max(np.abs(rho - rho_fd)) < 1e-6 and np.all(rho < 1.0)
+    assert np.max(np.abs(ds["rise"].values)) < 1e-12
+    assert abs(ds.attrs["best_spectral_radius"] - ds.attrs["best_spectral_radius_fd"]) < 1e-6
+    assert ds.attrs["best_segment2_torque"] > 0 > ds.attrs["best_segment3_torque"]
+    torque, end = ds["motor_torque"].values, ds["attached_end"].values
+    on = torque != 0.0
+    assert np.all(torque[on & (end == 0)] > 0) and np.all(torque[on & (end == 1)] < 0)
+    np.testing.assert_allclose(np.unique(torque[on & (end == 0)]),
+                               [ds.attrs["best_segment2_torque"]], rtol=0, atol=1e-15)
+    assert "t_switch" not in ds.attrs and "best_t_switch" not in ds.attrs
+
+
+def test_a_survival_step_runs_the_segment_designs_best_gait(segments):
+    out, ds = segments
+    with xr.open_dataset(out / "design_survival.nc") as sv:
+        assert sv.attrs["design_step"] == "design"
+        assert sv.attrs["design_spectral_radius"] == ds.attrs["best_spectral_radius"]
+        np.testing.assert_allclose([sv.attrs["dtheta1"], sv.attrs["dtheta2"]],
+                                   [ds.attrs["best_dtheta1"], ds.attrs["best_dtheta2"]])
+        assert sv["cycles_completed"].shape == (1, 4)
+
+
+@pytest.mark.parametrize("edit, where, says", [
+    ("segment3_torque: {start: -0.42, stop: -0.38", "steps[2].parameters",
+     "'torque' is a horizontal gait's schedule parameter"),
+    ("segment2_torque: {start: 0.30, stop: 0.34", "steps[2].parameters",
+     "k from 1 to 3"),
+    ("segment2_torque: {start: 0.30, stop: 0.34", "steps[2].parameters",
+     "outside [-2.0, 2.0]"),
+    ("    refine: {starts: 1", "steps[2].balance", "has no balance"),
+])
+def test_a_segment_design_refuses_what_its_gait_does_not_have(tmp_path, edit, where, says):
+    """File, line and key of a parameter the gait does not have, one out of bounds, a
+    balance."""
+    replacement = {
+        "'torque' is a horizontal gait's schedule parameter":
+            "torque: {start: -0.42, stop: -0.38",
+        "k from 1 to 3": "segment4_torque: {start: 0.30, stop: 0.34",
+        "outside [-2.0, 2.0]": "segment2_torque: {start: 0.30, stop: 2.5",
+        "has no balance": "    balance: torque\n    refine: {starts: 1",
+    }[says]
+    path = tmp_path / "bad.yaml"
+    path.write_text(SEGMENTS.replace(edit, replacement))
+    result = CliRunner().invoke(app, ["validate", str(path)])
+    assert result.exit_code == 2, result.output
+    assert f"{where}: " in result.output and says in result.output, result.output
+    assert str(path) in result.output
+
+
+def test_a_horizontal_design_refuses_segments_and_the_height():
+    """The horizontal gait's design parameters are its schedule's; its schedules sense no
+    height."""
+    from monkeystudy.study.loader import StudyError, parse_study
+
+    text = SMOKE.read_text()
+    for bad, says in ((text.replace("motor_start: {", "segment1_torque: {", 1),
+                       "'segment1_torque' is a sequence gait's segment"),
+                      (text.replace("    kind: design\n", "    kind: design\n"
+                                    "    height_in_map: true\n", 1), "sense no height")):
+        assert bad != text
+        with pytest.raises(StudyError, match=says):
+            parse_study(bad, "bad.yaml")
