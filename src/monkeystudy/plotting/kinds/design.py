@@ -185,9 +185,11 @@ def plot_design_multipliers(ds):
                 label="variational equations")
         ax.plot(lam_fd.real, lam_fd.imag, "o", ms=15, mfc="none", mec=VERMILLION, mew=1.5,
                 gid="multipliers_fd", label="finite differences")
-        for v in lam:
-            ax.annotate(f"|λ| = {abs(v):.4g}", (v.real, v.imag), xytext=(8, 8),
-                        textcoords="offset points", fontsize=9)
+        # the moduli in one box: multipliers close together would write over each other
+        ax.text(0.98, 0.98, "|λ| (variational equations):\n" + "\n".join(
+                    f"{abs(v):.6g}" for v in lam), transform=ax.transAxes, ha="right",
+                va="top", fontsize=9, gid="moduli",
+                bbox={"boxstyle": "round", "fc": "white", "ec": "0.7"})
         m = max(1.2, 1.15 * float(np.max(np.abs(np.concatenate([lam, lam_fd])))))
         ax.set_xlim(-m, m)
         ax.set_ylim(-m, m)

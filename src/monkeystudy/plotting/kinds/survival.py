@@ -15,6 +15,7 @@ each docstring) so the tests can read back their data.
 from __future__ import annotations
 
 import math
+import textwrap
 from typing import Sequence
 
 import matplotlib
@@ -296,18 +297,19 @@ def plot_mfpt_comparison(datasets: Sequence):
                 _, x, _ = noise_axis(ds)
                 name = ds.attrs.get("step_name", f"step {k}")
                 fixed = fixed_noise(ds)
-                est_open, bound = _mfpt_points(
-                    ax, x, ds, colours[k % len(colours)],
-                    f"{name}: {gait_text(ds)}, {fmt_tick(ds.attrs.get('tick'))}"
-                    + (f"; also {fixed}" if fixed else ""), f"mfpt_{name}")
+                # wrapped: a label wider than the axes would run off the figure
+                label = textwrap.fill(f"{name}: {gait_text(ds)}, "
+                                      f"{fmt_tick(ds.attrs.get('tick'))}"
+                                      + (f"; also {fixed}" if fixed else ""), 60)
+                est_open, bound = _mfpt_points(ax, x, ds, colours[k % len(colours)], label,
+                                               f"mfpt_{name}")
                 any_open, any_bound = any_open or est_open, any_bound or bound
                 k += 1
             ax.set_xscale("log")
             ax.set_yscale("log")
             ax.set_xlabel(xlabel)
             ax.set_ylabel("mean cycles before failure")
-            ax.legend(handles=ax.get_legend_handles_labels()[0], loc="upper right",
-                      fontsize=7.5)
+            ax.legend(handles=ax.get_legend_handles_labels()[0], loc="best", fontsize=7.5)
         handles = marker_handles(any_open, any_bound)
         if handles:
             body.legend(handles=handles, loc="outside lower center", fontsize=8,

@@ -10,6 +10,11 @@ blocks on the pool, saved as shards (resumable); along the last axis each design
 Newton solve from its converged neighbour, so blocks hold whole lines of that axis and the
 numbers do not depend on the workers.
 
+For a sequence gait the free parameters are its segments' guard values and torques
+(:class:`~monkeystudy.analysis.design.SegmentDesignSpace`): each design's gait is the fixed
+point of the gait's own return map (no balance: it holds its height by a guard, or not), and
+its stability that of the full map, the height included (``height_in_map``).
+
 Then, in the main process: Nelder-Mead from the best grid designs (in coordinates scaled to
 the axes' ranges, kept inside them), and for the best design found, the verification: the
 spectral radius both ways, open-loop replays with exact timing and on the ``tick`` grid for
@@ -94,7 +99,8 @@ class DesignVerify(StrictModel):
 
 
 class DesignStep(StrictModel):
-    """Search schedules and robots for the open-loop gait with the smallest spectral radius.
+    """Search schedules, robots or a sequence gait's segments for the gait with the smallest
+    spectral radius.
 
     A grid over the free parameters, Nelder-Mead from its best designs, and checks of the best
     (docs/model.md section 9). For a sequence gait the free parameters are its segments'
@@ -732,14 +738,16 @@ class DesignKind(StepKind):
         Figure("map", "spectral radius over the design grid",
                "The spectral radius per step over the two most influential free parameters "
                "(the smallest over the others), the rho = 1 contour drawn, the grid's "
-               "failures blank and the best design marked: where, if anywhere, an open-loop "
-               "gait is stable."),
+               "failures blank and the best design marked: where, if anywhere, the gait is "
+               "stable (a schedule's open-loop map; a sequence gait's full map, the height "
+               "included)."),
         Figure("multipliers", "multipliers of the best design",
                "The best design's multipliers on the unit circle, by variational equations "
                "and by finite differences (they coincide): a design is stable when all lie "
                "inside."),
-        Figure("replay", "open-loop replay of the best design",
-               "The best design run open loop from its fixed point, with exact timing and on "
+        Figure("replay", "replay of the best design",
+               "The best design run from its fixed point (a schedule open loop, a sequence "
+               "gait by its own controller), with exact timing and on "
                "the controller tick: section error, kinetic energy and pivot height per cycle "
                "(the 2009 study's figures 5-7), and the decay of a small perturbation against "
                "the leading multiplier."),
