@@ -1,6 +1,7 @@
 """Helpers of the study tests: a small study, and bit-for-bit dataset comparison."""
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -73,3 +74,53 @@ def open_dataset(folder: Path, name: str) -> xr.Dataset:
     """Dataset ``name`` of a study output ``folder``, loaded and closed."""
     with xr.open_dataset(Path(folder) / name) as ds:
         return ds.load()
+
+
+def declared_text_pattern(template: str) -> re.Pattern:
+    """A declared long_name or units (:class:`~monkeystudy.study.datasets.Variable`) as a
+    pattern: its text literally, each ``{field}`` any text (empty too)."""
+    parts = re.split(r"\{[a-z_]+\}", template)
+    return re.compile("(?s)" + ".*".join(re.escape(p) for p in parts))
+
+
+def refine_starts_dims(name: str, dims: tuple) -> tuple:
+    """The dims of a refine dataset's variable when its start is ``{from: grid, best: k}``:
+    dim ``start`` before the declared dims (the coordinates keep theirs)."""
+    return dims if name in ("start", "iteration", "segment") else ("start",) + dims
+
+
+def assert_written_as_declared(path: Path, kind: str, dims_of=None) -> None:
+    """Dataset ``path`` holds the variables kind ``kind`` declares (its ``variables``):
+    every non-optional one, no undeclared one, each with the declared dtype, units,
+    long_name (its fields any text) and attributes. ``dims_of(name, declared dims)`` gives
+    the dims expected for a layout other than the declared one (a grid's point list, a
+    refine step's starts); by default the declared dims."""
+    import netCDF4
+
+    from monkeystudy.study.steps import REGISTRY
+
+    declared = REGISTRY[kind].variables
+    assert declared, f"{kind} declares no variables"
+    with netCDF4.Dataset(path) as nc:
+        written = set(nc.variables)
+        missing = {n for n, v in declared.items() if not v.optional} - written
+        assert not missing, f"{path.name}: declared, not written: {sorted(missing)}"
+        assert written <= set(declared), \
+            f"{path.name}: written, not declared: {sorted(written - set(declared))}"
+        for name in sorted(written):
+            var, v = declared[name], nc.variables[name]
+            want_dims = var.dims if dims_of is None else dims_of(name, var.dims)
+            assert v.dimensions == tuple(want_dims), (path.name, name, v.dimensions)
+            if var.dtype is str:
+                assert v.dtype is str, (path.name, name, v.dtype)
+            else:
+                assert v.dtype == np.dtype(var.dtype), (path.name, name, v.dtype)
+            attrs = {k: v.getncattr(k) for k in v.ncattrs()}
+            for key, template in (("long_name", var.long_name), ("units", var.units)):
+                assert declared_text_pattern(template).fullmatch(attrs[key]), \
+                    f"{path.name}:{name} {key} {attrs[key]!r} is not the declared {template!r}"
+            extra = set(attrs) - {"long_name", "units", "_FillValue", "coordinates"}
+            assert extra == set(var.attrs), (path.name, name, extra, set(var.attrs))
+            for key, value in var.attrs.items():
+                assert np.array_equal(np.asarray(attrs[key]), np.asarray(value)), \
+                    (path.name, name, key)

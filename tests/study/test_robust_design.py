@@ -22,6 +22,7 @@ from monkeystudy.study import load_study, run_study
 from monkeystudy.study.models import SequenceGaitSpec
 from monkeystudy.study.spec import gait_spec
 
+from studyhelpers import assert_written_as_declared
 from test_motor_frame import DESIGN_B, Z_B, program_bytes
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -246,3 +247,13 @@ def test_the_figures_show_the_full_map_the_motor_frame_torque_and_the_height(sma
     tol = [line.get_xdata()[0] for line in fig.findobj() if line.get_gid() == "tolerance"]
     assert sorted(tol) == [-2.0, 2.0]
     plt.close(fig)
+
+
+def test_datasets_with_the_optional_variables_are_written_as_declared(small):
+    """The sequence gait's segments, the full map (height_in_map), the motor frame's torque and
+    the height tolerance's fraction are declared as the kinds write them."""
+    out = small[0].parent / "out"
+    for name, kind in (("refine", "refine"), ("floquet", "floquet"), ("cycles", "stability"),
+                       ("survival", "survival")):
+        assert_written_as_declared(out / f"{name}.nc", kind)
+    assert "full_stable" in small[1]["floquet"] and "height_within_tolerance" in small[1]["survival"]

@@ -14,7 +14,8 @@ from monkeystudy.simulation import evaluate_cycle_gaits
 from monkeystudy.study import load_study, run_study
 from monkeystudy.study.spec import gait_spec
 
-from studyhelpers import assert_same_datasets, write_study
+from studyhelpers import (assert_same_datasets, assert_written_as_declared, refine_starts_dims,
+                          write_study)
 
 #: the flight gait of studies/flight_gait.yaml on a small grid around its fixed point
 FLIGHT = """\
@@ -141,6 +142,7 @@ def test_sequence_continuation_end_to_end(tmp_path):
         z = fl["fixed_point"].values[0]
     with xr.open_dataset(tmp_path / "out" / "lighter.nc") as ds:
         ds.load()
+    assert_written_as_declared(tmp_path / "out" / "lighter.nc", "continuation")
     assert ds.attrs["parameter"] == "mass_ratio" and ds.attrs["stop_reason"] == "steps"
     assert ds.sizes["point"] == 4 and ds.sizes["segment"] == 6
     assert ds["parameter_value"].values[0] == 1.0
@@ -230,3 +232,10 @@ def test_sequence_replays_end_to_end(tmp_path):
         gids = {a.get_gid() for ax in fig.axes for a in ax.get_children() if a.get_gid()}
         assert want <= gids, gids
         plt.close(fig)
+
+
+def test_sequence_datasets_are_written_as_declared(flight_run):
+    _, folder = flight_run
+    assert_written_as_declared(folder / "one" / "map.nc", "grid")
+    assert_written_as_declared(folder / "one" / "best.nc", "refine", dims_of=refine_starts_dims)
+    assert_written_as_declared(folder / "one" / "floquet.nc", "floquet")

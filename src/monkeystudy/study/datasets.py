@@ -8,7 +8,9 @@ these helpers (:mod:`monkeystudy.study.steps`).
 
 Every variable carries ``units`` (UDUNITS) and ``long_name``; status codes carry CF
 ``flag_values``/``flag_meanings``; attribute values are text or numbers (structured values are
-JSON text).
+JSON text). A step kind declares its variables once (a mapping of name to :class:`Variable`,
+the kind's ``variables``) and writes each from its declaration (:func:`write_declared`); the
+tests hold the declarations against docs/datasets.md and against the datasets written.
 """
 from __future__ import annotations
 
@@ -16,8 +18,9 @@ import json
 import os
 import uuid
 from contextlib import contextmanager
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any, Iterator, Mapping
 
 import netCDF4
 import numpy as np
@@ -46,15 +49,24 @@ ERROR_UNITS = "rad2 + rad2 s-2"
 ERROR_COMMENT = ("a sum of mixed units, as the 2009 study defines the error: theta2_f^2 [rad2] "
                  "plus two squared rate differences [rad2 s-2]")
 
+#: what the error of a horizontal gait's evaluation is
+GAIT_ERROR = ("gait error: theta2_f^2 + (dtheta1 - dtheta1_f)^2 + (dtheta2 - dtheta2_f)^2 "
+              "(docs/model.md)")
+#: what the error of a sequence gait's evaluation is
+SECTION_ERROR = ("section error: wrap(theta2_f - theta2_0)^2 + (dtheta1_f - dtheta1_0)^2 + "
+                 "(dtheta2_f - dtheta2_0)^2 after one cycle")
+#: the event ending a horizontal gait's and a sequence gait's evaluation
+GAIT_END = "the vertical crossing ending the gait"
+SECTION_END = "the section crossing ending the cycle"
+
 #: units and long_name of a gait evaluation's variables (grid, refine, shoot, floquet, ...)
 GAIT_ATTRS = {
-    "error": {"long_name": "gait error: theta2_f^2 + (dtheta1 - dtheta1_f)^2 + "
-                           "(dtheta2 - dtheta2_f)^2 (docs/model.md); NaN unless ok",
+    "error": {"long_name": GAIT_ERROR + "; NaN unless ok",
               "units": ERROR_UNITS, "comment": ERROR_COMMENT},
     "status": STATUS_ATTRS,
     "t_switch": {"long_name": "time of the swap after the gait start", "units": "s"},
     "t_motor": {"long_name": "motor-on duration after the swap", "units": "s"},
-    "t_end": {"long_name": "time of the vertical crossing ending the gait", "units": "s"},
+    "t_end": {"long_name": "time of " + GAIT_END, "units": "s"},
     "steps": {"long_name": "accepted integrator steps", "units": "1"},
     "nfev": {"long_name": "right-hand-side evaluations", "units": "1"},
     "rejected": {"long_name": "rejected integrator steps", "units": "1"},
@@ -69,23 +81,80 @@ GAIT_ATTRS = {
 
 #: the sequence gait's error and end time (same variable names, other meanings)
 SEQUENCE_ATTRS = {
-    "error": {"long_name": "section error: wrap(theta2_f - theta2_0)^2 + (dtheta1_f - "
-                           "dtheta1_0)^2 + (dtheta2_f - dtheta2_0)^2 after one cycle; NaN "
-                           "unless ok", "units": ERROR_UNITS, "comment": ERROR_COMMENT},
-    "t_end": {"long_name": "time of the section crossing ending the cycle", "units": "s"},
+    "error": {"long_name": SECTION_ERROR + "; NaN unless ok", "units": ERROR_UNITS,
+              "comment": ERROR_COMMENT},
+    "t_end": {"long_name": "time of " + SECTION_END, "units": "s"},
 }
+
+
+def gait_fields(sequence: bool) -> dict[str, str]:
+    """The ``{gait_error}`` and ``{gait_end}`` fields of a declared long_name
+    (:class:`Variable`) for a horizontal gait's evaluations or a sequence gait's."""
+    return ({"gait_error": SECTION_ERROR, "gait_end": SECTION_END} if sequence
+            else {"gait_error": GAIT_ERROR, "gait_end": GAIT_END})
 
 
 #: long_name of a sequence gait's segment coordinate
 SEGMENT_NOTE = "segment of the cycle (the last: the section)"
 
-
-def variable_attrs(name: str, sequence: bool) -> dict:
-    """Attributes of a grid or refine variable for the horizontal or a sequence gait."""
-    return (SEQUENCE_ATTRS.get(name) or GAIT_ATTRS[name]) if sequence else GAIT_ATTRS[name]
-
 DTHETA1 = {"long_name": "initial angular rate of link 1 (dtheta1)", "units": RATE}
 DTHETA2 = {"long_name": "initial relative angular rate of link 2 (dtheta2)", "units": RATE}
+
+
+# --- declared variables ------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Variable:
+    """A dataset variable as its step kind declares it.
+
+    ``long_name`` (and ``units``) may hold ``str.format`` fields (``{gait_end}``) for the
+    words that depend on the run (a continuation's parameter and its units), filled when the
+    variable is written (:func:`write_declared`); ``attrs`` are the
+    attributes after ``long_name`` and ``units`` (``comment``, CF ``flag_values`` and
+    ``flag_meanings``, ...). An ``optional`` variable is written by some runs only (a sequence
+    gait's, or one a step option asks for); every other one is in every dataset of its kind.
+    ``dims`` are those of the usual layout (a writer may state others: a grid's point list).
+    """
+
+    dims: tuple[str, ...]
+    dtype: Any
+    units: str
+    long_name: str
+    attrs: Mapping[str, Any] = field(default_factory=dict)
+    optional: bool = False
+
+    @classmethod
+    def of(cls, dims: tuple[str, ...], dtype, attrs: Mapping[str, Any], *,
+           long_name: str | None = None, optional: bool = False) -> "Variable":
+        """A variable with the attributes ``attrs`` (``long_name``, ``units`` and the rest),
+        its long_name replaced by ``long_name`` when given."""
+        rest = {k: v for k, v in attrs.items() if k not in ("long_name", "units")}
+        return cls(tuple(dims), dtype, attrs["units"],
+                   attrs["long_name"] if long_name is None else long_name, rest, optional)
+
+    def attributes(self, **fields) -> dict[str, Any]:
+        """Its attributes as written: ``long_name`` and ``units`` (``fields`` filled in), then
+        the rest."""
+        return {"long_name": self.long_name.format(**fields),
+                "units": self.units.format(**fields), **self.attrs}
+
+
+def complex_variables(name: str, dims: tuple[str, ...], what: str,
+                      optional: bool = False) -> dict[str, Variable]:
+    """The declarations of a complex variable stored as ``<name>_real`` and ``<name>_imag``
+    (:func:`write_complex`), dimensionless; ``what`` is the long_name before ", real part"."""
+    return {f"{name}_{part}": Variable(tuple(dims), np.float64, "1", f"{what}, {label} part",
+                                       optional=optional)
+            for part, label in (("real", "real"), ("imag", "imaginary"))}
+
+
+def index_coordinate(dim: str, long_name: str, optional: bool = False) -> Variable:
+    """The declaration of an integer coordinate numbering dimension ``dim``."""
+    return Variable((dim,), np.int32, "1", long_name, optional=optional)
+
+
+def label_coordinate(dim: str, long_name: str, optional: bool = False) -> Variable:
+    """The declaration of a text coordinate naming the entries of dimension ``dim``."""
+    return Variable((dim,), str, "1", long_name, optional=optional)
 
 
 
@@ -164,6 +233,33 @@ def add_variable(nc, name: str, dims: tuple, dtype, attrs: dict, data=None,
         else:
             v.assignValue(np.asarray(data, dtype=dtype))
     return v
+
+
+def write_declared(nc, declared: Mapping[str, Variable], name: str, data=None, *,
+                   dims: tuple[str, ...] | None = None, coordinates: str = "", **fields):
+    """Create variable ``name`` as ``declared`` says (dims, dtype, units, long_name with
+    ``fields`` filled in, attributes) and write ``data``; ``dims`` replaces the declared dims
+    for a layout other than the usual one. Fields a long_name does not use are ignored."""
+    var = declared[name]
+    return add_variable(nc, name, var.dims if dims is None else dims, var.dtype,
+                        var.attributes(**fields), data, coordinates=coordinates)
+
+
+def write_coordinate(nc, declared: Mapping[str, Variable], name: str, values,
+                     **fields) -> None:
+    """Dimension ``name`` of ``len(values)`` entries and its coordinate variable ``values``
+    as ``declared`` says."""
+    nc.createDimension(name, len(values))
+    write_declared(nc, declared, name, values, **fields)
+
+
+def write_complex(nc, declared: Mapping[str, Variable], name: str, values, *,
+                  dims: tuple[str, ...] | None = None, **fields) -> None:
+    """A complex array as the declared ``<name>_real`` and ``<name>_imag``
+    (:func:`complex_variables`)."""
+    v = np.asarray(values, complex)
+    write_declared(nc, declared, f"{name}_real", v.real, dims=dims, **fields)
+    write_declared(nc, declared, f"{name}_imag", v.imag, dims=dims, **fields)
 
 
 def set_global_attrs(nc, attrs: dict) -> None:

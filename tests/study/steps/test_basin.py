@@ -12,7 +12,8 @@ from monkeystudy.study import load_study, parse_study, plan_study, run_study
 from monkeystudy.study.blocks import shard_dir, write_shard
 from monkeystudy.study.steps import REGISTRY
 
-from studyhelpers import ANALYSIS_SMOKE as SMOKE, assert_same_datasets, open_dataset
+from studyhelpers import (ANALYSIS_SMOKE as SMOKE, assert_same_datasets,
+                          assert_written_as_declared, open_dataset)
 
 #: a basin of 30 x 21 offsets of a shoot step's gait (how its points fall into blocks)
 BIG_BASIN = """\
@@ -64,3 +65,7 @@ def test_basin_blocks_are_whole_rows():
     assert all(b.lo % 21 == 0 and b.hi % 21 == 0 for b in blocks)
     assert all(blocks[i].hi == blocks[i + 1].lo for i in range(len(blocks) - 1))
     assert len(blocks) == 8                                # 4 rows (84 points) per block
+
+
+def test_basin_datasets_are_written_as_declared(analysis_smoke):
+    assert_written_as_declared(analysis_smoke[0] / "basin.nc", "basin")

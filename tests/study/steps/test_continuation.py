@@ -8,7 +8,7 @@ import json
 
 import numpy as np
 
-from studyhelpers import open_dataset
+from studyhelpers import assert_written_as_declared, open_dataset
 
 
 def test_continuation_follows_the_family(analysis_smoke):
@@ -21,3 +21,7 @@ def test_continuation_follows_the_family(analysis_smoke):
     assert np.all(ds["residual"].values < 1e-12)
     assert np.all(np.diff(ds["parameter_value"].values) > 0)
     assert json.loads(ds.attrs["folds"]) == [] and json.loads(ds.attrs["period_doublings"]) == []
+
+
+def test_continuation_datasets_are_written_as_declared(analysis_smoke):
+    assert_written_as_declared(analysis_smoke[0] / "family.nc", "continuation")

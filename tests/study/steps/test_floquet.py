@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from studyhelpers import open_dataset
+from studyhelpers import assert_written_as_declared, open_dataset
 
 
 def test_floquet_multipliers_and_agreement(analysis_smoke):
@@ -28,3 +28,7 @@ def test_floquet_multipliers_and_agreement(analysis_smoke):
     assert np.min(np.abs(lam[se] - 1.0)) < 1e-7
     assert np.all(np.abs(lam[se][np.abs(lam[se] - 1.0) > 1e-6]) < 1.0)
     assert ds["t_motor"].values[se] > 0.0
+
+
+def test_floquet_datasets_are_written_as_declared(analysis_smoke):
+    assert_written_as_declared(analysis_smoke[0] / "floquet.nc", "floquet")

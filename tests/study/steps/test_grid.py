@@ -15,6 +15,8 @@ from monkeystudy.study.spec import GaitSpec
 from monkeystudy.study.steps import grid
 from monkeystudy.study.steps.gait_source import best_grid_points
 
+from studyhelpers import assert_written_as_declared
+
 TORQUE = 0.6354
 INTEG = Integrator(rtol=1e-8, atol=1e-10)
 
@@ -181,3 +183,16 @@ steps:
         line = REGISTRY["grid"].describe(ds)[-1]
     assert "not a first-swing gait" in line and "swap at 1.2" in line, line
     assert "not a first-swing gait" in summary.notes["late"], summary.notes
+
+
+def point_list_dims(name: str, dims: tuple) -> tuple:
+    """The dims of a point-list grid's variable declared over the axes."""
+    if name in grid.MAP:
+        return ("point",)
+    return ("point",) + dims[2:] if dims[:2] == grid.MAP else dims
+
+
+def test_grid_datasets_are_written_as_declared(tiny_reference):
+    out = tiny_reference[1]
+    assert_written_as_declared(out / "map.nc", "grid")
+    assert_written_as_declared(out / "pts.nc", "grid", dims_of=point_list_dims)

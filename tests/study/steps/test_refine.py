@@ -12,6 +12,8 @@ from monkeystudy.study.runner import load_kernels
 from monkeystudy.study.spec import GaitSpec
 from monkeystudy.study.steps import refine
 
+from studyhelpers import assert_written_as_declared, refine_starts_dims
+
 TORQUE = 0.6354
 INTEG = Integrator(rtol=1e-8, atol=1e-10)
 
@@ -52,3 +54,9 @@ def test_refine_penalty_keeps_the_objective_finite(spec):
 def test_refine_limits(spec):
     r = refine.refine_task(spec, (1.0, 12.0), xatol=1e-4, fatol=1e-4, maxfev=15)
     assert r["nfev"] <= 16 and r["converged"] == 0
+
+
+def test_refine_datasets_are_written_as_declared(tiny_reference, analysis_smoke):
+    assert_written_as_declared(tiny_reference[1] / "best.nc", "refine",
+                               dims_of=refine_starts_dims)
+    assert_written_as_declared(analysis_smoke[0] / "nm.nc", "refine")

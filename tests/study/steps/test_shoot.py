@@ -12,7 +12,7 @@ import pytest
 
 from monkeystudy.study.steps.shoot import METHOD_GAUSS_NEWTON, METHOD_GRAZING, dedup_solutions
 
-from studyhelpers import open_dataset
+from studyhelpers import assert_written_as_declared, open_dataset
 
 
 def test_shoot_finds_the_exact_grazing_gait_once(analysis_smoke):
@@ -65,3 +65,8 @@ def test_dedup_keeps_the_lower_error_and_every_start():
                                   "lower error is kept")
     assert sols[1]["message"] == "found 0.001"
     assert fails == ["start 1 [1.4, 10.3]: gauss_newton: no gait"]
+
+
+def test_shoot_datasets_are_written_as_declared(analysis_smoke):
+    for name in ('shoot.nc', 'shoot_nm.nc'):
+        assert_written_as_declared(analysis_smoke[0] / name, "shoot")

@@ -12,6 +12,8 @@ from monkeystudy.study.runner import load_kernels
 from monkeystudy.study.spec import GaitSpec
 from monkeystudy.study.steps import refine, stability
 
+from studyhelpers import assert_written_as_declared
+
 TORQUE = 0.6354
 INTEG = Integrator(rtol=1e-8, atol=1e-10)
 
@@ -49,3 +51,7 @@ def test_stability_of_a_failed_gait_is_not_run(spec):
                                  sample_dt=0.005, max_drop=0.61, replay="open_loop")
     assert s["status"] == ST_UNREACHABLE and np.isnan(s["error"]).all()
     assert len(s["time"]) == 0
+
+
+def test_stability_dataset_is_written_as_declared(tiny_reference):
+    assert_written_as_declared(tiny_reference[1] / "cycles.nc", "stability")

@@ -23,7 +23,7 @@ from monkeystudy.study import StudyError, load_study, parse_study, run_study
 from monkeystudy.study.steps import REGISTRY
 from monkeystudy.study.steps.stress import StressStep, stress_tasks
 
-from studyhelpers import assert_same_datasets
+from studyhelpers import assert_same_datasets, assert_written_as_declared
 
 ROOT = Path(__file__).resolve().parents[3]
 SMOKE = ROOT / "studies" / "stress_smoke.yaml"
@@ -322,3 +322,7 @@ def test_reference_period_of_a_regular_swing():
     assert S.reference_period(robot, S.drift_start("swing")) == pytest.approx(1.637, abs=0.01)
     with pytest.raises(ValueError, match="phase"):
         S.drift_start("orbit")
+
+
+def test_smoke_dataset_is_written_as_declared(smoke):
+    assert_written_as_declared(smoke[0] / "stress.nc", "stress")

@@ -16,7 +16,7 @@ from monkeystudy.study import load_study, plan_study, run_study
 from monkeystudy.study.blocks import shard_dir, write_shard
 from monkeystudy.study.steps.survival import FAILURE_NAMES, SurvivalStep
 
-from studyhelpers import assert_same_datasets
+from studyhelpers import assert_same_datasets, assert_written_as_declared
 
 ROOT = Path(__file__).resolve().parents[3]
 SMOKE = ROOT / "studies" / "survival_smoke.yaml"
@@ -121,3 +121,8 @@ def test_levels_come_from_the_lists_and_scalars_apply_to_every_level():
     blocks = [(b.lo, b.hi) for b in __import__("monkeystudy.study.steps", fromlist=["REGISTRY"])
               .REGISTRY["survival"].blocks(step)]
     assert blocks == [(0, 3), (3, 6)]                          # no block spans two levels
+
+
+def test_the_smoke_datasets_are_written_as_declared(smoke):
+    for name in ("open_loop.nc", "state_based.nc"):
+        assert_written_as_declared(smoke[0] / name, "survival")

@@ -10,7 +10,7 @@ import pytest
 
 from monkeystudy.analysis.replay import cycles_to_bound, growth_per_cycle
 
-from studyhelpers import open_dataset
+from studyhelpers import assert_written_as_declared, open_dataset
 
 
 def test_tick_sweep_exact_timing_lasts_longest(analysis_smoke):
@@ -44,3 +44,8 @@ def test_growth_and_cycles_to_bound():
     assert np.isnan(growth_per_cycle(np.array([1e-3, 1e-2])))
     assert cycles_to_bound(np.array([1e-5, 1e-3, 2e-2, 1.0]), 1e-2) == 3
     assert cycles_to_bound(np.array([1e-5, 1e-3]), 1e-2) == 2
+
+
+def test_tick_sweep_datasets_are_written_as_declared(analysis_smoke):
+    for name in ('ticks.nc', 'ticks_var.nc'):
+        assert_written_as_declared(analysis_smoke[0] / name, "tick_sweep")

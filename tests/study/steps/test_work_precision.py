@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from studyhelpers import open_dataset
+from studyhelpers import assert_written_as_declared, open_dataset
 
 
 def test_work_precision_dataset_is_marked_not_reproducible(analysis_smoke):
@@ -18,3 +18,7 @@ def test_work_precision_dataset_is_marked_not_reproducible(analysis_smoke):
     e = ds["error_value"].values[0]
     assert e[1] < e[0]                                     # tighter tolerance, smaller error
     assert np.all(ds["status_mismatch"].values == 0)
+
+
+def test_work_precision_datasets_are_written_as_declared(analysis_smoke):
+    assert_written_as_declared(analysis_smoke[0] / "timing.nc", "work_precision")

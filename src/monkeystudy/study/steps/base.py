@@ -13,13 +13,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, ClassVar
+from typing import TYPE_CHECKING, Any, Callable, ClassVar, Mapping
 
 import numpy as np
 
 from .. import provenance
 from ..blocks import Block, Task
 from ..spec import GaitSpec
+
+if TYPE_CHECKING:
+    from ..datasets import Variable
 
 #: a problem found across steps: (path of the key in the study file, message)
 Problem = tuple[tuple, str]
@@ -150,6 +153,9 @@ class StepKind:
     no_figures: ClassVar[str] = ""
     #: its dataset is bit-reproducible (same numbers for any workers, resumed or not)
     reproducible: ClassVar[bool] = True
+    #: its dataset's variables, coordinates included, by name (:class:`~monkeystudy.study.
+    #: datasets.Variable`; docs/datasets.md documents them): what its writer writes
+    variables: ClassVar[Mapping[str, "Variable"]] = {}
 
     def __init_subclass__(cls, **kwargs):
         # the declaration is the schema's description of from:

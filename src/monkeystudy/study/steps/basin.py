@@ -86,20 +86,24 @@ def basin_block(spec: GaitSpec, gait: SequenceGait, z_star, offsets1: np.ndarray
 
 
 # --- the dataset ---------------------------------------------------------------------------------
+#: the variables of a basin dataset (docs/datasets.md)
+VARIABLES = {
+    **{dim: D.Variable((dim,), np.float64, D.RATE,
+                       f"offset of the start's {what} from the gait")
+       for dim, what in (("d_dtheta1", "dtheta1"), ("d_dtheta2", "dtheta2"))},
+    "cycles": D.Variable(("d_dtheta1", "d_dtheta2"), np.int32, "1",
+                         "cycles survived before the error against the gait exceeded "
+                         "error_bound, the run fell or stopped (max_cycles: never)"),
+}
+
+
 def write_basin(path: Path, attrs: dict, offsets1: np.ndarray, offsets2: np.ndarray,
                 cycles: np.ndarray) -> None:
     """Write a basin dataset: cycles survived ``[len(offsets1), len(offsets2)]``."""
     with D.atomic_netcdf(path) as nc:
-        for dim, vals, what in (("d_dtheta1", offsets1, "dtheta1"),
-                                ("d_dtheta2", offsets2, "dtheta2")):
-            nc.createDimension(dim, len(vals))
-            D.add_variable(nc, dim, (dim,), np.float64, {"long_name": f"offset of the start's {what} "
-                                                            "from the gait", "units": D.RATE},
-                 np.asarray(vals, float))
-        D.add_variable(nc, "cycles", ("d_dtheta1", "d_dtheta2"), np.int32,
-             {"long_name": "cycles survived before the error against the gait exceeded "
-                           "error_bound, the run fell or stopped (max_cycles: never)",
-              "units": "1"}, np.asarray(cycles, np.int32))
+        D.write_coordinate(nc, VARIABLES, "d_dtheta1", np.asarray(offsets1, float))
+        D.write_coordinate(nc, VARIABLES, "d_dtheta2", np.asarray(offsets2, float))
+        D.write_declared(nc, VARIABLES, "cycles", cycles)
         D.set_global_attrs(nc, attrs)
 
 
@@ -107,6 +111,7 @@ def write_basin(path: Path, attrs: dict, offsets1: np.ndarray, offsets2: np.ndar
 class BasinKind(StepKind):
     name = "basin"
     model = BasinStep
+    variables = VARIABLES
     gait_kinds = ("horizontal", "sequence")
     accepts = ("shoot", "floquet")
     unit = "blocks"

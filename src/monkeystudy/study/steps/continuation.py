@@ -143,68 +143,90 @@ def continuation_task(spec: GaitSpec, gait: SequenceGait, z, *, method: str,
 
 
 # --- the dataset ---------------------------------------------------------------------------------
+#: the variables of a continuation dataset (docs/datasets.md): a fixed point's family (from
+#: a floquet step) adds its section state and segments, the grazing family (from a shoot
+#: step) its swap time; the long_names' fields say which family it is
+VARIABLES = {
+    "point": D.index_coordinate("point", "point on the branch (0: the {origin})"),
+    "k": D.index_coordinate("k", "multiplier (by decreasing modulus)"),
+    "parameter_value": D.Variable(("point",), np.float64, "{parameter_units}",
+                                  "continuation parameter {parameter}"),
+    "dtheta1": D.Variable.of(("point",), np.float64, D.DTHETA1,
+                             long_name="{gait}, " + D.DTHETA1["long_name"]),
+    "dtheta2": D.Variable.of(("point",), np.float64, D.DTHETA2,
+                             long_name="{gait}, " + D.DTHETA2["long_name"]),
+    "segment": D.index_coordinate("segment", D.SEGMENT_NOTE, optional=True),
+    "residual": D.Variable(("point",), np.float64, "1", "{residual} after correction"),
+    "theta2": D.Variable(("point",), np.float64, "rad",
+                         "theta2 of the fixed point on the section (held at the start's when "
+                         "theta2_pinned)", optional=True),
+    "corrector_iterations": D.Variable(("point",), np.int32, "1",
+                                       "Gauss-Newton corrector iterations (0: the start)",
+                                       optional=True),
+    "arclength": D.Variable(("point",), np.float64, "1",
+                            "cumulative arclength in (theta2, dtheta1, dtheta2, parameter)",
+                            optional=True),
+    "stable": D.Variable(("point",), np.int8, "1",
+                         "1: every non-neutral multiplier inside the unit circle",
+                         optional=True),
+    "neutral": D.Variable(("point",), np.int8, "1",
+                          "multipliers within 1e-6 of 1 (the free energy level)",
+                          optional=True),
+    "t_segment": D.Variable.of(("point", "segment"), np.float64, D.GAIT_ATTRS["t_segment"],
+                               optional=True),
+    "x_advance": D.Variable.of(("point",), np.float64, D.GAIT_ATTRS["x_advance"],
+                               optional=True),
+    "y_advance": D.Variable.of(("point",), np.float64, D.GAIT_ATTRS["y_advance"],
+                               optional=True),
+    "t_switch": D.Variable(("point",), np.float64, "s", "swap time (B at A's height at rest)",
+                           optional=True),
+    **D.complex_variables("multipliers", ("point", "k"),
+                          "Floquet multipliers of the {multiplier_map} (variational equations)"),
+}
+
+
 def write_continuation(path: Path, attrs: dict, result: dict) -> None:
     """Write a continuation dataset from a :func:`continuation_task` result (the grazing
     family's, or a fixed point's with its segment times)."""
     n = len(result["value"])
     par = result["parameter"]
     sequence = "t_segment" in result
-    what = "sequence gait's fixed point" if sequence else "collisionless gait"
+    fields = ({"gait": "sequence gait's fixed point", "origin": "floquet step's fixed point",
+               "residual": "|P(z) - z| of the return map",
+               "multiplier_map": "cycle's return map"} if sequence else
+              {"gait": "collisionless gait", "origin": "shoot's gait",
+               "residual": "|G| (B's height and velocity at t_switch)",
+               "multiplier_map": "motorless open-loop map"})
+    fields.update(parameter=par, parameter_units=D.PARAMETER_UNITS[par])
     with D.atomic_netcdf(path) as nc:
-        D.add_index_coord(nc, "point", n, "point on the branch (0: the "
-                     + ("floquet step's fixed point)" if sequence else "shoot's gait)"))
-        D.add_index_coord(nc, "k", 3, "multiplier (by decreasing modulus)")
-        D.add_variable(nc, "parameter_value", ("point",), np.float64,
-             {"long_name": f"continuation parameter {par}", "units": D.PARAMETER_UNITS[par]},
-             result["value"])
-        D.add_variable(nc, "dtheta1", ("point",), np.float64, dict(D.DTHETA1, long_name=f"{what}, "
-                                                          + D.DTHETA1["long_name"]),
-             result["dtheta1"])
-        D.add_variable(nc, "dtheta2", ("point",), np.float64, dict(D.DTHETA2, long_name=f"{what}, "
-                                                          + D.DTHETA2["long_name"]),
-             result["dtheta2"])
+
+        def write(name, data):
+            D.write_declared(nc, VARIABLES, name, data, **fields)
+
+        D.write_coordinate(nc, VARIABLES, "point", np.arange(n), **fields)
+        D.write_coordinate(nc, VARIABLES, "k", np.arange(3))
+        write("parameter_value", result["value"])
+        write("dtheta1", result["dtheta1"])
+        write("dtheta2", result["dtheta2"])
         if sequence:
-            D.add_index_coord(nc, "segment", np.shape(result["t_segment"])[1], D.SEGMENT_NOTE)
-            D.add_variable(nc, "residual", ("point",), np.float64,
-                 {"long_name": "|P(z) - z| of the return map after correction", "units": "1"},
-                 result["residual"])
-            D.add_variable(nc, "theta2", ("point",), np.float64,
-                 {"long_name": "theta2 of the fixed point on the section (held at the "
-                               "start's when theta2_pinned)", "units": "rad"},
-                 result["theta2"])
-            D.add_variable(nc, "corrector_iterations", ("point",), np.int32,
-                 {"long_name": "Gauss-Newton corrector iterations (0: the start)",
-                  "units": "1"}, np.asarray(result["iterations"], np.int32))
-            D.add_variable(nc, "arclength", ("point",), np.float64,
-                 {"long_name": "cumulative arclength in (theta2, dtheta1, dtheta2, parameter)",
-                  "units": "1"}, result["arclength"])
-            D.add_variable(nc, "stable", ("point",), np.int8,
-                 {"long_name": "1: every non-neutral multiplier inside the unit circle",
-                  "units": "1"}, np.asarray(result["stable"], np.int8))
-            D.add_variable(nc, "neutral", ("point",), np.int8,
-                 {"long_name": "multipliers within 1e-6 of 1 (the free energy level)",
-                  "units": "1"}, np.asarray(result["neutral"], np.int8))
-            D.add_variable(nc, "t_segment", ("point", "segment"), np.float64,
-                 D.GAIT_ATTRS["t_segment"], result["t_segment"])
-            for name in ("x_advance", "y_advance"):
-                D.add_variable(nc, name, ("point",), np.float64, D.GAIT_ATTRS[name], result[name])
-            D.add_complex(nc, "multipliers", ("point", "k"), result["multipliers"],
-                          "Floquet multipliers of the cycle's return map (variational "
-                          "equations)")
+            D.write_coordinate(nc, VARIABLES, "segment",
+                               np.arange(np.shape(result["t_segment"])[1]))
+            write("residual", result["residual"])
+            write("theta2", result["theta2"])
+            write("corrector_iterations", result["iterations"])
+            for name in ("arclength", "stable", "neutral", "t_segment", "x_advance",
+                         "y_advance"):
+                write(name, result[name])
+            D.write_complex(nc, VARIABLES, "multipliers", result["multipliers"], **fields)
             extra = {"theta2_pinned": int(result["theta2_pinned"]),
                      "stop_reason": result["stop_reason"],
                      "through_plus_one": list(result["through_plus_one"]),
                      "neimark_sacker": list(result["neimark_sacker"])}
         else:
-            D.add_variable(nc, "t_switch", ("point",), np.float64,
-                 {"long_name": "swap time (B at A's height at rest)", "units": "s"},
-                 result["t_switch"])
-            D.add_variable(nc, "residual", ("point",), np.float64,
-                 {"long_name": "|G| (B's height and velocity at t_switch) after correction",
-                  "units": "1"}, result["residual"])
-            D.add_complex(nc, "multipliers", ("point", "k"), result["multipliers"],
-                          "Floquet multipliers of the motorless open-loop map (variational "
-                          "equations)")
+            write("t_switch", result["t_switch"])
+            write("residual", result["residual"])
+            D.write_complex(nc, VARIABLES, "multipliers", result["multipliers"], **fields)
+            extra = {}
             extra = {}
         D.set_global_attrs(nc, dict(attrs, parameter=par, parameter_units=D.PARAMETER_UNITS[par],
                                value0=float(result["value0"]), folds=list(result["folds"]),
@@ -266,6 +288,7 @@ def grazing_problems(study, i: int, s: ContinuationStep) -> list:
 class ContinuationKind(StepKind):
     name = "continuation"
     model = ContinuationStep
+    variables = VARIABLES
     gait_kinds = ("horizontal", "sequence")
     accepts = ("shoot", "floquet")
     unit = "branches"

@@ -213,6 +213,94 @@ def not_analysed(out: dict, z, gait: SequenceGait, cycle: dict, schedule,
 
 
 # --- the dataset ---------------------------------------------------------------------------------
+#: the full map's components, with units
+FULL_COMPONENTS = "y theta2 dtheta1 dtheta2"
+FULL_UNITS = "m, rad, rad s-1, rad s-1"
+FULL_NOTE = ("of the full map on the section, components (y [m]: the attached end's height "
+             "relative to the start, theta2 [rad], dtheta1 [rad s-1], dtheta2 [rad s-1])")
+
+
+#: the variables of a floquet dataset (docs/datasets.md): a sequence gait's cycle adds its
+#: segments, ``height_in_map: true`` the full map's (``full_``) variables
+VARIABLES = {
+    "controller": D.label_coordinate("controller", "return map: open_loop (recorded times) "
+                                     "or search (state-based)"),
+    "k": D.index_coordinate("k", "multiplier (by decreasing modulus) or fixed-point component"),
+    "row": D.index_coordinate("row", "Jacobian row: d(theta2, dtheta1, dtheta2) after a cycle"),
+    "col": D.index_coordinate("col", "Jacobian column: d(theta2, dtheta1, dtheta2) before"),
+    **D.complex_variables("multipliers", ("controller", "k"), "Floquet multipliers by "
+                          "variational equations (decreasing modulus)"),
+    **D.complex_variables("multipliers_fd", ("controller", "k"), "Floquet multipliers by "
+                          "finite differences (decreasing modulus)"),
+    "jacobian": D.Variable(("controller", "row", "col"), np.float64, "1",
+                           "Jacobian of the return map by variational equations (saltation "
+                           "matrices at the events), " + D.SECTION_NOTE),
+    "jacobian_fd": D.Variable(("controller", "row", "col"), np.float64, "1",
+                              "Jacobian of the return map by fourth-order central "
+                              "differences, " + D.SECTION_NOTE),
+    "fixed_point": D.Variable(("controller", "k"), np.float64, "1",
+                              "fixed point " + D.SECTION_NOTE,
+                              {"components": "theta2 dtheta1 dtheta2",
+                               "component_units": "rad, rad s-1, rad s-1"}),
+    "map_defect": D.Variable(("controller",), np.float64, "1", "|P(z) - z| at the fixed point"),
+    "stable": D.Variable(("controller",), np.int8, "1",
+                         "all multipliers inside the unit circle (1), neutral ones "
+                         "(|lambda - 1| < 1e-6) excluded"),
+    "neutral": D.Variable(("controller",), np.int8, "1",
+                          "neutral multipliers (|lambda - 1| < 1e-6)"),
+    "agreement": D.Variable(("controller",), np.float64, "1", "max |J - J_fd| / max |J|"),
+    "t_switch": D.Variable(("controller",), np.float64, "s",
+                           "swap time of the fixed point's cycle"),
+    "t_motor": D.Variable(("controller",), np.float64, "s",
+                          "motor-on duration of the fixed point's cycle"),
+    "motor_torque": D.Variable(("controller",), np.float64, "N m",
+                               "motor torque of the return map"),
+    "segment": D.index_coordinate("segment", D.SEGMENT_NOTE, optional=True),
+    "t_segment": D.Variable.of(("controller", "segment"), np.float64,
+                               D.GAIT_ATTRS["t_segment"], optional=True),
+    "x_advance": D.Variable.of(("controller",), np.float64, D.GAIT_ATTRS["x_advance"],
+                               optional=True),
+    "y_advance": D.Variable.of(("controller",), np.float64, D.GAIT_ATTRS["y_advance"],
+                               optional=True),
+    "error": D.Variable.of(("controller",), np.float64, D.SEQUENCE_ATTRS["error"],
+                           optional=True),
+    "failure": D.Variable(("controller",), str, "1", "why the return map was not analysed "
+                          "at its point (empty: analysed)"),
+    "newton_converged": D.Variable(("controller",), np.int8, "1",
+                                   "Newton polish of the fixed point converged (1; "
+                                   "open_loop: the shoot's point, 1)"),
+    # the full map (height_in_map: true)
+    "full_k": D.index_coordinate("full_k", "full-map multiplier (by decreasing modulus)",
+                                 optional=True),
+    "full_row": D.index_coordinate("full_row", "full-map Jacobian row: d(y, theta2, dtheta1, "
+                                   "dtheta2) after a cycle", optional=True),
+    "full_col": D.index_coordinate("full_col", "full-map Jacobian column: d(y, theta2, "
+                                   "dtheta1, dtheta2) before", optional=True),
+    **D.complex_variables("full_multipliers", ("controller", "full_k"),
+                          "multipliers of the full map (height included) by variational "
+                          "equations (decreasing modulus)", optional=True),
+    **D.complex_variables("full_multipliers_fd", ("controller", "full_k"),
+                          "multipliers of the full map (height included) by finite "
+                          "differences (decreasing modulus)", optional=True),
+    **{key: D.Variable(("controller", "full_row", "full_col"), np.float64, "1",
+                       f"Jacobian by {how} " + FULL_NOTE,
+                       {"components": FULL_COMPONENTS, "component_units": FULL_UNITS},
+                       optional=True)
+       for key, how in (("full_jacobian", "variational equations (saltation matrices at the "
+                         "events)"), ("full_jacobian_fd", "fourth-order central differences"))},
+    **{key: D.Variable(("controller",), np.float64, "1", "spectral radius of the full map "
+                       f"(height included) by {how}: the largest multiplier modulus",
+                       optional=True)
+       for key, how in (("full_spectral_radius", "variational equations"),
+                        ("full_spectral_radius_fd", "finite differences"))},
+    "full_agreement": D.Variable(("controller",), np.float64, "1",
+                                 "max |J - J_fd| / max |J| of the full map", optional=True),
+    "full_stable": D.Variable(("controller",), np.int8, "1",
+                              "every multiplier of the full map inside the unit circle (1; "
+                              "a neutral height, multiplier 1, is not stable)", optional=True),
+}
+
+
 def write_floquet(path: Path, attrs: dict, results: list[dict], swap_motor: bool,
                   height: bool = False) -> None:
     """Write a floquet dataset from :func:`floquet_task` results, one per controller (in the
@@ -221,126 +309,61 @@ def write_floquet(path: Path, attrs: dict, results: list[dict], swap_motor: bool
     the error; the 2009 names NaN); with ``height`` the full map's variables
     (:func:`write_full_map`)."""
     with D.atomic_netcdf(path) as nc:
-        D.add_label_coord(nc, "controller", [r["controller"] for r in results],
-                     "return map: open_loop (recorded times) or search (state-based)")
-        D.add_index_coord(nc, "k", 3, "multiplier (by decreasing modulus) or fixed-point component")
-        D.add_index_coord(nc, "row", 3, "Jacobian row: d(theta2, dtheta1, dtheta2) after a cycle")
-        D.add_index_coord(nc, "col", 3, "Jacobian column: d(theta2, dtheta1, dtheta2) before")
+        D.write_coordinate(nc, VARIABLES, "controller", [r["controller"] for r in results])
+        for dim in ("k", "row", "col"):
+            D.write_coordinate(nc, VARIABLES, dim, np.arange(3))
 
         def stack(key, dtype=np.float64):
             return np.array([r[key] for r in results], dtype=dtype)
 
-        D.add_complex(nc, "multipliers", ("controller", "k"), stack("multipliers", complex),
-                      "Floquet multipliers by variational equations (decreasing modulus)")
-        D.add_complex(nc, "multipliers_fd", ("controller", "k"),
-                      stack("multipliers_fd", complex),
-                      "Floquet multipliers by finite differences (decreasing modulus)")
-        D.add_variable(nc, "jacobian", ("controller", "row", "col"), np.float64,
-             {"long_name": "Jacobian of the return map by variational equations (saltation "
-                           "matrices at the events), " + D.SECTION_NOTE, "units": "1"},
-             stack("jacobian"))
-        D.add_variable(nc, "jacobian_fd", ("controller", "row", "col"), np.float64,
-             {"long_name": "Jacobian of the return map by fourth-order central differences, "
-                           + D.SECTION_NOTE, "units": "1"}, stack("jacobian_fd"))
-        D.add_variable(nc, "fixed_point", ("controller", "k"), np.float64,
-             {"long_name": "fixed point " + D.SECTION_NOTE, "units": "1",
-              "components": "theta2 dtheta1 dtheta2", "component_units": "rad, rad s-1, rad s-1"},
-             stack("fixed_point"))
-        D.add_variable(nc, "map_defect", ("controller",), np.float64,
-             {"long_name": "|P(z) - z| at the fixed point", "units": "1"}, stack("map_defect"))
-        D.add_variable(nc, "stable", ("controller",), np.int8,
-             {"long_name": "all multipliers inside the unit circle (1), neutral ones "
-                           "(|lambda - 1| < 1e-6) excluded", "units": "1"},
-             stack("stable", np.int8))
-        D.add_variable(nc, "neutral", ("controller",), np.int8,
-             {"long_name": "neutral multipliers (|lambda - 1| < 1e-6)", "units": "1"},
-             stack("neutral", np.int8))
-        D.add_variable(nc, "agreement", ("controller",), np.float64,
-             {"long_name": "max |J - J_fd| / max |J|", "units": "1"}, stack("agreement"))
+        D.write_complex(nc, VARIABLES, "multipliers", stack("multipliers", complex))
+        D.write_complex(nc, VARIABLES, "multipliers_fd", stack("multipliers_fd", complex))
+        for key in ("jacobian", "jacobian_fd", "fixed_point", "map_defect"):
+            D.write_declared(nc, VARIABLES, key, stack(key))
+        D.write_declared(nc, VARIABLES, "stable", stack("stable", np.int8))
+        D.write_declared(nc, VARIABLES, "neutral", stack("neutral", np.int8))
+        D.write_declared(nc, VARIABLES, "agreement", stack("agreement"))
+
         def named(key):
             return stack(key) if swap_motor else np.full(len(results), np.nan)
 
-        D.add_variable(nc, "t_switch", ("controller",), np.float64,
-             {"long_name": "swap time of the fixed point's cycle", "units": "s"},
-             named("t_switch"))
-        D.add_variable(nc, "t_motor", ("controller",), np.float64,
-             {"long_name": "motor-on duration of the fixed point's cycle", "units": "s"},
-             named("t_motor"))
-        D.add_variable(nc, "motor_torque", ("controller",), np.float64,
-             {"long_name": "motor torque of the return map", "units": "N m"}, named("torque"))
+        D.write_declared(nc, VARIABLES, "t_switch", named("t_switch"))
+        D.write_declared(nc, VARIABLES, "t_motor", named("t_motor"))
+        D.write_declared(nc, VARIABLES, "motor_torque", named("torque"))
         if not swap_motor:       # the cycle's segments
-            D.add_index_coord(nc, "segment", len(results[0]["t_segment"]), D.SEGMENT_NOTE)
-            D.add_variable(nc, "t_segment", ("controller", "segment"), np.float64,
-                 D.GAIT_ATTRS["t_segment"], stack("t_segment"))
-            for key in ("x_advance", "y_advance"):
-                D.add_variable(nc, key, ("controller",), np.float64, D.GAIT_ATTRS[key], stack(key))
-            D.add_variable(nc, "error", ("controller",), np.float64, D.SEQUENCE_ATTRS["error"],
-                 stack("error"))
-        D.add_variable(nc, "failure", ("controller",), str,
-             {"long_name": "why the return map was not analysed at its point (empty: "
-                           "analysed)", "units": "1"},
-             np.array([r["failure"] for r in results], object))
-        D.add_variable(nc, "newton_converged", ("controller",), np.int8,
-             {"long_name": "Newton polish of the fixed point converged (1; open_loop: the "
-                           "shoot's point, 1)", "units": "1"},
-             stack("newton_converged", np.int8))
+            D.write_coordinate(nc, VARIABLES, "segment", np.arange(len(results[0]["t_segment"])))
+            for key in ("t_segment", "x_advance", "y_advance", "error"):
+                D.write_declared(nc, VARIABLES, key, stack(key))
+        D.write_declared(nc, VARIABLES, "failure",
+                         np.array([r["failure"] for r in results], object))
+        D.write_declared(nc, VARIABLES, "newton_converged", stack("newton_converged", np.int8))
         if height:
             write_full_map(nc, results)
         D.set_global_attrs(nc, attrs)
 
 
-#: the full map's components, with units
-FULL_COMPONENTS = "y theta2 dtheta1 dtheta2"
-FULL_UNITS = "m, rad, rad s-1, rad s-1"
-FULL_NOTE = ("of the full map on the section, components (y [m]: the attached end's height "
-             "relative to the start, theta2 [rad], dtheta1 [rad s-1], dtheta2 [rad s-1])")
-
-
 def write_full_map(nc, results: list[dict]) -> None:
     """The full map's variables of a floquet dataset (dims ``full_k``, ``full_row``,
     ``full_col``: 4), from :func:`full_map_analysis` results."""
-    D.add_index_coord(nc, "full_k", 4, "full-map multiplier (by decreasing modulus)")
-    D.add_index_coord(nc, "full_row", 4, "full-map Jacobian row: d(y, theta2, dtheta1, "
-                      "dtheta2) after a cycle")
-    D.add_index_coord(nc, "full_col", 4, "full-map Jacobian column: d(y, theta2, dtheta1, "
-                      "dtheta2) before")
+    for dim in ("full_k", "full_row", "full_col"):
+        D.write_coordinate(nc, VARIABLES, dim, np.arange(4))
 
     def stack(key, dtype=np.float64):
         return np.array([r[key] for r in results], dtype=dtype)
 
-    D.add_complex(nc, "full_multipliers", ("controller", "full_k"),
-                  stack("full_multipliers", complex),
-                  "multipliers of the full map (height included) by variational equations "
-                  "(decreasing modulus)")
-    D.add_complex(nc, "full_multipliers_fd", ("controller", "full_k"),
-                  stack("full_multipliers_fd", complex),
-                  "multipliers of the full map (height included) by finite differences "
-                  "(decreasing modulus)")
-    for key, how in (("full_jacobian", "variational equations (saltation matrices at the "
-                      "events)"), ("full_jacobian_fd", "fourth-order central differences")):
-        D.add_variable(nc, key, ("controller", "full_row", "full_col"), np.float64,
-                       {"long_name": f"Jacobian by {how} " + FULL_NOTE, "units": "1",
-                        "components": FULL_COMPONENTS, "component_units": FULL_UNITS},
-                       stack(key))
-    for key, how in (("full_spectral_radius", "variational equations"),
-                     ("full_spectral_radius_fd", "finite differences")):
-        D.add_variable(nc, key, ("controller",), np.float64,
-                       {"long_name": f"spectral radius of the full map (height included) by "
-                                     f"{how}: the largest multiplier modulus", "units": "1"},
-                       stack(key))
-    D.add_variable(nc, "full_agreement", ("controller",), np.float64,
-                   {"long_name": "max |J - J_fd| / max |J| of the full map", "units": "1"},
-                   stack("full_agreement"))
-    D.add_variable(nc, "full_stable", ("controller",), np.int8,
-                   {"long_name": "every multiplier of the full map inside the unit circle (1; "
-                                 "a neutral height, multiplier 1, is not stable)", "units": "1"},
-                   stack("full_stable", np.int8))
+    D.write_complex(nc, VARIABLES, "full_multipliers", stack("full_multipliers", complex))
+    D.write_complex(nc, VARIABLES, "full_multipliers_fd", stack("full_multipliers_fd", complex))
+    for key in ("full_jacobian", "full_jacobian_fd", "full_spectral_radius",
+                "full_spectral_radius_fd", "full_agreement"):
+        D.write_declared(nc, VARIABLES, key, stack(key))
+    D.write_declared(nc, VARIABLES, "full_stable", stack("full_stable", np.int8))
 
 
 # --- the kind ------------------------------------------------------------------------------------
 class FloquetKind(StepKind):
     name = "floquet"
     model = FloquetStep
+    variables = VARIABLES
     gait_kinds = ("horizontal", "sequence")
     accepts = ("shoot", "refine")
     provides = "its fixed point (the return map's a step runs)"

@@ -22,18 +22,38 @@ from ..spec import GaitSpec
 from .base import Dependency, Figure, StepContext, StepKind
 from .gait_source import grid_minima, read_start
 
-#: Variables of a horizontal gait's grid block, with their dtype in blocks, shards and datasets.
-HORIZONTAL_VARIABLES = {
-    "error": np.float64, "status": np.int8, "t_switch": np.float64, "t_motor": np.float64,
-    "t_end": np.float64, "steps": np.int32, "nfev": np.int32, "rejected": np.int32,
+#: dims of a grid's values over the axes (a point list: ``point``)
+MAP = ("dtheta1", "dtheta2")
+
+#: the variables of a grid dataset (docs/datasets.md); a sequence gait's per segment
+VARIABLES = {
+    "dtheta1": D.Variable.of(("dtheta1",), np.float64, D.DTHETA1),
+    "dtheta2": D.Variable.of(("dtheta2",), np.float64, D.DTHETA2),
+    "point": D.index_coordinate("point", "grid point index", optional=True),
+    "segment": D.index_coordinate("segment", D.SEGMENT_NOTE, optional=True),
+    "error": D.Variable(MAP, np.float64, D.ERROR_UNITS, "{gait_error}; NaN unless ok",
+                        {"comment": D.ERROR_COMMENT}),
+    "status": D.Variable.of(MAP, np.int8, D.STATUS_ATTRS),
+    "t_switch": D.Variable.of(MAP, np.float64, D.GAIT_ATTRS["t_switch"], optional=True),
+    "t_motor": D.Variable.of(MAP, np.float64, D.GAIT_ATTRS["t_motor"], optional=True),
+    "t_end": D.Variable(MAP, np.float64, "s", "time of {gait_end}"),
+    "t_segment": D.Variable.of(MAP + ("segment",), np.float64, D.GAIT_ATTRS["t_segment"],
+                               optional=True),
+    "x_advance": D.Variable.of(MAP, np.float64, D.GAIT_ATTRS["x_advance"], optional=True),
+    "y_advance": D.Variable.of(MAP, np.float64, D.GAIT_ATTRS["y_advance"], optional=True),
+    "steps": D.Variable.of(MAP, np.int32, D.GAIT_ATTRS["steps"]),
+    "nfev": D.Variable.of(MAP, np.int32, D.GAIT_ATTRS["nfev"]),
+    "rejected": D.Variable.of(MAP, np.int32, D.GAIT_ATTRS["rejected"]),
 }
 
+#: Variables of a horizontal gait's grid block, with their dtype in blocks, shards and datasets.
+HORIZONTAL_VARIABLES = {name: VARIABLES[name].dtype for name in (
+    "error", "status", "t_switch", "t_motor", "t_end", "steps", "nfev", "rejected")}
+
 #: Variables of a sequence gait's grid block (``t_segment`` has a trailing dim ``segment``).
-SEQUENCE_VARIABLES = {
-    "error": np.float64, "status": np.int8, "t_end": np.float64, "t_segment": np.float64,
-    "x_advance": np.float64, "y_advance": np.float64, "steps": np.int32, "nfev": np.int32,
-    "rejected": np.int32,
-}
+SEQUENCE_VARIABLES = {name: VARIABLES[name].dtype for name in (
+    "error", "status", "t_end", "t_segment", "x_advance", "y_advance", "steps", "nfev",
+    "rejected")}
 
 
 class GridStep(StrictModel):
@@ -146,25 +166,23 @@ def write_grid(path: Path, attrs: dict, *, axes: tuple[np.ndarray, np.ndarray] |
     with D.atomic_netcdf(path) as nc:
         if axes is not None:
             a1, a2 = (np.asarray(a, np.float64) for a in axes)
-            nc.createDimension("dtheta1", a1.size)
-            nc.createDimension("dtheta2", a2.size)
-            D.add_variable(nc, "dtheta1", ("dtheta1",), np.float64, D.DTHETA1, a1)
-            D.add_variable(nc, "dtheta2", ("dtheta2",), np.float64, D.DTHETA2, a2)
-            dims, shape, coords = ("dtheta1", "dtheta2"), (a1.size, a2.size), ""
+            D.write_coordinate(nc, VARIABLES, "dtheta1", a1)
+            D.write_coordinate(nc, VARIABLES, "dtheta2", a2)
+            dims, shape, coords = MAP, (a1.size, a2.size), ""
         else:
             pts = np.asarray(points, np.float64).reshape(-1, 2)
-            nc.createDimension("point", pts.shape[0])
-            D.add_variable(nc, "point", ("point",), np.int32, {"long_name": "grid point index",
-                                                     "units": "1"}, np.arange(pts.shape[0]))
-            D.add_variable(nc, "dtheta1", ("point",), np.float64, D.DTHETA1, pts[:, 0])
-            D.add_variable(nc, "dtheta2", ("point",), np.float64, D.DTHETA2, pts[:, 1])
+            D.write_coordinate(nc, VARIABLES, "point", np.arange(pts.shape[0]))
+            D.write_declared(nc, VARIABLES, "dtheta1", pts[:, 0], dims=("point",))
+            D.write_declared(nc, VARIABLES, "dtheta2", pts[:, 1], dims=("point",))
             dims, shape, coords = ("point",), (pts.shape[0],), "dtheta1 dtheta2"
         n = int(np.prod(shape))
         if sequence:
-            D.add_index_coord(nc, "segment", n_segments, D.SEGMENT_NOTE)
-        vs = {name: D.add_variable(nc, name, dims + (("segment",) if name == "t_segment" else ()), dt,
-                         D.variable_attrs(name, sequence), coordinates=coords)
-              for name, dt in variables.items()}
+            D.write_coordinate(nc, VARIABLES, "segment", np.arange(n_segments))
+        fields = D.gait_fields(sequence)
+        vs = {name: D.write_declared(nc, VARIABLES, name, coordinates=coords,
+                                     dims=dims + (("segment",) if name == "t_segment" else ()),
+                                     **fields)
+              for name in variables}
         written = skipped = 0
         least, least_at = np.inf, -1          # ties: the lowest flat index, as numpy's argmin
         for lo, arrays in coalesce(blocks, variables):
@@ -253,6 +271,7 @@ def write_flat(var, shape: tuple, lo: int, data: np.ndarray) -> None:
 class GridKind(StepKind):
     name = "grid"
     model = GridStep
+    variables = VARIABLES
     gait_kinds = ("horizontal", "sequence")
     provides = "its best minima (starts of a refinement)"
     unit = "blocks"

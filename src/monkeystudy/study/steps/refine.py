@@ -110,6 +110,51 @@ def outcome_text(converged: int, message: str, iterations: int) -> str:
 
 
 # --- the dataset ---------------------------------------------------------------------------------
+#: the variables of a refine dataset (docs/datasets.md), those of one start; a ``{from: grid,
+#: best: k}`` start puts dim ``start`` before each one's dims
+VARIABLES = {
+    "start": D.index_coordinate("start", "start index (grid minima, lowest error first)",
+                                optional=True),
+    "iteration": D.index_coordinate("iteration", "Nelder-Mead iteration (0: the start)"),
+    "dtheta1": D.Variable.of((), np.float64, D.DTHETA1,
+                             long_name="refined " + D.DTHETA1["long_name"]),
+    "dtheta2": D.Variable.of((), np.float64, D.DTHETA2,
+                             long_name="refined " + D.DTHETA2["long_name"]),
+    "segment": D.index_coordinate("segment", D.SEGMENT_NOTE, optional=True),
+    "t_segment": D.Variable.of(("segment",), np.float64, D.GAIT_ATTRS["t_segment"],
+                               optional=True),
+    "error": D.Variable((), np.float64, D.ERROR_UNITS, "{gait_error}; NaN unless ok",
+                        {"comment": D.ERROR_COMMENT}),
+    "t_switch": D.Variable.of((), np.float64, D.GAIT_ATTRS["t_switch"], optional=True),
+    "t_motor": D.Variable.of((), np.float64, D.GAIT_ATTRS["t_motor"], optional=True),
+    "t_end": D.Variable((), np.float64, "s", "time of {gait_end}"),
+    "x_advance": D.Variable.of((), np.float64, D.GAIT_ATTRS["x_advance"], optional=True),
+    "y_advance": D.Variable.of((), np.float64, D.GAIT_ATTRS["y_advance"], optional=True),
+    "status": D.Variable.of((), np.int8, D.STATUS_ATTRS),
+    "start_dtheta1": D.Variable.of((), np.float64, D.DTHETA1,
+                                   long_name="start of the refinement, dtheta1"),
+    "start_dtheta2": D.Variable.of((), np.float64, D.DTHETA2,
+                                   long_name="start of the refinement, dtheta2"),
+    "vertical_passes": D.Variable(
+        (), np.int32, "1", "times link 1 passed the vertical before the swap of the refined "
+        "gait (0: the swap comes on the first swing; -1: no swap, or a sequence gait)"),
+    "converged": D.Variable((), np.int8, "1",
+                            "Nelder-Mead met xatol and fatol (1) or hit a limit (0)"),
+    "nit": D.Variable((), np.int32, "1", "Nelder-Mead iterations as scipy counts them (the "
+                      "initial simplex is one)"),
+    "n_iterations": D.Variable((), np.int32, "1", "recorded iterates (start included)"),
+    "iterate_dtheta1": D.Variable(("iteration",), np.float64, D.RATE,
+                                  "best vertex per iteration, dtheta1"),
+    "iterate_dtheta2": D.Variable(("iteration",), np.float64, D.RATE,
+                                  "best vertex per iteration, dtheta2"),
+    "iterate_error": D.Variable(("iteration",), np.float64, D.ERROR_UNITS,
+                                "gait error of the best vertex per iteration (NaN: gait "
+                                "failed)", {"comment": D.ERROR_COMMENT}),
+    "iterate_nfev": D.Variable(("iteration",), np.int32, "1",
+                               "objective evaluations so far (-1: padding)"),
+}
+
+
 def write_refine(path: Path, attrs: dict, results: list[dict], multi: bool) -> None:
     """Write a refine dataset from :func:`refine_task` results.
 
@@ -118,61 +163,42 @@ def write_refine(path: Path, attrs: dict, results: list[dict], multi: bool) -> N
     says how many are real.
     """
     n_it = max(len(r["iterate_error"]) for r in results)
+    sequence = "t_segment" in results[0]
+    fields = D.gait_fields(sequence)
     with D.atomic_netcdf(path) as nc:
         nc.createDimension("iteration", n_it)
         sdim: tuple = ()
         if multi:
-            nc.createDimension("start", len(results))
+            D.write_coordinate(nc, VARIABLES, "start", np.arange(len(results)))
             sdim = ("start",)
-            D.add_variable(nc, "start", ("start",), np.int32,
-                 {"long_name": "start index (grid minima, lowest error first)", "units": "1"},
-                 np.arange(len(results)))
-        D.add_variable(nc, "iteration", ("iteration",), np.int32,
-             {"long_name": "Nelder-Mead iteration (0: the start)", "units": "1"},
-             np.arange(n_it))
+        D.write_declared(nc, VARIABLES, "iteration", np.arange(n_it))
+
+        def write(name, data):
+            D.write_declared(nc, VARIABLES, name, data, dims=sdim + VARIABLES[name].dims,
+                             **fields)
 
         def col(key, dtype=np.float64, index=None):
             vals = [r[key] if index is None else r[key][index] for r in results]
             arr = np.array(vals, dtype=dtype)
             return arr if multi else arr[0]
 
-        D.add_variable(nc, "dtheta1", sdim, np.float64, dict(D.DTHETA1, long_name="refined " +
-                                                    D.DTHETA1["long_name"]), col("x", index=0))
-        D.add_variable(nc, "dtheta2", sdim, np.float64, dict(D.DTHETA2, long_name="refined " +
-                                                    D.DTHETA2["long_name"]), col("x", index=1))
-        sequence = "t_segment" in results[0]
+        write("dtheta1", col("x", index=0))
+        write("dtheta2", col("x", index=1))
         if sequence:
-            D.add_index_coord(nc, "segment", len(results[0]["t_segment"]), D.SEGMENT_NOTE)
-            D.add_variable(nc, "t_segment", sdim + ("segment",), np.float64, D.GAIT_ATTRS["t_segment"],
-                 col("t_segment"))
+            D.write_coordinate(nc, VARIABLES, "segment", np.arange(len(results[0]["t_segment"])))
+            write("t_segment", col("t_segment"))
         keys = (("error", "t_end", "x_advance", "y_advance") if sequence
                 else ("error", "t_switch", "t_motor", "t_end"))
         for key in keys:
-            D.add_variable(nc, key, sdim, np.float64, D.variable_attrs(key, sequence), col(key))
-        D.add_variable(nc, "status", sdim, np.int8, D.STATUS_ATTRS, col("status", np.int8))
-        D.add_variable(nc, "start_dtheta1", sdim, np.float64, dict(D.DTHETA1, long_name="start of the "
-                                                          "refinement, dtheta1"),
-             col("start", index=0))
-        D.add_variable(nc, "start_dtheta2", sdim, np.float64, dict(D.DTHETA2, long_name="start of the "
-                                                          "refinement, dtheta2"),
-             col("start", index=1))
-        D.add_variable(nc, "vertical_passes", sdim, np.int32,
-                       {"long_name": "times link 1 passed the vertical before the swap of the "
-                                     "refined gait (0: the swap comes on the first swing; -1: "
-                                     "no swap, or a sequence gait)", "units": "1"},
-                       col("vertical_passes", np.int32))
-        D.add_variable(nc, "converged", sdim, np.int8, {"long_name": "Nelder-Mead met xatol and fatol "
-                                                           "(1) or hit a limit (0)",
-                                               "units": "1"}, col("converged", np.int8))
-        D.add_variable(nc, "nit", sdim, np.int32,
-                       {"long_name": "Nelder-Mead iterations as scipy counts them (the "
-                                     "initial simplex is one)", "units": "1"},
-                       col("nit", np.int32))
-        D.add_variable(nc, "n_iterations", sdim, np.int32, {"long_name": "recorded iterates (start "
-                                                               "included)", "units": "1"},
-             np.array([len(r["iterate_error"]) for r in results], np.int32)
-             if multi else len(results[0]["iterate_error"]))
-        idim = sdim + ("iteration",)
+            write(key, col(key))
+        write("status", col("status", np.int8))
+        write("start_dtheta1", col("start", index=0))
+        write("start_dtheta2", col("start", index=1))
+        write("vertical_passes", col("vertical_passes", np.int32))
+        write("converged", col("converged", np.int8))
+        write("nit", col("nit", np.int32))
+        write("n_iterations", np.array([len(r["iterate_error"]) for r in results], np.int32)
+              if multi else len(results[0]["iterate_error"]))
 
         def padded(key, index=None, fill=np.nan, dtype=np.float64):
             arr = np.full((len(results), n_it), fill, dtype=dtype)
@@ -181,18 +207,10 @@ def write_refine(path: Path, attrs: dict, results: list[dict], multi: bool) -> N
                 arr[i, :len(v)] = v
             return arr if multi else arr[0]
 
-        D.add_variable(nc, "iterate_dtheta1", idim, np.float64, dict(D.DTHETA1, long_name="best vertex per "
-                                                            "iteration, dtheta1"),
-             padded("iterate_x", 0))
-        D.add_variable(nc, "iterate_dtheta2", idim, np.float64, dict(D.DTHETA2, long_name="best vertex per "
-                                                            "iteration, dtheta2"),
-             padded("iterate_x", 1))
-        D.add_variable(nc, "iterate_error", idim, np.float64,
-             {"long_name": "gait error of the best vertex per iteration (NaN: gait failed)",
-              "units": D.ERROR_UNITS, "comment": D.ERROR_COMMENT}, padded("iterate_error"))
-        D.add_variable(nc, "iterate_nfev", idim, np.int32,
-             {"long_name": "objective evaluations so far (-1: padding)", "units": "1"},
-             padded("iterate_nfev", fill=-1, dtype=np.int32))
+        write("iterate_dtheta1", padded("iterate_x", 0))
+        write("iterate_dtheta2", padded("iterate_x", 1))
+        write("iterate_error", padded("iterate_error"))
+        write("iterate_nfev", padded("iterate_nfev", fill=-1, dtype=np.int32))
         conv = [r["converged"] for r in results]
         msgs = [r["message"] for r in results]
         D.set_global_attrs(nc, dict(
@@ -206,6 +224,7 @@ def write_refine(path: Path, attrs: dict, results: list[dict], multi: bool) -> N
 class RefineKind(StepKind):
     name = "refine"
     model = RefineStep
+    variables = VARIABLES
     gait_kinds = ("horizontal", "sequence")
     accepts = ("grid",)
     from_key = ("start", "from")

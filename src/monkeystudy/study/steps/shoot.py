@@ -209,51 +209,57 @@ def dedup_solutions(results: list[dict], tol: float) -> tuple[list[dict], list[s
 
 
 # --- the dataset ---------------------------------------------------------------------------------
+#: the variables of a shoot dataset (docs/datasets.md)
+VARIABLES = {
+    "solution": D.index_coordinate("solution", "solution index (discovery order)"),
+    "iteration": D.index_coordinate("iteration", "Newton iteration (0: the start)"),
+    "dtheta1": D.Variable.of(("solution",), np.float64, D.DTHETA1,
+                             long_name="fixed point, " + D.DTHETA1["long_name"]),
+    "dtheta2": D.Variable.of(("solution",), np.float64, D.DTHETA2,
+                             long_name="fixed point, " + D.DTHETA2["long_name"]),
+    **{key: D.Variable.of(("solution",), np.float64, D.GAIT_ATTRS[key])
+       for key in ("t_switch", "t_motor", "t_end")},
+    "error": D.Variable(("solution",), np.float64, D.ERROR_UNITS,
+                        "gait error of the solution (docs/model.md): grazing: |P(z) - z|^2 of "
+                        "the motorless open-loop map; gauss_newton: the study's gait error",
+                        {"comment": D.ERROR_COMMENT}),
+    "residual_norm": D.Variable(("solution",), np.float64, "1",
+                                "norm of the Newton residual at the solution (grazing: B's "
+                                "height and velocity; gauss_newton: the gait residual)"),
+    "converged": D.Variable(("solution",), np.int8, "1",
+                            "Newton met its tolerance (1) or stopped (0)"),
+    "method": D.Variable.of(("solution",), np.int8, SHOOT_METHOD_ATTRS),
+    "status": D.Variable.of(("solution",), np.int8, D.STATUS_ATTRS,
+                            long_name="outcome of the solution's gait cycle"),
+    "start_index": D.Variable(("solution",), np.int32, "1",
+                              "first start that found the solution"),
+    "history": D.Variable(("solution", "iteration"), np.float64, "1",
+                          "residual norm per Newton iteration (NaN: padding)"),
+}
+
+
 def write_shoot(path: Path, attrs: dict, solutions: list[dict]) -> None:
     """Write a shoot dataset from the deduplicated solutions of
     :func:`dedup_solutions` (discovery order)."""
     n = len(solutions)
     n_it = max(1, max(len(s["history"]) for s in solutions))
     with D.atomic_netcdf(path) as nc:
-        D.add_index_coord(nc, "solution", n, "solution index (discovery order)")
-        D.add_index_coord(nc, "iteration", n_it, "Newton iteration (0: the start)")
+        D.write_coordinate(nc, VARIABLES, "solution", np.arange(n))
+        D.write_coordinate(nc, VARIABLES, "iteration", np.arange(n_it))
 
         def col(key, dtype=np.float64):
             return np.array([s[key] for s in solutions], dtype=dtype)
 
-        D.add_variable(nc, "dtheta1", ("solution",), np.float64, dict(D.DTHETA1, long_name="fixed point, "
-                                                             + D.DTHETA1["long_name"]),
-             col("dtheta1"))
-        D.add_variable(nc, "dtheta2", ("solution",), np.float64, dict(D.DTHETA2, long_name="fixed point, "
-                                                             + D.DTHETA2["long_name"]),
-             col("dtheta2"))
-        for key in ("t_switch", "t_motor", "t_end"):
-            D.add_variable(nc, key, ("solution",), np.float64, D.GAIT_ATTRS[key], col(key))
-        D.add_variable(nc, "error", ("solution",), np.float64,
-             {"long_name": "gait error of the solution (docs/model.md): grazing: "
-                           "|P(z) - z|^2 of the motorless open-loop map; gauss_newton: the "
-                           "study's gait error", "units": D.ERROR_UNITS,
-              "comment": D.ERROR_COMMENT}, col("error"))
-        D.add_variable(nc, "residual_norm", ("solution",), np.float64,
-             {"long_name": "norm of the Newton residual at the solution (grazing: B's height "
-                           "and velocity; gauss_newton: the gait residual)", "units": "1"},
-             col("residual_norm"))
-        D.add_variable(nc, "converged", ("solution",), np.int8,
-             {"long_name": "Newton met its tolerance (1) or stopped (0)", "units": "1"},
-             col("converged", np.int8))
-        D.add_variable(nc, "method", ("solution",), np.int8, SHOOT_METHOD_ATTRS, col("method", np.int8))
-        D.add_variable(nc, "status", ("solution",), np.int8, dict(D.STATUS_ATTRS, long_name="outcome of "
-                                                        "the solution's gait cycle"),
-             col("status", np.int8))
-        D.add_variable(nc, "start_index", ("solution",), np.int32,
-             {"long_name": "first start that found the solution", "units": "1"},
-             col("start_index", np.int32))
+        for key in ("dtheta1", "dtheta2", "t_switch", "t_motor", "t_end", "error",
+                    "residual_norm"):
+            D.write_declared(nc, VARIABLES, key, col(key))
+        for key in ("converged", "method", "status"):
+            D.write_declared(nc, VARIABLES, key, col(key, np.int8))
+        D.write_declared(nc, VARIABLES, "start_index", col("start_index", np.int32))
         hist = np.full((n, n_it), np.nan)
         for i, s in enumerate(solutions):
             hist[i, :len(s["history"])] = s["history"]
-        D.add_variable(nc, "history", ("solution", "iteration"), np.float64,
-             {"long_name": "residual norm per Newton iteration (NaN: padding)", "units": "1"},
-             hist)
+        D.write_declared(nc, VARIABLES, "history", hist)
         D.set_global_attrs(nc, dict(attrs, message=[s["message"] for s in solutions],
                                solution_starts=[s["starts"] for s in solutions]))
 
@@ -262,6 +268,7 @@ def write_shoot(path: Path, attrs: dict, solutions: list[dict]) -> None:
 class ShootKind(StepKind):
     name = "shoot"
     model = ShootStep
+    variables = VARIABLES
     accepts = ("refine",)
     takes = "its refined rates start the shooting (instead of starts)"
     provides = "its lowest-error usable solution (or solution: i)"

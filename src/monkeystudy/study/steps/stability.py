@@ -118,6 +118,48 @@ def motor_frame_torque(torque: np.ndarray, frame: np.ndarray, time: np.ndarray,
 
 
 # --- the dataset ---------------------------------------------------------------------------------
+#: the frame's angles and rates of the sampled trajectory
+ANGLE_NAMES = {"theta1": "link 1's angle from the downward vertical",
+               "theta2": "link 2's angle relative to link 1"}
+
+#: the variables of a stability dataset (docs/datasets.md); the long_names' fields say where
+#: a cycle is recorded (the section or the vertical after the swap) and the torque's frame
+VARIABLES = {
+    "cycle": D.index_coordinate("cycle", "cycle number"),
+    "xy": D.label_coordinate("xy", "world axis"),
+    "error": D.Variable(("cycle",), np.float64, D.ERROR_UNITS,
+                        "error against the initial state at the {crossing} ending the cycle "
+                        "(docs/model.md{section_error})"),
+    "kinetic_energy": D.Variable(("cycle",), np.float64, "J", "kinetic energy at that {crossing}"),
+    "pivot_height": D.Variable(("cycle",), np.float64, "m",
+                               "world height of the attached end {pivot_when}"),
+    "x_advance": D.Variable(("cycle",), np.float64, "m",
+                            "horizontal displacement of the attached end in the cycle"),
+    "t_cross": D.Variable(("cycle",), np.float64, "s", "time of the {crossing} ending the cycle"),
+    "t_swap": D.Variable(("cycle",), np.float64, "s", "time of the cycle's {swap}"),
+    "status": D.Variable.of((), np.int8, D.STATUS_ATTRS,
+                            long_name="why the run stopped (ok: all cycles ran)"),
+    "dtheta1": D.Variable.of((), np.float64, D.DTHETA1,
+                             long_name="replayed " + D.DTHETA1["long_name"]),
+    "dtheta2": D.Variable.of((), np.float64, D.DTHETA2,
+                             long_name="replayed " + D.DTHETA2["long_name"]),
+    "time": D.Variable(("sample",), np.float64, "s", "time"),
+    **{key: D.Variable(("sample", "xy"), np.float64, "m", f"world position of {what}")
+       for key, what in (("A", "end A"), ("joint", "the joint"), ("B", "end B"))},
+    **{name: D.Variable(("sample",), np.float64, D.RATE if name.endswith("_dot") else "rad",
+                        ("rate of " if name.endswith("_dot") else "")
+                        + ANGLE_NAMES[name.removesuffix("_dot")]
+                        + " in the frame of the attached end")
+       for name, _ in D.TRAJECTORY_ANGLES},
+    "attached_end": D.Variable(("sample",), np.int8, "1",
+                               "the end the frame hangs from (its x, y end)",
+                               {"flag_values": np.array([0, 1], np.int8),
+                                "flag_meanings": "A B"}),
+    "phase": D.Variable.of(("sample",), np.int8, D.PHASE_ATTRS),
+    "motor_torque": D.Variable(("sample",), np.float64, "N m", "motor torque {torque_frame}"),
+}
+
+
 def write_stability(path: Path, attrs: dict, result: dict, z, records: str,
                     torque_frame: str = "attached_end") -> None:
     """Write a stability dataset from a :func:`stability_task` result run from section state
@@ -127,64 +169,40 @@ def write_stability(path: Path, attrs: dict, result: dict, z, records: str,
     (``motor``: already restated by :func:`motor_frame_torque`)."""
     n = len(result["error"])
     ns = len(result["time"])
-    at = "section crossing" if records == "section" else "vertical crossing"
+    section = records == "section"
+    fields = {
+        "crossing": "section crossing" if section else "vertical crossing",
+        "section_error": "; the section error" if section else "",
+        "pivot_when": "at that section crossing" if section else "after the cycle's swap",
+        "swap": "first magnet action (NaN: none)" if section else "swap",
+        "torque_frame": ("in the motor frame (the physical torque, its sign fixed to the "
+                         "links over each cycle: on theta2 of the frame of the end the cycle "
+                         "started from)" if torque_frame == "motor"
+                         else "on theta2 of the frame"),
+    }
     with D.atomic_netcdf(path) as nc:
         nc.createDimension("cycle", n)
         nc.createDimension("sample", ns)
         nc.createDimension("xy", 2)
-        D.add_variable(nc, "cycle", ("cycle",), np.int32, {"long_name": "cycle number", "units": "1"},
-             np.arange(1, n + 1))
-        D.add_variable(nc, "xy", ("xy",), str, {"long_name": "world axis", "units": "1"}, np.array(["x", "y"], object))
-        section = at == "section crossing"
-        per_cycle = {
-            "error": (f"error against the initial state at the {at} ending the cycle "
-                      f"(docs/model.md{'; the section error' if section else ''})",
-                      D.ERROR_UNITS),
-            "kinetic_energy": (f"kinetic energy at that {at}", "J"),
-            "pivot_height": ("world height of the attached end at that section crossing"
-                             if section else "world height of the attached end after the "
-                             "cycle's swap", "m"),
-            "x_advance": ("horizontal displacement of the attached end in the cycle", "m"),
-            "t_cross": (f"time of the {at} ending the cycle", "s"),
-            "t_swap": ("time of the cycle's first magnet action (NaN: none)" if section
-                       else "time of the cycle's swap", "s"),
-        }
-        for key, (long_name, units) in per_cycle.items():
-            D.add_variable(nc, key, ("cycle",), np.float64, {"long_name": long_name, "units": units},
-                 result[key])
-        D.add_variable(nc, "status", (), np.int8, dict(D.STATUS_ATTRS, long_name="why the run stopped "
-                                             "(ok: all cycles ran)"), result["status"])
-        D.add_variable(nc, "dtheta1", (), np.float64, dict(D.DTHETA1, long_name="replayed " +
-                                                 D.DTHETA1["long_name"]), z[-2])
-        D.add_variable(nc, "dtheta2", (), np.float64, dict(D.DTHETA2, long_name="replayed " +
-                                                 D.DTHETA2["long_name"]), z[-1])
-        D.add_variable(nc, "time", ("sample",), np.float64, {"long_name": "time", "units": "s"},
-             result["time"])
-        for key, what in (("A", "end A"), ("joint", "the joint"), ("B", "end B")):
-            D.add_variable(nc, key, ("sample", "xy"), np.float64,
-                 {"long_name": f"world position of {what}", "units": "m"}, result[key],
-                 coordinates="time")
+
+        def write(name, data, coordinates=""):
+            D.write_declared(nc, VARIABLES, name, data, coordinates=coordinates, **fields)
+
+        write("cycle", np.arange(1, n + 1))
+        write("xy", np.array(["x", "y"], object))
+        for key in ("error", "kinetic_energy", "pivot_height", "x_advance", "t_cross", "t_swap"):
+            write(key, result[key])
+        write("status", result["status"])
+        write("dtheta1", z[-2])
+        write("dtheta2", z[-1])
+        write("time", result["time"])
+        for key in ("A", "joint", "B"):
+            write(key, result[key], coordinates="time")
         for name, _ in D.TRAJECTORY_ANGLES:
-            rate = name.endswith("_dot")
-            D.add_variable(nc, name, ("sample",), np.float64,
-                           {"long_name": ("rate of " if rate else "") + (
-                               "link 1's angle from the downward vertical" if "1" in name
-                               else "link 2's angle relative to link 1")
-                            + " in the frame of the attached end", "units": D.RATE if rate
-                            else "rad"}, result[name], coordinates="time")
-        D.add_variable(nc, "attached_end", ("sample",), np.int8,
-                       {"long_name": "the end the frame hangs from (its x, y end)", "units": "1",
-                        "flag_values": np.array([0, 1], np.int8), "flag_meanings": "A B"},
-                       result["attached_end"], coordinates="time")
-        D.add_variable(nc, "phase", ("sample",), np.int8, D.PHASE_ATTRS, result["phase"],
-             coordinates="time")
-        torque_name = ("motor torque in the motor frame (the physical torque, its sign "
-                       "fixed to the links over each cycle: on theta2 of the frame of the end "
-                       "the cycle started from)" if torque_frame == "motor"
-                       else "motor torque on theta2 of the frame")
-        D.add_variable(nc, "motor_torque", ("sample",), np.float64,
-             {"long_name": torque_name, "units": "N m"},
-             result["motor_torque"], coordinates="time")
+            write(name, result[name], coordinates="time")
+        write("attached_end", result["attached_end"], coordinates="time")
+        write("phase", result["phase"], coordinates="time")
+        write("motor_torque", result["motor_torque"], coordinates="time")
         D.set_global_attrs(nc, dict(attrs,
                                cycles_completed=int(result["cycles_completed"]),
                                steps=int(result["steps"]), nfev=int(result["nfev"])))
@@ -194,6 +212,7 @@ def write_stability(path: Path, attrs: dict, result: dict, z, records: str,
 class StabilityKind(StepKind):
     name = "stability"
     model = StabilityStep
+    variables = VARIABLES
     gait_kinds = ("horizontal", "sequence")
     accepts = ("refine", "floquet")
     unit = "runs"

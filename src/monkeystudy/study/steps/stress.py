@@ -142,6 +142,79 @@ def stress_extreme_task(spec: GaitSpec, cases, *, points, max_steps: int) -> lis
 
 
 # --- the dataset ---------------------------------------------------------------------------------
+#: dims of the energy-drift runs
+DRIFT_RUNS = ("drift_phase", "drift_rtol")
+
+#: the variables of a stress dataset (docs/datasets.md): energy drift, long runs, extreme cases
+VARIABLES = {
+    # energy drift
+    "drift_phase": D.label_coordinate("drift_phase", "phase of the unforced, frictionless run: "
+                                      "swing (hanging from end A) or flight (nothing attached)"),
+    "drift_rtol": D.Variable(("drift_rtol",), np.float64, "1",
+                             "relative tolerance of the run (atol = rtol * atol_ratio)"),
+    "checkpoint": D.index_coordinate("checkpoint", "checkpoint (log-spaced in time)"),
+    "period": D.Variable(("drift_phase",), np.float64, "s",
+                         "reference period: mean interval between rising crossings of theta1 = "
+                         "0 (oscillation), or 2 pi / |mean dtheta1/dt| (link 1 tumbling)"),
+    "time": D.Variable(("drift_phase", "checkpoint"), np.float64, "s",
+                       "time of the checkpoint (1 to `periods` reference periods, log-spaced)"),
+    "energy_drift": D.Variable(DRIFT_RUNS + ("checkpoint",), np.float64, "1",
+                               "relative energy drift |E - E0| / (|K| + |V|) at the checkpoint "
+                               "(NaN: not reached)"),
+    "growth_exponent": D.Variable(DRIFT_RUNS, np.float64, "1",
+                                  "log-log slope of the drift against time over the last "
+                                  "decade of checkpoints, fitted above drift_floor (NaN: fewer "
+                                  "than 3 such checkpoints); 1 = linear growth"),
+    "drift_per_period": D.Variable(DRIFT_RUNS, np.float64, "1",
+                                   "final energy drift / number of reference periods"),
+    "drift_steps": D.Variable(DRIFT_RUNS, np.int64, "1", "accepted integrator steps of the run"),
+    "drift_status": D.Variable.of(DRIFT_RUNS, np.int8, D.STATUS_ATTRS,
+                                  long_name="how the run ended (end_time: every checkpoint "
+                                  "reached)"),
+    "initial_energy": D.Variable(("drift_phase",), np.float64, "J",
+                                 "total energy E0 at the start (world frame)"),
+    # long runs
+    "run": D.label_coordinate("run", "long run: controller and timing"),
+    "controller": D.Variable(("run",), str, "1", "controller: open_loop (the gait's recorded "
+                             "times replayed) or search (state-based, looped)"),
+    "tick": D.Variable(("run",), np.float64, "s", "controller tick (0: exact event timing)"),
+    "run_status": D.Variable.of(("run",), np.int8, D.STATUS_ATTRS,
+                                long_name="why the run stopped (ok: all cycles ran)"),
+    "cycles_completed": D.Variable(("run",), np.int32, "1", "cycles completed"),
+    "steps": D.Variable(("run",), np.int64, "1", "accepted integrator steps"),
+    "nfev": D.Variable(("run",), np.int64, "1", "right-hand-side evaluations"),
+    "rejected": D.Variable(("run",), np.int64, "1", "rejected integrator steps"),
+    "final_pivot_height": D.Variable(("run",), np.float64, "m",
+                                     "world height of the attached end when the run stopped "
+                                     "(start: 0)"),
+    "t_final": D.Variable(("run",), np.float64, "s", "simulated time when the run stopped"),
+    "final_state_finite": D.Variable(("run",), np.int8, "1",
+                                     "the final state is finite (1) or not (0)"),
+    "t_switch": D.Variable(("run",), np.float64, "s",
+                           "swap time replayed by an open-loop run (NaN: state-based)"),
+    "t_motor": D.Variable(("run",), np.float64, "s",
+                          "motor-on duration replayed by an open-loop run (NaN: state-based)"),
+    # extreme cases
+    "case": D.label_coordinate("case", "extreme case"),
+    "status": D.Variable.of(("status",), np.int8, D.STATUS_ATTRS, long_name="run status"),
+    "description": D.Variable(("case",), str, "1", "what the case changes"),
+    "status_counts": D.Variable(("case", "status"), np.int32, "1",
+                                "runs of the case ending with each status"),
+    "n_runs": D.Variable(("case",), np.int32, "1",
+                         "runs of the case (gait evaluations or one free run)"),
+    "finite_ok": D.Variable(("case",), np.int8, "1",
+                            "every run marked ok (free run: end_time) has finite results and "
+                            "every other run's error is NaN (1) or not (0)"),
+    "max_steps_taken": D.Variable(("case",), np.int64, "1",
+                                  "most accepted integrator steps of one run of the case"),
+    "energy_change": D.Variable(("case",), np.float64, "J",
+                                "final minus initial total energy of the free run (NaN: gait "
+                                "evaluations)"),
+    "friction_events": D.Variable(("case",), np.int32, "1",
+                                  "stick and slip events of the free run (0: gait evaluations)"),
+}
+
+
 def write_stress(path: Path, attrs: dict, phases: list[str], rtols: list[float],
                  drift: list[dict], runs: list[dict], cases: list[dict]) -> None:
     """Write a stress dataset (docs/datasets.md, ``stress``) from the results of
@@ -149,7 +222,6 @@ def write_stress(path: Path, attrs: dict, phases: list[str], rtols: list[float],
     and tolerance), :func:`stress_long_run_task` (one per
     run, with its ``run`` name, ``controller`` and ``tick``) and
     :func:`stress_extreme_task` (one per case)."""
-    n_r = len(rtols)
     n_c = len(drift[0]["time"])
     grid = {(r["phase"], r["rtol"]): r for r in drift}
 
@@ -164,104 +236,43 @@ def write_stress(path: Path, attrs: dict, phases: list[str], rtols: list[float],
     for i, c in enumerate(cases):
         counts[i] = np.bincount(np.asarray(c["status"], np.int64), minlength=n_status)
     with D.atomic_netcdf(path) as nc:
+
+        def write(name, data):
+            D.write_declared(nc, VARIABLES, name, data)
+
         # energy drift
-        D.add_label_coord(nc, "drift_phase", phases, "phase of the unforced, frictionless run: "
-                     "swing (hanging from end A) or flight (nothing attached)")
-        nc.createDimension("drift_rtol", n_r)
-        D.add_variable(nc, "drift_rtol", ("drift_rtol",), np.float64,
-             {"long_name": "relative tolerance of the run (atol = rtol * atol_ratio)",
-              "units": "1"}, np.asarray(rtols, float))
-        D.add_index_coord(nc, "checkpoint", n_c, "checkpoint (log-spaced in time)")
-        pc = ("drift_phase", "drift_rtol")
-        D.add_variable(nc, "period", ("drift_phase",), np.float64,
-             {"long_name": "reference period: mean interval between rising crossings of "
-                           "theta1 = 0 (oscillation), or 2 pi / |mean dtheta1/dt| (link 1 "
-                           "tumbling)", "units": "s"}, per_phase("period"))
-        D.add_variable(nc, "time", ("drift_phase", "checkpoint"), np.float64,
-             {"long_name": "time of the checkpoint (1 to `periods` reference periods, "
-                           "log-spaced)", "units": "s"},
-             np.array([grid[(ph, rtols[0])]["time"] for ph in phases], float))
-        D.add_variable(nc, "energy_drift", pc + ("checkpoint",), np.float64,
-             {"long_name": "relative energy drift |E - E0| / (|K| + |V|) at the checkpoint "
-                           "(NaN: not reached)", "units": "1"},
-             np.array([[grid[(ph, rt)]["drift"] for rt in rtols] for ph in phases], float))
-        D.add_variable(nc, "growth_exponent", pc, np.float64,
-             {"long_name": "log-log slope of the drift against time over the last decade of "
-                           "checkpoints, fitted above drift_floor (NaN: fewer than 3 such "
-                           "checkpoints); 1 = linear growth", "units": "1"},
-             cell("growth_exponent"))
-        D.add_variable(nc, "drift_per_period", pc, np.float64,
-             {"long_name": "final energy drift / number of reference periods",
-              "units": "1"}, cell("drift_per_period"))
-        D.add_variable(nc, "drift_steps", pc, np.int64,
-             {"long_name": "accepted integrator steps of the run", "units": "1"},
-             cell("steps", np.int64))
-        D.add_variable(nc, "drift_status", pc, np.int8,
-             dict(D.STATUS_ATTRS, long_name="how the run ended (end_time: every checkpoint "
-                                          "reached)"), cell("status", np.int8))
-        D.add_variable(nc, "initial_energy", ("drift_phase",), np.float64,
-             {"long_name": "total energy E0 at the start (world frame)", "units": "J"},
-             per_phase("energy0"))
+        D.write_coordinate(nc, VARIABLES, "drift_phase", phases)
+        D.write_coordinate(nc, VARIABLES, "drift_rtol", np.asarray(rtols, float))
+        D.write_coordinate(nc, VARIABLES, "checkpoint", np.arange(n_c))
+        write("period", per_phase("period"))
+        write("time", np.array([grid[(ph, rtols[0])]["time"] for ph in phases], float))
+        write("energy_drift",
+              np.array([[grid[(ph, rt)]["drift"] for rt in rtols] for ph in phases], float))
+        write("growth_exponent", cell("growth_exponent"))
+        write("drift_per_period", cell("drift_per_period"))
+        write("drift_steps", cell("steps", np.int64))
+        write("drift_status", cell("status", np.int8))
+        write("initial_energy", per_phase("energy0"))
         # long runs
-        D.add_label_coord(nc, "run", [r["run"] for r in runs], "long run: controller and timing")
-        D.add_variable(nc, "controller", ("run",), str,
-             {"long_name": "controller: open_loop (the gait's recorded times replayed) or "
-                           "search (state-based, looped)", "units": "1"},
-             np.array([r["controller"] for r in runs], object))
-        D.add_variable(nc, "tick", ("run",), np.float64,
-             {"long_name": "controller tick (0: exact event timing)", "units": "s"},
-             [r["tick"] for r in runs])
-        D.add_variable(nc, "run_status", ("run",), np.int8,
-             dict(D.STATUS_ATTRS, long_name="why the run stopped (ok: all cycles ran)"),
-             [r["status"] for r in runs])
-        for key, long_name, dtype in (
-                ("cycles_completed", "cycles completed", np.int32),
-                ("steps", "accepted integrator steps", np.int64),
-                ("nfev", "right-hand-side evaluations", np.int64),
-                ("rejected", "rejected integrator steps", np.int64)):
-            D.add_variable(nc, key, ("run",), dtype, {"long_name": long_name, "units": "1"},
-                 [r[key] for r in runs])
-        D.add_variable(nc, "final_pivot_height", ("run",), np.float64,
-             {"long_name": "world height of the attached end when the run stopped (start: "
-                           "0)", "units": "m"}, [r["final_pivot_height"] for r in runs])
-        D.add_variable(nc, "t_final", ("run",), np.float64,
-             {"long_name": "simulated time when the run stopped", "units": "s"},
-             [r["t_final"] for r in runs])
-        D.add_variable(nc, "final_state_finite", ("run",), np.int8,
-             {"long_name": "the final state is finite (1) or not (0)", "units": "1"},
-             [r["finite"] for r in runs])
-        D.add_variable(nc, "t_switch", ("run",), np.float64,
-             {"long_name": "swap time replayed by an open-loop run (NaN: state-based)",
-              "units": "s"}, [r["t_switch"] for r in runs])
-        D.add_variable(nc, "t_motor", ("run",), np.float64,
-             {"long_name": "motor-on duration replayed by an open-loop run (NaN: "
-                           "state-based)", "units": "s"}, [r["t_motor"] for r in runs])
+        D.write_coordinate(nc, VARIABLES, "run", [r["run"] for r in runs])
+        write("controller", np.array([r["controller"] for r in runs], object))
+        for name, key in (("tick", "tick"), ("run_status", "status"),
+                          ("cycles_completed", "cycles_completed"), ("steps", "steps"),
+                          ("nfev", "nfev"), ("rejected", "rejected"),
+                          ("final_pivot_height", "final_pivot_height"), ("t_final", "t_final"),
+                          ("final_state_finite", "finite"), ("t_switch", "t_switch"),
+                          ("t_motor", "t_motor")):
+            write(name, [r[key] for r in runs])
         # extreme cases
-        D.add_label_coord(nc, "case", [c["case"] for c in cases], "extreme case")
-        nc.createDimension("status", n_status)
-        D.add_variable(nc, "status", ("status",), np.int8, dict(D.STATUS_ATTRS, long_name="run status"),
-             np.arange(n_status))
-        D.add_variable(nc, "description", ("case",), str,
-             {"long_name": "what the case changes", "units": "1"},
-             np.array([EXTREME_CASES.get(c["case"], "") for c in cases], object))
-        D.add_variable(nc, "status_counts", ("case", "status"), np.int32,
-             {"long_name": "runs of the case ending with each status", "units": "1"}, counts)
-        D.add_variable(nc, "n_runs", ("case",), np.int32,
-             {"long_name": "runs of the case (gait evaluations or one free run)",
-              "units": "1"}, counts.sum(axis=1))
-        D.add_variable(nc, "finite_ok", ("case",), np.int8,
-             {"long_name": "every run marked ok (free run: end_time) has finite results and "
-                           "every other run's error is NaN (1) or not (0)", "units": "1"},
-             [c["finite_ok"] for c in cases])
-        D.add_variable(nc, "max_steps_taken", ("case",), np.int64,
-             {"long_name": "most accepted integrator steps of one run of the case",
-              "units": "1"}, [c["max_steps"] for c in cases])
-        D.add_variable(nc, "energy_change", ("case",), np.float64,
-             {"long_name": "final minus initial total energy of the free run (NaN: gait "
-                           "evaluations)", "units": "J"}, [c["energy_change"] for c in cases])
-        D.add_variable(nc, "friction_events", ("case",), np.int32,
-             {"long_name": "stick and slip events of the free run (0: gait evaluations)",
-              "units": "1"}, [c["friction_events"] for c in cases])
+        D.write_coordinate(nc, VARIABLES, "case", [c["case"] for c in cases])
+        D.write_coordinate(nc, VARIABLES, "status", np.arange(n_status))
+        write("description", np.array([EXTREME_CASES.get(c["case"], "") for c in cases], object))
+        write("status_counts", counts)
+        write("n_runs", counts.sum(axis=1))
+        for name, key in (("finite_ok", "finite_ok"), ("max_steps_taken", "max_steps"),
+                          ("energy_change", "energy_change"),
+                          ("friction_events", "friction_events")):
+            write(name, [c[key] for c in cases])
         D.set_global_attrs(nc, attrs)
 
 
@@ -299,6 +310,7 @@ def finish_stress(ctx: StepContext, attrs: dict) -> str:
 class StressKind(StepKind):
     name = "stress"
     model = StressStep
+    variables = VARIABLES
     unit = "runs"
     figures = (
         Figure("stress", "energy drift, long runs, extreme cases",

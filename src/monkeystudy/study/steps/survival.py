@@ -284,6 +284,75 @@ def height_within(height_drift: np.ndarray, failure: np.ndarray, tolerance: floa
     return float(np.mean(np.abs(height_drift[done]) <= tolerance))
 
 
+#: what the MFPT counts
+MFPT_CYCLES = "cycles (completed before failure)"
+
+#: the MFPT and its interval: (variable, what it is)
+MFPT_ESTIMATES = (("mfpt", "mean first-passage time to failure"),
+                  ("mfpt_low", "lower end of the MFPT's 95 % interval"),
+                  ("mfpt_high", "upper end of the MFPT's 95 % interval"))
+
+#: the variables of a survival dataset (docs/datasets.md); a noise value's long_name says its
+#: spread (``{spread}``: standard deviation or half-width, as the step's distribution)
+VARIABLES = {
+    "level": D.index_coordinate("level", "noise level (every noise value of the level below)"),
+    "run": D.index_coordinate("run", "run number (keys its noise with the seed)"),
+    "cycle": D.Variable(("cycle",), np.int64, "1", "cycles completed"),
+    "failure_mode": D.label_coordinate("failure_mode", "why a run stopped (survived: it "
+                                       "completed max_cycles)"),
+    **{f"noise_{name}": D.Variable(("level",), np.float64, units,
+                                   what + ("" if name in UNIFORM_PER_RUN else "{spread}"),
+                                   {"key": "noise." + ".".join(path)})
+       for path, name, units, what in SOURCES},
+    "cycles_completed": D.Variable(("level", "run"), np.int64, "1",
+                                   "cycles the run completed within the bounds"),
+    "failure": D.Variable(("level", "run"), np.int8, "1", "why the run stopped (survived: "
+                          "completed max_cycles, right-censored)",
+                          {"flag_values": np.array(FAILURE_CODES, np.int8),
+                           "flag_meanings": " ".join(FAILURE_NAMES)}),
+    "distance": D.Variable(("level", "run"), np.float64, "m", "horizontal travel of the "
+                           "attached end up to the last completed cycle"),
+    "time_survived": D.Variable(("level", "run"), np.float64, "s",
+                                "time of the last completed cycle's end"),
+    "height_drift": D.Variable(("level", "run"), np.float64, "m",
+                               "height of the attached end at the last completed cycle's end "
+                               "less its height at the start (after max_cycles for a run that "
+                               "completed them; 0 when none completed)"),
+    "height_within_tolerance": D.Variable(("level",), np.float64, "1",
+                                          "fraction of the runs that completed max_cycles "
+                                          "whose height_drift is within height_tolerance "
+                                          "(attribute) of 0", optional=True),
+    "final_error": D.Variable(("level", "run"), np.float64, D.ERROR_UNITS,
+                              "section error against the gait at the last completed cycle's "
+                              "end (at the start when none completed)",
+                              {"comment": D.ERROR_COMMENT}),
+    "survival": D.Variable(("level", "cycle"), np.float64, "1",
+                           "fraction of runs that completed at least this many cycles "
+                           "(Kaplan-Meier; every run censored at max_cycles)"),
+    **{name: var for key, what in MFPT_ESTIMATES for name, var in (
+        (key, D.Variable(("level",), np.float64, "1", f"{what} [{MFPT_CYCLES}]",
+                         {"comment": "restricted mean up to max_cycles plus a constant-hazard "
+                                     "tail fitted on the window's second half; 95 % percentile "
+                                     "bootstrap over runs (see mfpt_method)"})),
+        (key.replace("mfpt", "mfpt_distance"),
+         D.Variable(("level",), np.float64, "m", f"{what} as distance travelled (MFPT times "
+                    "the mean advance per completed cycle)")))},
+    "mfpt_method": D.Variable(("level",), np.int8, "1", "how the MFPT was estimated",
+                              {"flag_values": np.arange(len(MFPT_METHODS), dtype=np.int8),
+                               "flag_meanings": " ".join(MFPT_METHODS)}),
+    "restricted_mean": D.Variable(("level",), np.float64, "1",
+                                  f"mean of min(cycles completed, max_cycles) [{MFPT_CYCLES}]: "
+                                  "a lower bound of the MFPT"),
+    **{key: D.Variable(("level",), np.float64, "1", f"failures per cycle at risk in the {half} "
+                       "half of the max_cycles window")
+       for key, half in (("hazard_early", "first"), ("hazard_late", "second"))},
+    "advance_per_cycle": D.Variable(("level",), np.float64, "m", "mean horizontal advance of "
+                                    "the attached end per completed cycle"),
+    "failure_count": D.Variable(("level", "failure_mode"), np.int64, "1",
+                                "runs that stopped this way"),
+}
+
+
 def write_survival(path: Path, attrs: dict, step: SurvivalStep, arrays: dict) -> None:
     """Write a survival dataset (dims ``level``, ``run``, ``cycle``, ``failure_mode``)."""
     n_levels, runs = arrays["cycles"].shape
@@ -291,95 +360,44 @@ def write_survival(path: Path, attrs: dict, step: SurvivalStep, arrays: dict) ->
     summaries = [level_summary(arrays["cycles"][i], arrays["failure"][i],
                                arrays["distance"][i], step.max_cycles)
                  for i in range(n_levels)]
-    cyc = "cycles (completed before failure)"
+    # the spread a noise value states (a per-run latency is always uniform on [0, value))
+    spread = (" (standard deviation)" if step.noise.distribution == "gaussian"
+              else " (half-width of a uniform)")
     with D.atomic_netcdf(path) as nc:
-        D.add_index_coord(nc, "level", n_levels, "noise level (every noise value of the "
-                          "level below)")
-        D.add_index_coord(nc, "run", runs, "run number (keys its noise with the seed)")
-        nc.createDimension("cycle", grid.size)
-        D.add_variable(nc, "cycle", ("cycle",), np.int64,
-                       {"long_name": "cycles completed", "units": "1"}, grid)
-        D.add_label_coord(nc, "failure_mode", list(FAILURE_NAMES),
-                          "why a run stopped (survived: it completed max_cycles)")
-        for i, (path_, name, units, what) in enumerate(SOURCES):
-            shape = ("" if name in UNIFORM_PER_RUN else " (standard deviation)"
-                     if step.noise.distribution == "gaussian" else " (half-width of a uniform)")
-            D.add_variable(nc, f"noise_{name}", ("level",), np.float64,
-                           {"long_name": what + shape,
-                            "units": units, "key": "noise." + ".".join(path_)},
-                           [step.noise.level(k).to_dict()[name] for k in range(n_levels)])
-        D.add_variable(nc, "cycles_completed", ("level", "run"), np.int64,
-                       {"long_name": "cycles the run completed within the bounds", "units": "1"},
-                       arrays["cycles"])
-        D.add_variable(nc, "failure", ("level", "run"), np.int8,
-                       {"long_name": "why the run stopped (survived: completed max_cycles, "
-                                     "right-censored)", "units": "1",
-                        "flag_values": np.array(FAILURE_CODES, np.int8),
-                        "flag_meanings": " ".join(FAILURE_NAMES)}, arrays["failure"])
-        D.add_variable(nc, "distance", ("level", "run"), np.float64,
-                       {"long_name": "horizontal travel of the attached end up to the last "
-                                     "completed cycle", "units": "m"}, arrays["distance"])
-        D.add_variable(nc, "time_survived", ("level", "run"), np.float64,
-                       {"long_name": "time of the last completed cycle's end", "units": "s"},
-                       arrays["time"])
-        D.add_variable(nc, "height_drift", ("level", "run"), np.float64,
-                       {"long_name": "height of the attached end at the last completed cycle's "
-                                     "end less its height at the start (after max_cycles for "
-                                     "a run that completed them; 0 when none completed)",
-                        "units": "m"}, arrays["height"])
+
+        def write(name, data):
+            D.write_declared(nc, VARIABLES, name, data, spread=spread)
+
+        D.write_coordinate(nc, VARIABLES, "level", np.arange(n_levels))
+        D.write_coordinate(nc, VARIABLES, "run", np.arange(runs))
+        D.write_coordinate(nc, VARIABLES, "cycle", grid)
+        D.write_coordinate(nc, VARIABLES, "failure_mode", list(FAILURE_NAMES))
+        for _, name, _, _ in SOURCES:
+            write(f"noise_{name}", [step.noise.level(k).to_dict()[name]
+                                    for k in range(n_levels)])
+        write("cycles_completed", arrays["cycles"])
+        write("failure", arrays["failure"])
+        write("distance", arrays["distance"])
+        write("time_survived", arrays["time"])
+        write("height_drift", arrays["height"])
         if step.height_tolerance is not None:
-            D.add_variable(nc, "height_within_tolerance", ("level",), np.float64,
-                           {"long_name": "fraction of the runs that completed max_cycles whose "
-                                         "height_drift is within height_tolerance (attribute) "
-                                         "of 0", "units": "1"},
-                           [height_within(arrays["height"][i], arrays["failure"][i],
-                                          step.height_tolerance) for i in range(n_levels)])
-        D.add_variable(nc, "final_error", ("level", "run"), np.float64,
-                       {"long_name": "section error against the gait at the last completed "
-                                     "cycle's end (at the start when none completed)",
-                        "units": D.ERROR_UNITS, "comment": D.ERROR_COMMENT}, arrays["error"])
-        D.add_variable(nc, "survival", ("level", "cycle"), np.float64,
-                       {"long_name": "fraction of runs that completed at least this many "
-                                     "cycles (Kaplan-Meier; every run censored at max_cycles)",
-                        "units": "1"},
-                       np.array([survival_curve(arrays["cycles"][i], step.max_cycles, grid)
-                                 for i in range(n_levels)]))
+            write("height_within_tolerance",
+                  [height_within(arrays["height"][i], arrays["failure"][i],
+                                 step.height_tolerance) for i in range(n_levels)])
+        write("final_error", arrays["error"])
+        write("survival", np.array([survival_curve(arrays["cycles"][i], step.max_cycles, grid)
+                                    for i in range(n_levels)]))
         ms = [s["mfpt"] for s in summaries]
-        for key, what in (("mfpt", "mean first-passage time to failure"),
-                          ("mfpt_low", "lower end of the MFPT's 95 % interval"),
-                          ("mfpt_high", "upper end of the MFPT's 95 % interval")):
-            attr = {"mfpt": "value", "mfpt_low": "low", "mfpt_high": "high"}[key]
-            D.add_variable(nc, key, ("level",), np.float64,
-                           {"long_name": f"{what} [{cyc}]", "units": "1",
-                            "comment": "restricted mean up to max_cycles plus a constant-"
-                                       "hazard tail fitted on the window's second half; 95 % "
-                                       "percentile bootstrap over runs (see mfpt_method)"},
-                           [getattr(m, attr) for m in ms])
-            D.add_variable(nc, key.replace("mfpt", "mfpt_distance"), ("level",), np.float64,
-                           {"long_name": f"{what} as distance travelled (MFPT times the mean "
-                                         "advance per completed cycle)", "units": "m"},
-                           [getattr(m, attr) * s["advance"] for m, s in zip(ms, summaries)])
-        D.add_variable(nc, "mfpt_method", ("level",), np.int8,
-                       {"long_name": "how the MFPT was estimated", "units": "1",
-                        "flag_values": np.arange(len(MFPT_METHODS), dtype=np.int8),
-                        "flag_meanings": " ".join(MFPT_METHODS)},
-                       [MFPT_METHODS.index(m.method) for m in ms])
-        D.add_variable(nc, "restricted_mean", ("level",), np.float64,
-                       {"long_name": f"mean of min(cycles completed, max_cycles) [{cyc}]: a "
-                                     "lower bound of the MFPT", "units": "1"},
-                       [m.restricted_mean for m in ms])
-        for key, half in (("hazard_early", "first"), ("hazard_late", "second")):
-            D.add_variable(nc, key, ("level",), np.float64,
-                           {"long_name": f"failures per cycle at risk in the {half} half of "
-                                         "the max_cycles window", "units": "1"},
-                           [getattr(m, key) for m in ms])
-        D.add_variable(nc, "advance_per_cycle", ("level",), np.float64,
-                       {"long_name": "mean horizontal advance of the attached end per "
-                                     "completed cycle", "units": "m"},
-                       [s["advance"] for s in summaries])
-        D.add_variable(nc, "failure_count", ("level", "failure_mode"), np.int64,
-                       {"long_name": "runs that stopped this way", "units": "1"},
-                       np.array([s["counts"] for s in summaries]))
+        for key, attr in (("mfpt", "value"), ("mfpt_low", "low"), ("mfpt_high", "high")):
+            write(key, [getattr(m, attr) for m in ms])
+            write(key.replace("mfpt", "mfpt_distance"),
+                  [getattr(m, attr) * s["advance"] for m, s in zip(ms, summaries)])
+        write("mfpt_method", [MFPT_METHODS.index(m.method) for m in ms])
+        write("restricted_mean", [m.restricted_mean for m in ms])
+        for key in ("hazard_early", "hazard_late"):
+            write(key, [getattr(m, key) for m in ms])
+        write("advance_per_cycle", [s["advance"] for s in summaries])
+        write("failure_count", np.array([s["counts"] for s in summaries]))
         D.set_global_attrs(nc, dict(attrs, total_cycles=int(arrays["cycles"].sum()),
                                     total_nfev=int(arrays["nfev"].sum())))
 
@@ -388,6 +406,7 @@ def write_survival(path: Path, attrs: dict, step: SurvivalStep, arrays: dict) ->
 class SurvivalKind(StepKind):
     name = "survival"
     model = SurvivalStep
+    variables = VARIABLES
     gait_kinds = ("horizontal", "sequence")
     accepts = ("shoot", "refine", "floquet", "design")
     unit = "blocks"

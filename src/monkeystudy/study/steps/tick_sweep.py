@@ -101,6 +101,30 @@ def tick_sweep_task(spec: GaitSpec, gait: SequenceGait, z_star, *, times, ticks,
 
 
 # --- the dataset ---------------------------------------------------------------------------------
+#: the variables of a tick_sweep dataset (docs/datasets.md); the long_names' fields say
+#: where a cycle is recorded (the section or the vertical after the swap)
+VARIABLES = {
+    "tick": D.Variable(("tick",), np.float64, "s", "controller tick (0: exact event timing)"),
+    "cycle": D.index_coordinate("cycle", "cycle number"),
+    "error": D.Variable(("tick", "cycle"), np.float64, D.ERROR_UNITS,
+                        "error against the gait start at the {crossing} ending the cycle "
+                        "(docs/model.md; NaN: not reached)", {"comment": D.ERROR_COMMENT}),
+    "pivot_height": D.Variable(("tick", "cycle"), np.float64, "m",
+                               "world height of the attached end {pivot_when}"),
+    "cycles_to_bound": D.Variable(("tick",), np.int32, "1",
+                                  "first cycle whose error exceeds error_bound (else the "
+                                  "cycles reached)"),
+    "cycles_completed": D.Variable(("tick",), np.int32, "1",
+                                   "cycles that reached their {crossing}"),
+    "status": D.Variable.of(("tick",), np.int8, D.STATUS_ATTRS,
+                            long_name="why the run stopped (ok: all cycles ran)"),
+    "growth_per_cycle": D.Variable(("tick",), np.float64, "1",
+                                   "fitted geometric growth of sqrt(error) per cycle where "
+                                   "1e-10 < sqrt(error) < 1e-4 (NaN: fewer than 3 such "
+                                   "cycles)"),
+}
+
+
 def write_tick_sweep(path: Path, attrs: dict, ticks, result: dict, records: str) -> None:
     """Write a tick_sweep dataset from a :func:`tick_sweep_task` result, the cycles recorded
     at the section or from the swap (``records``, :class:`~monkeystudy.controllers.
@@ -108,33 +132,16 @@ def write_tick_sweep(path: Path, attrs: dict, ticks, result: dict, records: str)
     err = np.asarray(result["error"], float)
     section = records == "section"
     at = "section crossing" if section else "vertical crossing"
+    fields = {"crossing": at,
+              "pivot_when": "at the section crossing ending the cycle" if section
+              else "after the cycle's swap"}
     with D.atomic_netcdf(path) as nc:
-        nc.createDimension("tick", len(ticks))
-        D.add_variable(nc, "tick", ("tick",), np.float64,
-             {"long_name": "controller tick (0: exact event timing)", "units": "s"},
-             np.asarray(ticks, float))
-        D.add_index_coord(nc, "cycle", err.shape[1], "cycle number", start=1)
-        D.add_variable(nc, "error", ("tick", "cycle"), np.float64,
-             {"long_name": f"error against the gait start at the {at} ending the cycle "
-                           "(docs/model.md; NaN: not reached)", "units": D.ERROR_UNITS,
-              "comment": D.ERROR_COMMENT}, err)
-        D.add_variable(nc, "pivot_height", ("tick", "cycle"), np.float64,
-             {"long_name": "world height of the attached end at the section crossing ending "
-                           "the cycle" if section else "world height of the attached end "
-                           "after the cycle's swap", "units": "m"}, result["pivot_height"])
-        D.add_variable(nc, "cycles_to_bound", ("tick",), np.int32,
-             {"long_name": "first cycle whose error exceeds error_bound (else the cycles "
-                           "reached)", "units": "1"}, result["cycles_to_bound"])
-        D.add_variable(nc, "cycles_completed", ("tick",), np.int32,
-             {"long_name": f"cycles that reached their {at}", "units": "1"},
-             result["cycles_completed"])
-        D.add_variable(nc, "status", ("tick",), np.int8, dict(D.STATUS_ATTRS, long_name="why the run "
-                                                    "stopped (ok: all cycles ran)"),
-             result["status"])
-        D.add_variable(nc, "growth_per_cycle", ("tick",), np.float64,
-             {"long_name": "fitted geometric growth of sqrt(error) per cycle where 1e-10 < "
-                           "sqrt(error) < 1e-4 (NaN: fewer than 3 such cycles)", "units": "1"},
-             result["growth_per_cycle"])
+        D.write_coordinate(nc, VARIABLES, "tick", np.asarray(ticks, float))
+        D.write_coordinate(nc, VARIABLES, "cycle", np.arange(1, err.shape[1] + 1))
+        D.write_declared(nc, VARIABLES, "error", err, **fields)
+        for key in ("pivot_height", "cycles_to_bound", "cycles_completed", "status",
+                    "growth_per_cycle"):
+            D.write_declared(nc, VARIABLES, key, result[key], **fields)
         D.set_global_attrs(nc, attrs)
 
 
@@ -142,6 +149,7 @@ def write_tick_sweep(path: Path, attrs: dict, ticks, result: dict, records: str)
 class TickSweepKind(StepKind):
     name = "tick_sweep"
     model = TickSweepStep
+    variables = VARIABLES
     gait_kinds = ("horizontal", "sequence")
     accepts = ("shoot", "floquet")
     unit = "runs"

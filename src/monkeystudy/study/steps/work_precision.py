@@ -108,49 +108,54 @@ NOT_REPRODUCIBLE = ("wall-clock timings depend on the machine and its load: time
                     "differ between runs (errors and counts do not)")
 
 
+#: dims of the kernel's and of scipy's measurements
+KERNEL_RUNS = ("method", "rtol")
+SCIPY_RUNS = ("scipy_method", "scipy_rtol")
+
+#: the variables of a work_precision dataset (docs/datasets.md)
+VARIABLES = {
+    "method": D.label_coordinate("method", "kernel integrator"),
+    "rtol": D.Variable(("rtol",), np.float64, "1", "relative tolerance"),
+    "scipy_method": D.label_coordinate("scipy_method", "scipy.integrate.solve_ivp method"),
+    "scipy_rtol": D.Variable(("scipy_rtol",), np.float64, "1",
+                             "relative tolerance of the scipy runs"),
+    "time_per_gait": D.Variable(KERNEL_RUNS, np.float64, "s",
+                                "wall time per gait evaluation (best of repeat)"),
+    "rhs_per_gait": D.Variable(KERNEL_RUNS, np.float64, "1",
+                               "right-hand-side evaluations per gait (mean)"),
+    "error_value": D.Variable(KERNEL_RUNS, np.float64, D.ERROR_UNITS,
+                              "max |gait error - reference gait error|"),
+    "error_times": D.Variable(KERNEL_RUNS, np.float64, "s",
+                              "max |event time - reference| (t_switch, t_motor, t_end)"),
+    "status_mismatch": D.Variable(KERNEL_RUNS, np.int32, "1",
+                                  "points whose status differs from the reference"),
+    "scipy_time_per_gait": D.Variable(SCIPY_RUNS, np.float64, "s",
+                                      "wall time per gait evaluation, scipy solve_ivp with "
+                                      "events"),
+    "scipy_error_value": D.Variable(SCIPY_RUNS, np.float64, D.ERROR_UNITS,
+                                    "max |gait error - reference gait error|, scipy"),
+    "scipy_error_times": D.Variable(SCIPY_RUNS, np.float64, "s",
+                                    "max |event time - reference|, scipy"),
+    "kernel_time_same_points": D.Variable(("scipy_rtol",), np.float64, "s",
+                                          "wall time per gait of the kernel's dop853 on the "
+                                          "scipy points"),
+}
+
+
 def write_work_precision(path: Path, attrs: dict, result: dict) -> None:
     """Write a work_precision dataset from :func:`monkeystudy.analysis.precision.work_precision`."""
     with D.atomic_netcdf(path) as nc:
-        D.add_label_coord(nc, "method", list(result["methods"]), "kernel integrator")
-        nc.createDimension("rtol", len(result["rtols"]))
-        D.add_variable(nc, "rtol", ("rtol",), np.float64, {"long_name": "relative tolerance",
-                                                 "units": "1"}, result["rtols"])
-        D.add_label_coord(nc, "scipy_method", list(result["scipy_methods"]),
-                     "scipy.integrate.solve_ivp method")
-        nc.createDimension("scipy_rtol", len(result["scipy_rtols"]))
-        D.add_variable(nc, "scipy_rtol", ("scipy_rtol",), np.float64,
-             {"long_name": "relative tolerance of the scipy runs", "units": "1"},
-             result["scipy_rtols"])
-        mr, sr = ("method", "rtol"), ("scipy_method", "scipy_rtol")
-        D.add_variable(nc, "time_per_gait", mr, np.float64,
-             {"long_name": "wall time per gait evaluation (best of repeat)", "units": "s"},
-             result["time"])
-        D.add_variable(nc, "rhs_per_gait", mr, np.float64,
-             {"long_name": "right-hand-side evaluations per gait (mean)", "units": "1"},
-             result["nfev"])
-        D.add_variable(nc, "error_value", mr, np.float64,
-             {"long_name": "max |gait error - reference gait error|",
-              "units": D.ERROR_UNITS},
-             result["error_value"])
-        D.add_variable(nc, "error_times", mr, np.float64,
-             {"long_name": "max |event time - reference| (t_switch, t_motor, t_end)",
-              "units": "s"}, result["error_times"])
-        D.add_variable(nc, "status_mismatch", mr, np.int32,
-             {"long_name": "points whose status differs from the reference", "units": "1"},
-             result["status_mismatch"])
-        D.add_variable(nc, "scipy_time_per_gait", sr, np.float64,
-             {"long_name": "wall time per gait evaluation, scipy solve_ivp with events",
-              "units": "s"}, result["scipy_time"])
-        D.add_variable(nc, "scipy_error_value", sr, np.float64,
-             {"long_name": "max |gait error - reference gait error|, scipy",
-              "units": D.ERROR_UNITS},
-             result["scipy_error_value"])
-        D.add_variable(nc, "scipy_error_times", sr, np.float64,
-             {"long_name": "max |event time - reference|, scipy", "units": "s"},
-             result["scipy_error_times"])
-        D.add_variable(nc, "kernel_time_same_points", ("scipy_rtol",), np.float64,
-             {"long_name": "wall time per gait of the kernel's dop853 on the scipy points",
-              "units": "s"}, result["kernel_time_same_points"])
+        for name, key in (("method", "methods"), ("rtol", "rtols"),
+                          ("scipy_method", "scipy_methods"), ("scipy_rtol", "scipy_rtols")):
+            D.write_coordinate(nc, VARIABLES, name, list(result[key]))
+        for name, key in (("time_per_gait", "time"), ("rhs_per_gait", "nfev"),
+                          ("error_value", "error_value"), ("error_times", "error_times"),
+                          ("status_mismatch", "status_mismatch"),
+                          ("scipy_time_per_gait", "scipy_time"),
+                          ("scipy_error_value", "scipy_error_value"),
+                          ("scipy_error_times", "scipy_error_times"),
+                          ("kernel_time_same_points", "kernel_time_same_points")):
+            D.write_declared(nc, VARIABLES, name, result[key])
         D.set_global_attrs(nc, dict(attrs, reference=result["reference"],
                                n_points=int(result["n_points"]), bit_reproducible=0,
                                reproducibility=NOT_REPRODUCIBLE))
@@ -160,6 +165,7 @@ def write_work_precision(path: Path, attrs: dict, result: dict) -> None:
 class WorkPrecisionKind(StepKind):
     name = "work_precision"
     model = WorkPrecisionStep
+    variables = VARIABLES
     unit = "measurements"
     reproducible = False
     figures = (
