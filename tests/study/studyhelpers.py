@@ -89,26 +89,29 @@ def refine_starts_dims(name: str, dims: tuple) -> tuple:
     return dims if name in ("start", "iteration", "segment") else ("start",) + dims
 
 
-def assert_written_as_declared(path: Path, kind: str, dims_of=None) -> None:
+def assert_written_as_declared(path: Path, kind: str, dims_of=None, name_of=None) -> None:
     """Dataset ``path`` holds the variables kind ``kind`` declares (its ``variables``):
     every non-optional one, no undeclared one, each with the declared dtype, units,
     long_name (its fields any text) and attributes. ``dims_of(name, declared dims)`` gives
     the dims expected for a layout other than the declared one (a grid's point list, a
-    refine step's starts); by default the declared dims."""
+    refine step's starts); by default the declared dims. ``name_of(written name)`` gives the
+    declaration a written variable is one of (a design's ``<parameter>``); by default its
+    own name."""
     import netCDF4
 
     from monkeystudy.study.steps import REGISTRY
 
     declared = REGISTRY[kind].variables
     assert declared, f"{kind} declares no variables"
+    declaration_of = name_of or (lambda n: n)
     with netCDF4.Dataset(path) as nc:
-        written = set(nc.variables)
+        written = {declaration_of(n) for n in nc.variables}
         missing = {n for n, v in declared.items() if not v.optional} - written
         assert not missing, f"{path.name}: declared, not written: {sorted(missing)}"
         assert written <= set(declared), \
             f"{path.name}: written, not declared: {sorted(written - set(declared))}"
-        for name in sorted(written):
-            var, v = declared[name], nc.variables[name]
+        for name in sorted(nc.variables):
+            var, v = declared[declaration_of(name)], nc.variables[name]
             want_dims = var.dims if dims_of is None else dims_of(name, var.dims)
             assert v.dimensions == tuple(want_dims), (path.name, name, v.dimensions)
             if var.dtype is str:

@@ -157,7 +157,6 @@ def label_coordinate(dim: str, long_name: str, optional: bool = False) -> Variab
     return Variable((dim,), str, "1", long_name, optional=optional)
 
 
-
 #: points gathered from consecutive blocks before one write per variable: each netCDF slice
 #: write costs ~0.1 ms of library overhead, so a 10^5-point map written block by block and
 #: row piece by row piece spent ~0.2 s there; the buffer (~15 MB) keeps memory flat in the
@@ -236,12 +235,16 @@ def add_variable(nc, name: str, dims: tuple, dtype, attrs: dict, data=None,
 
 
 def write_declared(nc, declared: Mapping[str, Variable], name: str, data=None, *,
-                   dims: tuple[str, ...] | None = None, coordinates: str = "", **fields):
+                   dims: tuple[str, ...] | None = None, coordinates: str = "",
+                   written_as: str | None = None, **fields):
     """Create variable ``name`` as ``declared`` says (dims, dtype, units, long_name with
     ``fields`` filled in, attributes) and write ``data``; ``dims`` replaces the declared dims
-    for a layout other than the usual one. Fields a long_name does not use are ignored."""
+    for a layout other than the usual one, ``written_as`` the name for a variable declared
+    once for many (a design's ``<parameter>``, written as each free parameter's name). Fields
+    a long_name does not use are ignored."""
     var = declared[name]
-    return add_variable(nc, name, var.dims if dims is None else dims, var.dtype,
+    return add_variable(nc, name if written_as is None else written_as,
+                        var.dims if dims is None else dims, var.dtype,
                         var.attributes(**fields), data, coordinates=coordinates)
 
 
@@ -275,30 +278,6 @@ PARAMETER_UNITS = {"com": "m", "inertia": "kg m2", "gravity": "m s-2", "torque":
 #: long_name tail of a section state's components
 SECTION_NOTE = ("on the gait's section (theta1 = 0 unless the gait says), components (theta2 [rad], dtheta1 [rad s-1], "
                  "dtheta2 [rad s-1])")
-
-
-def add_complex(nc, name: str, dims: tuple, values: np.ndarray, what: str) -> None:
-    """A complex array as ``<name>_real`` and ``<name>_imag`` (netCDF4 classic types)."""
-    v = np.asarray(values, complex)
-    add_variable(nc, f"{name}_real", dims, np.float64, {"long_name": f"{what}, real part",
-                                                "units": "1"}, v.real)
-    add_variable(nc, f"{name}_imag", dims, np.float64, {"long_name": f"{what}, imaginary part",
-                                                "units": "1"}, v.imag)
-
-
-def add_index_coord(nc, dim: str, n: int, long_name: str, start: int = 0) -> None:
-    """Dimension ``dim`` of length ``n`` with an integer coordinate ``start..start+n-1``."""
-    nc.createDimension(dim, n)
-    add_variable(nc, dim, (dim,), np.int32, {"long_name": long_name, "units": "1"},
-         np.arange(start, start + n))
-
-
-def add_label_coord(nc, dim: str, labels: list[str], long_name: str) -> None:
-    """Dimension ``dim`` with a text coordinate of ``labels``."""
-    nc.createDimension(dim, len(labels))
-    add_variable(nc, dim, (dim,), str, {"long_name": long_name, "units": "1"},
-         np.array(list(labels), object))
-
 
 
 def status_counts(status: np.ndarray) -> str:

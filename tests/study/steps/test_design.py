@@ -16,7 +16,7 @@ from monkeystudy.controllers import Integrator
 from monkeystudy.robot import Robot
 from monkeystudy.study import load_study, run_study
 
-from studyhelpers import assert_same_datasets
+from studyhelpers import assert_same_datasets, assert_written_as_declared
 
 ROOT = Path(__file__).resolve().parents[3]
 SMOKE = ROOT / "studies" / "open_loop_design_smoke.yaml"
@@ -360,3 +360,39 @@ def test_a_horizontal_design_refuses_segments_and_the_height():
         assert bad != text
         with pytest.raises(StudyError, match=says):
             parse_study(bad, "bad.yaml")
+
+
+def design_layout(path: Path):
+    """``(name_of, dims_of)`` of a design dataset for ``assert_written_as_declared``: its
+    free parameters' coordinates and ``refined_<parameter>`` are each one declaration, and the
+    grid variables run over every free parameter."""
+    with xr.open_dataset(path) as ds:
+        params = [str(p) for p in json.loads(ds.attrs["parameters"])]
+
+    def name_of(name):
+        if name in params:
+            return "<parameter>"
+        if name.startswith("refined_") and name[len("refined_"):] in params:
+            return "refined_<parameter>"
+        return name
+
+    def dims_of(name, dims):
+        out = []
+        for d in dims:
+            out += params if d == "<parameters>" else [name] if d == "<parameter>" else [d]
+        return tuple(out)
+
+    return name_of, dims_of
+
+
+@pytest.mark.parametrize("dataset", ["schedule.nc", "schedule_clock.nc"])
+def test_the_smoke_datasets_are_written_as_declared(smoke, dataset):
+    out, _, _ = smoke
+    name_of, dims_of = design_layout(out / dataset)
+    assert_written_as_declared(out / dataset, "design", dims_of=dims_of, name_of=name_of)
+
+
+def test_a_segment_design_is_written_as_declared(segments):
+    out, _ = segments
+    name_of, dims_of = design_layout(out / "design.nc")
+    assert_written_as_declared(out / "design.nc", "design", dims_of=dims_of, name_of=name_of)

@@ -448,173 +448,212 @@ def _status_text(status: np.ndarray) -> str:
 
 
 # --- the dataset ---------------------------------------------------------------------------------
+#: the declared dims of the variables named per free parameter (written as each parameter's
+#: name: its coordinate, ``refined_<parameter>``) and of the grid variables (written over
+#: every free parameter, in the step's order)
+PARAMETER = "<parameter>"
+PARAMETERS_DIMS = ("<parameters>",)
+
+#: the grid variables, in the order the dataset holds them; ``{map}``: the return map or the
+#: full map (the height included), ``{balance}``: the balance parameter
 GRID_VARIABLES = {
-    "status": ("how the design's gait solve ended", "1"),
-    "spectral_radius": ("spectral radius of the return map per step, by variational "
-                        "equations with saltation matrices", "1"),
-    "spectral_radius_fd": ("spectral radius of the return map per step, by finite "
-                           "differences", "1"),
-    "theta2": ("fixed point: theta2 on the section", "rad"),
-    "dtheta1": ("fixed point: dtheta1 on the section", D.RATE),
-    "dtheta2": ("fixed point: dtheta2 on the section", D.RATE),
-    "balance_value": ("solved value of the balance parameter", ""),
-    "error": ("squared section error |P(z) - z|^2 at the solution", D.ERROR_UNITS),
-    "rise": ("height gained by the attached end per cycle", "m"),
-    "advance": ("horizontal advance of the attached end per cycle", "m"),
-    "energy_lost": ("energy lost at the cycle's impacts (restored by the motor)", "J"),
-    "period": ("duration of a cycle", "s"),
-    "iterations": ("Newton iterations", "1"),
-    "nfev": ("right-hand-side evaluations of the solve", "1"),
-    "objective": ("the search's objective", "1"),
-    "energy_per_metre": ("energy restored per metre travelled", "J m-1"),
+    "status": D.Variable(PARAMETERS_DIMS, np.int8, "1", "how the design's gait solve ended",
+                         {"flag_values": np.arange(len(STATUS_NAMES), dtype=np.int8),
+                          "flag_meanings": " ".join(STATUS_NAMES)}),
+    "spectral_radius": D.Variable(PARAMETERS_DIMS, np.float64, "1",
+                                  "spectral radius of {map} per step, by variational "
+                                  "equations with saltation matrices"),
+    "spectral_radius_fd": D.Variable(PARAMETERS_DIMS, np.float64, "1",
+                                     "spectral radius of {map} per step, by finite "
+                                     "differences"),
+    "theta2": D.Variable(PARAMETERS_DIMS, np.float64, "rad",
+                         "fixed point: theta2 on the section"),
+    "dtheta1": D.Variable(PARAMETERS_DIMS, np.float64, D.RATE,
+                          "fixed point: dtheta1 on the section"),
+    "dtheta2": D.Variable(PARAMETERS_DIMS, np.float64, D.RATE,
+                          "fixed point: dtheta2 on the section"),
+    "balance_value": D.Variable(PARAMETERS_DIMS, np.float64, "{balance_units}",
+                                "solved value of the balance parameter ({balance})"),
+    "error": D.Variable(PARAMETERS_DIMS, np.float64, D.ERROR_UNITS,
+                        "squared section error |P(z) - z|^2 at the solution"),
+    "rise": D.Variable(PARAMETERS_DIMS, np.float64, "m",
+                       "height gained by the attached end per cycle"),
+    "advance": D.Variable(PARAMETERS_DIMS, np.float64, "m",
+                          "horizontal advance of the attached end per cycle"),
+    "energy_lost": D.Variable(PARAMETERS_DIMS, np.float64, "J",
+                              "energy lost at the cycle's impacts (restored by the motor)"),
+    "period": D.Variable(PARAMETERS_DIMS, np.float64, "s", "duration of a cycle"),
+    "iterations": D.Variable(PARAMETERS_DIMS, np.float64, "1", "Newton iterations"),
+    "nfev": D.Variable(PARAMETERS_DIMS, np.float64, "1",
+                       "right-hand-side evaluations of the solve"),
+    "objective": D.Variable(PARAMETERS_DIMS, np.float64, "1", "the search's objective"),
+    "energy_per_metre": D.Variable(PARAMETERS_DIMS, np.float64, "J m-1",
+                                   "energy restored per metre travelled"),
+}
+
+#: what a design dataset holds (docs/datasets.md), in the order it holds it; the words that
+#: depend on the run are format fields: ``{meaning}``, ``{units}``, ``{parameter}`` (a
+#: free parameter's), ``{replay}`` (the open-loop replay, or the replay by the gait's own
+#: controller), ``{basin_cycles}``, ``{torque}`` (the motor torque, or in the motor frame)
+VARIABLES: dict[str, D.Variable] = {
+    PARAMETER: D.Variable((PARAMETER,), np.float64, "{units}", "{meaning}"),
+    "k": D.index_coordinate("k", "multiplier, by decreasing modulus"),
+    **GRID_VARIABLES,
+    "multiplier_modulus": D.Variable((*PARAMETERS_DIMS, "k"), np.float64, "1",
+                                     "|multiplier| of the cycle's return map (finite "
+                                     "differences)"),
+    "start": D.index_coordinate("start", "Nelder-Mead start (a grid design)"),
+    f"refined_{PARAMETER}": D.Variable(("start",), np.float64, "{units}",
+                                       "refined design: {parameter}"),
+    "refined_objective": D.Variable(("start",), np.float64, "1",
+                                    "objective of the refined design"),
+    "start_objective": D.Variable(("start",), np.float64, "1",
+                                  "objective of the grid design it started from"),
+    "refine_evaluations": D.Variable(("start",), np.int32, "1",
+                                     "designs evaluated by Nelder-Mead"),
+    "refined_spectral_radius_fd": D.Variable(("start",), np.float64, "1",
+                                             "spectral radius per step of the refined design "
+                                             "(finite differences)"),
+    "replay_tick": D.Variable(("replay",), np.float64, "s",
+                              "controller tick of the replay (0: exact timing)"),
+    "refined_cycles_completed": D.Variable(("start", "replay"), np.int64, "1",
+                                           "cycles the refined design's {replay} completed "
+                                           "before it fell, stopped or left the error bound"),
+    "refined_cycles_walked": D.Variable(("start", "replay"), np.int64, "1",
+                                        "cycles the refined design's {replay} ran before it "
+                                        "fell, stopped or advanced less than half a gait "
+                                        "cycle (whatever its error)"),
+    "row": D.index_coordinate("row", "row of dP/dz"),
+    "col": D.index_coordinate("col", "column of dP/dz"),
+    "best_jacobian": D.Variable(("row", "col"), np.float64, "1",
+                                "best design: dP/dz by variational equations"),
+    "best_jacobian_fd": D.Variable(("row", "col"), np.float64, "1",
+                                   "best design: dP/dz by finite differences"),
+    **D.complex_variables("best_multipliers", ("k",),
+                          "best design: multipliers of the cycle (variational equations)"),
+    **D.complex_variables("best_multipliers_fd", ("k",),
+                          "best design: multipliers of the cycle (finite differences)"),
+    "cycle": D.index_coordinate("cycle", "replay cycle"),
+    "replay_error": D.Variable(("replay", "cycle"), np.float64, D.ERROR_UNITS,
+                               "{replay}: section error against the fixed point"),
+    "replay_kinetic_energy": D.Variable(("replay", "cycle"), np.float64, "J",
+                                        "{replay}: kinetic energy at the section"),
+    "replay_pivot_height": D.Variable(("replay", "cycle"), np.float64, "m",
+                                      "{replay}: height of the attached end at the section"),
+    "cycles_completed": D.Variable(("replay",), np.int64, "1",
+                                   "cycles the replay completed before it fell, stopped or "
+                                   "left the error bound"),
+    "cycles_walked": D.Variable(("replay",), np.int64, "1",
+                                "cycles the replay ran before it fell, stopped or advanced "
+                                "less than half a gait cycle (whatever its error)"),
+    "replay_status": D.Variable.of(("replay",), np.int8, D.STATUS_ATTRS,
+                                   long_name="how the replay's run ended"),
+    "decay_cycle": D.index_coordinate("decay_cycle", "cycle of the perturbed run"),
+    "perturbation_distance": D.Variable(("decay_cycle",), np.float64, "1",
+                                        "distance |z_k - z*| of the perturbed run from the "
+                                        "fixed point (exact timing)"),
+    "basin_d_dtheta1": D.Variable(("basin_d_dtheta1",), np.float64, D.RATE,
+                                  "start offset in dtheta1"),
+    "basin_d_dtheta2": D.Variable(("basin_d_dtheta2",), np.float64, D.RATE,
+                                  "start offset in dtheta2"),
+    "basin_cycles": D.Variable(("basin_d_dtheta1", "basin_d_dtheta2"), np.int32, "1",
+                               "cycles survived from the offset start (exact timing; "
+                               "{basin_cycles}: never failed)"),
+    "time": D.Variable(("sample",), np.float64, "s", "time of the best design's cycle"),
+    **{key: D.Variable(("sample", "xy"), np.float64, "m", f"world position of {key}")
+       for key in ("A", "joint", "B")},
+    "attached_end": D.Variable(("sample",), np.int8, "1",
+                               "end the frame hangs from (0: A, 1: B)"),
+    "phase": D.Variable(("sample",), np.int8, "1", "phase (0 swing, 1 flight, 2 fixed)"),
+    "motor_torque": D.Variable(("sample",), np.float64, "N m", "{torque}"),
 }
 
 
 def write_design(path: Path, attrs: dict, st: DesignStep, space: DesignSpace, axes,
                  grid: dict, found: dict) -> None:
-    """Write a design dataset (dims: one per free parameter, ``k``, ``start``, ``replay``,
-    ``cycle``, ``decay_cycle``, ``basin_d_dtheta1``, ``basin_d_dtheta2``, ``sample``)."""
+    """Write a design dataset (:data:`VARIABLES`; dims: one per free parameter, ``k``,
+    ``start``, ``replay``, ``cycle``, ``decay_cycle``, ``basin_d_dtheta1``,
+    ``basin_d_dtheta2``, ``sample``)."""
     names, shape = st.names, st.shape
     best, checks = found["best"], found["checks"]
     units = {n: space.parameter(n).unit for n in names}
+    words = {"map": "the full map (the attached end's height included)"
+             if space.height_in_map else "the return map",
+             "balance": space.balance,
+             "balance_units": space.parameter(space.balance).unit
+             if space.balance != "none" else "1",
+             "replay": space.replay_name, "basin_cycles": st.verify.basin_cycles}
+
+    def put(name, data, **kw):
+        D.write_declared(nc, VARIABLES, name, data, **words, **kw)
+
     with D.atomic_netcdf(path) as nc:
         for n, a in zip(names, axes):
             nc.createDimension(n, len(a))
-            D.add_variable(nc, n, (n,), np.float64, {"long_name": space.parameter(n).meaning,
-                                                     "units": units[n]}, a)
+            D.write_declared(nc, VARIABLES, PARAMETER, a, written_as=n, dims=(n,),
+                             units=units[n], meaning=space.parameter(n).meaning)
         k = space.n_multipliers
-        D.add_index_coord(nc, "k", k, "multiplier, by decreasing modulus")
-        for key, (what, unit) in GRID_VARIABLES.items():
-            if key == "balance_value":
-                unit = space.parameter(space.balance).unit if space.balance != "none" else "1"
-                what += f" ({space.balance})"
-            if key.startswith("spectral_radius") and space.height_in_map:
-                what = what.replace("the return map", "the full map (the attached end's "
-                                    "height included)")
-            data = grid[key].reshape(shape)
-            extra = {}
-            if key == "status":
-                extra = {"flag_values": np.arange(len(STATUS_NAMES), dtype=np.int8),
-                         "flag_meanings": " ".join(STATUS_NAMES)}
-            D.add_variable(nc, key, tuple(names), np.int8 if key == "status" else np.float64,
-                           {"long_name": what, "units": unit, **extra}, data)
-        D.add_variable(nc, "multiplier_modulus", (*names, "k"), np.float64,
-                       {"long_name": "|multiplier| of the cycle's return map (finite "
-                                     "differences)", "units": "1"},
-                       grid["multiplier_modulus"].reshape(*shape, k))
+        D.write_coordinate(nc, VARIABLES, "k", np.arange(k))
+        for key in GRID_VARIABLES:
+            put(key, grid[key].reshape(shape), dims=tuple(names))
+        put("multiplier_modulus", grid["multiplier_modulus"].reshape(*shape, k),
+            dims=(*names, "k"))
         refined = found["refined"]
-        D.add_index_coord(nc, "start", len(refined), "Nelder-Mead start (a grid design)")
+        D.write_coordinate(nc, VARIABLES, "start", np.arange(len(refined)))
         for n in names:
-            D.add_variable(nc, f"refined_{n}", ("start",), np.float64,
-                           {"long_name": f"refined design: {n}", "units": units[n]},
-                           [r["result"].values[n] for r in refined])
-        D.add_variable(nc, "refined_objective", ("start",), np.float64,
-                       {"long_name": "objective of the refined design", "units": "1"},
-                       [r["result"].objective(st.objective, st.energy_weight)
-                        for r in refined])
-        D.add_variable(nc, "start_objective", ("start",), np.float64,
-                       {"long_name": "objective of the grid design it started from",
-                        "units": "1"}, [r["start_objective"] for r in refined])
-        D.add_variable(nc, "refine_evaluations", ("start",), np.int32,
-                       {"long_name": "designs evaluated by Nelder-Mead", "units": "1"},
-                       [r["evaluations"] for r in refined])
-        D.add_variable(nc, "refined_spectral_radius_fd", ("start",), np.float64,
-                       {"long_name": "spectral radius per step of the refined design (finite "
-                                     "differences)", "units": "1"},
-                       [r["result"].spectral_radius_fd for r in refined])
+            D.write_declared(nc, VARIABLES, f"refined_{PARAMETER}",
+                             [r["result"].values[n] for r in refined],
+                             written_as=f"refined_{n}", units=units[n], parameter=n)
+        put("refined_objective", [r["result"].objective(st.objective, st.energy_weight)
+                                  for r in refined])
+        put("start_objective", [r["start_objective"] for r in refined])
+        put("refine_evaluations", [r["evaluations"] for r in refined])
+        put("refined_spectral_radius_fd", [r["result"].spectral_radius_fd for r in refined])
         nc.createDimension("replay", 2)
-        D.add_variable(nc, "replay_tick", ("replay",), np.float64,
-                       {"long_name": "controller tick of the replay (0: exact timing)",
-                        "units": "s"}, [0.0, st.verify.tick])
-        D.add_variable(nc, "refined_cycles_completed", ("start", "replay"), np.int64,
-                       {"long_name": f"cycles the refined design's {space.replay_name} completed "
-                                     "before it fell, stopped or left the error bound",
-                        "units": "1"},
-                       np.array([r["cycles_completed"] for r in refined],
-                                np.int64).reshape(len(refined), 2))
-        D.add_variable(nc, "refined_cycles_walked", ("start", "replay"), np.int64,
-                       {"long_name": f"cycles the refined design's {space.replay_name} ran before "
-                                     "it fell, stopped or advanced less than half a gait "
-                                     "cycle (whatever its error)", "units": "1"},
-                       np.array([r["cycles_walked"] for r in refined],
-                                np.int64).reshape(len(refined), 2))
-        D.add_index_coord(nc, "row", k, "row of dP/dz")
-        D.add_index_coord(nc, "col", k, "column of dP/dz")
-        D.add_variable(nc, "best_jacobian", ("row", "col"), np.float64,
-                       {"long_name": "best design: dP/dz by variational equations",
-                        "units": "1"}, best.jacobian)
-        D.add_variable(nc, "best_jacobian_fd", ("row", "col"), np.float64,
-                       {"long_name": "best design: dP/dz by finite differences", "units": "1"},
-                       best.jacobian_fd)
-        D.add_complex(nc, "best_multipliers", ("k",), best.multipliers,
-                      "best design: multipliers of the cycle (variational equations)")
-        D.add_complex(nc, "best_multipliers_fd", ("k",), best.multipliers_fd,
-                      "best design: multipliers of the cycle (finite differences)")
+        put("replay_tick", [0.0, st.verify.tick])
+        for key in ("cycles_completed", "cycles_walked"):
+            put(f"refined_{key}", np.array([r[key] for r in refined],
+                                           np.int64).reshape(len(refined), 2))
+        D.write_coordinate(nc, VARIABLES, "row", np.arange(k))
+        D.write_coordinate(nc, VARIABLES, "col", np.arange(k))
+        put("best_jacobian", best.jacobian)
+        put("best_jacobian_fd", best.jacobian_fd)
+        D.write_complex(nc, VARIABLES, "best_multipliers", best.multipliers)
+        D.write_complex(nc, VARIABLES, "best_multipliers_fd", best.multipliers_fd)
         replays = checks["replays"]
         n_cyc = st.verify.cycles
-        D.add_index_coord(nc, "cycle", n_cyc, "replay cycle", start=1)
-        for key, what, unit in (("error", "section error against the fixed point",
-                                 D.ERROR_UNITS),
-                                ("kinetic_energy", "kinetic energy at the section", "J"),
-                                ("pivot_height", "height of the attached end at the section",
-                                 "m")):
+        D.write_coordinate(nc, VARIABLES, "cycle", np.arange(1, n_cyc + 1))
+        for key in ("error", "kinetic_energy", "pivot_height"):
             data = np.full((len(replays), n_cyc), np.nan)
             for i, r in enumerate(replays):
                 v = getattr(r, key)[:n_cyc]
                 data[i, :v.size] = v
-            D.add_variable(nc, f"replay_{key}", ("replay", "cycle"), np.float64,
-                           {"long_name": f"{space.replay_name}: {what}", "units": unit}, data)
-        D.add_variable(nc, "cycles_completed", ("replay",), np.int64,
-                       {"long_name": "cycles the replay completed before it fell, stopped "
-                                     "or left the error bound", "units": "1"},
-                       [r.cycles_completed for r in replays])
-        D.add_variable(nc, "cycles_walked", ("replay",), np.int64,
-                       {"long_name": "cycles the replay ran before it fell, stopped or "
-                                     "advanced less than half a gait cycle (whatever its "
-                                     "error)", "units": "1"},
-                       [r.cycles_walked for r in replays])
-        D.add_variable(nc, "replay_status", ("replay",), np.int8,
-                       {"long_name": "how the replay's run ended", **D.STATUS_ATTRS},
-                       [r.status for r in replays])
+            put(f"replay_{key}", data)
+        put("cycles_completed", [r.cycles_completed for r in replays])
+        put("cycles_walked", [r.cycles_walked for r in replays])
+        put("replay_status", [r.status for r in replays])
         decay = checks["decay"]
-        D.add_index_coord(nc, "decay_cycle", decay.size, "cycle of the perturbed run",
-                          start=1)
-        D.add_variable(nc, "perturbation_distance", ("decay_cycle",), np.float64,
-                       {"long_name": "distance |z_k - z*| of the perturbed run from the fixed "
-                                     "point (exact timing)", "units": "1"}, decay)
+        D.write_coordinate(nc, VARIABLES, "decay_cycle", np.arange(1, decay.size + 1))
+        put("perturbation_distance", decay)
         offsets = checks["offsets"]
         for dim in ("basin_d_dtheta1", "basin_d_dtheta2"):
-            nc.createDimension(dim, offsets.size)
-            D.add_variable(nc, dim, (dim,), np.float64,
-                           {"long_name": f"start offset in {dim[8:]}", "units": D.RATE},
-                           offsets)
-        D.add_variable(nc, "basin_cycles", ("basin_d_dtheta1", "basin_d_dtheta2"), np.int32,
-                       {"long_name": "cycles survived from the offset start (exact timing; "
-                                     f"{st.verify.basin_cycles}: never failed)",
-                        "units": "1"}, checks["basin"])
+            D.write_coordinate(nc, VARIABLES, dim, offsets)
+        put("basin_cycles", checks["basin"])
         rec = D.run_record(found["film"])
         nc.createDimension("sample", rec["time"].size)
         nc.createDimension("xy", 2)
-        D.add_variable(nc, "time", ("sample",), np.float64,
-                       {"long_name": "time of the best design's cycle", "units": "s"},
-                       rec["time"])
+        put("time", rec["time"])
         for key in ("A", "joint", "B"):
-            D.add_variable(nc, key, ("sample", "xy"), np.float64,
-                           {"long_name": f"world position of {key}", "units": "m"}, rec[key])
-        D.add_variable(nc, "attached_end", ("sample",), np.int8,
-                       {"long_name": "end the frame hangs from (0: A, 1: B)", "units": "1"},
-                       rec["attached_end"])
-        D.add_variable(nc, "phase", ("sample",), np.int8,
-                       {"long_name": "phase (0 swing, 1 flight, 2 fixed)", "units": "1"},
-                       rec["phase"])
+            put(key, rec[key])
+        put("attached_end", rec["attached_end"])
+        put("phase", rec["phase"])
         torque, what = rec["motor_torque"], "motor torque"
         if attrs.get("torque_frame") == "motor":
             # the cycle starts hanging from A: after its swap the kernel's torque acts on
             # theta2 of B's frame, the opposite physical torque
             torque = np.where((rec["attached_end"] == 0) | (torque == 0.0), torque, -torque)
             what = "motor torque in the motor frame (the sign fixed to the links)"
-        D.add_variable(nc, "motor_torque", ("sample",), np.float64,
-                       {"long_name": what, "units": "N m"}, torque)
+        put("motor_torque", torque, torque=what)
         D.set_global_attrs(nc, attrs)
 
 
@@ -730,6 +769,7 @@ def segment_problems(study, index: int, step: DesignStep, names: list[str]) -> l
 class DesignKind(StepKind):
     name = "design"
     model = DesignStep
+    variables = VARIABLES
     gait_kinds = ("horizontal", "sequence")
     accepts = ("shoot", "refine", "floquet")
     provides = "its best design (schedule, robot and fixed point)"
