@@ -16,10 +16,14 @@ free end's rise above the wall line and its velocity at the catch, the impact lo
 gait and of the two starts, and the design with its pulse's part after the swap held as the
 same physical torque or cut (re-solved); for ``as_built_clock``: the
 same schedule under the restarting clock. Times are from the vertical crossing [s], torques in
-N m.
+N m. For a design of a sequence gait's segments with a screen (``studies/robust_design.yaml``:
+``python tools/design_checks.py outputs/robust_design``, run from the project's folder): the
+least-rho refined design re-solved, its full map's multipliers both ways, and how far the
+chosen design's two Jacobians differ.
 """
 from __future__ import annotations
 
+import json
 import math
 import sys
 from pathlib import Path
@@ -159,13 +163,50 @@ def restarting_clock_check(ds) -> None:
           f"{np.array2string(res.multipliers, precision=4)}")
 
 
+def least_rho_checks(ds, study: Path) -> None:
+    """A sequence gait's design with a screen: the refined design of least spectral radius
+    (finite differences), re-solved, with the multipliers of its full map both ways."""
+    from monkeystudy.analysis.design import SegmentDesignSpace
+    from monkeystudy.study import load_study
+    from monkeystudy.study.spec import gait_spec
+
+    spec = gait_spec(load_study(study).study)
+    names = [str(n) for n in json.loads(ds.attrs["parameters"])]
+    i = int(np.nanargmin(ds["refined_spectral_radius_fd"].values))
+    free = {n: float(ds[f"refined_{n}"].values[i]) for n in names}
+    space = SegmentDesignSpace(spec.sequence, spec.robot,
+                               motor_frame=spec.torque_frame == "motor",
+                               integrator=spec.integrator)
+    # Newton from the fixed point of the grid design nearest to it (in axis steps)
+    grid = ds["status"]
+    dist = sum(((ds[n] - free[n]) / float(ds[n][1] - ds[n][0])) ** 2 for n in names)
+    dist = dist.where(grid == 0).transpose(*grid.dims).values
+    k = np.unravel_index(int(np.nanargmin(dist)), dist.shape)
+    z = [float(ds[c].transpose(*grid.dims).values[k]) for c in ("theta2", "dtheta1",
+                                                                 "dtheta2")]
+    res = with_variational(space, evaluate_design(space, free, z))
+    print("  least-rho refined design: " + ", ".join(f"{n} {v:.4f}" for n, v in free.items())
+          + f"; rho {res.spectral_radius:.7f} (finite differences "
+          f"{res.spectral_radius_fd:.7f}), |multipliers| "
+          f"{np.array2string(np.abs(res.multipliers), precision=4)}; Jacobians differ by "
+          f"{float(np.max(np.abs(res.jacobian - res.jacobian_fd))):.2g}")
+    chosen = float(np.max(np.abs(ds["best_jacobian"].values - ds["best_jacobian_fd"].values)))
+    print(f"  chosen design: rho {ds.attrs['best_spectral_radius']:.8f} (finite differences "
+          f"{ds.attrs['best_spectral_radius_fd']:.8f}); Jacobians differ by {chosen:.2g}")
+
+
 def main(folder: str) -> int:
     folder = Path(folder)
     for path in sorted(folder.glob("*.nc")):
         with xr.open_dataset(path) as ds:
-            if ds.attrs.get("step_kind") != "design" or "best_t_switch" not in ds.attrs:
+            if ds.attrs.get("step_kind") != "design":
                 continue
             ds.load()
+        if "best_t_switch" not in ds.attrs:
+            if "screen_survived" in ds:
+                print(f"{path.stem}: a design of the segments of {ds.attrs['study_name']}")
+                least_rho_checks(ds, Path("studies") / f"{ds.attrs['study_name']}.yaml")
+            continue
         v = best_values(ds.attrs)
         print(f"{path.stem}: rho {ds.attrs['best_spectral_radius']:.6f}; motor frame: "
               f"{profile_text(v)}")

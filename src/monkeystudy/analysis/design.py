@@ -46,6 +46,7 @@ from ..robot import Link, Robot
 from ..simulation import run_controller
 from .multipliers import jacobian_fd, sorted_eigs
 from .replay import cycles_to_bound, growth_per_cycle, sequence_basin, sequence_cycles
+from .survival import Noise, SurvivalRuns, survival_runs
 from .sections import TIGHT, cycle_full_map, cycle_section_state
 from .variational import sequence_variational_jacobian
 
@@ -780,6 +781,24 @@ def design_basin(space: DesignSpace, result: DesignResult, offsets1, offsets2, *
     return sequence_basin(space.cycle_gait(result.values, result.period), result.state,
                           offsets1, offsets2, max_cycles=max_cycles, error_bound=error_bound,
                           robot=robot, integrator=space.integrator)
+
+
+def design_survival(space: DesignSpace, result: DesignResult, *, runs: int, max_cycles: int,
+                    noise: Noise, seed: int, tick: float,
+                    min_advance_fraction: float = 0.5) -> SurvivalRuns:
+    """Runs ``0 .. runs - 1`` of the design's gait from its fixed point under ``noise``
+    (:func:`~monkeystudy.analysis.survival.survival_runs`, drawn with ``seed``), on the
+    controller ``tick`` [s], each until it fails or completes ``max_cycles``; a cycle whose
+    attached end advances less than ``min_advance_fraction`` of the gait's advance stalls the
+    run. The design's own gait: a schedule runs on time, a sequence gait by its guards."""
+    gait = replace(space.cycle_gait(result.values, result.period),
+                   theta2=float(result.z[0]), tick=float(tick))
+    return survival_runs(gait.controller(), cycle_section_state(gait, result.state),
+                         result.z, runs=np.arange(int(runs)), max_cycles=int(max_cycles),
+                         noise=noise, seed=int(seed), robot=space.robot_for(result.values),
+                         integrator=space.integrator,
+                         min_advance=min_advance_fraction * abs(result.advance),
+                         section=gait.section_observer())
 
 
 def design_cycle_run(space: DesignSpace, result: DesignResult, *, sample_dt: float):

@@ -141,8 +141,10 @@ def plot_design_map(ds):
                 ax.plot([x[gb[1]]], [y[gb[0]]], "s", ms=11, mfc="none", mec=ORANGE, mew=2,
                         gid="grid_best", label=f"best of the grid, ρ = {r[gb]:.4g}")
             bx, by = attr_float(ds, "best_" + xd), attr_float(ds, "best_" + yd)
+            chosen = ("the design chosen by survival" if ds.attrs.get("chosen_by") == "survival"
+                      else "best design")
             ax.plot([bx], [by], "*", ms=16, color=VERMILLION, mec=BLACK, gid="best",
-                    label=f"best design, ρ = {attr_float(ds, 'best_spectral_radius'):.4g}")
+                    label=f"{chosen}, ρ = {attr_float(ds, 'best_spectral_radius'):.4g}")
             ax.legend(loc="best", fontsize=8.5)
     return fig
 
@@ -263,6 +265,43 @@ def plot_design_replay(ds):
     return fig
 
 
+def plot_design_screen(ds):
+    """The screened candidates: the fraction of their survival runs that completed, against
+    their spectral radius; the chosen one (the first) starred.
+
+    gids: ``candidates``, ``chosen``.
+    """
+    rho = ds["screen_spectral_radius_fd"].values
+    survived = 100.0 * ds["screen_survived"].values
+    a = ds.attrs
+    noise = json_attr(ds, "screen_noise", {})
+    on = ", ".join(f"{k} {v:g}" for k, v in noise.items()
+                   if k != "distribution" and isinstance(v, (int, float)) and v)
+    with style():
+        fig = new_figure(figsize=(7.4, 5.2))
+        body = two_titles(fig, "Candidates screened by survival",
+                          f"{count(rho.size, 'candidate')}, each {int(a['screen_runs'])} runs "
+                          f"of up to {int(a['screen_max_cycles'])} cycles on the "
+                          f"{float(a['screen_tick']) * 1e3:g} ms tick under {on} "
+                          f"(seed {int(a['screen_seed'])}); the design checked is the one "
+                          f"that lasts. {run_line(ds, tick=False)}")
+        ax = body.subplots()
+        ax.plot(rho, survived, "o", ms=9, color=BLUE, gid="candidates",
+                label="candidate (by the objective: the least spectral radius first)")
+        ax.plot(rho[:1], survived[:1], "*", ms=18, color=VERMILLION, mec=BLACK, gid="chosen",
+                label=f"chosen: ρ = {rho[0]:.4g}, {survived[0]:.4g} % of its runs completed")
+        ax.set_xlabel("spectral radius ρ per step (finite differences)")
+        ax.set_ylabel("runs that completed max_cycles  [%]")
+        ax.set_ylim(-5, 105)
+        ax.legend(loc="best", fontsize=8.5)
+    return fig
+
+
+def has_screen(ds) -> bool:
+    """Whether the design dataset holds a survival screen of its candidates."""
+    return "screen_survived" in ds
+
+
 def has_film(ds) -> bool:
     """Whether the dataset's layout holds the best design's cycle (it may be empty)."""
     return all(v in ds for v in ("A", "joint", "B"))
@@ -275,4 +314,7 @@ DRAWINGS = {
     ("design", "filmstrip"): Drawing(lambda d: plot_filmstrip(d[0]), cost=3.0,
                                      applies=lambda path, folder: has_film(
                                          folder.loaded(path))),
+    ("design", "screen"): Drawing(lambda d: plot_design_screen(d[0]),
+                                  applies=lambda path, folder: has_screen(
+                                      folder.loaded(path))),
 }

@@ -307,6 +307,11 @@ def plot_mfpt_comparison(datasets: Sequence):
                 k += 1
             ax.set_xscale("log")
             ax.set_yscale("log")
+            lo, hi = ax.get_ylim()
+            if 0 < lo and hi < 10 * lo:
+                # values within a decade: a decade each way, or the log axis labels a sliver
+                mid = math.sqrt(lo * hi)
+                ax.set_ylim(mid / 10, mid * 10)
             ax.set_xlabel(xlabel)
             ax.set_ylabel("mean cycles before failure")
             ax.legend(handles=ax.get_legend_handles_labels()[0], loc="best", fontsize=7.5)

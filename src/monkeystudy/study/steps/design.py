@@ -34,13 +34,15 @@ from pydantic import Field, field_validator, model_validator
 from ...analysis.design import (
     BALANCES, CLOCKS, DESIGN_OK, OBJECTIVES, PARAMETERS, SEGMENT_PARAMETER, STATUS_NAMES,
     DesignResult, DesignSpace, SegmentDesignSpace, design_basin, design_cycle_run,
-    evaluate_design, motor_frame_pulses, perturbation_decay, replay_design, with_variational,
+    design_survival, evaluate_design, motor_frame_pulses, perturbation_decay, replay_design,
+    with_variational,
 )
 from ...simulation import Status
 from .. import datasets as D
 from ..blocks import Block, Task
 from ..errors import RunFailed
 from ..models import Name, StrictModel
+from ..noise import NoiseSpec
 from .base import Dependency, Figure, StepContext, StepKind
 from .gait_source import (
     MAX_MAP_DEFECT, GaitStart, design_start, option_problems, read_start,
@@ -77,6 +79,32 @@ class DesignRefine(StrictModel):
     xatol: float = Field(1e-4, gt=0, description="simplex size at convergence, as a "
                          "fraction of each axis's range")
     fatol: float = Field(1e-6, gt=0, description="objective spread at convergence")
+
+
+class DesignScreen(StrictModel):
+    """Survival runs of the most stable candidates (by the objective): the design checked and
+    handed on is the one that lasts, not the one with the least spectral radius."""
+
+    candidates: int = Field(6, ge=1, le=100, description="candidates screened: the refined "
+                            "designs and the best grid designs (no two neighbours), the "
+                            "lowest objective first")
+    runs: int = Field(100, ge=1, le=100_000, description="runs per candidate")
+    max_cycles: int = Field(300, ge=1, le=1_000_000, description="cycles after which a run "
+                            "counts as survived")
+    tick: float = Field(0.001, ge=0, le=0.1, description="controller tick of the runs [s]")
+    seed: int = Field(0, ge=0, le=2**63 - 1, description="the noise's seed (the same draws "
+                      "for every candidate)")
+    min_advance_fraction: float = Field(0.5, gt=0, le=1, description="a cycle advancing less "
+                                        "than this fraction of the design's step stalls the "
+                                        "run")
+    noise: NoiseSpec = Field(default_factory=NoiseSpec, description="the noise of every run "
+                             "(one level)")
+
+    @model_validator(mode="after")
+    def _one_level(self) -> "DesignScreen":
+        if self.noise.n_levels != 1:
+            raise ValueError("a screen runs every candidate under one noise level (no lists)")
+        return self
 
 
 class DesignVerify(StrictModel):
@@ -138,6 +166,9 @@ class DesignStep(StrictModel):
                                       "balance value; a design keeps its most stable gait")
     refine: DesignRefine = Field(default_factory=DesignRefine)
     verify: DesignVerify = Field(default_factory=DesignVerify)
+    screen: Optional[DesignScreen] = Field(None, description="rank the best candidates by "
+                                           "survival runs under noise and check the one that "
+                                           "lasts (default: the least objective)")
     height_in_map: Optional[bool] = Field(None, description="a sequence gait's designs: the "
                                           "stability of the full map, the attached end's "
                                           "height included (four multipliers; default), or "
@@ -148,7 +179,7 @@ class DesignStep(StrictModel):
     start_index: Optional[int] = Field(None, ge=0, description="which start of a refine step "
                                        "(default: the lowest error)")
 
-    recorded_when_set: ClassVar[frozenset[str]] = frozenset({"height_in_map"})
+    recorded_when_set: ClassVar[frozenset[str]] = frozenset({"height_in_map", "screen"})
 
     @field_validator("parameters")
     @classmethod
@@ -181,6 +212,9 @@ class DesignStep(StrictModel):
             raise ValueError(f"{sorted(both)} both free and fixed")
         if self.balance != "none" and self.balance in self.parameters:
             raise ValueError(f"balance {self.balance!r} is solved, not a free parameter")
+        if self.clock == "run_on" and self.screen is not None:
+            raise ValueError("screen runs designs whose clock restarts at each step (clock "
+                             "reset_at_vertical)")
         if self.clock == "run_on" and self.two_step:
             raise ValueError("clock run_on needs mirror-image links (a one-step cycle): "
                              "mass_ratio and length_ratio can be neither free nor other "
@@ -423,9 +457,8 @@ def refine_and_verify(space: DesignSpace, st: DesignStep, axes, grid: dict, star
                         "cycles_completed": [r.cycles_completed for r in reps],
                         "cycles_walked": [r.cycles_walked for r in reps]})
     candidates = [r["result"] for r in refined]
-    ok = np.flatnonzero(np.isfinite(objective.ravel()))
-    if ok.size:
-        flat = int(ok[np.argmin(objective.ravel()[ok])])
+    # the best grid designs (one without a screen: the grid's best)
+    for flat in refine_starts(objective, st.screen.candidates if st.screen else 1):
         idx = np.unravel_index(flat, shape)
         free = {n: float(axes[k][idx[k]]) for k, n in enumerate(st.names)}
         g = evaluate_design(space, _with_balance(
@@ -436,10 +469,28 @@ def refine_and_verify(space: DesignSpace, st: DesignStep, axes, grid: dict, star
     if not candidates:
         raise RunFailed(f"{st.name}: no design of the grid has a gait (statuses: "
                         f"{_status_text(grid['status'])})")
-    best = with_variational(space, min(
-        candidates, key=lambda r: r.objective(st.objective, st.energy_weight)))
+    ranked = sorted(candidates, key=lambda r: r.objective(st.objective, st.energy_weight))
+    screened = screen(space, st.screen, ranked) if st.screen else []
+    best = with_variational(space, screened[0]["result"] if screened else ranked[0])
     return {"refined": refined, "best": best, "checks": verify(space, best, st.verify),
-            "film": design_cycle_run(space, best, sample_dt=0.005)}
+            "film": design_cycle_run(space, best, sample_dt=0.005), "screened": screened}
+
+
+def screen(space, sc: DesignScreen, ranked: list[DesignResult]) -> list[dict]:
+    """Survival runs of the first ``sc.candidates`` of ``ranked`` (the lowest objective
+    first), each under the screen's noise with the same draws; returned the most robust
+    first: the most runs that completed ``max_cycles``, then the most cycles on average, then
+    the lowest objective (the ranked order)."""
+    noise = sc.noise.level(0)
+    out = []
+    for rank, res in enumerate(ranked[:sc.candidates]):
+        runs = design_survival(space, res, runs=sc.runs, max_cycles=sc.max_cycles,
+                               noise=noise, seed=sc.seed, tick=sc.tick,
+                               min_advance_fraction=sc.min_advance_fraction)
+        out.append({"result": res, "rank": rank,
+                    "survived": float(np.mean(runs.failure == Status.OK)),
+                    "mean_cycles": float(np.mean(runs.cycles))})
+    return sorted(out, key=lambda c: (-c["survived"], -c["mean_cycles"], c["rank"]))
 
 
 def _status_text(status: np.ndarray) -> str:
@@ -566,6 +617,25 @@ VARIABLES: dict[str, D.Variable] = {
                                "end the frame hangs from (0: A, 1: B)"),
     "phase": D.Variable(("sample",), np.int8, "1", "phase (0 swing, 1 flight, 2 fixed)"),
     "motor_torque": D.Variable(("sample",), np.float64, "N m", "{torque}"),
+    # a screen's candidates, the most robust first (the design checked above is the first)
+    "candidate": D.index_coordinate("candidate", "screened candidate, the most robust first",
+                                    optional=True),
+    f"screen_{PARAMETER}": D.Variable(("candidate",), np.float64, "{units}",
+                                      "screened candidate: {parameter}", optional=True),
+    "screen_objective": D.Variable(("candidate",), np.float64, "1",
+                                   "objective of the candidate", optional=True),
+    "screen_spectral_radius_fd": D.Variable(("candidate",), np.float64, "1",
+                                            "spectral radius per step of the candidate "
+                                            "(finite differences)", optional=True),
+    "screen_rank": D.Variable(("candidate",), np.int32, "1",
+                              "the candidate's place by the objective (0: the least)",
+                              optional=True),
+    "screen_survived": D.Variable(("candidate",), np.float64, "1",
+                                  "fraction of the screen's runs that completed max_cycles",
+                                  optional=True),
+    "screen_mean_cycles": D.Variable(("candidate",), np.float64, "1",
+                                     "cycles a screen run completed, on average",
+                                     optional=True),
 }
 
 
@@ -654,6 +724,20 @@ def write_design(path: Path, attrs: dict, st: DesignStep, space: DesignSpace, ax
             torque = np.where((rec["attached_end"] == 0) | (torque == 0.0), torque, -torque)
             what = "motor torque in the motor frame (the sign fixed to the links)"
         put("motor_torque", torque, torque=what)
+        screened = found.get("screened") or []
+        if screened:
+            D.write_coordinate(nc, VARIABLES, "candidate", np.arange(len(screened)))
+            for n in names:
+                D.write_declared(nc, VARIABLES, f"screen_{PARAMETER}",
+                                 [c["result"].values[n] for c in screened],
+                                 written_as=f"screen_{n}", units=units[n], parameter=n)
+            put("screen_objective", [c["result"].objective(st.objective, st.energy_weight)
+                                     for c in screened])
+            put("screen_spectral_radius_fd", [c["result"].spectral_radius_fd
+                                              for c in screened])
+            put("screen_rank", [c["rank"] for c in screened])
+            put("screen_survived", [c["survived"] for c in screened])
+            put("screen_mean_cycles", [c["mean_cycles"] for c in screened])
         D.set_global_attrs(nc, attrs)
 
 
@@ -728,6 +812,14 @@ def best_attrs(space: DesignSpace, st: DesignStep, found: dict) -> dict:
                    t_motor=float(best.values["t_motor"]))
     if space.height_in_map:
         out["height_in_map"] = 1
+    screened = found.get("screened") or []
+    if screened:
+        sc = st.screen
+        out.update(chosen_by="survival", screen_runs=sc.runs, screen_max_cycles=sc.max_cycles,
+                   screen_tick=sc.tick, screen_seed=sc.seed,
+                   screen_noise=sc.noise.level(0).to_dict(),
+                   best_screen_survived=screened[0]["survived"],
+                   best_screen_mean_cycles=screened[0]["mean_cycles"])
     return out
 
 
@@ -793,6 +885,10 @@ class DesignKind(StepKind):
                "the leading multiplier."),
         Figure("filmstrip", "one cycle of the best design",
                "The best design's gait cycle frame by frame, with its schedule below."),
+        Figure("screen", "candidates screened by survival",
+               "With a screen: each candidate's share of survival runs that completed, "
+               "against its spectral radius; the design checked (starred) is the one that "
+               "lasts, which need not be the most contracting."),
     )
 
     def check_step(self, study, index, step: DesignStep, ref, seen) -> list:
@@ -916,6 +1012,15 @@ class DesignKind(StepKind):
                 k += 1
             lines.append(f"best gait ({a.get('torque_frame', 'attached_end')} frame): "
                          + "; ".join(parts))
+        if a.get("chosen_by") == "survival":
+            lines.append(
+                f"chosen by survival: {ds.sizes['candidate']} candidates, "
+                f"{int(a['screen_runs'])} runs of up to {int(a['screen_max_cycles'])} cycles "
+                f"each; the best completed {100 * float(a['best_screen_survived']):.4g} % of "
+                "its runs (" + ", ".join(
+                    f"rho {float(r):.4g}: {100 * float(v):.4g} %" for r, v in zip(
+                        ds["screen_spectral_radius_fd"].values,
+                        ds["screen_survived"].values)) + ")")
         lines.append(
                 f"replays: {', '.join(str(int(c)) for c in ds['cycles_completed'].values)} "
                 f"cycles within the error bound"
