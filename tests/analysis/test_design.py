@@ -118,3 +118,19 @@ def test_a_heavier_pre_catch_torque_moves_the_fixed_point_and_changes_rho():
     assert other.ok and abs(other.rise) < 1e-12
     assert np.max(np.abs(other.z - base.z)) > 1e-2
     assert abs(other.spectral_radius_fd - base.spectral_radius_fd) > 1e-2
+
+
+def test_without_noise_every_run_of_a_design_completes_and_the_draws_repeat():
+    """design_survival: noiseless runs of design B all complete; with noise, the same seed
+    gives the same runs (noise keyed by seed and run)."""
+    from monkeystudy.analysis.design import design_survival
+    from monkeystudy.analysis.survival import Noise
+
+    space = design_b_space()
+    res = evaluate_design(space, {}, Z_B)
+    calm = design_survival(space, res, runs=3, max_cycles=6, noise=Noise(), seed=1, tick=0.0)
+    assert list(calm.cycles) == [6, 6, 6] and np.all(calm.failure == 0)
+    noisy = [design_survival(space, res, runs=4, max_cycles=6, tick=1e-3, seed=7,
+                             noise=Noise(timing=1e-3, mass=0.01)) for _ in range(2)]
+    np.testing.assert_array_equal(noisy[0].cycles, noisy[1].cycles)
+    np.testing.assert_array_equal(noisy[0].height, noisy[1].height)

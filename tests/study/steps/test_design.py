@@ -266,6 +266,8 @@ steps:
       segment3_torque: {start: -0.42, stop: -0.38, num: 2}
     refine: {starts: 1, max_evaluations: 12}
     verify: {cycles: 20, decay_cycles: 8, basin_num: 3, basin_cycles: 5}
+    screen: {candidates: 3, runs: 6, max_cycles: 8, seed: 3,
+             noise: {timing: 1.0e-3, parameters: {mass: 0.01}}}
   - {name: design_survival, kind: survival, from: design, controller: {tick: 0.001},
      runs: 4, max_cycles: 10, seed: 30, min_advance: 0.5761}
 """
@@ -372,8 +374,9 @@ def design_layout(path: Path):
     def name_of(name):
         if name in params:
             return "<parameter>"
-        if name.startswith("refined_") and name[len("refined_"):] in params:
-            return "refined_<parameter>"
+        for prefix in ("refined_", "screen_"):
+            if name.startswith(prefix) and name[len(prefix):] in params:
+                return f"{prefix}<parameter>"
         return name
 
     def dims_of(name, dims):
@@ -396,3 +399,36 @@ def test_a_segment_design_is_written_as_declared(segments):
     out, _ = segments
     name_of, dims_of = design_layout(out / "design.nc")
     assert_written_as_declared(out / "design.nc", "design", dims_of=dims_of, name_of=name_of)
+
+
+def test_a_screen_checks_the_candidate_that_lasts(segments):
+    """The screen's candidates run under the same noise draws: the first is the one most of
+    whose runs completed (then the most cycles), it is the design checked and handed on, and
+    the candidates are the least-objective designs in the order of their rank."""
+    out, ds = segments
+    assert ds.attrs["chosen_by"] == "survival"
+    survived, mean = ds["screen_survived"].values, ds["screen_mean_cycles"].values
+    key = list(zip(-survived, -mean, ds["screen_rank"].values))
+    assert key == sorted(key)
+    assert sorted(ds["screen_rank"].values) == list(range(ds.sizes["candidate"]))
+    assert ds.attrs["best_screen_survived"] == survived[0]
+    for n in ("segment2_torque", "segment3_torque"):
+        assert ds[f"screen_{n}"].values[0] == ds.attrs[f"best_{n}"]
+    # by rank, the objectives do not decrease
+    by_rank = ds["screen_objective"].values[np.argsort(ds["screen_rank"].values)]
+    assert np.all(np.diff(by_rank) >= 0)
+    assert (out / "design.nc").exists()
+
+
+@pytest.mark.parametrize("edit, says", [
+    ("noise: {timing: 1.0e-3,", "one noise level"),
+    ("screen: {candidates: 3,", "clock reset_at_vertical"),
+])
+def test_a_screen_refuses_levels_and_a_running_clock(tmp_path, edit, says):
+    text = {"one noise level": SEGMENTS.replace(edit, "noise: {timing: [1.0e-3, 2.0e-3],"),
+            "clock reset_at_vertical": SMOKE.read_text().replace(
+                "clock: run_on}", "clock: run_on, screen: {candidates: 2}}")}[says]
+    from monkeystudy.study.loader import StudyError, parse_study
+
+    with pytest.raises(StudyError, match=says):
+        parse_study(text, "bad.yaml")
