@@ -297,6 +297,12 @@ def plot_design_screen(ds):
     return fig
 
 
+def best_rates(ds) -> tuple[float, float]:
+    """The best design's ``(dtheta1, dtheta2)`` [rad s-1] (the film is its cycle; the
+    dataset's ``dtheta1``, ``dtheta2`` name the starting gait)."""
+    return attr_float(ds, "best_dtheta1"), attr_float(ds, "best_dtheta2")
+
+
 def has_screen(ds) -> bool:
     """Whether the design dataset holds a survival screen of its candidates."""
     return "screen_survived" in ds
@@ -311,7 +317,8 @@ DRAWINGS = {
     ("design", "map"): Drawing(lambda d: plot_design_map(d[0])),
     ("design", "multipliers"): Drawing(lambda d: plot_design_multipliers(d[0])),
     ("design", "replay"): Drawing(lambda d: plot_design_replay(d[0]), cost=2.0),
-    ("design", "filmstrip"): Drawing(lambda d: plot_filmstrip(d[0]), cost=3.0,
+    ("design", "filmstrip"): Drawing(lambda d: plot_filmstrip(d[0], gait=best_rates(d[0])),
+                                     cost=3.0,
                                      applies=lambda path, folder: has_film(
                                          folder.loaded(path))),
     ("design", "screen"): Drawing(lambda d: plot_design_screen(d[0]),
