@@ -195,6 +195,48 @@ def least_rho_checks(ds, study: Path) -> None:
           f"{ds.attrs['best_spectral_radius_fd']:.8f}); Jacobians differ by {chosen:.2g}")
 
 
+def catch_speed(gait, z, robot, integrator) -> tuple[float, float]:
+    """The time [s] of a cycle's catch (the first sample hanging from B, the sample before
+    it) and the free end B's vertical speed there [m s-1] (> 0: rising), from one cycle
+    sampled every 10 us."""
+    run = simulate(gait.controller(), robot=robot, state=cycle_section_state(gait, z),
+                   cycles=1, integrator=integrator, sample_dt=1e-5)
+    end = run["attached_end"].values
+    i = int(np.flatnonzero(end > 0)[0]) - 1
+    th1, th2 = run["theta1"].values[i], run["theta2"].values[i]
+    w1, w2 = run["theta1_dot"].values[i], run["theta2_dot"].values[i]
+    p = robot.params()[0]
+    v_y = p[P_L1] * math.sin(th1) * w1 + p[P_L2] * math.sin(th1 + th2) * (w1 + w2)
+    return float(run["time"].values[i]), float(v_y)
+
+
+def robust_checks(folder: Path, study: Path) -> None:
+    """The catch of design B (the floquet step's fixed point) and of the chosen design, and
+    how high the attached end went in the noiseless tick run (``cycles``)."""
+    from monkeystudy.analysis.design import SegmentDesignSpace
+    from monkeystudy.study import load_study
+    from monkeystudy.study.spec import gait_spec
+
+    spec = gait_spec(load_study(study).study)
+    with xr.open_dataset(folder / "floquet.nc") as fq:
+        z = fq["fixed_point"].values[0]
+    t, v = catch_speed(spec.sequence, z, spec.robot, spec.integrator)
+    print(f"design B: the catch {t:.4f} s after the vertical, B rising at {v:.3f} m/s")
+    with xr.open_dataset(folder / "cycles.nc") as cy:
+        h = cy["pivot_height"].values
+    print(f"  on the 1 ms tick ({h.size} steps): the attached end {1e3 * np.nanmin(h):.3f} to "
+          f"{1e3 * np.nanmax(h):.3f} mm above its start")
+    with xr.open_dataset(folder / "design.nc") as ds:
+        a = dict(ds.attrs)
+        names = [str(n) for n in json.loads(a["parameters"])]
+    space = SegmentDesignSpace(spec.sequence, spec.robot,
+                               motor_frame=spec.torque_frame == "motor")
+    gait = space.gait_for({**space.values(), **{n: float(a[f"best_{n}"]) for n in names}})
+    t, v = catch_speed(gait, [a["best_theta2"], a["best_dtheta1"], a["best_dtheta2"]],
+                       spec.robot, spec.integrator)
+    print(f"the chosen design: the catch {t:.4f} s after the vertical, B rising at {v:.3f} m/s")
+
+
 def main(folder: str) -> int:
     folder = Path(folder)
     for path in sorted(folder.glob("*.nc")):
@@ -204,8 +246,11 @@ def main(folder: str) -> int:
             ds.load()
         if "best_t_switch" not in ds.attrs:
             if "screen_survived" in ds:
+                study = Path("studies") / f"{ds.attrs['study_name']}.yaml"
                 print(f"{path.stem}: a design of the segments of {ds.attrs['study_name']}")
-                least_rho_checks(ds, Path("studies") / f"{ds.attrs['study_name']}.yaml")
+                least_rho_checks(ds, study)
+                if (folder / "floquet.nc").exists() and (folder / "cycles.nc").exists():
+                    robust_checks(folder, study)
             continue
         v = best_values(ds.attrs)
         print(f"{path.stem}: rho {ds.attrs['best_spectral_radius']:.6f}; motor frame: "
