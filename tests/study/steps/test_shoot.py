@@ -70,3 +70,29 @@ def test_dedup_keeps_the_lower_error_and_every_start():
 def test_shoot_datasets_are_written_as_declared(analysis_smoke):
     for name in ('shoot.nc', 'shoot_nm.nc'):
         assert_written_as_declared(analysis_smoke[0] / name, "shoot")
+
+
+def test_a_collisionless_swap_on_a_later_swing_is_not_handed_on_as_a_gait(tmp_path):
+    """From (1.44, 10.31) alone the grazing solve converges to B at rest at A's height 1.30 s
+    after the start, after the cycle's return to the vertical: its equations are met, its
+    gait error is 429. A later step refuses it, saying so, instead of running a non-gait."""
+    from monkeystudy.study import load_study, run_study
+    from monkeystudy.study.errors import RunFailed
+
+    path = tmp_path / "one_start.yaml"
+    path.write_text("""\
+schema_version: 1
+name: one_start
+robot: seed2009
+gait: {kind: horizontal, motor_torque: 0.6354, tick: 0.0}
+integrator: {rtol: 1.0e-10, atol: 1.0e-12}
+steps:
+  - {name: shoot, kind: shoot, starts: [[1.44, 10.31]], method: grazing}
+  - {name: ticks, kind: tick_sweep, from: shoot, ticks: [0.001], cycles: 5}
+""")
+    with pytest.raises(RunFailed, match=r"produced no usable gait \(found: grazing error "
+                                        r"429 status 0; a gait's error is at most 0.01\)"):
+        run_study(load_study(path), tmp_path / "out", workers=1)
+    ds = open_dataset(tmp_path / "out", "shoot.nc")
+    assert ds["converged"].values[0] == 1 and ds["error"].values[0] > 100
+    assert ds["t_switch"].values[0] == pytest.approx(1.30034, abs=1e-4)

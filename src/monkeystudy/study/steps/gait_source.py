@@ -502,11 +502,18 @@ def read_shoot(path: Path) -> list[dict]:
     return out
 
 
+#: a shoot solution whose gait error is above this is no gait [rad2 + rad2 s-2] (the error
+#: bound multi-cycle steps use by default): a grazing solve can converge to a collisionless
+#: swap on a later swing, after the cycle's return to the vertical
+NOT_A_GAIT = 1e-2
+
+
 def usable(g: dict, grazing: bool) -> bool:
-    """A shoot solution a later step can run: a gait with finite rates, times and error (a
-    converged grazing one, with ``grazing``)."""
+    """A shoot solution a later step can run: a gait with finite rates and times and an error
+    within :data:`NOT_A_GAIT` (a converged grazing one, with ``grazing``)."""
     keys = ("dtheta1", "dtheta2", "t_switch", "t_motor", "error")
-    ok = g["status"] == 0 and all(math.isfinite(g[k]) for k in keys)
+    ok = (g["status"] == 0 and all(math.isfinite(g[k]) for k in keys)
+          and g["error"] <= NOT_A_GAIT)
     if grazing:
         ok = ok and g["method"] == METHOD_GRAZING and g["converged"] == 1
     return ok
@@ -525,13 +532,15 @@ def pick_solution(sols: list[dict], step: str, source: str, solution: int | None
         if not usable(g, grazing):
             raise RunFailed(f"{step}: solution {solution} of shoot step {source!r} is not a "
                             f"{what} (status {g['status']}, error {g['error']:.3g}, method "
-                            f"{METHOD_NAMES[g['method']]}, converged {g['converged']})")
+                            f"{METHOD_NAMES[g['method']]}, converged {g['converged']}; a "
+                            f"gait's error is at most {NOT_A_GAIT:g})")
         return g
     good = [g for g in sols if usable(g, grazing)]
     if not good:
         found = "; ".join(f"{METHOD_NAMES[g['method']]} error {g['error']:.3g} status "
                           f"{g['status']}" for g in sols) or "nothing"
-        raise RunFailed(f"{step}: shoot step {source!r} produced no {what} (found: {found})")
+        raise RunFailed(f"{step}: shoot step {source!r} produced no {what} (found: {found}; "
+                        f"a gait's error is at most {NOT_A_GAIT:g})")
     return min(good, key=lambda g: (g["error"], g["index"]))
 
 
