@@ -29,7 +29,7 @@ from monkeystudy.study import RunFailed, parse_study, run_study
 RUN_REFUSALS = (
     r"the grid has \d+ points with an error value, \d+ requested",
     r"found no (gait|cycle) to run",
-    r"produced no (usable start|solution|converged solution|gait)",
+    r"produced no (usable start|usable gait|solution|converged solution|gait)",
     r"no start produced a solution",
     r"no design of the grid has a gait",
     r"did not converge to a fixed point",

@@ -129,7 +129,7 @@ def test_a_basin_of_one_start_counts_in_the_singular(tmp_path):
 robot: seed2009
 gait: {kind: horizontal, motor_torque: 0.6354, tick: 0.0}
 steps:
-  - {name: exact, kind: shoot, starts: [[1.44, 10.31]], method: grazing}
+  - {name: exact, kind: shoot, starts: [[1.0, 12.0]], method: grazing}
   - name: basin
     kind: basin
     from: exact
