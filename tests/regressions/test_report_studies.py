@@ -14,6 +14,7 @@ import pytest
 import xarray as xr
 
 from plotting.reportcheck import run_and_report
+from test_motor_frame import DESIGN_B
 
 HEAD = """\
 schema_version: 1
@@ -223,15 +224,7 @@ def test_a_motor_frame_gait_with_its_height_in_the_map_and_survival_height(tmp_p
     the height change of each run) among them."""
     out = report(tmp_path, """\
 robot: seed2009
-gait:
-  kind: sequence
-  torque_frame: motor
-  section: {theta1: 0.0, direction: either, theta2: 0.43159965929540284}
-  segments:
-    - {until: time, value: 7.519090701371105e-08}
-    - {until: free_end_y, value: 0.0, direction: rising, torque: 0.3213454663367762,
-       clock: reset}
-    - {until: time, value: 0.28929574705023964, magnets: swap, torque: -0.40251722486466324}
+""" + f"gait: {json.dumps(DESIGN_B)}\n" + """\
 steps:
   - {name: r, kind: refine, start: [4.844445533376672, -1.6124995598690839], maxiter: 50}
   - {name: f, kind: floquet, from: r, height_in_map: true}

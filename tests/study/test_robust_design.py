@@ -34,15 +34,7 @@ SMALL = """\
 schema_version: 1
 name: robust_small
 robot: seed2009
-gait:
-  kind: sequence
-  torque_frame: motor
-  section: {theta1: 0.0, direction: either, theta2: 0.43159965929540284}
-  segments:
-    - {until: time, value: 7.519090701371105e-08}
-    - {until: free_end_y, value: 0.0, direction: rising, torque: 0.3213454663367762,
-       clock: reset}
-    - {until: time, value: 0.28929574705023964, magnets: swap, torque: -0.40251722486466324}
+""" + f"gait: {json.dumps(DESIGN_B)}\n" + """\
 integrator: {method: dop853, rtol: 1.0e-12, atol: 1.0e-13, max_time: 3.0}
 steps:
   - {name: refine, kind: refine, start: [4.844445533376672, -1.6124995598690839],

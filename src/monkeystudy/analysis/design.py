@@ -498,12 +498,6 @@ class SegmentDesignSpace:
         return prog, np.zeros_like(prog)
 
 
-def full_map_state(space, res: "DesignResult") -> np.ndarray:
-    """The full map's state at a design's fixed point: ``(y = 0, theta2, dtheta1,
-    dtheta2)``."""
-    return np.concatenate([[0.0], res.z])
-
-
 @dataclass
 class DesignResult:
     """One design's gait and its stability (see :func:`evaluate_design`)."""
@@ -536,6 +530,12 @@ class DesignResult:
         """The cycle's start on its map: ``z``, or with a running clock ``(theta1 = 0, z)``
         at clock phase zero."""
         return np.concatenate([[0.0], self.z]) if self.clocked else self.z.copy()
+
+    @property
+    def full_state(self) -> np.ndarray:
+        """The full map's state at the fixed point: ``(y = 0 [m], theta2, dtheta1,
+        dtheta2)`` (the cycle starts at the height of its section)."""
+        return np.concatenate([[0.0], self.z])
 
     @property
     def energy_per_metre(self) -> float:
@@ -693,7 +693,7 @@ def full_map_stability(space: SegmentDesignSpace, res: DesignResult) -> None:
     fmap = partial(cycle_full_map, gait=gait, robot=space.robot_for(res.values),
                    integrator=space.integrator)
     try:
-        J = jacobian_fd(fmap, full_map_state(space, res), space.fd_step)
+        J = jacobian_fd(fmap, res.full_state, space.fd_step)
     except RuntimeError as exc:
         res.status = DS_STENCIL
         res.message = f"stencil_failed: the full map's {exc}"
@@ -709,7 +709,7 @@ def with_variational(space: DesignSpace, res: DesignResult) -> DesignResult:
     ``height_in_map``."""
     height = space.height_in_map
     J = sequence_variational_jacobian(space.cycle_gait(res.values, res.period),
-                                      full_map_state(space, res) if height else res.state,
+                                      res.full_state if height else res.state,
                                       robot=space.robot_for(res.values),
                                       integrator=space.integrator, height=height)
     res.jacobian = J

@@ -429,6 +429,15 @@ def verify(space: DesignSpace, res: DesignResult, v: DesignVerify) -> dict:
             "basin": basin}
 
 
+def grid_design(space, st: DesignStep, axes, grid: dict, flat: int) -> DesignResult:
+    """Grid design ``flat`` (C-order index) solved again from its stored gait and balance."""
+    idx = np.unravel_index(flat, st.shape)
+    free = {n: float(axes[k][idx[k]]) for k, n in enumerate(st.names)}
+    return evaluate_design(space, _with_balance(
+        free, {space.balance: grid["balance_value"][flat]}, space),
+        [grid[c][flat] for c in ("theta2", "dtheta1", "dtheta2")])
+
+
 def refine_and_verify(space: DesignSpace, st: DesignStep, axes, grid: dict, starts) -> dict:
     """Nelder-Mead from the best grid designs, then the checks of the best design found
     (the best grid design when no refinement improves on it)."""
@@ -438,10 +447,7 @@ def refine_and_verify(space: DesignSpace, st: DesignStep, axes, grid: dict, star
     refined = []
     for flat in starts:
         idx = np.unravel_index(flat, shape)
-        free = {n: float(axes[k][idx[k]]) for k, n in enumerate(st.names)}
-        start = evaluate_design(space, _with_balance(
-            free, {space.balance: grid["balance_value"].reshape(shape)[idx]}, space),
-            [grid[c].reshape(shape)[idx] for c in ("theta2", "dtheta1", "dtheta2")])
+        start = grid_design(space, st, axes, grid, flat)
         if not start.ok:
             continue
         best, n_eval = nelder_mead(space, st, axes, {"values": start.values,
@@ -459,11 +465,7 @@ def refine_and_verify(space: DesignSpace, st: DesignStep, axes, grid: dict, star
     candidates = [r["result"] for r in refined]
     # the best grid designs (one without a screen: the grid's best)
     for flat in refine_starts(objective, st.screen.candidates if st.screen else 1):
-        idx = np.unravel_index(flat, shape)
-        free = {n: float(axes[k][idx[k]]) for k, n in enumerate(st.names)}
-        g = evaluate_design(space, _with_balance(
-            free, {space.balance: grid["balance_value"][flat]}, space),
-            [grid[c][flat] for c in ("theta2", "dtheta1", "dtheta2")])
+        g = grid_design(space, st, axes, grid, flat)
         if g.ok:
             candidates.append(g)
     if not candidates:
