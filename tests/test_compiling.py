@@ -1,6 +1,6 @@
 """Compiling ahead (monkeystudy.compiling): the helper's list is the hybrid loop's own callees,
-and two processes compiling into one empty cache at once leave a cache that serves a third
-with the same results."""
+two processes compiling into one empty cache at once leave a cache that serves a third with
+the same results, and the loop is compiled once for every entry and process that needs it."""
 import json
 import os
 import subprocess
@@ -57,10 +57,10 @@ print(json.dumps({"compiled": sum(1 for _, e in rec.buffer if e.is_start),
 """
 
 
-# a study's warm-up on an empty cache (a first run: the helper runs beside it), and which of
-# the loop's two entries this process compiled itself
+# a study's warm-up on an empty cache (a first run: the helper runs beside it): how often this
+# process compiled each function
 WARM_UP = """
-import json
+import collections, json
 from numba.core import event as ev
 from monkeystudy.study.loader import load_study
 from monkeystudy.study.runner import load_kernels
@@ -68,10 +68,22 @@ from monkeystudy.study.spec import gait_spec
 spec = gait_spec(load_study(%r).study)
 with ev.install_recorder("numba:compile") as rec:
     load_kernels(spec, runs=True, ahead=True)
-names = {e.data["dispatcher"].py_func.__qualname__ for _, e in rec.buffer if e.is_start}
-print(json.dumps({"runs_entry_compiled_here": "simulate" in names,
-                  "gait_entry_compiled_here": "cycle_gait_batch" in names}))
+print(json.dumps(collections.Counter(e.data["dispatcher"].py_func.__qualname__
+                                     for _, e in rec.buffer if e.is_start)))
 """ % str(Path(__file__).resolve().parents[1] / "studies" / "smoke.yaml")
+
+# another entry of the loop in a later process: an open-loop run and the names it compiled
+LATER_RUN = """
+import json
+from numba.core import event as ev
+from monkeystudy import OpenLoop, initial_state, run_controller
+with ev.install_recorder("numba:compile") as rec:
+    run = run_controller(OpenLoop(0.43, 0.024, 0.6354, tick=0.001), initial_state(0.9, 10.93),
+                         cycles=2, sample_dt=0.01)
+print(json.dumps({"compiled": sorted({e.data["dispatcher"].py_func.__qualname__
+                                      for _, e in rec.buffer if e.is_start}),
+                  "run": run.sample_state.tobytes().hex()}))
+"""
 
 
 def _python(code: str, cache, timeout=900) -> dict:
@@ -103,13 +115,12 @@ def test_two_processes_compile_into_one_cache(tmp_path, monkeypatch):
     the same bits, and the cache holds DOP853's swing step but no other method's steps and no
     flight step (the method and the phase set are compile-time choices)."""
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
-    # compiles the callees, last first, then the runs' entry ...
-    helper = compiling.start("dop853", runs=False)
+    # compiles the callees, last first ...
+    helper = compiling.start("dop853")
     try:
         driver = _python(GAITS % POINTS, tmp_path)   # ... while this compiles both entries
     finally:
         helper.wait(timeout=900)           # not stopped: both run to the end
-        helper.stdout.close()
     assert helper.returncode == 0
     assert driver["compiled"] > 0
     assert not [p for p in tmp_path.rglob("*") if ".tmp." in p.name]
@@ -132,14 +143,20 @@ def test_two_processes_compile_into_one_cache(tmp_path, monkeypatch):
 
 
 @pytest.mark.slow
-def test_a_study_process_waits_for_the_helpers_runs_entry_and_compiles_it_not(tmp_path,
-                                                                             monkeypatch):
-    """A first run's warm-up with multi-cycle runs: the helper compiles the runs' entry
-    after its callees and the study's process loads it instead of compiling it."""
+def test_the_loop_is_compiled_once_for_every_entry_and_process(tmp_path, monkeypatch):
+    """A first run's warm-up with multi-cycle runs compiles the hybrid loop once, for the gait
+    evaluation, and its runs link that compile; a later process's run loads it from the cache
+    (the loop is most of a first run's compile) and computes the same bits."""
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
-    r = _python(WARM_UP, tmp_path)
-    assert r["runs_entry_compiled_here"] is False, r
-    assert r["gait_entry_compiled_here"] is True, r
+    compiled = _python(WARM_UP, tmp_path)
+    loops = {name: n for name, n in compiled.items() if name.startswith("hybrid_loop_")}
+    assert loops == {"hybrid_loop_dop853_swing": 1}, compiled
+    assert compiled.get("cycle_gait_batch") == 1, compiled
+    later = _python(LATER_RUN, tmp_path)
+    assert not [n for n in later["compiled"] if n.startswith("hybrid_loop_")], later
+    run = run_controller(OpenLoop(0.43, 0.024, 0.6354, tick=0.001), initial_state(0.9, 10.93),
+                         cycles=2, sample_dt=0.01)
+    assert later["run"] == run.sample_state.tobytes().hex()
 
 
 def test_stop_ends_a_running_helper():

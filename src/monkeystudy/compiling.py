@@ -1,23 +1,19 @@
 """Compiling ahead: a second process compiles the hybrid loop's callees while a first run
 compiles the loop.
 
-A study's first run with new kernel code compiles one specialisation of the hybrid loop
-(``kernel/hybrid.simulate_implementation``) and, while typing it, every function the loop calls,
-one after the other, on one core. :func:`start` launches ``python -m monkeystudy.compiling
-METHOD`` on the idle core: it compiles the same callees (``kernel/hybrid.loop_callees``), the
-last first, into the same on-disk cache, so the study's process finds the later ones already
-saved and loads them. Both processes compile the same signatures of the same functions, each
-function with a single signature (numba's cache index holds every signature of a function, and
-is rewritten whole on each save; different signatures saved at once by two processes could be
-lost or misfiled), and numba writes each file atomically, so the cache ends up the same whichever
-process saves a function. :func:`stop` ends the helper once the study's process has what it
-needs: whatever the helper was still compiling, the study's process already has.
-
-A study with multi-cycle runs needs a second entry of the loop (``kernel/hybrid.simulate``),
-which the study's process would compile after its gait evaluation. The helper compiles it
-instead once its callees are done, while the study's process compiles the gait evaluation,
-and the study's process waits for it (:func:`finish_runs`): one process at a time saves that
-entry, whose cache index holds several signatures.
+A study's first run with new kernel code compiles the hybrid loop of its integration method
+(``kernel/hybrid.hybrid_loop``) and, while typing it, every function the loop calls, one after
+the other, on one core. :func:`start` launches ``python -m monkeystudy.compiling METHOD`` on
+the idle core: it compiles the same callees (``kernel/hybrid.loop_callees``), the last first,
+into the same on-disk cache, so the study's process finds the later ones already saved and
+loads them. Both processes compile the same signatures of the same functions, each function
+with a single signature (numba's cache index holds every signature of a function, and is
+rewritten whole on each save; different signatures saved at once by two processes could be
+lost or misfiled), and numba writes each file atomically, so the cache ends up the same
+whichever process saves a function. :func:`stop` ends the helper once the study's process has
+what it needs: whatever the helper was still compiling, the study's process already has. The
+loop itself, and every entry that links it (gait evaluations, multi-cycle runs), the study's
+process compiles: the loop once, cached under its own name, which every entry links.
 
 Both compile through :func:`call_with_frame_room`: CPython (3.11 and later) keeps its frames in
 chunks of 16 KiB and unmaps a chunk as soon as the call depth falls back below it, and numba's
@@ -29,7 +25,6 @@ from __future__ import annotations
 
 import json
 import os
-import select
 import subprocess
 import sys
 import threading
@@ -37,13 +32,10 @@ import types
 from pathlib import Path
 
 import numpy as np
-from numba import typeof
-from numba.core import types as nb
 
 from . import kernel
 from .controllers import METHODS
-from .kernel.hybrid import loop_callees, simulate
-from .kernel.integrate import method_scalar
+from .kernel.hybrid import loop_callees
 from .kernel.layout import PHASE_SWING
 from .kernel.variational import (
     energy8_gradient, entry_reset, field8, field8_jacobian, guard8, guard8_gradient,
@@ -80,19 +72,6 @@ def compile_callees(method: str) -> int:
     for dispatcher, argtypes in reversed(callees):
         dispatcher.compile(argtypes)
     return len(callees)
-
-
-def runs_signature(method: str, flies: bool) -> tuple:
-    """The argument types :func:`monkeystudy.simulation.run_controller` calls the hybrid loop's
-    entry (``kernel/hybrid.simulate``) with, for ``method`` and a run that can fly or not."""
-    F1, F2, I1 = nb.float64[::1], nb.float64[:, ::1], nb.int64[::1]
-    return (typeof(method_scalar(METHODS[method][0], flies)), F2, F2, F2, F1, F1, I1, F1, F2,
-            F1, F2, F2)
-
-
-def compile_runs(method: str, flies: bool) -> None:
-    """Compile (or load) the entry multi-cycle runs call, for ``method`` and ``flies``."""
-    simulate.compile(runs_signature(method, flies))
 
 
 def compile_variational(params: np.ndarray) -> None:
@@ -156,44 +135,15 @@ def on_own_thread(f):
     return outcome.get("value")
 
 
-#: what the helper prints once its list of callees is compiled (then it compiles the runs)
-CALLEES_DONE = b"callees compiled\n"
-
-
-def start(method: str, runs: bool | None = None) -> subprocess.Popen | None:
-    """Start compiling ahead for ``method`` in a second process (None if it cannot start):
-    the hybrid loop's callees, then, with ``runs`` (False: a run that cannot fly, True: one
-    that can), the entry of multi-cycle runs."""
-    args = [sys.executable, "-m", "monkeystudy.compiling", method]
-    if runs is not None:
-        args += ["--runs", "flight" if runs else "swing"]
+def start(method: str) -> subprocess.Popen | None:
+    """Start compiling the hybrid loop's callees for ``method`` ahead, in a second process
+    (None if it cannot start)."""
     try:
-        return subprocess.Popen(args, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+        return subprocess.Popen([sys.executable, "-m", "monkeystudy.compiling", method],
+                                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                 stderr=subprocess.DEVNULL)
     except OSError:
         return None
-
-
-def finish_runs(helper: subprocess.Popen | None) -> bool:
-    """Once the study's process has its gait evaluation: wait for a helper started with
-    ``runs`` that has its callees done and is compiling the runs' entry (which the study's
-    process would otherwise compile itself, after the loop it shares); stop one still on its
-    callees. True if the helper compiled the runs' entry."""
-    if helper is None:
-        return False
-    done = helper.poll() is not None
-    if not done:
-        ready, _, _ = select.select([helper.stdout], [], [], 0)
-        if not ready:   # nothing printed yet: still compiling callees
-            stop(helper)
-            return False
-    out = helper.stdout.read() if done else helper.stdout.readline()
-    if not out.startswith(CALLEES_DONE):
-        stop(helper)
-        return False
-    helper.wait()
-    helper.stdout.close()
-    return helper.returncode == 0
 
 
 def stop(helper: subprocess.Popen | None) -> None:
@@ -205,8 +155,6 @@ def stop(helper: subprocess.Popen | None) -> None:
     if helper.poll() is None:
         helper.kill()
     helper.wait()
-    if helper.stdout is not None:
-        helper.stdout.close()
 
 
 #: file beside the kernel caches recording how long first compiles took on this machine
@@ -252,13 +200,11 @@ def compile_estimate(what: str) -> str:
 
 
 def _main(argv: list[str]) -> None:
-    """``python -m monkeystudy.compiling METHOD [--runs swing|flight]`` (:func:`start`)."""
-    method = argv[0]
-    call_with_frame_room(lambda: compile_callees(method))
-    sys.stdout.buffer.write(CALLEES_DONE)
-    sys.stdout.buffer.flush()
-    if len(argv) == 3 and argv[1] == "--runs":
-        call_with_frame_room(lambda: compile_runs(method, argv[2] == "flight"))
+    """``python -m monkeystudy.compiling METHOD`` (:func:`start`)."""
+    call_with_frame_room(lambda: compile_callees(argv[0]))
+    # every file is saved (numba writes each whole before it returns): skip the interpreter's
+    # teardown of what it compiled, about a second after a first compile
+    os._exit(0)
 
 
 if __name__ == "__main__":

@@ -33,7 +33,7 @@ from .kernel.gait import (
     N_CYCLE_RESULT, Q_ERROR, Q_FINAL, Q_FLIPPED, Q_NFEV, Q_REJECTED, Q_STATUS, Q_STEPS, Q_T_END,
     cycle_gait_batch,
 )
-from .kernel.hybrid import simulate as _simulate
+from .kernel.hybrid import hybrid_loops, simulate as _simulate
 from .robot import SEED2009_TORQUE, Robot
 
 
@@ -140,7 +140,7 @@ def loaded_kernels() -> int:
     """How many compiled kernel signatures this process has loaded (compiled or read from
     the cache): a resident pool compares it before and after a warm-up to see whether its
     workers, forked earlier, lack a kernel."""
-    count = 0
+    count = sum(len(loop.overloads) for loop in hybrid_loops() if isinstance(loop, Dispatcher))
     for name, module in list(sys.modules.items()):
         if name.startswith(__package__ + ".kernel.") and module is not None:
             count += sum(len(obj.overloads) for obj in vars(module).values()

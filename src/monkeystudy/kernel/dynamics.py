@@ -5,8 +5,9 @@ then equal those of :func:`total_energy8` and :func:`free_end_offset` bit for bi
 accepts complex arguments: :mod:`.variational` differentiates the vector fields, energies, flip
 and impact by complex step, exactly to round-off.
 
-Pure ``@njit(cache=True)`` functions on float64 arrays; parameter rows follow
-:mod:`monkeystudy.kernel.layout`. Equation references are to docs/model.md.
+Pure ``@njit(cache=True)`` functions on float64 arrays (but the two that build parameter
+rows, which only Python calls); parameter rows follow :mod:`monkeystudy.kernel.layout`.
+Equation references are to docs/model.md.
 
 Integration vectors are packed per phase:
 
@@ -28,7 +29,7 @@ from numba import njit
 
 from .layout import (
     P_A, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_H, P_I1, P_I2, P_K11, P_K22,
-    P_L1, P_L2, P_M1, P_M2, P_M2R2, P_MTOT, P_R1, P_R2, N_PARAMS, PHASE_SWING, PHASE_FLIGHT,
+    P_L1, P_L2, P_M1, P_M2, P_M2R2, P_MTOT, P_R1, P_R2, PHASE_SWING, PHASE_FLIGHT,
 )
 from .trig import sincos
 
@@ -38,9 +39,14 @@ TWO_PI = 2.0 * math.pi
 # ----------------------------------------------------------------------------------------------
 # parameters
 # ----------------------------------------------------------------------------------------------
-@njit(cache=True, error_model="numpy", _nrt=False)
 def derive_params(p):
-    """Fill the derived slots of a parameter row in place (docs/model.md section 2 shorthand)."""
+    """Fill the derived slots of a parameter row in place (docs/model.md section 2 shorthand).
+
+    Plain Python, like :func:`flipped_params`: only :meth:`monkeystudy.Robot.params` calls
+    them, once per robot, so compiling them would only lengthen a first run (by ~0.4 s,
+    before its gait evaluation can start compiling); the same products and sums in the same
+    order give the same bits.
+    """
     m1, m2, L1, r1, r2 = p[P_M1], p[P_M2], p[P_L1], p[P_R1], p[P_R2]
     p[P_A] = m1 * r1 + m2 * L1
     p[P_H] = m2 * r2 * L1
@@ -50,7 +56,6 @@ def derive_params(p):
     p[P_MTOT] = m1 + m2
 
 
-@njit(cache=True, error_model="numpy")
 def flipped_params(p):
     """Parameters of the same robot described from the other end (docs/model.md section 3).
 
@@ -58,9 +63,7 @@ def flipped_params(p):
     (``r1' = L2 - r2``, ``r2' = L1 - r1``). Friction belongs to the pivot and the joint,
     not to a link, so it is unchanged.
     """
-    q = np.empty(N_PARAMS)
-    for i in range(N_PARAMS):   # element by element: a slice copy compiles numba's
-        q[i] = p[i]             # broadcast-error formatting (~0.6 s of a first run)
+    q = np.array(p, dtype=np.float64)
     q[P_M1], q[P_M2] = p[P_M2], p[P_M1]
     q[P_L1], q[P_L2] = p[P_L2], p[P_L1]
     q[P_I1], q[P_I2] = p[P_I2], p[P_I1]

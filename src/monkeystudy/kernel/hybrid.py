@@ -32,10 +32,12 @@ Semantics worth knowing (docs/model.md sections 4 and 6):
   changes at step ends and the dense output; its rate is not used).
 """
 import math
+from types import FunctionType
 
 import numpy as np
 from numba import njit, typeof, types
-from numba.extending import overload
+from numba.core.imputils import lower_builtin
+from numba.extending import type_callable
 
 from .dynamics import attach_xy_end, flip_state, holding_torque, rhs, total_energy8
 from .events import (
@@ -55,7 +57,7 @@ from .layout import (
     H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG, H_T, H_TORQUE, H_Y_REF, K_CYCLES, K_EVENTS,
     K_LOG, K_NFEV, K_REJECTED, K_SAMPLES, K_STEPS, L_CYCLE, L_E_AFTER, L_E_BEFORE, L_FLIPPED,
     L_ID, L_KIND, L_PHASE, L_STATE, L_T, LOG_FRICTION, LOG_OBSERVER, LOG_SEGMENT, M_FLIPPED,
-    M_PHASE, M_SEGMENT, M_TORQUE, O_GDIR,
+    M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, METHOD_RK45, METHOD_VERN9, O_GDIR,
     O_GINDEX, O_GUARD, O_GVALUE, O_SEGMENT, P_C_JOINT, P_C_PIVOT, PHASE_FIXED, PHASE_FLIGHT,
     PHASE_SWING, S_CLOCK, S_CYCLE, S_DELAY, S_FAIL, S_GDIR, S_GINDEX, S_GUARD, S_GVALUE, S_MAG_A,
     S_MAG_B, S_NEXT, S_SET_EREF, S_SWAP, S_TICKED, S_TORQUE, ST_BUFFER_FULL, ST_END_TIME,
@@ -486,8 +488,8 @@ def loop_callees(method_code):
 def simulate_implementation(method_code, flies=True):
     """The hybrid loop of :func:`simulate` for one integration method (``METHOD_*``), as a
     plain function whose step, error norm and dense output are that method's own (and only
-    the swing ones unless ``flies``): numba compiles it through :func:`simulate` (one
-    specialisation per method and phase set, which compiles only those steps); interpreted
+    the swing ones unless ``flies``): :func:`hybrid_loop` compiles it (one specialisation per
+    method and phase set, which compiles only those steps); interpreted
     (``NUMBA_DISABLE_JIT``), it runs as it is.
 
     The loop: enter a segment (its magnets, :func:`apply_magnets`, then torque, reference
@@ -503,428 +505,480 @@ def simulate_implementation(method_code, flies=True):
     """
     step4, step8, error_sq4, error_sq8, dense_prepare_of_method, n_stages = \
         loop_method_kernels(method_code, flies)
+    scope = dict(globals(), method_code=method_code, flies=flies, n_stages=n_stages,
+                 step4=step4, step8=step8, error_sq4=error_sq4, error_sq8=error_sq8,
+                 dense_prepare_of_method=dense_prepare_of_method)
+    # the specialisation's choices are globals of its own copy of the loop, not closure
+    # cells: numba keys its disk cache on a closure's pickled cells, and a dispatcher
+    # pickles differently in every process, so a closure would never load from the cache
+    return FunctionType(_hybrid_loop.__code__, scope, "simulate_method")
 
-    def simulate_method(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t,
-                        samp_y, samp_mode):
-        method = method_code  # a constant of this specialisation (the argument names it too)
-        rtol = settings[C_RTOL]
-        atol = settings[C_ATOL]
-        max_seg_time = settings[C_MAX_SEGMENT_TIME]
-        t_end = settings[C_T_END]
-        max_cycles = int(settings[C_MAX_CYCLES])
-        tick = settings[C_TICK]
-        tick_phase = settings[C_TICK_PHASE]
-        sample_dt = settings[C_SAMPLE_DT]
-        max_steps = settings[C_MAX_STEPS]
-        max_step = settings[C_MAX_STEP]
-        max_drop = settings[C_MAX_DROP]
-        band = settings[C_ZERO_BAND]
-        err_order = error_estimator_order(method)
-        pi_control = settings[C_CONTROLLER] == CONTROLLER_PI
-        en_prev = 1.0  # the PI controller's previous accepted error norm
 
-        n_obs = obs.shape[0]
-        sampling = sample_dt > 0.0 and samp_t.shape[0] > 0
+# what each compiled loop takes from simulate_implementation, as globals of its own: these
+# module-level names are placeholders that no compiled loop sees
+method_code = flies = n_stages = None
+step4 = step8 = error_sq4 = error_sq8 = dense_prepare_of_method = None
 
-        K = np.zeros((VERN9_N_STAGES_EXTENDED, 8))   # the largest method's stages
-        Fd = np.zeros((VERN9_INTERPOLATOR_POWER, 8))
-        # the work vectors are rows of one array, the pairs rows of another: an allocation costs
-        # ~20 ns, and a gait is ~20 us
-        vectors = np.zeros((9, 8))
-        y = vectors[0]
-        f = vectors[1]
-        y_new = vectors[2]
-        f_new = vectors[3]
-        trig_new = vectors[4]  # sines and cosines at y_new (N_TRIG), left by the step for guards
-        ytmp = vectors[5]
-        ybuf = vectors[6]
-        work = vectors[7]
-        s8 = vectors[8]
-        pairs = np.zeros((3, 2))
-        pivot = pairs[0]
-        fmode = pairs[1]
-        g_fric = pairs[2]
-        g_obs = np.zeros(max(n_obs, 1))
 
-        for i in range(8):
-            s8[i] = hyb[i]
-        t = hyb[H_T]
-        phase = int(hyb[H_PHASE])
-        flipped = int(hyb[H_FLIPPED])
-        seg = int(hyb[H_SEG])
-        tau = hyb[H_TORQUE]
-        eref = hyb[H_EREF]
-        clock0 = hyb[H_CLOCK]
-        fmode[0] = hyb[H_FMODE0]
-        fmode[1] = hyb[H_FMODE1]
-        cycles = int(hyb[H_CYCLES])
-        y_ref = hyb[H_Y_REF]
-        if not math.isfinite(y_ref):
-            y_ref = s8[1]
-        for i in range(seg_times.shape[0]):
-            seg_times[i] = np.nan
+def _hybrid_loop(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t,
+                 samp_y, samp_mode):
+    """The hybrid loop (:func:`simulate_implementation`), written once: each specialisation
+    runs this code with its own ``method_code``, ``flies``, steps and error norms."""
+    method = method_code  # a constant of this specialisation (the argument names it too)
+    rtol = settings[C_RTOL]
+    atol = settings[C_ATOL]
+    max_seg_time = settings[C_MAX_SEGMENT_TIME]
+    t_end = settings[C_T_END]
+    max_cycles = int(settings[C_MAX_CYCLES])
+    tick = settings[C_TICK]
+    tick_phase = settings[C_TICK_PHASE]
+    sample_dt = settings[C_SAMPLE_DT]
+    max_steps = settings[C_MAX_STEPS]
+    max_step = settings[C_MAX_STEP]
+    max_drop = settings[C_MAX_DROP]
+    band = settings[C_ZERO_BAND]
+    err_order = error_estimator_order(method)
+    pi_control = settings[C_CONTROLLER] == CONTROLLER_PI
+    en_prev = 1.0  # the PI controller's previous accepted error norm
 
-        n_log = int(counts[K_LOG])
-        n_samp = int(counts[K_SAMPLES])
-        next_k = 0
-        if sampling:
-            next_k = int(math.floor(t / sample_dt)) + 1  # the entry sample covers t itself
+    n_obs = obs.shape[0]
+    sampling = sample_dt > 0.0 and samp_t.shape[0] > 0
 
-        status = -1
-        entering = True
-        magnets_done = False  # entry magnet actions already applied (to log the impact)
-        seg_start = t
-        pending = np.inf      # tick at which a located ticked guard will be acted on
-        pending_sign = 0.0    # guard sign before that crossing ("either" direction)
-        delayed_exit = np.inf  # a state guard fired: the exit waits until then (S_DELAY)
-        n = 4
+    K = np.zeros((VERN9_N_STAGES_EXTENDED, 8))   # the largest method's stages
+    Fd = np.zeros((VERN9_INTERPOLATOR_POWER, 8))
+    # the work vectors are rows of one array, the pairs rows of another: an allocation costs
+    # ~20 ns, and a gait is ~20 us
+    vectors = np.zeros((9, 8))
+    y = vectors[0]
+    f = vectors[1]
+    y_new = vectors[2]
+    f_new = vectors[3]
+    trig_new = vectors[4]  # sines and cosines at y_new (N_TRIG), left by the step for guards
+    ytmp = vectors[5]
+    ybuf = vectors[6]
+    work = vectors[7]
+    s8 = vectors[8]
+    pairs = np.zeros((3, 2))
+    pivot = pairs[0]
+    fmode = pairs[1]
+    g_fric = pairs[2]
+    g_obs = np.zeros(max(n_obs, 1))
 
-        while status < 0:
+    for i in range(8):
+        s8[i] = hyb[i]
+    t = hyb[H_T]
+    phase = int(hyb[H_PHASE])
+    flipped = int(hyb[H_FLIPPED])
+    seg = int(hyb[H_SEG])
+    tau = hyb[H_TORQUE]
+    eref = hyb[H_EREF]
+    clock0 = hyb[H_CLOCK]
+    fmode[0] = hyb[H_FMODE0]
+    fmode[1] = hyb[H_FMODE1]
+    cycles = int(hyb[H_CYCLES])
+    y_ref = hyb[H_Y_REF]
+    if not math.isfinite(y_ref):
+        y_ref = s8[1]
+    for i in range(seg_times.shape[0]):
+        seg_times[i] = np.nan
+
+    n_log = int(counts[K_LOG])
+    n_samp = int(counts[K_SAMPLES])
+    next_k = 0
+    if sampling:
+        next_k = int(math.floor(t / sample_dt)) + 1  # the entry sample covers t itself
+
+    status = -1
+    entering = True
+    magnets_done = False  # entry magnet actions already applied (to log the impact)
+    seg_start = t
+    pending = np.inf      # tick at which a located ticked guard will be acted on
+    pending_sign = 0.0    # guard sign before that crossing ("either" direction)
+    delayed_exit = np.inf  # a state guard fired: the exit waits until then (S_DELAY)
+    n = 4
+
+    while status < 0:
+        p = par[flipped]
+        if entering:
+            if not magnets_done:
+                phase, flipped = apply_magnets(par, s8, phase, flipped, prog[seg, S_MAG_A],
+                                               prog[seg, S_MAG_B], prog[seg, S_SWAP] > 0)
+            magnets_done = False
+            if not flies and phase == PHASE_FLIGHT:
+                # compiled without the flight steps: the caller said the program cannot
+                # release every magnet (controllers.program_may_fly), and it did
+                status = ST_STEP_FAILURE
+                break
             p = par[flipped]
-            if entering:
-                if not magnets_done:
-                    phase, flipped = apply_magnets(par, s8, phase, flipped, prog[seg, S_MAG_A],
-                                                   prog[seg, S_MAG_B], prog[seg, S_SWAP] > 0)
-                magnets_done = False
-                if not flies and phase == PHASE_FLIGHT:
-                    # compiled without the flight steps: the caller said the program cannot
-                    # release every magnet (controllers.program_may_fly), and it did
-                    status = ST_STEP_FAILURE
-                    break
-                p = par[flipped]
-                tau = prog[seg, S_TORQUE]
-                if prog[seg, S_SET_EREF] > 0:
-                    eref = total_energy8(p, s8)
-                n = pack(phase, s8, y)
-                pivot[0] = s8[0]
-                pivot[1] = s8[1]
-                init_friction(phase, p, tau, s8, fmode, y, pivot)
-                seg_start = t
-                pending = np.inf
-                if sampling:
-                    n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, t, s8, phase,
-                                          flipped, tau, seg)
-                    if n_samp < 0:
-                        status = ST_BUFFER_FULL
-                        break
-                if phase == PHASE_SWING and s8[1] < y_ref - max_drop:
-                    status = ST_FELL
-                    break
-            # ------------------------------------------------------------------ one leg
-            gkind = int(prog[seg, S_GUARD])
-            gindex = int(prog[seg, S_GINDEX])
-            gvalue = prog[seg, S_GVALUE]
-            gdir = prog[seg, S_GDIR]
-            ticked = prog[seg, S_TICKED] > 0 and tick > 0.0
-            state_guard = gkind != G_NONE and gkind != G_TIME
-            horizon = seg_start + max_seg_time
-            t_limit = min(horizon, t_end)
-            t_target = np.inf
-            if delayed_exit < np.inf:
-                # the guard has fired; only the latency is left: a time leg without a guard
-                state_guard = False
-                gkind = G_TIME
-                t_target = delayed_exit
-            elif gkind == G_TIME:
-                t_target = clock0 + gvalue
-                if ticked:
-                    t_target = next_tick(t_target, tick, tick_phase)
-                if prog[seg, S_DELAY] != 0.0:
-                    t_target += prog[seg, S_DELAY]
-                if t_target < t:
-                    t_target = t
-            t_stop = min(t_limit, t_target)
+            tau = prog[seg, S_TORQUE]
+            if prog[seg, S_SET_EREF] > 0:
+                eref = total_energy8(p, s8)
             n = pack(phase, s8, y)
             pivot[0] = s8[0]
             pivot[1] = s8[1]
+            init_friction(phase, p, tau, s8, fmode, y, pivot)
+            seg_start = t
+            pending = np.inf
+            if sampling:
+                n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, t, s8, phase,
+                                      flipped, tau, seg)
+                if n_samp < 0:
+                    status = ST_BUFFER_FULL
+                    break
+            if phase == PHASE_SWING and s8[1] < y_ref - max_drop:
+                status = ST_FELL
+                break
+        # ------------------------------------------------------------------ one leg
+        gkind = int(prog[seg, S_GUARD])
+        gindex = int(prog[seg, S_GINDEX])
+        gvalue = prog[seg, S_GVALUE]
+        gdir = prog[seg, S_GDIR]
+        ticked = prog[seg, S_TICKED] > 0 and tick > 0.0
+        state_guard = gkind != G_NONE and gkind != G_TIME
+        horizon = seg_start + max_seg_time
+        t_limit = min(horizon, t_end)
+        t_target = np.inf
+        if delayed_exit < np.inf:
+            # the guard has fired; only the latency is left: a time leg without a guard
+            state_guard = False
+            gkind = G_TIME
+            t_target = delayed_exit
+        elif gkind == G_TIME:
+            t_target = clock0 + gvalue
+            if ticked:
+                t_target = next_tick(t_target, tick, tick_phase)
+            if prog[seg, S_DELAY] != 0.0:
+                t_target += prog[seg, S_DELAY]
+            if t_target < t:
+                t_target = t
+        t_stop = min(t_limit, t_target)
+        n = pack(phase, s8, y)
+        pivot[0] = s8[0]
+        pivot[1] = s8[1]
 
-            fired = False       # the segment's guard fired at time t (state at t in y/s8)
-            # a friction mode change at time t. np.int64, here and for the log kinds: numba
-            # types a bare constant as a literal and compiles each callee it reaches once
-            # more for that literal (holding_torque, write_log)
-            fric_k = np.int64(-1)
-            level_fire = False
-            if state_guard:
-                g_seg = guard_value(gkind, gindex, gvalue, phase, p, tau, fmode, y, pivot, eref)
-                scale = 1.0 + abs(gvalue)
-                if gkind == G_ENERGY_RESTORED:
-                    scale = 1.0 + abs(eref) + abs(gvalue)
-                if entering and abs(g_seg) <= band * scale:
-                    g_seg = 0.0
-                if gkind == G_ENERGY_RESTORED and entering and g_seg >= 0.0:
-                    level_fire = True
-            else:
+        fired = False       # the segment's guard fired at time t (state at t in y/s8)
+        # a friction mode change at time t. np.int64, here and for the log kinds: numba
+        # types a bare constant as a literal and compiles each callee it reaches once
+        # more for that literal (holding_torque, write_log)
+        fric_k = np.int64(-1)
+        level_fire = False
+        if state_guard:
+            g_seg = guard_value(gkind, gindex, gvalue, phase, p, tau, fmode, y, pivot, eref)
+            scale = 1.0 + abs(gvalue)
+            if gkind == G_ENERGY_RESTORED:
+                scale = 1.0 + abs(eref) + abs(gvalue)
+            if entering and abs(g_seg) <= band * scale:
                 g_seg = 0.0
-            for k in range(n_obs):
-                if obs[k, O_SEGMENT] >= 0 and int(obs[k, O_SEGMENT]) != seg:
-                    continue
-                g_obs[k] = guard_value(int(obs[k, O_GUARD]), int(obs[k, O_GINDEX]),
-                                       obs[k, O_GVALUE], phase, p, tau, fmode, y, pivot, eref)
-                if abs(g_obs[k]) <= band * (1.0 + abs(obs[k, O_GVALUE])):
-                    g_obs[k] = 0.0
-            # friction DOFs watched on this leg (fixed along it; tested once, not on every step)
-            fric0 = friction_active(0, phase, p)
-            fric1 = friction_active(1, phase, p)
-            for k in range(2):
-                if fric0 if k == 0 else fric1:
-                    g_fric[k] = friction_guard(k, phase, p, tau, fmode, y, pivot)
-            entering = False
+            if gkind == G_ENERGY_RESTORED and entering and g_seg >= 0.0:
+                level_fire = True
+        else:
+            g_seg = 0.0
+        for k in range(n_obs):
+            if obs[k, O_SEGMENT] >= 0 and int(obs[k, O_SEGMENT]) != seg:
+                continue
+            g_obs[k] = guard_value(int(obs[k, O_GUARD]), int(obs[k, O_GINDEX]),
+                                   obs[k, O_GVALUE], phase, p, tau, fmode, y, pivot, eref)
+            if abs(g_obs[k]) <= band * (1.0 + abs(obs[k, O_GVALUE])):
+                g_obs[k] = 0.0
+        # friction DOFs watched on this leg (fixed along it; tested once, not on every step)
+        fric0 = friction_active(0, phase, p)
+        fric1 = friction_active(1, phase, p)
+        for k in range(2):
+            if fric0 if k == 0 else fric1:
+                g_fric[k] = friction_guard(k, phase, p, tau, fmode, y, pivot)
+        entering = False
 
-            if level_fire or (gkind == G_TIME and t_target <= t):
+        if level_fire or (gkind == G_TIME and t_target <= t):
+            fired = True
+        elif phase == PHASE_FIXED:
+            # nothing moves: only time passes (samples stay put)
+            t_new = t_stop
+            if sampling:
+                while next_k * sample_dt <= t_new:
+                    n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp,
+                                          next_k * sample_dt, s8, phase, flipped, tau, seg)
+                    if n_samp < 0:
+                        status = ST_BUFFER_FULL
+                        break
+                    next_k += 1
+            t = t_new
+            if t == t_target:
                 fired = True
-            elif phase == PHASE_FIXED:
-                # nothing moves: only time passes (samples stay put)
-                t_new = t_stop
+        else:
+            rhs(phase, p, tau, fmode, y, f)
+            h_abs = select_initial_step(phase, p, tau, fmode, t, y, f, n, t_stop, max_step,
+                                        err_order, rtol, atol, ytmp, f_new)
+            counts[K_NFEV] += 2
+            en_prev = 1.0  # a leg starts the PI controller afresh, as the integrator restarts
+            r_seg = 0.0
+            if state_guard:
+                r_seg = guard_rate_value(gkind, gindex, phase, p, tau, fmode, y, pivot, work)
+            while True:
+                bound = min(t_stop, pending)
+                if t >= bound:
+                    break
+                # ---- one adaptive step (scipy's RungeKutta._step_impl) ----
+                # scipy's min_step, 10 ulp(t), is at most 10 eps |t| (+ a subnormal at t = 0):
+                # the nextafter call is only needed for a step below that
+                tiny = 10.0 * EPS * abs(t) + 1e-300
+                if h_abs > max_step:
+                    h_abs = max_step
+                elif h_abs < tiny and h_abs < _min_step(t):
+                    h_abs = _min_step(t)
+                rejected = False
+                ok = True
+                while True:
+                    if h_abs < tiny and h_abs < _min_step(t):
+                        ok = False
+                        break
+                    t_new = t + h_abs
+                    if t_new > bound:
+                        t_new = bound
+                    h = t_new - t
+                    h_abs = abs(h)
+                    # the method's straight-line steps, called directly: through a wrapper
+                    # (inlined or called) numba reference-counts the eight arrays on every
+                    # step (atomic operations; docs/performance.md says what a wrapper
+                    # costs). The controller works on the squared norm en_sq (see
+                    # integrate.error_power_sq).
+                    if n == 4:
+                        step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                        en_sq = error_sq4(K, h, y, y_new, rtol, atol)
+                    else:
+                        step8(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                        en_sq = error_sq8(K, h, y, y_new, rtol, atol)
+                    counts[K_NFEV] += n_stages
+                    if en_sq < 1.0:
+                        if pi_control:
+                            en = math.sqrt(en_sq)
+                            factor = pi_factor(en, en_prev, err_order)
+                            en_prev = max(en, PI_ERR_FLOOR)
+                        else:
+                            # en_sq = 0 gives an infinite power: MAX_FACTOR
+                            factor = min(MAX_FACTOR, SAFETY * error_power_sq(method, en_sq))
+                        if rejected:
+                            factor = min(1.0, factor)
+                        h_abs *= factor
+                        break
+                    h_abs *= max(MIN_FACTOR, SAFETY * error_power_sq(method, en_sq))
+                    rejected = True
+                    counts[K_REJECTED] += 1
+                if not ok:
+                    status = ST_STEP_FAILURE
+                    break
+                counts[K_STEPS] += 1
+                if counts[K_STEPS] > max_steps:
+                    status = ST_STEP_FAILURE
+                    break
+                if not _finite(y_new, n):
+                    status = ST_NONFINITE
+                    break
+                dense = False
+                t_ev = np.inf
+                # ---- segment guard ----
+                if state_guard and pending == np.inf:
+                    # guard and rate from the step's sines and cosines; the vector field's
+                    # call kept out of inlined code (numba would reference-count its arrays)
+                    if rate_uses_field(gkind, gindex):
+                        gb = guard_trig_value(gkind, gindex, gvalue, phase, p, tau, fmode,
+                                              y_new, pivot, eref, trig_new)
+                        rb = guard_rate_field(gkind, gindex, phase, p, tau, fmode, y_new, work)
+                    else:
+                        gb, rb = guard_and_rate_step(gkind, gindex, gvalue, phase, p, tau,
+                                                     fmode, y_new, pivot, eref, trig_new)
+                    if (crosses(g_seg, gb, gdir)
+                            or hermite_flags(g_seg, r_seg, gb, rb, h, gdir)):
+                        if not dense:
+                            counts[K_NFEV] += dense_prepare_of_method(
+                                phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
+                            dense = True
+                        t_ev, pending, pending_sign = segment_event_in_step(
+                            gkind, gindex, gvalue, gdir, t, t_new, g_seg, gb, r_seg, rb,
+                            method, Fd, y, h, n, phase, p, tau, fmode, pivot, eref, ybuf,
+                            work, ticked, tick, tick_phase, pending, pending_sign)
+                    g_seg = gb
+                    r_seg = rb
+                elif state_guard and t_new == pending:
+                    gb = guard_trig_value(gkind, gindex, gvalue, phase, p, tau, fmode, y_new,
+                                          pivot, eref, trig_new)
+                    if (gdir > 0 and gb >= 0.0) or (gdir < 0 and gb <= 0.0) or \
+                            (gdir == 0 and gb * pending_sign <= 0.0):
+                        t_ev = t_new
+                    pending = np.inf
+                    g_seg = gb
+                    r_seg = guard_rate_trig_value(gkind, gindex, phase, p, tau, fmode, y_new,
+                                                  pivot, work, trig_new)
+                if t_new == t_target and t_target < t_ev:
+                    t_ev = t_new
+                seg_event = t_ev < np.inf
+                # ---- friction events (earliest, strictly before any segment event) ----
+                fric_k = np.int64(-1)
+                for k in range(2):
+                    if not (fric0 if k == 0 else fric1):
+                        continue
+                    gb = friction_guard(k, phase, p, tau, fmode, y_new, pivot)
+                    fkind = G_STICK_BREAK if fmode[k] == 0.0 else G_SLIP_STOP
+                    fdir = 1.0 if fkind == G_STICK_BREAK else -1.0
+                    if crosses(g_fric[k], gb, fdir):
+                        if not dense:
+                            counts[K_NFEV] += dense_prepare_of_method(
+                                phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
+                            dense = True
+                        tc = _locate_friction(k, fkind, t, t_new, g_fric[k], gb, method, Fd,
+                                              y, h, n, phase, p, tau, fmode, pivot, ybuf)
+                        if tc < t_ev:
+                            t_ev = tc
+                            fric_k = k
+                            seg_event = False
+                    g_fric[k] = gb
+                # ---- observers (non-terminal, up to the event) ----
+                t_cut = min(t_ev, t_new)
+                if n_obs > 0:
+                    # one call site: a second one, after dense = True, would pass a
+                    # literal and compile the piece once more
+                    k_obs = np.int64(0)
+                    for _pass in range(2):
+                        n_log, ostatus, k_obs = observe_step(
+                            k_obs, obs, seg, t, t_new, t_cut, h, dense, method, Fd, y,
+                            y_new, trig_new, n, phase, p, tau, fmode, pivot, eref, work,
+                            ybuf, g_obs, log, n_log, cycles, flipped, counts)
+                        if ostatus != NEED_DENSE:
+                            break
+                        counts[K_NFEV] += dense_prepare_of_method(
+                            phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
+                        dense = True
+                    if ostatus >= 0:
+                        status = ostatus
+                if status >= 0:
+                    break
+                # ---- samples on the grid, up to the event ----
                 if sampling:
-                    while next_k * sample_dt <= t_new:
-                        n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp,
-                                              next_k * sample_dt, s8, phase, flipped, tau, seg)
+                    while next_k * sample_dt <= t_cut:
+                        ts = next_k * sample_dt
+                        if not dense:
+                            counts[K_NFEV] += dense_prepare_of_method(
+                                phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
+                            dense = True
+                        dense_eval(method, Fd, y, h, (ts - t) / h, n, ybuf)
+                        unpack_into(phase, ybuf, pivot, work)
+                        n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, ts, work,
+                                              phase, flipped, tau, seg)
                         if n_samp < 0:
                             status = ST_BUFFER_FULL
                             break
                         next_k += 1
-                t = t_new
-                if t == t_target:
-                    fired = True
-            else:
-                rhs(phase, p, tau, fmode, y, f)
-                h_abs = select_initial_step(phase, p, tau, fmode, t, y, f, n, t_stop, max_step,
-                                            err_order, rtol, atol, ytmp, f_new)
-                counts[K_NFEV] += 2
-                en_prev = 1.0  # a leg starts the PI controller afresh, as the integrator restarts
-                r_seg = 0.0
-                if state_guard:
-                    r_seg = guard_rate_value(gkind, gindex, phase, p, tau, fmode, y, pivot, work)
-                while True:
-                    bound = min(t_stop, pending)
-                    if t >= bound:
-                        break
-                    # ---- one adaptive step (scipy's RungeKutta._step_impl) ----
-                    # scipy's min_step, 10 ulp(t), is at most 10 eps |t| (+ a subnormal at t = 0):
-                    # the nextafter call is only needed for a step below that
-                    tiny = 10.0 * EPS * abs(t) + 1e-300
-                    if h_abs > max_step:
-                        h_abs = max_step
-                    elif h_abs < tiny and h_abs < _min_step(t):
-                        h_abs = _min_step(t)
-                    rejected = False
-                    ok = True
-                    while True:
-                        if h_abs < tiny and h_abs < _min_step(t):
-                            ok = False
-                            break
-                        t_new = t + h_abs
-                        if t_new > bound:
-                            t_new = bound
-                        h = t_new - t
-                        h_abs = abs(h)
-                        # the method's straight-line steps, called directly: through a wrapper
-                        # (inlined or called) numba reference-counts the eight arrays on every
-                        # step (atomic operations; docs/performance.md says what a wrapper
-                        # costs). The controller works on the squared norm en_sq (see
-                        # integrate.error_power_sq).
-                        if n == 4:
-                            step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
-                            en_sq = error_sq4(K, h, y, y_new, rtol, atol)
-                        else:
-                            step8(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
-                            en_sq = error_sq8(K, h, y, y_new, rtol, atol)
-                        counts[K_NFEV] += n_stages
-                        if en_sq < 1.0:
-                            if pi_control:
-                                en = math.sqrt(en_sq)
-                                factor = pi_factor(en, en_prev, err_order)
-                                en_prev = max(en, PI_ERR_FLOOR)
-                            else:
-                                # en_sq = 0 gives an infinite power: MAX_FACTOR
-                                factor = min(MAX_FACTOR, SAFETY * error_power_sq(method, en_sq))
-                            if rejected:
-                                factor = min(1.0, factor)
-                            h_abs *= factor
-                            break
-                        h_abs *= max(MIN_FACTOR, SAFETY * error_power_sq(method, en_sq))
-                        rejected = True
-                        counts[K_REJECTED] += 1
-                    if not ok:
-                        status = ST_STEP_FAILURE
-                        break
-                    counts[K_STEPS] += 1
-                    if counts[K_STEPS] > max_steps:
-                        status = ST_STEP_FAILURE
-                        break
-                    if not _finite(y_new, n):
-                        status = ST_NONFINITE
-                        break
-                    dense = False
-                    t_ev = np.inf
-                    # ---- segment guard ----
-                    if state_guard and pending == np.inf:
-                        # guard and rate from the step's sines and cosines; the vector field's
-                        # call kept out of inlined code (numba would reference-count its arrays)
-                        if rate_uses_field(gkind, gindex):
-                            gb = guard_trig_value(gkind, gindex, gvalue, phase, p, tau, fmode,
-                                                  y_new, pivot, eref, trig_new)
-                            rb = guard_rate_field(gkind, gindex, phase, p, tau, fmode, y_new, work)
-                        else:
-                            gb, rb = guard_and_rate_step(gkind, gindex, gvalue, phase, p, tau,
-                                                         fmode, y_new, pivot, eref, trig_new)
-                        if (crosses(g_seg, gb, gdir)
-                                or hermite_flags(g_seg, r_seg, gb, rb, h, gdir)):
-                            if not dense:
-                                counts[K_NFEV] += dense_prepare_of_method(
-                                    phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
-                                dense = True
-                            t_ev, pending, pending_sign = segment_event_in_step(
-                                gkind, gindex, gvalue, gdir, t, t_new, g_seg, gb, r_seg, rb,
-                                method, Fd, y, h, n, phase, p, tau, fmode, pivot, eref, ybuf,
-                                work, ticked, tick, tick_phase, pending, pending_sign)
-                        g_seg = gb
-                        r_seg = rb
-                    elif state_guard and t_new == pending:
-                        gb = guard_trig_value(gkind, gindex, gvalue, phase, p, tau, fmode, y_new,
-                                              pivot, eref, trig_new)
-                        if (gdir > 0 and gb >= 0.0) or (gdir < 0 and gb <= 0.0) or \
-                                (gdir == 0 and gb * pending_sign <= 0.0):
-                            t_ev = t_new
-                        pending = np.inf
-                        g_seg = gb
-                        r_seg = guard_rate_trig_value(gkind, gindex, phase, p, tau, fmode, y_new,
-                                                      pivot, work, trig_new)
-                    if t_new == t_target and t_target < t_ev:
-                        t_ev = t_new
-                    seg_event = t_ev < np.inf
-                    # ---- friction events (earliest, strictly before any segment event) ----
-                    fric_k = np.int64(-1)
-                    for k in range(2):
-                        if not (fric0 if k == 0 else fric1):
-                            continue
-                        gb = friction_guard(k, phase, p, tau, fmode, y_new, pivot)
-                        fkind = G_STICK_BREAK if fmode[k] == 0.0 else G_SLIP_STOP
-                        fdir = 1.0 if fkind == G_STICK_BREAK else -1.0
-                        if crosses(g_fric[k], gb, fdir):
-                            if not dense:
-                                counts[K_NFEV] += dense_prepare_of_method(
-                                    phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
-                                dense = True
-                            tc = _locate_friction(k, fkind, t, t_new, g_fric[k], gb, method, Fd,
-                                                  y, h, n, phase, p, tau, fmode, pivot, ybuf)
-                            if tc < t_ev:
-                                t_ev = tc
-                                fric_k = k
-                                seg_event = False
-                        g_fric[k] = gb
-                    # ---- observers (non-terminal, up to the event) ----
-                    t_cut = min(t_ev, t_new)
-                    if n_obs > 0:
-                        # one call site: a second one, after dense = True, would pass a
-                        # literal and compile the piece once more
-                        k_obs = np.int64(0)
-                        for _pass in range(2):
-                            n_log, ostatus, k_obs = observe_step(
-                                k_obs, obs, seg, t, t_new, t_cut, h, dense, method, Fd, y,
-                                y_new, trig_new, n, phase, p, tau, fmode, pivot, eref, work,
-                                ybuf, g_obs, log, n_log, cycles, flipped, counts)
-                            if ostatus != NEED_DENSE:
-                                break
-                            counts[K_NFEV] += dense_prepare_of_method(
-                                phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
-                            dense = True
-                        if ostatus >= 0:
-                            status = ostatus
                     if status >= 0:
                         break
-                    # ---- samples on the grid, up to the event ----
-                    if sampling:
-                        while next_k * sample_dt <= t_cut:
-                            ts = next_k * sample_dt
-                            if not dense:
-                                counts[K_NFEV] += dense_prepare_of_method(
-                                    phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
-                                dense = True
-                            dense_eval(method, Fd, y, h, (ts - t) / h, n, ybuf)
-                            unpack_into(phase, ybuf, pivot, work)
-                            n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, ts, work,
-                                                  phase, flipped, tau, seg)
-                            if n_samp < 0:
-                                status = ST_BUFFER_FULL
-                                break
-                            next_k += 1
-                        if status >= 0:
-                            break
-                    # ---- advance ----
-                    if t_ev < np.inf:
-                        if t_ev == t_new:
-                            for i in range(n):
-                                y[i] = y_new[i]
-                        else:
-                            dense_eval(method, Fd, y, h, (t_ev - t) / h, n, ybuf)
-                            for i in range(n):
-                                y[i] = ybuf[i]
-                        t = t_ev
-                        if seg_event:
-                            fired = True
-                        break
-                    t = t_new
-                    for i in range(n):
-                        y[i] = y_new[i]
-                        f[i] = f_new[i]
-                unpack_into(phase, y, pivot, s8)
-                if status >= 0:
+                # ---- advance ----
+                if t_ev < np.inf:
+                    if t_ev == t_new:
+                        for i in range(n):
+                            y[i] = y_new[i]
+                    else:
+                        dense_eval(method, Fd, y, h, (t_ev - t) / h, n, ybuf)
+                        for i in range(n):
+                            y[i] = ybuf[i]
+                    t = t_ev
+                    if seg_event:
+                        fired = True
                     break
+                t = t_new
+                for i in range(n):
+                    y[i] = y_new[i]
+                    f[i] = f_new[i]
+            unpack_into(phase, y, pivot, s8)
+            if status >= 0:
+                break
 
-            # ------------------------------------------------------------------ leg outcome
-            if fric_k >= 0:
-                n_log, status = change_friction_mode(fric_k, phase, flipped, p, tau, fmode, s8,
-                                                     y, t, cycles, counts, log, n_log)
-                continue
-            if fired and delayed_exit == np.inf and int(prog[seg, S_GUARD]) != G_TIME and \
-                    prog[seg, S_DELAY] > 0.0:
-                delayed_exit = t + prog[seg, S_DELAY]
-                continue
-            if fired:
-                delayed_exit = np.inf
-                status, seg, phase, flipped, clock0, cycles, n_log, n_samp = exit_segment(
-                    par, prog, seg, t, s8, phase, flipped, tau, gvalue, clock0, cycles,
-                    max_cycles, counts, seg_times, log, n_log, sampling, samp_t, samp_y,
-                    samp_mode, n_samp)
-                if status >= 0:
-                    break
-                entering = True
-                magnets_done = True   # the next segment's magnets (the impact, in the log)
-                continue
-            # no event: the leg ended on a bound
-            if t >= t_end:
-                status = ST_END_TIME
-            elif t >= horizon:
-                fail = int(prog[seg, S_FAIL])
-                status = fail if fail > 0 else ST_HORIZON
+        # ------------------------------------------------------------------ leg outcome
+        if fric_k >= 0:
+            n_log, status = change_friction_mode(fric_k, phase, flipped, p, tau, fmode, s8,
+                                                 y, t, cycles, counts, log, n_log)
+            continue
+        if fired and delayed_exit == np.inf and int(prog[seg, S_GUARD]) != G_TIME and \
+                prog[seg, S_DELAY] > 0.0:
+            delayed_exit = t + prog[seg, S_DELAY]
+            continue
+        if fired:
+            delayed_exit = np.inf
+            status, seg, phase, flipped, clock0, cycles, n_log, n_samp = exit_segment(
+                par, prog, seg, t, s8, phase, flipped, tau, gvalue, clock0, cycles,
+                max_cycles, counts, seg_times, log, n_log, sampling, samp_t, samp_y,
+                samp_mode, n_samp)
+            if status >= 0:
+                break
+            entering = True
+            magnets_done = True   # the next segment's magnets (the impact, in the log)
+            continue
+        # no event: the leg ended on a bound
+        if t >= t_end:
+            status = ST_END_TIME
+        elif t >= horizon:
+            fail = int(prog[seg, S_FAIL])
+            status = fail if fail > 0 else ST_HORIZON
 
-        # ---------------------------------------------------------------------- write back
-        for i in range(8):
-            hyb[i] = s8[i]
-        hyb[H_T] = t
-        hyb[H_PHASE] = phase
-        hyb[H_FLIPPED] = flipped
-        hyb[H_SEG] = seg
-        hyb[H_TORQUE] = tau
-        hyb[H_EREF] = eref
-        hyb[H_CLOCK] = clock0
-        hyb[H_FMODE0] = fmode[0]
-        hyb[H_FMODE1] = fmode[1]
-        hyb[H_CYCLES] = cycles
-        hyb[H_Y_REF] = y_ref
-        counts[K_CYCLES] = cycles
-        counts[K_LOG] = n_log
-        counts[K_SAMPLES] = n_samp
-        return status
-
-    return simulate_method
+    # ---------------------------------------------------------------------- write back
+    for i in range(8):
+        hyb[i] = s8[i]
+    hyb[H_T] = t
+    hyb[H_PHASE] = phase
+    hyb[H_FLIPPED] = flipped
+    hyb[H_SEG] = seg
+    hyb[H_TORQUE] = tau
+    hyb[H_EREF] = eref
+    hyb[H_CLOCK] = clock0
+    hyb[H_FMODE0] = fmode[0]
+    hyb[H_FMODE1] = fmode[1]
+    hyb[H_CYCLES] = cycles
+    hyb[H_Y_REF] = y_ref
+    counts[K_CYCLES] = cycles
+    counts[K_LOG] = n_log
+    counts[K_SAMPLES] = n_samp
+    return status
 
 
-@njit(cache=True, error_model="numpy")
+#: the name of each method in the names of its compiled loops
+_METHOD_NAMES = {METHOD_RK45: "rk45", METHOD_DOP853: "dop853", METHOD_VERN9: "vern9"}
+
+
+#: the compiled loop of each (method, flies) made in this process: :func:`hybrid_loop`
+_LOOPS = {}
+
+
+def hybrid_loop(method_code, flies=True):
+    """The compiled hybrid loop of one integration method (``METHOD_*``) and phase set (only
+    the swing steps unless ``flies``): a numba dispatcher of :func:`simulate_implementation`,
+    named ``hybrid_loop_<method>_<swing|flight>``, made once per process (two dispatchers
+    of one function, both loading its cached compile, would define the same symbols twice).
+
+    Cached on disk under its name: :func:`simulate` and every compiled caller (gait
+    evaluations, survival, design), in any process, link that one compile, where a loop
+    compiled as part of each caller would be compiled again by each process that needs it
+    (the loop is most of a first run's compile). Its own name gives each specialisation its
+    own cache index, so processes saving different specialisations at once cannot misfile
+    them.
+    """
+    key = (int(method_code), bool(flies))
+    if key not in _LOOPS:
+        loop = simulate_implementation(*key)
+        loop.__name__ = loop.__qualname__ = (
+            f"hybrid_loop_{_METHOD_NAMES[key[0]]}_{'flight' if key[1] else 'swing'}")
+        _LOOPS[key] = njit(cache=True, error_model="numpy")(loop)
+    return _LOOPS[key]
+
+
+def hybrid_loops():
+    """The compiled loops :func:`hybrid_loop` has made in this process (numba dispatchers)."""
+    return tuple(_LOOPS.values())
+
+
 def simulate(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp_y,
              samp_mode):
     """Run a controller program from the hybrid state ``hyb``; returns a status ``ST_*``.
+
+    The entry for Python callers: calls the compiled loop of the method and phase set that
+    ``method``'s type names (:func:`hybrid_loop`). Compiled kernels call
+    :func:`simulate_loop`, which calls the same compiled loop.
 
     Parameters
     ----------
@@ -953,31 +1007,49 @@ def simulate(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp
         Trajectory samples every ``C_SAMPLE_DT`` from the dense output, plus the states just
         before and after each segment transition (capacity 0: none).
     """
-    return simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t,
-                         samp_y, samp_mode)
+    choice = choice_of_type(typeof(method))
+    if choice is None:
+        raise TypeError("method must be a scalar of integrate.method_scalar, not "
+                        f"{type(method).__name__}")
+    return hybrid_loop(*choice)(method, par, prog, obs, settings, hyb, counts, seg_times, log,
+                                samp_t, samp_y, samp_mode)
 
 
 def simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t,
                   samp_y, samp_mode):
-    """:func:`simulate`'s loop for the method ``method`` names (interpreted: chosen at run
-    time; compiled: chosen by the overload below from ``method``'s type).
-
-    Compiled kernels call this, not :func:`simulate`: numba links the loop into every
-    separately compiled function above it and optimises and emits its machine code again
-    (about a second each on a first run), and :func:`simulate` would be one more such level.
-    :func:`simulate` is the entry for Python callers.
-    """
-    return simulate_implementation(*choice_of_type(typeof(method)))(
-        method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp_y, samp_mode)
+    """:func:`simulate` for compiled kernels: a call of the compiled loop that ``method``'s
+    type names (typed and lowered below as a call of :func:`hybrid_loop`'s dispatcher, whose
+    cached compile the caller links; interpreted, it is :func:`simulate`)."""
+    return simulate(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t,
+                    samp_y, samp_mode)
 
 
-@overload(simulate_loop, jit_options={"error_model": "numpy"})
-def _overload_simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_times, log,
-                            samp_t, samp_y, samp_mode):
-    choice = choice_of_type(method)
+def _loop_call_type(typing_context, args):
+    """The dispatcher type of the loop that ``args[0]`` (a method scalar type) names and its
+    signature for ``args`` (compiling or loading it), or None for another type."""
+    choice = choice_of_type(args[0])
     if choice is None:
-        return None   # not a method scalar: numba reports no implementation
-    return simulate_implementation(*choice)
+        return None, None   # not a method scalar: numba reports no implementation
+    loop_type = types.Dispatcher(hybrid_loop(*choice))
+    return loop_type, loop_type.get_call_type(typing_context, args, {})
+
+
+@type_callable(simulate_loop)
+def _type_simulate_loop(context):
+    def typer(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp_y,
+              samp_mode):
+        _, sig = _loop_call_type(context, (method, par, prog, obs, settings, hyb, counts,
+                                           seg_times, log, samp_t, samp_y, samp_mode))
+        return None if sig is None else sig.return_type
+    return typer
+
+
+@lower_builtin(simulate_loop, types.VarArg(types.Any))
+def _lower_simulate_loop(context, builder, sig, args):
+    loop_type, loop_sig = _loop_call_type(context.typing_context, sig.args)
+    args = [context.cast(builder, value, have, want)
+            for value, have, want in zip(args, sig.args, loop_sig.args)]
+    return context.get_function(loop_type, loop_sig)(builder, args)
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)

@@ -25,10 +25,10 @@ import numpy as np
 
 from .. import __version__, compiling
 from ..compiling import KERNEL_CACHE_DIR
-from ..controllers import Integrator, program_may_fly
+from ..controllers import Integrator
 from ..robot import SEED2009_TORQUE
 from ..simulation import (
-    Phase, RobotLike, Status, as_robot, initial_state, loaded_kernels, run_controller,
+    RobotLike, Status, as_robot, initial_state, loaded_kernels, run_controller,
 )
 from . import datasets as D
 from . import provenance as P
@@ -95,24 +95,17 @@ def load_kernels(spec: GaitSpec, *, runs: bool = False, variational: bool = Fals
     Always the gait evaluation; ``runs``: the controller runs of multi-cycle steps;
     ``variational``: the variational-equation kernels of floquet and continuation steps.
     ``ahead`` (a first run, nothing cached): a second process compiles the hybrid loop's
-    callees meanwhile and, for ``runs``, then the runs' entry (:mod:`monkeystudy.compiling`);
-    it is waited for or stopped once the gait evaluation is loaded, before anything else
-    compiles.
+    callees meanwhile (:mod:`monkeystudy.compiling`); it is stopped once the gait evaluation
+    is loaded, before anything else compiles (the runs link the same compiled loop).
     """
     ctrl = spec.sequence.controller() if runs else None
-    helper = None
-    if ahead:
-        helper = compiling.start(spec.integrator.method,
-                                 None if ctrl is None else program_may_fly(ctrl.program()[0],
-                                                                           Phase.SWING))
+    helper = compiling.start(spec.integrator.method) if ahead else None
 
     def compile_all():
         try:
             grid_block(spec, np.array([[1.0, 11.0]]))
-            if ctrl is not None:
-                compiling.finish_runs(helper)
         finally:
-            compiling.stop(helper)
+            compiling.stop(helper)   # the loop's callees are all here now
         if ctrl is not None:
             run_controller(ctrl, initial_state(1.0, 11.0), robot=spec.robot,
                            integrator=spec.integrator, t_end=0.05, sample_dt=0.01)
