@@ -256,7 +256,7 @@ a stage's newest term is added in scalars, straight from the field. ``FM`` allow
 floating-point contraction (fused multiply-add): it never reassociates sums, so the result is
 as accurate as the generic loop (a single rounding per multiply-add instead of two).
 """
-from numba import njit
+from .jit import njit
 
 from .dynamics import (\n    flight_accel_fused, flight_accel_trig_fused, swing_accel_fused, swing_accel_trig_fused,\n)
 from .intrinsics import combine_rows4, combine_rows8

@@ -25,7 +25,7 @@ iteration (see :func:`fixed_point`).
 import math
 
 import numpy as np
-from numba import njit
+from .jit import njit
 
 from .gait import start_state, wrapped_difference
 from .hybrid import simulate_loop

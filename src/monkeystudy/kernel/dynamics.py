@@ -25,7 +25,7 @@ field is smooth inside every integration step. ``fmode[k] == 0`` means the DOF i
 import math
 
 import numpy as np
-from numba import njit
+from .jit import njit
 
 from .layout import (
     P_A, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_H, P_I1, P_I2, P_K11, P_K22,

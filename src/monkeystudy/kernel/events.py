@@ -15,7 +15,7 @@ band to exactly zero so that round-off cannot re-trigger it either.
 import math
 
 import numpy as np
-from numba import njit
+from .jit import njit
 
 from .dynamics import (
     angle_trig, kinetic_rot_s, kinetic_trans_s, potential_s, rhs,

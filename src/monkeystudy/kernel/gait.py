@@ -14,7 +14,7 @@ through the ``simulate`` entry.
 import math
 
 import numpy as np
-from numba import njit
+from .jit import njit
 
 from .dynamics import total_energy8
 from .hybrid import simulate_loop

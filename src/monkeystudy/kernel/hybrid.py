@@ -35,7 +35,7 @@ import math
 from types import FunctionType
 
 import numpy as np
-from numba import njit, typeof, types
+from numba import typeof, types
 from numba.core.imputils import lower_builtin
 from numba.extending import type_callable
 
@@ -50,6 +50,7 @@ from .integrate import (
     choice_of_type, dense_eval, error_estimator_order, error_power_sq, pi_factor,
     select_initial_step,
 )
+from .jit import njit
 from .layout import (
     C_ATOL, C_CONTROLLER, C_MAX_CYCLES, C_MAX_DROP, C_MAX_SEGMENT_TIME, C_MAX_STEP, C_MAX_STEPS,
     C_RTOL, C_SAMPLE_DT, C_T_END, C_TICK, C_TICK_PHASE, C_ZERO_BAND, CONTROLLER_PI,

@@ -15,9 +15,10 @@ scipy counterpart: it uses the same controller with scipy's RMS error norm.
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import types
 
 from .dynamics import rhs
+from .jit import njit
 from .layout import METHOD_DOP853, METHOD_RK45, METHOD_VERN9
 from .rk_explicit import (
     dop853_dense, dop853_dense4, dop853_error_sq, dop853_error_sq4, dop853_error_sq8, dop853_step,

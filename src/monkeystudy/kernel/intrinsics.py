@@ -19,6 +19,8 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic, overload
 
+from .jit import OVERLOAD_OPTIONS
+
 _U64 = 0xFFFFFFFFFFFFFFFF
 
 
@@ -66,21 +68,21 @@ _as_bits = _bitcast(types.int64, types.float64, ir.IntType(64))
 _from_bits = _bitcast(types.float64, types.int64, ir.DoubleType())
 
 
-@overload(fma, jit_options={"forceinline": True})
+@overload(fma, jit_options={"forceinline": True, **OVERLOAD_OPTIONS})
 def _ol_fma(a, b, c):
     if all(isinstance(t, types.Float) for t in (a, b, c)):
         return lambda a, b, c: _fma(a, b, c)
     return None
 
 
-@overload(as_bits, jit_options={"forceinline": True})
+@overload(as_bits, jit_options={"forceinline": True, **OVERLOAD_OPTIONS})
 def _ol_as_bits(x):
     if isinstance(x, types.Float):
         return lambda x: _as_bits(x)
     return None
 
 
-@overload(from_bits, jit_options={"forceinline": True})
+@overload(from_bits, jit_options={"forceinline": True, **OVERLOAD_OPTIONS})
 def _ol_from_bits(b):
     if isinstance(b, types.Integer):
         return lambda b: _from_bits(b)
@@ -157,11 +159,11 @@ _combine_rows4 = _combine_rows_intrinsic(4)
 _combine_rows8 = _combine_rows_intrinsic(8)
 
 
-@overload(combine_rows4, jit_options={"forceinline": True})
+@overload(combine_rows4, jit_options={"forceinline": True, **OVERLOAD_OPTIONS})
 def _ol_combine_rows4(K, rows, coefs):
     return lambda K, rows, coefs: _combine_rows4(K, rows, coefs)
 
 
-@overload(combine_rows8, jit_options={"forceinline": True})
+@overload(combine_rows8, jit_options={"forceinline": True, **OVERLOAD_OPTIONS})
 def _ol_combine_rows8(K, rows, coefs):
     return lambda K, rows, coefs: _combine_rows8(K, rows, coefs)

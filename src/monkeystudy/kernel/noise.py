@@ -14,7 +14,7 @@ random bits each, or two independent standard normals (Box-Muller).
 import math
 
 import numpy as np
-from numba import njit
+from .jit import njit
 
 MASK32 = 0xFFFFFFFF
 PHILOX_M0 = 0xD2511F53

@@ -31,7 +31,7 @@ from decimal import Decimal, localcontext
 from fractions import Fraction
 
 import numpy as np
-from numba import njit
+from .jit import njit
 
 from .intrinsics import as_bits, fma, from_bits
 

@@ -31,7 +31,7 @@ advance of the attached end is less than the minimum (``ST_STALLED``: it stopped
 import math
 
 import numpy as np
-from numba import njit
+from .jit import njit
 
 from .hybrid import simulate_loop
 from .layout import (

@@ -31,10 +31,11 @@ Complex arguments (the complex-step derivatives of :mod:`.variational`) go to ``
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import types
 from numba.extending import overload
 
 from .intrinsics import as_bits, fma, from_bits
+from .jit import OVERLOAD_OPTIONS, njit
 
 
 # fdlibm k_sin.c: sin r = r + r^3 (S1 + r^2 S2 + ... + r^10 S6) on [-pi/4, pi/4]
@@ -111,7 +112,8 @@ def sincos(x):
     return np.sin(x), np.cos(x)
 
 
-@overload(sincos, jit_options={"forceinline": True, "fastmath": False, "error_model": "numpy"})
+@overload(sincos, jit_options={"forceinline": True, "fastmath": False, "error_model": "numpy",
+                                **OVERLOAD_OPTIONS})
 def _ol_sincos(x):
     if isinstance(x, types.Complex):
         return lambda x: (np.sin(x), np.cos(x))

@@ -11,7 +11,7 @@ the segment guards and the entry magnet actions (used by
 :mod:`monkeystudy.analysis.variational` for every gait, the horizontal gait included).
 """
 import numpy as np
-from numba import njit
+from .jit import njit
 
 from .dynamics import flight_accel, free_end_offset, rhs_flight, swing_accel, total_energy8
 from .hybrid import apply_magnets
