@@ -196,7 +196,7 @@ def compile_estimate(what: str) -> str:
     seconds = _read_times().get(what)
     if isinstance(seconds, (int, float)) and seconds > 0:
         return f"about {seconds:.0f} s, as the last first run here took"
-    return "15-40 s on two cores"
+    return "10-30 s on two cores"
 
 
 def _main(argv: list[str]) -> None:
