@@ -30,7 +30,8 @@ and ``tests/test_compiling.py`` checks that compiling the hybrid loop's callees 
 the compile-ahead helper does, gives the same bits.
 
 Numba's on-disk cache checks only the source file of each function, not of the functions it
-calls: edit ``integrate.py`` and a cached ``hybrid.simulate`` keeps running the old integrator.
+calls: edit ``integrate.py`` and a cached hybrid loop (``hybrid.hybrid_loop``) keeps running
+the old integrator.
 So the cache lives in a directory keyed by a hash of *all* kernel sources (below
 ``$NUMBA_CACHE_DIR`` if set, else the user cache directory): any kernel change compiles afresh,
 and an unchanged kernel loads from disk in well under a second.
