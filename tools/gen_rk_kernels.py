@@ -256,10 +256,9 @@ a stage's newest term is added in scalars, straight from the field. ``FM`` allow
 floating-point contraction (fused multiply-add): it never reassociates sums, so the result is
 as accurate as the generic loop (a single rounding per multiply-add instead of two).
 """
-from .jit import njit
-
 from .dynamics import (\n    flight_accel_fused, flight_accel_trig_fused, swing_accel_fused, swing_accel_trig_fused,\n)
 from .intrinsics import combine_rows4, combine_rows8
+from .jit import njit
 
 FM = {"contract"}
 # numpy's error model: no division-by-zero test before each division (a singular mass matrix

@@ -25,10 +25,10 @@ iteration (see :func:`fixed_point`).
 import math
 
 import numpy as np
-from .jit import njit
 
 from .gait import start_state, wrapped_difference
 from .hybrid import simulate_loop
+from .jit import njit
 from .layout import (
     C_MAX_CYCLES, DTH1, DTH2, H_T, K_LOG, K_NFEV, L_E_AFTER, L_E_BEFORE, L_KIND, LOG_SEGMENT,
     N_COUNTS, N_HYB, N_LOG_COLS, N_MODE_COLS, ST_OK, TH1, TH2, X, Y,

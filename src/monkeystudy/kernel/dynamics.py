@@ -25,8 +25,8 @@ field is smooth inside every integration step. ``fmode[k] == 0`` means the DOF i
 import math
 
 import numpy as np
-from .jit import njit
 
+from .jit import njit
 from .layout import (
     P_A, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_H, P_I1, P_I2, P_K11, P_K22,
     P_L1, P_L2, P_M1, P_M2, P_M2R2, P_MTOT, P_R1, P_R2, PHASE_SWING, PHASE_FLIGHT,

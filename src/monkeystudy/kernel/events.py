@@ -15,12 +15,12 @@ band to exactly zero so that round-off cannot re-trigger it either.
 import math
 
 import numpy as np
-from .jit import njit
 
 from .dynamics import (
     angle_trig, kinetic_rot_s, kinetic_trans_s, potential_s, rhs,
 )
 from .integrate import dense_eval
+from .jit import njit
 from .layout import (
     G_COORD, G_ENERGY, G_ENERGY_RESTORED, G_FREE_END_HEIGHT, G_FREE_END_Y, G_SLIP_STOP,
     G_STICK_BREAK, P_A, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_H, P_K11, P_K22,

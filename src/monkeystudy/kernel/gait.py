@@ -14,10 +14,10 @@ through the ``simulate`` entry.
 import math
 
 import numpy as np
-from .jit import njit
 
 from .dynamics import total_energy8
 from .hybrid import simulate_loop
+from .jit import njit
 from .layout import (
     H_CLOCK, H_EREF, H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG, H_T, H_Y_REF, K_NFEV,
     K_REJECTED, K_STEPS, N_COUNTS, N_HYB, N_LOG_COLS, N_MODE_COLS, N_OBS_COLS, PHASE_SWING,

@@ -512,7 +512,10 @@ def simulate_implementation(method_code, flies=True):
     # the specialisation's choices are globals of its own copy of the loop, not closure
     # cells: numba keys its disk cache on a closure's pickled cells, and a dispatcher
     # pickles differently in every process, so a closure would never load from the cache
-    return FunctionType(_hybrid_loop.__code__, scope, "simulate_method")
+    name = f"hybrid_loop_{_METHOD_NAMES[method_code]}_{'flight' if flies else 'swing'}"
+    loop = FunctionType(_hybrid_loop.__code__, scope, name)
+    loop.__qualname__ = name     # numba names its cache files after it
+    return loop
 
 
 # what each compiled loop takes from simulate_implementation, as globals of its own: these
@@ -961,10 +964,7 @@ def hybrid_loop(method_code, flies=True):
     """
     key = (int(method_code), bool(flies))
     if key not in _LOOPS:
-        loop = simulate_implementation(*key)
-        loop.__name__ = loop.__qualname__ = (
-            f"hybrid_loop_{_METHOD_NAMES[key[0]]}_{'flight' if key[1] else 'swing'}")
-        _LOOPS[key] = njit(cache=True, error_model="numpy")(loop)
+        _LOOPS[key] = njit(cache=True, error_model="numpy")(simulate_implementation(*key))
     return _LOOPS[key]
 
 

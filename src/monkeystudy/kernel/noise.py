@@ -14,6 +14,7 @@ random bits each, or two independent standard normals (Box-Muller).
 import math
 
 import numpy as np
+
 from .jit import njit
 
 MASK32 = 0xFFFFFFFF

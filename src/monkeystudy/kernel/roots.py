@@ -31,9 +31,9 @@ from decimal import Decimal, localcontext
 from fractions import Fraction
 
 import numpy as np
-from .jit import njit
 
 from .intrinsics import as_bits, fma, from_bits
+from .jit import njit
 
 #: mantissa buckets: ``2 ** BUCKET_BITS``
 BUCKET_BITS = 6

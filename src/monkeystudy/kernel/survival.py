@@ -31,9 +31,9 @@ advance of the attached end is less than the minimum (``ST_STALLED``: it stopped
 import math
 
 import numpy as np
-from .jit import njit
 
 from .hybrid import simulate_loop
+from .jit import njit
 from .layout import (
     C_MAX_CYCLES, DTH1, DTH2, H_CYCLES, H_SEG, H_T, JITTER_LATENCY, JITTER_NONE, K_LOG, K_NFEV,
     L_KIND, L_STATE, L_T, LOG_OBSERVER, N_COUNTS, N_LOG_COLS, N_MODE_COLS, NZ_DTHETA1,
