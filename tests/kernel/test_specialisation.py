@@ -13,7 +13,7 @@ from monkeystudy.kernel.integrate import choice_of_type, method_scalar
 from monkeystudy.kernel.layout import (
     METHOD_DOP853, METHOD_RK45, METHOD_VERN9, PHASE_FLIGHT, PHASE_SWING, S_MAG_A, S_SWAP,
 )
-from monkeystudy.robot import SEED2009_TORQUE, Robot
+from monkeystudy.robot import SEED2009_TORQUE, Friction, Robot
 
 ROBOT = Robot.preset("seed2009")
 PROG, _ = HorizontalSearch(SEED2009_TORQUE).program()
@@ -59,3 +59,31 @@ def test_a_plain_integer_method_is_refused_at_compile_time():
 
 # A first DOP853 gait compiles no other method's steps and no flight step: checked on the
 # cold cache that tests/test_compiling.py's first run leaves (one cold compile for both).
+
+
+def test_a_run_that_never_flies_compiles_the_swing_field_alone_bit_for_bit():
+    # the copies of the vector field and the holding torque that loops without flight call
+    # (hybrid.without_flight): the same bits in the phases such a run has
+    from monkeystudy.kernel.dynamics import holding_torque, rhs
+    from monkeystudy.kernel.hybrid import without_flight
+    from monkeystudy.kernel.layout import PHASE_FIXED
+
+    rng = np.random.default_rng(7)
+    p = ROBOT.with_friction(Friction(0.05, 0.02), Friction(0.04, 0.03)).params()[0]
+    rhs_swing, hold_swing = without_flight(rhs), without_flight(holding_torque)
+    assert rhs_swing.py_func.__name__ == "rhs_without_flight"
+    for _ in range(50):
+        y = rng.uniform(-3.0, 3.0, 8)
+        tau = rng.uniform(-1.0, 1.0)
+        fmode = rng.choice([-1.0, 0.0, 1.0], 2)
+        for phase in (PHASE_SWING, PHASE_FIXED):
+            a, b = np.zeros(8), np.zeros(8)
+            rhs(phase, p, tau, fmode, y, a)
+            rhs_swing(phase, p, tau, fmode, y, b)
+            assert a.tobytes() == b.tobytes()
+            for k in (0, 1):
+                assert (holding_torque(phase, p, tau, fmode, y, k).hex()
+                        == hold_swing(phase, p, tau, fmode, y, k).hex())
+    # read as False, the flight branch is dropped before typing (tests/kernel/test_jit.py)
+    assert rhs_swing.py_func.__globals__["FLIES"] is False
+    assert hold_swing.py_func.__globals__["FLIES"] is False

@@ -211,7 +211,7 @@ def test_tick_sweep_lines_and_the_multiplier_prediction(ds):
         assert f"stop_{i}" in gids(fig)                     # every run fell
     lam = d.attrs["leading_multiplier"]
     pred = by_gid(fig, "prediction")
-    x, y = np.asarray(pred.get_xdata(), float), np.asarray(pred.get_ydata(), float)
+    y = np.asarray(pred.get_ydata(), float)
     np.testing.assert_allclose(y[1:] / y[:-1], lam ** 2, rtol=1e-12)     # |lambda|^(2n)
     # anchored on the exact-timing run: it follows the prediction in its linear regime
     e0 = err[list(TICKS).index(0.0)]

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 
-import pytest
 import xarray as xr
 
 from plotting.reportcheck import run_and_report

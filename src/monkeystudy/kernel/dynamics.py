@@ -28,7 +28,7 @@ import numpy as np
 
 from .jit import njit
 from .layout import (
-    P_A, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_H, P_I1, P_I2, P_K11, P_K22,
+    FLIES, P_A, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_H, P_I1, P_I2, P_K11, P_K22,
     P_L1, P_L2, P_M1, P_M2, P_M2R2, P_MTOT, P_R1, P_R2, PHASE_SWING, PHASE_FLIGHT,
 )
 from .trig import sincos
@@ -303,7 +303,7 @@ def rhs(phase, p, tau, fmode, y, dy):
         dy[1] = y[3]
         dy[2] = a1
         dy[3] = a2
-    elif phase == PHASE_FLIGHT:
+    elif FLIES and phase == PHASE_FLIGHT:
         ax, ay, a1, a2 = flight_accel(p, tau, fmode, y[2], y[3], y[6], y[7])
         for i in range(4):
             dy[i] = y[4 + i]
@@ -334,7 +334,7 @@ def holding_torque(phase, p, tau, fmode, y, k):
         if k == 0:
             return m11 * a1 + m12 * a2 - r1
         return m12 * a1 + m22 * a2 - r2
-    if phase == PHASE_FLIGHT and k == 1:
+    if FLIES and phase == PHASE_FLIGHT and k == 1:
         th1, th2, w1, w2 = y[2], y[3], y[6], y[7]
         ax, ay, a1, a2 = flight_accel(p, tau, fm, th1, th2, w1, w2)
         b02, b03, b12, b13, c1, s1, c12, s12 = _flight_coupling(p, th1, th2)

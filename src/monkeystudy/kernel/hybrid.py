@@ -50,10 +50,10 @@ from .integrate import (
     choice_of_type, dense_eval, error_estimator_order, error_power_sq, pi_factor,
     select_initial_step,
 )
-from .jit import njit
+from .jit import njit, specialised, specialised_globals
 from .layout import (
     C_ATOL, C_CONTROLLER, C_MAX_CYCLES, C_MAX_DROP, C_MAX_SEGMENT_TIME, C_MAX_STEP, C_MAX_STEPS,
-    C_RTOL, C_SAMPLE_DT, C_T_END, C_TICK, C_TICK_PHASE, C_ZERO_BAND, CONTROLLER_PI,
+    C_RTOL, C_SAMPLE_DT, C_T_END, C_TICK, C_TICK_PHASE, C_ZERO_BAND, CONTROLLER_PI, FLIES,
     G_ENERGY_RESTORED, G_NONE, G_SLIP_STOP, G_STICK_BREAK, G_TIME, H_CLOCK, H_CYCLES, H_EREF,
     H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG, H_T, H_TORQUE, H_Y_REF, K_CYCLES, K_EVENTS,
     K_LOG, K_NFEV, K_REJECTED, K_SAMPLES, K_STEPS, L_CYCLE, L_E_AFTER, L_E_BEFORE, L_FLIPPED,
@@ -426,19 +426,33 @@ def _finite(y, n):
 def loop_method_kernels(method_code, flies=True):
     """The steps, error norms, dense-output preparation and stage count the loop of
     ``method_code`` (``METHOD_*``) calls (:data:`.integrate.METHOD_KERNELS`); without
-    ``flies``, the swing ones stand in for the flight ones (never called: the loop stops
-    before a flight), so the flight branch is typed without compiling the flight step."""
+    ``flies``, the dense output of a swing step (the loop stops before a flight, and its copy
+    without flight, :func:`without_flight`, never types the flight step)."""
     step4, step8, error_sq4, error_sq8, dense_prepare_of_method, n_stages = \
         METHOD_KERNELS[method_code]
     if not flies:
-        step8, error_sq8 = step4, error_sq4
         dense_prepare_of_method = SWING_DENSE_PREPARE[method_code]
     return step4, step8, error_sq4, error_sq8, dense_prepare_of_method, n_stages
 
 
+#: the suffix and constants of the kernels' copies for runs that never fly
+WITHOUT_FLIGHT = ("without_flight", {"FLIES": False})
+
+
+def without_flight(kernel):
+    """``kernel`` as runs that never fly compile it: a copy reading ``FLIES`` as False, itself
+    and through the kernels it calls (:func:`.jit.specialised`), named
+    ``<name>_without_flight``; ``kernel`` itself when nothing it calls reads ``FLIES``.
+    Numba drops the flight branches of such a copy unread: the flight accelerations in the
+    vector field and the holding torque are a large part of the loop's compile, and every
+    compiled caller links them again."""
+    suffix, constants = WITHOUT_FLIGHT
+    return specialised(kernel, suffix, **constants)
+
+
 def loop_callees(method_code):
-    """The separately compiled functions the loop of ``method_code`` calls while a run swings,
-    each with the numba types of its arguments there, in the order the loop's compile first
+    """The separately compiled functions the loop of ``method_code`` calls in runs that never
+    fly (:func:`without_flight`), each with the numba types of its arguments there, in the order the loop's compile first
     reaches them.
 
     For compiling ahead (:mod:`monkeystudy.compiling`): another process compiles these into the
@@ -452,7 +466,7 @@ def loop_callees(method_code):
     V, M, C = types.float64[::1], types.float64[:, ::1], types.int64[::1]
     method = types.literal(method_code)  # the loop passes its method as a constant
     step4, _, error_sq4, _, dense_prepare_swing, _ = loop_method_kernels(method_code, False)
-    return (
+    return tuple((without_flight(kernel), argtypes) for kernel, argtypes in (
         (apply_magnets, (M, V, I, I, F, F, B)),
         (total_energy8, (V, V)),
         (pack, (I, V, V)),
@@ -483,7 +497,7 @@ def loop_callees(method_code):
         (observe_step, (I, M, I, F, F, F, F, B, method, M, V, V, V, I, I, V, F, V, V, F, V,
                         V, V, M, I, I, I, C)),
         (exit_segment, (M, M, I, F, V, I, I, F, F, F, I, I, C, V, M, I, B, V, M, M, I)),
-    )
+    ))
 
 
 def simulate_implementation(method_code, flies=True):
@@ -506,9 +520,11 @@ def simulate_implementation(method_code, flies=True):
     """
     step4, step8, error_sq4, error_sq8, dense_prepare_of_method, n_stages = \
         loop_method_kernels(method_code, flies)
-    scope = dict(globals(), method_code=method_code, flies=flies, n_stages=n_stages,
+    scope = dict(globals(), method_code=method_code, n_stages=n_stages,
                  step4=step4, step8=step8, error_sq4=error_sq4, error_sq8=error_sq8,
                  dense_prepare_of_method=dense_prepare_of_method)
+    if not flies:
+        scope = specialised_globals(_hybrid_loop.__code__, scope, *WITHOUT_FLIGHT)
     # the specialisation's choices are globals of its own copy of the loop, not closure
     # cells: numba keys its disk cache on a closure's pickled cells, and a dispatcher
     # pickles differently in every process, so a closure would never load from the cache
@@ -520,14 +536,14 @@ def simulate_implementation(method_code, flies=True):
 
 # what each compiled loop takes from simulate_implementation, as globals of its own: these
 # module-level names are placeholders that no compiled loop sees
-method_code = flies = n_stages = None
+method_code = n_stages = None
 step4 = step8 = error_sq4 = error_sq8 = dense_prepare_of_method = None
 
 
 def _hybrid_loop(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t,
                  samp_y, samp_mode):
     """The hybrid loop (:func:`simulate_implementation`), written once: each specialisation
-    runs this code with its own ``method_code``, ``flies``, steps and error norms."""
+    runs this code with its own ``method_code``, ``FLIES``, steps and error norms."""
     method = method_code  # a constant of this specialisation (the argument names it too)
     rtol = settings[C_RTOL]
     atol = settings[C_ATOL]
@@ -608,7 +624,7 @@ def _hybrid_loop(method, par, prog, obs, settings, hyb, counts, seg_times, log, 
                 phase, flipped = apply_magnets(par, s8, phase, flipped, prog[seg, S_MAG_A],
                                                prog[seg, S_MAG_B], prog[seg, S_SWAP] > 0)
             magnets_done = False
-            if not flies and phase == PHASE_FLIGHT:
+            if not FLIES and phase == PHASE_FLIGHT:
                 # compiled without the flight steps: the caller said the program cannot
                 # release every magnet (controllers.program_may_fly), and it did
                 status = ST_STEP_FAILURE
@@ -744,8 +760,8 @@ def _hybrid_loop(method, par, prog, obs, settings, hyb, counts, seg_times, log, 
                     # (inlined or called) numba reference-counts the eight arrays on every
                     # step (atomic operations; docs/performance.md says what a wrapper
                     # costs). The controller works on the squared norm en_sq (see
-                    # integrate.error_power_sq).
-                    if n == 4:
+                    # integrate.error_power_sq). A loop that never flies has no flight step.
+                    if not FLIES or n == 4:
                         step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
                         en_sq = error_sq4(K, h, y, y_new, rtol, atol)
                     else:

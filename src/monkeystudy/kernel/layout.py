@@ -31,6 +31,10 @@ PHASE_SWING = 0    # the (x, y) end is attached, 2-DOF
 PHASE_FLIGHT = 1   # nothing attached, 4-DOF
 PHASE_FIXED = 2    # both ends attached, no motion
 
+#: True in every kernel; False in the copies that runs which never fly compile
+#: (:func:`.hybrid.without_flight`), where numba drops the flight branches unread
+FLIES = True
+
 # --- integrator methods ----------------------------------------------------------------------
 METHOD_RK45 = 0
 METHOD_DOP853 = 1
