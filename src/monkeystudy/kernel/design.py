@@ -83,8 +83,9 @@ def cycle_map(method, par, prog, obs, settings, theta1_section, w, w_next, log, 
     hyb[TH2] = w[0]
     counts[K_LOG] = 0
     seg_times = np.empty(prog.shape[0])
-    status = simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_times, log,
-                           np.empty(0), np.empty((0, 8)), np.empty((0, N_MODE_COLS)))
+    status = simulate_loop(method, par, prog, obs, settings, hyb.reshape((1, N_HYB)),
+                           counts.reshape((1, N_COUNTS)), seg_times.reshape((1, prog.shape[0])),
+                           log, np.empty(0), np.empty((0, 8)), np.empty((0, N_MODE_COLS)))
     loss = 0.0
     for r in range(int(counts[K_LOG])):
         if log[r, L_KIND] == LOG_SEGMENT:
@@ -107,9 +108,10 @@ def clocked_map(method, par, prog, obs, settings, x, x_next, counts):
     hyb[TH1] = x[0]
     hyb[TH2] = x[1]
     seg_times = np.empty(prog.shape[0])
-    status = simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_times,
-                      np.empty((0, N_LOG_COLS)), np.empty(0), np.empty((0, 8)),
-                      np.empty((0, N_MODE_COLS)))
+    status = simulate_loop(method, par, prog, obs, settings, hyb.reshape((1, N_HYB)),
+                           counts.reshape((1, N_COUNTS)), seg_times.reshape((1, prog.shape[0])),
+                           np.empty((0, N_LOG_COLS)), np.empty(0), np.empty((0, 8)),
+                           np.empty((0, N_MODE_COLS)))
     x_next[0] = x[0] + wrapped_difference(hyb[TH1], x[0])
     x_next[1] = x[1] + wrapped_difference(hyb[TH2], x[1])
     x_next[2] = hyb[DTH1]

@@ -1,27 +1,28 @@
-"""Compiled gait evaluations: the horizontal gait of docs/model.md section 4 and the cycle of any
+"""Gait evaluations: the horizontal gait of docs/model.md section 4 and the cycle of any
 phase-sequence gait, one point or a batch.
 
-All run the hybrid loop of :func:`monkeystudy.kernel.hybrid.simulate` (through
-:func:`~monkeystudy.kernel.hybrid.simulate_loop`) with the zero-size log and trajectory of
-:func:`search_scratch`, so a search evaluation integrates, locates its events and nothing else.
+All run the hybrid loop of :func:`monkeystudy.kernel.hybrid.simulate` with a zero-size log and
+trajectory, so a search evaluation integrates, locates its events and nothing else.
 
 Numba links a copy of the loop into every separately compiled function that calls it, directly
-or not, and optimises and emits that copy's machine code again: about a second each on a first
-run. So the helpers between a batch and the loop (:func:`simulate_unlogged`, :func:`_gait_run`)
-are inlined into their callers (``inline="always"``), and the loop is called directly, not
-through the ``simulate`` entry.
+or not, and optimises and emits that copy's machine code again: 1.3-1.8 s each on a first run.
+So the cycle of a sequence gait, which every study's first run evaluates, is a batch of the
+loop itself (:func:`cycle_gait_batch`, array operations around one call of the compiled loop),
+and the compiled horizontal-gait evaluation calls the loop directly
+(:func:`~monkeystudy.kernel.hybrid.simulate_loop`), its helpers (:func:`simulate_unlogged`,
+:func:`_gait_run`) inlined (``inline="always"``).
 """
 import math
 
 import numpy as np
 
 from .dynamics import total_energy8
-from .hybrid import simulate_loop
+from .hybrid import simulate, simulate_loop
 from .jit import njit
 from .layout import (
-    H_CLOCK, H_EREF, H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG, H_T, H_Y_REF, K_NFEV,
-    K_REJECTED, K_STEPS, N_COUNTS, N_HYB, N_LOG_COLS, N_MODE_COLS, N_OBS_COLS, PHASE_SWING,
-    ST_OK, ST_UNREACHABLE,
+    DTH1, DTH2, H_CLOCK, H_EREF, H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG, H_T, H_Y_REF,
+    K_NFEV, K_REJECTED, K_STATUS, K_STEPS, N_COUNTS, N_HYB, N_LOG_COLS, N_MODE_COLS,
+    N_OBS_COLS, PHASE_SWING, ST_OK, ST_UNREACHABLE, TH1, TH2,
 )
 
 # result columns of one gait evaluation
@@ -66,8 +67,10 @@ def simulate_unlogged(method, par, prog, obs, settings, scratch):
     (module docstring)."""
     hyb, counts, seg_times, _, no_log, no_t, no_y, no_mode = scratch
     counts[:] = 0
-    return simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_times, no_log, no_t,
-                         no_y, no_mode)
+    return simulate_loop(method, par, prog, obs, settings, hyb.reshape((1, N_HYB)),
+                         counts.reshape((1, N_COUNTS)),
+                         seg_times.reshape((1, seg_times.shape[0])), no_log, no_t, no_y,
+                         no_mode)
 
 
 @njit(cache=True, error_model="numpy")
@@ -151,10 +154,9 @@ def wrapped_difference(a, b):
     return (a - b + math.pi) % (2.0 * math.pi) - math.pi
 
 
-@njit(cache=True, error_model="numpy")
 def cycle_gait_batch(method, par, prog, obs, settings, theta1, theta2, points, out, seg_out):
-    """One cycle of a phase-sequence gait from each section state of ``points[N, 2]`` (serial)
-    into ``out[N, N_CYCLE_RESULT]`` and ``seg_out[N, n_segments]``.
+    """One cycle of a phase-sequence gait from each section state of ``points[N, 2]`` into
+    ``out[N, N_CYCLE_RESULT]`` and ``seg_out[N, n_segments]``.
 
     Each starts hanging from A at the origin with ``(theta1, theta2)`` [rad] and rates
     ``points[i] = (dtheta1, dtheta2)`` [rad s-1]; runs ``prog`` until it completes one cycle
@@ -162,29 +164,34 @@ def cycle_gait_batch(method, par, prog, obs, settings, theta1, theta2, points, o
     section 4's: ``wrap(theta2_f - theta2)^2 + (dtheta1_f - dtheta1)^2 + (dtheta2_f -
     dtheta2)^2`` in the frame of the end attached at the cycle's end (NaN unless ``ST_OK``);
     ``seg_out[i, k]`` is the time segment ``k`` was left [s] (NaN if never).
+
+    Not compiled: the points are one batch of the compiled loop
+    (:func:`~monkeystudy.kernel.hybrid.simulate`), and the starts and the errors are array
+    operations around it. A compiled caller would link the loop again and emit its machine
+    code again (a first run's compile: 1.3-1.8 s).
     """
-    # one function, not a per-point function called in a loop: numba links (and LLVM
-    # optimises again) a copy of the hybrid loop into every separately compiled caller, so
-    # each level between the loop and Python costs a first run about 1.5 s
-    for i in range(points.shape[0]):
-        dtheta1, dtheta2 = points[i, 0], points[i, 1]
-        row = out[i]
-        hyb, counts, _, _, no_log, no_t, no_y, no_mode = search_scratch(0)
-        start_state(dtheta1, dtheta2, hyb)
-        hyb[2] = theta1
-        hyb[3] = theta2
-        row[:] = np.nan
-        status = simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_out[i],
-                               no_log, no_t, no_y, no_mode)
-        row[Q_STATUS] = status
-        row[Q_T_END] = hyb[H_T]
-        row[Q_STEPS] = counts[K_STEPS]
-        row[Q_NFEV] = counts[K_NFEV]
-        row[Q_REJECTED] = counts[K_REJECTED]
-        row[Q_FLIPPED] = hyb[H_FLIPPED]
-        row[Q_PHASE] = hyb[H_PHASE]
-        for j in range(8):
-            row[Q_FINAL + j] = hyb[j]
-        if status == ST_OK:
-            d2 = wrapped_difference(hyb[3], theta2)
-            row[Q_ERROR] = d2 * d2 + (hyb[6] - dtheta1) ** 2 + (hyb[7] - dtheta2) ** 2
+    n = points.shape[0]
+    start = np.empty(N_HYB)
+    start_state(0.0, 0.0, start)
+    hyb = np.repeat(start[None], n, axis=0)
+    hyb[:, DTH1] = points[:, 0]
+    hyb[:, DTH2] = points[:, 1]
+    hyb[:, TH1] = theta1
+    hyb[:, TH2] = theta2
+    counts = np.zeros((n, N_COUNTS), dtype=np.int64)
+    simulate(method, par, prog, obs, settings, hyb, counts, seg_out, np.empty((0, N_LOG_COLS)),
+             np.empty(0), np.empty((0, 8)), np.empty((0, N_MODE_COLS)))
+    status = counts[:, K_STATUS]
+    out[:] = np.nan
+    out[:, Q_STATUS] = status
+    out[:, Q_T_END] = hyb[:, H_T]
+    out[:, Q_STEPS] = counts[:, K_STEPS]
+    out[:, Q_NFEV] = counts[:, K_NFEV]
+    out[:, Q_REJECTED] = counts[:, K_REJECTED]
+    out[:, Q_FLIPPED] = hyb[:, H_FLIPPED]
+    out[:, Q_PHASE] = hyb[:, H_PHASE]
+    out[:, Q_FINAL:Q_FINAL + 8] = hyb[:, :8]
+    ok = status == ST_OK
+    d2 = (hyb[ok, TH2] - theta2 + math.pi) % (2.0 * math.pi) - math.pi    # wrapped_difference
+    out[ok, Q_ERROR] = (d2 * d2 + (hyb[ok, DTH1] - points[ok, 0]) ** 2
+                        + (hyb[ok, DTH2] - points[ok, 1]) ** 2)

@@ -56,13 +56,13 @@ from .layout import (
     C_RTOL, C_SAMPLE_DT, C_T_END, C_TICK, C_TICK_PHASE, C_ZERO_BAND, CONTROLLER_PI, FLIES,
     G_ENERGY_RESTORED, G_NONE, G_SLIP_STOP, G_STICK_BREAK, G_TIME, H_CLOCK, H_CYCLES, H_EREF,
     H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG, H_T, H_TORQUE, H_Y_REF, K_CYCLES, K_EVENTS,
-    K_LOG, K_NFEV, K_REJECTED, K_SAMPLES, K_STEPS, L_CYCLE, L_E_AFTER, L_E_BEFORE, L_FLIPPED,
-    L_ID, L_KIND, L_PHASE, L_STATE, L_T, LOG_FRICTION, LOG_OBSERVER, LOG_SEGMENT, M_FLIPPED,
-    M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, METHOD_RK45, METHOD_VERN9, O_GDIR,
+    K_LOG, K_NFEV, K_REJECTED, K_SAMPLES, K_STATUS, K_STEPS, L_CYCLE, L_E_AFTER, L_E_BEFORE,
+    L_FLIPPED, L_ID, L_KIND, L_PHASE, L_STATE, L_T, LOG_FRICTION, LOG_OBSERVER, LOG_SEGMENT,
+    M_FLIPPED, M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, METHOD_RK45, METHOD_VERN9, O_GDIR,
     O_GINDEX, O_GUARD, O_GVALUE, O_SEGMENT, P_C_JOINT, P_C_PIVOT, PHASE_FIXED, PHASE_FLIGHT,
-    PHASE_SWING, S_CLOCK, S_CYCLE, S_DELAY, S_FAIL, S_GDIR, S_GINDEX, S_GUARD, S_GVALUE, S_MAG_A,
-    S_MAG_B, S_NEXT, S_SET_EREF, S_SWAP, S_TICKED, S_TORQUE, ST_BUFFER_FULL, ST_END_TIME,
-    ST_FELL, ST_HORIZON, ST_NONFINITE, ST_OK, ST_STEP_FAILURE,
+    PHASE_SWING, S_CLOCK, S_CYCLE, S_DELAY, S_FAIL, S_GDIR, S_GINDEX, S_GUARD, S_GVALUE,
+    S_MAG_A, S_MAG_B, S_NEXT, S_SET_EREF, S_SWAP, S_TICKED, S_TORQUE, ST_BUFFER_FULL,
+    ST_END_TIME, ST_FELL, ST_HORIZON, ST_NONFINITE, ST_OK, ST_STEP_FAILURE,
 )
 from .tableaux import VERN9_INTERPOLATOR_POWER, VERN9_N_STAGES_EXTENDED
 
@@ -452,8 +452,8 @@ def without_flight(kernel):
 
 def loop_callees(method_code):
     """The separately compiled functions the loop of ``method_code`` calls in runs that never
-    fly (:func:`without_flight`), each with the numba types of its arguments there, in the order the loop's compile first
-    reaches them.
+    fly (:func:`without_flight`), each with the numba types of its arguments there, in the
+    order the loop's compile first reaches them.
 
     For compiling ahead (:mod:`monkeystudy.compiling`): another process compiles these into the
     shared cache, last first, while the study's process compiles the loop and reaches them in
@@ -540,8 +540,8 @@ method_code = n_stages = None
 step4 = step8 = error_sq4 = error_sq8 = dense_prepare_of_method = None
 
 
-def _hybrid_loop(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t,
-                 samp_y, samp_mode):
+def _hybrid_loop(method, par, prog, obs, settings, hyb_rows, counts_rows, seg_rows, log,
+                 samp_t, samp_y, samp_mode):
     """The hybrid loop (:func:`simulate_implementation`), written once: each specialisation
     runs this code with its own ``method_code``, ``FLIES``, steps and error norms."""
     method = method_code  # a constant of this specialisation (the argument names it too)
@@ -559,7 +559,6 @@ def _hybrid_loop(method, par, prog, obs, settings, hyb, counts, seg_times, log, 
     band = settings[C_ZERO_BAND]
     err_order = error_estimator_order(method)
     pi_control = settings[C_CONTROLLER] == CONTROLLER_PI
-    en_prev = 1.0  # the PI controller's previous accepted error norm
 
     n_obs = obs.shape[0]
     sampling = sample_dt > 0.0 and samp_t.shape[0] > 0
@@ -584,376 +583,390 @@ def _hybrid_loop(method, par, prog, obs, settings, hyb, counts, seg_times, log, 
     g_fric = pairs[2]
     g_obs = np.zeros(max(n_obs, 1))
 
-    for i in range(8):
-        s8[i] = hyb[i]
-    t = hyb[H_T]
-    phase = int(hyb[H_PHASE])
-    flipped = int(hyb[H_FLIPPED])
-    seg = int(hyb[H_SEG])
-    tau = hyb[H_TORQUE]
-    eref = hyb[H_EREF]
-    clock0 = hyb[H_CLOCK]
-    fmode[0] = hyb[H_FMODE0]
-    fmode[1] = hyb[H_FMODE1]
-    cycles = int(hyb[H_CYCLES])
-    y_ref = hyb[H_Y_REF]
-    if not math.isfinite(y_ref):
-        y_ref = s8[1]
-    for i in range(seg_times.shape[0]):
-        seg_times[i] = np.nan
-
-    n_log = int(counts[K_LOG])
-    n_samp = int(counts[K_SAMPLES])
-    next_k = 0
-    if sampling:
-        next_k = int(math.floor(t / sample_dt)) + 1  # the entry sample covers t itself
-
     status = -1
-    entering = True
-    magnets_done = False  # entry magnet actions already applied (to log the impact)
-    seg_start = t
-    pending = np.inf      # tick at which a located ticked guard will be acted on
-    pending_sign = 0.0    # guard sign before that crossing ("either" direction)
-    delayed_exit = np.inf  # a state guard fired: the exit waits until then (S_DELAY)
-    n = 4
+    for run in range(hyb_rows.shape[0]):
+        # each row is a run of its own, from work arrays as a new call's
+        hyb = hyb_rows[run]
+        counts = counts_rows[run]
+        seg_times = seg_rows[run]
+        if run > 0:
+            K[:, :] = 0.0
+            Fd[:, :] = 0.0
+            vectors[:, :] = 0.0
+            pairs[:, :] = 0.0
+            g_obs[:] = 0.0
+        en_prev = 1.0  # the PI controller's previous accepted error norm
+        for i in range(8):
+            s8[i] = hyb[i]
+        t = hyb[H_T]
+        phase = int(hyb[H_PHASE])
+        flipped = int(hyb[H_FLIPPED])
+        seg = int(hyb[H_SEG])
+        tau = hyb[H_TORQUE]
+        eref = hyb[H_EREF]
+        clock0 = hyb[H_CLOCK]
+        fmode[0] = hyb[H_FMODE0]
+        fmode[1] = hyb[H_FMODE1]
+        cycles = int(hyb[H_CYCLES])
+        y_ref = hyb[H_Y_REF]
+        if not math.isfinite(y_ref):
+            y_ref = s8[1]
+        for i in range(seg_times.shape[0]):
+            seg_times[i] = np.nan
 
-    while status < 0:
-        p = par[flipped]
-        if entering:
-            if not magnets_done:
-                phase, flipped = apply_magnets(par, s8, phase, flipped, prog[seg, S_MAG_A],
-                                               prog[seg, S_MAG_B], prog[seg, S_SWAP] > 0)
-            magnets_done = False
-            if not FLIES and phase == PHASE_FLIGHT:
-                # compiled without the flight steps: the caller said the program cannot
-                # release every magnet (controllers.program_may_fly), and it did
-                status = ST_STEP_FAILURE
-                break
+        n_log = int(counts[K_LOG])
+        n_samp = int(counts[K_SAMPLES])
+        next_k = 0
+        if sampling:
+            next_k = int(math.floor(t / sample_dt)) + 1  # the entry sample covers t itself
+
+        status = -1
+        entering = True
+        magnets_done = False  # entry magnet actions already applied (to log the impact)
+        seg_start = t
+        pending = np.inf      # tick at which a located ticked guard will be acted on
+        pending_sign = 0.0    # guard sign before that crossing ("either" direction)
+        delayed_exit = np.inf  # a state guard fired: the exit waits until then (S_DELAY)
+        n = 4
+
+        while status < 0:
             p = par[flipped]
-            tau = prog[seg, S_TORQUE]
-            if prog[seg, S_SET_EREF] > 0:
-                eref = total_energy8(p, s8)
-            n = pack(phase, s8, y)
-            pivot[0] = s8[0]
-            pivot[1] = s8[1]
-            init_friction(phase, p, tau, s8, fmode, y, pivot)
-            seg_start = t
-            pending = np.inf
-            if sampling:
-                n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, t, s8, phase,
-                                      flipped, tau, seg)
-                if n_samp < 0:
-                    status = ST_BUFFER_FULL
+            if entering:
+                if not magnets_done:
+                    phase, flipped = apply_magnets(par, s8, phase, flipped, prog[seg, S_MAG_A],
+                                                   prog[seg, S_MAG_B], prog[seg, S_SWAP] > 0)
+                magnets_done = False
+                if not FLIES and phase == PHASE_FLIGHT:
+                    # compiled without the flight steps: the caller said the program cannot
+                    # release every magnet (controllers.program_may_fly), and it did
+                    status = ST_STEP_FAILURE
                     break
-            if phase == PHASE_SWING and s8[1] < y_ref - max_drop:
-                status = ST_FELL
-                break
-        # ------------------------------------------------------------------ one leg
-        gkind = int(prog[seg, S_GUARD])
-        gindex = int(prog[seg, S_GINDEX])
-        gvalue = prog[seg, S_GVALUE]
-        gdir = prog[seg, S_GDIR]
-        ticked = prog[seg, S_TICKED] > 0 and tick > 0.0
-        state_guard = gkind != G_NONE and gkind != G_TIME
-        horizon = seg_start + max_seg_time
-        t_limit = min(horizon, t_end)
-        t_target = np.inf
-        if delayed_exit < np.inf:
-            # the guard has fired; only the latency is left: a time leg without a guard
-            state_guard = False
-            gkind = G_TIME
-            t_target = delayed_exit
-        elif gkind == G_TIME:
-            t_target = clock0 + gvalue
-            if ticked:
-                t_target = next_tick(t_target, tick, tick_phase)
-            if prog[seg, S_DELAY] != 0.0:
-                t_target += prog[seg, S_DELAY]
-            if t_target < t:
-                t_target = t
-        t_stop = min(t_limit, t_target)
-        n = pack(phase, s8, y)
-        pivot[0] = s8[0]
-        pivot[1] = s8[1]
-
-        fired = False       # the segment's guard fired at time t (state at t in y/s8)
-        # a friction mode change at time t. np.int64, here and for the log kinds: numba
-        # types a bare constant as a literal and compiles each callee it reaches once
-        # more for that literal (holding_torque, write_log)
-        fric_k = np.int64(-1)
-        level_fire = False
-        if state_guard:
-            g_seg = guard_value(gkind, gindex, gvalue, phase, p, tau, fmode, y, pivot, eref)
-            scale = 1.0 + abs(gvalue)
-            if gkind == G_ENERGY_RESTORED:
-                scale = 1.0 + abs(eref) + abs(gvalue)
-            if entering and abs(g_seg) <= band * scale:
-                g_seg = 0.0
-            if gkind == G_ENERGY_RESTORED and entering and g_seg >= 0.0:
-                level_fire = True
-        else:
-            g_seg = 0.0
-        for k in range(n_obs):
-            if obs[k, O_SEGMENT] >= 0 and int(obs[k, O_SEGMENT]) != seg:
-                continue
-            g_obs[k] = guard_value(int(obs[k, O_GUARD]), int(obs[k, O_GINDEX]),
-                                   obs[k, O_GVALUE], phase, p, tau, fmode, y, pivot, eref)
-            if abs(g_obs[k]) <= band * (1.0 + abs(obs[k, O_GVALUE])):
-                g_obs[k] = 0.0
-        # friction DOFs watched on this leg (fixed along it; tested once, not on every step)
-        fric0 = friction_active(0, phase, p)
-        fric1 = friction_active(1, phase, p)
-        for k in range(2):
-            if fric0 if k == 0 else fric1:
-                g_fric[k] = friction_guard(k, phase, p, tau, fmode, y, pivot)
-        entering = False
-
-        if level_fire or (gkind == G_TIME and t_target <= t):
-            fired = True
-        elif phase == PHASE_FIXED:
-            # nothing moves: only time passes (samples stay put)
-            t_new = t_stop
-            if sampling:
-                while next_k * sample_dt <= t_new:
-                    n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp,
-                                          next_k * sample_dt, s8, phase, flipped, tau, seg)
+                p = par[flipped]
+                tau = prog[seg, S_TORQUE]
+                if prog[seg, S_SET_EREF] > 0:
+                    eref = total_energy8(p, s8)
+                n = pack(phase, s8, y)
+                pivot[0] = s8[0]
+                pivot[1] = s8[1]
+                init_friction(phase, p, tau, s8, fmode, y, pivot)
+                seg_start = t
+                pending = np.inf
+                if sampling:
+                    n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, t, s8, phase,
+                                          flipped, tau, seg)
                     if n_samp < 0:
                         status = ST_BUFFER_FULL
                         break
-                    next_k += 1
-            t = t_new
-            if t == t_target:
-                fired = True
-        else:
-            rhs(phase, p, tau, fmode, y, f)
-            h_abs = select_initial_step(phase, p, tau, fmode, t, y, f, n, t_stop, max_step,
-                                        err_order, rtol, atol, ytmp, f_new)
-            counts[K_NFEV] += 2
-            en_prev = 1.0  # a leg starts the PI controller afresh, as the integrator restarts
-            r_seg = 0.0
+                if phase == PHASE_SWING and s8[1] < y_ref - max_drop:
+                    status = ST_FELL
+                    break
+            # ------------------------------------------------------------------ one leg
+            gkind = int(prog[seg, S_GUARD])
+            gindex = int(prog[seg, S_GINDEX])
+            gvalue = prog[seg, S_GVALUE]
+            gdir = prog[seg, S_GDIR]
+            ticked = prog[seg, S_TICKED] > 0 and tick > 0.0
+            state_guard = gkind != G_NONE and gkind != G_TIME
+            horizon = seg_start + max_seg_time
+            t_limit = min(horizon, t_end)
+            t_target = np.inf
+            if delayed_exit < np.inf:
+                # the guard has fired; only the latency is left: a time leg without a guard
+                state_guard = False
+                gkind = G_TIME
+                t_target = delayed_exit
+            elif gkind == G_TIME:
+                t_target = clock0 + gvalue
+                if ticked:
+                    t_target = next_tick(t_target, tick, tick_phase)
+                if prog[seg, S_DELAY] != 0.0:
+                    t_target += prog[seg, S_DELAY]
+                if t_target < t:
+                    t_target = t
+            t_stop = min(t_limit, t_target)
+            n = pack(phase, s8, y)
+            pivot[0] = s8[0]
+            pivot[1] = s8[1]
+
+            fired = False       # the segment's guard fired at time t (state at t in y/s8)
+            # a friction mode change at time t. np.int64, here and for the log kinds: numba
+            # types a bare constant as a literal and compiles each callee it reaches once
+            # more for that literal (holding_torque, write_log)
+            fric_k = np.int64(-1)
+            level_fire = False
             if state_guard:
-                r_seg = guard_rate_value(gkind, gindex, phase, p, tau, fmode, y, pivot, work)
-            while True:
-                bound = min(t_stop, pending)
-                if t >= bound:
-                    break
-                # ---- one adaptive step (scipy's RungeKutta._step_impl) ----
-                # scipy's min_step, 10 ulp(t), is at most 10 eps |t| (+ a subnormal at t = 0):
-                # the nextafter call is only needed for a step below that
-                tiny = 10.0 * EPS * abs(t) + 1e-300
-                if h_abs > max_step:
-                    h_abs = max_step
-                elif h_abs < tiny and h_abs < _min_step(t):
-                    h_abs = _min_step(t)
-                rejected = False
-                ok = True
-                while True:
-                    if h_abs < tiny and h_abs < _min_step(t):
-                        ok = False
-                        break
-                    t_new = t + h_abs
-                    if t_new > bound:
-                        t_new = bound
-                    h = t_new - t
-                    h_abs = abs(h)
-                    # the method's straight-line steps, called directly: through a wrapper
-                    # (inlined or called) numba reference-counts the eight arrays on every
-                    # step (atomic operations; docs/performance.md says what a wrapper
-                    # costs). The controller works on the squared norm en_sq (see
-                    # integrate.error_power_sq). A loop that never flies has no flight step.
-                    if not FLIES or n == 4:
-                        step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
-                        en_sq = error_sq4(K, h, y, y_new, rtol, atol)
-                    else:
-                        step8(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
-                        en_sq = error_sq8(K, h, y, y_new, rtol, atol)
-                    counts[K_NFEV] += n_stages
-                    if en_sq < 1.0:
-                        if pi_control:
-                            en = math.sqrt(en_sq)
-                            factor = pi_factor(en, en_prev, err_order)
-                            en_prev = max(en, PI_ERR_FLOOR)
-                        else:
-                            # en_sq = 0 gives an infinite power: MAX_FACTOR
-                            factor = min(MAX_FACTOR, SAFETY * error_power_sq(method, en_sq))
-                        if rejected:
-                            factor = min(1.0, factor)
-                        h_abs *= factor
-                        break
-                    h_abs *= max(MIN_FACTOR, SAFETY * error_power_sq(method, en_sq))
-                    rejected = True
-                    counts[K_REJECTED] += 1
-                if not ok:
-                    status = ST_STEP_FAILURE
-                    break
-                counts[K_STEPS] += 1
-                if counts[K_STEPS] > max_steps:
-                    status = ST_STEP_FAILURE
-                    break
-                if not _finite(y_new, n):
-                    status = ST_NONFINITE
-                    break
-                dense = False
-                t_ev = np.inf
-                # ---- segment guard ----
-                if state_guard and pending == np.inf:
-                    # guard and rate from the step's sines and cosines; the vector field's
-                    # call kept out of inlined code (numba would reference-count its arrays)
-                    if rate_uses_field(gkind, gindex):
-                        gb = guard_trig_value(gkind, gindex, gvalue, phase, p, tau, fmode,
-                                              y_new, pivot, eref, trig_new)
-                        rb = guard_rate_field(gkind, gindex, phase, p, tau, fmode, y_new, work)
-                    else:
-                        gb, rb = guard_and_rate_step(gkind, gindex, gvalue, phase, p, tau,
-                                                     fmode, y_new, pivot, eref, trig_new)
-                    if (crosses(g_seg, gb, gdir)
-                            or hermite_flags(g_seg, r_seg, gb, rb, h, gdir)):
-                        if not dense:
-                            counts[K_NFEV] += dense_prepare_of_method(
-                                phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
-                            dense = True
-                        t_ev, pending, pending_sign = segment_event_in_step(
-                            gkind, gindex, gvalue, gdir, t, t_new, g_seg, gb, r_seg, rb,
-                            method, Fd, y, h, n, phase, p, tau, fmode, pivot, eref, ybuf,
-                            work, ticked, tick, tick_phase, pending, pending_sign)
-                    g_seg = gb
-                    r_seg = rb
-                elif state_guard and t_new == pending:
-                    gb = guard_trig_value(gkind, gindex, gvalue, phase, p, tau, fmode, y_new,
-                                          pivot, eref, trig_new)
-                    if (gdir > 0 and gb >= 0.0) or (gdir < 0 and gb <= 0.0) or \
-                            (gdir == 0 and gb * pending_sign <= 0.0):
-                        t_ev = t_new
-                    pending = np.inf
-                    g_seg = gb
-                    r_seg = guard_rate_trig_value(gkind, gindex, phase, p, tau, fmode, y_new,
-                                                  pivot, work, trig_new)
-                if t_new == t_target and t_target < t_ev:
-                    t_ev = t_new
-                seg_event = t_ev < np.inf
-                # ---- friction events (earliest, strictly before any segment event) ----
-                fric_k = np.int64(-1)
-                for k in range(2):
-                    if not (fric0 if k == 0 else fric1):
-                        continue
-                    gb = friction_guard(k, phase, p, tau, fmode, y_new, pivot)
-                    fkind = G_STICK_BREAK if fmode[k] == 0.0 else G_SLIP_STOP
-                    fdir = 1.0 if fkind == G_STICK_BREAK else -1.0
-                    if crosses(g_fric[k], gb, fdir):
-                        if not dense:
-                            counts[K_NFEV] += dense_prepare_of_method(
-                                phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
-                            dense = True
-                        tc = _locate_friction(k, fkind, t, t_new, g_fric[k], gb, method, Fd,
-                                              y, h, n, phase, p, tau, fmode, pivot, ybuf)
-                        if tc < t_ev:
-                            t_ev = tc
-                            fric_k = k
-                            seg_event = False
-                    g_fric[k] = gb
-                # ---- observers (non-terminal, up to the event) ----
-                t_cut = min(t_ev, t_new)
-                if n_obs > 0:
-                    # one call site: a second one, after dense = True, would pass a
-                    # literal and compile the piece once more
-                    k_obs = np.int64(0)
-                    for _pass in range(2):
-                        n_log, ostatus, k_obs = observe_step(
-                            k_obs, obs, seg, t, t_new, t_cut, h, dense, method, Fd, y,
-                            y_new, trig_new, n, phase, p, tau, fmode, pivot, eref, work,
-                            ybuf, g_obs, log, n_log, cycles, flipped, counts)
-                        if ostatus != NEED_DENSE:
-                            break
-                        counts[K_NFEV] += dense_prepare_of_method(
-                            phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
-                        dense = True
-                    if ostatus >= 0:
-                        status = ostatus
-                if status >= 0:
-                    break
-                # ---- samples on the grid, up to the event ----
+                g_seg = guard_value(gkind, gindex, gvalue, phase, p, tau, fmode, y, pivot, eref)
+                scale = 1.0 + abs(gvalue)
+                if gkind == G_ENERGY_RESTORED:
+                    scale = 1.0 + abs(eref) + abs(gvalue)
+                if entering and abs(g_seg) <= band * scale:
+                    g_seg = 0.0
+                if gkind == G_ENERGY_RESTORED and entering and g_seg >= 0.0:
+                    level_fire = True
+            else:
+                g_seg = 0.0
+            for k in range(n_obs):
+                if obs[k, O_SEGMENT] >= 0 and int(obs[k, O_SEGMENT]) != seg:
+                    continue
+                g_obs[k] = guard_value(int(obs[k, O_GUARD]), int(obs[k, O_GINDEX]),
+                                       obs[k, O_GVALUE], phase, p, tau, fmode, y, pivot, eref)
+                if abs(g_obs[k]) <= band * (1.0 + abs(obs[k, O_GVALUE])):
+                    g_obs[k] = 0.0
+            # friction DOFs watched on this leg (fixed along it; tested once, not on every step)
+            fric0 = friction_active(0, phase, p)
+            fric1 = friction_active(1, phase, p)
+            for k in range(2):
+                if fric0 if k == 0 else fric1:
+                    g_fric[k] = friction_guard(k, phase, p, tau, fmode, y, pivot)
+            entering = False
+
+            if level_fire or (gkind == G_TIME and t_target <= t):
+                fired = True
+            elif phase == PHASE_FIXED:
+                # nothing moves: only time passes (samples stay put)
+                t_new = t_stop
                 if sampling:
-                    while next_k * sample_dt <= t_cut:
-                        ts = next_k * sample_dt
-                        if not dense:
-                            counts[K_NFEV] += dense_prepare_of_method(
-                                phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
-                            dense = True
-                        dense_eval(method, Fd, y, h, (ts - t) / h, n, ybuf)
-                        unpack_into(phase, ybuf, pivot, work)
-                        n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, ts, work,
-                                              phase, flipped, tau, seg)
+                    while next_k * sample_dt <= t_new:
+                        n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp,
+                                              next_k * sample_dt, s8, phase, flipped, tau, seg)
                         if n_samp < 0:
                             status = ST_BUFFER_FULL
                             break
                         next_k += 1
+                t = t_new
+                if t == t_target:
+                    fired = True
+            else:
+                rhs(phase, p, tau, fmode, y, f)
+                h_abs = select_initial_step(phase, p, tau, fmode, t, y, f, n, t_stop, max_step,
+                                            err_order, rtol, atol, ytmp, f_new)
+                counts[K_NFEV] += 2
+                en_prev = 1.0  # a leg starts the PI controller afresh, as the integrator restarts
+                r_seg = 0.0
+                if state_guard:
+                    r_seg = guard_rate_value(gkind, gindex, phase, p, tau, fmode, y, pivot, work)
+                while True:
+                    bound = min(t_stop, pending)
+                    if t >= bound:
+                        break
+                    # ---- one adaptive step (scipy's RungeKutta._step_impl) ----
+                    # scipy's min_step, 10 ulp(t), is at most 10 eps |t| (+ a subnormal at t = 0):
+                    # the nextafter call is only needed for a step below that
+                    tiny = 10.0 * EPS * abs(t) + 1e-300
+                    if h_abs > max_step:
+                        h_abs = max_step
+                    elif h_abs < tiny and h_abs < _min_step(t):
+                        h_abs = _min_step(t)
+                    rejected = False
+                    ok = True
+                    while True:
+                        if h_abs < tiny and h_abs < _min_step(t):
+                            ok = False
+                            break
+                        t_new = t + h_abs
+                        if t_new > bound:
+                            t_new = bound
+                        h = t_new - t
+                        h_abs = abs(h)
+                        # the method's straight-line steps, called directly: through a wrapper
+                        # (inlined or called) numba reference-counts the eight arrays on every
+                        # step (atomic operations; docs/performance.md says what a wrapper
+                        # costs). The controller works on the squared norm en_sq (see
+                        # integrate.error_power_sq). A loop that never flies has no flight step.
+                        if not FLIES or n == 4:
+                            step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                            en_sq = error_sq4(K, h, y, y_new, rtol, atol)
+                        else:
+                            step8(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
+                            en_sq = error_sq8(K, h, y, y_new, rtol, atol)
+                        counts[K_NFEV] += n_stages
+                        if en_sq < 1.0:
+                            if pi_control:
+                                en = math.sqrt(en_sq)
+                                factor = pi_factor(en, en_prev, err_order)
+                                en_prev = max(en, PI_ERR_FLOOR)
+                            else:
+                                # en_sq = 0 gives an infinite power: MAX_FACTOR
+                                factor = min(MAX_FACTOR, SAFETY * error_power_sq(method, en_sq))
+                            if rejected:
+                                factor = min(1.0, factor)
+                            h_abs *= factor
+                            break
+                        h_abs *= max(MIN_FACTOR, SAFETY * error_power_sq(method, en_sq))
+                        rejected = True
+                        counts[K_REJECTED] += 1
+                    if not ok:
+                        status = ST_STEP_FAILURE
+                        break
+                    counts[K_STEPS] += 1
+                    if counts[K_STEPS] > max_steps:
+                        status = ST_STEP_FAILURE
+                        break
+                    if not _finite(y_new, n):
+                        status = ST_NONFINITE
+                        break
+                    dense = False
+                    t_ev = np.inf
+                    # ---- segment guard ----
+                    if state_guard and pending == np.inf:
+                        # guard and rate from the step's sines and cosines; the vector field's
+                        # call kept out of inlined code (numba would reference-count its arrays)
+                        if rate_uses_field(gkind, gindex):
+                            gb = guard_trig_value(gkind, gindex, gvalue, phase, p, tau, fmode,
+                                                  y_new, pivot, eref, trig_new)
+                            rb = guard_rate_field(gkind, gindex, phase, p, tau, fmode, y_new, work)
+                        else:
+                            gb, rb = guard_and_rate_step(gkind, gindex, gvalue, phase, p, tau,
+                                                         fmode, y_new, pivot, eref, trig_new)
+                        if (crosses(g_seg, gb, gdir)
+                                or hermite_flags(g_seg, r_seg, gb, rb, h, gdir)):
+                            if not dense:
+                                counts[K_NFEV] += dense_prepare_of_method(
+                                    phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
+                                dense = True
+                            t_ev, pending, pending_sign = segment_event_in_step(
+                                gkind, gindex, gvalue, gdir, t, t_new, g_seg, gb, r_seg, rb,
+                                method, Fd, y, h, n, phase, p, tau, fmode, pivot, eref, ybuf,
+                                work, ticked, tick, tick_phase, pending, pending_sign)
+                        g_seg = gb
+                        r_seg = rb
+                    elif state_guard and t_new == pending:
+                        gb = guard_trig_value(gkind, gindex, gvalue, phase, p, tau, fmode, y_new,
+                                              pivot, eref, trig_new)
+                        if (gdir > 0 and gb >= 0.0) or (gdir < 0 and gb <= 0.0) or \
+                                (gdir == 0 and gb * pending_sign <= 0.0):
+                            t_ev = t_new
+                        pending = np.inf
+                        g_seg = gb
+                        r_seg = guard_rate_trig_value(gkind, gindex, phase, p, tau, fmode, y_new,
+                                                      pivot, work, trig_new)
+                    if t_new == t_target and t_target < t_ev:
+                        t_ev = t_new
+                    seg_event = t_ev < np.inf
+                    # ---- friction events (earliest, strictly before any segment event) ----
+                    fric_k = np.int64(-1)
+                    for k in range(2):
+                        if not (fric0 if k == 0 else fric1):
+                            continue
+                        gb = friction_guard(k, phase, p, tau, fmode, y_new, pivot)
+                        fkind = G_STICK_BREAK if fmode[k] == 0.0 else G_SLIP_STOP
+                        fdir = 1.0 if fkind == G_STICK_BREAK else -1.0
+                        if crosses(g_fric[k], gb, fdir):
+                            if not dense:
+                                counts[K_NFEV] += dense_prepare_of_method(
+                                    phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
+                                dense = True
+                            tc = _locate_friction(k, fkind, t, t_new, g_fric[k], gb, method, Fd,
+                                                  y, h, n, phase, p, tau, fmode, pivot, ybuf)
+                            if tc < t_ev:
+                                t_ev = tc
+                                fric_k = k
+                                seg_event = False
+                        g_fric[k] = gb
+                    # ---- observers (non-terminal, up to the event) ----
+                    t_cut = min(t_ev, t_new)
+                    if n_obs > 0:
+                        # one call site: a second one, after dense = True, would pass a
+                        # literal and compile the piece once more
+                        k_obs = np.int64(0)
+                        for _pass in range(2):
+                            n_log, ostatus, k_obs = observe_step(
+                                k_obs, obs, seg, t, t_new, t_cut, h, dense, method, Fd, y,
+                                y_new, trig_new, n, phase, p, tau, fmode, pivot, eref, work,
+                                ybuf, g_obs, log, n_log, cycles, flipped, counts)
+                            if ostatus != NEED_DENSE:
+                                break
+                            counts[K_NFEV] += dense_prepare_of_method(
+                                phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
+                            dense = True
+                        if ostatus >= 0:
+                            status = ostatus
                     if status >= 0:
                         break
-                # ---- advance ----
-                if t_ev < np.inf:
-                    if t_ev == t_new:
-                        for i in range(n):
-                            y[i] = y_new[i]
-                    else:
-                        dense_eval(method, Fd, y, h, (t_ev - t) / h, n, ybuf)
-                        for i in range(n):
-                            y[i] = ybuf[i]
-                    t = t_ev
-                    if seg_event:
-                        fired = True
+                    # ---- samples on the grid, up to the event ----
+                    if sampling:
+                        while next_k * sample_dt <= t_cut:
+                            ts = next_k * sample_dt
+                            if not dense:
+                                counts[K_NFEV] += dense_prepare_of_method(
+                                    phase, p, tau, fmode, t, h, y, y_new, f_new, n, K, Fd, ytmp)
+                                dense = True
+                            dense_eval(method, Fd, y, h, (ts - t) / h, n, ybuf)
+                            unpack_into(phase, ybuf, pivot, work)
+                            n_samp = write_sample(samp_t, samp_y, samp_mode, n_samp, ts, work,
+                                                  phase, flipped, tau, seg)
+                            if n_samp < 0:
+                                status = ST_BUFFER_FULL
+                                break
+                            next_k += 1
+                        if status >= 0:
+                            break
+                    # ---- advance ----
+                    if t_ev < np.inf:
+                        if t_ev == t_new:
+                            for i in range(n):
+                                y[i] = y_new[i]
+                        else:
+                            dense_eval(method, Fd, y, h, (t_ev - t) / h, n, ybuf)
+                            for i in range(n):
+                                y[i] = ybuf[i]
+                        t = t_ev
+                        if seg_event:
+                            fired = True
+                        break
+                    t = t_new
+                    for i in range(n):
+                        y[i] = y_new[i]
+                        f[i] = f_new[i]
+                unpack_into(phase, y, pivot, s8)
+                if status >= 0:
                     break
-                t = t_new
-                for i in range(n):
-                    y[i] = y_new[i]
-                    f[i] = f_new[i]
-            unpack_into(phase, y, pivot, s8)
-            if status >= 0:
-                break
 
-        # ------------------------------------------------------------------ leg outcome
-        if fric_k >= 0:
-            n_log, status = change_friction_mode(fric_k, phase, flipped, p, tau, fmode, s8,
-                                                 y, t, cycles, counts, log, n_log)
-            continue
-        if fired and delayed_exit == np.inf and int(prog[seg, S_GUARD]) != G_TIME and \
-                prog[seg, S_DELAY] > 0.0:
-            delayed_exit = t + prog[seg, S_DELAY]
-            continue
-        if fired:
-            delayed_exit = np.inf
-            status, seg, phase, flipped, clock0, cycles, n_log, n_samp = exit_segment(
-                par, prog, seg, t, s8, phase, flipped, tau, gvalue, clock0, cycles,
-                max_cycles, counts, seg_times, log, n_log, sampling, samp_t, samp_y,
-                samp_mode, n_samp)
-            if status >= 0:
-                break
-            entering = True
-            magnets_done = True   # the next segment's magnets (the impact, in the log)
-            continue
-        # no event: the leg ended on a bound
-        if t >= t_end:
-            status = ST_END_TIME
-        elif t >= horizon:
-            fail = int(prog[seg, S_FAIL])
-            status = fail if fail > 0 else ST_HORIZON
+            # ------------------------------------------------------------------ leg outcome
+            if fric_k >= 0:
+                n_log, status = change_friction_mode(fric_k, phase, flipped, p, tau, fmode, s8,
+                                                     y, t, cycles, counts, log, n_log)
+                continue
+            if fired and delayed_exit == np.inf and int(prog[seg, S_GUARD]) != G_TIME and \
+                    prog[seg, S_DELAY] > 0.0:
+                delayed_exit = t + prog[seg, S_DELAY]
+                continue
+            if fired:
+                delayed_exit = np.inf
+                status, seg, phase, flipped, clock0, cycles, n_log, n_samp = exit_segment(
+                    par, prog, seg, t, s8, phase, flipped, tau, gvalue, clock0, cycles,
+                    max_cycles, counts, seg_times, log, n_log, sampling, samp_t, samp_y,
+                    samp_mode, n_samp)
+                if status >= 0:
+                    break
+                entering = True
+                magnets_done = True   # the next segment's magnets (the impact, in the log)
+                continue
+            # no event: the leg ended on a bound
+            if t >= t_end:
+                status = ST_END_TIME
+            elif t >= horizon:
+                fail = int(prog[seg, S_FAIL])
+                status = fail if fail > 0 else ST_HORIZON
 
-    # ---------------------------------------------------------------------- write back
-    for i in range(8):
-        hyb[i] = s8[i]
-    hyb[H_T] = t
-    hyb[H_PHASE] = phase
-    hyb[H_FLIPPED] = flipped
-    hyb[H_SEG] = seg
-    hyb[H_TORQUE] = tau
-    hyb[H_EREF] = eref
-    hyb[H_CLOCK] = clock0
-    hyb[H_FMODE0] = fmode[0]
-    hyb[H_FMODE1] = fmode[1]
-    hyb[H_CYCLES] = cycles
-    hyb[H_Y_REF] = y_ref
-    counts[K_CYCLES] = cycles
-    counts[K_LOG] = n_log
-    counts[K_SAMPLES] = n_samp
+        # ---------------------------------------------------------------------- write back
+        for i in range(8):
+            hyb[i] = s8[i]
+        hyb[H_T] = t
+        hyb[H_PHASE] = phase
+        hyb[H_FLIPPED] = flipped
+        hyb[H_SEG] = seg
+        hyb[H_TORQUE] = tau
+        hyb[H_EREF] = eref
+        hyb[H_CLOCK] = clock0
+        hyb[H_FMODE0] = fmode[0]
+        hyb[H_FMODE1] = fmode[1]
+        hyb[H_CYCLES] = cycles
+        hyb[H_Y_REF] = y_ref
+        counts[K_CYCLES] = cycles
+        counts[K_LOG] = n_log
+        counts[K_SAMPLES] = n_samp
+        counts[K_STATUS] = status
     return status
 
 
@@ -991,11 +1004,14 @@ def hybrid_loops():
 
 def simulate(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t, samp_y,
              samp_mode):
-    """Run a controller program from the hybrid state ``hyb``; returns a status ``ST_*``.
+    """Run a controller program from the hybrid state ``hyb``, or from each row of a batch of
+    them; returns a status ``ST_*`` (the last row's; each row's is in ``counts[:, K_STATUS]``).
 
     The entry for Python callers: calls the compiled loop of the method and phase set that
     ``method``'s type names (:func:`hybrid_loop`). Compiled kernels call
-    :func:`simulate_loop`, which calls the same compiled loop.
+    :func:`simulate_loop`, which calls the same compiled loop. A batch (a gait map's points)
+    is one call: no compiled function of its own links the loop (a first run's compile), and
+    no Python between two runs.
 
     Parameters
     ----------
@@ -1011,23 +1027,27 @@ def simulate(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp
         Observers: guards whose crossings are logged (layout ``O_*``).
     settings : float64[N_SETTINGS]
         Integrator and run settings (layout ``C_*``).
-    hyb : float64[N_HYB]
+    hyb : float64[N_HYB] or float64[n_runs, N_HYB]
         Hybrid state (layout ``H_*``), updated in place to the final state. On input,
-        ``hyb[H_SEG]`` is the segment to enter at ``hyb[H_T]``.
-    counts : int64[N_COUNTS]
-        Accumulated counters (steps, rejected steps, RHS evaluations, events, ...).
-    seg_times : float64[n_seg]
+        ``hyb[H_SEG]`` is the segment to enter at ``hyb[H_T]``. A batch: one run per row.
+    counts : int64[N_COUNTS] or int64[n_runs, N_COUNTS]
+        Accumulated counters (steps, rejected steps, RHS evaluations, events, ...) and the
+        run's status (``K_STATUS``).
+    seg_times : float64[n_seg] or float64[n_runs, n_seg]
         Time of the latest exit from each segment [s] (NaN if never left).
     log : float64[cap, N_LOG_COLS]
         Event log: segment exits, observer crossings, friction changes (capacity 0: none).
+        The runs of a batch share it, each writing from its own ``counts[K_LOG]``.
     samp_t, samp_y, samp_mode : float64 arrays
         Trajectory samples every ``C_SAMPLE_DT`` from the dense output, plus the states just
-        before and after each segment transition (capacity 0: none).
+        before and after each segment transition (capacity 0: none). Shared as ``log`` is.
     """
     choice = choice_of_type(typeof(method))
     if choice is None:
         raise TypeError("method must be a scalar of integrate.method_scalar, not "
                         f"{type(method).__name__}")
+    if hyb.ndim == 1:    # one run: a batch of one (views, updated in place)
+        hyb, counts, seg_times = hyb[None], counts[None], seg_times[None]
     return hybrid_loop(*choice)(method, par, prog, obs, settings, hyb, counts, seg_times, log,
                                 samp_t, samp_y, samp_mode)
 
@@ -1036,7 +1056,9 @@ def simulate_loop(method, par, prog, obs, settings, hyb, counts, seg_times, log,
                   samp_y, samp_mode):
     """:func:`simulate` for compiled kernels: a call of the compiled loop that ``method``'s
     type names (typed and lowered below as a call of :func:`hybrid_loop`'s dispatcher, whose
-    cached compile the caller links; interpreted, it is :func:`simulate`)."""
+    cached compile the caller links; interpreted, it is :func:`simulate`). ``hyb``,
+    ``counts`` and ``seg_times`` are batches (2-d), a single run's a batch of one
+    (``hyb.reshape((1, N_HYB))``)."""
     return simulate(method, par, prog, obs, settings, hyb, counts, seg_times, log, samp_t,
                     samp_y, samp_mode)
 

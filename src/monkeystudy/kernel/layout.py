@@ -116,7 +116,8 @@ STATUS_NAMES = ("ok", "no_switch", "energy_not_restored", "no_return_to_vertical
 
 # --- counters -------------------------------------------------------------------------------------
 K_STEPS, K_REJECTED, K_NFEV, K_EVENTS, K_CYCLES, K_SAMPLES, K_LOG = 0, 1, 2, 3, 4, 5, 6
-N_COUNTS = 7
+K_STATUS = 7       # the run's status (ST_*), set at its end
+N_COUNTS = 8
 
 # --- event log row ----------------------------------------------------------------------------------
 # [t, kind (0 segment exit, 1 observer, 2 friction mode change), id, cycle, phase, flipped,

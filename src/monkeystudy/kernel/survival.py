@@ -36,7 +36,7 @@ from .hybrid import simulate_loop
 from .jit import njit
 from .layout import (
     C_MAX_CYCLES, DTH1, DTH2, H_CYCLES, H_SEG, H_T, JITTER_LATENCY, JITTER_NONE, K_LOG, K_NFEV,
-    L_KIND, L_STATE, L_T, LOG_OBSERVER, N_COUNTS, N_LOG_COLS, N_MODE_COLS, NZ_DTHETA1,
+    L_KIND, L_STATE, L_T, LOG_OBSERVER, N_COUNTS, N_HYB, N_LOG_COLS, N_MODE_COLS, NZ_DTHETA1,
     NZ_DTHETA2, NZ_LATENCY, NZ_THETA2, NZ_TIMING, NZ_TORQUE, NZ_UNIFORM, RL_JITTER, RL_PULSE,
     RL_SENSOR, S_DELAY, S_GVALUE, S_NEXT, S_TORQUE, ST_ERROR_BOUND, ST_OK, ST_STALLED,
     SV_CYCLES, SV_DISTANCE, SV_ERROR, SV_FAILURE, SV_HEIGHT, SV_NFEV, SV_TIME, TH2, X, Y,
@@ -110,6 +110,10 @@ def survival_run(method, par, prog, obs, settings, hyb0, roles, noise, seed, run
     cycle_prog = np.empty_like(prog)
     counts = np.zeros(N_COUNTS, dtype=np.int64)
     seg_times = np.empty(prog.shape[0])
+    # the loop's batch of one run: views of the same arrays
+    hyb_rows = hyb.reshape((1, N_HYB))
+    counts_rows = counts.reshape((1, N_COUNTS))
+    seg_rows = seg_times.reshape((1, prog.shape[0]))
     log = np.empty((CYCLE_LOG_ROWS, N_LOG_COLS))
     no_t = np.empty(0)
     no_y = np.empty((0, 8))
@@ -125,8 +129,8 @@ def survival_run(method, par, prog, obs, settings, hyb0, roles, noise, seed, run
         noisy_program(prog, roles, noise, seed, run, c, latency, cycle_prog)
         run_settings[C_MAX_CYCLES] = hyb[H_CYCLES] + 1.0
         counts[K_LOG] = 0
-        status = simulate_loop(method, par, cycle_prog, obs, run_settings, hyb, counts, seg_times,
-                               log, no_t, no_y, no_mode)
+        status = simulate_loop(method, par, cycle_prog, obs, run_settings, hyb_rows,
+                               counts_rows, seg_rows, log, no_t, no_y, no_mode)
         nfev += counts[K_NFEV]
         counts[K_NFEV] = 0
         if status != ST_OK:
