@@ -11,6 +11,7 @@ and the runs the tests start as subprocesses inherit it.
 """
 import os
 import pathlib
+import signal
 import sys
 
 _TESTS = pathlib.Path(__file__).resolve().parent
@@ -23,3 +24,10 @@ if _WORKER:
         os.environ.get("XDG_CACHE_HOME") or os.path.join(pathlib.Path.home(), ".cache"),
         "monkeystudy")
     os.environ["NUMBA_CACHE_DIR"] = os.path.join(_BASE, f"tests-{_WORKER}")
+
+# A suite started in the background of a shell without job control inherits SIGINT ignored
+# (POSIX), and so would every run a test starts: no Ctrl-C the tests send would reach them,
+# and those tests would wait out their hang guards. The tests send SIGINT as a terminal's
+# Ctrl-C does, to processes that take it.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
