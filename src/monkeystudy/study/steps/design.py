@@ -659,6 +659,19 @@ def write_design(path: Path, attrs: dict, st: DesignStep, space: DesignSpace, ax
     def put(name, data, **kw):
         D.write_declared(nc, VARIABLES, name, data, **words, **kw)
 
+    def put_designs(prefix, dim, rows):
+        """Design results along ``dim``: the coordinate, each parameter's value
+        (``<prefix>_<parameter>``), the objective and the finite-difference spectral
+        radius."""
+        D.write_coordinate(nc, VARIABLES, dim, np.arange(len(rows)))
+        for n in names:
+            D.write_declared(nc, VARIABLES, f"{prefix}_{PARAMETER}",
+                             [r["result"].values[n] for r in rows],
+                             written_as=f"{prefix}_{n}", units=units[n], parameter=n)
+        put(f"{prefix}_objective", [r["result"].objective(st.objective, st.energy_weight)
+                                    for r in rows])
+        put(f"{prefix}_spectral_radius_fd", [r["result"].spectral_radius_fd for r in rows])
+
     with D.atomic_netcdf(path) as nc:
         for n, a in zip(names, axes):
             nc.createDimension(n, len(a))
@@ -671,16 +684,9 @@ def write_design(path: Path, attrs: dict, st: DesignStep, space: DesignSpace, ax
         put("multiplier_modulus", grid["multiplier_modulus"].reshape(*shape, k),
             dims=(*names, "k"))
         refined = found["refined"]
-        D.write_coordinate(nc, VARIABLES, "start", np.arange(len(refined)))
-        for n in names:
-            D.write_declared(nc, VARIABLES, f"refined_{PARAMETER}",
-                             [r["result"].values[n] for r in refined],
-                             written_as=f"refined_{n}", units=units[n], parameter=n)
-        put("refined_objective", [r["result"].objective(st.objective, st.energy_weight)
-                                  for r in refined])
+        put_designs("refined", "start", refined)
         put("start_objective", [r["start_objective"] for r in refined])
         put("refine_evaluations", [r["evaluations"] for r in refined])
-        put("refined_spectral_radius_fd", [r["result"].spectral_radius_fd for r in refined])
         nc.createDimension("replay", 2)
         put("replay_tick", [0.0, st.verify.tick])
         for key in ("cycles_completed", "cycles_walked"):
@@ -728,15 +734,7 @@ def write_design(path: Path, attrs: dict, st: DesignStep, space: DesignSpace, ax
         put("motor_torque", torque, torque=what)
         screened = found.get("screened") or []
         if screened:
-            D.write_coordinate(nc, VARIABLES, "candidate", np.arange(len(screened)))
-            for n in names:
-                D.write_declared(nc, VARIABLES, f"screen_{PARAMETER}",
-                                 [c["result"].values[n] for c in screened],
-                                 written_as=f"screen_{n}", units=units[n], parameter=n)
-            put("screen_objective", [c["result"].objective(st.objective, st.energy_weight)
-                                     for c in screened])
-            put("screen_spectral_radius_fd", [c["result"].spectral_radius_fd
-                                              for c in screened])
+            put_designs("screen", "candidate", screened)
             put("screen_rank", [c["rank"] for c in screened])
             put("screen_survived", [c["survived"] for c in screened])
             put("screen_mean_cycles", [c["mean_cycles"] for c in screened])
