@@ -154,6 +154,11 @@ def wrapped_difference(a, b):
     return (a - b + math.pi) % (2.0 * math.pi) - math.pi
 
 
+# wrapped_difference's own Python body, which numpy evaluates on arrays with the same
+# operations (its compile takes scalars; interpreted, the function is its own body)
+_wrapped_difference_of_arrays = getattr(wrapped_difference, "py_func", wrapped_difference)
+
+
 def cycle_gait_batch(method, par, prog, obs, settings, theta1, theta2, points, out, seg_out):
     """One cycle of a phase-sequence gait from each section state of ``points[N, 2]`` into
     ``out[N, N_CYCLE_RESULT]`` and ``seg_out[N, n_segments]``.
@@ -192,6 +197,6 @@ def cycle_gait_batch(method, par, prog, obs, settings, theta1, theta2, points, o
     out[:, Q_PHASE] = hyb[:, H_PHASE]
     out[:, Q_FINAL:Q_FINAL + 8] = hyb[:, :8]
     ok = status == ST_OK
-    d2 = (hyb[ok, TH2] - theta2 + math.pi) % (2.0 * math.pi) - math.pi    # wrapped_difference
+    d2 = _wrapped_difference_of_arrays(hyb[ok, TH2], theta2)
     out[ok, Q_ERROR] = (d2 * d2 + (hyb[ok, DTH1] - points[ok, 0]) ** 2
                         + (hyb[ok, DTH2] - points[ok, 1]) ** 2)
