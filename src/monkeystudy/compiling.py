@@ -43,8 +43,8 @@ from .kernel.variational import (
 )
 
 #: the directory of the kernels' on-disk cache, keyed by a hash of every kernel source
-#: (``monkeystudy/kernel/__init__.py``); "" when it could not be created (a read-only home:
-#: numba then caches beside the sources)
+#: (``monkeystudy/kernel/jit.py``); "" when it cannot be written (a read-only home: the
+#: kernels then compile in every process, cached nowhere)
 KERNEL_CACHE_DIR = kernel.KERNEL_CACHE_DIR
 
 

@@ -29,44 +29,15 @@ the Runge-Kutta steps call only their ``*_fused`` fields and overloads (compiled
 and ``tests/test_compiling.py`` checks that compiling the hybrid loop's callees first, as
 the compile-ahead helper does, gives the same bits.
 
-Numba's on-disk cache checks only the source file of each function, not of the functions it
-calls: edit ``integrate.py`` and a cached hybrid loop (``hybrid.hybrid_loop``) keeps running
-the old integrator.
-So the cache lives in a directory keyed by a hash of *all* kernel sources (below
-``$NUMBA_CACHE_DIR`` if set, else the user cache directory): any kernel change compiles afresh,
-and an unchanged kernel loads from disk in well under a second.
+Every kernel is cached on disk in a folder keyed by a hash of *all* kernel sources and the
+compiling libraries' versions (``jit.KERNEL_CACHE_DIR``, below ``$NUMBA_CACHE_DIR`` if set,
+else the user cache directory), whenever it is made: numba's own cache checks only each
+function's own file, so an edit of ``integrate.py`` would otherwise leave a cached hybrid loop
+(``hybrid.hybrid_loop``) running the old integrator. Any kernel change or upgrade compiles
+afresh, and an unchanged kernel loads from disk in well under a second.
 """
-import hashlib
-import os
-from pathlib import Path
-
-from numba.core import config as _numba_config
-
-
-def _kernel_cache_dir() -> str:
-    here = Path(__file__).resolve().parent
-    digest = hashlib.sha256()
-    for src in sorted(here.glob("*.py")):
-        digest.update(src.name.encode())
-        digest.update(src.read_bytes())
-    base = os.environ.get("NUMBA_CACHE_DIR") or os.path.join(
-        os.environ.get("XDG_CACHE_HOME") or os.path.join(Path.home(), ".cache"), "monkeystudy")
-    return os.path.join(base, "kernel-" + digest.hexdigest()[:16])
-
-
-KERNEL_CACHE_DIR = _kernel_cache_dir()
-_saved_cache_dir = _numba_config.CACHE_DIR
-try:
-    os.makedirs(KERNEL_CACHE_DIR, exist_ok=True)
-    _numba_config.CACHE_DIR = KERNEL_CACHE_DIR
-except OSError:  # read-only home: fall back to numba's own choice (in-tree __pycache__)
-    KERNEL_CACHE_DIR = ""
-try:
-    # every kernel module is decorated now, while the cache directory is ours; then the
-    # global setting goes back to what it was, so other numba users are unaffected
-    from . import (  # noqa: F401
-        design, dynamics, events, gait, hybrid, integrate, intrinsics, layout, noise,
-        rk_explicit, roots, survival, tableaux, trig, variational,
-    )
-finally:
-    _numba_config.CACHE_DIR = _saved_cache_dir
+from .jit import KERNEL_CACHE_DIR, KERNEL_DIGEST  # noqa: F401
+from . import (  # noqa: F401,E402
+    design, dynamics, events, gait, hybrid, integrate, intrinsics, layout, noise, rk_explicit,
+    roots, survival, tableaux, trig, variational,
+)

@@ -1,30 +1,163 @@
-"""The kernels' compile decorator, and copies of kernels with some module constants set
+"""The kernels' compile decorator, their on-disk cache, and copies of kernels with some module
+constants set otherwise.
+
+:func:`njit` is numba's ``njit`` without the C-callable wrapper, cached where every kernel
+source decides. Numba compiles, beside every function, a ``cfunc`` wrapper that lets the
+function be passed as a first-class function value; no kernel is used that way (they call each
+other directly), and the wrappers are about 5 % of a first run's compile (1.0-1.2 s of 21 s of
+processor time for the horizontal study's gait evaluation compiled in one process, three runs
+each way). Every kernel module compiles through :func:`njit`, with numba's own options
 otherwise.
 
-:data:`njit` is numba's ``njit`` without the C-callable wrapper. Numba compiles, beside every
-function, a ``cfunc`` wrapper that lets the function be passed as a first-class function value;
-no kernel is used that way (they call each other directly), and the wrappers are about 5 % of a
-first run's compile (1.0-1.2 s of 21 s of processor time for the horizontal study's gait
-evaluation compiled in one process, three runs each way). Every kernel module compiles through
-:data:`njit`, with numba's own options otherwise.
+**The cache.** Numba's own cache checks only the source file of each function (its modification
+time and size), not the files of the functions it calls, and its folder is chosen when the
+function is decorated (``NUMBA_CACHE_DIR`` or beside the source). A cached hybrid loop
+(``hybrid.hybrid_loop``) would keep running the integrator of ``integrate.py`` as it was when
+the loop was compiled. So every kernel, whenever it is made (at import, or later: the hybrid
+loops, the :func:`specialised` copies), is cached by :class:`KernelCacheLocator` alone: in
+:data:`KERNEL_CACHE_DIR`, a folder named by a hash of every kernel source and of the versions
+of Python, numpy, numba and llvmlite, with that hash as each index's stamp. Any kernel change,
+or an upgrade, compiles afresh; an unchanged kernel loads from disk. Nothing is cached beside
+the sources; where the folder cannot be written, kernels compile in each process (with a
+warning) rather than risk a stale cache.
 
 :func:`specialised` copies a kernel with module constants of its own (e.g. ``FLIES`` False for
 runs that never fly): numba reads a module constant as a literal when it compiles, and drops a
 branch that a literal condition never takes before typing it, so the copy compiles without the
 code that branch calls, and so does every kernel that links the copy.
 """
-from functools import partial
+import hashlib
+import os
+import platform
+import sys
+import warnings
+from pathlib import Path
 from types import CodeType, FunctionType
 
+import llvmlite
+import numba
+import numpy
 from numba import jit as numba_jit
-from numba import njit as numba_njit
+from numba.core.caching import CompileResultCacheImpl, FunctionCache, _CacheLocator
 from numba.core.dispatcher import Dispatcher
 
-#: ``numba.njit`` with ``no_cfunc_wrapper=True``; used as ``@njit(cache=True, ...)``
-njit = partial(numba_njit, no_cfunc_wrapper=True)
+#: the kernel package's folder: every ``*.py`` in it is a kernel source
+KERNEL_SOURCE_DIR = Path(__file__).resolve().parent
+
+
+def kernel_sources_digest(folder: Path = KERNEL_SOURCE_DIR) -> str:
+    """SHA-256 (hex) of every kernel source in ``folder`` (names and bytes, sorted by name)
+    and of the versions of Python, numpy, numba and llvmlite that compile them."""
+    digest = hashlib.sha256()
+    for src in sorted(folder.glob("*.py")):
+        digest.update(src.name.encode() + b"\0")
+        digest.update(src.read_bytes() + b"\0")
+    for version in (platform.python_implementation(), sys.version, numpy.__version__,
+                    numba.__version__, llvmlite.__version__):
+        digest.update(version.encode() + b"\0")
+    return digest.hexdigest()
+
+
+#: the hash of every kernel source and the compiling libraries' versions (hex)
+KERNEL_DIGEST = kernel_sources_digest()
+
+
+def kernel_cache_dir(digest: str = KERNEL_DIGEST) -> str:
+    """The kernels' cache folder: ``kernel-<digest[:16]>`` below ``$NUMBA_CACHE_DIR`` if set,
+    else below ``$XDG_CACHE_HOME/monkeystudy`` (``~/.cache/monkeystudy``)."""
+    base = os.environ.get("NUMBA_CACHE_DIR") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.join(Path.home(), ".cache"), "monkeystudy")
+    return os.path.join(base, "kernel-" + digest[:16])
+
+
+def _writable_cache_dir(path: str) -> str:
+    """``path``, created, if this process can write files in it; else ``""``."""
+    try:
+        os.makedirs(path, exist_ok=True)
+        probe = os.path.join(path, f".probe-{os.getpid()}")
+        with open(probe, "wb"):
+            pass
+        os.remove(probe)
+    except OSError:
+        return ""
+    return path
+
+
+#: the folder every kernel is cached in; "" when it cannot be written (kernels then compile
+#: in each process, and are cached nowhere)
+KERNEL_CACHE_DIR = _writable_cache_dir(kernel_cache_dir())
+
+
+class KernelCacheLocator(_CacheLocator):
+    """Numba cache locator of the kernels: :data:`KERNEL_CACHE_DIR`, stamped with
+    :data:`KERNEL_DIGEST`, for functions whose source is a kernel module; none for others."""
+
+    def __init__(self, py_func, py_file):
+        self._py_file = py_file
+        self._lineno = py_func.__code__.co_firstlineno
+
+    def get_cache_path(self):
+        return KERNEL_CACHE_DIR
+
+    def get_source_stamp(self):
+        # every kernel source, not this function's file alone: a callee's edit must be seen
+        return KERNEL_DIGEST
+
+    def get_disambiguator(self):
+        return str(self._lineno)
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        if not KERNEL_CACHE_DIR or Path(py_file).resolve().parent != KERNEL_SOURCE_DIR:
+            return None
+        return cls(py_func, py_file)
+
+
+class KernelCacheImpl(CompileResultCacheImpl):
+    """Numba's compile-result cache, located by :class:`KernelCacheLocator` only."""
+
+    _locator_classes = [KernelCacheLocator]
+
+
+class KernelFunctionCache(FunctionCache):
+    """Numba's function cache, located by :class:`KernelCacheLocator` only."""
+
+    _impl_class = KernelCacheImpl
+
+
+_WARNED_UNCACHED = []
+
+
+def cache_in_kernel_dir(dispatcher: Dispatcher) -> Dispatcher:
+    """Give ``dispatcher`` (of a kernel function) the kernels' on-disk cache; returns it."""
+    if not KERNEL_CACHE_DIR:
+        if not _WARNED_UNCACHED:
+            _WARNED_UNCACHED.append(True)
+            warnings.warn(f"cannot write the kernel cache {kernel_cache_dir()!r}: kernels "
+                          "are compiled in every process (set NUMBA_CACHE_DIR to a writable "
+                          "folder)", RuntimeWarning, stacklevel=3)
+        return dispatcher
+    # numba's dispatcher holds its cache as ``_cache`` (``Dispatcher.enable_caching`` sets a
+    # ``FunctionCache`` there, located by numba's own locators)
+    dispatcher._cache = KernelFunctionCache(dispatcher.py_func)
+    return dispatcher
+
+
+def njit(function=None, *, cache: bool = False, **options):
+    """``numba.njit(**options)`` without the C-callable wrapper; with ``cache=True`` cached
+    in :data:`KERNEL_CACHE_DIR` (module docstring). Used as ``@njit(cache=True, ...)`` or
+    ``njit(cache=True, ...)(function)``."""
+    options = dict(options, nopython=True, no_cfunc_wrapper=True)
+
+    def decorate(f):
+        dispatcher = numba_jit(**options)(f)
+        return cache_in_kernel_dir(dispatcher) if cache else dispatcher
+    return decorate if function is None else decorate(function)
+
 
 #: the same option for the implementations of ``numba.extending.overload``
 OVERLOAD_OPTIONS = {"no_cfunc_wrapper": True}
+
 
 #: the copies :func:`specialised` has made in this process, by (kernel, suffix, constants)
 _COPIES = {}
@@ -79,6 +212,6 @@ def specialised(kernel: Dispatcher, suffix: str, **constants) -> Dispatcher:
             copy.__qualname__ = name     # numba names its cache files after it
             copy.__doc__ = function.__doc__
             copy.__module__ = function.__module__
-            _COPIES[key] = numba_jit(cache=True, locals=kernel.locals,
-                                      **kernel.targetoptions)(copy)
+            _COPIES[key] = njit(cache=True, locals=kernel.locals,
+                                **kernel.targetoptions)(copy)
     return _COPIES[key]
