@@ -51,9 +51,9 @@ def test_an_edit_of_a_callee_of_the_cached_loop_reaches_it(tmp_path):
     before = _swing(copy, cache)
 
     _set_safety(copy, "0.8")          # the step-size controller's safety factor: other steps
-    edited_digest = jit.kernel_sources_digest(kernel)
     edited = _swing(copy, cache)
     assert edited != before, "the cached loop ran the integrator as it was before the edit"
+    edited_digest = jit.kernel_sources_digest(kernel)
 
     _set_safety(copy, "0.9")          # the sources as they were: their cache is still there
     assert _swing(copy, cache) == before
