@@ -11,11 +11,12 @@ from monkeystudy.analysis import cycle_return_map, floquet
 from monkeystudy.controllers import Integrator, Segment
 from monkeystudy.kernel import layout as L
 from monkeystudy.analysis.replay import (
-    cycle_times, open_loop_gait, section_error, sequence_basin, sequence_cycles,
+    cycle_times, growth_per_cycle, open_loop_gait, section_error, sequence_basin,
+    sequence_cycles,
 )
 from monkeystudy.simulation import evaluate_cycle_gaits
 
-from sequencegaits import INTEG, two_step
+from sequencegaits import INTEG, flight, two_step
 
 TIGHT = Integrator(method="dop853", rtol=1e-13, atol=1e-13)
 
@@ -135,3 +136,37 @@ def test_refusals(two_step_point):
         sequence_cycles(swap_first, two_step_point, cycles=1)
     with pytest.raises(ValueError, match="does not close"):
         cycle_times(g, np.array([0.0, 0.0, 0.1]), integrator=INTEG)
+
+
+@pytest.mark.parametrize("replay", ["gait", "open_loop"])
+def test_mirrored_cycles_hold_the_flight_gait(flight_point, replay):
+    """studies/flight_gait.yaml releases A, flies and catches with B: its cycle ends hanging
+    from B, and its return map compares B's frame with A's (mirror-image links), so the next
+    cycle starts hanging from B and is the mirror image, releasing B and catching with A.
+    From the fixed point every cycle repeats the first (its advance, at the start's height),
+    the first cycle's section state is the one-cycle return map's, and the deviation grows
+    by the leading multiplier of the replayed map per cycle (finite differences of one cycle:
+    an independent path through the simulator), from round-off, never faster."""
+    g = flight()
+    times = cycle_times(g, flight_point, integrator=INTEG)
+    one_cycle = g if replay == "gait" else open_loop_gait(g, times)
+    r = sequence_cycles(g, flight_point, cycles=12, integrator=INTEG, replay=replay,
+                        times=times)
+    assert r.status == L.ST_OK and len(r.error) == 12
+    z1, _ = cycle_return_map(flight_point, one_cycle, integrator=INTEG)
+    s1 = r.section_state[0]
+    np.testing.assert_allclose([s1[L.TH2], s1[L.DTH1], s1[L.DTH2]], z1, rtol=0, atol=1e-12)
+    one = evaluate_cycle_gaits([flight_point[1:]],
+                               dataclasses.replace(one_cycle, theta2=flight_point[0]),
+                               integrator=INTEG)
+    assert one["x_advance"][0] > 0.7
+    np.testing.assert_allclose(r.x_advance, one["x_advance"][0], rtol=0, atol=1e-7)
+    np.testing.assert_allclose(r.pivot_height, 0.0, rtol=0, atol=1e-7)
+    fl = floquet(partial(cycle_return_map, gait=one_cycle, integrator=INTEG), flight_point)
+    lam = float(np.max(np.abs(fl.multipliers)))
+    assert lam > 2.0
+    # the map's own error (rtol 1e-12: the fixed point's defect) enters every cycle, grows by lam
+    d = np.sqrt(r.error)
+    k = np.arange(1, 13)
+    assert np.all(d <= 1e-12 * ((1.05 * lam) ** k - 1.0) / (1.05 * lam - 1.0))
+    assert growth_per_cycle(r.error) == pytest.approx(lam, rel=0.02)

@@ -28,9 +28,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..controllers import (
-    Integrator, PhaseSequence, SequenceGait, motorless, open_loop_gait,
-)
+from ..controllers import Integrator, SequenceGait, motorless, open_loop_gait
 from ..kernel import layout as L
 from ..simulation import (
     RobotLike, RunResult, Status, as_robot, energies, evaluate_cycle_gaits, gait_error,
@@ -217,10 +215,10 @@ def sequence_cycles(gait: SequenceGait, z0, *, cycles: int, robot: RobotLike = "
                        tick_phase=gait.tick_phase if tick is None else float(tick_phase))
     if max_drop is None:
         max_drop = robot.link1.length
-    rows = run_gait.all_segments()
+    rows = run_gait.loop_segments()
     observed = run_gait.section_ticked or run_gait.records == "swap"
-    observers = (run_gait.section_observer(),) if observed else ()
-    ctrl = PhaseSequence(rows, observers, run_gait.tick, run_gait.tick_phase)
+    observers = run_gait.section_observers() if observed else ()
+    ctrl = run_gait.loop_controller(observers)
     res = run_controller(ctrl, cycle_section_state(run_gait, z0), robot=robot,
                          integrator=integrator, cycles=int(cycles), max_drop=float(max_drop),
                          sample_dt=sample_dt,
@@ -230,8 +228,8 @@ def sequence_cycles(gait: SequenceGait, z0, *, cycles: int, robot: RobotLike = "
     if observed:
         cross = log[log[:, L.L_KIND] == L.LOG_OBSERVER]
     else:
-        cross = seg_rows[seg_rows[:, L.L_ID] == len(rows) - 1]
-    swaps = seg_rows[np.isin(seg_rows[:, L.L_ID].astype(int), run_gait.magnet_rows())]
+        cross = seg_rows[np.isin(seg_rows[:, L.L_ID].astype(int), run_gait.cycle_end_rows())]
+    swaps = seg_rows[np.isin(seg_rows[:, L.L_ID].astype(int), run_gait.loop_magnet_rows())]
     if run_gait.records == "swap":
         return _per_swap(run_gait, res, swaps, cross, ref)
     states = cross[:, L.L_STATE:L.L_STATE + 8].copy()
