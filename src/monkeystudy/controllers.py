@@ -668,9 +668,14 @@ def kernel_method(settings: np.ndarray, prog: np.ndarray | None = None,
     return method_scalar(settings[L.C_METHOD], flies)
 
 
+#: the kernel's relative zero band of a guard at a segment's start (``C_ZERO_BAND``): a guard
+#: within ``ZERO_BAND * (1 + |value|)`` of its zero there is taken as on it, and does not fire
+ZERO_BAND = 1e-12
+
+
 def settings_vector(integrator: Integrator, *, tick: float = 0.0, tick_phase: float = 0.0,
                     t_end: float = math.inf, max_cycles: int = 0, sample_dt: float = 0.0,
-                    max_drop: float = math.inf, zero_band: float = 1e-12) -> np.ndarray:
+                    max_drop: float = math.inf, zero_band: float = ZERO_BAND) -> np.ndarray:
     """The kernel's settings vector (layout ``C_*``)."""
     s = np.zeros(L.N_SETTINGS)
     s[L.C_METHOD] = METHODS[integrator.method][0]

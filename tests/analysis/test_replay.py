@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from monkeystudy.analysis import cycle_return_map, floquet
-from monkeystudy.controllers import Integrator, Segment
+from monkeystudy.controllers import Integrator, Segment, horizontal_gait, motorless
 from monkeystudy.kernel import layout as L
 from monkeystudy.analysis.replay import (
     cycle_times, growth_per_cycle, open_loop_gait, section_error, sequence_basin,
@@ -136,6 +136,44 @@ def test_refusals(two_step_point):
         sequence_cycles(swap_first, two_step_point, cycles=1)
     with pytest.raises(ValueError, match="does not close"):
         cycle_times(g, np.array([0.0, 0.0, 0.1]), integrator=INTEG)
+
+
+#: the horizontal gait's exact, collisionless fixed point (README, "What the studies found"):
+#: (theta2, dtheta1 [rad s-1], dtheta2 [rad s-1]), swapped at T_SWAP [s] without a motor
+EXACT_GAIT = (0.0, 1.4952437542556796, 10.246845402521146)
+T_SWAP = 0.43344770344868
+
+
+@pytest.mark.parametrize("tick", [0.0, 1e-3])
+def test_running_clock_records_every_vertical_crossing(tick):
+    """The horizontal gait replayed open-loop with a clock that runs on with the gait's
+    period: each cycle crosses the vertical near the period's end, before or after it (with
+    exact timing the first cycle crosses there to round-off; on a 1 ms tick later cycles
+    cross either side as the replay drifts, the last one after the run's last period). Each
+    cycle is recorded at the first vertical crossing after its swap, wherever the period
+    ends: on the vertical, between its swap and the next, the first cycle's crossing the
+    same state as the restarting clock's (one trajectory up to there)."""
+    gait = motorless(horizontal_gait(0.6354))
+    times = (T_SWAP, T_SWAP)
+    period = float(evaluate_cycle_gaits([EXACT_GAIT[1:]], open_loop_gait(gait, times),
+                                        integrator=TIGHT)["t_end"][0])
+    run_on = dataclasses.replace(gait, period=period)
+    r = sequence_cycles(run_on, (0.0, *EXACT_GAIT), cycles=12, integrator=TIGHT,
+                        replay="open_loop", times=times, tick=tick)
+    assert r.status == L.ST_OK
+    assert len(r.error) == 12 and np.all(np.isfinite(r.error))
+    assert np.all(np.isfinite(r.t_cross)) and np.all(r.t_cross > r.t_swap)
+    assert np.all(r.t_cross[:-1] < r.t_swap[1:])
+    np.testing.assert_allclose(r.section_state[:, L.TH1], 0.0, rtol=0, atol=1e-12)
+    # the crossings fall on both sides of the period's ends: the case the record must cover
+    late = r.t_cross - period * np.arange(1, 13)
+    assert late.max() >= 0.0 and (tick == 0.0 or late.min() < 0.0)
+    reset = sequence_cycles(gait, EXACT_GAIT, cycles=1, integrator=TIGHT, replay="open_loop",
+                            times=times, tick=tick)
+    np.testing.assert_allclose(r.section_state[0], reset.section_state[0], rtol=0,
+                               atol=1e-10)
+    if tick == 0.0:
+        assert r.error[0] < 1e-24        # the fixed point, to round-off
 
 
 @pytest.mark.parametrize("replay", ["gait", "open_loop"])

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from monkeystudy import Integrator, Robot
-from monkeystudy.kernel.layout import ST_OK, ST_UNREACHABLE
+from monkeystudy.kernel.layout import ST_HORIZON, ST_OK, ST_UNREACHABLE
+from monkeystudy.simulation import Status
 from monkeystudy.study.runner import load_kernels
 from monkeystudy.study.spec import GaitSpec
 from monkeystudy.study.steps import refine, stability
@@ -55,3 +56,22 @@ def test_stability_of_a_failed_gait_is_not_run(spec):
 
 def test_stability_dataset_is_written_as_declared(tiny_reference):
     assert_written_as_declared(tiny_reference[1] / "cycles.nc", "stability")
+
+
+def test_the_runs_line_says_why_it_stopped_and_which_cycles_reached_no_crossing():
+    """A run that stops early says where and why in the run's log, not only its status name;
+    a cycle recorded from its swap that reached no vertical crossing before the next swap
+    (error NaN in a run that ran all its cycles) is named."""
+    stopped = {"status": ST_HORIZON, "cycles_completed": 2,
+               "error": np.array([5.1e-27, 144.8, np.nan, np.nan])}
+    text = stability.run_summary(stopped, 4, "section")
+    assert text.startswith("STOPPED after 2 of 4 cycles: status horizon")
+    assert Status.HORIZON.message in text and "crossing" not in text
+    gap = {"status": ST_OK, "cycles_completed": 3, "error": np.array([1e-4, np.nan, 8e-4])}
+    assert stability.run_summary(gap, 3, "swap") == (
+        "3 cycles, status ok; 1 cycle(s) (2) reached no vertical crossing before the next "
+        "swap (error NaN)")
+    ok = {"status": ST_OK, "cycles_completed": 3, "error": np.array([1e-4, 2e-4, 8e-4])}
+    assert stability.run_summary(ok, 3, "swap") == "3 cycles, status ok"
+    np.testing.assert_array_equal(stability.uncrossed_cycles([1e-4, np.nan, 1e-3, np.nan],
+                                                              ST_HORIZON), [2])
