@@ -111,10 +111,11 @@ def section_error(states: np.ndarray, z) -> np.ndarray:
 def cycle_times(gait: SequenceGait, z, *, robot: RobotLike = "seed2009",
                 integrator: Integrator = TIGHT) -> np.ndarray:
     """Exit time [s] of each segment of one cycle from section state ``z`` (the section's
-    last), on the controller clock from the cycle start. ``ValueError`` if the cycle does not
-    close (its status is not ok)."""
-    g = replace(gait, theta2=float(z[0]))
-    r = evaluate_cycle_gaits([[float(z[1]), float(z[2])]], g, robot=robot,
+    last), on the controller clock from the cycle start (a running clock's ``z`` starts with
+    ``theta1``, the section's). ``ValueError`` if the cycle does not close (its status is not
+    ok)."""
+    g = replace(gait, theta2=float(z[-3]))
+    r = evaluate_cycle_gaits([[float(z[-2]), float(z[-1])]], g, robot=robot,
                              integrator=integrator)
     if int(r["status"][0]) != L.ST_OK:
         raise ValueError(f"the cycle from {tuple(float(v) for v in z)} does not close: "
