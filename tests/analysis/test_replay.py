@@ -208,3 +208,14 @@ def test_mirrored_cycles_hold_the_flight_gait(flight_point, replay):
     k = np.arange(1, 13)
     assert np.all(d <= 1e-12 * ((1.05 * lam) ** k - 1.0) / (1.05 * lam - 1.0))
     assert growth_per_cycle(r.error) == pytest.approx(lam, rel=0.02)
+
+
+def test_a_running_clocks_schedule_is_its_cycles_from_the_same_start():
+    """A running clock's section state names theta1 first (its clock phase zero): the
+    segment exits of its cycle from there are the restarting clock's from the same state."""
+    gait = horizontal_gait(0.6354)
+    start = (0.0, 0.902, 10.935)          # the 2009 study's gait (README)
+    exits = cycle_times(gait, start, integrator=INTEG)
+    run_on = dataclasses.replace(gait, period=0.9)
+    np.testing.assert_array_equal(cycle_times(run_on, (0.0, *start), integrator=INTEG)[:2],
+                                  exits[:2])
