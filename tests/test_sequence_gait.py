@@ -1,5 +1,6 @@
 """Sequence gaits (controllers.SequenceGait, simulation.evaluate_cycle_gaits): the study's gait
 written as a sequence, the guard values that make climbing gaits, the static frame walk."""
+import dataclasses
 import math
 
 import numpy as np
@@ -94,6 +95,37 @@ def test_static_frame_walk():
         SequenceGait([Segment("time", value=0.1, magnets="both")])
     with pytest.raises(ValueError, match="at least one segment"):
         SequenceGait([])
+
+
+def test_a_cycle_ending_on_b_that_names_its_ends_loops_with_its_mirror_image():
+    """A run of many cycles of a gait whose cycle ends hanging from B and acts on a named end
+    (a catch with B) loops over the cycle and its mirror image (the next cycle, hanging from
+    B, catches with A); every other gait loops over its one cycle, row for row."""
+    flight = SequenceGait([Segment("coord", value=0.6), Segment("free_end_y", magnets="none"),
+                           Segment("energy_restored", magnets="B", torque=0.6)])
+    assert flight.alternates
+    rows = flight.loop_segments()
+    assert rows[:3] == flight.all_segments()[:3]
+    assert [s.magnets for s in rows] == ["keep", "none", "B", "keep", "keep", "none", "A",
+                                         "keep"]
+    assert rows[4:] == [dataclasses.replace(s, magnets={"B": "A"}.get(s.magnets, s.magnets))
+                        for s in flight.all_segments()]
+    assert flight.cycle_end_rows() == [3, 7] and flight.loop_magnet_rows() == [0, 1, 4, 5]
+    prog, obs = flight.loop_controller(flight.section_observers()).program()
+    assert prog[:, L.S_NEXT].tolist() == [1, 2, 3, 4, 5, 6, 7, 0]
+    assert prog[:, L.S_CYCLE].tolist() == [0, 0, 0, 1, 0, 0, 0, 1]
+    assert prog[6, L.S_MAG_A] == 1 and prog[6, L.S_MAG_B] == 0
+    assert obs[:, L.O_SEGMENT].tolist() == [3, 7]
+    two = SequenceGait([*HORIZONTAL.segments, Segment("free_end_height"),
+                        Segment("energy_restored", magnets="swap", torque=0.6)])
+    on_a = SequenceGait([Segment("coord", value=0.6), Segment("free_end_y", magnets="none"),
+                         Segment("energy_restored", magnets="A", torque=0.6)])
+    for gait in (HORIZONTAL, two, on_a):
+        assert not gait.alternates
+        assert gait.loop_segments() == gait.all_segments()
+        assert gait.section_observers() == (gait.section_observer(),)
+        np.testing.assert_array_equal(gait.loop_controller().program()[0],
+                                      gait.controller().program()[0])
 
 
 def test_non_mirror_robot_cycle_ending_on_b_is_refused():

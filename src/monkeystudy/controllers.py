@@ -254,6 +254,18 @@ class OpenLoop:
                              self.tick_phase).program()
 
 
+#: a magnet action in the mirror image of a cycle (ends A and B exchanged); the others are
+#: their own mirror images
+MIRRORED_MAGNETS = {"A": "B", "B": "A"}
+
+
+def _rows_before_magnets(rows: Sequence[Segment]) -> list[int]:
+    """Rows of a looping program whose exit enters a row that acts on the magnets (the row
+    after the last is the first)."""
+    n = len(rows)
+    return [k for k in range(n) if rows[(k + 1) % n].magnets != "keep"]
+
+
 #: which ends each ``magnets`` entry action leaves attached, from the ends attached before
 def _attached_after(magnets: str, before: frozenset) -> frozenset:
     if magnets == "keep":
@@ -358,9 +370,50 @@ class SequenceGait:
     def magnet_rows(self) -> list[int]:
         """Rows of :meth:`all_segments` whose exit enters a segment that acts on the magnets
         (a swap, a catch, a release): where a cycle's magnet actions are logged."""
-        segs = self.all_segments()
-        n = len(segs)
-        return [k for k in range(n) if segs[(k + 1) % n].magnets != "keep"]
+        return _rows_before_magnets(self.all_segments())
+
+    @property
+    def alternates(self) -> bool:
+        """Each cycle runs as the mirror image of the one before, ends A and B exchanged: a
+        cycle ends hanging from B, so the next starts hanging from B, and a magnet action
+        names an end (``A`` or ``B``), which the next cycle names the other way (``keep``,
+        ``swap``, ``both`` and ``none`` are their own mirror images). The return map compares
+        the cycle's end in B's frame with its start in A's (mirror-image links,
+        :func:`~monkeystudy.analysis.sections.check_cycle_frame`): it is the map of this
+        alternation."""
+        return (any(seg.magnets in MIRRORED_MAGNETS for seg in self.segments)
+                and self.end_attached() == "B")
+
+    def loop_segments(self) -> list[Segment]:
+        """The rows a run of many cycles loops over: the cycle (:meth:`all_segments`), then,
+        for a gait that :attr:`alternates`, its mirror image (every ``A`` and ``B`` magnet
+        action exchanged), each ending on its section row, the second looping back to the
+        first. The first cycle's rows are :meth:`all_segments`' (its section row leads to
+        the mirror image instead of row 0)."""
+        rows = self.all_segments()
+        if not self.alternates:
+            return rows
+        n = len(rows)
+
+        def mirrored(k: int, seg: Segment) -> Segment:
+            nxt = seg.next
+            if nxt is not None and nxt >= 0 and k < n - 1:
+                nxt += n                 # a jump within the cycle stays within its copy
+            return replace(seg, magnets=MIRRORED_MAGNETS.get(seg.magnets, seg.magnets),
+                           next=nxt)
+
+        return [*rows[:-1], replace(rows[-1], next=n),
+                *(mirrored(k, seg) for k, seg in enumerate(rows))]
+
+    def cycle_end_rows(self) -> list[int]:
+        """The section rows of :meth:`loop_segments` (each ends a cycle)."""
+        n = len(self.all_segments())
+        return [n - 1, 2 * n - 1] if self.alternates else [n - 1]
+
+    def loop_magnet_rows(self) -> list[int]:
+        """Rows of :meth:`loop_segments` whose exit enters a segment that acts on the
+        magnets: where the magnet actions of a run of many cycles are logged."""
+        return _rows_before_magnets(self.loop_segments())
 
     @property
     def clocked(self) -> bool:
@@ -385,13 +438,24 @@ class SequenceGait:
                               next=0, fail_status=L.ST_NO_RETURN)
         return [*self.segments, section]
 
-    def section_observer(self) -> Observer:
+    def section_observer(self, row: int | None = None) -> Observer:
         """An exact observer of link 1 crossing ``section_theta1`` in ``section_direction``,
-        watched in the section row: where a cycle is measured when its section acts on a
-        tick (its log row is the crossing itself, not the tick after it) or is a clock's
-        phase (:attr:`records` ``'swap'``)."""
+        watched in the section row (or in row ``row`` of :meth:`loop_segments`): where a
+        cycle is measured when its section acts on a tick (its log row is the crossing
+        itself, not the tick after it) or is a clock's phase (:attr:`records` ``'swap'``)."""
         return Observer("coord", "theta1", self.section_theta1, self.section_direction,
-                        segment=len(self.segments))
+                        segment=len(self.segments) if row is None else int(row))
+
+    def section_observers(self) -> tuple[Observer, ...]:
+        """:meth:`section_observer` of each section row of :meth:`loop_segments`: the
+        observers of a run of many cycles."""
+        return tuple(self.section_observer(r) for r in self.cycle_end_rows())
+
+    def loop_controller(self, observers=()) -> PhaseSequence:
+        """The controller of a run of many cycles: :meth:`loop_segments` with ``observers``
+        (e.g. :meth:`section_observers`)."""
+        return PhaseSequence(self.loop_segments(), tuple(observers), self.tick,
+                             self.tick_phase)
 
     def attached_ends(self) -> list[frozenset]:
         """Ends attached during each row of the cycle (``{'A'}``, ``{'B'}``, both, none),
@@ -604,9 +668,14 @@ def kernel_method(settings: np.ndarray, prog: np.ndarray | None = None,
     return method_scalar(settings[L.C_METHOD], flies)
 
 
+#: the kernel's relative zero band of a guard at a segment's start (``C_ZERO_BAND``): a guard
+#: within ``ZERO_BAND * (1 + |value|)`` of its zero there is taken as on it, and does not fire
+ZERO_BAND = 1e-12
+
+
 def settings_vector(integrator: Integrator, *, tick: float = 0.0, tick_phase: float = 0.0,
                     t_end: float = math.inf, max_cycles: int = 0, sample_dt: float = 0.0,
-                    max_drop: float = math.inf, zero_band: float = 1e-12) -> np.ndarray:
+                    max_drop: float = math.inf, zero_band: float = ZERO_BAND) -> np.ndarray:
     """The kernel's settings vector (layout ``C_*``)."""
     s = np.zeros(L.N_SETTINGS)
     s[L.C_METHOD] = METHODS[integrator.method][0]

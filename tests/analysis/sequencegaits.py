@@ -31,6 +31,30 @@ def two_swing() -> SequenceGait:
         Segment("energy_restored", 0.0, magnets="swap", torque=TORQUE)], theta2=0.0)
 
 
+def flight() -> SequenceGait:
+    """studies/flight_gait.yaml: swing up, release A at theta1 = 0.6 rad, fly until B rises to
+    A's starting height, catch with B and restore the energy; the cycle ends hanging from B
+    (mirror-image links), and names its ends (a release of every magnet, a catch with B)."""
+    return SequenceGait([
+        Segment("coord", 0.6, coord="theta1", direction="rising", latch_energy=True),
+        Segment("free_end_y", 0.0, direction="rising", magnets="none"),
+        Segment("energy_restored", 0.0, magnets="B", torque=TORQUE)],
+        section_theta1=0.0, section_direction="either", theta2=0.3)
+
+
+def solve_flight_point() -> np.ndarray:
+    """The flight gait's fixed point for seed2009 (docs/findings.md section 4: (0.3, 1.8923,
+    9.9562)), polished by Newton with the variational Jacobian."""
+    g = flight()
+    fmap = partial(cycle_return_map, gait=g, robot="seed2009", integrator=INTEG)
+    fp = solve_fixed_point(fmap, np.array([0.3, 1.8923, 9.9562]), jacobian=lambda q:
+                           sequence_variational_jacobian(g, q, robot="seed2009",
+                                                         integrator=INTEG))
+    if not fp.converged:
+        raise RuntimeError(f"flight fixed point did not converge: {fp}")
+    return fp.z
+
+
 def solve_two_step_point() -> np.ndarray:
     """The two-step gait's fixed point at theta2 = 0 for seed2009 (from the study's refine)."""
     g = two_step()

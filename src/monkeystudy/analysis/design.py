@@ -793,12 +793,12 @@ def design_survival(space: DesignSpace, result: DesignResult, *, runs: int, max_
     run. The design's own gait: a schedule runs on time, a sequence gait by its guards."""
     gait = replace(space.cycle_gait(result.values, result.period),
                    theta2=float(result.z[0]), tick=float(tick))
-    return survival_runs(gait.controller(), cycle_section_state(gait, result.state),
+    return survival_runs(gait.loop_controller(), cycle_section_state(gait, result.state),
                          result.z, runs=np.arange(int(runs)), max_cycles=int(max_cycles),
                          noise=noise, seed=int(seed), robot=space.robot_for(result.values),
                          integrator=space.integrator,
                          min_advance=min_advance_fraction * abs(result.advance),
-                         section=gait.section_observer())
+                         section=gait.section_observers())
 
 
 def design_cycle_run(space: DesignSpace, result: DesignResult, *, sample_dt: float):

@@ -29,7 +29,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..controllers import (
-    Integrator, PhaseSequence, SequenceGait, motorless, open_loop_gait,
+    ZERO_BAND, Integrator, Observer, PhaseSequence, SequenceGait, motorless, open_loop_gait,
 )
 from ..kernel import layout as L
 from ..simulation import (
@@ -111,15 +111,35 @@ def section_error(states: np.ndarray, z) -> np.ndarray:
 def cycle_times(gait: SequenceGait, z, *, robot: RobotLike = "seed2009",
                 integrator: Integrator = TIGHT) -> np.ndarray:
     """Exit time [s] of each segment of one cycle from section state ``z`` (the section's
-    last), on the controller clock from the cycle start. ``ValueError`` if the cycle does not
-    close (its status is not ok)."""
-    g = replace(gait, theta2=float(z[0]))
-    r = evaluate_cycle_gaits([[float(z[1]), float(z[2])]], g, robot=robot,
+    last), on the controller clock from the cycle start (a running clock's ``z`` starts with
+    ``theta1``, the section's). ``ValueError`` if the cycle does not close (its status is not
+    ok)."""
+    g = replace(gait, theta2=float(z[-3]))
+    r = evaluate_cycle_gaits([[float(z[-2]), float(z[-1])]], g, robot=robot,
                              integrator=integrator)
     if int(r["status"][0]) != L.ST_OK:
         raise ValueError(f"the cycle from {tuple(float(v) for v in z)} does not close: "
                          f"{L.STATUS_NAMES[int(r['status'][0])]}")
     return r["t_segment"][0].copy()
+
+
+def section_watch(gait: SequenceGait) -> tuple[Observer, ...]:
+    """Exact observers of the section crossing (:meth:`~monkeystudy.controllers.
+    SequenceGait.section_observer`) in the rows of :meth:`~monkeystudy.controllers.
+    SequenceGait.loop_segments` where a cycle's crossing can fall: each section row; for a
+    running clock recorded from the swap (``records='swap'``) also every row after it up to
+    the next swap, since the clock's period ends where it ends, before or after link 1
+    reaches the section (the crossing recorded is the first after the cycle's motor phase)."""
+    rows = gait.loop_segments()
+    watch = list(gait.cycle_end_rows())
+    if gait.clocked and gait.records == "swap":
+        magnets = set(gait.loop_magnet_rows())
+        for row in gait.cycle_end_rows():
+            k = row
+            while k not in magnets:
+                k = (k + 1) % len(rows)
+                watch.append(k)
+    return tuple(gait.section_observer(k) for k in sorted(set(watch)))
 
 
 @dataclass
@@ -217,10 +237,10 @@ def sequence_cycles(gait: SequenceGait, z0, *, cycles: int, robot: RobotLike = "
                        tick_phase=gait.tick_phase if tick is None else float(tick_phase))
     if max_drop is None:
         max_drop = robot.link1.length
-    rows = run_gait.all_segments()
+    rows = run_gait.loop_segments()
     observed = run_gait.section_ticked or run_gait.records == "swap"
-    observers = (run_gait.section_observer(),) if observed else ()
-    ctrl = PhaseSequence(rows, observers, run_gait.tick, run_gait.tick_phase)
+    observers = section_watch(run_gait) if observed else ()
+    ctrl = run_gait.loop_controller(observers)
     res = run_controller(ctrl, cycle_section_state(run_gait, z0), robot=robot,
                          integrator=integrator, cycles=int(cycles), max_drop=float(max_drop),
                          sample_dt=sample_dt,
@@ -230,10 +250,18 @@ def sequence_cycles(gait: SequenceGait, z0, *, cycles: int, robot: RobotLike = "
     if observed:
         cross = log[log[:, L.L_KIND] == L.LOG_OBSERVER]
     else:
-        cross = seg_rows[seg_rows[:, L.L_ID] == len(rows) - 1]
-    swaps = seg_rows[np.isin(seg_rows[:, L.L_ID].astype(int), run_gait.magnet_rows())]
+        cross = seg_rows[np.isin(seg_rows[:, L.L_ID].astype(int), run_gait.cycle_end_rows())]
+    swaps = seg_rows[np.isin(seg_rows[:, L.L_ID].astype(int), run_gait.loop_magnet_rows())]
     if run_gait.records == "swap":
-        return _per_swap(run_gait, res, swaps, cross, ref)
+        status = Status(int(res.status))
+        if run_gait.clocked and status == Status.OK:
+            tail = _run_to_next_swap(run_gait, observers, res, robot=robot,
+                                     integrator=integrator, max_drop=float(max_drop))
+            cross = np.concatenate([cross, tail.log[tail.log[:, L.L_KIND] == L.LOG_OBSERVER]])
+            status = Status(int(tail.status))
+        edges = seg_rows[np.isin(seg_rows[:, L.L_ID].astype(int), run_gait.cycle_end_rows())]
+        return _per_swap(run_gait, res, swaps, cross, ref, status,
+                         _on_section(run_gait, edges) if run_gait.clocked else edges[:0])
     states = cross[:, L.L_STATE:L.L_STATE + 8].copy()
     ke, _ = energies(res.params, states, cross[:, L.L_FLIPPED])
     x_prev = np.concatenate([[0.0], states[:-1, L.X]])
@@ -248,17 +276,52 @@ def sequence_cycles(gait: SequenceGait, z0, *, cycles: int, robot: RobotLike = "
                           Status(int(res.status)), res)
 
 
+def _run_to_next_swap(gait: SequenceGait, observers, res: RunResult, *, robot, integrator,
+                      max_drop: float) -> RunResult:
+    """A running clock's run stops where its last period ends, which may come before its
+    last cycle reaches the section: the run goes on from there (:attr:`RunResult.state`),
+    ``observers`` watching, up to the next swap, where it stops (no samples)."""
+    rows = gait.loop_segments()
+    stop = set(gait.loop_magnet_rows())
+    ctrl = PhaseSequence([replace(seg, next=-1) if k in stop else seg
+                          for k, seg in enumerate(rows)], tuple(observers), gait.tick,
+                         gait.tick_phase)
+    state = res.state.copy()
+    # the run stopped on its cycle-ending row, before the next row's entry actions
+    prog, _ = ctrl.program()
+    state[L.H_SEG] = prog[int(state[L.H_SEG]), L.S_NEXT]
+    return run_controller(ctrl, state, robot=robot, integrator=integrator,
+                          max_drop=max_drop, log_capacity=4 * len(rows) + 16)
+
+
+def _on_section(gait: SequenceGait, exits: np.ndarray) -> np.ndarray:
+    """The segment-exit log rows among ``exits`` whose link 1 is on the section to the
+    kernel's zero band (:data:`~monkeystudy.controllers.ZERO_BAND`) and moving through it in
+    the section's direction. The next row starts there with the observer's guard taken as
+    zero, so a crossing within that band after the exit is not logged: it is the exit."""
+    c = gait.section_theta1
+    th1 = exits[:, L.L_STATE + L.TH1]
+    w1 = exits[:, L.L_STATE + L.DTH1]
+    way = {"rising": w1 > 0.0, "falling": w1 < 0.0, "either": w1 != 0.0}
+    return exits[(np.abs(th1 - c) <= ZERO_BAND * (1.0 + abs(c)))
+                 & way[gait.section_direction]]
+
+
 def _per_swap(gait: SequenceGait, res: RunResult, swaps: np.ndarray, cross: np.ndarray,
-              ref: np.ndarray) -> SequenceCycles:
+              ref: np.ndarray, status: Status, edges: np.ndarray) -> SequenceCycles:
     """:class:`SequenceCycles` recorded from each swap: the attached end just after it, and
-    the first section crossing after it and before the next swap."""
+    the first section crossing after it and before the next swap (else a segment exit on
+    the section, ``edges``, :func:`_on_section`); ``status`` the run's."""
     pivots = swaps[:, L.L_STATE:L.L_STATE + 8]
     x_prev = np.concatenate([[0.0], pivots[:-1, L.X]])   # the gait starts with A at x = 0
     t_next = np.append(swaps[1:, L.L_T], math.inf)
     picked = []
     for t0, t1 in zip(swaps[:, L.L_T], t_next):
         k = np.flatnonzero((cross[:, L.L_T] > t0) & (cross[:, L.L_T] < t1))
+        if not k.size:        # none logged: an exit on the section, after the crossings
+            k = len(cross) + np.flatnonzero((edges[:, L.L_T] > t0) & (edges[:, L.L_T] < t1))
         picked.append(int(k[0]) if k.size else -1)
+    cross = np.concatenate([cross, edges])
     while picked and picked[-1] < 0:
         picked.pop()                      # swaps after the last crossing have no cycle end
     n = len(picked)
@@ -274,7 +337,7 @@ def _per_swap(gait: SequenceGait, res: RunResult, swaps: np.ndarray, cross: np.n
         ke[hit], _ = energies(res.params, states[hit], rows[:, L.L_FLIPPED])
         err[hit] = cycle_error(states[hit], ref, gait)
     return SequenceCycles(err, ke, pivots[:, L.Y].copy(), pivots[:, L.X] - x_prev, t_cross,
-                          swaps[:, L.L_T].copy(), states, Status(int(res.status)), res)
+                          swaps[:, L.L_T].copy(), states, status, res)
 
 
 def sequence_basin(gait: SequenceGait, z_star, offsets1, offsets2, *, max_cycles: int = 60,
@@ -309,4 +372,5 @@ def sequence_basin(gait: SequenceGait, z_star, offsets1, offsets2, *, max_cycles
 
 
 __all__ = ["REPLAYS", "SequenceCycles", "cycle_error", "cycle_times", "motorless",
-           "open_loop_gait", "section_error", "sequence_basin", "sequence_cycles"]
+           "open_loop_gait", "section_error", "section_watch", "sequence_basin",
+           "sequence_cycles"]

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, fields
+from typing import Sequence
 
 import numpy as np
 
@@ -220,7 +221,7 @@ def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles:
                   noise: Noise, seed: int, robot: RobotLike = "seed2009",
                   integrator: Integrator = Integrator(), error_bound: float = math.inf,
                   min_advance: float = -math.inf, max_drop: float = math.inf,
-                  section: Observer | None = None) -> SurvivalRuns:
+                  section: Observer | Sequence[Observer] | None = None) -> SurvivalRuns:
     """Run ``controller`` (a looping program: each cycle ends on a ``cycle_end`` row) from the
     hybrid state ``start`` for each run number in ``runs``.
 
@@ -240,14 +241,16 @@ def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles:
         (stalled) [m].
     max_drop : float
         A run fails when the attached end sinks this far below its start [m].
-    section : Observer, optional
+    section : Observer or sequence of Observer, optional
         An exact observer of the section, watched in the cycle's last row, where each cycle
-        is measured (default: the controller's own observers, else the cycle's end).
+        is measured (one per cycle-ending row of a program that loops over several; default:
+        the controller's own observers, else the cycle's end).
     """
     robot = as_robot(robot)
     prog, obs = controller.program()
     if section is not None:
-        obs = np.vstack([obs, section.row()[None, :]])
+        sections = (section,) if isinstance(section, Observer) else tuple(section)
+        obs = np.vstack([obs, *(o.row()[None, :] for o in sections)])
     if not np.any(prog[:, L.S_CYCLE] > 0):
         raise ValueError("the controller's program has no cycle-ending row")
     if int(max_cycles) < 1:

@@ -368,7 +368,9 @@ def floquet_start(path: Path, name: str, ctx, req: StartRequest) -> GaitStart:
     own controller's. Refused (:class:`~monkeystudy.study.errors.RunFailed`) unless finite
     and polished: Newton converged or, given ``max_map_defect`` [1], the map moves it less
     (a neutral multiplier can leave Newton short of its tolerance at a point that is a fixed
-    point to the map's accuracy; ``req.max_map_defect``)."""
+    point to the map's accuracy; ``req.max_map_defect``). With ``req.clock`` ``run_on`` the
+    clock runs on with the period of the analysed cycle from the fixed point (its section
+    crossing, exact timing), the start at clock phase zero."""
     spec = ctx.spec
     replay, clock_name = _replay_and_clock(req, ctx.conventions)
     labels = floquet_controllers(path)
@@ -389,9 +391,16 @@ def floquet_start(path: Path, name: str, ctx, req: StartRequest) -> GaitStart:
     if controller == "open_loop":
         gait = gait if fp["motor_torque"] != 0.0 else motorless(gait)
         times = (fp["t_switch"], fp["t_switch"] + fp["t_motor"])
+    t_end = math.nan
+    if req.clock == "run_on":
+        # the period is the analysed cycle's: the fixed point's section crossing, exact timing
+        cycle = gait if times is None else open_loop_gait(gait, times)
+        t_end = float(cycle_times(replace(cycle, tick=0.0), z, robot=spec.robot,
+                                  integrator=spec.integrator)[-1])
+        gait, z = replace(gait, period=t_end), (gait.section_theta1, *z)
     source = {"step": name, "kind": "floquet", "controller": controller,
               "map_defect": fp["map_defect"], "newton_converged": fp["newton_converged"],
-              "t_switch": fp["t_switch"], "t_motor": fp["t_motor"], "t_end": math.nan,
+              "t_switch": fp["t_switch"], "t_motor": fp["t_motor"], "t_end": t_end,
               "torque": motor_torque_of(gait)}
     return GaitStart(gait, z, spec.robot, times, replay, clock_name, "floquet",
                      spec.swap_motor_times, source)

@@ -117,6 +117,36 @@ def motor_frame_torque(torque: np.ndarray, frame: np.ndarray, time: np.ndarray,
     return np.where(torque == 0.0, torque, sign * torque)
 
 
+def uncrossed_cycles(error: np.ndarray, status: int) -> np.ndarray:
+    """The cycles (1-based) of a run recorded from the swap whose error is NaN because no
+    section crossing came between their swap and the next (a running clock can pass its
+    period without reaching the section): every NaN of a run that ran its cycles (status
+    ok), else those before its last recorded cycle (the later ones did not run)."""
+    e = np.asarray(error, float)
+    finite = np.flatnonzero(np.isfinite(e))
+    end = e.size if status == Status.OK else (int(finite[-1]) + 1 if finite.size else 0)
+    return np.flatnonzero(np.isnan(e[:end])) + 1
+
+
+def run_summary(result: dict, cycles: int, records: str) -> str:
+    """The step's line in the run's log: the cycles run and the status, and when the run
+    stopped early, where and why (:attr:`~monkeystudy.simulation.Status.message`); the
+    cycles recorded from the swap that reached no section crossing."""
+    status = Status(int(result["status"]))
+    done = int(result["cycles_completed"])
+    if status == Status.OK:
+        text = f"{done} cycles, status ok"
+    else:
+        text = (f"STOPPED after {done} of {cycles} cycles: status {STATUS_NAMES[status]} "
+                f"({status.message})")
+    if records == "swap":
+        missed = uncrossed_cycles(result["error"], int(status))
+        if missed.size:
+            text += (f"; {missed.size} cycle(s) ({', '.join(str(c) for c in missed)}) "
+                     "reached no vertical crossing before the next swap (error NaN)")
+    return text
+
+
 # --- the dataset ---------------------------------------------------------------------------------
 #: the frame's angles and rates of the sampled trajectory
 ANGLE_NAMES = {"theta1": "link 1's angle from the downward vertical",
@@ -261,7 +291,7 @@ class StabilityKind(StepKind):
             r = dict(r, motor_torque=motor_frame_torque(r["motor_torque"], r["attached_end"],
                                                         r["time"], r["t_cross"], g.gait))
         write_stability(ctx.path, attrs, r, g.z, g.gait.records, frame)
-        return f"{r['cycles_completed']} cycles, status {STATUS_NAMES[r['status']]}"
+        return run_summary(r, kw["cycles"], g.gait.records)
 
     def describe(self, ds) -> list[str]:
         a = ds.attrs

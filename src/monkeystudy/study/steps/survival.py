@@ -100,9 +100,11 @@ def survival_controller(start: GaitStart, *, tick: float, integrator):
     """``(controller, start hybrid state, section observer)`` of a survival start: its gait
     as its own controller or replayed open-loop with the start's recorded times
     (:meth:`~monkeystudy.study.steps.gait_source.GaitStart.program`), on the controller
-    ``tick`` [s], its cycles measured by an exact observer of the section."""
+    ``tick`` [s], its cycles measured by exact observers of the section (a gait whose cycles
+    alternate with their mirror images runs both, :meth:`~monkeystudy.controllers.
+    SequenceGait.loop_segments`)."""
     seq = start.program(tick, integrator)
-    return seq.controller(), cycle_section_state(seq, start.z), seq.section_observer()
+    return seq.loop_controller(), cycle_section_state(seq, start.z), seq.section_observers()
 
 
 # --- tasks (run on the workers) ------------------------------------------------------------------
