@@ -27,7 +27,8 @@ from monkeystudy.study import RunFailed, parse_study, run_study
 #: (a refine of a grid without a gait, a replay of a refine that found no gait, ...). These
 #: are the run's decisions, not the report's; the report must still draw what was written.
 RUN_REFUSALS = (
-    r"the grid has \d+ points with an error value, \d+ requested",
+    r"\d+ starts? requested, but (its one point has no gait|none of its \d+ points"
+    r"|only \d+ of its)",
     r"found no (gait|cycle) to run",
     r"produced no (usable start|usable gait|solution|converged solution|gait)",
     r"no start produced a solution",

@@ -77,7 +77,7 @@ steps:
   - {name: map, kind: grid, points: [[0.0, 6.0]]}
   - {name: best, kind: refine, start: {from: map, best: 1}, maxiter: 1}
 """)
-    assert out.refused and "0 points with an error value" in out.refused
+    assert out.refused and "its one point has no gait" in out.refused
     assert out.drawn == ["map_map"]
     assert "no point of the grid has a gait" in out.skipped["map_surface"]
 

@@ -196,3 +196,18 @@ def test_grid_datasets_are_written_as_declared(tiny_reference):
     out = tiny_reference[1]
     assert_written_as_declared(out / "map.nc", "grid")
     assert_written_as_declared(out / "pts.nc", "grid", dims_of=point_list_dims)
+
+
+@pytest.mark.parametrize("finite, k, says", [
+    (1, 3, "3 starts requested, but only 1 of its 4 points has a gait (an error value): ask "
+           "for at most 1, or widen or move the grid"),
+    (2, 3, "only 2 of its 4 points have a gait"),
+    (0, 1, "1 start requested, but none of its 4 points has a gait (no error value; its "
+           "status says why): widen or move the grid"),
+])
+def test_best_grid_points_says_how_many_points_have_a_gait(finite, k, says):
+    e = np.full((2, 2), np.nan)
+    e.ravel()[:finite] = 1.0
+    with pytest.raises(ValueError) as exc:
+        best_grid_points(e, np.arange(2.0), np.arange(2.0), k)
+    assert says in str(exc.value) and " 1 points" not in str(exc.value)

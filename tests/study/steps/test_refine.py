@@ -60,3 +60,26 @@ def test_refine_datasets_are_written_as_declared(tiny_reference, analysis_smoke)
     assert_written_as_declared(tiny_reference[1] / "best.nc", "refine",
                                dims_of=refine_starts_dims)
     assert_written_as_declared(analysis_smoke[0] / "nm.nc", "refine")
+
+
+def test_a_grid_with_fewer_gaits_than_best_is_refused_saying_how_many(tmp_path):
+    """A refine asking for more starts than the grid has gaits stops with how many it has
+    and what to change; a count of one is "1 point", not "1 points"."""
+    from monkeystudy.study import RunFailed, parse_study, run_study
+
+    text = """\
+schema_version: 1
+name: few
+robot: seed2009
+gait: {kind: horizontal, motor_torque: 0.6354, tick: 0.001}
+integrator: {rtol: 1.0e-8, atol: 1.0e-10}
+steps:
+  - {name: map, kind: grid, points: [[0.0, 6.0], [0.9, 10.9], [0.1, 6.5]]}
+  - {name: best, kind: refine, start: {from: map, best: 2}, maxiter: 2}
+"""
+    with pytest.raises(RunFailed) as exc:
+        run_study(parse_study(text, "few.yaml", tmp_path / "few.yaml"), tmp_path / "out",
+                  workers=1)
+    assert str(exc.value) == (
+        "best: start: {from: map, best: 2}: grid 'map': 2 starts requested, but only 1 of its "
+        "3 points has a gait (an error value): ask for at most 1, or widen or move the grid")

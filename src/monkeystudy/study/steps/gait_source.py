@@ -436,23 +436,38 @@ def design_start(path: Path, name: str, ctx, req: StartRequest) -> GaitStart:
 
 def grid_minima(path: Path, name: str, ctx, req: StartRequest) -> np.ndarray:
     """The ``req.best`` starts a grid dataset hands on, ``[best, 2]`` (dtheta1, dtheta2)
-    [rad s-1] (:func:`best_grid_points`)."""
+    [rad s-1] (:func:`best_grid_points`).
+
+    A grid with fewer points with a gait error than ``best`` is refused (``RunFailed``): the
+    step's starts, and so its tasks and its dataset's ``start`` dimension, are fixed by
+    ``best`` before the grid runs."""
     v = D.read_variables(path, ("error", "dtheta1", "dtheta2"))
     try:
         return best_grid_points(v["error"], v["dtheta1"], v["dtheta2"], req.best)
     except ValueError as exc:
-        raise RunFailed(f"{ctx.name}: {exc}") from None
+        raise RunFailed(f"{ctx.name}: start: {{from: {name}, best: {req.best}}}: grid "
+                        f"{name!r}: {exc}") from None
 
 
 # --- the datasets' readers -----------------------------------------------------------------------
 def best_grid_points(error: np.ndarray, d1: np.ndarray, d2: np.ndarray, k: int) -> np.ndarray:
     """The ``k`` best starts of a grid, ``[k, 2]``: local minima of the error map (no finite
-    8-neighbour lower), lowest first, then the lowest remaining points; ties by flat index."""
+    8-neighbour lower), lowest first, then the lowest remaining points; ties by flat index.
+
+    Fewer than ``k`` points with an error value (a gait) is a ``ValueError`` saying how many
+    there are."""
     e = np.asarray(error, np.float64)
     finite = np.isfinite(e)
-    if int(finite.sum()) < k:
-        raise ValueError(f"the grid has {int(finite.sum())} points with an error value, "
-                         f"{k} requested")
+    n = int(finite.sum())
+    if n < k:
+        if n == 0:
+            have = ("its one point has no gait" if e.size == 1 else
+                    f"none of its {e.size} points has a gait")
+            raise ValueError(f"{k} start{'s' if k > 1 else ''} requested, but {have} (no "
+                             "error value; its status says why): widen or move the grid")
+        raise ValueError(f"{k} starts requested, but only {n} of its {e.size} points "
+                         f"{'has' if n == 1 else 'have'} a gait (an error value): ask for at "
+                         f"most {n}, or widen or move the grid")
     if e.ndim == 2:
         big = np.where(finite, e, np.inf)
         pad = np.pad(big, 1, constant_values=np.inf)
