@@ -192,11 +192,11 @@ def record_compile_time(what: str, seconds: float) -> None:
 
 def compile_estimate(what: str) -> str:
     """How long compiling ``what`` should take: the last such compile on this machine (any
-    code version), else a range measured on two cores."""
+    code version, any load), else the range measured on two cores, idle and busy."""
     seconds = _read_times().get(what)
     if isinstance(seconds, (int, float)) and seconds > 0:
-        return f"about {seconds:.0f} s, as the last first run here took"
-    return "10-30 s on two cores"
+        return f"about {seconds:.0f} s, as the last first run here took (longer when busier)"
+    return "10-30 s on two idle cores, 1-2 minutes when they are busy"
 
 
 def _main(argv: list[str]) -> None:
