@@ -4,7 +4,7 @@ study.
 
 A run from the command line pays ~1 s before its first block: the interpreter, numpy, numba
 (whose first dispatch imports scipy.linalg), the cached kernels, forking the pool. Against a
-100,000-point map (1.5 s of simulation on two cores) that is most of the overhead. The service
+100,000-point map (1.5 s of simulation on two idle cores) that is most of the overhead. The service
 pays it once; each run then costs its blocks, the consolidation, and ~0.1 s for the thin
 client (which imports neither numpy nor numba).
 
