@@ -16,7 +16,9 @@ Each fence names its language, and the language says what is checked:
   script of this repository and, when the script has an ``argparse`` parser, options its
   ``--help`` lists; ``python -c "..."`` compiles. ``pip`` and ``pytest`` lines (installing,
   the test suite itself) are not run. The findings' ``python -c`` block reads
-  ``outputs/robust_design`` (minutes to produce): ``tools/check_findings.py`` runs it.
+  ``outputs/robust_design`` (minutes to produce): it is compiled here, and
+  ``tools/check_findings.py`` computes the draws it prints and checks the numbers the text
+  cites from them.
 - ``text``: an output listing or a diagram, not runnable: skipped.
 
 Inline code spans that start with ``monkeystudy `` are command lines too and parse the same way.

@@ -237,7 +237,7 @@ def evaluate(entry: Entry, sources: Sources) -> list[tuple[str, str, object]]:
     """(printed, source, value or the exception) for each number of the entry."""
     import numpy as np
 
-    scope = {"np": np, "open": sources.open, "grab": grab, "math": math, "re": re}
+    scope = {"np": np, "open": sources.open, "grab": grab, "math": math, "re": re, "root": ROOT}
     printed = NUMBER.findall(entry.text)
     out = []
     try:
