@@ -48,6 +48,7 @@ LANGUAGES = {"yaml", "python", "bash", "text"}
 
 
 def _load_tool(name: str):
+    """A script of ``tools/`` as a module."""
     spec = importlib.util.spec_from_file_location(name, ROOT / "tools" / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
@@ -55,7 +56,7 @@ def _load_tool(name: str):
     return module
 
 
-printed = _load_tool("check_findings")
+check_findings = _load_tool("check_findings")
 
 
 @dataclass(frozen=True)
@@ -165,7 +166,7 @@ def comment_mismatches(value, comment: str) -> list[str]:
     for item, v in zip(items, values):
         m = re.match(r"^([-+]?\d[\d.]*(?:e[-+]?\d+)?)(\s+\S+)?$", item)
         if m:
-            if not printed.matches(m.group(1), float(v)):
+            if not check_findings.matches(m.group(1), float(v)):
                 out.append(f"{item!r}: the code gives {float(v)!r}")
         elif item != getattr(v, "name", str(v)):
             out.append(f"{item!r}: the code gives {v!r}")
