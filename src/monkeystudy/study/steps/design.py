@@ -429,7 +429,7 @@ def start_shape(gait: GaitStart, integrator) -> CycleShape:
     return cycle_shape(program, gait.z[-3:], robot=gait.robot, integrator=integrator)
 
 
-def refusal(space, st: DesignStep, res: DesignResult, source: str, why: str) -> dict:
+def refusal(st: DesignStep, res: DesignResult, source: str, why: str) -> dict:
     """A candidate refused as no gait of the starting gait's kind: its free parameters,
     objective, where it came from (``grid`` or ``refined``) and why."""
     return {"source": source, "design": {n: float(res.values[n]) for n in st.names},
@@ -440,9 +440,9 @@ def grid_picks(space, st: DesignStep, axes, grid: dict, k: int, reference: Cycle
                refused: list) -> list[tuple[int, DesignResult]]:
     """The ``k`` best grid designs (lowest objective first), each solved again from its
     stored gait, no two neighbours on the grid (Chebyshev distance 1), among the designs
-    that are gaits of the starting gait's kind (``reference``). A design
-    that is not is passed over, takes no place and keeps no neighbour out, and is added to
-    ``refused``; one whose solve fails takes its place (it yields no candidate)."""
+    that are gaits of the starting gait's kind (``reference``). A design that is not is
+    passed over (it takes no place and keeps no neighbour out) and added to ``refused``; one
+    whose solve fails takes its place and yields no candidate."""
     objective = grid["objective"].reshape(st.shape)
     flat = objective.ravel()
     order = [i for i in np.argsort(flat, kind="stable") if np.isfinite(flat[i])]
@@ -457,7 +457,7 @@ def grid_picks(space, st: DesignStep, axes, grid: dict, k: int, reference: Cycle
         res = grid_design(space, st, axes, grid, int(i))
         why = design_step_problem(space, res, reference) if res.ok else ""
         if why:
-            refused.append(refusal(space, st, res, "grid", why))
+            refused.append(refusal(st, res, "grid", why))
             continue
         chosen.append((int(i), res))
     return chosen
@@ -487,7 +487,7 @@ def refine_and_verify(space: DesignSpace, st: DesignStep, axes, grid: dict, star
         found = best or start
         why = design_step_problem(space, found, reference) if best is not None else ""
         if why:
-            refused.append(refusal(space, st, found, "refined", why))
+            refused.append(refusal(st, found, "refined", why))
         # every refined design's replays too: the smallest rho is not always the one that
         # survives the controller tick
         reps = [replay_design(space, found, cycles=st.verify.cycles, tick=t,
