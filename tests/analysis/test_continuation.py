@@ -2,6 +2,7 @@
 bookkeeping, and branches checked against physics they must obey."""
 import dataclasses
 import math
+import re
 from functools import partial
 
 import numpy as np
@@ -221,3 +222,60 @@ def test_an_isolated_fixed_point_is_continued_with_theta2_free():
         rb, gi = with_parameter("seed2009", g, "joint_viscous", b.value[i])
         z = np.array([b.theta2[i], b.dtheta1[i], b.dtheta2[i]])
         assert residual(gi, z, rb) < 1e-10
+
+
+# --- friction and a latched energy -------------------------------------------------------------
+@pytest.mark.parametrize("parameter", ["joint_viscous", "pivot_viscous"])
+def test_friction_has_no_branch_through_a_latched_energys_family(two_step_point, parameter):
+    """The two-step gait restores the energy it latched: its fixed points are a family (one
+    multiplier 1). Friction breaks that family (next test): the start is the only fixed point
+    near friction 0, and the continuation says so at once, either way."""
+    b = continue_cycle(two_step(), two_step_point, parameter, integrator=INTEG, ds=0.01,
+                       steps=5)
+    assert b.theta2_pinned
+    assert b.stop_reason == "no_branch", (b.stop_reason, b.value)
+    assert b.value.tolist() == [0.0] and b.residual[0] < 1e-10
+    assert "section's energy by -" in b.stop_detail and parameter in b.stop_detail
+    down = continue_cycle(two_step(), two_step_point, parameter, integrator=INTEG, ds=-0.01,
+                          steps=5)
+    assert down.stop_reason == "bounds" and down.value.tolist() == [0.0]
+
+
+def test_a_latched_energy_loses_what_friction_takes_after_the_motor(two_step_point):
+    """Why friction leaves the two-step gait no fixed point: its motor restores the energy
+    latched at the cycle's start (row 0) and again at the second swing's (row 3); the
+    friction work while the motor is off after each restore (rows 2 and 5: from the first
+    restore to the second latch, from the second restore to the section) is never restored.
+    The section's energy falls by exactly that work, linearly in the friction, and a fixed
+    point would return to its energy. An independent Newton solve (theta2 free) at that
+    friction finds none, and the continuation's energy rate is the same loss."""
+    from monkeystudy.analysis import cycle_map_error, cycle_section_state
+    from monkeystudy.simulation import simulate
+
+    start = two_step_point
+    losses = []
+    for mu in (1e-5, 2e-5):
+        rb, g = with_parameter("seed2009", two_step(), "joint_viscous", mu)
+        run = simulate(g.controller(), robot=rb, state=cycle_section_state(g, start),
+                       cycles=1, sample_dt=1e-5, integrator=INTEG)
+        assert run.attrs["status"] == "ok"
+        t, w2, row = run["time"].values, run["theta2_dot"].values, run["segment"].values
+        energy = run["total_energy"].values
+        power = mu * w2 ** 2                    # the joint's viscous torque -mu dtheta2
+        same = (row[1:] == row[:-1]) & np.isin(row[1:], (2, 5))
+        work_after_restores = float(np.sum((0.5 * (power[1:] + power[:-1]) * np.diff(t))[same]))
+        loss = float(energy[0] - energy[-1])
+        assert loss == pytest.approx(work_after_restores, rel=1e-3)
+        losses.append(loss)
+    assert losses[1] == pytest.approx(2 * losses[0], rel=1e-2)
+    # no fixed point at mu = 2e-5: Newton stalls far above the map's error
+    fmap = partial(cycle_return_map, gait=g, robot=rb, integrator=INTEG)
+    fp = solve_fixed_point(fmap, start, map_error=cycle_map_error(start, g, robot=rb,
+                                                                   integrator=INTEG),
+                           jacobian=lambda q: sequence_variational_jacobian(
+                               g, q, robot=rb, integrator=INTEG))
+    assert not fp.converged and fp.defect > 1e-6, fp.message
+    # the continuation's rate [J per N m s] is this loss per unit of friction
+    b = continue_cycle(two_step(), start, "joint_viscous", integrator=INTEG, ds=0.01, steps=1)
+    rate = float(re.search(r"energy by (\S+) J per N m s", b.stop_detail).group(1))
+    assert rate == pytest.approx(-losses[0] / 1e-5, rel=2e-2)

@@ -134,3 +134,39 @@ def test_without_noise_every_run_of_a_design_completes_and_the_draws_repeat():
                              noise=Noise(timing=1e-3, mass=0.01)) for _ in range(2)]
     np.testing.assert_array_equal(noisy[0].cycles, noisy[1].cycles)
     np.testing.assert_array_equal(noisy[0].height, noisy[1].height)
+
+
+# --- a design must be a gait of its starting gait's kind ---------------------------------------
+from dataclasses import replace  # noqa: E402
+
+from monkeystudy.analysis.design import (  # noqa: E402
+    cycle_shape, design_step_problem, step_problems,
+)
+
+#: design B with a pulse of -2 N m after the catch: 0.1 s of it is a step; 0.364 s of it spins
+#: link 2 through link 1 (the catch then finds B where A hangs), with its fixed point (theta2
+#: [rad], dtheta1, dtheta2 [rad s-1]) from the design step's grid
+SWING = ({"segment3_torque": -2.0, "segment3_value": 0.1}, [0.542, 5.714, -9.470])
+SPIN = ({"segment3_torque": -2.0, "segment3_value": 0.36363636363636365},
+        [-0.432, -2.480, 40.148])
+
+
+def test_a_design_that_spins_link_2_is_refused_and_one_that_swings_is_not():
+    space = design_b_space()
+    robot = Robot.preset("seed2009")
+    start = replace(SequenceGaitSpec.model_validate(DESIGN_B).gait(), theta2=float(Z_B[0]))
+    reference = cycle_shape(start, Z_B, robot=robot, integrator=TIGHT)
+    # design B's step: one swap, link 1 back at the vertical once, theta2 within 0.67 rad
+    assert (reference.status, reference.swaps, reference.crossings) == (0, 1, 1)
+    assert reference.max_abs_theta2 < 0.7 and reference.max_kinetic_energy < 10.0
+    assert step_problems(reference, reference, robot) == []
+    swing = evaluate_design(space, *SWING)
+    spin = evaluate_design(space, *SPIN)
+    assert swing.ok and spin.ok
+    # the spinning one contracts more: a search by the spectral radius alone would pick it
+    assert spin.spectral_radius_fd < 1.0 < swing.spectral_radius_fd
+    assert abs(spin.advance) < 1e-9 < 1.0 < swing.advance
+    assert design_step_problem(space, swing, reference) == ""
+    why = design_step_problem(space, spin, reference)
+    assert "link 1 passes the section 4 times per cycle, the starting gait 1" in why
+    assert "link 2 turns through link 1" in why

@@ -26,8 +26,8 @@ import numpy as np
 
 from ..controllers import Integrator, SequenceGait, horizontal_gait, open_loop_gait
 from ..robot import Robot
-from ..simulation import RobotLike, Status, as_robot
-from .sections import TIGHT, cycle_return_map
+from ..simulation import RobotLike, Status, as_robot, energies
+from .sections import TIGHT, cycle_return_map, cycle_section_state
 from .shooting import GrazingResult, free_end_after
 from .variational import sequence_variational_jacobian
 
@@ -160,6 +160,11 @@ PARAMETER_FLOOR = {"joint_viscous": 0.0, "pivot_viscous": 0.0, "mass_ratio": 1e-
 #: multipliers within this of 1 are the neutral energy level, not a stability verdict
 NEUTRAL_TOL = 1e-6
 
+#: a family of fixed points survives a change of the parameter only if ``dP/dmu`` lies in
+#: the range of ``DP - I``; a part off it larger than this fraction of ``|dP/dmu|`` (finite
+#: differences and variational equations are good to ~1e-6 of it) breaks the family [1]
+FAMILY_BREAK_TOL = 1e-4
+
 
 def motor_torque(gait: SequenceGait) -> float:
     """The gait's reference motor torque [N m]: the first non-zero segment torque (the
@@ -241,10 +246,14 @@ class CycleBranch:
     reaching the section's ``theta2``); a real multiplier through +1 away from a fold is a
     change of stability on a branch that goes on (transcritical, pitchfork or a degenerate
     fold of the energy family: the multipliers alone do not say which).
-    ``stop_reason``: ``steps`` (all taken), ``bounds`` (the parameter left them), ``border``
-    (the map jumps just ahead: the cycle's event sequence changes there, e.g. a guard met at
-    a turning point, so the smooth family ends) or ``ds_min`` (the corrector failed at the
-    least step for another reason, or converged where the map is not differentiable).
+    ``stop_reason``: ``steps`` (all taken), ``bounds`` (the parameter left them or its least
+    admissible value, e.g. friction 0), ``no_branch`` (the start is on a family of fixed
+    points that the parameter breaks: ``dP/dmu`` has a part off the range of ``DP - I``, so
+    no fixed point exists at any other value near the start; ``stop_detail`` says by how
+    much, and how the section's energy changes per cycle), ``border`` (the map jumps just
+    ahead: the cycle's event sequence changes there, e.g. a guard met at a turning point, so
+    the smooth family ends) or ``ds_min`` (the corrector failed at the least step for
+    another reason, or converged where the map is not differentiable).
     """
 
     parameter: str
@@ -264,6 +273,7 @@ class CycleBranch:
     through_plus_one: list = field(default_factory=list)  # a non-neutral real one crosses +1
     neimark_sacker: list = field(default_factory=list)    # a complex pair crosses |lambda| 1
     stop_reason: str = "steps"
+    stop_detail: str = ""      # why a no_branch start has no branch (empty otherwise)
 
 
 def _nonneutral(lam: np.ndarray) -> np.ndarray:
@@ -438,6 +448,51 @@ def branch_events(mu: np.ndarray, lam: np.ndarray):
     return neutral, stable, folds, pd, p1, ns
 
 
+def family_break(D: np.ndarray, J: np.ndarray) -> float:
+    """How far a change of the parameter moves the return map off its family of fixed
+    points: the part of ``dP/dmu`` (``D[:3, MU]``) on the left null space of ``DP - I``
+    (``J - I``, its singular values below :data:`NEUTRAL_TOL` of the largest), relative to
+    ``|dP/dmu|`` [1]. Zero (to the Jacobians' accuracy) when the family persists at nearby
+    values, e.g. a motor torque that still restores the latched energy; of order 1 when the
+    parameter removes it, e.g. friction, whose work after the motor stops is never
+    restored."""
+    p_mu = D[:3, MU]
+    size = float(np.linalg.norm(p_mu))
+    if size == 0.0:
+        return 0.0
+    left, sv, _ = np.linalg.svd(J - np.eye(3))
+    null = left[:, sv <= NEUTRAL_TOL * max(1.0, float(sv[0]))]
+    return float(np.linalg.norm(null.T @ p_mu)) / size
+
+
+def section_energy(robot: Robot, gait: SequenceGait, z) -> float:
+    """Total energy [J] of the section state ``z = (theta2, dtheta1, dtheta2)``, hanging from
+    the attached end at height 0 (a cycle's end state is in the frame of the end attached
+    there: mirror-image links, or end A, so the first parameter row serves both)."""
+    state = cycle_section_state(gait, z)
+    kinetic, potential = energies(robot.params(), state[None], np.zeros(1))
+    return float(kinetic[0] + potential[0])
+
+
+def no_branch_detail(eqs: "CycleEquations", u: np.ndarray, off: float, sign: float) -> str:
+    """Why a pinned start has no branch in its parameter: the part ``off`` of ``dP/dmu`` off
+    the family, and the section's energy change over one cycle from the start per unit of
+    the parameter (one-sided, a step ``fd_step max(1, |mu|)`` in the direction ``sign``): a
+    fixed point returns to its energy."""
+    name, units = eqs.parameter, CYCLE_PARAMETERS[eqs.parameter]
+    h = math.copysign(eqs.fd_step * max(1.0, abs(u[MU])), sign)
+    rb, g = eqs.setup(u[MU] + h)
+    zn, st = cycle_return_map(u[:3], g, robot=rb, integrator=eqs.integrator)
+    energy = ""
+    if st == Status.OK:
+        rate = (section_energy(rb, g, zn) - section_energy(rb, g, u[:3])) / h
+        energy = (f"; one cycle from the start changes the section's energy by {rate:.4g} J "
+                  f"per {'unit' if units == '1' else units} of {name}")
+    return (f"{name} moves the return map off the start's family of fixed points (the part "
+            f"of dP/d{name} off the range of DP - I: {off:.3g} of it){energy}: no fixed "
+            f"point at any other {name} near {u[MU]:.6g}{'' if units == '1' else ' ' + units}")
+
+
 def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike = "seed2009",
                    ds: float = 0.01, steps: int = 20, ds_min: float | None = None,
                    ds_max: float | None = None, bounds=(-math.inf, math.inf),
@@ -469,7 +524,8 @@ def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike =
         (no convergence in ``max_corrector`` iterations, or no cycle) halves the step and
         retries; one converging in at most 3 iterations grows it by 1.5, up to ``ds_max``.
     bounds : (float, float)
-        Stop when the parameter leaves ``[lo, hi]``.
+        Stop when the parameter leaves ``[lo, hi]``, or a predictor steps below its least
+        admissible value (:data:`PARAMETER_FLOOR`: friction 0).
     integrator : Integrator
         Kernel settings for the return map (default: :data:`~monkeystudy.analysis.TIGHT`).
     tol : float
@@ -484,6 +540,11 @@ def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike =
     Returns
     -------
     CycleBranch
+        Only the start, stopped ``no_branch``, when the start's family of fixed points (a
+        neutral multiplier) does not survive a change of the parameter
+        (:func:`family_break` above :data:`FAMILY_BREAK_TOL`): a gait that latches its
+        energy and restores it has no fixed point under friction, since what friction takes
+        after the motor stops is never restored.
     """
     if parameter not in CYCLE_PARAMETERS:
         raise ValueError(f"parameter must be one of {sorted(CYCLE_PARAMETERS)}, "
@@ -511,8 +572,20 @@ def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike =
     jacs = [J]      # each accepted point's Jacobian: the tangent's and the multipliers'
     tau = branch_tangent(D, None, math.copysign(1.0, ds))
     h = abs(ds)
-    reason = "steps"
-    while len(rows) <= steps:
+    reason, detail = "steps", ""
+    if ds < 0.0 and u[MU] <= eqs.floor:
+        reason = "bounds"         # at the parameter's least admissible value, going down
+    elif eqs.pinned:
+        off = family_break(D, J)
+        if off > FAMILY_BREAK_TOL:
+            # the pinned equations are regular here: the start is an isolated solution in
+            # (z, mu), and the tangent above is no direction of a branch
+            reason = "no_branch"
+            detail = no_branch_detail(eqs, u, off, math.copysign(1.0, ds))
+    while reason == "steps" and len(rows) <= steps:
+        if u[MU] + h * tau[MU] < eqs.floor:
+            reason = "bounds"     # the parameter's least admissible value (friction 0)
+            break
         got, predicted = eqs.correct(u + h * tau, tau, tol=tol, max_iter=max_corrector)
         if got is None:
             h /= 2.0
@@ -552,8 +625,9 @@ def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike =
     neutral, stable, folds, pd, p1, ns = branch_events(U[:, MU], lam)
     return CycleBranch(parameter, eqs.pinned, U[:, MU], U[:, 0], U[:, 1], U[:, 2],
                        np.array(res), np.array(iters), arc, lam, neutral, stable, folds, pd, p1,
-                       ns, reason)
+                       ns, reason, detail)
 
 
-__all__ = ["CYCLE_PARAMETERS", "CycleBranch", "continue_cycle", "fold_indices", "motor_torque",
-           "parameter_of", "with_parameter"]
+__all__ = ["CYCLE_PARAMETERS", "CycleBranch", "FAMILY_BREAK_TOL", "PARAMETER_FLOOR",
+           "continue_cycle", "family_break", "fold_indices", "motor_torque", "parameter_of",
+           "section_energy", "with_parameter"]

@@ -43,7 +43,7 @@ from ..kernel.design import (
     I_NFEV, I_PERIOD, I_RISE, N_INFO, clocked_jacobian, fixed_point,
 )
 from ..robot import Link, Robot
-from ..simulation import run_controller
+from ..simulation import Status, energies, run_controller
 from .multipliers import jacobian_fd, sorted_eigs
 from .replay import cycles_to_bound, growth_per_cycle, sequence_basin, sequence_cycles
 from .survival import Noise, SurvivalRuns, survival_runs
@@ -716,6 +716,93 @@ def with_variational(space: DesignSpace, res: DesignResult) -> DesignResult:
     res.multipliers = sorted_eigs(J)
     res.spectral_radius = spectral_radius(J, space.steps)
     return res
+
+
+# --- a design is a step ------------------------------------------------------------------------
+#: sampling step of the run that checks a design's cycle [s] (a link at 60 rad s-1 turns
+#: 0.06 rad between samples)
+SHAPE_SAMPLE_DT = 1e-3
+
+
+@dataclass(frozen=True)
+class CycleShape:
+    """What one cycle of a gait does, from a run sampled every :data:`SHAPE_SAMPLE_DT`.
+
+    ``status`` is the run's (a :class:`~monkeystudy.simulation.Status` value), ``swaps`` the
+    changes of the attached end, ``crossings`` the passes of link 1 through the section's
+    angle, the one that closes the cycle included; ``max_abs_theta2`` [rad] the largest
+    ``|theta2|`` (``pi``: link 2 folded onto link 1) and ``max_kinetic_energy`` [J] the
+    largest kinetic energy of the samples.
+    """
+
+    status: int
+    swaps: int
+    crossings: int
+    max_abs_theta2: float
+    max_kinetic_energy: float
+
+
+def cycle_shape(gait: SequenceGait, z, *, robot: Robot, integrator: Integrator,
+                sample_dt: float = SHAPE_SAMPLE_DT) -> CycleShape:
+    """One cycle of ``gait`` from the section state ``z`` (theta2 [rad], dtheta1, dtheta2
+    [rad s-1]) on ``robot``, and what it did (:class:`CycleShape`). A crossing is a change
+    of sign of ``theta1 - section_theta1`` between samples in the same frame (the frame
+    flips at a swap); samples on the section (within 1e-9 rad) do not count, so the start
+    and the end, which lie on it, add none: the end adds the closing crossing."""
+    res = run_controller(gait.controller(), cycle_section_state(gait, z), robot=robot,
+                         integrator=integrator, cycles=1, sample_dt=sample_dt)
+    states = res.sample_state
+    flipped = res.sample_mode[:, L.M_FLIPPED]
+    off = states[:, L.TH1] - gait.section_theta1
+    away = np.abs(off) > 1e-9
+    side, frame = np.sign(off[away]), flipped[away]
+    crossings = int(np.sum((side[1:] != side[:-1]) & (frame[1:] == frame[:-1])))
+    kinetic, _ = energies(res.params, states, flipped)
+    return CycleShape(int(res.status), int(np.sum(flipped[1:] != flipped[:-1])),
+                      crossings + 1, float(np.max(np.abs(states[:, L.TH2]))),
+                      float(np.max(kinetic)))
+
+
+def step_problems(shape: CycleShape, reference: CycleShape, robot: Robot,
+                  steps: int = 1) -> list[str]:
+    """Why a cycle (``shape``, ``steps`` steps of a design on ``robot``) is not a gait of its
+    starting gait's kind (``reference``, one step); empty if it is.
+
+    A step of the starting gait's kind swaps magnets as often and passes link 1 through the
+    section as often, per step (a schedule event after the step's own return to the section,
+    e.g. a pulse longer than the step, adds passes); keeps ``|theta2| < pi`` (link 2 never
+    turns through link 1: theta2 stays within one turn); and swings rather than spins: its
+    kinetic energy stays below ``M g (L1 + L2)``, what lifting the whole robot by its
+    length takes.
+    """
+    if shape.status != 0:
+        return [f"its cycle from the fixed point ends {Status(shape.status).name}"]
+    out = []
+    if shape.swaps != steps * reference.swaps:
+        out.append(f"{shape.swaps} swaps per cycle, the starting gait "
+                   f"{steps * reference.swaps}")
+    if shape.crossings != steps * reference.crossings:
+        out.append(f"link 1 passes the section {shape.crossings} times per cycle, the "
+                   f"starting gait {steps * reference.crossings}")
+    if not shape.max_abs_theta2 < math.pi:
+        out.append(f"|theta2| reaches {shape.max_abs_theta2:.4g} rad: link 2 turns through "
+                   "link 1")
+    mass = robot.link1.mass + robot.link2.mass
+    lift = mass * robot.gravity * (robot.link1.length + robot.link2.length)
+    if not shape.max_kinetic_energy < lift:
+        out.append(f"kinetic energy {shape.max_kinetic_energy:.4g} J, above M g (L1 + L2) "
+                   f"= {lift:.4g} J: a link spins")
+    return out
+
+
+def design_step_problem(space: DesignSpace, res: DesignResult, reference: CycleShape) -> str:
+    """Why a solved design is not a gait of its starting gait's kind (:func:`step_problems`
+    of its cycle from its fixed point, on the clock that restarts at the section: a running
+    clock's gait is the same orbit); '' if it is one."""
+    robot = space.robot_for(res.values)
+    shape = cycle_shape(space.gait_for(res.values), res.z, robot=robot,
+                        integrator=space.integrator)
+    return "; ".join(step_problems(shape, reference, robot, space.steps))
 
 
 # --- verification of a design ------------------------------------------------------------------

@@ -11,6 +11,8 @@ for what it needs; nothing integrates on its own.
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ..controllers import Integrator, SequenceGait, horizontal_gait, open_loop_gait
@@ -89,6 +91,24 @@ def cycle_return_map(z, gait: SequenceGait, *, robot: RobotLike = "seed2009",
     return np.array([th2, res.state[L.DTH1], res.state[L.DTH2]]), res.status
 
 
+def cycle_map_error(z, gait: SequenceGait, *, robot: RobotLike = "seed2009",
+                    integrator: Integrator = TIGHT, factor: float = 10.0) -> float:
+    """The error level of :func:`cycle_return_map` at ``z`` on ``integrator``: ``|P(z) -
+    P'(z)|`` (2-norm, units of ``z``), ``P'`` the same map with ``rtol`` and ``atol`` divided
+    by ``factor`` (``rtol`` not below 100 eps, the integrator's limit). The error of a
+    tolerance-controlled integration falls with its tolerance, so the difference estimates
+    the error of ``P`` itself. NaN when either cycle fails; 0 when ``rtol`` cannot be
+    tightened.
+    """
+    fine = replace(integrator, rtol=max(integrator.rtol / factor, 100 * np.finfo(float).eps),
+                   atol=integrator.atol / factor)
+    if fine.rtol >= integrator.rtol:
+        return 0.0
+    p, st = cycle_return_map(z, gait, robot=robot, integrator=integrator)
+    pf, stf = cycle_return_map(z, gait, robot=robot, integrator=fine)
+    if st != Status.OK or stf != Status.OK:
+        return float("nan")
+    return float(np.linalg.norm(p - pf))
 
 
 def cycle_full_map(w, gait: SequenceGait, *, robot: RobotLike = "seed2009",

@@ -425,3 +425,55 @@ def test_a_screen_refuses_levels_and_a_running_clock(tmp_path, edit, says):
 
     with pytest.raises(StudyError, match=says):
         parse_study(text, "bad.yaml")
+
+
+# --- a candidate must be a gait of the starting gait's kind --------------------------------------
+#: design B's gait with the pulse after the catch at -2 N m for 0.1 s (a step) or 0.364 s (link
+#: 2 spins through link 1, and with the full map's rho 0.99 it is the grid's least objective)
+SPINNING = SEGMENTS.split("  - name: design\n")[0] + """\
+  - name: design
+    kind: design
+    from: floquet
+    parameters:
+      segment3_torque: {start: -2.0, stop: -2.0, num: 1}
+      segment3_value: {start: 0.1, stop: 0.36363636363636365, num: 2}
+    refine: {starts: 0}
+    verify: {cycles: 10, decay_cycles: 5, basin_num: 3, basin_cycles: 5}
+  - {name: design_survival, kind: survival, from: design, controller: {tick: 0.001},
+     runs: 2, max_cycles: 5, seed: 30, min_advance: 0.5}
+"""
+
+
+def test_a_design_that_is_no_step_is_refused_and_the_best_step_handed_on(tmp_path):
+    path = tmp_path / "spinning.yaml"
+    path.write_text(SPINNING)
+    run_study(load_study(path), tmp_path / "out", workers=1)
+    with xr.open_dataset(tmp_path / "out" / "design.nc") as ds:
+        ds.load()
+    rho = ds["spectral_radius_fd"].values[0]
+    assert ds["status"].values.tolist() == [[0, 0]] and rho[1] < 1.0 < rho[0]
+    # the grid's least objective spins link 2: refused, with the reason
+    refused = json.loads(ds.attrs["refused_candidates"])
+    assert [r["design"]["segment3_value"] for r in refused] == [0.36363636363636365]
+    assert refused[0]["source"] == "grid"
+    assert "link 2 turns through link 1" in refused[0]["why"]
+    # the step checked and handed on is the one that swings
+    assert ds.attrs["best_segment3_value"] == 0.1
+    assert ds.attrs["best_spectral_radius_fd"] == rho[0]
+    assert abs(ds.attrs["best_theta2"]) < np.pi and ds.attrs["best_advance"] > 1.0
+    with xr.open_dataset(tmp_path / "out" / "design_survival.nc") as sv:
+        assert sv.attrs["dtheta1"] == ds.attrs["best_dtheta1"]
+
+
+def test_a_design_step_with_no_step_among_its_candidates_hands_on_nothing(tmp_path):
+    from monkeystudy.study.errors import RunFailed
+
+    path = tmp_path / "spinning.yaml"
+    path.write_text(SPINNING.replace("segment3_value: {start: 0.1, stop: 0.36363636363636365, "
+                                     "num: 2}", "segment3_value: {start: 0.36363636363636365, "
+                                     "stop: 0.36363636363636365, num: 1}"))
+    with pytest.raises(RunFailed, match="no candidate design is a gait of the starting "
+                                        "gait's kind, nothing to hand on: grid design"):
+        run_study(load_study(path), tmp_path / "out", workers=1)
+    assert not (tmp_path / "out" / "design.nc").exists()
+    assert not (tmp_path / "out" / "design_survival.nc").exists()

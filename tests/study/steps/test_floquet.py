@@ -32,3 +32,98 @@ def test_floquet_multipliers_and_agreement(analysis_smoke):
 
 def test_floquet_datasets_are_written_as_declared(analysis_smoke):
     assert_written_as_declared(analysis_smoke[0] / "floquet.nc", "floquet")
+
+
+#: studies/climbing_gait.yaml on a small grid at the default integrator (rtol 1e-10), with a
+#: stability run from the floquet step's fixed point
+CLIMBING_DEFAULT = """\
+schema_version: 1
+name: climbing_default
+robot: seed2009
+gait:
+  kind: sequence
+  section: {theta1: 0.0, direction: either, theta2: 1.0}
+  segments:
+    - {until: free_end_height, value: 0.05, direction: rising, latch_energy: true}
+    - {until: energy_restored, value: 0.981, magnets: swap, torque: 0.6354}
+steps:
+  - {name: map, kind: grid, dtheta1: {start: 4.3, stop: 4.6, num: 7},
+     dtheta2: {start: 0.1, stop: 0.4, num: 7}}
+  - {name: best, kind: refine, start: {from: map, best: 1}, xatol: 1.0e-10, fatol: 1.0e-18,
+     maxiter: 2000, maxfev: 4000}
+  - {name: floquet, kind: floquet, from: best}
+  - {name: cycles, kind: stability, from: floquet, cycles: 5}
+"""
+
+
+def in_process_pool():
+    """A pool running the tasks in this process (what a test patches, they see)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from monkeystudy.study.pool import Pool
+    return Pool(ThreadPoolExecutor(1), 1, "one thread", lambda: None)
+
+
+def test_a_fixed_point_polished_at_the_default_tolerance_is_run_by_the_next_step(tmp_path):
+    from monkeystudy.analysis import cycle_return_map
+    from monkeystudy.controllers import Integrator
+    from monkeystudy.study import load_study, run_study
+    from monkeystudy.study.spec import gait_spec
+
+    from studyhelpers import write_study
+
+    study = load_study(write_study(tmp_path, CLIMBING_DEFAULT, "climbing.yaml"))
+    run_study(study, tmp_path / "out", workers=1)
+    f = open_dataset(tmp_path / "out", "floquet.nc")
+    # Newton's residual stalls near 1e-11 at rtol 1e-10, inside the map's error (~3e-9)
+    assert int(f["newton_converged"].values[0]) == 1
+    stop = str(f["newton_stop"].values[0])
+    assert stop.startswith("converged"), stop
+    level = float(f["map_error"].values[0])
+    assert 1e-10 < level < 1e-7
+    assert float(f["map_defect"].values[0]) <= level
+    z = f["fixed_point"].values[0]
+    zn, st = cycle_return_map(z, gait_spec(study.study).sequence, integrator=Integrator())
+    assert st == 0 and np.linalg.norm(zn - z) <= level
+    c = open_dataset(tmp_path / "out", "cycles.nc")
+    assert c.attrs["floquet_step"] == "floquet"
+    assert int(c.sizes["cycle"]) == 5
+    assert_written_as_declared(tmp_path / "out" / "floquet.nc", "floquet")
+
+
+def test_an_unconverged_polish_is_said_and_refused_by_the_next_step(tmp_path, monkeypatch):
+    from monkeystudy.study import load_study, run_study
+    from monkeystudy.study.errors import RunFailed
+    from monkeystudy.study.progress import Reporter
+    from monkeystudy.study.steps import floquet as F
+
+    from studyhelpers import write_study
+
+    newton = F.solve_fixed_point
+    # one Newton step from a start 50 Nelder-Mead iterations rough: not converged
+    monkeypatch.setattr(F, "solve_fixed_point",
+                        lambda *a, **kw: newton(*a, **dict(kw, max_iter=1)))
+    text = CLIMBING_DEFAULT.replace("maxiter: 2000, maxfev: 4000", "maxiter: 50")
+    study = load_study(write_study(tmp_path, text, "climbing.yaml"))
+    lines = []
+
+    class Recorder(Reporter):
+        def finish(self, name, message=""):
+            lines.append(f"{name}: {message}")
+
+    with pytest.raises(RunFailed) as refused:
+        run_study(study, tmp_path / "out", pool=in_process_pool(), reporter=Recorder())
+    f = open_dataset(tmp_path / "out", "floquet.nc")
+    assert int(f["newton_converged"].values[0]) == 0
+    stop = str(f["newton_stop"].values[0])
+    assert stop.startswith("not converged: 1 iterations") and \
+        stop.endswith("analysed at its start"), stop
+    # the point analysed is the refined start, as said
+    best = open_dataset(tmp_path / "out", "best.nc")
+    np.testing.assert_array_equal(f["fixed_point"].values[0, 1:],
+                                  [float(best["dtheta1"].values.ravel()[0]),
+                                   float(best["dtheta2"].values.ravel()[0])])
+    # the run's log says so, and the stability step refuses the point with the reason
+    assert any(ln.startswith("floquet: sequence: Newton not converged: 1 iterations")
+               for ln in lines), lines
+    assert "Newton not converged: 1 iterations" in str(refused.value)

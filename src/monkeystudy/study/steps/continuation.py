@@ -16,7 +16,9 @@ from typing import Any, Literal, Optional
 import numpy as np
 from pydantic import Field, field_validator
 
-from ...analysis.continuation import continue_cycle, continue_grazing, with_parameter
+from ...analysis.continuation import (
+    PARAMETER_FLOOR, continue_cycle, continue_grazing, parameter_of, with_parameter,
+)
 from ...analysis.shooting import GrazingResult
 from ...controllers import SequenceGait
 from ...robot import Robot
@@ -139,7 +141,7 @@ def continuation_task(spec: GaitSpec, gait: SequenceGait, z, *, method: str,
             "folds": list(b.folds), "period_doublings": list(b.period_doublings),
             "through_plus_one": list(b.through_plus_one),
             "neimark_sacker": list(b.neimark_sacker),
-            "stop_reason": b.stop_reason}
+            "stop_reason": b.stop_reason, "stop_detail": b.stop_detail}
 
 
 # --- the dataset ---------------------------------------------------------------------------------
@@ -222,11 +224,12 @@ def write_continuation(path: Path, attrs: dict, result: dict) -> None:
                      "stop_reason": result["stop_reason"],
                      "through_plus_one": list(result["through_plus_one"]),
                      "neimark_sacker": list(result["neimark_sacker"])}
+            if result.get("stop_detail"):
+                extra["stop_detail"] = result["stop_detail"]
         else:
             write("t_switch", result["t_switch"])
             write("residual", result["residual"])
             D.write_complex(nc, VARIABLES, "multipliers", result["multipliers"], **fields)
-            extra = {}
             extra = {}
         D.set_global_attrs(nc, dict(attrs, parameter=par, parameter_units=D.PARAMETER_UNITS[par],
                                value0=float(result["value0"]), folds=list(result["folds"]),
@@ -255,6 +258,10 @@ def cycle_problems(study, i: int, s: ContinuationStep) -> list:
             and gait.section_torque == 0.0:
         out.append((("steps", i, "parameter"), "the gait never runs its motor (every torque "
                     "is 0): the motor torque does not move its fixed points"))
+    floor = PARAMETER_FLOOR.get(s.parameter)
+    if floor is not None and s.ds < 0 and parameter_of(rb, gait, s.parameter) <= floor:
+        out.append((("steps", i, "ds"), f"{s.parameter} starts at {floor:g}, its least "
+                    f"value: ds < 0 would make it smaller"))
     if gait.end_attached() == "B":
         if s.parameter == "mass_ratio":
             out.append((("steps", i, "parameter"), "mass_ratio != 1 breaks the mirror "
@@ -340,6 +347,8 @@ class ContinuationKind(StepKind):
         if cycle:
             msg += (f", through +1 {r['through_plus_one']}, Neimark-Sacker "
                     f"{r['neimark_sacker']}, stopped: {r['stop_reason']}")
+            if r["stop_detail"]:
+                msg += f" ({r['stop_detail']})"
         return msg
 
     def describe(self, ds) -> list[str]:
@@ -353,6 +362,8 @@ class ContinuationKind(StepKind):
             head = (f"sequence gait, theta2 {th2[0]:.6g} -> {th2[-1]:.6g} rad (pinned: "
                     f"{a.get('theta2_pinned')}), from floquet step {a.get('floquet_step')}; "
                     f"stopped: {a.get('stop_reason')}")
+            if a.get("stop_detail"):
+                head += f" ({a['stop_detail']})"
             marks = (f"folds {a.get('folds')}, period doublings {a.get('period_doublings')}, "
                      f"through +1 {a.get('through_plus_one')}, Neimark-Sacker "
                      f"{a.get('neimark_sacker')}; stable at {int(ds['stable'].sum())} of "

@@ -33,9 +33,9 @@ from pydantic import Field, field_validator, model_validator
 
 from ...analysis.design import (
     BALANCES, CLOCKS, DESIGN_OK, OBJECTIVES, PARAMETERS, SEGMENT_PARAMETER, STATUS_NAMES,
-    DesignResult, DesignSpace, SegmentDesignSpace, design_basin, design_cycle_run,
-    design_survival, evaluate_design, motor_frame_pulses, perturbation_decay, replay_design,
-    with_variational,
+    CycleShape, DesignResult, DesignSpace, SegmentDesignSpace, cycle_shape, design_basin,
+    design_cycle_run, design_step_problem, design_survival, evaluate_design,
+    motor_frame_pulses, perturbation_decay, replay_design, with_variational,
 )
 from ...simulation import Status
 from .. import datasets as D
@@ -362,22 +362,6 @@ def _with_balance(free: dict, values: dict, space: DesignSpace) -> dict:
 
 
 # --- refinement and verification (main process) --------------------------------------------------
-def refine_starts(objective: np.ndarray, k: int) -> list[int]:
-    """Flat indices of the ``k`` best finite grid designs, no two neighbours (Chebyshev
-    distance 1 on the grid)."""
-    flat = objective.ravel()
-    order = [i for i in np.argsort(flat, kind="stable") if np.isfinite(flat[i])]
-    chosen: list[int] = []
-    for i in order:
-        if len(chosen) == k:
-            break
-        ii = np.array(np.unravel_index(i, objective.shape))
-        if all(np.max(np.abs(ii - np.array(np.unravel_index(j, objective.shape)))) > 1
-               for j in chosen):
-            chosen.append(int(i))
-    return chosen
-
-
 def nelder_mead(space: DesignSpace, st: DesignStep, axes, start: dict) -> tuple:
     """Nelder-Mead on the objective from the design ``start`` (a grid design's values and
     gait), in coordinates scaled to the axes' ranges and clipped to them; returns ``(best
@@ -438,21 +422,72 @@ def grid_design(space, st: DesignStep, axes, grid: dict, flat: int) -> DesignRes
         [grid[c][flat] for c in ("theta2", "dtheta1", "dtheta2")])
 
 
-def refine_and_verify(space: DesignSpace, st: DesignStep, axes, grid: dict, starts) -> dict:
+def start_shape(gait: GaitStart, integrator) -> CycleShape:
+    """What one cycle of the starting gait does (:func:`~monkeystudy.analysis.design.
+    cycle_shape`), as it is run: the kind of gait every candidate must be."""
+    program = gait.program(0.0, integrator)
+    return cycle_shape(program, gait.z[-3:], robot=gait.robot, integrator=integrator)
+
+
+def refusal(st: DesignStep, res: DesignResult, source: str, why: str) -> dict:
+    """A candidate refused as no gait of the starting gait's kind: its free parameters,
+    objective, where it came from (``grid`` or ``refined``) and why."""
+    return {"source": source, "design": {n: float(res.values[n]) for n in st.names},
+            "objective": float(res.objective(st.objective, st.energy_weight)), "why": why}
+
+
+def grid_picks(space, st: DesignStep, axes, grid: dict, k: int, reference: CycleShape,
+               refused: list) -> list[tuple[int, DesignResult]]:
+    """The ``k`` best grid designs (lowest objective first), each solved again from its
+    stored gait, no two neighbours on the grid (Chebyshev distance 1), among the designs
+    that are gaits of the starting gait's kind (``reference``). A design that is not is
+    passed over (it takes no place and keeps no neighbour out) and added to ``refused``; one
+    whose solve fails takes its place and yields no candidate."""
+    objective = grid["objective"].reshape(st.shape)
+    flat = objective.ravel()
+    order = [i for i in np.argsort(flat, kind="stable") if np.isfinite(flat[i])]
+    chosen: list[tuple[int, DesignResult]] = []
+    for i in order:
+        if len(chosen) == k:
+            break
+        ii = np.array(np.unravel_index(i, objective.shape))
+        if any(np.max(np.abs(ii - np.array(np.unravel_index(j, objective.shape)))) <= 1
+               for j, _ in chosen):
+            continue
+        res = grid_design(space, st, axes, grid, int(i))
+        why = design_step_problem(space, res, reference) if res.ok else ""
+        if why:
+            refused.append(refusal(st, res, "grid", why))
+            continue
+        chosen.append((int(i), res))
+    return chosen
+
+
+def refine_and_verify(space: DesignSpace, st: DesignStep, axes, grid: dict, starts,
+                      reference: CycleShape) -> dict:
     """Nelder-Mead from the best grid designs, then the checks of the best design found
-    (the best grid design when no refinement improves on it)."""
+    (the best grid design when no refinement improves on it). Every candidate (a refined
+    design, a grid design) must be a gait of the starting gait's kind (``reference``,
+    :func:`~monkeystudy.analysis.design.step_problems`); the others are refused, listed in
+    ``refused`` with the reason, and the best valid one is checked (``RunFailed`` when none
+    is)."""
     shape = st.shape
     objective = grid["objective"].reshape(shape)
-    starts = refine_starts(objective, st.refine.starts)
+    n_grid = st.screen.candidates if st.screen else 1
+    refused: list[dict] = []
+    picks = grid_picks(space, st, axes, grid, max(st.refine.starts, n_grid), reference,
+                       refused)
     refined = []
-    for flat in starts:
+    for flat, start in picks[:st.refine.starts]:
         idx = np.unravel_index(flat, shape)
-        start = grid_design(space, st, axes, grid, flat)
         if not start.ok:
             continue
         best, n_eval = nelder_mead(space, st, axes, {"values": start.values,
                                                               "z": start.z})
         found = best or start
+        why = design_step_problem(space, found, reference) if best is not None else ""
+        if why:
+            refused.append(refusal(st, found, "refined", why))
         # every refined design's replays too: the smallest rho is not always the one that
         # survives the controller tick
         reps = [replay_design(space, found, cycles=st.verify.cycles, tick=t,
@@ -461,21 +496,29 @@ def refine_and_verify(space: DesignSpace, st: DesignStep, axes, grid: dict, star
         refined.append({"start": flat, "start_objective": float(objective[idx]),
                         "result": found, "evaluations": n_eval,
                         "cycles_completed": [r.cycles_completed for r in reps],
-                        "cycles_walked": [r.cycles_walked for r in reps]})
-    candidates = [r["result"] for r in refined]
+                        "cycles_walked": [r.cycles_walked for r in reps], "refused": why})
+    candidates = [r["result"] for r in refined if not r["refused"]]
     # the best grid designs (one without a screen: the grid's best)
-    for flat in refine_starts(objective, st.screen.candidates if st.screen else 1):
-        g = grid_design(space, st, axes, grid, flat)
-        if g.ok:
-            candidates.append(g)
+    candidates += [g for _, g in picks[:n_grid] if g.ok]
     if not candidates:
+        if refused:
+            raise RunFailed(f"{st.name}: no candidate design is a gait of the starting "
+                            f"gait's kind, nothing to hand on: " + "; ".join(
+                                f"{refusal_text(r)}" for r in refused[:3]))
         raise RunFailed(f"{st.name}: no design of the grid has a gait (statuses: "
                         f"{_status_text(grid['status'])})")
     ranked = sorted(candidates, key=lambda r: r.objective(st.objective, st.energy_weight))
     screened = screen(space, st.screen, ranked) if st.screen else []
     best = with_variational(space, screened[0]["result"] if screened else ranked[0])
     return {"refined": refined, "best": best, "checks": verify(space, best, st.verify),
-            "film": design_cycle_run(space, best, sample_dt=0.005), "screened": screened}
+            "film": design_cycle_run(space, best, sample_dt=0.005), "screened": screened,
+            "refused": refused}
+
+
+def refusal_text(r: dict) -> str:
+    """A refused candidate in words: its parameters, objective and why."""
+    design = ", ".join(f"{n} {v:.6g}" for n, v in r["design"].items())
+    return f"{r['source']} design ({design}), objective {r['objective']:.4g}: {r['why']}"
 
 
 def screen(space, sc: DesignScreen, ranked: list[DesignResult]) -> list[dict]:
@@ -964,7 +1007,8 @@ class DesignKind(StepKind):
         rho = grid["spectral_radius_fd"]
         grid["objective"] = (rho if st.objective == "spectral_radius"
                              else rho + st.energy_weight * grid["energy_per_metre"])
-        found = refine_and_verify(space, st, axes, grid, ctx.state["starts"])
+        found = refine_and_verify(space, st, axes, grid, ctx.state["starts"],
+                                  start_shape(gait, ctx.spec.integrator))
         src = gait.source
         if schedule_design(ctx.spec):
             attrs.update(start_t_switch=src["t_switch"], start_t_motor=src["t_motor"],
@@ -977,10 +1021,15 @@ class DesignKind(StepKind):
                          np.isfinite(rho)) else math.nan,
                      total_nfev=int(np.nansum(grid["nfev"])))
         attrs.update(best_attrs(space, st, found))
+        refused = found["refused"]
+        if refused:
+            attrs["refused_candidates"] = refused
         write_design(ctx.path, attrs, st, space, axes, grid, found)
         return (f"{n} designs ({attrs['designs_with_gait']} with a gait); best rho "
                 f"{attrs['best_spectral_radius']:.6g} per step (fd "
-                f"{attrs['best_spectral_radius_fd']:.6g}); {attrs['verdict']}")
+                f"{attrs['best_spectral_radius_fd']:.6g}); {attrs['verdict']}"
+                + (f"; refused {len(refused)} candidate(s) that are no gait of the starting "
+                   f"gait's kind, e.g. {refusal_text(refused[0])}" if refused else ""))
 
     def describe(self, ds) -> list[str]:
         a = ds.attrs
@@ -1021,6 +1070,10 @@ class DesignKind(StepKind):
                     f"rho {float(r):.4g}: {100 * float(v):.4g} %" for r, v in zip(
                         ds["screen_spectral_radius_fd"].values,
                         ds["screen_survived"].values)) + ")")
+        refused = json_list(a.get("refused_candidates", "[]"))
+        if refused:
+            lines.append(f"refused {len(refused)} candidate(s), no gait of the starting "
+                         f"gait's kind: " + "; ".join(refusal_text(r) for r in refused))
         lines.append(
                 f"replays: {', '.join(str(int(c)) for c in ds['cycles_completed'].values)} "
                 f"cycles within the error bound"

@@ -20,7 +20,7 @@ import numpy as np
 from pydantic import Field, field_validator, model_validator
 
 from ...analysis.multipliers import floquet, jacobian_fd, solve_fixed_point, sorted_eigs
-from ...analysis.sections import cycle_full_map, cycle_return_map
+from ...analysis.sections import cycle_full_map, cycle_map_error, cycle_return_map
 from ...analysis.variational import sequence_variational_jacobian
 from ...controllers import SequenceGait, open_loop_gait
 from ...simulation import evaluate_cycle_gaits
@@ -101,9 +101,12 @@ def floquet_task(spec: GaitSpec, controller: str, *, gait: SequenceGait, z0,
 
     ``z0 = (theta2 [rad], dtheta1, dtheta2 [rad s-1])`` is the fixed point, or with
     ``newton`` the start of its Newton polish (:func:`~monkeystudy.analysis.multipliers.
-    solve_fixed_point` with the variational Jacobian, ``theta2`` free); an unconverged
-    polish keeps its last iterate with ``keep_unconverged`` (a start far from the gait), the
-    start otherwise. ``schedule``: the recorded swap time and motor duration [s] of an
+    solve_fixed_point` with the variational Jacobian, ``theta2`` free, a residual within
+    the map's error level accepted); an unconverged polish keeps its last iterate with
+    ``keep_unconverged`` (a start far from the gait), the start otherwise, and says so in
+    ``newton_stop``. ``map_error`` is the map's error level at ``z0`` (:func:`~monkeystudy.
+    analysis.sections.cycle_map_error`: the map at a tenth of the integrator's
+    tolerances). ``schedule``: the recorded swap time and motor duration [s] of an
     open-loop replay, reported as they are (else the cycle's). The Jacobian by variational
     equations (:func:`~monkeystudy.analysis.variational.sequence_variational_jacobian`) and
     by central differences, both sets of multipliers (sorted by decreasing modulus),
@@ -119,18 +122,25 @@ def floquet_task(spec: GaitSpec, controller: str, *, gait: SequenceGait, z0,
     def jac(q):
         return sequence_variational_jacobian(gait, q, robot=robot, integrator=integ)
 
-    out: dict[str, Any] = {"controller": controller, "newton_converged": 1,
-                           "newton_history": np.empty(0)}
     z = np.asarray(z0, float)
+    error_level = cycle_map_error(z, gait, robot=robot, integrator=integ)
+    out: dict[str, Any] = {"controller": controller, "newton_converged": 1,
+                           "newton_history": np.empty(0), "map_error": error_level,
+                           "newton_stop": ""}
     if newton:
         try:
-            fp = solve_fixed_point(fmap, z, jacobian=jac)
+            fp = solve_fixed_point(fmap, z, jacobian=jac, map_error=error_level)
             out["newton_converged"] = int(bool(fp.converged))
             out["newton_history"] = np.asarray(fp.history, float)
+            out["newton_stop"] = fp.message
             if fp.converged or keep_unconverged:
                 z = fp.z
-        except RuntimeError:
+            if not fp.converged:
+                out["newton_stop"] += (": analysed at Newton's last iterate" if
+                                       keep_unconverged else ": analysed at its start")
+        except RuntimeError as exc:
             out["newton_converged"] = 0
+            out["newton_stop"] = f"not converged: {exc}: analysed at its start"
     at = dataclasses.replace(gait, theta2=float(z[0]))
     r = evaluate_cycle_gaits(np.array([[z[1], z[2]]]), at, robot=robot, integrator=integ)
     try:
@@ -269,6 +279,13 @@ VARIABLES = {
     "newton_converged": D.Variable(("controller",), np.int8, "1",
                                    "Newton polish of the fixed point converged (1; "
                                    "open_loop: the shoot's point, 1)"),
+    "newton_stop": D.Variable(("controller",), str, "1", "why the Newton polish stopped, "
+                              "and where an unconverged one was analysed (empty: no "
+                              "polish, open_loop)"),
+    "map_error": D.Variable(("controller",), np.float64, "1",
+                            "error level of the return map at the start: |P(z) - P'(z)|, P' "
+                            "the map at a tenth of the integrator's tolerances (Newton "
+                            "accepts a residual within it)"),
     # the full map (height_in_map: true)
     "full_k": D.index_coordinate("full_k", "full-map multiplier (by decreasing modulus)",
                                  optional=True),
@@ -337,6 +354,9 @@ def write_floquet(path: Path, attrs: dict, results: list[dict], swap_motor: bool
         D.write_declared(nc, VARIABLES, "failure",
                          np.array([r["failure"] for r in results], object))
         D.write_declared(nc, VARIABLES, "newton_converged", stack("newton_converged", np.int8))
+        D.write_declared(nc, VARIABLES, "newton_stop",
+                         np.array([r["newton_stop"] for r in results], object))
+        D.write_declared(nc, VARIABLES, "map_error", stack("map_error"))
         if height:
             write_full_map(nc, results)
         D.set_global_attrs(nc, attrs)
@@ -450,11 +470,14 @@ class FloquetKind(StepKind):
                       height=st.height_in_map)
         parts = []
         for r in results:
+            unpolished = ("" if r["newton_converged"] else
+                          f"Newton {r['newton_stop'] or 'not converged'}; ")
             if r["failure"]:
-                parts.append(f"{r['controller']}: not analysed ({r['failure']})")
+                parts.append(f"{r['controller']}: {unpolished}not analysed ({r['failure']})")
                 continue
             lam = np.abs(r["multipliers"])
-            parts.append(f"{r['controller']}: |lambda| {', '.join(f'{x:.4g}' for x in lam)} "
+            parts.append(f"{r['controller']}: {unpolished}"
+                         f"|lambda| {', '.join(f'{x:.4g}' for x in lam)} "
                          f"({'stable' if r['stable'] else 'unstable'}, agreement "
                          f"{r['agreement']:.2g})")
             if st.height_in_map:
@@ -466,9 +489,14 @@ class FloquetKind(StepKind):
         a = ds.attrs
         out = [gait_line(a)]
         lam, lam_fd = D.dataset_complex(ds, "multipliers"), D.dataset_complex(ds, "multipliers_fd")
-        failures = ds["failure"].values if "failure" in ds else [""] * ds.sizes["controller"]
+        n = ds.sizes["controller"]
+        failures = ds["failure"].values if "failure" in ds else [""] * n
+        converged = ds["newton_converged"].values if "newton_converged" in ds else [1] * n
+        stops = ds["newton_stop"].values if "newton_stop" in ds else [""] * n
         for i, c in enumerate(ds["controller"].values):
             fp = ds["fixed_point"].values[i]
+            if not int(converged[i]):
+                out.append(f"{c}: Newton {stops[i] or 'not converged'}")
             if failures[i]:
                 out.append(f"{c}: not analysed at ({fp[0]:.8g}, {fp[1]:.8g}, {fp[2]:.8g}): "
                            f"{failures[i]}")

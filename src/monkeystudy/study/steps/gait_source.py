@@ -384,9 +384,11 @@ def floquet_start(path: Path, name: str, ctx, req: StartRequest) -> GaitStart:
     close = (fp["map_defect"] <= req.max_map_defect if req.max_map_defect is not None
              else fp["newton_converged"] != 0)
     if not (np.all(np.isfinite(z)) and close):
+        newton = ("converged" if fp["newton_converged"] else
+                  fp["newton_stop"] or "not converged")
         raise RunFailed(f"{ctx.name}: floquet step {name!r} has no {controller} fixed point "
                         f"to {req.require or 'run'} (map defect {fp['map_defect']:.3g}, Newton "
-                        f"{'converged' if fp['newton_converged'] else 'not converged'})")
+                        f"{newton})")
     gait, times = spec.sequence, None
     if controller == "open_loop":
         gait = gait if fp["motor_torque"] != 0.0 else motorless(gait)
@@ -585,8 +587,9 @@ def controller_row(nc, path: Path, controller: str) -> int:
 
 def read_floquet_point(path: Path, controller: str) -> dict:
     """One controller's analysed point of a floquet dataset: ``{fixed_point (3,), map_defect,
-    newton_converged, t_switch, t_motor [s], motor_torque [N m], failure}`` (``newton_converged``
-    -1 when the dataset has none; the times NaN for a gait named per segment; ``failure``
+    newton_converged, newton_stop, t_switch, t_motor [s], motor_torque [N m], failure}``
+    (``newton_converged`` -1 when the dataset has none; ``newton_stop`` why Newton stopped,
+    empty when the dataset has none; the times NaN for a gait named per segment; ``failure``
     why the map was not analysed, empty when it was)."""
     with netCDF4.Dataset(path, "r") as nc:
         nc.set_auto_mask(False)
@@ -595,6 +598,8 @@ def read_floquet_point(path: Path, controller: str) -> dict:
                "map_defect": float(nc.variables["map_defect"][i])}
         nc_conv = nc.variables.get("newton_converged")
         out["newton_converged"] = int(nc_conv[i]) if nc_conv is not None else -1
+        stop = nc.variables.get("newton_stop")
+        out["newton_stop"] = str(np.atleast_1d(stop[...])[i]) if stop is not None else ""
         for key in ("t_switch", "t_motor", "motor_torque"):
             out[key] = float(nc.variables[key][i]) if key in nc.variables else math.nan
         failure = nc.variables.get("failure")
