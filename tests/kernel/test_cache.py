@@ -84,3 +84,15 @@ def test_the_digest_changes_with_any_kernel_source(tmp_path):
     roots = folder / "roots.py"
     roots.write_text(roots.read_text() + "\n")
     assert jit.kernel_sources_digest(folder) != jit.KERNEL_DIGEST
+
+
+def test_a_function_outside_the_kernel_is_cached_nowhere():
+    """``njit(cache=True)`` on a function whose source is not a kernel module (no hash covers
+    its source) compiles it in each process: no cache files beside it, none stale."""
+    @jit.njit(cache=True)
+    def twice(x):
+        return 2.0 * x
+
+    assert twice(1.5) == 3.0
+    assert type(twice._cache).__name__ == "NullCache"
+    assert not list(Path(__file__).parent.glob("__pycache__/*test_cache*.nb[ic]"))

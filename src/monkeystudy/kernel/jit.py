@@ -129,9 +129,13 @@ _WARNED_UNCACHED = []
 
 
 def cache_in_kernel_dir(dispatcher: Dispatcher) -> Dispatcher:
-    """Give ``dispatcher`` (of a kernel function) the kernels' on-disk cache; returns it."""
-    if not KERNEL_CACHE_DIR:
-        if not _WARNED_UNCACHED:
+    """Give ``dispatcher`` the kernels' on-disk cache if its function's source is a kernel
+    module (a function defined elsewhere, e.g. in a test, is compiled in each process: its
+    source is not in :data:`KERNEL_DIGEST`, so no cache could tell when it is stale);
+    returns it."""
+    if KernelCacheLocator.from_function(dispatcher.py_func,
+                                        dispatcher.py_func.__code__.co_filename) is None:
+        if not KERNEL_CACHE_DIR and not _WARNED_UNCACHED:
             _WARNED_UNCACHED.append(True)
             warnings.warn(f"cannot write the kernel cache {kernel_cache_dir()!r}: kernels "
                           "are compiled in every process (set NUMBA_CACHE_DIR to a writable "
@@ -146,7 +150,8 @@ def cache_in_kernel_dir(dispatcher: Dispatcher) -> Dispatcher:
 def njit(function=None, *, cache: bool = False, **options):
     """``numba.njit(**options)`` without the C-callable wrapper; with ``cache=True`` cached
     in :data:`KERNEL_CACHE_DIR` (module docstring). Used as ``@njit(cache=True, ...)`` or
-    ``njit(cache=True, ...)(function)``."""
+    ``njit(cache=True, ...)(function)``; ``cache=True`` on a function that is not in a kernel
+    module compiles it in each process, cached nowhere."""
     options = dict(options, nopython=True, no_cfunc_wrapper=True)
 
     def decorate(f):
