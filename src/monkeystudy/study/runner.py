@@ -311,11 +311,7 @@ class StudyRun:
                 elif is_lost_worker(exc):
                     broken = broken or exc
                 elif failure is None:
-                    tag = p.task.tag
-                    failure = RunFailed(f"{p.step.name}: task "
-                                        f"{tag.id if isinstance(tag, Block) else tag} "
-                                        f"failed: {type(exc).__name__}: {exc}\n"
-                                        + "".join(traceback.format_exception(exc)))
+                    failure = task_failure(p, exc)
             if broken is not None:
                 self.pool.abort()
                 raise RunInterrupted(f"a worker died ({type(broken).__name__}: {broken}); "
@@ -328,6 +324,18 @@ class StudyRun:
         if self.waiting:
             raise RunFailed("steps never became ready: "
                             + ", ".join(s.name for s in self.waiting))
+
+
+def task_failure(p: _Pending, exc: BaseException) -> RunFailed:
+    """What a task's exception makes of its step: a refusal the task raised
+    (:class:`RunFailed`: the step found nothing to work on) in one line, any other exception
+    (a fault) with its traceback."""
+    if isinstance(exc, RunFailed):
+        return RunFailed(f"{p.step.name}: {exc}")
+    tag = p.task.tag
+    return RunFailed(f"{p.step.name}: task {tag.id if isinstance(tag, Block) else tag} "
+                     f"failed: {type(exc).__name__}: {exc}\n"
+                     + "".join(traceback.format_exception(exc)))
 
 
 def is_lost_worker(exc: BaseException) -> bool:
