@@ -254,14 +254,16 @@ def report(path: Path, force: bool, formats: str, no_animation: bool) -> None:
     if not path.is_dir():
         _err(f"{path}: no such folder")
         raise click.exceptions.Exit(EXIT_INVALID)
-    from .plotting.report import NoStudyDatasets, ReportError, ReportInterrupted, report_study
+    from .plotting.report import (
+        FigureNameClash, NoStudyDatasets, ReportError, ReportInterrupted, report_study,
+    )
     try:
         report_study(path, force=force, formats=fmts, animation=not no_animation,
                      progress=click.echo)
     except ReportInterrupted as exc:
         _err(f"monkeystudy report: {exc}")
         raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
-    except NoStudyDatasets as exc:
+    except (NoStudyDatasets, FigureNameClash) as exc:
         _err(f"monkeystudy report: {exc}")
         raise click.exceptions.Exit(EXIT_INVALID) from None
     except ReportError as exc:

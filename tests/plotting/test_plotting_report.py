@@ -172,6 +172,25 @@ def test_empty_folder_is_refused_and_names_the_study_folders_below(tmp_path, rep
     assert not (empty / "figures").exists()
 
 
+def test_two_datasets_never_draw_one_figure_file(study_dir):
+    """A basin step ``b`` and a grid step ``b_cycles`` would both draw ``b_cycles_map`` (a
+    study file refuses such names; a folder can still hold such datasets, say of an older
+    study): the report refuses before drawing anything and names both."""
+    from monkeystudy.plotting.report import FigureNameClash, plan
+
+    (study_dir / "error_map.nc").rename(study_dir / "b_cycles.nc")
+    basin = xr.Dataset({"cycles": (("d_dtheta1", "d_dtheta2"), np.ones((2, 2), np.int32))},
+                       attrs={"step_kind": "basin", "step_name": "b"})
+    write_nc(basin, study_dir / "b.nc")
+    with pytest.raises(FigureNameClash, match=r"figure b_cycles_map would be drawn from "
+                       r"b_cycles.nc \(its grid figure map\) and from b.nc \(its basin "
+                       r"figure cycles_map\)"):
+        plan(study_dir)
+    with pytest.raises(FigureNameClash):
+        report_study(study_dir, **FAST)
+    assert not (study_dir / "figures").exists()
+
+
 # --- datasets written by the real study runner ---------------------------------------------
 def test_report_on_runner_datasets(runner_study_dir):
     written = report_study(runner_study_dir, formats=("png",), **FAST)   # GIFs: 2 + 1 s

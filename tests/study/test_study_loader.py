@@ -141,3 +141,28 @@ def test_a_problem_in_a_key_merged_from_an_anchor_names_the_step_that_merges_it(
     assert merged, str(err.value)
     line = next(n for n, row in enumerate(bad.splitlines(), 1) if "name: schedule_clock" in row)
     assert all(i.line == line for i in merged), str(err.value)
+
+
+def test_steps_whose_figures_would_share_a_file_name_are_refused_whichever_comes_first():
+    """A figure is named ``<step>_<figure>``: a grid step ``b_cycles`` (figure ``map``) and a
+    basin step ``b`` (figure ``cycles_map``) would both write ``b_cycles_map``; the later
+    step's name is the problem, located. Names that only share a beginning are fine."""
+    head = """\
+schema_version: 1
+name: clash
+robot: seed2009
+gait: {kind: horizontal, motor_torque: 0.6354, tick: 0.0}
+steps:
+  - {name: s, kind: shoot, starts: [[1.44, 10.31]]}
+"""
+    grid = ("  - {name: b_cycles, kind: grid, dtheta1: {start: 1.3, stop: 1.6, num: 3},\n"
+            "     dtheta2: {start: 10.0, stop: 10.5, num: 3}}\n")
+    basin = ("  - {name: b, kind: basin, from: s, offsets: {d_dtheta1: {start: -1.0e-3, stop: "
+             "1.0e-3, num: 3},\n     d_dtheta2: {start: -1.0e-3, stop: 1.0e-3, num: 3}}}\n")
+    with pytest.raises(StudyError) as err:
+        parse_study(head + grid + basin, "x.yaml")
+    assert str(err.value) == (
+        "x.yaml:9: steps[2].name: figure file b_cycles_map would be both the grid figure map "
+        "of step 'b_cycles' and the basin figure cycles_map of step 'b' (a figure is named "
+        "<step>_<figure>): rename one of the two steps")
+    parse_study(head + grid.replace("b_cycles", "b_cycle") + basin, "x.yaml")

@@ -18,6 +18,7 @@ from typing import Mapping, Sequence
 
 from .. import __version__
 from ..study.loader import StudyError, parse_study
+from ..study.figures import figure_name
 from ..study.steps import REGISTRY
 
 PAGE = "index.html"
@@ -233,7 +234,9 @@ def render_page(study_dir: Path, datasets: Mapping[str, object],
         out.append(f'<p class="muted">dataset <a href="../{_e(name)}.nc">{_e(name)}.nc</a>'
                    "</p>")
         for fig in (kind.figures if kind else ()):
-            key = f"{name}_{fig.suffix}"
+            if fig.across:
+                continue            # under "Across steps"
+            key = figure_name(fig, name, kind.name)
             if key in figures:
                 out.append(_figure_html(key, figures[key], fig.title, fig.caption))
                 used.add(key)
@@ -241,11 +244,11 @@ def render_page(study_dir: Path, datasets: Mapping[str, object],
                 out.append(_skipped_html(key, fig.title, fig.caption, skipped[key]))
                 used.add(key)
     across = [(kind, fig) for kind in REGISTRY.values() for fig in kind.figures if fig.across
-              and f"{kind.name}_{fig.suffix}" in set(figures) | set(skipped)]
+              and figure_name(fig, "", kind.name) in set(figures) | set(skipped)]
     if across:
         out.append("<h2>Across steps</h2>")
         for kind, fig in across:
-            key = f"{kind.name}_{fig.suffix}"
+            key = figure_name(fig, "", kind.name)
             if key in figures:
                 out.append(_figure_html(key, figures[key], fig.title, fig.caption))
             else:

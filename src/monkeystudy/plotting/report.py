@@ -62,6 +62,7 @@ from typing import Callable, Sequence
 
 import xarray as xr
 
+from ..study.figures import figure_name
 from ..study.steps import REGISTRY
 from . import gait
 from .common import STYLE_FILE, atomic_path, provenance, save_figure
@@ -193,7 +194,8 @@ def load_dataset(path: Path) -> xr.Dataset:
 def plan(study_dir: Path, *, animation: bool = True, fps: float = 15.0,
          max_frames: int = 240) -> list[Job]:
     """The figures the datasets in ``study_dir`` support (nothing is drawn): for every step
-    kind, in registry order, the figures it declares for each of its datasets."""
+    kind, in registry order, the figures it declares for each of its datasets. Raises
+    :class:`FigureNameClash` when two of them would have the same file name."""
     study_dir = Path(study_dir)
     cache: dict[Path, xr.Dataset] = {}
 
@@ -215,14 +217,45 @@ def plan(study_dir: Path, *, animation: bool = True, fps: float = 15.0,
                 groups = [[p] + how.extra_inputs(p, folder) for p in paths
                           if how.applies(p, folder)]
                 if len(groups) > 1:
-                    jobs.append(Job(f"{kind.name}_{fig.suffix}", [p for g in groups for p in g],
+                    jobs.append(Job(figure_name(fig, "", kind.name), [p for g in groups for p in g],
                                     key, fig.title, sizes=tuple(len(g) for g in groups)))
                 continue
             for p in paths:
                 if how.applies(p, folder):
-                    jobs.append(Job(f"{p.stem}_{fig.suffix}", [p] + how.extra_inputs(p, folder),
-                                    key, f"{p.stem}: {fig.title}", animation=how.animation))
+                    jobs.append(Job(figure_name(fig, p.stem, kind.name),
+                                    [p] + how.extra_inputs(p, folder), key,
+                                    f"{p.stem}: {fig.title}", animation=how.animation))
+    clashes = name_clashes(jobs)
+    if clashes:
+        raise FigureNameClash(f"{study_dir}: " + "; ".join(clashes) + " (a figure is named "
+                              "<step>_<figure>): rename one of the steps in the study and "
+                              "run it again, or move a dataset that is not of this study "
+                              "out of the folder")
     return jobs
+
+
+class FigureNameClash(ValueError):
+    """Two datasets of a folder would draw figures of the same file name (steps that a study
+    file now refuses, or a dataset of another study in the folder): nothing is drawn."""
+
+
+def name_clashes(jobs: Sequence[Job]) -> list[str]:
+    """``figure X from a.nc (grid map) and b.nc (basin cycles_map)`` for each file name that
+    two jobs would write."""
+    first: dict[str, Job] = {}
+    out = []
+
+    def what(job: Job) -> str:
+        kind, suffix = job.key
+        if job.sizes is not None:
+            return f"the {kind} datasets (their {kind} figure {suffix})"
+        return f"{job.inputs[0].name} (its {kind} figure {suffix})"
+    for job in jobs:
+        other = first.setdefault(job.name, job)
+        if other is not job:
+            out.append(f"figure {job.name} would be drawn from {what(other)} and from "
+                       f"{what(job)}")
+    return out
 
 
 def split_groups(datasets: list, sizes: Sequence[int]) -> list[list]:
@@ -368,6 +401,8 @@ def report_study(study_dir: Path, *, force: bool = False,
     ------
     NoStudyDatasets
         ``study_dir`` holds no study dataset (the message names study folders below it).
+    FigureNameClash
+        Two datasets would draw figures of the same file name; nothing is drawn.
     ReportError
         When some figures failed; the others are written (and listed in ``.written``).
     ReportInterrupted

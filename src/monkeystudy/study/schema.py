@@ -17,6 +17,7 @@ from ..robot import Robot
 from .models import (
     SCHEMA_VERSION, IntegratorSettings, Name, RobotSpec, StrictModel, StudyGait, to_robot,
 )
+from .figures import figure_name_clash
 from .steps import REGISTRY
 
 #: a step of any registered kind (pydantic picks the model by ``kind``)
@@ -53,17 +54,23 @@ class Study(StrictModel):
 def cross_check(study: Study) -> list[tuple[tuple, str]]:
     """Checks across fields and steps: ``[(path, message), ...]`` (empty when all is well).
 
-    Step names must be unique; a step whose kind does not support the study's gait is refused;
-    every other check is the step kind's own (:meth:`~monkeystudy.study.steps.base.StepKind.
-    check`), given the earlier steps by name.
+    Step names must be unique, and so must the names of the figures they make
+    (:func:`figure_name_clash`); a step whose kind does not support the study's gait is
+    refused; every other check is the step kind's own (:meth:`~monkeystudy.study.steps.base.
+    StepKind.check`), given the earlier steps by name.
     """
     gait = study.gait.kind
     supported = ", ".join(k.name for k in REGISTRY.values() if gait in k.gait_kinds)
     problems: list[tuple[tuple, str]] = []
     seen: dict[str, Any] = {}
+    figures: dict[str, tuple[str, str, str]] = {}
     for i, s in enumerate(study.steps):
         if s.name in seen:
             problems.append((("steps", i, "name"), f"duplicate step name {s.name!r}"))
+        else:
+            clash = figure_name_clash(s, figures)
+            if clash:
+                problems.append((("steps", i, "name"), clash))
         kind = REGISTRY[s.kind]
         if gait not in kind.gait_kinds:
             problems.append((("steps", i, "kind"), f"a {s.kind} step needs a "
