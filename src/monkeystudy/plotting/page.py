@@ -16,9 +16,10 @@ import re
 from pathlib import Path
 from typing import Mapping, Sequence
 
+from ruamel.yaml import YAML, YAMLError
+
 from .. import __version__
 from ..study.failures import FAILED, StepFailure
-from ..study.loader import StudyError, parse_study
 from ..study.figures import figure_name
 from ..study.steps import REGISTRY
 
@@ -93,8 +94,9 @@ def study_steps(datasets: Mapping[str, object],
                 failures: Mapping[str, StepFailure] | None = None) -> dict[str, str]:
     """The steps of the study as last run, ``{name: kind}`` in the study file's order: those
     of the newest study text among the datasets (``study_text``, dated by ``history``) and
-    the failure markers of the folder's last run (dated by ``time``). Empty when no study
-    text can be read."""
+    the failure markers of the folder's last run (dated by ``time``). The text is read as
+    YAML, not validated (a study run by an earlier version may break a newer rule). Empty
+    when no study text can be read."""
     texts: list[tuple[str, str]] = []
     for ds in datasets.values():
         text = ds.attrs.get("study_text")
@@ -103,11 +105,19 @@ def study_steps(datasets: Mapping[str, object],
             texts.append((m.group(0) if m else "", text))
     texts += [(f.time, f.study_text) for f in (failures or {}).values() if f.study_text]
     for _, text in sorted(texts, key=lambda t: t[0], reverse=True):
-        try:
-            return {s.name: s.kind for s in parse_study(text).study.steps}
-        except StudyError:
-            continue
+        steps = _named_steps(text)
+        if steps:
+            return steps
     return {}
+
+
+def _named_steps(text: str) -> dict[str, str]:
+    """``{name: kind}`` of the steps of a study file's text (empty if it cannot be read)."""
+    try:
+        data = YAML(typ="safe").load(text)
+        return {str(s["name"]): str(s.get("kind", "?")) for s in data["steps"]}
+    except (YAMLError, TypeError, KeyError, AttributeError):
+        return {}
 
 
 def step_order(datasets: Mapping[str, object],
