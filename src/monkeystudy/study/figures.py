@@ -17,14 +17,14 @@ def figure_name(figure: Figure, step: str, kind: str) -> str:
 
 
 def figure_name_clash(step, figures: dict[str, tuple[str, str, str]]) -> str | None:
-    """Why ``step``'s figures cannot be named as they would be (:func:`figure_name`): one of them, or the figure across its
-    kind's steps, is named like an earlier step's figure. ``figures``: the names taken so far,
-    each with what makes it (step name, "" for a figure across steps; kind; suffix);
-    ``step``'s are added. None when all is well.
+    """Why ``step``'s figures cannot be named as they would be (:func:`figure_name`): one of
+    them, or the figure across its kind's steps, is named like an earlier step's figure.
+    ``figures``: the names taken so far, each with what makes it (step name, "" for a figure
+    across steps; kind; suffix); ``step``'s are added. None when all is well.
     """
     kind = REGISTRY[step.kind]
-    mine = {figure_name(f, step.name, kind.name): ("" if f.across else step.name, kind.name, f.suffix)
-            for f in kind.figures}
+    mine = {figure_name(f, step.name, kind.name):
+            ("" if f.across else step.name, kind.name, f.suffix) for f in kind.figures}
 
     def what(owner: tuple[str, str, str]) -> str:
         name, kind_name, suffix = owner
