@@ -87,7 +87,9 @@ def datasets_step(study: Path, out: Path, *, workers: int | None, dry_run: bool)
 def figures_step(study_dir: Path, *, force: bool, animation: bool, dry_run: bool,
                  formats: list[str]):
     """Redraw the figures whose inputs changed. Returns (state, ok)."""
-    from monkeystudy.plotting.report import ReportError, report_study, study_datasets
+    from monkeystudy.plotting.report import (
+        FigureNameClash, ReportError, StudyIncomplete, report_study, study_datasets,
+    )
 
     if not study_dir.is_dir() or not study_datasets(study_dir):
         log("  figures: no datasets yet")
@@ -104,6 +106,13 @@ def figures_step(study_dir: Path, *, force: bool, animation: bool, dry_run: bool
     except ReportError as exc:
         log(f"  figures: {exc}")
         return f"{len(exc.failures)} failed, {len(exc.written)} file(s) written", False
+    except FigureNameClash as exc:
+        log(f"  figures: {exc}")
+        return "refused: figure names clash", False
+    except StudyIncomplete as exc:    # the rest is drawn; the page lists the missing steps
+        log(f"  figures: {exc}")
+        n = len(exc.failed) + len(exc.missing)
+        return f"wrote {len(exc.written)} file(s); {n} step(s) without a dataset", False
     verb = "would write" if dry_run else "wrote"
     return f"{verb} {len(written)} file(s) in {time.monotonic() - t0:.0f} s", True
 

@@ -245,7 +245,9 @@ FIGURE_FORMATS = ("png", "pdf", "svg")
               help="skip the animations (the slowest figures)")
 def report(path: Path, force: bool, formats: str, no_animation: bool) -> None:
     """Draw the figures of the study folder FOLDER (outputs/<name>) and its page,
-    FOLDER/figures/index.html, from its datasets; only what changed is redrawn."""
+    FOLDER/figures/index.html, from its datasets; only what changed is redrawn. The page lists
+    every step of the study: exit code 1 if a step failed in the last run, 3 if a step has
+    no dataset yet."""
     fmts = [f.strip().lower() for f in formats.split(",") if f.strip()]
     bad = [f for f in fmts if f not in FIGURE_FORMATS]
     if bad or not fmts:
@@ -254,19 +256,26 @@ def report(path: Path, force: bool, formats: str, no_animation: bool) -> None:
     if not path.is_dir():
         _err(f"{path}: no such folder")
         raise click.exceptions.Exit(EXIT_INVALID)
-    from .plotting.report import NoStudyDatasets, ReportError, ReportInterrupted, report_study
+    from .plotting.report import (
+        FigureNameClash, NoStudyDatasets, ReportError, ReportInterrupted, StudyIncomplete,
+        report_study,
+    )
     try:
         report_study(path, force=force, formats=fmts, animation=not no_animation,
                      progress=click.echo)
     except ReportInterrupted as exc:
         _err(f"monkeystudy report: {exc}")
         raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
-    except NoStudyDatasets as exc:
+    except (NoStudyDatasets, FigureNameClash) as exc:
         _err(f"monkeystudy report: {exc}")
         raise click.exceptions.Exit(EXIT_INVALID) from None
     except ReportError as exc:
         _err(f"monkeystudy report: {exc}")
         raise click.exceptions.Exit(EXIT_FAILED) from None
+    except StudyIncomplete as exc:   # drawn and on the page; the study's run is not done
+        _err(f"monkeystudy report: {exc}")
+        raise click.exceptions.Exit(EXIT_FAILED if exc.failed else EXIT_INTERRUPTED) \
+            from None
     except KeyboardInterrupt:
         raise
     except Exception as exc:  # the report code's failure is a failed run, not a crash

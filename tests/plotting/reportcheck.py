@@ -3,9 +3,10 @@
 :func:`run_and_report` is what the property test (test_report_property.py) and the kept
 regression cases (test_report_regressions.py) call: the study runs with the project's runner
 into a fresh folder, the report draws every figure it plans (PNG only, short animations), and
-the checks of :func:`check_report` hold: the report returns normally (no failed figure), every
-planned figure is drawn or skipped with a stated reason, and every file the page references
-exists.
+the checks of :func:`check_report` hold: the report returns normally (no failed figure), or,
+when the run refused steps, says the study is incomplete naming exactly the steps that failed
+or were not run; every planned figure is drawn or skipped with a stated reason, every step
+that failed is on the page with its reason, and every file the page references exists.
 """
 from __future__ import annotations
 
@@ -19,9 +20,11 @@ from matplotlib.text import Text
 from monkeystudy.plotting.drawing import NothingToDraw
 from monkeystudy.plotting.page import PAGE
 from monkeystudy.plotting.report import (
-    DRAWINGS, MANIFEST, load_dataset, plan, report_study, split_groups, study_datasets,
+    DRAWINGS, MANIFEST, StudyIncomplete, load_dataset, plan, report_study, split_groups,
+    study_datasets,
 )
 from monkeystudy.study import RunFailed, parse_study, run_study
+from monkeystudy.study.runner import StepsFailed
 
 #: What the runner refuses at run time: a step whose source step found nothing to build on
 #: (a refine of a grid without a gait, a replay of a refine that found no gait, ...). These
@@ -53,6 +56,7 @@ class Outcome:
 
     folder: Path
     refused: str | None = None              # the run's refusal (RUN_REFUSALS), if any
+    incomplete: dict[str, str] = field(default_factory=dict)   # failed / not run: why
     drawn: list[str] = field(default_factory=list)
     skipped: dict[str, str] = field(default_factory=dict)
     lines: list[str] = field(default_factory=list)
@@ -69,14 +73,20 @@ def run_and_report(text: str, folder: Path, *, workers: int | None = None) -> Ou
         run_study(loaded, folder, workers=1)
     except RunFailed as exc:
         msg = str(exc)
-        assert any(re.search(p, msg) for p in RUN_REFUSALS), f"the run failed: {msg}"
+        assert isinstance(exc, StepsFailed), f"the run failed: {msg}"
+        for step, why in exc.summary.failed.items():
+            assert any(re.search(p, why) for p in RUN_REFUSALS), f"the run failed: {msg}"
         out.refused = msg
+        out.incomplete = {**exc.summary.failed, **exc.summary.not_run}
     out.run_seconds = time.perf_counter() - t0
     if not folder.is_dir() or not study_datasets(folder):
         assert out.refused, "the run wrote no dataset and said nothing"
-        return out
     t1 = time.perf_counter()
-    report_study(folder, progress=out.lines.append, workers=workers, **FAST)
+    try:
+        report_study(folder, progress=out.lines.append, workers=workers, **FAST)
+        assert not out.refused, "the report of a study that refused steps says it is complete"
+    except StudyIncomplete as exc:
+        assert set(exc.failed) == set(out.incomplete) and not exc.missing, str(exc)
     out.report_seconds = time.perf_counter() - t1
     check_report(folder, out)
     return out
@@ -88,7 +98,8 @@ def check_report(folder: Path, out: Outcome) -> None:
     import json
 
     figs = folder / "figures"
-    manifest = json.loads((figs / MANIFEST).read_text())["figures"]
+    manifest = (json.loads((figs / MANIFEST).read_text())["figures"]
+                if (figs / MANIFEST).exists() else {})     # nothing planned, nothing drawn
     page = (figs / PAGE).read_text()
     for job in plan(folder, fps=FAST["fps"], max_frames=FAST["max_frames"]):
         entry = manifest.get(job.name)
@@ -121,6 +132,13 @@ def check_report(folder: Path, out: Outcome) -> None:
         assert not bad.search(shown), f"the page says {bad.search(shown).group(0)!r}"
     for ref in re.findall(r'(?:src|href)="([^"#][^"]*)"', page):
         assert (figs / ref).resolve().is_file(), f"the page references {ref}, not on disk"
+    for step, why in out.incomplete.items():
+        assert f'<h3 id="step-{step}">' in page, f"{step}: failed, not on the page"
+        assert any(line.startswith(f"step {step}: ") for line in out.lines), \
+            f"{step}: failed, not in the log"
     again: list[str] = []
-    assert report_study(folder, progress=again.append, **FAST) == [], \
-        "a second report redrew something"
+    try:
+        written = report_study(folder, progress=again.append, **FAST)
+    except StudyIncomplete as exc:
+        written = exc.written
+    assert written == [], "a second report redrew something"

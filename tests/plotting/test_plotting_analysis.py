@@ -22,7 +22,7 @@ from monkeystudy.plotting.kinds import (
 from monkeystudy.plotting.labels import sci
 from monkeystudy.plotting.report import DRAWINGS
 from monkeystudy.plotting.page import PAGE
-from monkeystudy.plotting.report import MANIFEST, plan, report_study
+from monkeystudy.plotting.report import MANIFEST, StudyIncomplete, plan, report_study
 
 from analysisdata import BASIN_CYCLES, ERROR_BOUND, TICKS, build_analysis_study
 from plotdata import write_nc
@@ -388,5 +388,9 @@ def test_a_changed_dataset_redraws_its_figure_only(reported_copy):
     after = {p.name: p.stat().st_mtime_ns for p in figs.iterdir()}
     assert all(after[n] == before[n] for n in before if n not in written and n != MANIFEST)
     (reported_copy / "timing.nc").unlink()                 # its figure goes with it
-    assert report_study(reported_copy) == [figs / PAGE]    # and its section of the page
+    with pytest.raises(StudyIncomplete) as err:            # a step of the study is missing
+        report_study(reported_copy)
+    assert err.value.missing == ["timing"]
+    assert err.value.written == [figs / PAGE]              # the page says it has no dataset
+    assert 'id="step-timing"' in (figs / PAGE).read_text()
     assert not [n for n in os.listdir(figs) if n.startswith("timing_")]

@@ -15,7 +15,9 @@ import xarray as xr
 from PIL import Image
 
 from monkeystudy.plotting.page import PAGE
-from monkeystudy.plotting.report import MANIFEST, NoStudyDatasets, ReportError, report_study
+from monkeystudy.plotting.report import (
+    MANIFEST, NoStudyDatasets, ReportError, StudyIncomplete, report_study,
+)
 
 from plotdata import FAST, write_nc
 
@@ -152,7 +154,9 @@ def test_figures_of_a_deleted_dataset_are_removed(reported_copy):
     figs = reported_copy / "figures"
     (reported_copy / "refine_1.nc").unlink()
     (reported_copy / "stability_1.nc").unlink()
-    report_study(reported_copy, animation=False, **FAST)   # animations: kept, not redrawn
+    with pytest.raises(StudyIncomplete) as err:     # the study has steps without a dataset
+        report_study(reported_copy, animation=False, **FAST)   # animations: kept
+    assert err.value.missing == ["refine_1", "stability_1"] and not err.value.failed
     names = set(os.listdir(figs))
     assert not {n for n in names if n.startswith(("refine_1_", "stability_1_"))}
     assert {"refine_2_convergence.png", "stability_2_animation.mp4"} <= names
@@ -170,6 +174,94 @@ def test_empty_folder_is_refused_and_names_the_study_folders_below(tmp_path, rep
     with pytest.raises(NoStudyDatasets, match=re.escape(str(reported_copy))):
         report_study(reported_copy.parent)
     assert not (empty / "figures").exists()
+
+
+def test_two_datasets_never_draw_one_figure_file(study_dir):
+    """A basin step ``b`` and a grid step ``b_cycles`` would both draw ``b_cycles_map`` (a
+    study file refuses such names; a folder can still hold such datasets, say of an older
+    study): the report refuses before drawing anything and names both."""
+    from monkeystudy.plotting.report import FigureNameClash, plan
+
+    (study_dir / "error_map.nc").rename(study_dir / "b_cycles.nc")
+    basin = xr.Dataset({"cycles": (("d_dtheta1", "d_dtheta2"), np.ones((2, 2), np.int32))},
+                       attrs={"step_kind": "basin", "step_name": "b"})
+    write_nc(basin, study_dir / "b.nc")
+    with pytest.raises(FigureNameClash, match=r"figure b_cycles_map would be drawn from "
+                       r"b_cycles.nc \(its grid figure map\) and from b.nc \(its basin "
+                       r"figure cycles_map\)"):
+        plan(study_dir)
+    with pytest.raises(FigureNameClash):
+        report_study(study_dir, **FAST)
+    assert not (study_dir / "figures").exists()
+
+
+def test_every_step_of_the_study_is_listed_with_what_became_of_it(reported_copy):
+    """A step whose run failed, one not run because of it (their failure markers) and one
+    without a dataset or a marker: the page and the log list each with what became of it,
+    the other steps' figures are all there, and the report says the study is incomplete:
+    exit 1 while a step failed, 3 when steps are only still to run."""
+    from click.testing import CliRunner
+
+    from monkeystudy.cli import app
+    from monkeystudy.study.failures import StepFailure, write_failure
+
+    text = xr.open_dataset(reported_copy / "error_map.nc").attrs["study_text"]
+    for name in ("refine_2", "stability_2", "stability_1"):
+        (reported_copy / f"{name}.nc").unlink()
+    why = "refine_2: the refinement found nothing"
+    write_failure(reported_copy, StepFailure("refine_2", "refine", "failed", why, "plot_test",
+                                             text, "2999-01-01T00:00:00+00:00"))
+    write_failure(reported_copy, StepFailure("stability_2", "stability", "not_run",
+                                             "step 'refine_2', which it depends on, failed",
+                                             "plot_test", text, "2999-01-01T00:00:00+00:00"))
+    lines: list[str] = []
+    with pytest.raises(StudyIncomplete) as err:
+        report_study(reported_copy, animation=False, progress=lines.append, **FAST)
+    assert err.value.failed == {
+        "refine_2": f"failed: {why}",
+        "stability_2": "not run: step 'refine_2', which it depends on, failed"}
+    assert err.value.missing == ["stability_1"]
+    assert f"step refine_2: failed: {why}" in lines
+    assert "step stability_2: not run: step 'refine_2', which it depends on, failed" in lines
+    assert any(x.startswith("step stability_1: no dataset") for x in lines)
+    assert lines[-1].endswith("3 step(s) without a current dataset")
+    page = (reported_copy / "figures" / PAGE).read_text().replace("&#x27;", "'")
+    for name in ("error_map", "refine_1", "refine_2", "stability_1", "stability_2"):
+        assert f'<h3 id="step-{name}">' in page, name
+    assert f'<p class="failed">failed: {why}.</p>' in page
+    assert "not run: step 'refine_2', which it depends on, failed." in page
+    assert "3 of 5 steps have no dataset" in page
+    assert (reported_copy / "figures" / "refine_1_convergence.png").exists()
+    res = CliRunner().invoke(app, ["report", str(reported_copy), "--no-animation"])
+    assert res.exit_code == 1 and "the study is incomplete: 2 steps failed" in res.output
+    (reported_copy / "refine_2.failed.json").unlink()
+    (reported_copy / "stability_2.failed.json").unlink()
+    res = CliRunner().invoke(app, ["report", str(reported_copy), "--no-animation"])
+    assert res.exit_code == 3, res.output
+    assert "3 steps without a dataset (refine_2, stability_1, stability_2): run the study" \
+        in res.output
+
+
+def test_a_folder_whose_every_step_failed_gets_a_page_saying_why(tmp_path):
+    """No dataset, only the failure markers of the last run: the page lists the study's
+    steps and why each has no dataset; exit 1 (not the "no datasets" refusal, exit 2)."""
+    from click.testing import CliRunner
+
+    from monkeystudy.cli import app
+    from monkeystudy.study.failures import StepFailure, write_failure
+
+    text = TINY
+    write_failure(tmp_path, StepFailure("m", "grid", "failed", "task b000000 failed: "
+                                        "MemoryError: ", "tiny", text))
+    write_failure(tmp_path, StepFailure("g", "refine", "failed", "task 0 failed: "
+                                        "MemoryError: ", "tiny", text))
+    write_failure(tmp_path, StepFailure("c", "stability", "not_run", "step 'g', which it "
+                                        "depends on, failed", "tiny", text))
+    res = CliRunner().invoke(app, ["report", str(tmp_path), "--no-animation"])
+    assert res.exit_code == 1, res.output
+    assert "step m: failed: task b000000 failed: MemoryError" in res.output
+    page = (tmp_path / "figures" / PAGE).read_text()
+    assert "3 of 3 steps have no dataset" in page and "<code>tiny</code>" in page
 
 
 # --- datasets written by the real study runner ---------------------------------------------

@@ -141,3 +141,64 @@ def test_a_problem_in_a_key_merged_from_an_anchor_names_the_step_that_merges_it(
     assert merged, str(err.value)
     line = next(n for n, row in enumerate(bad.splitlines(), 1) if "name: schedule_clock" in row)
     assert all(i.line == line for i in merged), str(err.value)
+
+
+def test_steps_whose_figures_would_share_a_file_name_are_refused_whichever_comes_first():
+    """A figure is named ``<step>_<figure>``: a grid step ``b_cycles`` (figure ``map``) and a
+    basin step ``b`` (figure ``cycles_map``) would both write ``b_cycles_map``; the later
+    step's name is the problem, located. Names that only share a beginning are fine."""
+    head = """\
+schema_version: 1
+name: clash
+robot: seed2009
+gait: {kind: horizontal, motor_torque: 0.6354, tick: 0.0}
+steps:
+  - {name: s, kind: shoot, starts: [[1.44, 10.31]]}
+"""
+    grid = ("  - {name: b_cycles, kind: grid, dtheta1: {start: 1.3, stop: 1.6, num: 3},\n"
+            "     dtheta2: {start: 10.0, stop: 10.5, num: 3}}\n")
+    basin = ("  - {name: b, kind: basin, from: s, offsets: {d_dtheta1: {start: -1.0e-3, stop: "
+             "1.0e-3, num: 3},\n     d_dtheta2: {start: -1.0e-3, stop: 1.0e-3, num: 3}}}\n")
+    with pytest.raises(StudyError) as err:
+        parse_study(head + grid + basin, "x.yaml")
+    assert str(err.value) == (
+        "x.yaml:9: steps[2].name: figure file b_cycles_map would be both the grid figure map "
+        "of step 'b_cycles' and the basin figure cycles_map of step 'b' (a figure is named "
+        "<step>_<figure>): rename one of the two steps")
+    parse_study(head + grid.replace("b_cycles", "b_cycle") + basin, "x.yaml")
+
+
+def test_problems_across_steps_are_reported_with_the_field_errors():
+    """One pass reports every problem: a ``from:`` naming a later step, and one naming a step
+    of the wrong kind, with the field errors of other keys; a step built on a step that is
+    not valid is not judged against it (no "no earlier step" for a step that is there)."""
+    text = """\
+schema_version: 1
+name: all_at_once
+robot: seed2009
+gait: {kind: horizontal, motor_torque: 0.6354, tick: 0.001}
+steps:
+  - {name: c, kind: stability, from: g, cycles: 3}
+  - {name: g, kind: refine, start: [0.9, 10.9], xatol: 0}
+  - {name: m, kind: grid, dtheta1: {start: 0.5, stop: 1.5, num: 0},
+     dtheta2: {start: 10.0, stop: 12.0, num: 3}}
+  - {name: r, kind: refine, start: {from: m, best: 2}}
+  - {name: r2, kind: refine, start: {from: c, best: 2}}
+  - {name: g, kind: refine, start: [1.0, 11.0]}
+"""
+    want = [
+        "x.yaml:6: steps[0].from: no earlier step named 'g'",
+        "x.yaml:7: steps[1].xatol: must be > 0, got 0",
+        "x.yaml:8: steps[2].dtheta1.num: must be >= 1, got 0",
+        "x.yaml:11: steps[4].start.from: 'c' is a stability step, expected a grid step",
+        "x.yaml:12: steps[5].name: duplicate step name 'g'",
+    ]
+    with pytest.raises(StudyError) as info:
+        parse_study(text, "x.yaml")
+    assert str(info.value).splitlines() == want
+    # with the gait not valid, the steps' names and from: are still checked
+    with pytest.raises(StudyError) as info:
+        parse_study(text.replace("tick: 0.001", "tikc: 0.001"), "x.yaml")
+    assert str(info.value).splitlines() == [
+        "x.yaml:4: gait.tikc: unknown key; did you mean 'tick'? (allowed: kind, motor_torque, "
+        "tick)"] + want

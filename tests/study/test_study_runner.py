@@ -378,6 +378,63 @@ def test_task_error_fails_the_run(tmp_path, monkeypatch):
         run_study(load_study(write_study(tmp_path)), tmp_path / "out")
 
 
+#: a failing step first (its task refuses on the worker: no gait at its points), a refine of
+#: a grid without a gait (refused when it starts), a stability run built on it, and an
+#: independent grid last
+FAILING = """\
+schema_version: 1
+name: failing
+robot: seed2009
+gait: {kind: horizontal, motor_torque: 0.6354, tick: 0.001}
+integrator: {rtol: 1.0e-8, atol: 1.0e-10}
+steps:
+  - {name: wp, kind: work_precision, points: [[0.0, 0.0]], methods: [rk45], rtols: [1.0e-6],
+     repeat: 1, scipy_methods: [RK45], scipy_rtols: [1.0e-6]}
+  - {name: nogait, kind: grid, dtheta1: {start: 0.0, stop: 0.1, num: 2},
+     dtheta2: {start: 0.0, stop: 0.1, num: 2}}
+  - {name: r, kind: refine, start: {from: nogait, best: 1}}
+  - {name: s, kind: stability, from: r, cycles: 2}
+  - {name: map, kind: grid, dtheta1: {start: 0.8, stop: 1.0, num: 2},
+     dtheta2: {start: 10.8, stop: 11.0, num: 2}}
+"""
+
+
+def test_a_failed_step_stops_only_the_steps_built_on_it(tmp_path):
+    """Every step whose dependencies succeeded runs; the failures are reported together at
+    the end (StepsFailed, exit 1), each failed or not-run step leaving its marker with the
+    reason; a rerun starts from no marker and leaves the same ones."""
+    from monkeystudy.study.failures import read_failures
+    from monkeystudy.study.runner import StepsFailed
+
+    study = write_study(tmp_path, FAILING, "failing.yaml")
+    out = tmp_path / "out"
+    with pytest.raises(StepsFailed) as err:
+        run_study(load_study(study), out, workers=1)
+    summary = err.value.summary
+    assert sorted(p.name for p in out.glob("*.nc")) == ["map.nc", "nogait.nc"]
+    assert sorted(p.name for p in summary.written) == ["map.nc", "nogait.nc"]
+    assert set(summary.failed) == {"wp", "r"}
+    assert summary.failed["wp"].startswith("no gait at any of the 1 point")
+    assert "points with an error value" in summary.failed["r"]
+    assert summary.not_run == {"s": "step 'r', which it depends on, failed"}
+    text = str(err.value)
+    assert text.startswith("2 steps failed, 1 not run:") and "Traceback" not in text
+    assert "\n  s: not run: step 'r', which it depends on, failed" in text
+    markers = read_failures(out)
+    assert {n: (m.state, m.kind) for n, m in markers.items()} == {
+        "wp": ("failed", "work_precision"), "r": ("failed", "refine"),
+        "s": ("not_run", "stability")}
+    assert markers["r"].reason == summary.failed["r"]
+    assert markers["s"].study_text == FAILING and markers["s"].study_name == "failing"
+    with pytest.raises(StepsFailed):
+        run_study(load_study(study), out, workers=1)
+    assert set(read_failures(out)) == {"wp", "r", "s"}
+    # the failing steps gone from the study: the run is up to date, no marker is left
+    fixed = FAILING.split("  - {name: wp")[0] + "  - {name: map" + FAILING.split("- {name: map")[1]
+    run_study(load_study(write_study(tmp_path, fixed, "fixed.yaml")), out, workers=1)
+    assert read_failures(out) == {}
+
+
 def test_progress_is_rich_on_a_terminal_and_plain_otherwise():
     import io
     from monkeystudy.study.progress import PlainReporter, RichReporter, make_reporter

@@ -6,7 +6,10 @@ the error of the results (the gait error value and the three event times) are re
 a reference computed at a much tighter tolerance by a *different* method (the kernel's RK45 at
 rtol 1e-13, itself checked against scipy's DOP853). scipy ``solve_ivp`` (RK45, DOP853, LSODA,
 with events, hand-written scalar right-hand side) runs the same gaits on a subset of points,
-timed in the same process, so ratios between the two are measured side by side.
+timed in the same process, so ratios between the two are measured side by side. Only warmed
+calls are timed: each integrator and each scipy method runs once untimed first (a kernel's
+first call loads it, compiling it or reading it from the cache; scipy's first call imports its
+solvers), whatever ``repeat`` is.
 """
 from __future__ import annotations
 
@@ -34,6 +37,18 @@ def best_of(fn, repeat: int = 5) -> float:
     return best
 
 
+def warmed_best_of(fn, repeat: int = 5) -> float:
+    """Smallest wall time of ``repeat`` calls [s] after one untimed call: the first call of a
+    kernel loads it (a compile, or a read from the cache), which is not the kernel's time."""
+    fn()
+    return best_of(fn, repeat)
+
+
+class NoGaitToMeasure(ValueError):
+    """None of the points has a gait whose error can be measured (a work-precision
+    measurement would be errors of NaN)."""
+
+
 def kernel_gaits(par, prog, settings, pts, floor) -> np.ndarray:
     """The kernel's batch gait results ``[n, N_RESULT]`` at ``pts`` (no Python per gait)."""
     out = np.empty((pts.shape[0], N_RESULT))
@@ -46,6 +61,13 @@ def kernel_gaits(par, prog, settings, pts, floor) -> np.ndarray:
 RTOLS = (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13)
 #: reference: a different method at a much tighter tolerance
 REFERENCE = ("rk45", 1e-13)
+#: with ``first_swing_only``, kept gaits end before this time [s]
+FIRST_SWING_END = 1.2
+
+
+def _plural(n: int, noun: str) -> str:
+    """``1 point``, ``2 points``."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
 
 
 def _errors(out, ref):
@@ -73,6 +95,9 @@ def work_precision(points, *, robot: RobotLike = "seed2009", torque: float = SEE
     "status_mismatch", "scipy_methods", "scipy_rtols", "scipy_time", "scipy_error_value",
     "scipy_error_times", "kernel_time_same_points"}``. Errors are NaN where no point had a
     gait in both runs.
+
+    Raises :class:`NoGaitToMeasure` when no point has a gait (with ``first_swing_only``: a
+    well-conditioned one), before anything is timed.
     """
     robot = as_robot(robot)
     par = robot.params()
@@ -88,14 +113,24 @@ def work_precision(points, *, robot: RobotLike = "seed2009", torque: float = SEE
                                           controller=controller or "scipy"))
 
     ref = kernel_gaits(par, prog, settings(*REFERENCE), pts, floor)
+    n_gaits = int(np.sum(ref[:, R_STATUS] == 0))
+    if n_gaits == 0:
+        raise NoGaitToMeasure(f"no gait at any of the {_plural(len(pts), 'point')} (reference "
+                              f"{REFERENCE[0]} rtol {REFERENCE[1]:g}): there is no error to "
+                              "measure; choose points near a gait (a grid step's map shows "
+                              "where)")
     if first_swing_only:
         # a swap on a later swing follows a chaotic double-pendulum phase: its results are
         # ill-conditioned (errors amplified ~1e3 and more), which measures the problem, not
         # the integrator; keep gaits that swap on the first swing and end before 1.2 s
-        keep = (ref[:, R_STATUS] == 0) & (ref[:, R_T_END] < 1.2)
+        keep = (ref[:, R_STATUS] == 0) & (ref[:, R_T_END] < FIRST_SWING_END)
+        if not np.any(keep):
+            raise NoGaitToMeasure(
+                f"no well-conditioned gait among the {_plural(len(pts), 'point')}: "
+                f"{_plural(n_gaits, 'gait')}, none swapping on the first swing and ending "
+                f"before {FIRST_SWING_END:g} s (first_swing_only: true); choose points near "
+                "such a gait, or set first_swing_only: false")
         pts, ref = pts[keep], ref[keep]
-        if len(pts) == 0:
-            raise ValueError("no well-conditioned gait among the points")
     n_m, n_r = len(methods), len(rtols)
     t = np.full((n_m, n_r), np.nan)
     nfev = np.full((n_m, n_r), np.nan)
@@ -105,7 +140,7 @@ def work_precision(points, *, robot: RobotLike = "seed2009", torque: float = SEE
     for i, m in enumerate(methods):
         for j, rtol in enumerate(rtols):
             st = settings(m, rtol)
-            out = kernel_gaits(par, prog, st, pts, floor)       # compiles once, warms caches
+            out = kernel_gaits(par, prog, st, pts, floor)       # untimed: loads the kernel
             t[i, j] = best_of(lambda: kernel_gaits(par, prog, st, pts, floor), repeat) / len(pts)
             nfev[i, j] = out[:, R_NFEV].mean()
             e_val[i, j], e_t[i, j] = _errors(out, ref)
@@ -114,13 +149,18 @@ def work_precision(points, *, robot: RobotLike = "seed2009", torque: float = SEE
     sub = pts[:scipy_points]
     ref_sub = ref[:scipy_points]
     sg = ScipyGait(robot, torque, "scalar")
+    for m in scipy_methods:
+        # untimed: the first solve_ivp call of a process imports and sets up scipy's solvers
+        sg.gait(sub[0, 0], sub[0, 1], scipy_rtols[0], scipy_rtols[0] * atol_ratio, method=m)
     s_t = np.full((len(scipy_methods), len(scipy_rtols)), np.nan)
     s_ev = np.full_like(s_t, np.nan)
     s_et = np.full_like(s_t, np.nan)
     k_t = np.full(len(scipy_rtols), np.nan)
     for j, rtol in enumerate(scipy_rtols):
         st = settings("dop853", rtol)
-        k_t[j] = best_of(lambda: kernel_gaits(par, prog, st, sub, floor), repeat) / len(sub)
+        # warmed: dop853 may not be among ``methods`` (its kernel not loaded yet)
+        k_t[j] = warmed_best_of(lambda: kernel_gaits(par, prog, st, sub, floor),
+                                repeat) / len(sub)
         for i, m in enumerate(scipy_methods):
             t0 = time.perf_counter()
             res = [sg.gait(a, b, rtol, rtol * atol_ratio, method=m) for a, b in sub]

@@ -16,8 +16,11 @@ import re
 from pathlib import Path
 from typing import Mapping, Sequence
 
+from ruamel.yaml import YAML, YAMLError
+
 from .. import __version__
-from ..study.loader import StudyError, parse_study
+from ..study.failures import FAILED, StepFailure
+from ..study.figures import figure_name
 from ..study.steps import REGISTRY
 
 PAGE = "index.html"
@@ -38,6 +41,7 @@ figcaption { font-size: 14px; color: #333; margin-top: 0.3em; }
 nav { display: flex; flex-wrap: wrap; gap: 0.2em 1em; } .muted { color: #666; font-size: 13px; }
 .skipped { border: 1px dashed #bbb; padding: 0.8em 1em; background: #fafafa; }
 .skipped p { margin: 0 0 0.3em; }
+.failed { border-left: 4px solid #c0392b; padding: 0.4em 0.8em; background: #fdf2f1; }
 """
 
 
@@ -82,20 +86,62 @@ def description(doc: str | None) -> str:
     return text[:ends[0]] if ends else text
 
 
-def step_order(datasets: Mapping[str, object]) -> list[str]:
-    """Step names in the study file's order (from a dataset's ``study_text``), then any other
-    datasets by name."""
-    names: list[str] = []
+#: the time at the start of a dataset's ``history`` (ISO 8601)
+_WHEN = re.compile(r"^\d{4}-\d\d-\d\dT[\d:.]+(?:[+-]\d\d:\d\d|Z)?")
+
+
+def study_steps(datasets: Mapping[str, object],
+                failures: Mapping[str, StepFailure] | None = None) -> dict[str, str]:
+    """The steps of the study as last run, ``{name: kind}`` in the study file's order: those
+    of the newest study text among the datasets (``study_text``, dated by ``history``) and
+    the failure markers of the folder's last run (dated by ``time``). The text is read as
+    YAML, not validated (a study run by an earlier version may break a newer rule). Empty
+    when no study text can be read."""
+    texts: list[tuple[str, str]] = []
     for ds in datasets.values():
         text = ds.attrs.get("study_text")
-        if not text:
+        m = _WHEN.match(str(ds.attrs.get("history", "")))
+        if text:
+            texts.append((m.group(0) if m else "", text))
+    texts += [(f.time, f.study_text) for f in (failures or {}).values() if f.study_text]
+    for _, text in sorted(texts, key=lambda t: t[0], reverse=True):
+        steps = _named_steps(text)
+        if steps:
+            return steps
+    return {}
+
+
+def _named_steps(text: str) -> dict[str, str]:
+    """``{name: kind}`` of the steps of a study file's text (empty if it cannot be read)."""
+    try:
+        data = YAML(typ="safe").load(text)
+        return {str(s["name"]): str(s.get("kind", "?")) for s in data["steps"]}
+    except (YAMLError, TypeError, KeyError, AttributeError):
+        return {}
+
+
+def step_order(datasets: Mapping[str, object],
+               failures: Mapping[str, StepFailure] | None = None) -> list[str]:
+    """Every step of the study as last run (:func:`study_steps`) in the study file's order,
+    with a dataset or not, then any other datasets by name."""
+    names = list(study_steps(datasets, failures))
+    return names + sorted(set(datasets) - set(names))
+
+
+def missing_steps(datasets: Mapping[str, object],
+                  failures: Mapping[str, StepFailure] | None = None) -> dict[str, str]:
+    """The steps of the study as last run that have no dataset, each with what became of
+    it: its failure marker's ``failed: <reason>`` or ``not run: <reason>``, or ``no
+    dataset`` (not run yet, or interrupted)."""
+    failures = failures or {}
+    out = {}
+    for name in study_steps(datasets, failures):
+        if name in datasets:
             continue
-        try:
-            names = [s.name for s in parse_study(text).study.steps]
-        except StudyError:
-            continue
-        break
-    return [n for n in names if n in datasets] + sorted(set(datasets) - set(names))
+        f = failures.get(name)
+        out[name] = (f"{'failed' if f.state == FAILED else 'not run'}: {f.reason}" if f
+                     else "no dataset: not run yet, or its run was interrupted")
+    return out
 
 
 def _num(value) -> str:
@@ -189,13 +235,22 @@ def integrator_text(integ: Mapping) -> str:
 
 def render_page(study_dir: Path, datasets: Mapping[str, object],
                 figures: Mapping[str, Sequence[str]],
-                skipped: Mapping[str, str] | None = None) -> str:
+                skipped: Mapping[str, str] | None = None,
+                failures: Mapping[str, StepFailure] | None = None) -> str:
     """The page's HTML for the datasets of a study folder (``{step name: xarray Dataset}``),
-    the figures drawn from them (``{figure name: [file names]}``) and those skipped with
-    nothing to show (``{figure name: reason}``)."""
+    the figures drawn from them (``{figure name: [file names]}``), those skipped with
+    nothing to show (``{figure name: reason}``) and the failure markers of its last run
+    (``{step name: StepFailure}``): every step of the study is listed, a step without a
+    dataset with what became of it."""
     skipped = dict(skipped or {})
-    order = step_order(datasets)
-    first = datasets[order[0]].attrs if order else {}
+    failures = dict(failures or {})
+    kinds = study_steps(datasets, failures)
+    order = step_order(datasets, failures)
+    missing = missing_steps(datasets, failures)
+    first = next((datasets[n].attrs for n in order if n in datasets), None)
+    if first is None:      # every step failed: the study as its markers record it
+        f = next(iter(failures.values()), None)
+        first = {"study_name": f.study_name, "study_text": f.study_text} if f else {}
     study = first.get("study_name", Path(study_dir).name)
     robot = _json(first, "robot") or {}
     gait = _json(first, "gait") or {}
@@ -213,13 +268,33 @@ def render_page(study_dir: Path, datasets: Mapping[str, object],
            "<details><summary>study file</summary><pre>"
            + _e(first.get("study_text", "")) + "</pre></details>",
            "<h2>Steps</h2>"]
+    if missing:
+        out.append('<p class="failed">' + _e(f"{len(missing)} of {len(kinds)} steps have no "
+                                             "dataset: ")
+                   + ", ".join(f'<a href="#step-{_e(n)}">{_e(n)}</a>' for n in missing)
+                   + ".</p>")
     used: set[str] = set()
     for name in order:
+        if name in missing:
+            kind = REGISTRY.get(kinds[name])
+            out.append(f'<h3 id="step-{_e(name)}">{_e(name)} <small>[{_e(kinds[name])}]'
+                       f'</small></h3>')
+            if kind is not None:
+                out.append(f"<p>{_prose(description(kind.model.__doc__))}</p>")
+            out.append(f'<p class="failed">{_e(missing[name].rstrip("."))}.</p>')
+            continue
         ds = datasets[name]
         kind = REGISTRY.get(ds.attrs.get("step_kind"))
         kind_name = kind.name if kind else ds.attrs.get("step_kind", "?")
         out.append(f'<h3 id="step-{_e(name)}">{_e(name)} <small>[{_e(kind_name)}]'
                    f'</small></h3>')
+        if name in failures:
+            f = failures[name]
+            what = ("The last run of this step failed" if f.state == FAILED else
+                    "The last run did not run this step")
+            out.append('<p class="failed">' + _e(f"{what}: {f.reason.rstrip('.')}. Its "
+                                                 "dataset below is of an earlier run.")
+                       + "</p>")
         if kind is not None:
             out.append(f"<p>{_prose(description(kind.model.__doc__))}</p>")
             try:
@@ -233,7 +308,9 @@ def render_page(study_dir: Path, datasets: Mapping[str, object],
         out.append(f'<p class="muted">dataset <a href="../{_e(name)}.nc">{_e(name)}.nc</a>'
                    "</p>")
         for fig in (kind.figures if kind else ()):
-            key = f"{name}_{fig.suffix}"
+            if fig.across:
+                continue            # under "Across steps"
+            key = figure_name(fig, name, kind.name)
             if key in figures:
                 out.append(_figure_html(key, figures[key], fig.title, fig.caption))
                 used.add(key)
@@ -241,11 +318,11 @@ def render_page(study_dir: Path, datasets: Mapping[str, object],
                 out.append(_skipped_html(key, fig.title, fig.caption, skipped[key]))
                 used.add(key)
     across = [(kind, fig) for kind in REGISTRY.values() for fig in kind.figures if fig.across
-              and f"{kind.name}_{fig.suffix}" in set(figures) | set(skipped)]
+              and figure_name(fig, "", kind.name) in set(figures) | set(skipped)]
     if across:
         out.append("<h2>Across steps</h2>")
         for kind, fig in across:
-            key = f"{kind.name}_{fig.suffix}"
+            key = figure_name(fig, "", kind.name)
             if key in figures:
                 out.append(_figure_html(key, figures[key], fig.title, fig.caption))
             else:
@@ -257,7 +334,7 @@ def render_page(study_dir: Path, datasets: Mapping[str, object],
         out += [_figure_html(k, figures[k], k, "") for k in rest]
     out.append('<h2 id="provenance">Provenance</h2><table><tr><th>dataset</th><th>monkeystudy'
                "</th><th>git revision</th><th>code sha256</th><th>made</th></tr>")
-    for name in order:
+    for name in (n for n in order if n in datasets):
         a = datasets[name].attrs
         out.append(f"<tr><td>{_e(name)}.nc</td><td>{_e(a.get('monkeystudy_version', ''))}</td>"
                    f"<td><code>{_e(str(a.get('git_revision', ''))[:14])}</code></td>"

@@ -58,15 +58,18 @@ import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Callable, Sequence
 
 import xarray as xr
 
+from ..study.failures import FAILED, StepFailure, read_failures
+from ..study.figures import figure_name
 from ..study.steps import REGISTRY
 from . import gait
 from .common import STYLE_FILE, atomic_path, provenance, save_figure
 from .drawing import Drawing, Folder, NothingToDraw
-from .page import PAGE, render_page
+from .page import PAGE, missing_steps, render_page, study_steps
 from .workers import available_cores, run_jobs
 
 MANIFEST = "manifest.json"
@@ -84,6 +87,33 @@ class ReportError(RuntimeError):
         self.written = written
         lines = "\n".join(f"  {k}: {v.strip().splitlines()[-1]}" for k, v in failures.items())
         super().__init__(f"{len(failures)} figure(s) failed:\n{lines}")
+
+
+class StudyIncomplete(RuntimeError):
+    """Steps of the study have no current dataset; the figures of the others are drawn and the
+    page lists every step (``written``: the files this report wrote).
+
+    ``failed``: the steps whose last run failed or did not run them (a step they depend on
+    failed), each with what became of it (their failure markers,
+    :mod:`monkeystudy.study.failures`); ``missing``: steps without a dataset and without a
+    marker (not run yet, or the run was interrupted)."""
+
+    def __init__(self, failed: dict[str, str], missing: list[str], written: list[Path],
+                 page: Path | None):
+        self.failed = failed
+        self.missing = missing
+        self.written = written
+        parts = []
+        if failed:
+            parts.append(f"{len(failed)} step{'s' if len(failed) != 1 else ''} failed or "
+                         f"not run in the last run ({', '.join(failed)}): see why on the "
+                         "page or in <step>.failed.json, correct the study and run it again")
+        if missing:
+            parts.append(f"{len(missing)} step{'s' if len(missing) != 1 else ''} without a "
+                         f"dataset ({', '.join(missing)}): run the study to make "
+                         f"{'it' if len(missing) == 1 else 'them'}")
+        where = f"; page {page}" if page is not None else ""
+        super().__init__(f"the study is incomplete: {'; '.join(parts)}{where}")
 
 
 class ReportInterrupted(KeyboardInterrupt):
@@ -193,7 +223,8 @@ def load_dataset(path: Path) -> xr.Dataset:
 def plan(study_dir: Path, *, animation: bool = True, fps: float = 15.0,
          max_frames: int = 240) -> list[Job]:
     """The figures the datasets in ``study_dir`` support (nothing is drawn): for every step
-    kind, in registry order, the figures it declares for each of its datasets."""
+    kind, in registry order, the figures it declares for each of its datasets. Raises
+    :class:`FigureNameClash` when two of them would have the same file name."""
     study_dir = Path(study_dir)
     cache: dict[Path, xr.Dataset] = {}
 
@@ -215,14 +246,45 @@ def plan(study_dir: Path, *, animation: bool = True, fps: float = 15.0,
                 groups = [[p] + how.extra_inputs(p, folder) for p in paths
                           if how.applies(p, folder)]
                 if len(groups) > 1:
-                    jobs.append(Job(f"{kind.name}_{fig.suffix}", [p for g in groups for p in g],
+                    jobs.append(Job(figure_name(fig, "", kind.name), [p for g in groups for p in g],
                                     key, fig.title, sizes=tuple(len(g) for g in groups)))
                 continue
             for p in paths:
                 if how.applies(p, folder):
-                    jobs.append(Job(f"{p.stem}_{fig.suffix}", [p] + how.extra_inputs(p, folder),
-                                    key, f"{p.stem}: {fig.title}", animation=how.animation))
+                    jobs.append(Job(figure_name(fig, p.stem, kind.name),
+                                    [p] + how.extra_inputs(p, folder), key,
+                                    f"{p.stem}: {fig.title}", animation=how.animation))
+    clashes = name_clashes(jobs)
+    if clashes:
+        raise FigureNameClash(f"{study_dir}: " + "; ".join(clashes) + " (a figure is named "
+                              "<step>_<figure>): rename one of the steps in the study and "
+                              "run it again, or move a dataset that is not of this study "
+                              "out of the folder")
     return jobs
+
+
+class FigureNameClash(ValueError):
+    """Two datasets of a folder would draw figures of the same file name (steps that a study
+    file now refuses, or a dataset of another study in the folder): nothing is drawn."""
+
+
+def name_clashes(jobs: Sequence[Job]) -> list[str]:
+    """``figure X from a.nc (grid map) and b.nc (basin cycles_map)`` for each file name that
+    two jobs would write."""
+    first: dict[str, Job] = {}
+    out = []
+
+    def what(job: Job) -> str:
+        kind, suffix = job.key
+        if job.sizes is not None:
+            return f"the {kind} datasets (their {kind} figure {suffix})"
+        return f"{job.inputs[0].name} (its {kind} figure {suffix})"
+    for job in jobs:
+        other = first.setdefault(job.name, job)
+        if other is not job:
+            out.append(f"figure {job.name} would be drawn from {what(other)} and from "
+                       f"{what(job)}")
+    return out
 
 
 def split_groups(datasets: list, sizes: Sequence[int]) -> list[list]:
@@ -364,12 +426,22 @@ def report_study(study_dir: Path, *, force: bool = False,
         The files written by this call (empty when everything was up to date); with
         ``dry_run``, the files that would be written.
 
+    Every step of the study (as last run: its newest study text) is on the page; one without
+    a current dataset is said to have failed, or not run, with the reason its failure marker
+    gives (:mod:`monkeystudy.study.failures`), in the log too.
+
     Raises
     ------
     NoStudyDatasets
-        ``study_dir`` holds no study dataset (the message names study folders below it).
+        ``study_dir`` holds no study dataset and no failure marker (the message names study
+        folders below it).
+    FigureNameClash
+        Two datasets would draw figures of the same file name; nothing is drawn.
     ReportError
         When some figures failed; the others are written (and listed in ``.written``).
+    StudyIncomplete
+        When some steps of the study have no current dataset (after everything else is
+        drawn and the page is written; not with ``dry_run``).
     ReportInterrupted
         On Ctrl-C (a ``KeyboardInterrupt``): what was finished is saved and in the manifest.
     """
@@ -379,8 +451,17 @@ def report_study(study_dir: Path, *, force: bool = False,
     formats = list(dict.fromkeys(["png"] + [f.lower() for f in formats]))
     jobs = plan(study_dir, animation=animation, fps=fps, max_frames=max_frames)
     files = study_datasets(study_dir)
-    if not files:
+    step_failures = read_failures(study_dir)
+    if not files and not step_failures:
         raise NoStudyDatasets(no_datasets_message(study_dir))
+    # what became of every step of the study: its failure marker, or no dataset at all
+    attrs = dataset_attrs(files)
+    steps = list(study_steps(attrs, step_failures))
+    incomplete = missing_steps(attrs, step_failures)
+    for name, f in step_failures.items():
+        if name not in incomplete:        # a dataset of an earlier run is there
+            incomplete[name] = (f"{'failed' if f.state == FAILED else 'not run'}: {f.reason} "
+                                "(its dataset is of an earlier run)")
     fig_dir = study_dir / FIGURES_DIR
     if not dry_run:
         fig_dir.mkdir(parents=True, exist_ok=True)
@@ -471,38 +552,66 @@ def report_study(study_dir: Path, *, force: bool = False,
     drawn, skipped = counts["drawn"], counts["skipped"]
     if not dry_run:
         _prune(fig_dir, manifest, {j.name for j in jobs}, study_dir, progress)
-        page = _write_page(study_dir, files, manifest)
+        page = _write_page(study_dir, files, manifest, step_failures)
         if page is not None:
             written.append(page)
     elif written or not (fig_dir / PAGE).exists():
         written.append(fig_dir / PAGE)
     if progress:
+        if steps:
+            states = {n: w.split(":")[0] for n, w in incomplete.items()}
+            progress(f"{plural(len(steps), 'step')} in the study: " + ", ".join(
+                n + (f" ({states[n]})" if n in states else "") for n in steps))
+        for name, what in incomplete.items():
+            progress(f"step {name}: {what}")
         up = len(jobs) - len(todo)
         page_path = fig_dir / PAGE
+        steps = (f"; {len(incomplete)} step(s) without a current dataset" if incomplete
+                 else "")
         if dry_run:
-            progress(f"{study_dir}: {len(written)} file(s) would be written")
+            progress(f"{study_dir}: {len(written)} file(s) would be written{steps}")
         elif not written and not skipped:
-            progress(f"{study_dir}: up to date ({len(jobs)} figures, {page_path})")
+            progress(f"{study_dir}: up to date ({len(jobs)} figures, {page_path}){steps}")
         else:
             progress(f"{study_dir}: drew {drawn} figure(s), "
                      + (f"{skipped} skipped (nothing to show), " if skipped else "")
                      + f"{up} up to date"
                      + (f", {len(failures)} failed" if failures else "")
-                     + f"; page {page_path}")
+                     + f"; page {page_path}{steps}")
     if failures:
         raise ReportError(failures, written)
+    if incomplete and not dry_run:
+        raise StudyIncomplete({n: w for n, w in incomplete.items() if n in step_failures},
+                              [n for n in incomplete if n not in step_failures], written,
+                              fig_dir / PAGE)
     return written
 
 
-def _write_page(study_dir: Path, files: list[Path], manifest: dict) -> Path | None:
+def plural(n: int, noun: str) -> str:
+    """``1 step``, ``2 steps``."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+def dataset_attrs(files: Sequence[Path]) -> dict[str, SimpleNamespace]:
+    """The global attributes of each dataset by file stem (``.attrs``; nothing else read)."""
+    out = {}
+    for p in files:
+        with xr.open_dataset(p) as ds:
+            out[p.stem] = SimpleNamespace(attrs=dict(ds.attrs))
+    return out
+
+
+def _write_page(study_dir: Path, files: list[Path], manifest: dict,
+                step_failures: dict[str, StepFailure]) -> Path | None:
     """Write ``figures/index.html`` if its content changed; return its path if written. The
     page shows every figure the manifest holds (those not drawn this time, e.g. animations
-    with ``animation=False``, are still there) and says why each skipped one has none."""
+    with ``animation=False``, are still there), says why each skipped one has none, and what
+    became of each step without a current dataset (``step_failures``: the run's markers)."""
     datasets = {p.stem: load_dataset(p) for p in files}
     figures = {name: e.get("outputs", []) for name, e in manifest["figures"].items()
                if "skipped" not in e}
     skipped = {name: e["skipped"] for name, e in manifest["figures"].items() if "skipped" in e}
-    text = render_page(study_dir, datasets, figures, skipped)
+    text = render_page(study_dir, datasets, figures, skipped, step_failures)
     path = study_dir / FIGURES_DIR / PAGE
     if path.exists() and path.read_text() == text:
         return None

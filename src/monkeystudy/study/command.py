@@ -4,7 +4,8 @@
 Output goes through two callables, ``echo`` (results: standard output) and ``err`` (messages:
 standard error), and the outcome is an exit code:
 
-0 done; 1 the run failed; 2 invalid input; 3 interrupted or partial (rerun to resume).
+0 done; 1 the run failed (a step failed: every step that did not depend on it ran); 2 invalid
+input; 3 interrupted or partial (rerun to resume).
 """
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ from .errors import RunFailed, RunInterrupted
 from .loader import LoadedStudy
 from .plan import plan_study
 from .progress import Reporter
-from .runner import run_study
+from .runner import RunSummary, StepsFailed, run_study
 
 from ..exit_codes import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_INVALID, EXIT_OK
 
@@ -46,6 +47,13 @@ def execute_run(loaded: LoadedStudy, out: Path | None, *, echo: Callable[[str], 
         rep.close()
         err(f"monkeystudy: {exc}")
         return EXIT_INTERRUPTED
+    except StepsFailed as exc:      # the other steps ran: say what they wrote
+        rep.close()
+        _written(exc.summary, echo, shown)
+        err(f"monkeystudy: run failed: {exc}")
+        err("(each step that failed or was not run left <step>.failed.json in "
+            f"{shown(exc.summary.out)}; 'monkeystudy report' lists them)")
+        return EXIT_FAILED
     except RunFailed as exc:
         rep.close()
         err(f"monkeystudy: run failed: {exc}")
@@ -57,11 +65,15 @@ def execute_run(loaded: LoadedStudy, out: Path | None, *, echo: Callable[[str], 
             "saved)")
         return EXIT_FAILED
     rep.close()
+    _written(summary, echo, shown)
+    return EXIT_OK
+
+
+def _written(summary: RunSummary, echo: Callable[[str], None], shown: Callable[[Path], str]):
     for p in summary.written:
         echo(f"wrote {shown(p)}")
     for p in summary.up_to_date:
         echo(f"up to date {shown(p)}")
-    return EXIT_OK
 
 
 #: environment variable that pauses a run after so many computed blocks (for testing

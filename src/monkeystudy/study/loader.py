@@ -81,17 +81,19 @@ def parse_study(text: str, shown: str = "<string>", path: Path | None = None) ->
     plain = _plain(tree)
     seen: dict[int, type] = {}
     token = SEEN_MODELS.set(seen)
+    study = None
     try:
         study = S.Study.model_validate(plain)
     except ValidationError as exc:
-        raise StudyError([_issue(shown, tree, plain, err, seen) for err in exc.errors()]) \
-            from None
+        issues = [_issue(shown, tree, plain, err, seen) for err in exc.errors()]
     finally:
         SEEN_MODELS.reset(token)
-    problems = S.cross_check(study)
-    if problems:
-        raise StudyError([Issue(shown, _line_of(tree, loc), _dotted(loc), msg)
-                          for loc, msg in problems])
+    # every problem in one pass: the checks across steps that the valid fields allow too
+    problems = S.cross_check(study) if study is not None else S.cross_check_parts(plain)
+    if study is None or problems:
+        raise StudyError((issues if study is None else [])
+                         + [Issue(shown, _line_of(tree, loc), _dotted(loc), msg)
+                            for loc, msg in problems])
     return LoadedStudy(study, text, Path(path) if path is not None else Path(shown))
 
 

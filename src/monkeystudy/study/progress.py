@@ -43,6 +43,11 @@ class Reporter:
     def finish(self, name: str, message: str = "") -> None:
         pass
 
+    def fail(self, name: str, message: str) -> None:
+        """Step ``name`` ended without a dataset: ``message`` says how and why (``failed:
+        ...``, ``not run: ...``; one line)."""
+        pass
+
     @contextmanager
     def waiting(self, message: str, live: str = "waiting",
                 done: str = "done") -> Iterator[Waited]:
@@ -153,6 +158,9 @@ class PlainReporter(Reporter):
         el = f" in {time.monotonic() - st[4]:.1f} s" if st else ""
         self._line(f"{name}: done{el}" + (f" - {message}" if message else ""))
 
+    def fail(self, name, message):
+        self._line(f"{name}: {message}")
+
 
 class RichReporter(Reporter):
     """A rich progress bar per step, with elapsed time and ETA (on a terminal)."""
@@ -230,6 +238,11 @@ class RichReporter(Reporter):
             self.progress.update(t, completed=self.progress.tasks[t].total)
         if message:
             self.log(f"{name}: {message}")
+
+    def fail(self, name, message):
+        if name in self._tasks:
+            self.progress.update(self._tasks[name], description=f"{name} (failed)")
+        self.log(f"{name}: {message}")
 
     def close(self):
         if self.progress is not None:

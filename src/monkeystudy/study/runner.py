@@ -6,8 +6,10 @@ tasks (:meth:`~monkeystudy.study.steps.base.StepKind.start`) and its results int
 (:meth:`~monkeystudy.study.steps.base.StepKind.finish`); the runner only moves values between
 them. Tasks tagged with a block are saved as shards the moment they finish (a rerun skips
 them); the datasets do not depend on which blocks were computed when, nor where, nor by how
-many workers. Steps run in dependency order; independent steps share the pool. Tasks run on a
-local process pool or a Dask cluster (:mod:`monkeystudy.study.pool`).
+many workers. Steps run in dependency order; independent steps share the pool. A step that
+fails stops only itself and the steps built on it, leaving failure markers
+(:mod:`monkeystudy.study.failures`); the run ends naming every failure. Tasks run on a local
+process pool or a Dask cluster (:mod:`monkeystudy.study.pool`).
 """
 from __future__ import annotations
 
@@ -35,6 +37,7 @@ from . import provenance as P
 from .blocks import Block, Task, clean_parts, make_blocks, read_shard, saved_blocks, shard_dir, \
     write_shard
 from .errors import RunFailed, RunInterrupted
+from .failures import FAILED, NOT_RUN, StepFailure, clear_failures, write_failure
 from .loader import LoadedStudy
 from .plan import Plan, StepPlan, plan_study
 from .pool import DeferredSignals, Pool, local_pool_kind, open_pool
@@ -46,12 +49,41 @@ from .steps.grid import HORIZONTAL_VARIABLES, axes_points, grid_block
 
 @dataclass
 class RunSummary:
+    """What a run did: the datasets it wrote and found up to date, the blocks it computed and
+    reused, each written step's one-line summary (``notes``), and the steps that wrote no
+    dataset: ``failed`` and ``not_run`` (a step they depend on failed), each with the reason
+    (their markers: :mod:`~monkeystudy.study.failures`)."""
+
     out: Path
     written: list[Path]
     up_to_date: list[Path]
     blocks_computed: int
     blocks_reused: int
     notes: dict[str, str] = field(default_factory=dict)
+    failed: dict[str, str] = field(default_factory=dict)
+    not_run: dict[str, str] = field(default_factory=dict)
+
+
+class StepsFailed(RunFailed):
+    """Some steps of a run failed (exit code 1); every step whose dependencies succeeded ran.
+    ``summary`` (a :class:`RunSummary`) says what was written, what failed and why, and what
+    was not run."""
+
+    def __init__(self, summary: RunSummary):
+        self.summary = summary
+        super().__init__(failures_text(summary))
+
+
+def failures_text(summary: RunSummary) -> str:
+    """The steps of a run that wrote no dataset, one line each: ``<step>: <reason>``, and
+    ``<step>: not run: ...``; a count first when there is more than one."""
+    lines = [f"{name}: {why}" for name, why in summary.failed.items()] + \
+        [f"{name}: not run: {why}" for name, why in summary.not_run.items()]
+    if len(lines) == 1:
+        return lines[0]
+    head = (f"{plural(len(summary.failed), 'step')} failed"
+            + (f", {len(summary.not_run)} not run" if summary.not_run else "") + ":")
+    return "\n  ".join([head] + lines)
 
 
 def step_attrs(loaded: LoadedStudy, step, history: str) -> dict:
@@ -136,7 +168,8 @@ class _Pending:
 
 class StudyRun:
     """One run of a plan on a pool: starts steps when their dependencies are done, keeps the
-    results of their tasks, and finishes each step when its last task is in."""
+    results of their tasks, and finishes each step when its last task is in; a step that
+    fails is set aside with the steps built on it (:meth:`_fail`)."""
 
     def __init__(self, plan: Plan, pool: Pool, reporter: Reporter, history: str,
                  pause_after_blocks: int | None = None):
@@ -161,6 +194,9 @@ class StudyRun:
         # from their shards); at most one write buffer of points, so memory stays flat
         self.held: dict[tuple[str, int], dict[str, np.ndarray]] = {}
         self.held_points = 0
+        # the steps that wrote no dataset, with the reason (their markers say it too)
+        self.failed: dict[str, str] = {}
+        self.not_run: dict[str, str] = {}
 
     # starting and finishing steps ---------------------------------------------------------
     def _start_ready(self) -> None:
@@ -178,6 +214,12 @@ class StudyRun:
                            read_block=lambda b, s=s: self._block_arrays(s, b))
 
     def _start(self, s: StepPlan) -> None:
+        try:
+            self._start_tasks(s)
+        except Exception as exc:      # a refusal, a write, a fault: the step's alone
+            self._fail(s, exc)
+
+    def _start_tasks(self, s: StepPlan) -> None:
         ctx = self._context(s)
         if s.blocks:
             clean_parts(self.plan.out, s.name, s.key)
@@ -197,6 +239,7 @@ class StudyRun:
             self._finish(s)
 
     def _finish(self, s: StepPlan) -> None:
+        self.remaining.pop(s.name, None)
         attrs = step_attrs(self.plan.loaded, s.step, self.history)
         attrs["step_sha256"] = s.key
         msg = s.kind.finish(self.contexts.pop(s.name), attrs)
@@ -206,6 +249,50 @@ class StudyRun:
         self.done.add(s.name)
         self.notes[s.name] = msg
         self.rep.finish(s.name, msg)
+
+    def _fail(self, s: StepPlan, exc: BaseException, task: Task | None = None) -> None:
+        """Step ``s`` failed with ``exc`` (raised by ``task``, or by the driver's part of the
+        step): drop its queued tasks and what it holds, record why (its marker), and the
+        same for every waiting step that depends on it, directly or not. Its tasks still on
+        the pool finish; their blocks are saved (:meth:`_keep_block`)."""
+        if s.name in self.failed:
+            return
+        reason = failure_reason(s.name, exc, task)
+        self.failed[s.name] = reason
+        if not isinstance(exc, RunFailed):   # a fault: its traceback, for whoever fixes it
+            self.rep.log("".join(traceback.format_exception(exc)).rstrip())
+        self.queue = deque(p for p in self.queue if p.step is not s)
+        self.contexts.pop(s.name, None)
+        self.remaining.pop(s.name, None)
+        for b in s.blocks:
+            if self.held.pop((s.name, b.index), None) is not None:
+                self.held_points -= b.size
+        self._record(s, FAILED, reason)
+        self.rep.fail(s.name, f"failed: {reason}")
+        blocked = {s.name}
+        while True:
+            stuck = [w for w in self.waiting if set(w.deps) & blocked]
+            if not stuck:
+                break
+            for w in stuck:
+                self.waiting.remove(w)
+                dep = next(d for d in w.deps if d in blocked)
+                why = (f"step {dep!r}, which it depends on, "
+                       + ("failed" if dep in self.failed else "was not run"))
+                self.not_run[w.name] = why
+                blocked.add(w.name)
+                self._record(w, NOT_RUN, why)
+                self.rep.fail(w.name, f"not run: {why}")
+
+    def _record(self, s: StepPlan, state: str, reason: str) -> None:
+        """Leave the step's failure marker (a run that cannot write it still reports the
+        failure at its end)."""
+        study = self.plan.loaded
+        try:
+            write_failure(self.plan.out, StepFailure(s.name, s.step.kind, state, reason,
+                                                     study.study.name, study.text))
+        except OSError as exc:
+            self.rep.log(f"{s.name}: could not record the failure: {exc}")
 
     def _block_arrays(self, s: StepPlan, b: Block) -> dict[str, np.ndarray]:
         value = self.held.pop((s.name, b.index), None)
@@ -280,14 +367,15 @@ class StudyRun:
             self._loop(signals)
 
     def _loop(self, signals: DeferredSignals) -> None:
-        failure: BaseException | None = None
+        """Run until nothing is queued, on the pool or waiting. A step that fails stops
+        itself and the steps built on it; every other step runs on."""
         broken: BaseException | None = None
         while True:
             signals.check()
-            if failure is None and broken is None:
+            if broken is None:
                 broken = self._fill()
             if not self.inflight and broken is None:
-                if self.paused and failure is None and (self.queue or self.waiting):
+                if self.paused and (self.queue or self.waiting):
                     self._pause(signals)
                     broken = BrokenProcessPool("a worker died while the run was paused")
                     continue
@@ -301,33 +389,42 @@ class StudyRun:
                 except CancelledError as e:  # e.g. a Dask cluster cancelled it
                     exc = e
                 if exc is None:
-                    if failure is None:
-                        try:
-                            self._handle(p, f.result())
-                        except Exception as e:  # writing failed
-                            failure = e
-                    elif isinstance(p.task.tag, Block):  # keep finished work
-                        self._keep_block(p, f.result())
+                    if p.step.name in self.failed:
+                        if isinstance(p.task.tag, Block):   # keep finished work
+                            self._keep_block(p, f.result())
+                        continue
+                    try:
+                        self._handle(p, f.result())
+                    except Exception as e:  # writing its shard or its dataset failed
+                        self._fail(p.step, e)
                 elif is_lost_worker(exc):
                     broken = broken or exc
-                elif failure is None:
-                    tag = p.task.tag
-                    failure = RunFailed(f"{p.step.name}: task "
-                                        f"{tag.id if isinstance(tag, Block) else tag} "
-                                        f"failed: {type(exc).__name__}: {exc}\n"
-                                        + "".join(traceback.format_exception(exc)))
+                else:
+                    self._fail(p.step, exc, p.task)
             if broken is not None:
                 self.pool.abort()
+                failed = (f"; {plural(len(self.failed), 'step')} failed before "
+                          f"({', '.join(self.failed)})" if self.failed else "")
                 raise RunInterrupted(f"a worker died ({type(broken).__name__}: {broken}); "
                                      "finished blocks are saved: rerun the same command to "
-                                     "resume")
-        if failure is not None:
-            if isinstance(failure, RunFailed):
-                raise failure
-            raise RunFailed(f"{type(failure).__name__}: {failure}") from failure
+                                     f"resume{failed}")
         if self.waiting:
             raise RunFailed("steps never became ready: "
                             + ", ".join(s.name for s in self.waiting))
+
+
+def failure_reason(step: str, exc: BaseException, task: Task | None = None) -> str:
+    """Why step ``step`` failed, in one line: a refusal (:class:`RunFailed`: the step found
+    nothing to work on) as it says it (without the step's name it may start with); any other
+    exception (a fault) by its type, with the task that raised it."""
+    if isinstance(exc, RunFailed):
+        text = str(exc).removeprefix(f"{step}: ")
+    else:
+        text = f"{type(exc).__name__}: {exc}"
+        if task is not None:
+            text = f"task {task.tag.id if isinstance(task.tag, Block) else task.tag} " \
+                   f"failed: {text}"
+    return " ".join(text.split())
 
 
 def is_lost_worker(exc: BaseException) -> bool:
@@ -352,14 +449,21 @@ def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
     ``$MONKEYSTUDY_PAUSE_AFTER_BLOCKS``): once this many blocks were computed, submit nothing
     more, say so and wait for a signal.
 
-    Raises :class:`RunFailed` (a task raised, exit 1) or :class:`RunInterrupted` (Ctrl-C,
-    SIGTERM or a dead worker, exit 3; rerun to resume).
+    A step that fails (a task raised, it found nothing to work on, its dataset could not be
+    written) stops itself and the steps built on it, each leaving a failure marker with the
+    reason (:mod:`~monkeystudy.study.failures`); every other step runs to its end.
+
+    Raises :class:`StepsFailed` (a :class:`RunFailed`: some steps failed, the others ran;
+    exit 1), :class:`RunFailed` (the run could not start, exit 1) or :class:`RunInterrupted`
+    (Ctrl-C, SIGTERM or a dead worker, exit 3; rerun to resume).
     """
     if pool is not None and (workers is not None or scheduler):
         raise ValueError("workers and scheduler choose a pool: not with pool=")
     reporter = reporter or Reporter()
     plan = plan_study(loaded, out)
     current = [s.path for s in plan.steps if s.up_to_date]
+    if plan.out.is_dir():
+        clear_failures(plan.out)      # the markers say what the last run left undone
     if plan.up_to_date:
         reporter.log(f"{loaded.study.name}: all {len(plan.steps)} datasets up to date in "
                      f"{plan.out}")
@@ -403,7 +507,11 @@ def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
             run.run()
     except KeyboardInterrupt:
         raise RunInterrupted(interrupted_message(plan, run)) from None
-    return RunSummary(plan.out, run.written, current, run.computed, run.reused, run.notes)
+    summary = RunSummary(plan.out, run.written, current, run.computed, run.reused, run.notes,
+                         dict(run.failed), dict(run.not_run))
+    if run.failed:
+        raise StepsFailed(summary)
+    return summary
 
 
 def plural(n: int, noun: str) -> str:
@@ -417,15 +525,17 @@ def interrupted_message(plan: Plan, run: "StudyRun | None") -> str:
     written = len(run.written) if run is not None else 0
     saved = sum(len(s.saved) for s in todo if s.blocks and s.name not in
                 (run.done if run is not None else ()))
+    failed = (f" ({plural(len(run.failed), 'step')} failed before: "
+              f"{', '.join(run.failed)})" if run is not None and run.failed else "")
     if written == 0 and saved == 0:
         return ("interrupted before any step finished: nothing to keep yet (compiled kernels "
-                "are cached); rerun the same command to start again")
+                f"are cached){failed}; rerun the same command to start again")
     parts = []
     if written:
         parts.append(f"{written} of {plural(len(todo), 'dataset')} written")
     if saved:
         parts.append(f"{plural(saved, 'finished block')} saved")
-    return f"interrupted; {' and '.join(parts)}: rerun the same command to resume"
+    return f"interrupted; {' and '.join(parts)}{failed}: rerun the same command to resume"
 
 
 @contextmanager
@@ -524,5 +634,5 @@ def run_grid(dtheta1, dtheta2=None, *, robot: RobotLike = "seed2009",
     return res
 
 
-__all__ = ["RunFailed", "RunInterrupted", "RunSummary", "StudyRun", "load_kernels",
-           "run_grid", "run_study", "step_attrs"]
+__all__ = ["RunFailed", "RunInterrupted", "RunSummary", "StepsFailed", "StudyRun",
+           "load_kernels", "run_grid", "run_study", "step_attrs"]

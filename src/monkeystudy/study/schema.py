@@ -11,13 +11,15 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal, Union
 
-from pydantic import ConfigDict, Field
+from pydantic import ConfigDict, Field, TypeAdapter, ValidationError
 
 from ..robot import Robot
 from .models import (
     SCHEMA_VERSION, IntegratorSettings, Name, RobotSpec, StrictModel, StudyGait, to_robot,
 )
+from .figures import figure_name_clash
 from .steps import REGISTRY
+from .steps.base import kinds_text, no_earlier, source_name
 
 #: a step of any registered kind (pydantic picks the model by ``kind``)
 Step = Annotated[Union[tuple(k.model for k in REGISTRY.values())],  # type: ignore[misc]
@@ -50,29 +52,97 @@ class Study(StrictModel):
         return to_robot(self.robot)
 
 
-def cross_check(study: Study) -> list[tuple[tuple, str]]:
+#: a problem across fields or steps: (path of the key in the study file, message)
+Problem = tuple[tuple, str]
+
+#: validates one step of any kind
+STEP = TypeAdapter(Step)
+
+
+def cross_check(study: Study) -> list[Problem]:
     """Checks across fields and steps: ``[(path, message), ...]`` (empty when all is well).
 
-    Step names must be unique; a step whose kind does not support the study's gait is refused;
-    every other check is the step kind's own (:meth:`~monkeystudy.study.steps.base.StepKind.
-    check`), given the earlier steps by name.
+    Step names must be unique, and so must the names of the figures they make
+    (:func:`figure_name_clash`); a step whose kind does not support the study's gait is
+    refused; every other check is the step kind's own (:meth:`~monkeystudy.study.steps.base.
+    StepKind.check`), given the earlier steps by name.
     """
-    gait = study.gait.kind
+    return _check_steps(study, list(enumerate(study.steps)), {})
+
+
+def cross_check_parts(data: Any) -> list[Problem]:
+    """The checks of :func:`cross_check` that a study whose fields are not all valid still
+    allows (``data``: the study file as plain Python), so that one pass reports them with
+    the field errors: every valid step is checked against the others, but a step that
+    depends on an earlier step that is not valid (its kind's checks would need that step)
+    is not; with the robot, gait or integrator not valid, only the steps' names and their
+    ``from:`` (it names an earlier step of a kind it accepts) are checked.
+    """
+    steps = data.get("steps") if isinstance(data, dict) else None
+    if not isinstance(steps, list):
+        return []
+    valid: list[tuple[int, Any]] = []
+    invalid: dict[str, int] = {}      # the names of steps that are not valid, first index
+    for i, raw in enumerate(steps):
+        try:
+            valid.append((i, STEP.validate_python(raw)))
+        except ValidationError:
+            name = raw.get("name") if isinstance(raw, dict) else None
+            if isinstance(name, str):
+                invalid.setdefault(name, i)
+    if not valid:
+        return []
+    try:
+        study = Study.model_validate(dict(data, steps=[steps[i] for i, _ in valid]))
+    except ValidationError:
+        study = None
+    return _check_steps(study, valid, invalid)
+
+
+def _check_steps(study: Study | None, steps: list[tuple[int, Any]],
+                 invalid: dict[str, int]) -> list[Problem]:
+    """:func:`cross_check` of ``steps`` (valid steps at their index in the file) in a study
+    whose steps named in ``invalid`` (at their index) are not valid; ``study`` None: its
+    robot, gait or integrator are not valid either."""
+    gait = study.gait.kind if study is not None else None
     supported = ", ".join(k.name for k in REGISTRY.values() if gait in k.gait_kinds)
-    problems: list[tuple[tuple, str]] = []
+    problems: list[Problem] = []
     seen: dict[str, Any] = {}
-    for i, s in enumerate(study.steps):
-        if s.name in seen:
+    figures: dict[str, tuple[str, str, str]] = {}
+    for i, s in steps:
+        if s.name in seen or invalid.get(s.name, i) < i:
             problems.append((("steps", i, "name"), f"duplicate step name {s.name!r}"))
+        else:
+            clash = figure_name_clash(s, figures)
+            if clash:
+                problems.append((("steps", i, "name"), clash))
         kind = REGISTRY[s.kind]
-        if gait not in kind.gait_kinds:
+        # a step built on an earlier step that is not valid cannot be judged against it
+        judged = not any(invalid.get(d, i) < i for d in kind.deps(s))
+        if study is None:
+            if judged:
+                problems.extend(_from_problems(kind, i, s, seen))
+        elif gait not in kind.gait_kinds:
             problems.append((("steps", i, "kind"), f"a {s.kind} step needs a "
                              f"{' or '.join(kind.gait_kinds)} gait (a {gait} gait supports "
                              f"{supported})"))
-        else:
+        elif judged:
             problems.extend(kind.check(study, i, s, seen))
         seen.setdefault(s.name, s)
     return problems
+
+
+def _from_problems(kind, index: int, step, seen: dict[str, Any]) -> list[Problem]:
+    """The first check of :meth:`~monkeystudy.study.steps.base.StepKind.check` alone (what
+    a study without a valid gait allows): its ``from:`` names an earlier step of a kind it
+    accepts."""
+    name = source_name(step)
+    if name is None or not kind.accepts:
+        return []
+    ref = seen.get(name)
+    if ref is not None and ref.kind in kind.accepts:
+        return []
+    return [(("steps", index) + kind.from_key, no_earlier(name, kinds_text(kind.accepts), ref))]
 
 
 def json_schema() -> dict:
@@ -80,4 +150,5 @@ def json_schema() -> dict:
     return Study.model_json_schema(by_alias=True)
 
 
-__all__ = ["SCHEMA_VERSION", "Step", "Study", "cross_check", "json_schema"]
+__all__ = ["SCHEMA_VERSION", "Problem", "Step", "Study", "cross_check", "cross_check_parts",
+           "json_schema"]

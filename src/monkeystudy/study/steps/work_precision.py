@@ -10,10 +10,10 @@ from typing import Annotated, Any, Literal, Union
 import numpy as np
 from pydantic import Discriminator, Field, Tag, ValidationInfo, field_validator
 
-from ...analysis.precision import work_precision
-from ...reference.scipy_gait import ScipyGait
+from ...analysis.precision import NoGaitToMeasure, work_precision
 from .. import datasets as D
 from ..blocks import Task
+from ..errors import RunFailed
 from ..models import Axis, Name, Point, StrictModel, unique
 from ..spec import GaitSpec
 from .base import Figure, StepContext, StepKind
@@ -91,15 +91,13 @@ class WorkPrecisionStep(StrictModel):
 def work_precision_task(spec: GaitSpec, points: np.ndarray, **options) -> dict[str, Any]:
     """:func:`monkeystudy.analysis.precision.work_precision` on the study's robot and torque
     (``options``: methods, rtols, atol_ratio, repeat, scipy_methods, scipy_rtols,
-    scipy_points, first_swing_only). Wall times: not reproducible bit for bit."""
-    robot = spec.robot
+    scipy_points, first_swing_only). Wall times: not reproducible bit for bit. Refused
+    (:class:`~monkeystudy.study.errors.RunFailed`) when no point has a gait to measure."""
     pts = np.asarray(points, float).reshape(-1, 2)
-    # the first solve_ivp call of a process imports and sets up scipy's solvers: pay for it
-    # here, not in the first timed cell
-    sg = ScipyGait(robot, spec.torque, "scalar")
-    for m in options.get("scipy_methods", ("RK45", "DOP853", "LSODA")):
-        sg.gait(pts[0, 0], pts[0, 1], 1e-6, 1e-8, method=m)
-    return work_precision(pts, robot=robot, torque=spec.torque, **options)
+    try:
+        return work_precision(pts, robot=spec.robot, torque=spec.torque, **options)
+    except NoGaitToMeasure as exc:   # the points' outcome, not a fault: one line, exit 1
+        raise RunFailed(str(exc)) from None
 
 
 # --- the dataset ---------------------------------------------------------------------------------
