@@ -415,7 +415,7 @@ def test_a_failed_step_stops_only_the_steps_built_on_it(tmp_path):
     assert sorted(p.name for p in summary.written) == ["map.nc", "nogait.nc"]
     assert set(summary.failed) == {"wp", "r"}
     assert summary.failed["wp"].startswith("no gait at any of the 1 point")
-    assert "points with an error value" in summary.failed["r"]
+    assert "none of its 4 points has a gait" in summary.failed["r"]
     assert summary.not_run == {"s": "step 'r', which it depends on, failed"}
     text = str(err.value)
     assert text.startswith("2 steps failed, 1 not run:") and "Traceback" not in text
@@ -426,6 +426,11 @@ def test_a_failed_step_stops_only_the_steps_built_on_it(tmp_path):
         "s": ("not_run", "stability")}
     assert markers["r"].reason == summary.failed["r"]
     assert markers["s"].study_text == FAILING and markers["s"].study_name == "failing"
+    from monkeystudy.study.inspect import summarize_folder
+    shown = summarize_folder(out)                  # monkeystudy inspect: every step accounted
+    assert "3 steps of the last run wrote no dataset:" in shown
+    assert f"\n  r [refine] failed: {summary.failed['r']}" in shown
+    assert "\n  s [stability] not run: step 'r', which it depends on, failed" in shown
     with pytest.raises(StepsFailed):
         run_study(load_study(study), out, workers=1)
     assert set(read_failures(out)) == {"wp", "r", "s"}

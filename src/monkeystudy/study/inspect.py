@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from .failures import FAILED, read_failures
 from .steps import REGISTRY
 
 _SHOWN_ATTRS = ("study_name", "step_name", "step_kind", "study_sha256", "monkeystudy_version",
@@ -89,18 +90,21 @@ def step_order(study_text: str) -> list[str]:
 
 
 def summarize_folder(folder: Path) -> str:
-    """The key numbers of every study dataset in ``folder``, a few lines each."""
+    """The key numbers of every study dataset in ``folder``, a few lines each, and every step
+    of its last run that wrote no dataset, with the reason (its failure marker)."""
     import xarray as xr  # loads in ~0.5 s: only inspect pays for it
 
     files = study_files(folder)
-    if not files:
+    failures = read_failures(folder)
+    if not files and not failures:
         below = sorted({p.parent for p in Path(folder).glob("*/*.nc")
                         if not p.name.startswith(".")})
         msg = f"{folder}: no study datasets here (the *.nc files 'monkeystudy run' writes)"
         if below:
             msg += "; folders below it with datasets: " + ", ".join(str(b) for b in below)
         raise NoDatasets(msg)
-    studies = sorted({a.get("study_name", "?") for _, a in files})
+    studies = sorted({a.get("study_name", "?") for _, a in files}
+                     | {f.study_name for f in failures.values()})
     lines = [f"{folder}: {len(files)} dataset{'s' if len(files) != 1 else ''} of study "
              f"{', '.join(repr(s) for s in studies)}"]
     for path, attrs in files:
@@ -108,6 +112,13 @@ def summarize_folder(folder: Path) -> str:
             ds.load()
         lines.append(f"  {path.name} [{attrs['step_kind']}]")
         lines += ["    " + x for x in REGISTRY[attrs["step_kind"]].describe(ds)]
-    lines.append(f"(variables and provenance of one dataset: monkeystudy inspect "
-                 f"{files[0][0]})")
+    if failures:
+        n = len(failures)
+        lines.append(f"{n} step{'s' if n != 1 else ''} of the last run wrote no dataset:")
+        for f in failures.values():
+            what = "failed" if f.state == FAILED else "not run"
+            lines.append(f"  {f.step} [{f.kind}] {what}: {f.reason}")
+    if files:
+        lines.append(f"(variables and provenance of one dataset: monkeystudy inspect "
+                     f"{files[0][0]})")
     return "\n".join(lines)
