@@ -132,7 +132,10 @@ def cache_in_kernel_dir(dispatcher: Dispatcher) -> Dispatcher:
     """Give ``dispatcher`` the kernels' on-disk cache if its function's source is a kernel
     module (a function defined elsewhere, e.g. in a test, is compiled in each process: its
     source is not in :data:`KERNEL_DIGEST`, so no cache could tell when it is stale);
-    returns it."""
+    returns it. With ``NUMBA_DISABLE_JIT`` set, numba returns the Python function itself:
+    nothing to cache."""
+    if not isinstance(dispatcher, Dispatcher):
+        return dispatcher
     if KernelCacheLocator.from_function(dispatcher.py_func,
                                         dispatcher.py_func.__code__.co_filename) is None:
         if not KERNEL_CACHE_DIR and not _WARNED_UNCACHED:
