@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from .progress import singular_counts
 from .steps import REGISTRY
 
 _SHOWN_ATTRS = ("study_name", "step_name", "step_kind", "study_sha256", "monkeystudy_version",
@@ -42,7 +43,7 @@ def summarize(path: Path) -> str:
     kind = REGISTRY.get(a.get("step_kind"))
     lines.append("  summary:")
     if kind is not None:
-        lines += ["    " + x for x in kind.describe(ds)]
+        lines += ["    " + singular_counts(x) for x in kind.describe(ds)]
     return "\n".join(lines)
 
 
@@ -107,7 +108,8 @@ def summarize_folder(folder: Path) -> str:
         with xr.open_dataset(path, engine="netcdf4") as ds:
             ds.load()
         lines.append(f"  {path.name} [{attrs['step_kind']}]")
-        lines += ["    " + x for x in REGISTRY[attrs["step_kind"]].describe(ds)]
+        kind = REGISTRY[attrs["step_kind"]]
+        lines += ["    " + singular_counts(x) for x in kind.describe(ds)]
     lines.append(f"(variables and provenance of one dataset: monkeystudy inspect "
                  f"{files[0][0]})")
     return "\n".join(lines)
