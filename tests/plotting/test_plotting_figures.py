@@ -349,3 +349,20 @@ def test_a_point_list_is_titled_as_its_points_and_its_blank_cells_are_explained(
     # every cell of a full grid written as a list holds a point: nothing is blank
     legend = [t.get_text() for leg in plot_error_map(stacked).legends for t in leg.get_texts()]
     assert not any(t.startswith("blank:") for t in legend), legend
+
+
+def test_the_lowest_error_of_a_lone_row_is_shown(datasets):
+    """A grid of one dtheta2 row (a 1 x 1 grid, or an N x 1 one): the side panel's line of
+    each row's lowest error had one point and drew nothing, and the labels of its ticks within
+    one decade ran into each other."""
+    grid = datasets["error_map"]
+    j = int(np.flatnonzero((grid["status"] == 0).any("dtheta1").values)[0])
+    row = grid.isel(dtheta2=[j])
+    fig = plot_error_map(row)
+    dots = by_gid(fig, "row_minimum_points")
+    lowest = float(row["error"].where(row["status"] == 0).min())
+    np.testing.assert_allclose(dots.get_xdata(), [lowest])
+    np.testing.assert_allclose(dots.get_ydata(), row["dtheta2"].values)
+    panel = dots.axes
+    fig.canvas.draw()
+    assert not any(t.get_text() for t in panel.xaxis.get_minorticklabels())

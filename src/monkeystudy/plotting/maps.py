@@ -21,7 +21,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch, PathPatch
 from matplotlib.patheffects import withStroke
 from matplotlib.path import Path as MplPath
-from matplotlib.ticker import MaxNLocator
+from matplotlib.ticker import MaxNLocator, NullFormatter
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 from scipy import ndimage
 
@@ -260,7 +260,8 @@ def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str
         patches, ``minimum_<step>`` markers and ``label_<step>`` their numbers, ``path_<step>``
         lines, ``least_error`` (the star at the grid's least error) and its
         ``least_error_label``, ``row_minimum`` (the side panel's line: x the lowest error of
-        each row, y dtheta2), ``e_one`` (its dashed e = 1 line).
+        each row, y dtheta2), ``row_minimum_points`` (its rows on no segment of that line, as
+        dots), ``e_one`` (its dashed e = 1 line).
     """
     g = grid_arrays(grid)
     e1, e2 = cell_edges(g.dtheta1), cell_edges(g.dtheta2)
@@ -512,7 +513,13 @@ def row_minimum(g: GridData) -> np.ndarray:
 def _row_minimum_panel(axp, g: GridData) -> None:
     low = row_minimum(g)
     axp.plot(low, g.dtheta2, color="black", lw=1.2, gid="row_minimum")
+    # a row whose neighbours have no gait (or the grid's only row) is on no line segment
+    ok = np.isfinite(low)
+    alone = ok & ~np.r_[False, ok[:-1]] & ~np.r_[ok[1:], False]
+    axp.plot(low[alone], g.dtheta2[alone], ls="none", marker="o", ms=3.5, color="black",
+             gid="row_minimum_points")
     axp.set_xscale("log")
+    axp.xaxis.set_minor_formatter(NullFormatter())  # within a decade they overlap
     # e = 1: the 2009 study's fig. 9 reads its valley floor against it
     axp.axvline(1.0, color="0.5", ls="--", lw=0.8, gid="e_one")
     axp.annotate("e = 1", (1.0, 1.0), xycoords=("data", "axes fraction"), xytext=(-3, -3),
