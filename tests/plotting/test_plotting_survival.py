@@ -69,3 +69,10 @@ def test_a_level_with_every_noise_source_fits_in_the_figure(every_source, plot):
     renderer = fig.canvas.get_renderer()
     assert not titles[0].get_window_extent(renderer).overlaps(
         subtitles[0].get_window_extent(renderer)), "the title runs into its subtitle"
+
+
+def test_a_level_of_one_run_counts_it_in_the_singular(every_source):
+    """The height-drift legend said "1 of 1 runs completed"."""
+    one = every_source.isel(run=[0])
+    texts = [t.get_text() for t in plot_height_drift(one).findobj(Text)]
+    assert any("1 of 1 run completed" in t for t in texts), texts

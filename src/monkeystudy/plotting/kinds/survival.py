@@ -373,8 +373,8 @@ def plot_height_drift(ds):
             d = drift[i][done[i]]
             if not d.size:
                 continue
-            label = (f"{level_text(ds, i, LEVEL_WIDTH)}:\n{d.size} of {drift.shape[1]} runs "
-                     f"completed, median {np.median(d):+.3g} mm")
+            label = (f"{level_text(ds, i, LEVEL_WIDTH)}:\n{d.size} of "
+                     f"{count(drift.shape[1], 'run')} completed, median {np.median(d):+.3g} mm")
             if "height_within_tolerance" in ds:
                 label += (f", {100 * float(ds['height_within_tolerance'].values[i]):.4g} % "
                           f"within ±{tol:g} mm")
