@@ -6,10 +6,11 @@ import warnings
 
 import pytest
 import xarray as xr
+from matplotlib.legend import Legend
 from matplotlib.text import Text
 
 from monkeystudy.plotting.kinds.survival import (
-    plot_failure_modes, plot_height_drift, plot_survival,
+    plot_failure_modes, plot_height_drift, plot_mfpt_comparison, plot_survival,
 )
 
 #: two levels, the second with all ten noise sources: its label is a long line
@@ -76,3 +77,28 @@ def test_a_level_of_one_run_counts_it_in_the_singular(every_source):
     one = every_source.isel(run=[0])
     texts = [t.get_text() for t in plot_height_drift(one).findobj(Text)]
     assert any("1 of 1 run completed" in t for t in texts), texts
+
+
+def test_the_comparison_shows_a_step_without_noise_and_names_no_source_twice(every_source):
+    """A survival step without noise (its MFPT at noise 0) got a log noise axis: the panel
+    was empty ("Data has no positive values") with a legend entry for its marker. A step of
+    single values (none swept) named the source of its axis again in its legend ("also
+    timing 0.1 ms, ...")."""
+    quiet = every_source.isel(level=[0])
+    quiet["noise_timing"] = quiet["noise_timing"] * 0.0
+    quiet.attrs.update(swept="[]", step_name="quiet")
+    single = every_source.isel(level=[1])
+    single.attrs.update(swept="[]", step_name="single")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        fig = plot_mfpt_comparison([quiet, single])
+        fig.canvas.draw()
+    marks = [a for a in fig.findobj() if str(a.get_gid()).startswith("mfpt_quiet")]
+    assert marks, "no marker of the step without noise"
+    for mark in marks:
+        ax = mark.axes
+        lo, hi = ax.get_xlim()
+        assert ax.get_xscale() == "linear" and lo <= 0.0 <= hi
+    labels = [t.get_text() for leg in fig.findobj(Legend) for t in leg.get_texts()]
+    single_label = " ".join(t for t in labels if t.startswith("single:")).replace("\n", " ")
+    assert "also" in single_label and "timing" not in single_label.split("also", 1)[1], labels

@@ -112,9 +112,10 @@ def gait_text(ds) -> str:
     return f"{replay} from {start}{times}"
 
 
-def fixed_noise(ds) -> str:
-    """The noise sources that are the same at every level (``angle 0.0001 rad``), short."""
-    swept = set(_swept(ds))
+def fixed_noise(ds, leave: str | None = None) -> str:
+    """The noise sources that are the same at every level (``angle 0.0001 rad``), short;
+    without the source ``leave`` (a figure's noise axis, which shows it)."""
+    swept = set(_swept(ds)) | {leave}
     parts = []
     for source, (var, label, unit, scale) in SOURCES.items():
         if source not in swept and var in ds and float(ds[var].values[0]) > 0:
@@ -312,10 +313,12 @@ def plot_mfpt_comparison(datasets: Sequence):
         any_open = any_bound = False
         k = 0
         for ax, (xlabel, members) in zip(axes, groups.items()):
+            every_x = []
             for ds in members:
-                _, x, _ = noise_axis(ds)
+                source, x, _ = noise_axis(ds)
+                every_x.append(x)
                 name = ds.attrs.get("step_name", f"step {k}")
-                fixed = fixed_noise(ds)
+                fixed = fixed_noise(ds, leave=source)
                 # wrapped: a label wider than the axes would run off the figure
                 label = textwrap.fill(f"{name}: {gait_text(ds)}, "
                                       f"{fmt_tick(ds.attrs.get('tick'))}"
@@ -324,7 +327,8 @@ def plot_mfpt_comparison(datasets: Sequence):
                                                f"mfpt_{name}")
                 any_open, any_bound = any_open or est_open, any_bound or bound
                 k += 1
-            ax.set_xscale("log")
+            # a step without noise sits at 0, which a log axis cannot show
+            ax.set_xscale("log" if np.all(np.concatenate(every_x) > 0) else "linear")
             ax.set_yscale("log")
             lo, hi = ax.get_ylim()
             if 0 < lo and hi < 10 * lo:
