@@ -394,3 +394,9 @@ def test_a_changed_dataset_redraws_its_figure_only(reported_copy):
     assert err.value.written == [figs / PAGE]              # the page says it has no dataset
     assert 'id="step-timing"' in (figs / PAGE).read_text()
     assert not [n for n in os.listdir(figs) if n.startswith("timing_")]
+
+
+def test_a_branch_of_one_point_counts_in_the_singular(ds):
+    """A continuation that holds its start only (a ``no_branch`` stop) was titled "1 points"."""
+    d = ds["family"].isel(point=[0])
+    assert "1 point, " in titles(continuation.plot_continuation(d))[1]

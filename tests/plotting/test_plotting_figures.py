@@ -15,6 +15,7 @@ from monkeystudy.kernel import layout as L
 from monkeystudy.plotting import (
     gait_point, plot_error_comparison, plot_error_map, plot_error_per_cycle, plot_error_surface,
     plot_filmstrip, plot_kinetic_energy, plot_pivot_height, plot_refine_convergence,
+    plot_swap_time_map,
     trajectory, write_animation,
 )
 from monkeystudy.plotting.drawing import NothingToDraw
@@ -325,3 +326,43 @@ def test_animation_reports_every_frame(datasets, tmp_path):
     write_animation(s, tmp_path / "anim", {}, max_frames=6, fps=2,
                     progress=lambda done, total: seen.append((done, total)))
     assert seen == [(k, 8) for k in range(1, 9)]         # 6 frames + the end held 1 s
+
+
+def test_a_point_list_is_titled_as_its_points_and_its_blank_cells_are_explained(datasets):
+    """An explicit point list of 3 points at 3 values of each rate was titled "over a 3×3
+    grid of initial rates", and its 6 cells without a point were blank without a word."""
+    stacked = datasets["error_map"].stack(point=("dtheta1", "dtheta2")).reset_index("point")
+    picked, seen1, seen2 = [], set(), set()         # 3 points with a gait, no value shared
+    for k in np.flatnonzero(stacked["status"].values == 0):
+        d1, d2 = float(stacked["dtheta1"][k]), float(stacked["dtheta2"][k])
+        if len(picked) < 3 and d1 not in seen1 and d2 not in seen2:
+            picked.append(k)
+            seen1.add(d1)
+            seen2.add(d2)
+    three = stacked.isel(point=picked)                  # 6 of its 9 cells blank
+    assert len(set(three["dtheta1"].values)) == len(set(three["dtheta2"].values)) == 3
+    for fig in (plot_error_map(three), plot_swap_time_map(three), plot_error_surface(three)):
+        title = fig._suptitle.get_text()
+        assert "3 listed points" in title and "grid" not in title, title
+    legend = [t.get_text() for leg in plot_error_map(three).legends for t in leg.get_texts()]
+    assert any(t.startswith("blank: no listed point") for t in legend), legend
+    # every cell of a full grid written as a list holds a point: nothing is blank
+    legend = [t.get_text() for leg in plot_error_map(stacked).legends for t in leg.get_texts()]
+    assert not any(t.startswith("blank:") for t in legend), legend
+
+
+def test_the_lowest_error_of_a_lone_row_is_shown(datasets):
+    """A grid of one dtheta2 row (a 1 x 1 grid, or an N x 1 one): the side panel's line of
+    each row's lowest error had one point and drew nothing, and the labels of its ticks within
+    one decade ran into each other."""
+    grid = datasets["error_map"]
+    j = int(np.flatnonzero((grid["status"] == 0).any("dtheta1").values)[0])
+    row = grid.isel(dtheta2=[j])
+    fig = plot_error_map(row)
+    dots = by_gid(fig, "row_minimum_points")
+    lowest = float(row["error"].where(row["status"] == 0).min())
+    np.testing.assert_allclose(dots.get_xdata(), [lowest])
+    np.testing.assert_allclose(dots.get_ydata(), row["dtheta2"].values)
+    panel = dots.axes
+    fig.canvas.draw()
+    assert not any(t.get_text() for t in panel.xaxis.get_minorticklabels())

@@ -5,6 +5,7 @@ run by the study runner (a few seconds)."""
 from __future__ import annotations
 
 import json
+import re
 import os
 import shutil
 from pathlib import Path
@@ -14,6 +15,7 @@ import pytest
 import xarray as xr
 from matplotlib.axes import Axes
 from matplotlib.colors import to_rgba
+from matplotlib.text import Text
 from PIL import Image
 
 from monkeystudy.kernel import layout as L
@@ -186,3 +188,15 @@ def test_report_draws_the_stress_figure_once(built, tmp_path):
     write_nc(changed, study / "stress.nc")
     assert {p.name for p in report_study(study)} == written
     assert set(os.listdir(figs)) == set(before)
+
+
+def test_long_runs_of_one_cycle_are_counted_in_the_singular(ds):
+    """A stress step with ``long_runs: {cycles: 1}``: the subtitle and the long runs' panel
+    said "long runs of 1 cycles" and "dotted: 1 cycles requested"."""
+    one = ds.copy()
+    one.attrs["cycles"] = 1
+    one["cycles_completed"] = one["cycles_completed"].clip(max=1)
+    texts = [t.get_text() for t in plot_stress(one).findobj(Text)]
+    assert any("long runs of 1 cycle and" in t for t in texts), texts
+    assert any("dotted: 1 cycle requested" in t for t in texts), texts
+    assert not any(re.search(r"(?<![\d.])1 cycles\b", t) for t in texts), texts

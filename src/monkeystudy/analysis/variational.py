@@ -273,8 +273,9 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
         else:
             raise ValueError(f"segment {seg} has no guard that can end it (kind {kind})")
         if not abs(t_e - t_kernel) <= 1e-8 * (1.0 + abs(t_kernel)):
-            raise RuntimeError(f"segment {seg} exits at {t_e!r} s here, {t_kernel!r} s in the "
-                               "kernel: event sequences differ")
+            raise RuntimeError(f"segment {seg} exits at {float(t_e):.15g} s here, "
+                               f"{float(t_kernel):.15g} s in the kernel: event sequences "
+                               "differ")
         f_minus = _field(phase, p, tau, s)
         t_kernel_prev = t_kernel
         t, dt = t_e, dt_e

@@ -21,7 +21,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch, PathPatch
 from matplotlib.patheffects import withStroke
 from matplotlib.path import Path as MplPath
-from matplotlib.ticker import MaxNLocator
+from matplotlib.ticker import MaxNLocator, NullFormatter
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 from scipy import ndimage
 
@@ -58,6 +58,7 @@ class GridData:
     error: np.ndarray    # NaN where there is no gait
     status: np.ndarray   # int, MISSING where the dataset has no point
     sequence: bool = False  # a sequence gait's cycle (section error), not the horizontal gait
+    listed: int = 0         # the points of an explicit point list (0: the product of two axes)
 
     @property
     def ok(self) -> np.ndarray:
@@ -100,7 +101,8 @@ def grid_arrays(ds) -> GridData:
         err = np.asarray(ds["error"].transpose("dtheta1", "dtheta2").values, float)
         st = np.asarray(ds["status"].transpose("dtheta1", "dtheta2").values, int)
     err = np.where(st == Status.OK, err, np.nan)    # a no-gait point never shows a number
-    return GridData(d1, d2, err, st, is_sequence(ds))
+    listed = int(ds.sizes["point"]) if "point" in ds.dims else 0
+    return GridData(d1, d2, err, st, is_sequence(ds), listed)
 
 
 def is_sequence(ds) -> bool:
@@ -211,7 +213,20 @@ def minima_from(refines: Sequence) -> list[Minimum]:
 
 
 def _grid_title(g: GridData, what: str) -> str:
+    if g.listed:
+        return f"{what} at {count(g.listed, 'listed point')} of initial rates"
     return (f"{what} over a {g.dtheta1.size}×{g.dtheta2.size} grid of initial rates")
+
+
+def listed_cells_handles(g: GridData) -> list:
+    """The legend entry that says how an explicit point list is drawn (each point as the cell
+    around it among the listed values; blank: no listed point) when its cells leave some of
+    the map blank; none for a grid of two axes."""
+    if not g.listed or not (g.status == MISSING).any():
+        return []
+    return [Patch(facecolor="white", edgecolor="0.6", linewidth=0.5,
+                  label="blank: no listed point (each listed point is drawn as the cell "
+                        "around it)")]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -245,7 +260,8 @@ def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str
         patches, ``minimum_<step>`` markers and ``label_<step>`` their numbers, ``path_<step>``
         lines, ``least_error`` (the star at the grid's least error) and its
         ``least_error_label``, ``row_minimum`` (the side panel's line: x the lowest error of
-        each row, y dtheta2), ``e_one`` (its dashed e = 1 line).
+        each row, y dtheta2), ``row_minimum_points`` (its rows on no segment of that line, as
+        dots), ``e_one`` (its dashed e = 1 line).
     """
     g = grid_arrays(grid)
     e1, e2 = cell_edges(g.dtheta1), cell_edges(g.dtheta2)
@@ -269,6 +285,7 @@ def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str
         for key, mask, colour, hatch, label in g.category_masks():
             ax.add_patch(_hatch_patch(mask_path(mask, e1, e2), colour, hatch, f"nogait_{key}"))
             handles.append(_legend_patch(colour, hatch, label))
+        handles += listed_cells_handles(g)
         ax.set_xlim(e1[0], e1[-1])
         ax.set_ylim(e2[0], e2[-1])
         ax.set_xlabel(D1_LABEL)
@@ -352,6 +369,7 @@ def plot_swap_time_map(grid, refines: Sequence = (), *, cmap: str = "viridis"):
         for key, mask, colour, hatch, label in g.category_masks():
             ax.add_patch(_hatch_patch(mask_path(mask, e1, e2), colour, hatch, f"nogait_{key}"))
             handles.append(_legend_patch(colour, hatch, label))
+        handles += listed_cells_handles(g)
         # numbered as on the error map, so that the two figures read together
         handles += mark_minima(fig, ax, minima_shown(minima_from(refines), e1, e2), e1, e2,
                                least_error(grid, g), values=False)
@@ -361,7 +379,8 @@ def plot_swap_time_map(grid, refines: Sequence = (), *, cmap: str = "viridis"):
         ax.set_ylabel(D2_LABEL)
         if handles:
             fig.legend(handles=handles, loc="outside lower center", ncols=1, frameon=False)
-        fig.suptitle("Swap time over the grid: a jump means a later swing", x=0.02, ha="left",
+        where = (f"at {count(g.listed, 'listed point')}" if g.listed else "over the grid")
+        fig.suptitle(f"Swap time {where}: a jump means a later swing", x=0.02, ha="left",
                      fontweight="bold")
         ax.set_title(run_label(grid), fontsize=8.5, fontweight="normal", loc="left")
     return fig
@@ -494,7 +513,13 @@ def row_minimum(g: GridData) -> np.ndarray:
 def _row_minimum_panel(axp, g: GridData) -> None:
     low = row_minimum(g)
     axp.plot(low, g.dtheta2, color="black", lw=1.2, gid="row_minimum")
+    # a row whose neighbours have no gait (or the grid's only row) is on no line segment
+    ok = np.isfinite(low)
+    alone = ok & ~np.r_[False, ok[:-1]] & ~np.r_[ok[1:], False]
+    axp.plot(low[alone], g.dtheta2[alone], ls="none", marker="o", ms=3.5, color="black",
+             gid="row_minimum_points")
     axp.set_xscale("log")
+    axp.xaxis.set_minor_formatter(NullFormatter())  # within a decade they overlap
     # e = 1: the 2009 study's fig. 9 reads its valley floor against it
     axp.axvline(1.0, color="0.5", ls="--", lw=0.8, gid="e_one")
     axp.annotate("e = 1", (1.0, 1.0), xycoords=("data", "axes fraction"), xytext=(-3, -3),

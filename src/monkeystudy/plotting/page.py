@@ -21,6 +21,7 @@ from ruamel.yaml import YAML, YAMLError
 from .. import __version__
 from ..study.failures import FAILED, StepFailure
 from ..study.figures import figure_name
+from ..study.progress import singular_counts
 from ..study.steps import REGISTRY
 
 PAGE = "index.html"
@@ -63,16 +64,13 @@ def _json(attrs: Mapping, name: str):
 
 #: a value that is not a number, with the unit that would follow it
 _NOT_A_NUMBER = re.compile(r"\bnan\b(?: (?:rad s-1|rad|m|s|J|N m|kg|%))?", re.IGNORECASE)
-#: a count of one followed by a plural noun (``1 runs``)
-_ONE = re.compile(r"(?<![\d.×])1 (runs|cycles|points|starts|iterations|iterates|designs|levels|"
-                  r"solutions|blocks|samples|vertical crossings)\b")
 
 
 def tidy(line: str) -> str:
     """A key-number line as the page shows it: a value that is not a number as "–" (its unit
     dropped), a count of one in the singular."""
     line = _NOT_A_NUMBER.sub("–", line)
-    return _ONE.sub(lambda m: "1 " + m.group(1)[:-1], line)
+    return singular_counts(line)
 
 
 def description(doc: str | None) -> str:

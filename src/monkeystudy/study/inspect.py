@@ -9,6 +9,7 @@ import json
 from pathlib import Path
 
 from .failures import FAILED, read_failures
+from .progress import singular_counts
 from .steps import REGISTRY
 
 _SHOWN_ATTRS = ("study_name", "step_name", "step_kind", "study_sha256", "monkeystudy_version",
@@ -43,7 +44,7 @@ def summarize(path: Path) -> str:
     kind = REGISTRY.get(a.get("step_kind"))
     lines.append("  summary:")
     if kind is not None:
-        lines += ["    " + x for x in kind.describe(ds)]
+        lines += ["    " + singular_counts(x) for x in kind.describe(ds)]
     return "\n".join(lines)
 
 
@@ -111,7 +112,8 @@ def summarize_folder(folder: Path) -> str:
         with xr.open_dataset(path, engine="netcdf4") as ds:
             ds.load()
         lines.append(f"  {path.name} [{attrs['step_kind']}]")
-        lines += ["    " + x for x in REGISTRY[attrs["step_kind"]].describe(ds)]
+        kind = REGISTRY[attrs["step_kind"]]
+        lines += ["    " + singular_counts(x) for x in kind.describe(ds)]
     if failures:
         n = len(failures)
         lines.append(f"{n} step{'s' if n != 1 else ''} of the last run wrote no dataset:")

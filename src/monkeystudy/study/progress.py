@@ -9,11 +9,25 @@ thread when it forks its workers (:func:`monkeystudy.study.pool.mp_context`).
 """
 from __future__ import annotations
 
+import re
 import sys
 import threading
 import time
 from contextlib import contextmanager
 from typing import Callable, Iterator, TextIO
+
+
+#: a count of one followed by a plural noun (``1 cycles``): the step kinds word their lines for
+#: any count
+_ONE_PLURAL = re.compile(r"(?<![\d.×])1 (runs|cycles|points|starts|iterations|iterates|designs|"
+                         r"levels|solutions|blocks|samples|candidates|vertical crossings)\b")
+
+
+def singular_counts(line: str) -> str:
+    """``line`` with every count of one in the singular (``1 of 1 cycles`` -> ``1 of 1
+    cycle``), as the run's log, ``monkeystudy inspect`` and the study's page show a step's
+    lines."""
+    return _ONE_PLURAL.sub(lambda m: "1 " + m.group(1)[:-1], line)
 
 
 class Waited:

@@ -41,7 +41,7 @@ from .failures import FAILED, NOT_RUN, StepFailure, clear_failures, write_failur
 from .loader import LoadedStudy
 from .plan import Plan, StepPlan, plan_study
 from .pool import DeferredSignals, Pool, local_pool_kind, open_pool
-from .progress import Reporter
+from .progress import Reporter, singular_counts
 from .spec import GaitSpec, gait_json, gait_spec, integrator_fields
 from .steps import Dependency, StepContext, kind_of
 from .steps.grid import HORIZONTAL_VARIABLES, axes_points, grid_block
@@ -242,7 +242,7 @@ class StudyRun:
         self.remaining.pop(s.name, None)
         attrs = step_attrs(self.plan.loaded, s.step, self.history)
         attrs["step_sha256"] = s.key
-        msg = s.kind.finish(self.contexts.pop(s.name), attrs)
+        msg = singular_counts(s.kind.finish(self.contexts.pop(s.name), attrs))
         if s.blocks:
             clean_parts(self.plan.out, s.name, None)
         self.written.append(s.path)

@@ -280,8 +280,9 @@ def plot_design_screen(ds):
     with style():
         fig = new_figure(figsize=(7.4, 5.2))
         body = two_titles(fig, "Candidates screened by survival",
-                          f"{count(rho.size, 'candidate')}, each {int(a['screen_runs'])} runs "
-                          f"of up to {int(a['screen_max_cycles'])} cycles on the "
+                          f"{count(rho.size, 'candidate')}, each "
+                          f"{count(a['screen_runs'], 'run')} of up to "
+                          f"{count(a['screen_max_cycles'], 'cycle')} on the "
                           f"{float(a['screen_tick']) * 1e3:g} ms tick under {on} "
                           f"(seed {int(a['screen_seed'])}); the design checked is the one "
                           f"that lasts. {run_line(ds, tick=False)}")

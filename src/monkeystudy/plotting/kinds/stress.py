@@ -23,7 +23,7 @@ from matplotlib.ticker import MaxNLocator
 
 from ..drawing import Drawing
 from ..common import (
-    BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, YELLOW, fmt_tick, json_attr,
+    BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, YELLOW, count, fmt_tick, json_attr,
     new_figure, style,
 )
 from ..labels import OUTLINE, SUB, attr_float, sci, two_titles, values_of, run_line
@@ -127,7 +127,8 @@ def plot_stress(ds):
         sub = ("Left: unforced, frictionless runs; relative drift |E − E0| / (|K| + |V|) "
                "at log-spaced checkpoints; growth exponent = log-log slope over the last "
                f"decade, fitted above {sci(floor, 1)} (round-off). Right: long runs of "
-               f"{want} cycles and extreme cases, coloured by the status they ended with.\n"
+               f"{count(want, 'cycle')} and extreme cases, coloured by the status they ended "
+               "with.\n"
                + run_line(ds, tick=False))
         body = two_titles(fig, title, sub)
         gs = body.add_gridspec(2, 2, width_ratios=[1.45, 1.0], height_ratios=[1.0, 1.25])
@@ -205,7 +206,7 @@ def plot_stress(ds):
         start = json_attr(ds, "long_run_start")
         where = (f" from ({float(start[0]):g}, {float(start[1]):g}) rad s⁻¹"
                  if isinstance(start, list) and len(start) == 2 else "")
-        axr.set_title(f"Long runs{where}\ndotted: {want} cycles requested; pivot: final "
+        axr.set_title(f"Long runs{where}\ndotted: {count(want, 'cycle')} requested; pivot: final "
                       "attached-end height", **SUB)
 
         # --- extreme cases -------------------------------------------------------------------

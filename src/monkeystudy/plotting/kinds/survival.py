@@ -75,13 +75,30 @@ def noise_axis(ds) -> tuple[str, np.ndarray, str]:
     return source, x, f"{label}  [{unit}]"
 
 
-def level_text(ds, i: int) -> str:
-    """The non-zero noise of level ``i``, short (``timing 1 ms, angle 1e-4 rad``)."""
+#: characters per line of a noise level's label in a legend or beside a bar
+LEVEL_WIDTH = 48
+
+
+def level_text(ds, i: int, width: int | None = None) -> str:
+    """The non-zero noise of level ``i``, short (``timing 1 ms, angle 1e-4 rad``); with
+    ``width``, on lines of at most that many characters (broken between sources, so that a
+    level with many sources keeps its figure's layout)."""
     parts = []
     for source, (var, label, unit, scale) in SOURCES.items():
         if var in ds and float(ds[var].values[i]) > 0:
             parts.append(f"{source} {float(ds[var].values[i]) * scale:.3g} {unit}")
-    return ", ".join(parts) or "no noise"
+    if not parts:
+        return "no noise"
+    if width is None:
+        return ", ".join(parts)
+    lines = [parts[0]]
+    for part in parts[1:]:
+        if len(lines[-1]) + 2 + len(part) <= width:
+            lines[-1] += ", " + part
+        else:
+            lines[-1] += ","
+            lines.append(part)
+    return "\n".join(lines)
 
 
 def gait_text(ds) -> str:
@@ -95,9 +112,10 @@ def gait_text(ds) -> str:
     return f"{replay} from {start}{times}"
 
 
-def fixed_noise(ds) -> str:
-    """The noise sources that are the same at every level (``angle 0.0001 rad``), short."""
-    swept = set(_swept(ds))
+def fixed_noise(ds, leave: str | None = None) -> str:
+    """The noise sources that are the same at every level (``angle 0.0001 rad``), short;
+    without the source ``leave`` (a figure's noise axis, which shows it)."""
+    swept = set(_swept(ds)) | {leave}
     parts = []
     for source, (var, label, unit, scale) in SOURCES.items():
         if source not in swept and var in ds and float(ds[var].values[0]) > 0:
@@ -158,7 +176,7 @@ def plot_survival(ds):
             # cycle 0 cannot sit on a log axis: the curve starts at cycle 1
             keep = c >= 1
             ax.step(c[keep], s[i, keep], where="post", color=col, lw=2,
-                    gid=f"survival_{i}", label=level_text(ds, i))
+                    gid=f"survival_{i}", label=level_text(ds, i, LEVEL_WIDTH))
         ax.set_xscale("log")
         plain_log_labels(ax.xaxis)
         ax.set_ylim(-0.03, 1.03)
@@ -251,8 +269,10 @@ def plot_failure_modes(ds):
     n = counts.shape[0]
     share = counts / np.maximum(counts.sum(axis=1, keepdims=True), 1)
     used = [k for k in range(len(modes)) if counts[:, k].any()]
+    labels = [level_text(ds, i, LEVEL_WIDTH) for i in range(n)]
+    lines = sum(label.count("\n") + 1 for label in labels)
     with style():
-        fig = new_figure(figsize=(7.4, 1.9 + 0.5 * n))
+        fig = new_figure(figsize=(7.4, 1.9 + 0.5 * n + 0.16 * (lines - n)))
         body = two_titles(fig, f"How the runs ended: {ds.attrs.get('step_name')}",
                           _subtitle(ds))
         ax = body.subplots()
@@ -264,7 +284,7 @@ def plot_failure_modes(ds):
                     label=FAILURE_WORDS.get(modes[k], modes[k]), gid=f"mode_{modes[k]}",
                     height=0.6)
             left += share[:, k]
-        ax.set_yticks(np.arange(n), [level_text(ds, i) for i in range(n)])
+        ax.set_yticks(np.arange(n), labels)
         ax.invert_yaxis()
         ax.set_xlim(0, 1)
         ax.set_xlabel("share of runs")
@@ -293,10 +313,12 @@ def plot_mfpt_comparison(datasets: Sequence):
         any_open = any_bound = False
         k = 0
         for ax, (xlabel, members) in zip(axes, groups.items()):
+            every_x = []
             for ds in members:
-                _, x, _ = noise_axis(ds)
+                source, x, _ = noise_axis(ds)
+                every_x.append(x)
                 name = ds.attrs.get("step_name", f"step {k}")
-                fixed = fixed_noise(ds)
+                fixed = fixed_noise(ds, leave=source)
                 # wrapped: a label wider than the axes would run off the figure
                 label = textwrap.fill(f"{name}: {gait_text(ds)}, "
                                       f"{fmt_tick(ds.attrs.get('tick'))}"
@@ -305,7 +327,8 @@ def plot_mfpt_comparison(datasets: Sequence):
                                                f"mfpt_{name}")
                 any_open, any_bound = any_open or est_open, any_bound or bound
                 k += 1
-            ax.set_xscale("log")
+            # a step without noise sits at 0, which a log axis cannot show
+            ax.set_xscale("log" if np.all(np.concatenate(every_x) > 0) else "linear")
             ax.set_yscale("log")
             lo, hi = ax.get_ylim()
             if 0 < lo and hi < 10 * lo:
@@ -354,8 +377,8 @@ def plot_height_drift(ds):
             d = drift[i][done[i]]
             if not d.size:
                 continue
-            label = (f"{level_text(ds, i)}:\n{d.size} of {drift.shape[1]} runs completed, "
-                     f"median {np.median(d):+.3g} mm")
+            label = (f"{level_text(ds, i, LEVEL_WIDTH)}:\n{d.size} of "
+                     f"{count(drift.shape[1], 'run')} completed, median {np.median(d):+.3g} mm")
             if "height_within_tolerance" in ds:
                 label += (f", {100 * float(ds['height_within_tolerance'].values[i]):.4g} % "
                           f"within ±{tol:g} mm")
