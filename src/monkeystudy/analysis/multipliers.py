@@ -194,6 +194,6 @@ def solve_fixed_point(fmap, z0, *, jacobian=None, rtol: float = 1e-12,
                 f"{MAX_STALLS} steps in a row without progress"), error_level)
     if within(history[-1]):
         return FixedPointResult(z, history[-1], True, history, J, floor_text(
-            f"{max_iter} iterations"), error_level)
+            f"{max_iter} iteration{'' if max_iter == 1 else 's'}"), error_level)
     return FixedPointResult(z, history[-1], False, history, J, (
-        f"not converged: {max_iter} iterations, |P(z) - z| = {history[-1]:.3g}"), error_level)
+        f"not converged: {max_iter} iteration{'' if max_iter == 1 else 's'}, |P(z) - z| = {history[-1]:.3g}"), error_level)

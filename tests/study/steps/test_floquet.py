@@ -116,7 +116,7 @@ def test_an_unconverged_polish_is_said_and_refused_by_the_next_step(tmp_path, mo
     f = open_dataset(tmp_path / "out", "floquet.nc")
     assert int(f["newton_converged"].values[0]) == 0
     stop = str(f["newton_stop"].values[0])
-    assert stop.startswith("not converged: 1 iterations") and \
+    assert stop.startswith("not converged: 1 iteration,") and \
         stop.endswith("analysed at its start"), stop
     # the point analysed is the refined start, as said
     best = open_dataset(tmp_path / "out", "best.nc")
@@ -124,6 +124,6 @@ def test_an_unconverged_polish_is_said_and_refused_by_the_next_step(tmp_path, mo
                                   [float(best["dtheta1"].values.ravel()[0]),
                                    float(best["dtheta2"].values.ravel()[0])])
     # the run's log says so, and the stability step refuses the point with the reason
-    assert any(ln.startswith("floquet: sequence: Newton not converged: 1 iterations")
+    assert any(ln.startswith("floquet: sequence: Newton not converged: 1 iteration,")
                for ln in lines), lines
-    assert "Newton not converged: 1 iterations" in str(refused.value)
+    assert "Newton not converged: 1 iteration," in str(refused.value)
