@@ -11,7 +11,7 @@ import numpy as np
 
 from ..drawing import Drawing
 from ..common import (
-    BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, json_attr, new_figure, style,
+    BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, count, json_attr, new_figure, style,
 )
 from ..labels import (
     D1, D2, RATE, SUB, attr_float, complex_of, gait_of, run_line, sci, two_titles, values_of,
@@ -76,7 +76,9 @@ def plot_continuation(ds):
         marks = [f"{len(found[key])} {label}{'s' if len(found[key]) > 1 else ''}"
                  for key, _a, _c, _l, label in marks_of if found[key]]
         u = unit.strip("[]")
-        span = (f"{mu.size} points, {sym} = {mu[0]:.6g} → {mu[-1]:.6g}"
+        # a branch that stops at its start (no_branch) is one value, not a range
+        values = f"{mu[0]:.6g}" if mu.size == 1 else f"{mu[0]:.6g} → {mu[-1]:.6g}"
+        span = (f"{count(mu.size, 'point')}, {sym} = {values}"
                 + (f" {u}" if u != "1" else "") if mu.size else "no points")
         ds_step = attr_float(ds, "ds")
         none = ("no folds or bifurcations on this branch" if sequence
