@@ -292,8 +292,8 @@ class StartRequest:
     clock : str
         ``reset_at_vertical`` or ``run_on`` (a clock running on with the gait's period).
     max_map_defect : float or None
-        A floquet step's point is run when the return map moves it less than this [1]
-        (default: only when Newton converged).
+        A floquet step's point is also run when the return map moves it less than this [1],
+        its Newton polish converged or not (default: only when Newton converged).
     require : str or None
         Refuse a start whose cycle failed, saying what the step would do (``run``,
         ``analyse``, ``continue``); None: hand it on (the step records the failure).
@@ -381,8 +381,8 @@ def floquet_start(path: Path, name: str, ctx, req: StartRequest) -> GaitStart:
         raise RunFailed(f"{ctx.name}: floquet step {name!r} could not analyse its "
                         f"{controller} return map: {fp['failure']}")
     z = tuple(float(v) for v in fp["fixed_point"])
-    close = (fp["map_defect"] <= req.max_map_defect if req.max_map_defect is not None
-             else fp["newton_converged"] != 0)
+    close = fp["newton_converged"] != 0 or (req.max_map_defect is not None
+                                             and fp["map_defect"] <= req.max_map_defect)
     if not (np.all(np.isfinite(z)) and close):
         newton = ("converged" if fp["newton_converged"] else
                   fp["newton_stop"] or "not converged")
