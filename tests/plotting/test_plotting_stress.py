@@ -14,6 +14,7 @@ import pytest
 import xarray as xr
 from matplotlib.axes import Axes
 from matplotlib.colors import to_rgba
+from matplotlib.text import Text
 from PIL import Image
 
 from monkeystudy.kernel import layout as L
@@ -154,6 +155,15 @@ def test_a_non_finite_case_and_unreached_checkpoints_are_shown(ds):
     assert by_gid(fig, "finite_2").get_text() == "NON-FINITE ✗"
     y = ydata(by_gid(fig, "drift_swing_0"))
     assert np.all(np.isnan(y[-3:])) and np.all(np.isfinite(y[:-3]))
+
+
+def test_one_requested_cycle_is_counted_in_the_singular(ds):
+    """Long runs of one cycle: the title says "dotted: 1 cycle requested"."""
+    one = ds.copy(deep=True)
+    one.attrs["cycles"] = 1
+    texts = [t.get_text() for t in plot_stress(one).findobj(Text)]
+    title = [t for t in texts if t.startswith("Long runs")]
+    assert len(title) == 1 and "dotted: 1 cycle requested;" in title[0], title
 
 
 def test_axes_have_units(fig):

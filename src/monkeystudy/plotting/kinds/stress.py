@@ -23,8 +23,8 @@ from matplotlib.ticker import MaxNLocator
 
 from ..drawing import Drawing
 from ..common import (
-    BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, YELLOW, fmt_tick, json_attr,
-    new_figure, style,
+    BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, YELLOW, count, fmt_tick,
+    json_attr, new_figure, style,
 )
 from ..labels import OUTLINE, SUB, attr_float, sci, two_titles, values_of, run_line
 from ...simulation import STATUS_NAMES
@@ -205,8 +205,8 @@ def plot_stress(ds):
         start = json_attr(ds, "long_run_start")
         where = (f" from ({float(start[0]):g}, {float(start[1]):g}) rad s⁻¹"
                  if isinstance(start, list) and len(start) == 2 else "")
-        axr.set_title(f"Long runs{where}\ndotted: {want} cycles requested; pivot: final "
-                      "attached-end height", **SUB)
+        axr.set_title(f"Long runs{where}\ndotted: {count(want, 'cycle')} requested; pivot: "
+                      "final attached-end height", **SUB)
 
         # --- extreme cases -------------------------------------------------------------------
         ye = np.arange(len(cases))[::-1]
