@@ -368,9 +368,11 @@ def floquet_start(path: Path, name: str, ctx, req: StartRequest) -> GaitStart:
     own controller's. Refused (:class:`~monkeystudy.study.errors.RunFailed`) unless finite
     and polished: Newton converged or, given ``max_map_defect`` [1], the map moves it less
     (a neutral multiplier can leave Newton short of its tolerance at a point that is a fixed
-    point to the map's accuracy; ``req.max_map_defect``). With ``req.clock`` ``run_on`` the
-    clock runs on with the period of the analysed cycle from the fixed point (its section
-    crossing, exact timing), the start at clock phase zero."""
+    point to the map's accuracy; ``req.max_map_defect``). An open-loop replay of the gait's
+    own cycle keeps the analysed cycle's segment exits (exact timing, whatever the gait's
+    tick). With ``req.clock`` ``run_on`` the clock runs on with the period of the analysed
+    cycle from the fixed point (its section crossing, exact timing), the start at clock phase
+    zero."""
     spec = ctx.spec
     replay, clock_name = _replay_and_clock(req, ctx.conventions)
     labels = floquet_controllers(path)
@@ -393,6 +395,12 @@ def floquet_start(path: Path, name: str, ctx, req: StartRequest) -> GaitStart:
     if controller == "open_loop":
         gait = gait if fp["motor_torque"] != 0.0 else motorless(gait)
         times = (fp["t_switch"], fp["t_switch"] + fp["t_motor"])
+    elif replay == "open_loop":
+        # the schedule an open-loop replay keeps is the analysed cycle's, exact timing (the
+        # fixed point is the exact-timing map's; a replay on a tick puts it on the tick)
+        times = tuple(float(t) for t in cycle_times(replace(gait, tick=0.0), z,
+                                                    robot=spec.robot,
+                                                    integrator=spec.integrator))
     t_end = math.nan
     if req.clock == "run_on":
         # the period is the analysed cycle's: the fixed point's section crossing, exact timing
