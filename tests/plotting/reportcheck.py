@@ -1,20 +1,32 @@
 """The whole path for one study text: load, run, report, and what must hold of the result.
 
 :func:`run_and_report` is what the property test (test_report_property.py) and the kept
-regression cases (test_report_regressions.py) call: the study runs with the project's runner
-into a fresh folder, the report draws every figure it plans (PNG only, short animations), and
-the checks of :func:`check_report` hold: the report returns normally (no failed figure), or,
-when the run refused steps, says the study is incomplete naming exactly the steps that failed
-or were not run; every planned figure is drawn or skipped with a stated reason, every step
-that failed is on the page with its reason, and every file the page references exists.
+regression cases (tests/regressions/test_report_studies.py) call: the study runs with the
+project's runner into a fresh folder, the report draws every figure it plans (PNG only, short
+animations), and what must hold of the result is checked:
+
+* the run completes, or the steps it refuses found nothing to build on
+  (:data:`RUN_REFUSALS`) and it ends with ``StepsFailed`` naming each; every step that does
+  not depend on a failed step ran (its dataset is there), and every step not run depends on
+  one;
+* the datasets (tests/plotting/datasetcheck.py): no unexplained NaN, a replay of a converged
+  fixed point stays near it, a floquet step's handed-on point is converged or the next
+  step's refusal says it is not;
+* the report (:func:`check_report`) returns normally (no failed figure), or, when the run
+  refused steps, says the study is incomplete naming exactly the steps that failed or were
+  not run; every planned figure is drawn or skipped with a stated reason, no two figures are
+  drawn to one file, every step that failed is on the page with its reason, every file the
+  page references exists, and a second report redraws nothing.
 """
 from __future__ import annotations
 
+import html
 import re
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import yaml
 from matplotlib.text import Text
 
 from monkeystudy.plotting.drawing import NothingToDraw
@@ -24,7 +36,10 @@ from monkeystudy.plotting.report import (
     study_datasets,
 )
 from monkeystudy.study import RunFailed, parse_study, run_study
+from monkeystudy.study.progress import Reporter
 from monkeystudy.study.runner import StepsFailed
+
+from plotting.datasetcheck import dataset_problems
 
 #: What the runner refuses at run time: a step whose source step found nothing to build on
 #: (a refine of a grid without a gait, a replay of a refine that found no gait, ...). These
@@ -33,12 +48,15 @@ RUN_REFUSALS = (
     r"\d+ starts? requested, but (its one point has no gait|none of its \d+ points"
     r"|only \d+ of its)",
     r"found no (gait|cycle) to run",
-    r"produced no (usable start|usable gait|solution|converged solution|gait)",
+    r"produced no (usable start|usable gait|solution|converged solution|converged grazing gait"
+    r"|gait)",
     r"no start produced a solution",
     r"no design of the grid has a gait",
     r"did not converge to a fixed point",
     r"has no \w+ fixed point",
     r"could not analyse its \w+ return map",
+    r"no gait at any of the \d+ points?",
+    r"no well-conditioned gait among the \d+ points",
 )
 
 #: text no figure may show: a number that is not one, a count in the wrong number
@@ -64,31 +82,94 @@ class Outcome:
     report_seconds: float = 0.0
 
 
+class LogLines(Reporter):
+    """The run's log as the study runner reports it: each written step's line."""
+
+    def __init__(self):
+        self.notes: dict[str, str] = {}
+
+    def finish(self, name: str, message: str = "") -> None:
+        self.notes[name] = message
+
+
 def run_and_report(text: str, folder: Path, *, workers: int | None = None) -> Outcome:
-    """Run the study ``text`` into ``folder`` and report it; check the result."""
+    """Run the study ``text`` into ``folder`` and report it; check the result (every
+    problem found is named in one AssertionError)."""
     loaded = parse_study(text, "<drawn study>")
+    study = yaml.safe_load(text)
     out = Outcome(folder)
+    problems: list[str] = []
+    failed: dict[str, str] = {}
+    log = LogLines()
     t0 = time.perf_counter()
     try:
-        run_study(loaded, folder, workers=1)
+        run_study(loaded, folder, workers=1, reporter=log)
     except RunFailed as exc:
         msg = str(exc)
-        assert isinstance(exc, StepsFailed), f"the run failed: {msg}"
-        for step, why in exc.summary.failed.items():
-            assert any(re.search(p, why) for p in RUN_REFUSALS), f"the run failed: {msg}"
         out.refused = msg
-        out.incomplete = {**exc.summary.failed, **exc.summary.not_run}
+        if isinstance(exc, StepsFailed):
+            failed = dict(exc.summary.failed)
+            out.incomplete = {**exc.summary.failed, **exc.summary.not_run}
+            problems += [f"the run failed: {step}: {why}" for step, why in failed.items()
+                         if not any(re.search(p, why) for p in RUN_REFUSALS)]
+        else:     # one failure ended the run (its message names the step first)
+            problems.append(f"the run failed: {msg}")
+            step, _, why = msg.partition(": ")
+            if step in {s["name"] for s in study["steps"]}:
+                failed = {step: why}
     out.run_seconds = time.perf_counter() - t0
-    if not folder.is_dir() or not study_datasets(folder):
-        assert out.refused, "the run wrote no dataset and said nothing"
-    t1 = time.perf_counter()
+    problems += steps_ran_problems(study, folder, failed, out.incomplete)
+    problems += dataset_problems(folder, study, log.notes, failed)
     try:
-        report_study(folder, progress=out.lines.append, workers=workers, **FAST)
-        assert not out.refused, "the report of a study that refused steps says it is complete"
-    except StudyIncomplete as exc:
-        assert set(exc.failed) == set(out.incomplete) and not exc.missing, str(exc)
-    out.report_seconds = time.perf_counter() - t1
-    check_report(folder, out)
+        if not folder.is_dir() or not study_datasets(folder):
+            assert out.refused, "the run wrote no dataset and said nothing"
+        t1 = time.perf_counter()
+        try:
+            report_study(folder, progress=out.lines.append, workers=workers, **FAST)
+            assert not out.refused, \
+                "the report of a study that refused steps says it is complete"
+        except StudyIncomplete as exc:
+            assert set(exc.failed) == set(out.incomplete) and not exc.missing, str(exc)
+        out.report_seconds = time.perf_counter() - t1
+        check_report(folder, out)
+    except AssertionError as exc:
+        problems.append(str(exc))
+    assert not problems, "\n".join(problems)
+    return out
+
+
+def depends_on(study: dict) -> dict[str, set[str]]:
+    """Every step's sources, direct and indirect, by name: ``from``, a refine's
+    ``start.from``, a tick_sweep's ``floquet``."""
+    direct = {}
+    for step in study["steps"]:
+        start = step.get("start")
+        names = {step.get("from"), step.get("floquet"),
+                 start.get("from") if isinstance(start, dict) else None}
+        direct[step["name"]] = {n for n in names if n}
+    deps: dict[str, set[str]] = {}
+    for name in direct:            # steps come after their sources (the loader checks)
+        deps[name] = set(direct[name])
+        for d in direct[name]:
+            deps[name] |= deps.get(d, set())
+    return deps
+
+
+def steps_ran_problems(study: dict, folder: Path, failed: dict[str, str],
+                       incomplete: dict[str, str]) -> list[str]:
+    """A failed step stops only itself and the steps built on it: every other step wrote
+    its dataset, and every step not run depends on a failed one."""
+    out = []
+    for name, sources in depends_on(study).items():
+        if name in failed:
+            continue
+        if sources & set(failed):
+            if name not in incomplete:
+                out.append(f"{name}: built on failed {sorted(sources & set(failed))}, but "
+                           "not said to be not run")
+        elif not (folder / f"{name}.nc").is_file():
+            out.append(f"{name}: depends on no failed step and did not run"
+                       + (f": {incomplete[name]}" if name in incomplete else ""))
     return out
 
 
@@ -101,7 +182,13 @@ def check_report(folder: Path, out: Outcome) -> None:
     manifest = (json.loads((figs / MANIFEST).read_text())["figures"]
                 if (figs / MANIFEST).exists() else {})     # nothing planned, nothing drawn
     page = (figs / PAGE).read_text()
-    for job in plan(folder, fps=FAST["fps"], max_frames=FAST["max_frames"]):
+    jobs = plan(folder, fps=FAST["fps"], max_frames=FAST["max_frames"])
+    names = [job.name for job in jobs]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    assert not twice, f"figures drawn twice to one file: {', '.join(twice)}"
+    files = [f for entry in manifest.values() for f in entry.get("outputs", [])]
+    assert len(files) == len(set(files)), "two figures of the manifest share a file"
+    for job in jobs:
         entry = manifest.get(job.name)
         assert entry is not None, f"{job.name}: planned, neither drawn nor skipped"
         if "skipped" in entry:
@@ -132,8 +219,10 @@ def check_report(folder: Path, out: Outcome) -> None:
         assert not bad.search(shown), f"the page says {bad.search(shown).group(0)!r}"
     for ref in re.findall(r'(?:src|href)="([^"#][^"]*)"', page):
         assert (figs / ref).resolve().is_file(), f"the page references {ref}, not on disk"
+    text = html.unescape(page)
     for step, why in out.incomplete.items():
         assert f'<h3 id="step-{step}">' in page, f"{step}: failed, not on the page"
+        assert why in text, f"{step}: its reason is not on the page: {why}"
         assert any(line.startswith(f"step {step}: ") for line in out.lines), \
             f"{step}: failed, not in the log"
     again: list[str] = []
@@ -141,4 +230,4 @@ def check_report(folder: Path, out: Outcome) -> None:
         written = report_study(folder, progress=again.append, **FAST)
     except StudyIncomplete as exc:
         written = exc.written
-    assert written == [], "a second report redrew something"
+    assert written == [], f"a second report redrew {[p.name for p in written]}: {again}"

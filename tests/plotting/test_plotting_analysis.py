@@ -282,6 +282,17 @@ def test_continuation_lines_are_the_branch(ds, step):
     assert by_gid(fig, "modulus_0").axes.get_xlabel().endswith(unit)
 
 
+def test_a_continuation_of_one_point_counts_it_in_the_singular(ds):
+    """A branch that stops at its start (``no_branch``: the family does not survive a change
+    of the parameter) holds one point: "1 point, g = 9.81 m s-2", not "1 points, g = 9.81 →
+    9.81"."""
+    d = ds["family"].isel(point=[0])
+    fig = continuation.plot_continuation(d)
+    g = float(d["parameter_value"].values[0])
+    assert titles(fig)[1].startswith(f"1 point, g = {g:.6g} m s")
+    assert "→" not in titles(fig)[1].splitlines()[0]
+
+
 def test_continuation_marks_folds_and_period_doublings(ds):
     d = ds["family"].copy()
     d.attrs.update(folds=json.dumps([2]), period_doublings=json.dumps([3]))  # as if found

@@ -158,6 +158,15 @@ def test_a_non_finite_case_and_unreached_checkpoints_are_shown(ds):
     assert np.all(np.isnan(y[-3:])) and np.all(np.isfinite(y[:-3]))
 
 
+def test_one_requested_cycle_is_counted_in_the_singular(ds):
+    """Long runs of one cycle: the title says "dotted: 1 cycle requested"."""
+    one = ds.copy(deep=True)
+    one.attrs["cycles"] = 1
+    texts = [t.get_text() for t in plot_stress(one).findobj(Text)]
+    title = [t for t in texts if t.startswith("Long runs")]
+    assert len(title) == 1 and "dotted: 1 cycle requested;" in title[0], title
+
+
 def test_axes_have_units(fig):
     for ax in fig.findobj(Axes):
         for lab in (ax.get_xlabel(), ax.get_ylabel()):

@@ -2,14 +2,19 @@
 report`` (or, marked xfail, the run before it), found by hand or by the property test
 (tests/plotting/test_report_property.py), kept verbatim with what went wrong.
 
-Each is run with the study runner and reported by ``reportcheck.run_and_report``: the report
-returns normally, every planned figure is drawn or skipped with its reason on the page and in
-the log, the page's images exist, no figure text says "nan" or "1 runs".
+Each is run with the study runner and reported by ``reportcheck.run_and_report``: the run
+refuses only steps with nothing to build on, and runs every step that does not depend on
+one; its datasets hold no unexplained NaN, its replays of a converged fixed point stay near
+it, a floquet step's point is converged or refused saying so; the report returns normally
+or names the failed steps, every planned figure is drawn or skipped with its reason on the
+page and in the log, no two to one file, the page's images exist, no figure text says "nan"
+or "1 runs".
 """
 from __future__ import annotations
 
 import json
 
+import numpy as np
 import xarray as xr
 
 from plotting.reportcheck import run_and_report
@@ -254,3 +259,274 @@ steps:
     assert out.refused is None
     with xr.open_dataset(out.folder / "exact.nc") as ds:
         assert ds.sizes["solution"] == 1
+
+
+# --- found by the property test with every step kind, clock and name (studystrategies.py) ------
+def report_text(tmp_path, text: str):
+    """Run and report a study kept as the property test drew it (the whole text)."""
+    return run_and_report(text, tmp_path / "out")
+
+
+FAILED_REFINE_THEN_A_GRID = """\
+{
+ "schema_version": 1,
+ "name": "drawn",
+ "robot": "uniform_rod",
+ "gait": {"kind": "horizontal", "motor_torque": -0.1197, "tick": 0.0},
+ "integrator": {"rtol": 1e-08, "atol": 1e-10, "max_time": 3.0},
+ "steps": [
+  {
+   "name": "a",
+   "kind": "grid",
+   "points": [[0.0, 0.0]]
+  },
+  {
+   "name": "aa",
+   "kind": "refine",
+   "start": {
+    "from": "a",
+    "best": 1
+   },
+   "maxiter": 1
+  },
+  {
+   "name": "aaa",
+   "kind": "grid",
+   "points": [[0.0, 7.0]]
+  }
+ ]
+}
+
+"""
+
+
+def test_a_failed_step_leaves_the_independent_later_step_to_run(tmp_path):
+    """The refine of a grid without a gait fails; the grid after it depends on nothing. The
+    run stopped at the failure, leaving that grid unrun, and the report returned normally
+    with a page that did not name the failed step. The grid runs, the run ends naming the
+    failure (StepsFailed), and the report says the study is incomplete and lists it."""
+    out = report_text(tmp_path, FAILED_REFINE_THEN_A_GRID)
+    assert set(out.incomplete) == {"aa"}
+    assert "its one point has no gait" in out.incomplete["aa"]
+    assert (out.folder / "aaa.nc").is_file()
+
+
+CLIMBING_POLISHED_AT_THE_DEFAULT_TOLERANCES = """\
+{
+ "schema_version": 1,
+ "name": "drawn",
+ "robot": "seed2009",
+ "gait": {"kind": "sequence", "section": {"theta1": 0.0, "direction": "either", "theta2": 1.0}, "segments": [{"until": "free_end_height", "value": 0.05, "direction": "rising", "latch_energy": true}, {"until": "energy_restored", "value": 0.981, "magnets": "swap", "torque": 0.6354}], "tick": 0.0},
+ "steps": [
+  {
+   "name": "a",
+   "kind": "grid",
+   "points": [[4.3, 0.1]]
+  },
+  {
+   "name": "aa",
+   "kind": "refine",
+   "start": {
+    "from": "a",
+    "best": 1
+   }
+  },
+  {
+   "name": "aaa",
+   "kind": "floquet",
+   "from": "aa"
+  },
+  {
+   "name": "aaaa",
+   "kind": "stability",
+   "from": "aaa",
+   "cycles": 1,
+   "sample_dt": 0.005
+  }
+ ]
+}
+
+"""
+
+
+def test_a_fixed_point_at_its_maps_error_level_is_polished_and_run(tmp_path):
+    """The climbing gait at the default tolerances (rtol 1e-10): Newton's residual stops near
+    1e-11, inside the map's error level (3e-9), short of a fixed residual target; the floquet
+    step analysed the refined start instead, said nothing of it, and the stability step
+    refused its point ("Newton not converged"). The polish stops at the map's error level,
+    converged, and the stability run repeats the fixed point."""
+    out = report_text(tmp_path, CLIMBING_POLISHED_AT_THE_DEFAULT_TOLERANCES)
+    assert out.refused is None
+    with xr.open_dataset(out.folder / "aaa.nc") as f:
+        assert int(f["newton_converged"].values[0]) == 1
+        assert float(f["map_defect"].values[0]) <= float(f["map_error"].values[0])
+    with xr.open_dataset(out.folder / "aaaa.nc") as c:
+        assert float(c["error"].values[0]) < 1e-16
+
+
+FLIGHT_FROM_ITS_FIXED_POINT_FOR_THREE_CYCLES = """\
+{
+ "schema_version": 1,
+ "name": "drawn",
+ "robot": "seed2009",
+ "gait": {"kind": "sequence", "section": {"theta1": 0.0, "direction": "either", "theta2": 0.3}, "segments": [{"until": "coord", "coord": "theta1", "value": 0.6, "direction": "rising", "latch_energy": true}, {"until": "free_end_y", "value": 0.0, "direction": "rising", "magnets": "none"}, {"until": "energy_restored", "value": 0.0, "magnets": "B", "torque": 0.6354}], "tick": 0.001},
+ "integrator": {"rtol": 1e-10},
+ "steps": [
+  {
+   "name": "map",
+   "kind": "grid",
+   "dtheta1": {
+    "start": 1.891,
+    "stop": 2.069,
+    "num": 5
+   },
+   "dtheta2": {
+    "start": 9.903,
+    "stop": 10.18,
+    "num": 4
+   }
+  },
+  {
+   "name": "best",
+   "kind": "refine",
+   "start": {
+    "from": "map",
+    "best": 1
+   }
+  },
+  {
+   "name": "multipliers",
+   "kind": "floquet",
+   "from": "best"
+  },
+  {
+   "name": "stability_f",
+   "kind": "stability",
+   "from": "multipliers",
+   "cycles": 2,
+   "sample_dt": 0.02,
+   "max_drop": 0.1202
+  },
+  {
+   "name": "tick_sweep_f",
+   "kind": "tick_sweep",
+   "from": "multipliers",
+   "ticks": [0.005, 0.001, 0.0],
+   "cycles": 3,
+   "replay": "gait"
+  },
+  {
+   "name": "cycles",
+   "kind": "stability",
+   "from": "best",
+   "cycles": 5,
+   "sample_dt": 0.05
+  }
+ ]
+}
+
+"""
+
+
+def test_a_flight_gait_run_from_its_fixed_point_repeats_it_every_cycle(tmp_path):
+    """The flight gait catches with B, so its cycle ends hanging from B: every other cycle is
+    its mirror image. Run from its fixed point for more than one cycle it was wrong from the
+    second (error 145, 12 rad s-1 off). On exact timing every cycle repeats the fixed point to
+    round-off (its leading multiplier is 4)."""
+    out = report_text(tmp_path, FLIGHT_FROM_ITS_FIXED_POINT_FOR_THREE_CYCLES)
+    assert out.refused is None
+    with xr.open_dataset(out.folder / "tick_sweep_f.nc") as t:
+        exact = t["error"].values[list(t["tick"].values).index(0.0)]
+    assert np.all(exact < 1e-18), exact
+
+
+RUNNING_CLOCK_ON_A_5_MS_TICK = """\
+{
+ "schema_version": 1,
+ "name": "drawn",
+ "robot": "seed2009",
+ "gait": {"kind": "horizontal", "motor_torque": 0.5202, "tick": 0.005},
+ "integrator": {"rtol": 1e-08, "atol": 1e-10, "max_time": 3.0},
+ "steps": [
+  {
+   "name": "map",
+   "kind": "grid",
+   "dtheta1": {
+    "start": 2.93,
+    "stop": 2.93,
+    "num": 1
+   },
+   "dtheta2": {
+    "start": 13.03,
+    "stop": 13.03,
+    "num": 1
+   }
+  },
+  {
+   "name": "map2",
+   "kind": "grid",
+   "dtheta1": {
+    "start": 0.0,
+    "stop": 0.0,
+    "num": 1
+   },
+   "dtheta2": {
+    "start": 14.0,
+    "stop": 14.0,
+    "num": 1
+   }
+  },
+  {
+   "name": "best",
+   "kind": "refine",
+   "start": [0.796, 10.43],
+   "maxiter": 8
+  },
+  {
+   "name": "cycles",
+   "kind": "stability",
+   "from": "best",
+   "cycles": 2,
+   "sample_dt": 0.005,
+   "max_drop": 0.3333,
+   "controller": {
+    "clock": "run_on"
+   }
+  },
+  {
+   "name": "exact",
+   "kind": "shoot",
+   "starts": [[1.44, 10.31], [0.0, 9.588]],
+   "method": "gauss_newton",
+   "max_iter": 3
+  },
+  {
+   "name": "noise",
+   "kind": "survival",
+   "from": "best",
+   "runs": 4,
+   "max_cycles": 7,
+   "seed": 1,
+   "noise": {
+    "timing": 0.02
+   },
+   "controller": {
+    "tick": 0.001
+   }
+  }
+ ]
+}
+
+"""
+
+
+def test_a_running_clock_records_every_cycles_vertical_crossing(tmp_path):
+    """A stability run of a refined gait with its clock running on, on a 5 ms tick: the
+    second cycle's vertical crossing came after the clock's period ended, and the cycle was
+    recorded with no crossing (error, kinetic energy and crossing time NaN) while the run's
+    status was ok. Every cycle that crosses records it."""
+    out = report_text(tmp_path, RUNNING_CLOCK_ON_A_5_MS_TICK)
+    with xr.open_dataset(out.folder / "cycles.nc") as c:
+        assert int(c["status"]) == 0
+        for name in ("error", "kinetic_energy", "t_cross"):
+            assert np.all(np.isfinite(c[name].values)), name

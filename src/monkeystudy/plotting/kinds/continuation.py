@@ -76,7 +76,9 @@ def plot_continuation(ds):
         marks = [f"{len(found[key])} {label}{'s' if len(found[key]) > 1 else ''}"
                  for key, _a, _c, _l, label in marks_of if found[key]]
         u = unit.strip("[]")
-        span = (f"{count(mu.size, 'point')}, {sym} = {mu[0]:.6g} → {mu[-1]:.6g}"
+        # a branch that stops at its start (no_branch) is one value, not a range
+        values = f"{mu[0]:.6g}" if mu.size == 1 else f"{mu[0]:.6g} → {mu[-1]:.6g}"
+        span = (f"{count(mu.size, 'point')}, {sym} = {values}"
                 + (f" {u}" if u != "1" else "") if mu.size else "no points")
         ds_step = attr_float(ds, "ds")
         none = ("no folds or bifurcations on this branch" if sequence

@@ -251,8 +251,11 @@ def plot_design_replay(ds):
         d = ds["perturbation_distance"].values
         k = ds["decay_cycle"].values
         ax = axs[1, 1]
+        growth = attr_float(ds, "decay_growth")     # NaN: too few cycles to fit
         ax.semilogy(k, d, "o-", ms=3, color=BLUE, gid="decay",
-                    label=f"perturbed run (fitted {attr_float(ds, 'decay_growth'):.4g} / cycle)")
+                    label=(f"perturbed run (fitted {growth:.4g} / cycle)" if math.isfinite(growth)
+                           else "perturbed run (growth not fitted: fewer than 3 cycles in its "
+                                "window)"))
         lam = attr_float(ds, "multiplier_power")
         if d.size and math.isfinite(lam):
             ax.semilogy(k, d[0] * lam ** (k - 1.0), "--", color=VERMILLION, gid="predicted",

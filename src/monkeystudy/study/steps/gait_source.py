@@ -292,8 +292,8 @@ class StartRequest:
     clock : str
         ``reset_at_vertical`` or ``run_on`` (a clock running on with the gait's period).
     max_map_defect : float or None
-        A floquet step's point is run when the return map moves it less than this [1]
-        (default: only when Newton converged).
+        A floquet step's point is also run when the return map moves it less than this [1],
+        its Newton polish converged or not (default: only when Newton converged).
     require : str or None
         Refuse a start whose cycle failed, saying what the step would do (``run``,
         ``analyse``, ``continue``); None: hand it on (the step records the failure).
@@ -368,9 +368,11 @@ def floquet_start(path: Path, name: str, ctx, req: StartRequest) -> GaitStart:
     own controller's. Refused (:class:`~monkeystudy.study.errors.RunFailed`) unless finite
     and polished: Newton converged or, given ``max_map_defect`` [1], the map moves it less
     (a neutral multiplier can leave Newton short of its tolerance at a point that is a fixed
-    point to the map's accuracy; ``req.max_map_defect``). With ``req.clock`` ``run_on`` the
-    clock runs on with the period of the analysed cycle from the fixed point (its section
-    crossing, exact timing), the start at clock phase zero."""
+    point to the map's accuracy; ``req.max_map_defect``). An open-loop replay of the gait's
+    own cycle keeps the analysed cycle's segment exits (exact timing, whatever the gait's
+    tick). With ``req.clock`` ``run_on`` the clock runs on with the period of the analysed
+    cycle from the fixed point (its section crossing, exact timing), the start at clock phase
+    zero."""
     spec = ctx.spec
     replay, clock_name = _replay_and_clock(req, ctx.conventions)
     labels = floquet_controllers(path)
@@ -381,8 +383,8 @@ def floquet_start(path: Path, name: str, ctx, req: StartRequest) -> GaitStart:
         raise RunFailed(f"{ctx.name}: floquet step {name!r} could not analyse its "
                         f"{controller} return map: {fp['failure']}")
     z = tuple(float(v) for v in fp["fixed_point"])
-    close = (fp["map_defect"] <= req.max_map_defect if req.max_map_defect is not None
-             else fp["newton_converged"] != 0)
+    close = fp["newton_converged"] != 0 or (req.max_map_defect is not None
+                                             and fp["map_defect"] <= req.max_map_defect)
     if not (np.all(np.isfinite(z)) and close):
         newton = ("converged" if fp["newton_converged"] else
                   fp["newton_stop"] or "not converged")
@@ -393,6 +395,12 @@ def floquet_start(path: Path, name: str, ctx, req: StartRequest) -> GaitStart:
     if controller == "open_loop":
         gait = gait if fp["motor_torque"] != 0.0 else motorless(gait)
         times = (fp["t_switch"], fp["t_switch"] + fp["t_motor"])
+    elif replay == "open_loop":
+        # the schedule an open-loop replay keeps is the analysed cycle's, exact timing (the
+        # fixed point is the exact-timing map's; a replay on a tick puts it on the tick)
+        times = tuple(float(t) for t in cycle_times(replace(gait, tick=0.0), z,
+                                                    robot=spec.robot,
+                                                    integrator=spec.integrator))
     t_end = math.nan
     if req.clock == "run_on":
         # the period is the analysed cycle's: the fixed point's section crossing, exact timing

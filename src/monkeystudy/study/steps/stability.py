@@ -283,7 +283,9 @@ class StabilityKind(StepKind):
     def finish(self, ctx: StepContext, attrs: dict) -> str:
         g, kw = ctx.state["gait"], ctx.state["options"]
         r = ctx.results[0]
-        attrs.update(g.attrs("run", t_segment=r["t_segment"]),
+        # a sequence gait's recorded cycle: the schedule an open-loop replay keeps
+        recorded = r["t_segment"] if g.times is None else g.times
+        attrs.update(g.attrs("run", t_segment=recorded),
                      controller={"tick": kw["tick"], "clock": g.clock},
                      sample_dt=kw["sample_dt"], max_drop=kw["max_drop"], cycles=kw["cycles"])
         frame = ctx.spec.torque_frame
