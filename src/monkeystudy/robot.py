@@ -9,7 +9,7 @@ import numpy as np
 from .kernel.dynamics import derive_params, flipped_params
 from .kernel.layout import (
     N_PARAMS, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_I1, P_I2, P_L1, P_L2, P_M1,
-    P_M2, P_R1, P_R2,
+    P_M2, P_R1, P_R2, P_S1, P_S2,
 )
 
 
@@ -33,19 +33,26 @@ def _check_nonnegative(name: str, value: float) -> float:
 
 @dataclass(frozen=True)
 class Link:
-    """One link: mass [kg], length [m], CG distance from its proximal end [m], inertia about
-    the CG [kg m^2] (docs/model.md section 1). Link 1 carries end A (proximal end = A), link 2
-    carries end B (proximal end = the joint)."""
+    """One link: mass [kg], length [m] (between its proximal and distal points), its CG's
+    distance from the proximal point along the link [m], inertia about the CG [kg m^2], and
+    the CG's offset across the link [m], counter-clockwise of the line from the proximal to
+    the distal point (docs/model.md section 1; 0 for a link whose CG is on that line). Link 1
+    carries end A (proximal point = A, distal = the joint), link 2 carries end B (proximal
+    point = the joint, distal = B)."""
 
     mass: float
     length: float
     com: float
     inertia: float
+    com_across: float = 0.0
 
     def validate(self, where: str) -> None:
         _check_positive(f"{where}.mass", self.mass)
         _check_positive(f"{where}.length", self.length)
         _check_positive(f"{where}.inertia", self.inertia)
+        across = float(self.com_across)
+        if not math.isfinite(across):
+            raise ValueError(f"{where}.com_across must be finite, got {across!r}")
         com = float(self.com)
         if not math.isfinite(com):
             raise ValueError(f"{where}.com must be finite, got {com!r}")
@@ -107,6 +114,7 @@ class Robot:
         p[P_M1], p[P_M2] = self.link1.mass, self.link2.mass
         p[P_L1], p[P_L2] = self.link1.length, self.link2.length
         p[P_R1], p[P_R2] = self.link1.com, self.link2.com
+        p[P_S1], p[P_S2] = self.link1.com_across, self.link2.com_across
         p[P_I1], p[P_I2] = self.link1.inertia, self.link2.inertia
         p[P_G] = self.gravity
         p[P_B_PIVOT], p[P_C_PIVOT] = self.pivot_friction.viscous, self.pivot_friction.coulomb
@@ -124,17 +132,29 @@ class Robot:
         y = 0) reduces to ``V = -g cos(th1) (a - m2 r2 L1 / L2)``, with ``|cos th1| <=
         min(1, L2/L1)``, so the minimum is ``-g |a - m2 r2 L1/L2| min(1, L2/L1)``. A swing that
         starts with less total energy and no motor can never reach a swap (energy is conserved
-        or dissipated): such grid points are marked unreachable without integrating.
+        or dissipated): such grid points are marked unreachable without integrating. With a
+        CG off its link's line the bound is each CG's lowest height below its link's end
+        (lower than the least potential on the surface, so still no reachable point is
+        skipped).
         """
         l1, l2 = self.link1, self.link2
         a = l1.mass * l1.com + l2.mass * l1.length
+        if l1.com_across or l2.com_across:
+            # off-line CGs: each CG's height is bounded by its distance from its link's end
+            return -self.gravity * (math.hypot(a, l1.mass * l1.com_across)
+                                    + l2.mass * math.hypot(l2.com, l2.com_across))
         k = a - l2.mass * l2.com * l1.length / l2.length
         return -self.gravity * abs(k) * min(1.0, l2.length / l1.length)
 
     def to_dict(self) -> dict:
-        """Plain values (JSON-ready): ``link1``, ``link2`` (mass, length, com, inertia),
-        ``gravity``, ``pivot_friction``, ``joint_friction`` (viscous, coulomb), ``name``."""
-        return asdict(self)
+        """Plain values (JSON-ready): ``link1``, ``link2`` (mass, length, com, inertia, and
+        com_across unless it is 0), ``gravity``, ``pivot_friction``, ``joint_friction``
+        (viscous, coulomb), ``name``."""
+        d = asdict(self)
+        for link in ("link1", "link2"):
+            if d[link]["com_across"] == 0.0:
+                del d[link]["com_across"]     # an in-line link is described as it always was
+        return d
 
     @classmethod
     def from_dict(cls, d: dict) -> "Robot":

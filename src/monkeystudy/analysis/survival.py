@@ -189,7 +189,9 @@ def run_robot(robot: Robot, noise: Noise, seed: int, run: int) -> Robot:
                               uniform) if scale > 0.0 else 0.0
             vals[what] = getattr(link, what) * (1.0 + scale * z)
         vals["com"] = min(max(vals["com"], 0.0), link.length)
-        links[name] = Link(vals["mass"], link.length, vals["com"], vals["inertia"])
+        # the CG's offset across the link is kept: the noise scales its distance along it
+        links[name] = Link(vals["mass"], link.length, vals["com"], vals["inertia"],
+                           link.com_across)
     return Robot(links["link1"], links["link2"], gravity=robot.gravity,
                  pivot_friction=robot.pivot_friction, joint_friction=robot.joint_friction,
                  name=robot.name)

@@ -15,6 +15,11 @@ Integration vectors are packed per phase:
   carried beside the vector;
 * flight (4-DOF): ``[x, y, theta1, theta2, dx, dy, dtheta1, dtheta2]``.
 
+A link's centre of gravity may lie off the line between its joints (``P_S1``, ``P_S2``,
+docs/model.md section 1): each term it adds is appended after the in-line ones, so for in-line
+links it is an exact zero and every in-line value keeps its bits (with or without floating-point
+contraction: a fused multiply-add of an exact zero product returns its addend).
+
 Friction (docs/model.md section 2, "Generalized forces") is viscous ``-b w`` plus Coulomb
 ``-c sgn(w)``. The Coulomb sign is *not* evaluated from the state: it is the slip direction
 ``fmode[k]`` held constant by the hybrid loop between located zero-speed events, so the vector
@@ -28,8 +33,9 @@ import numpy as np
 
 from .jit import njit
 from .layout import (
-    FLIES, P_A, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_H, P_I1, P_I2, P_K11, P_K22,
-    P_L1, P_L2, P_M1, P_M2, P_M2R2, P_MTOT, P_R1, P_R2, PHASE_SWING, PHASE_FLIGHT,
+    FLIES, P_A, P_AS, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_H, P_HS, P_I1, P_I2,
+    P_K11, P_K22, P_L1, P_L2, P_M1, P_M2, P_M2R2, P_M2S2, P_MTOT, P_R1, P_R2, P_S1, P_S2,
+    PHASE_SWING, PHASE_FLIGHT,
 )
 from .trig import sincos
 
@@ -48,20 +54,28 @@ def derive_params(p):
     order give the same bits.
     """
     m1, m2, L1, r1, r2 = p[P_M1], p[P_M2], p[P_L1], p[P_R1], p[P_R2]
+    sigma1, sigma2 = p[P_S1], p[P_S2]
     p[P_A] = m1 * r1 + m2 * L1
     p[P_H] = m2 * r2 * L1
     p[P_M2R2] = m2 * r2
-    p[P_K11] = p[P_I1] + p[P_I2] + m1 * r1 * r1 + m2 * L1 * L1 + m2 * r2 * r2
-    p[P_K22] = p[P_I2] + m2 * r2 * r2
+    # the across-offsets' squares last: exact zeros for in-line links
+    p[P_K11] = (p[P_I1] + p[P_I2] + m1 * r1 * r1 + m2 * L1 * L1 + m2 * r2 * r2
+                + m1 * sigma1 * sigma1 + m2 * sigma2 * sigma2)
+    p[P_K22] = p[P_I2] + m2 * r2 * r2 + m2 * sigma2 * sigma2
     p[P_MTOT] = m1 + m2
+    p[P_AS] = m1 * sigma1
+    p[P_HS] = m2 * sigma2 * L1
+    p[P_M2S2] = m2 * sigma2
 
 
 def flipped_params(p):
     """Parameters of the same robot described from the other end (docs/model.md section 3).
 
     Links swap roles; CG distances are re-measured from the new proximal ends
-    (``r1' = L2 - r2``, ``r2' = L1 - r1``). Friction belongs to the pivot and the joint,
-    not to a link, so it is unchanged.
+    (``r1' = L2 - r2``, ``r2' = L1 - r1``) and each link's direction reverses, so its
+    across-offset changes sign (``sigma1' = -sigma2``, ``sigma2' = -sigma1``; ``0 - x``: an
+    in-line link keeps ``+0.0``). Friction belongs to the pivot and the joint, not to a link,
+    so it is unchanged.
     """
     q = np.array(p, dtype=np.float64)
     q[P_M1], q[P_M2] = p[P_M2], p[P_M1]
@@ -69,6 +83,8 @@ def flipped_params(p):
     q[P_I1], q[P_I2] = p[P_I2], p[P_I1]
     q[P_R1] = p[P_L2] - p[P_R2]
     q[P_R2] = p[P_L1] - p[P_R1]
+    q[P_S1] = 0.0 - p[P_S2]
+    q[P_S2] = 0.0 - p[P_S1]
     derive_params(q)
     return q
 
@@ -107,23 +123,27 @@ def angle_trig(th1, th2):
 @njit(cache=True, inline="always", error_model="numpy")
 def _swing_terms(p, tau, fmode, th1, th2, w1, w2):
     """Swing mass matrix entries and right-hand side ``F - C qdot - G`` (docs/model.md section 2)."""
-    s1, _, s2, c2, s12, _ = _field_trig(th1, th2)
-    return _swing_terms_t(p, tau, fmode, s1, s2, c2, s12, w1, w2)
+    s1, c1, s2, c2, s12, c12 = _field_trig(th1, th2)
+    return _swing_terms_t(p, tau, fmode, s1, c1, s2, c2, s12, c12, w1, w2)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _swing_terms_t(p, tau, fmode, s1, s2, c2, s12, w1, w2):
+def _swing_terms_t(p, tau, fmode, s1, c1, s2, c2, s12, c12, w1, w2):
     """:func:`_swing_terms` from the sines and cosines of the angles."""
     h = p[P_H]
-    gm2r2s12 = p[P_G] * p[P_M2R2] * s12
-    m11 = p[P_K11] + 2.0 * h * c2
-    m12 = p[P_K22] + h * c2
+    hs = p[P_HS]
+    # link 2's moment about the joint along and across the link, in the derivative of the
+    # mass matrix: h s2 + hs c2 (hs = 0 for an in-line link 2)
+    hs2 = h * s2 + hs * c2
+    gm2r2s12 = p[P_G] * p[P_M2R2] * s12 + p[P_G] * p[P_M2S2] * c12
+    m11 = p[P_K11] + 2.0 * h * c2 - 2.0 * hs * s2
+    m12 = p[P_K22] + h * c2 - hs * s2
     m22 = p[P_K22]
     # the term in s12 last: it waits on both angles' sines and cosines (the identity of
     # _field_trig), the latest operand of a stage, so the other terms are summed meanwhile
-    r1 = (h * s2 * (2.0 * w1 * w2 + w2 * w2) - p[P_G] * p[P_A] * s1
-          - p[P_B_PIVOT] * w1 - p[P_C_PIVOT] * fmode[0]) - gm2r2s12
-    r2 = (-h * s2 * w1 * w1 + tau - p[P_B_JOINT] * w2 - p[P_C_JOINT] * fmode[1]) - gm2r2s12
+    r1 = (hs2 * (2.0 * w1 * w2 + w2 * w2) - p[P_G] * p[P_A] * s1
+          - p[P_B_PIVOT] * w1 - p[P_C_PIVOT] * fmode[0] - p[P_G] * p[P_AS] * c1) - gm2r2s12
+    r2 = (-hs2 * w1 * w1 + tau - p[P_B_JOINT] * w2 - p[P_C_JOINT] * fmode[1]) - gm2r2s12
     return m11, m12, m22, r1, r2
 
 
@@ -155,7 +175,10 @@ def _flight_coupling_t(p, c1, s1, c12, s12):
     """:func:`_flight_coupling` from the sines and cosines of the angles."""
     a = p[P_A]
     m2r2 = p[P_M2R2]
-    return (a * c1 + m2r2 * c12, m2r2 * c12, a * s1 + m2r2 * s12, m2r2 * s12,
+    a_s = p[P_AS]
+    m2s2 = p[P_M2S2]
+    return (a * c1 + m2r2 * c12 - a_s * s1 - m2s2 * s12, m2r2 * c12 - m2s2 * s12,
+            a * s1 + m2r2 * s12 + a_s * c1 + m2s2 * c12, m2r2 * s12 + m2s2 * c12,
             c1, s1, c12, s12)
 
 
@@ -177,7 +200,7 @@ def swing_accel_trig(p, tau, fmode, th1, th2, w1, w2):
     :func:`.trig.sincos`).
     """
     s1, c1, s2, c2, s12, c12 = angle_trig(th1, th2)
-    m11, m12, m22, r1, r2 = _swing_terms_t(p, tau, fmode, s1, s2, c2, s12, w1, w2)
+    m11, m12, m22, r1, r2 = _swing_terms_t(p, tau, fmode, s1, c1, s2, c2, s12, c12, w1, w2)
     a1, a2 = _solve2(m11, m12, m22, r1, r2, fmode[0] == 0.0, fmode[1] == 0.0)
     return a1, a2, s1, c1, s2, c2, s12, c12
 
@@ -243,16 +266,22 @@ def _flight_accel_t(p, tau, fmode, s1, c1, s2, c2, s12, c12, w1, w2):
     mt = p[P_MTOT]
     a = p[P_A]
     m2r2 = p[P_M2R2]
+    a_s = p[P_AS]
+    m2s2 = p[P_M2S2]
     w12 = w1 + w2
     # right-hand side F - C qdot - G; no pivot friction in flight (nothing is pinned)
-    rx = a * s1 * w1 * w1 + m2r2 * s12 * w12 * w12
-    ry = -(a * c1 * w1 * w1 + m2r2 * c12 * w12 * w12) - p[P_G] * mt
+    rx = a * s1 * w1 * w1 + m2r2 * s12 * w12 * w12 + a_s * c1 * w1 * w1 \
+        + m2s2 * c12 * w12 * w12
+    ry = -(a * c1 * w1 * w1 + m2r2 * c12 * w12 * w12) - p[P_G] * mt + a_s * s1 * w1 * w1 \
+        + m2s2 * s12 * w12 * w12
     h = p[P_H]
-    gm2r2s12 = p[P_G] * m2r2 * s12
-    r1 = h * s2 * (2.0 * w1 * w2 + w2 * w2) - p[P_G] * a * s1 - gm2r2s12
-    r2 = -h * s2 * w1 * w1 - gm2r2s12 + tau - p[P_B_JOINT] * w2 - p[P_C_JOINT] * fmode[1]
-    m11 = p[P_K11] + 2.0 * h * c2
-    m12 = p[P_K22] + h * c2
+    hs = p[P_HS]
+    hs2 = h * s2 + hs * c2
+    gm2r2s12 = p[P_G] * m2r2 * s12 + p[P_G] * m2s2 * c12
+    r1 = hs2 * (2.0 * w1 * w2 + w2 * w2) - p[P_G] * a * s1 - gm2r2s12 - p[P_G] * a_s * c1
+    r2 = -hs2 * w1 * w1 - gm2r2s12 + tau - p[P_B_JOINT] * w2 - p[P_C_JOINT] * fmode[1]
+    m11 = p[P_K11] + 2.0 * h * c2 - 2.0 * hs * s2
+    m12 = p[P_K22] + h * c2 - hs * s2
     m22 = p[P_K22]
     # Schur complement S = Ms - B^T B / mt, reduced rhs = r_th - B^T r_xy / mt
     inv_mt = 1.0 / mt
@@ -339,10 +368,11 @@ def holding_torque(phase, p, tau, fmode, y, k):
         ax, ay, a1, a2 = flight_accel(p, tau, fm, th1, th2, w1, w2)
         b02, b03, b12, b13, c1, s1, c12, s12 = _flight_coupling(p, th1, th2)
         h = p[P_H]
+        hs = p[P_HS]
         s2, c2 = sincos(th2)
-        r2 = (-h * s2 * w1 * w1 - p[P_G] * p[P_M2R2] * s12 + tau
-              - p[P_B_JOINT] * w2)
-        return (b03 * ax + b13 * ay + (p[P_K22] + h * c2) * a1 + p[P_K22] * a2 - r2)
+        r2 = (-(h * s2 + hs * c2) * w1 * w1 - p[P_G] * p[P_M2R2] * s12 + tau
+              - p[P_B_JOINT] * w2 - p[P_G] * p[P_M2S2] * c12)
+        return (b03 * ax + b13 * ay + (p[P_K22] + h * c2 - hs * s2) * a1 + p[P_K22] * a2 - r2)
     return 0.0
 
 
@@ -352,8 +382,8 @@ def holding_torque(phase, p, tau, fmode, y, k):
 @njit(cache=True, error_model="numpy", _nrt=False)
 def kinetic_energy(p, th1, th2, vx, vy, w1, w2):
     """Kinetic energy K [J], docs/model.md section 1 (``vx = vy = 0`` while swinging)."""
-    _, c2 = sincos(th2)
-    k = kinetic_energy_rot(p, c2, w1, w2)
+    s2, c2 = sincos(th2)
+    k = kinetic_energy_rot(p, s2, c2, w1, w2)
     if vx != 0.0 or vy != 0.0:
         s1, c1 = sincos(th1)
         s12, c12 = sincos(th1 + th2)
@@ -362,33 +392,34 @@ def kinetic_energy(p, th1, th2, vx, vy, w1, w2):
 
 
 @njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
-def kinetic_energy_rot(p, c2, w1, w2):
+def kinetic_energy_rot(p, s2, c2, w1, w2):
     """The rotational part of :func:`kinetic_energy` (all of it while swinging) [J]."""
-    return kinetic_rot_s(p[P_H], p[P_K11], p[P_K22], c2, w1, w2)
+    return kinetic_rot_s(p[P_H], p[P_HS], p[P_K11], p[P_K22], s2, c2, w1, w2)
 
 
 @njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
-def kinetic_rot_s(h, k11, k22, c2, w1, w2):
-    """:func:`kinetic_energy_rot` from scalars (``P_H``, ``P_K11``, ``P_K22``)."""
-    m11 = k11 + 2.0 * h * c2
-    m12 = k22 + h * c2
+def kinetic_rot_s(h, hs, k11, k22, s2, c2, w1, w2):
+    """:func:`kinetic_energy_rot` from scalars (``P_H``, ``P_HS``, ``P_K11``, ``P_K22``)."""
+    m11 = k11 + 2.0 * h * c2 - 2.0 * hs * s2
+    m12 = k22 + h * c2 - hs * s2
     return 0.5 * (m11 * w1 * w1 + 2.0 * m12 * w1 * w2 + k22 * w2 * w2)
 
 
 @njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def kinetic_energy_trans(p, c1, s1, c12, s12, vx, vy, w1, w2):
     """The part of :func:`kinetic_energy` due to the (x, y) end's velocity [J]."""
-    return kinetic_trans_s(p[P_A], p[P_M2R2], p[P_MTOT], c1, s1, c12, s12, vx, vy, w1, w2)
+    return kinetic_trans_s(p[P_A], p[P_AS], p[P_M2R2], p[P_M2S2], p[P_MTOT], c1, s1, c12, s12,
+                           vx, vy, w1, w2)
 
 
 @njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
-def kinetic_trans_s(a, m2r2, mt, c1, s1, c12, s12, vx, vy, w1, w2):
-    """:func:`kinetic_energy_trans` from scalars (``P_A``, ``P_M2R2``, ``P_MTOT``); the
-    coupling block as :func:`_flight_coupling_t` forms it."""
-    b02 = a * c1 + m2r2 * c12
-    b03 = m2r2 * c12
-    b12 = a * s1 + m2r2 * s12
-    b13 = m2r2 * s12
+def kinetic_trans_s(a, a_s, m2r2, m2s2, mt, c1, s1, c12, s12, vx, vy, w1, w2):
+    """:func:`kinetic_energy_trans` from scalars (``P_A``, ``P_AS``, ``P_M2R2``, ``P_M2S2``,
+    ``P_MTOT``); the coupling block as :func:`_flight_coupling_t` forms it."""
+    b02 = a * c1 + m2r2 * c12 - a_s * s1 - m2s2 * s12
+    b03 = m2r2 * c12 - m2s2 * s12
+    b12 = a * s1 + m2r2 * s12 + a_s * c1 + m2s2 * c12
+    b13 = m2r2 * s12 + m2s2 * c12
     return 0.5 * mt * (vx * vx + vy * vy) + vx * (b02 * w1 + b03 * w2) \
         + vy * (b12 * w1 + b13 * w2)
 
@@ -396,21 +427,24 @@ def kinetic_trans_s(a, m2r2, mt, c1, s1, c12, s12, vx, vy, w1, w2):
 @njit(cache=True, error_model="numpy", _nrt=False)
 def potential_energy(p, y_end, th1, th2):
     """Potential energy V [J] with the (x, y) end at world height ``y_end`` (docs/model.md section 1)."""
-    _, c1 = sincos(th1)
-    _, c12 = sincos(th1 + th2)
-    return potential_energy_t(p, y_end, c1, c12)
+    s1, c1 = sincos(th1)
+    s12, c12 = sincos(th1 + th2)
+    return potential_energy_t(p, y_end, s1, c1, s12, c12)
 
 
 @njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
-def potential_energy_t(p, y_end, c1, c12):
-    """:func:`potential_energy` from ``cos(theta1)`` and ``cos(theta1 + theta2)`` [J]."""
-    return potential_s(p[P_G], p[P_MTOT], p[P_A], p[P_M2R2], y_end, c1, c12)
+def potential_energy_t(p, y_end, s1, c1, s12, c12):
+    """:func:`potential_energy` from the sines and cosines of ``theta1`` and
+    ``theta1 + theta2`` [J]."""
+    return potential_s(p[P_G], p[P_MTOT], p[P_A], p[P_AS], p[P_M2R2], p[P_M2S2], y_end, s1, c1,
+                       s12, c12)
 
 
 @njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
-def potential_s(g, mt, a, m2r2, y_end, c1, c12):
-    """:func:`potential_energy_t` from scalars (``P_G``, ``P_MTOT``, ``P_A``, ``P_M2R2``)."""
-    return g * (mt * y_end - a * c1 - m2r2 * c12)
+def potential_s(g, mt, a, a_s, m2r2, m2s2, y_end, s1, c1, s12, c12):
+    """:func:`potential_energy_t` from scalars (``P_G``, ``P_MTOT``, ``P_A``, ``P_AS``,
+    ``P_M2R2``, ``P_M2S2``)."""
+    return g * (mt * y_end - a * c1 - m2r2 * c12 + a_s * s1 + m2s2 * s12)
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
@@ -435,10 +469,12 @@ def points8(p, s, out):
     s1, c1 = sincos(th1)
     s12, c12 = sincos(th1 + th2)
     L1, L2, r1, r2 = p[P_L1], p[P_L2], p[P_R1], p[P_R2]
+    sigma1, sigma2 = p[P_S1], p[P_S2]
     out[0, 0], out[0, 1] = x, y
-    out[1, 0], out[1, 1] = x + r1 * s1, y - r1 * c1
+    out[1, 0], out[1, 1] = x + r1 * s1 + sigma1 * c1, y - r1 * c1 + sigma1 * s1
     out[2, 0], out[2, 1] = x + L1 * s1, y - L1 * c1
-    out[3, 0], out[3, 1] = x + L1 * s1 + r2 * s12, y - L1 * c1 - r2 * c12
+    out[3, 0] = x + L1 * s1 + r2 * s12 + sigma2 * c12
+    out[3, 1] = y - L1 * c1 - r2 * c12 + sigma2 * s12
     out[4, 0], out[4, 1] = x + L1 * s1 + L2 * s12, y - L1 * c1 - L2 * c12
 
 
@@ -450,7 +486,8 @@ def flight_matrices(p, s):
     """Flight ``M`` (4x4), ``C qdot`` (4) and ``G`` (4) at a full 8-state, docs/model.md section 2."""
     th1, th2, w1, w2 = s[2], s[3], s[6], s[7]
     b02, b03, b12, b13, c1, s1, c12, s12 = _flight_coupling(p, th1, th2)
-    h = p[P_H]
+    h, hs = p[P_H], p[P_HS]
+    a, a_s, m2r2, m2s2 = p[P_A], p[P_AS], p[P_M2R2], p[P_M2S2]
     s2, c2 = sincos(th2)
     M = np.zeros((4, 4))
     M[0, 0] = M[1, 1] = p[P_MTOT]
@@ -458,21 +495,43 @@ def flight_matrices(p, s):
     M[0, 3] = M[3, 0] = b03
     M[1, 2] = M[2, 1] = b12
     M[1, 3] = M[3, 1] = b13
-    M[2, 2] = p[P_K11] + 2.0 * h * c2
-    M[2, 3] = M[3, 2] = p[P_K22] + h * c2
+    M[2, 2] = p[P_K11] + 2.0 * h * c2 - 2.0 * hs * s2
+    M[2, 3] = M[3, 2] = p[P_K22] + h * c2 - hs * s2
     M[3, 3] = p[P_K22]
     w12 = w1 + w2
+    hs2 = h * s2 + hs * c2
     Cq = np.empty(4)
-    Cq[0] = -(p[P_A] * s1 * w1 * w1 + p[P_M2R2] * s12 * w12 * w12)
-    Cq[1] = p[P_A] * c1 * w1 * w1 + p[P_M2R2] * c12 * w12 * w12
-    Cq[2] = -h * s2 * (2.0 * w1 * w2 + w2 * w2)
-    Cq[3] = h * s2 * w1 * w1
+    Cq[0] = -(a * s1 * w1 * w1 + m2r2 * s12 * w12 * w12 + a_s * c1 * w1 * w1
+              + m2s2 * c12 * w12 * w12)
+    Cq[1] = (a * c1 * w1 * w1 + m2r2 * c12 * w12 * w12 - a_s * s1 * w1 * w1
+             - m2s2 * s12 * w12 * w12)
+    Cq[2] = -hs2 * (2.0 * w1 * w2 + w2 * w2)
+    Cq[3] = hs2 * w1 * w1
     G = np.empty(4)
     G[0] = 0.0
     G[1] = p[P_G] * p[P_MTOT]
-    G[2] = p[P_G] * (p[P_A] * s1 + p[P_M2R2] * s12)
-    G[3] = p[P_G] * p[P_M2R2] * s12
+    G[2] = p[P_G] * (a * s1 + m2r2 * s12 + a_s * c1 + m2s2 * c12)
+    G[3] = p[P_G] * (m2r2 * s12 + m2s2 * c12)
     return M, Cq, G
+
+
+@njit(cache=True, error_model="numpy")
+def swing_matrices(p, th1, th2, w1, w2):
+    """Swing ``M`` (2x2) and ``C qdot + G`` (2) at ``(theta1, theta2)`` [rad] and their rates
+    [rad s-1], docs/model.md section 2: ``M qddot + (C qdot + G) = [0, tau]`` without friction.
+    For tests and documentation (the vector fields inline the same terms)."""
+    fm = (1.0, 1.0)      # slipping, so that no friction term is evaluated as a lock
+    p0 = p.copy()
+    p0[P_B_PIVOT] = p0[P_C_PIVOT] = p0[P_B_JOINT] = p0[P_C_JOINT] = 0.0
+    m11, m12, m22, r1, r2 = _swing_terms(p0, 0.0, fm, th1, th2, w1, w2)
+    M = np.empty((2, 2))
+    M[0, 0] = m11
+    M[0, 1] = M[1, 0] = m12
+    M[1, 1] = m22
+    bias = np.empty(2)
+    bias[0] = -r1
+    bias[1] = -r2
+    return M, bias
 
 
 @njit(cache=True, error_model="numpy")
@@ -501,9 +560,10 @@ def attach_xy_end(p, s):
     th1, th2, vx, vy, w1, w2 = s[2], s[3], s[4], s[5], s[6], s[7]
     b02, b03, b12, b13, c1, s1, c12, s12 = _flight_coupling(p, th1, th2)
     h = p[P_H]
-    _, c2 = sincos(th2)
-    m11 = p[P_K11] + 2.0 * h * c2
-    m12 = p[P_K22] + h * c2
+    hs = p[P_HS]
+    s2, c2 = sincos(th2)
+    m11 = p[P_K11] + 2.0 * h * c2 - 2.0 * hs * s2
+    m12 = p[P_K22] + h * c2 - hs * s2
     m22 = p[P_K22]
     r1 = m11 * w1 + m12 * w2 + b02 * vx + b12 * vy
     r2 = m12 * w1 + m22 * w2 + b03 * vx + b13 * vy

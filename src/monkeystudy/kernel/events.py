@@ -23,8 +23,8 @@ from .integrate import dense_eval
 from .jit import njit
 from .layout import (
     G_COORD, G_ENERGY, G_ENERGY_RESTORED, G_FREE_END_HEIGHT, G_FREE_END_Y, G_SLIP_STOP,
-    G_STICK_BREAK, P_A, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_H, P_K11, P_K22,
-    P_L1, P_L2, P_M2R2, P_MTOT, PHASE_FLIGHT, PHASE_SWING, T_C1, T_C12, T_C2, T_S1, T_S12, T_S2,
+    G_STICK_BREAK, P_A, P_AS, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_H, P_HS, P_K11,
+    P_K22, P_L1, P_L2, P_M2R2, P_M2S2, P_MTOT, PHASE_FLIGHT, PHASE_SWING, T_C1, T_C12, T_C2, T_S1, T_S12, T_S2,
 )
 
 EPS = 2.220446049250313e-16
@@ -98,11 +98,11 @@ def guard(kind, index, value, phase, p, tau, fmode, y, pivot, eref):
     """Value of a state guard (layout ``G_*``; time guards are handled as step bounds)."""
     if _needs_trig(kind):
         x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
-        s1, c1, _, c2, s12, c12 = angle_trig(th1, th2)
-        return guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, s1, c1, c2, s12,
-                       c12)
+        s1, c1, s2, c2, s12, c12 = angle_trig(th1, th2)
+        return guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, s1, c1, s2, c2,
+                       s12, c12)
     return guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, 0.0, 0.0, 0.0,
-                   0.0, 0.0)
+                   0.0, 0.0, 0.0)
 
 
 @njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
@@ -110,24 +110,25 @@ def guard_trig(kind, index, value, phase, p, tau, fmode, y, pivot, eref, trig):
     """:func:`guard` with the sines and cosines of the angles given (``trig``, layout
     ``T_*``, as a step leaves them): bit for bit the same value, without the trigonometry."""
     return guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, trig[T_S1],
-                   trig[T_C1], trig[T_C2], trig[T_S12], trig[T_C12])
+                   trig[T_C1], trig[T_S2], trig[T_C2], trig[T_S12], trig[T_C12])
 
 
 @njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
-def guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, s1, c1, c2, s12, c12):
+def guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, s1, c1, s2, c2, s12,
+            c12):
     """:func:`guard` from the sines and cosines of ``theta1``, ``theta2``, ``theta1 + theta2``
     (only read by the kinds that need them)."""
     x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
     w = w1 if index == 0 else w2
     fm = fmode[0] if index == 0 else fmode[1]
-    return guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, c2, s12,
-                   c12, p[P_L1], p[P_L2], p[P_G], p[P_MTOT], p[P_A], p[P_M2R2], p[P_H],
-                   p[P_K11], p[P_K22], w * fm)
+    return guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, s2, c2,
+                   s12, c12, p[P_L1], p[P_L2], p[P_G], p[P_MTOT], p[P_A], p[P_AS], p[P_M2R2],
+                   p[P_M2S2], p[P_H], p[P_HS], p[P_K11], p[P_K22], w * fm)
 
 
 @njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
-def guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, c2, s12, c12,
-            L1, L2, g, mt, a, m2r2, h, k11, k22, slip):
+def guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, s2, c2, s12,
+            c12, L1, L2, g, mt, a, a_s, m2r2, m2s2, h, hs, k11, k22, slip):
     """:func:`guard` from scalars only: the unpacked state, the sines and cosines, the
     parameters it reads, and ``slip`` (the slipping DOF's speed times its mode)."""
     if kind == G_FREE_END_HEIGHT:
@@ -136,10 +137,10 @@ def guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, c
     if kind == G_ENERGY_RESTORED or kind == G_ENERGY:
         # G_ENERGY_RESTORED's ``value``: energy to add to the latched reference [J] (a climb of
         # dh needs M g dh); the same arithmetic as dynamics.total_energy8, bit for bit
-        e = kinetic_rot_s(h, k11, k22, c2, w1, w2)
+        e = kinetic_rot_s(h, hs, k11, k22, s2, c2, w1, w2)
         if vx != 0.0 or vy != 0.0:
-            e += kinetic_trans_s(a, m2r2, mt, c1, s1, c12, s12, vx, vy, w1, w2)
-        e = e + potential_s(g, mt, a, m2r2, yy, c1, c12)
+            e += kinetic_trans_s(a, a_s, m2r2, m2s2, mt, c1, s1, c12, s12, vx, vy, w1, w2)
+        e = e + potential_s(g, mt, a, a_s, m2r2, m2s2, yy, s1, c1, s12, c12)
         if kind == G_ENERGY_RESTORED:
             return e - eref - value
         return e - value
@@ -185,8 +186,11 @@ def guard_and_rate_step(kind, index, value, phase, p, tau, fmode, y, pivot, eref
     g = p[P_G]
     mt = p[P_MTOT]
     a = p[P_A]
+    a_s = p[P_AS]
     m2r2 = p[P_M2R2]
+    m2s2 = p[P_M2S2]
     h = p[P_H]
+    hs = p[P_HS]
     k11 = p[P_K11]
     k22 = p[P_K22]
     bj = p[P_B_JOINT]
@@ -197,6 +201,7 @@ def guard_and_rate_step(kind, index, value, phase, p, tau, fmode, y, pivot, eref
     fm1 = fmode[1]
     s1 = trig[T_S1]
     c1 = trig[T_C1]
+    s2 = trig[T_S2]
     c2 = trig[T_C2]
     s12 = trig[T_S12]
     c12 = trig[T_C12]
@@ -216,8 +221,8 @@ def guard_and_rate_step(kind, index, value, phase, p, tau, fmode, y, pivot, eref
         x, yy, th1, th2, vx, vy, w1, w2 = px, py, y0, y1, 0.0, 0.0, y2, y3
     w = w1 if index == 0 else w2
     fm = fm0 if index == 0 else fm1
-    gv = guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, c2, s12,
-                 c12, L1, L2, g, mt, a, m2r2, h, k11, k22, w * fm)
+    gv = guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, s2, c2, s12,
+                 c12, L1, L2, g, mt, a, a_s, m2r2, m2s2, h, hs, k11, k22, w * fm)
     r = rate_kin_s(kind, index, phase, tau, vx, vy, w1, w2, s1, s12, L1, L2, bj, cj, bp, cp,
                    fm0, fm1)
     return gv, r

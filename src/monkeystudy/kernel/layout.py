@@ -14,7 +14,14 @@ P_M2R2 = 15     # m2 r2                                  [kg m]
 P_K11 = 16      # I1 + I2 + m1 r1^2 + m2 L1^2 + m2 r2^2  [kg m^2]
 P_K22 = 17      # I2 + m2 r2^2                           [kg m^2]
 P_MTOT = 18     # m1 + m2                                [kg]
-N_PARAMS = 19
+# a link's CG off the line between its joints (docs/model.md section 1): its offset across the
+# line, counter-clockwise positive [m], and the derived terms it adds; zero for in-line links,
+# where every term they enter is an exact zero and leaves the in-line values bit for bit
+P_S1, P_S2 = 19, 20    # sigma1, sigma2
+P_AS = 21       # m1 sigma1                              [kg m]
+P_HS = 22       # m2 sigma2 L1                           [kg m^2]
+P_M2S2 = 23     # m2 sigma2                              [kg m]
+N_PARAMS = 24
 
 # --- full state in the current frame (flight coordinates, docs/model.md section 1) --------------
 # [x, y, theta1, theta2, dx, dy, dtheta1, dtheta2]; (x, y) is the "attached" end of the frame.
