@@ -11,10 +11,15 @@ from monkeystudy import Friction, Link, Robot
 ASYMMETRIC = Robot(Link(1.2, 0.7, 0.42, 0.035), Link(0.8, 0.55, 0.15, 0.02), gravity=9.81,
                    name="asymmetric")
 
+#: Unequal links whose CGs lie off the lines between their joints (as AcroMonk's do).
+OFF_LINE = Robot(Link(1.04, 0.315, 0.234, 0.0017, -0.0058),
+                 Link(0.63, 0.315, 0.124, 0.0041, 0.0088), gravity=9.81, name="off_line")
+
 ROBOTS = {
     "seed2009": Robot.preset("seed2009"),
     "uniform_rod": Robot.preset("uniform_rod"),
     "asymmetric": ASYMMETRIC,
+    "off_line": OFF_LINE,
 }
 
 
@@ -23,7 +28,7 @@ def random_link(rng) -> Link:
     L = rng.uniform(0.2, 1.5)
     com = rng.uniform(0.0, L)
     inertia = rng.uniform(0.005, 0.3) * m * L * L
-    return Link(m, L, com, inertia)
+    return Link(m, L, com, inertia, rng.uniform(-0.3, 0.3) * L)
 
 
 def random_robot(rng, friction: bool = False) -> Robot:

@@ -13,7 +13,8 @@ import sympy as sp
 from monkeystudy import Friction, Link, Robot
 from monkeystudy.kernel import dynamics as dyn
 from monkeystudy.kernel.layout import (
-    P_A, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_H, P_K11, P_K22, P_M2R2, P_MTOT,
+    P_A, P_AS, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_H, P_HS, P_K11, P_K22, P_M2R2,
+    P_M2S2, P_MTOT,
     PHASE_FLIGHT, PHASE_SWING,
 )
 from reference.model import RefRobot
@@ -58,25 +59,30 @@ def test_model_md_closed_forms_equal_derivation(sym):
     """docs/model.md section 2, typed in, minus the derivation simplifies to zero (both systems)."""
     x, y, th1, th2 = sym.symbols.q
     dx, dy, w1, w2 = sym.symbols.qd
-    m1, m2, L1, L2, r1, r2, I1, I2, g = sym.symbols.prm
+    m1, m2, L1, L2, r1, r2, I1, I2, g, sg1, sg2 = sym.symbols.prm
     s1, c1, s2, c2 = sp.sin(th1), sp.cos(th1), sp.sin(th2), sp.cos(th2)
     s12, c12 = sp.sin(th1 + th2), sp.cos(th1 + th2)
     a = m1 * r1 + m2 * L1
     h = m2 * r2 * L1
-    Ms = sp.Matrix([[I1 + I2 + m1 * r1**2 + m2 * L1**2 + m2 * r2**2 + 2 * h * c2,
-                     I2 + m2 * r2**2 + h * c2],
-                    [I2 + m2 * r2**2 + h * c2, I2 + m2 * r2**2]])
-    Cs = sp.Matrix([-h * s2 * (2 * w1 * w2 + w2**2), h * s2 * w1**2])
-    Gs = sp.Matrix([g * (a * s1 + m2 * r2 * s12), g * m2 * r2 * s12])
+    a_s, hs = m1 * sg1, m2 * sg2 * L1
+    hc2 = h * c2 - hs * s2          # link 2's CG moment along link 1 (cos-like)
+    hs2 = h * s2 + hs * c2          # and its derivative's magnitude (sin-like)
+    Ms = sp.Matrix([[I1 + I2 + m1 * (r1**2 + sg1**2) + m2 * L1**2 + m2 * (r2**2 + sg2**2)
+                     + 2 * hc2, I2 + m2 * (r2**2 + sg2**2) + hc2],
+                    [I2 + m2 * (r2**2 + sg2**2) + hc2, I2 + m2 * (r2**2 + sg2**2)]])
+    Cs = sp.Matrix([-hs2 * (2 * w1 * w2 + w2**2), hs2 * w1**2])
+    Gs = sp.Matrix([g * (a * s1 + a_s * c1 + m2 * r2 * s12 + m2 * sg2 * c12),
+                    g * (m2 * r2 * s12 + m2 * sg2 * c12)])
     Mf = sp.zeros(4, 4)
     Mf[0, 0] = Mf[1, 1] = m1 + m2
-    Mf[0, 2] = Mf[2, 0] = a * c1 + m2 * r2 * c12
-    Mf[0, 3] = Mf[3, 0] = m2 * r2 * c12
-    Mf[1, 2] = Mf[2, 1] = a * s1 + m2 * r2 * s12
-    Mf[1, 3] = Mf[3, 1] = m2 * r2 * s12
+    Mf[0, 2] = Mf[2, 0] = a * c1 - a_s * s1 + m2 * r2 * c12 - m2 * sg2 * s12
+    Mf[0, 3] = Mf[3, 0] = m2 * r2 * c12 - m2 * sg2 * s12
+    Mf[1, 2] = Mf[2, 1] = a * s1 + a_s * c1 + m2 * r2 * s12 + m2 * sg2 * c12
+    Mf[1, 3] = Mf[3, 1] = m2 * r2 * s12 + m2 * sg2 * c12
     Mf[2:, 2:] = Ms
-    Cf = sp.Matrix([-(a * s1 * w1**2 + m2 * r2 * s12 * (w1 + w2)**2),
-                    a * c1 * w1**2 + m2 * r2 * c12 * (w1 + w2)**2, Cs[0], Cs[1]])
+    Cf = sp.Matrix([-((a * s1 + a_s * c1) * w1**2 + m2 * (r2 * s12 + sg2 * c12) * (w1 + w2)**2),
+                    (a * c1 - a_s * s1) * w1**2 + m2 * (r2 * c12 - sg2 * s12) * (w1 + w2)**2,
+                    Cs[0], Cs[1]])
     Gf = sp.Matrix([0, g * (m1 + m2), Gs[0], Gs[1]])
 
     # canonical form: polynomial in sin/cos of theta1, theta2, reduced modulo s^2 + c^2 = 1
@@ -241,10 +247,14 @@ def test_derived_parameters():
         assert p[P_A] == pytest.approx(l1.mass * l1.com + l2.mass * l1.length, rel=1e-15)
         assert p[P_H] == pytest.approx(l2.mass * l2.com * l1.length, rel=1e-15)
         assert p[P_M2R2] == pytest.approx(l2.mass * l2.com, rel=1e-15)
-        assert p[P_K11] == pytest.approx(l1.inertia + l2.inertia + l1.mass * l1.com**2
-                                         + l2.mass * l1.length**2 + l2.mass * l2.com**2,
-                                         rel=1e-15)
-        assert p[P_K22] == pytest.approx(l2.inertia + l2.mass * l2.com**2, rel=1e-15)
+        assert p[P_K11] == pytest.approx(
+            l1.inertia + l2.inertia + l1.mass * (l1.com**2 + l1.com_across**2)
+            + l2.mass * l1.length**2 + l2.mass * (l2.com**2 + l2.com_across**2), rel=1e-15)
+        assert p[P_K22] == pytest.approx(
+            l2.inertia + l2.mass * (l2.com**2 + l2.com_across**2), rel=1e-15)
+        assert p[P_AS] == pytest.approx(l1.mass * l1.com_across, rel=1e-15)
+        assert p[P_HS] == pytest.approx(l2.mass * l2.com_across * l1.length, rel=1e-15)
+        assert p[P_M2S2] == pytest.approx(l2.mass * l2.com_across, rel=1e-15)
         assert p[P_MTOT] == pytest.approx(l1.mass + l2.mass, rel=1e-15)
         assert (p[P_B_PIVOT], p[P_C_PIVOT], p[P_B_JOINT], p[P_C_JOINT]) == (
             robot.pivot_friction.viscous, robot.pivot_friction.coulomb,
@@ -253,12 +263,16 @@ def test_derived_parameters():
 
 def test_flipped_params_are_the_robot_seen_from_b():
     """docs/model.md section 3: links swap, CGs re-measured from the new proximal ends; friction
-    stays with the pivot and the joint. Row 1 of ``Robot.params()`` is that robot."""
+    stays with the pivot and the joint; the CGs' offsets across the links change sign. Row 1 of
+    ``Robot.params()`` is that robot."""
     rng = np.random.default_rng(11)
     for robot in [*ROBOTS.values(), *(random_robot(rng, True) for _ in range(10))]:
         l1, l2 = robot.link1, robot.link2
-        seen_from_b = Robot(Link(l2.mass, l2.length, l2.length - l2.com, l2.inertia),
-                            Link(l1.mass, l1.length, l1.length - l1.com, l1.inertia),
+        # each link's direction reverses: its CG's offset across it changes sign
+        seen_from_b = Robot(Link(l2.mass, l2.length, l2.length - l2.com, l2.inertia,
+                                 -l2.com_across),
+                            Link(l1.mass, l1.length, l1.length - l1.com, l1.inertia,
+                                 -l1.com_across),
                             gravity=robot.gravity, pivot_friction=robot.pivot_friction,
                             joint_friction=robot.joint_friction)
         par = robot.params()

@@ -44,6 +44,8 @@ class RefRobot:
     c_pivot: float = 0.0
     b_joint: float = 0.0
     c_joint: float = 0.0
+    sigma1: float = 0.0     # CG offsets across the links [m] (docs/model.md section 1)
+    sigma2: float = 0.0
 
     # -- construction ---------------------------------------------------------------------
     @classmethod
@@ -53,16 +55,18 @@ class RefRobot:
         return cls(l1.mass, l2.mass, l1.length, l2.length, l1.com, l2.com, l1.inertia,
                    l2.inertia, robot.gravity, robot.pivot_friction.viscous,
                    robot.pivot_friction.coulomb, robot.joint_friction.viscous,
-                   robot.joint_friction.coulomb)
+                   robot.joint_friction.coulomb, l1.com_across, l2.com_across)
 
     @property
     def prm(self):
-        return (self.m1, self.m2, self.L1, self.L2, self.r1, self.r2, self.I1, self.I2, self.g)
+        return (self.m1, self.m2, self.L1, self.L2, self.r1, self.r2, self.I1, self.I2, self.g,
+                self.sigma1, self.sigma2)
 
     def flipped(self) -> "RefRobot":
         """The same robot seen from end B (docs/model.md section 3); friction stays with its joint."""
         return replace(self, m1=self.m2, m2=self.m1, L1=self.L2, L2=self.L1, I1=self.I2,
-                       I2=self.I1, r1=self.L2 - self.r2, r2=self.L1 - self.r1)
+                       I2=self.I1, r1=self.L2 - self.r2, r2=self.L1 - self.r1,
+                       sigma1=-self.sigma2, sigma2=-self.sigma1)
 
     # -- matrices -------------------------------------------------------------------------
     def flight_matrices(self, s8):

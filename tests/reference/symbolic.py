@@ -9,7 +9,9 @@ section 5); the mass matrix, Coriolis/centrifugal vector and gravity vector are 
 Flight (q = [x, y, th1, th2]) and swing (q = [th1, th2], x and y constant) are derived
 separately. The derivation takes a few seconds: :func:`derivation` caches it per process.
 
-Parameters are passed as ``prm = (m1, m2, L1, L2, r1, r2, I1, I2, g)``.
+Parameters are passed as ``prm = (m1, m2, L1, L2, r1, r2, I1, I2, g, sigma1, sigma2)``:
+``sigma_i`` is link i's CG offset across the line between its joints, counter-clockwise
+positive (docs/model.md section 1), 0 for in-line links.
 """
 from __future__ import annotations
 
@@ -18,15 +20,17 @@ from types import SimpleNamespace
 
 import sympy as sp
 
-PARAM_NAMES = ("m1", "m2", "L1", "L2", "r1", "r2", "I1", "I2", "g")
+PARAM_NAMES = ("m1", "m2", "L1", "L2", "r1", "r2", "I1", "I2", "g", "sigma1", "sigma2")
 
 
-def _positions(x, y, th1, th2, L1, r1, L2, r2):
+def _positions(x, y, th1, th2, L1, r1, L2, r2, sigma1, sigma2):
     """docs/model.md section 1, typed in verbatim."""
-    cg1 = sp.Matrix([x + r1 * sp.sin(th1), y - r1 * sp.cos(th1)])
+    cg1 = sp.Matrix([x + r1 * sp.sin(th1) + sigma1 * sp.cos(th1),
+                     y - r1 * sp.cos(th1) + sigma1 * sp.sin(th1)])
     joint = sp.Matrix([x + L1 * sp.sin(th1), y - L1 * sp.cos(th1)])
-    cg2 = sp.Matrix([x + L1 * sp.sin(th1) + r2 * sp.sin(th1 + th2),
-                     y - L1 * sp.cos(th1) - r2 * sp.cos(th1 + th2)])
+    cg2 = sp.Matrix([x + L1 * sp.sin(th1) + r2 * sp.sin(th1 + th2) + sigma2 * sp.cos(th1 + th2),
+                     y - L1 * sp.cos(th1) - r2 * sp.cos(th1 + th2)
+                     + sigma2 * sp.sin(th1 + th2)])
     b = sp.Matrix([x + L1 * sp.sin(th1) + L2 * sp.sin(th1 + th2),
                    y - L1 * sp.cos(th1) - L2 * sp.cos(th1 + th2)])
     return cg1, joint, cg2, b
@@ -48,9 +52,11 @@ def derivation() -> SimpleNamespace:
     """Symbolic flight and swing systems and their numpy lambdas (cached)."""
     x, y, th1, th2 = sp.symbols("x y theta1 theta2", real=True)
     dx, dy, w1, w2 = sp.symbols("dx dy w1 w2", real=True)
-    m1, m2, L1, L2, r1, r2, I1, I2, g = prm = sp.symbols(" ".join(PARAM_NAMES), positive=True)
+    m1, m2, L1, L2, r1, r2, I1, I2, g = sp.symbols(" ".join(PARAM_NAMES[:9]), positive=True)
+    sigma1, sigma2 = sp.symbols(" ".join(PARAM_NAMES[9:]), real=True)
+    prm = (m1, m2, L1, L2, r1, r2, I1, I2, g, sigma1, sigma2)
 
-    cg1, joint, cg2, b = _positions(x, y, th1, th2, L1, r1, L2, r2)
+    cg1, joint, cg2, b = _positions(x, y, th1, th2, L1, r1, L2, r2, sigma1, sigma2)
 
     def energies(q, qd):
         Jv1 = cg1.jacobian(sp.Matrix(q))
