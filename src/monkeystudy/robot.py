@@ -7,6 +7,7 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 
 from .kernel.dynamics import derive_params, flipped_params
+from .urdf import UrdfReduction, reduce_urdf
 from .kernel.layout import (
     N_PARAMS, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_I1, P_I2, P_L1, P_L2, P_M1,
     P_M2, P_R1, P_R2, P_S1, P_S2,
@@ -59,6 +60,9 @@ class Link:
         if not 0.0 <= com <= self.length:
             raise ValueError(f"{where}.com must lie on the link, 0 <= com <= length "
                              f"({self.length}), got {com!r}")
+        com_across = float(self.com_across)
+        if not math.isfinite(com_across):
+            raise ValueError(f"{where}.com_across must be finite, got {com_across!r}")
 
 
 @dataclass(frozen=True)
@@ -102,6 +106,53 @@ class Robot:
             return PRESETS[name]()
         except KeyError:
             raise ValueError(f"unknown robot preset {name!r}; known: {sorted(PRESETS)}") from None
+
+    @classmethod
+    def from_urdf(cls, source, *, links: tuple[str, str] | None = None,
+                  joints: tuple[str, str] | None = None, far_grip: str | None = None,
+                  gravity: float = 9.81, pivot_friction: Friction | None = None,
+                  joint_friction: Friction | None = None, name: str | None = None) -> "Robot":
+        """The robot of a URDF, reduced to the planar two-link model (docs/model.md
+        section 1, "A robot from its URDF"; :func:`monkeystudy.urdf.reduce_urdf` says how).
+
+        Parameters
+        ----------
+        source : str, Path, yourdfpy.URDF or UrdfReduction
+            The URDF file, the parsed URDF, or its reduction (:func:`~monkeystudy.urdf.
+            reduce_urdf`, which also gives the angle offsets between the URDF's joint angles
+            and ``theta1``, ``theta2``).
+        links : (str, str)
+            The URDF links that are link 1 (end A, hanging from the grip joint) and link 2.
+        joints : (str, str)
+            The grip joint (at end A) and the motor joint.
+        far_grip : str
+            The URDF link welded to link 2 whose frame origin is end B. ``links``,
+            ``joints`` and ``far_grip`` are required unless ``source`` is a reduction.
+        gravity : float
+            Gravitational acceleration [m s-2] (a URDF does not state it).
+        pivot_friction, joint_friction : Friction, optional
+            Friction at the grip and the motor joint (a URDF without ``<dynamics>`` has none:
+            zero unless given).
+        name : str, optional
+            The robot's label (default: the URDF's robot name).
+
+        Raises
+        ------
+        monkeystudy.urdf.UrdfError
+            (a ``ValueError``) a URDF that is not such a two-link robot; the message says why.
+        """
+        if isinstance(source, UrdfReduction):
+            red = source
+        elif links is None or joints is None or far_grip is None:
+            raise ValueError("a URDF robot needs links (link 1, link 2), joints (grip, motor) "
+                             "and far_grip")
+        else:
+            red = reduce_urdf(source, links=links, joints=joints, far_grip=far_grip)
+        lk1, lk2 = (Link(lk.mass, lk.length, lk.com, lk.inertia, lk.com_across)
+                    for lk in (red.link1, red.link2))
+        return cls(lk1, lk2, gravity=gravity, pivot_friction=pivot_friction or Friction(),
+                   joint_friction=joint_friction or Friction(),
+                   name=red.name if name is None else name)
 
     def with_friction(self, pivot: Friction | None = None, joint: Friction | None = None):
         return replace(self, pivot_friction=pivot or self.pivot_friction,

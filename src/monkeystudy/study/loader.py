@@ -82,14 +82,17 @@ def parse_study(text: str, shown: str = "<string>", path: Path | None = None) ->
     seen: dict[int, type] = {}
     token = SEEN_MODELS.set(seen)
     study = None
+    # files a study names (a robot's URDF) are relative to the study file's folder
+    context = {"study_dir": str(Path(path).parent if path is not None else Path("."))}
     try:
-        study = S.Study.model_validate(plain)
+        study = S.Study.model_validate(plain, context=context)
     except ValidationError as exc:
         issues = [_issue(shown, tree, plain, err, seen) for err in exc.errors()]
     finally:
         SEEN_MODELS.reset(token)
     # every problem in one pass: the checks across steps that the valid fields allow too
-    problems = S.cross_check(study) if study is not None else S.cross_check_parts(plain)
+    problems = (S.cross_check(study) if study is not None
+                else S.cross_check_parts(plain, context=context))
     if study is None or problems:
         raise StudyError((issues if study is None else [])
                          + [Issue(shown, _line_of(tree, loc), _dotted(loc), msg)

@@ -13,12 +13,14 @@ from __future__ import annotations
 import contextvars
 import math
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal, Optional, Union
 
 import numpy as np
 from pydantic import (
-    BaseModel, ConfigDict, Discriminator, Field, SerializerFunctionWrapHandler, Tag,
-    ValidationInfo, field_validator, model_serializer, model_validator,
+    AfterValidator, BaseModel, ConfigDict, Discriminator, Field, PrivateAttr,
+    SerializerFunctionWrapHandler, Tag, ValidationInfo, field_validator, model_serializer,
+    model_validator,
 )
 
 from ..controllers import (
@@ -27,6 +29,7 @@ from ..controllers import (
 )
 from ..robot import PRESETS, Friction, Link, Robot
 from ..simulation import STATUS_NAMES
+from ..urdf import UrdfError, check_names, load_urdf, reduce_urdf
 
 SCHEMA_VERSION = 1
 
@@ -166,28 +169,129 @@ class RobotParams(StrictModel):
                      joint_friction=Friction(f.joint.viscous, f.joint.coulomb), name=self.name)
 
 
+def urdf_path(text: str, info: ValidationInfo) -> Path:
+    """The URDF file a study names: relative to the study file's folder (the validation
+    context's ``study_dir``, the working directory without one)."""
+    base = Path((info.context or {}).get("study_dir", "."))
+    return base / Path(text).expanduser()
+
+
+def parsed_urdf(text: str, info: ValidationInfo):
+    """The parsed URDF a study names, parsed once per validation (kept in the validation
+    context's ``urdfs`` when there is a context); ``UrdfError`` if it cannot be read."""
+    path = urdf_path(text, info)
+    if info.context is None:
+        return load_urdf(path)
+    cache = info.context.setdefault("urdfs", {})
+    key = str(path.resolve())
+    if key not in cache:
+        try:
+            cache[key] = load_urdf(path)
+        except UrdfError as exc:
+            cache[key] = exc
+    if isinstance(cache[key], UrdfError):
+        raise cache[key]
+    return cache[key]
+
+
+def _urdf_name(kind: str):
+    """A validator: the name is a ``kind`` (``links``, ``joints``, ``far_grip``) of the study's
+    URDF (a URDF that cannot be read is reported at ``urdf``, not here)."""
+    def check(name: str, info: ValidationInfo) -> str:
+        text = info.data.get("urdf")
+        if text is None:
+            return name
+        try:
+            urdf = parsed_urdf(text, info)
+        except UrdfError:
+            return name
+        problems = check_names(urdf, **{kind: name if kind == "far_grip" else [name]})
+        if problems:
+            raise ValueError(problems[0][1])
+        return name
+    return check
+
+
+class UrdfRobotParams(StrictModel):
+    """A robot read from a URDF file and reduced to the planar two-link model (docs/model.md
+    section 1, "A robot from its URDF"): the file, which of its links and joints are the two
+    links and the two joints, and the link whose origin is the far grip."""
+
+    urdf: str = Field(min_length=1, description="the URDF file, relative to the study file's "
+                                                "folder")
+    links: list[Annotated[str, AfterValidator(_urdf_name("links"))]] = Field(
+        min_length=2, max_length=2,
+        description="URDF link names: [link 1 (hangs from the grip joint, end A), link 2]")
+    joints: list[Annotated[str, AfterValidator(_urdf_name("joints"))]] = Field(
+        min_length=2, max_length=2,
+        description="URDF joint names: [the grip joint (end A), the motor joint]")
+    far_grip: str = Field(description="the URDF link welded to link 2 whose origin is end B")
+    name: Optional[Name] = Field(None, description="a label for the robot (default: the "
+                                                   "URDF's robot name)")
+    gravity: float = Field(9.81, gt=0, description="gravitational acceleration [m s-2]")
+    friction: FrictionSettings = Field(default_factory=FrictionSettings,
+                                       description="joint friction (a URDF without "
+                                       "<dynamics> states none)")
+    _robot: Robot = PrivateAttr()
+
+    @field_validator("urdf")
+    @classmethod
+    def _readable(cls, v: str, info: ValidationInfo) -> str:
+        try:
+            parsed_urdf(v, info)
+        except UrdfError as exc:
+            raise ValueError(str(exc)) from None
+        return v
+
+    @field_validator("far_grip")
+    @classmethod
+    def _far_grip_named(cls, v: str, info: ValidationInfo) -> str:
+        return _urdf_name("far_grip")(v, info)
+
+    @model_validator(mode="after")
+    def _reduced(self, info: ValidationInfo) -> "UrdfRobotParams":
+        try:
+            reduction = reduce_urdf(parsed_urdf(self.urdf, info), links=tuple(self.links),
+                                    joints=tuple(self.joints), far_grip=self.far_grip)
+        except UrdfError as exc:
+            raise ValueError(str(exc)) from None
+        f = self.friction
+        self._robot = Robot.from_urdf(reduction, gravity=self.gravity, name=self.name,
+                                      pivot_friction=Friction(f.pivot.viscous, f.pivot.coulomb),
+                                      joint_friction=Friction(f.joint.viscous, f.joint.coulomb))
+        return self
+
+    def to_robot(self) -> Robot:
+        """The :class:`~monkeystudy.Robot` the URDF reduces to (reduced once, when the study
+        was validated)."""
+        return self._robot
+
+
 PresetName = Literal[tuple(sorted(PRESETS))]  # type: ignore[valid-type]
 
 
 def _robot_tag(v: Any) -> str | None:
     if isinstance(v, str):
         return "preset"
+    if isinstance(v, UrdfRobotParams) or (isinstance(v, dict) and "urdf" in v):
+        return "from_urdf"
     if isinstance(v, (dict, RobotParams)):
         return "parameters"
     return None
 
 
 RobotSpec = Annotated[
-    Union[Annotated[PresetName, Tag("preset")], Annotated[RobotParams, Tag("parameters")]],
+    Union[Annotated[PresetName, Tag("preset")], Annotated[RobotParams, Tag("parameters")],
+          Annotated[UrdfRobotParams, Tag("from_urdf")]],
     Discriminator(_robot_tag, custom_error_type="robot_type",
                   custom_error_message="must be a preset name ("
-                  + ", ".join(sorted(PRESETS)) + ") or a mapping with gravity, links, "
-                  "friction"),
+                  + ", ".join(sorted(PRESETS)) + "), a mapping with gravity, links, "
+                  "friction, or a mapping with urdf, links, joints, far_grip"),
 ]
 
 
-def to_robot(spec: str | RobotParams) -> Robot:
-    """The robot of a study's ``robot`` field: a preset name or explicit parameters."""
+def to_robot(spec: str | RobotParams | UrdfRobotParams) -> Robot:
+    """The robot of a study's ``robot`` field: a preset name, explicit parameters or a URDF."""
     return Robot.preset(spec) if isinstance(spec, str) else spec.to_robot()
 
 

@@ -36,7 +36,7 @@ class Study(StrictModel):
     schema_version: Literal[1] = Field(description="version of this schema (1)")
     name: Name = Field(description="study name (output folder outputs/<name>)")
     description: str = Field("", description="free text")
-    robot: RobotSpec = Field(description="a preset name or explicit parameters")
+    robot: RobotSpec = Field(description="a preset name, explicit parameters or a URDF file")
     gait: StudyGait
     integrator: IntegratorSettings = Field(default_factory=IntegratorSettings)
     steps: list[Step] = Field(min_length=1, description="steps, run in dependency order")
@@ -48,7 +48,8 @@ class Study(StrictModel):
         raise KeyError(name)
 
     def to_robot(self) -> Robot:
-        """The study's :class:`~monkeystudy.Robot` (a preset or its explicit parameters)."""
+        """The study's :class:`~monkeystudy.Robot` (a preset, its explicit parameters or its
+        URDF's reduction)."""
         return to_robot(self.robot)
 
 
@@ -70,13 +71,15 @@ def cross_check(study: Study) -> list[Problem]:
     return _check_steps(study, list(enumerate(study.steps)), {})
 
 
-def cross_check_parts(data: Any) -> list[Problem]:
+def cross_check_parts(data: Any, context: dict | None = None) -> list[Problem]:
     """The checks of :func:`cross_check` that a study whose fields are not all valid still
     allows (``data``: the study file as plain Python), so that one pass reports them with
     the field errors: every valid step is checked against the others, but a step that
     depends on an earlier step that is not valid (its kind's checks would need that step)
     is not; with the robot, gait or integrator not valid, only the steps' names and their
-    ``from:`` (it names an earlier step of a kind it accepts) are checked.
+    ``from:`` (it names an earlier step of a kind it accepts) are checked. ``context`` is the
+    validation context (:func:`monkeystudy.study.loader.parse_study`'s: the study file's
+    folder, which a robot's URDF path is relative to).
     """
     steps = data.get("steps") if isinstance(data, dict) else None
     if not isinstance(steps, list):
@@ -93,7 +96,8 @@ def cross_check_parts(data: Any) -> list[Problem]:
     if not valid:
         return []
     try:
-        study = Study.model_validate(dict(data, steps=[steps[i] for i, _ in valid]))
+        study = Study.model_validate(dict(data, steps=[steps[i] for i, _ in valid]),
+                                     context=context)
     except ValidationError:
         study = None
     return _check_steps(study, valid, invalid)
