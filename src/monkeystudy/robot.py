@@ -60,9 +60,6 @@ class Link:
         if not 0.0 <= com <= self.length:
             raise ValueError(f"{where}.com must lie on the link, 0 <= com <= length "
                              f"({self.length}), got {com!r}")
-        com_across = float(self.com_across)
-        if not math.isfinite(com_across):
-            raise ValueError(f"{where}.com_across must be finite, got {com_across!r}")
 
 
 @dataclass(frozen=True)
