@@ -190,20 +190,20 @@ def read_log(path: str | Path) -> HardwareLog:
     for name in MEASURED_COLUMNS:
         bad = np.flatnonzero(~np.isfinite(cols[name]))
         if bad.size:
-            raise LogError(f"{path}:{line_of[bad[0]]}: {name}: {cols[name][bad[0]]} "
+            raise LogError(f"{path}:{line_of[bad[0]]}: {name}: {float(cols[name][bad[0]])} "
                            f"(a measured value must be finite; {bad.size} rows)")
     t = cols["meas_time"]
     back = np.flatnonzero(np.diff(t) < 0)
     if back.size:
         i = back[0] + 1
-        raise LogError(f"{path}:{line_of[i]}: meas_time: {t[i]!r} s is before the previous "
-                       f"row's {t[i - 1]!r} s")
+        raise LogError(f"{path}:{line_of[i]}: meas_time: {float(t[i])!r} s is before the "
+                       f"previous row's {float(t[i - 1])!r} s")
     phase = None
     if FLAG_COLUMN in cols:
         flag = cols[FLAG_COLUMN]
         bad = np.flatnonzero(~np.isin(flag, (RELEASE, SWING, CATCH)))
         if bad.size:
-            raise LogError(f"{path}:{line_of[bad[0]]}: {FLAG_COLUMN}: {flag[bad[0]]!r} is "
+            raise LogError(f"{path}:{line_of[bad[0]]}: {FLAG_COLUMN}: {float(flag[bad[0]])!r} is "
                            f"not 0 (release), 1 (swing) or 2 (catch)")
         phase = flag.astype(np.int8)
         phase.flags.writeable = False
