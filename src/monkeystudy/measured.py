@@ -20,7 +20,8 @@ the PD runs the servo's internal position loop makes the torque and the commande
 and clipped while the servo is sent 0 (the measured torque there is about 0). The other torque
 columns are kept in :attr:`HardwareLog.columns`.
 
-Run ``python3 -m monkeystudy.measured data/acromonk/logs`` for the summary tables.
+Run ``python3 -m monkeystudy.measured data/acromonk/logs`` (or ``python
+tools/acromonk_logs.py data/acromonk/logs``) for the summary tables.
 """
 from __future__ import annotations
 
@@ -34,6 +35,8 @@ from typing import Mapping
 
 import numpy as np
 
+#: the shipped logs' folder in a source checkout (data/acromonk/logs beside src/)
+SHIPPED_LOGS = Path(__file__).resolve().parents[2] / "data" / "acromonk" / "logs"
 #: the store layout's columns, in file order (the flag column is optional, last)
 STORE_COLUMNS = (
     "meas_time", "shoulder_des_pos_store", "shoulder_meas_pos", "shoulder_des_vel_store",
