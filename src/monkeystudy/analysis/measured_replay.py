@@ -57,6 +57,8 @@ HORIZONS = (0.1, 0.2, 0.5)
 #: replay integrator: its error (~1e-8 rad) is far below the sensors' floor (~1e-3 rad)
 REPLAY_INTEGRATOR = Integrator(rtol=1e-8, atol=1e-10)
 HOLDS = ("centred", "plain")
+#: a replay scored at horizon h runs to h + this [s] (longer than any sample interval in a swing)
+HORIZON_MARGIN = 0.05
 
 
 def acromonk_robot(pivot: Friction | None = None, joint: Friction | None = None,
@@ -186,11 +188,13 @@ def held_torque(times: np.ndarray, torques: np.ndarray, hold: str = "centred"):
 @dataclass(frozen=True)
 class Replay:
     """A replay from sample ``start`` of a swing: at each later sample within the horizon,
-    its time after the start [s], the simulated and the measured angles (n, 2) [rad]."""
+    its time after the start [s], the simulated and the measured angles (n, 2) [rad], and the
+    simulated rates (n, 2) [rad s-1]."""
 
     time: np.ndarray
     simulated: np.ndarray
     measured: np.ndarray
+    simulated_rates: np.ndarray
 
     @property
     def error(self) -> np.ndarray:
@@ -230,9 +234,10 @@ def replay(robot: Robot, ms: ModelSwing, start: int, horizon: float, *,
                            f"{res.status.name.lower()}: {res.status.message}")
     ev = res.log[res.log[:, L.L_KIND] == 0]
     at = np.searchsorted(ev[:, L.L_T], samples - 1e-12)
-    sim = ev[at][:, L.L_STATE + L.TH1:L.L_STATE + L.TH2 + 1]
+    state = ev[at][:, L.L_STATE:L.L_STATE + 8]
     rows = start + np.searchsorted(t, samples)
-    return Replay(time=samples, simulated=sim, measured=ms.angles[rows])
+    return Replay(time=samples, simulated=state[:, [L.TH1, L.TH2]], measured=ms.angles[rows],
+                  simulated_rates=state[:, [L.DTH1, L.DTH2]])
 
 
 # --- errors over many starts ----------------------------------------------------------------
@@ -283,7 +288,10 @@ def horizon_errors(robot: Robot, swings_: Sequence[ModelSwing], *,
     starts = {h: [] for h in hs}
     for ms in swings_:
         for row in start_rows(ms, every, min(hs)):
-            rep = replay(robot, ms, int(row), max(hs), hold=hold, torque_scale=torque_scale)
+            # past the longest horizon by more than a sample interval (<= 21 ms in a swing),
+            # so that the first sample at or after it is in the replay
+            rep = replay(robot, ms, int(row), max(hs) + HORIZON_MARGIN, hold=hold,
+                         torque_scale=torque_scale)
             t0 = float(ms.time[row] - ms.time[0])
             for h in hs:
                 k = int(np.searchsorted(rep.time, h - 1e-9))
