@@ -438,6 +438,7 @@ def identify(base: Robot, swings_: Sequence[ModelSwing], *, names: Sequence[str]
     :data:`PARAMETERS`, a forward-difference Jacobian with steps of 1e-3 of
     ``max(1, |x|)``: far above the replay's integration error).
     """
+    # scipy only where a fit runs: importing the replay stays light
     from scipy.optimize import least_squares
     from scipy.stats import t as student_t
 
