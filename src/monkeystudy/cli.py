@@ -302,10 +302,12 @@ def report(path: Path, force: bool, formats: str, no_animation: bool) -> None:
         raise click.exceptions.Exit(EXIT_INVALID)
     # said before the plotting code loads (matplotlib, xarray: seconds on a busy machine)
     click.echo(f"{path}: reading its datasets to plan the figures")
-    from .plotting.report import (
-        FigureNameClash, NoStudyDatasets, ReportError, ReportInterrupted, StudyIncomplete,
-        report_study,
-    )
+    from .study.progress import ticking
+    with ticking(click.echo, "loading the plotting code"):
+        from .plotting.report import (
+            FigureNameClash, NoStudyDatasets, ReportError, ReportInterrupted, StudyIncomplete,
+            report_study,
+        )
     try:
         report_study(path, force=force, formats=fmts, animation=not no_animation,
                      progress=click.echo)

@@ -124,6 +124,17 @@ class _Ticker:
         self._thread.join()
 
 
+@contextmanager
+def ticking(echo: Callable[[str], None], what: str, every: float = 1.0) -> Iterator[None]:
+    """Around a wait of a command that speaks in lines: ``echo(f"{what} ({t})")`` every
+    ``every`` seconds while it lasts, from a thread joined when it ends (before any fork)."""
+    ticker = _Ticker(lambda el: echo(f"{what} ({_seconds(el)})"), every)
+    try:
+        yield
+    finally:
+        ticker.stop()
+
+
 class PlainReporter(Reporter):
     """One line per event; progress at most every ``every`` seconds per step."""
 
