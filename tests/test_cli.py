@@ -137,3 +137,26 @@ def test_report_refuses_what_it_cannot_draw(runner, tmp_path):
     res = runner.invoke(app, ["report", str(tmp_path), "--formats", "png,bmp"])
     assert res.exit_code == 2 and "bmp not among png, pdf, svg" in res.output
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("command", ["run", "validate"])
+def test_a_missing_study_file_names_the_closest_study_files(runner, command, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    res = runner.invoke(app, [command, "studies/horizontl.yaml"])
+    assert res.exit_code == 2
+    assert res.output.strip() == ("studies/horizontl.yaml: no such file; did you mean "
+                                  "studies/horizontal.yaml?")
+    res = runner.invoke(app, [command, "studies/zzz_nothing_like_it.yaml"])
+    assert res.exit_code == 2
+    assert res.output.strip() == "studies/zzz_nothing_like_it.yaml: no such file"
+
+
+def test_inspect_on_a_study_file_points_to_validate_and_its_outputs(runner, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    res = runner.invoke(app, ["inspect", "studies/horizontal.yaml"])
+    assert res.exit_code == 2
+    assert "NetCDF" not in res.output
+    assert res.output.strip() == (
+        "studies/horizontal.yaml: a study file, not a dataset: 'monkeystudy validate "
+        "studies/horizontal.yaml' checks it; 'monkeystudy inspect outputs/horizontal' "
+        "summarises the datasets its run writes there")

@@ -254,7 +254,8 @@ def script_problem(words: list[str]) -> str | None:
             return f"python -c: {exc}"
         return None
     if words[1] == "-m":
-        return None if words[2] in ("pip", "pytest", "monkeystudy") else f"module {words[2]}"
+        return None if words[2] in ("pip", "pytest", "monkeystudy", "venv") \
+            else f"module {words[2]}"
     script = ROOT / words[1]
     if not script.is_file():
         return f"no script {words[1]}"
@@ -269,6 +270,8 @@ def script_problem(words: list[str]) -> str | None:
 def command_problem(words: list[str]) -> str | None:
     if words[0] == "monkeystudy":
         return cli_problem(words[1:])
+    if words[0] in (".", "source"):      # activating the virtual environment
+        return None if words[1:] == [".venv/bin/activate"] else f"sources {words[1:]}"
     if words[0] in ("python", "python3"):
         if words[1:3] == ["-m", "monkeystudy"]:
             return cli_problem(words[3:])

@@ -67,3 +67,9 @@ def test_the_project_speaks_of_itself_not_of_its_history():
     if diary.search(README):
         bad.append("README.md")
     assert not bad, bad
+
+
+def test_the_install_goes_into_a_virtual_environment():
+    """The install line comes after a virtual environment is made and activated."""
+    venv = README.index("python3 -m venv .venv && . .venv/bin/activate")
+    assert venv < README.index("python3 -m pip install -e .")

@@ -65,6 +65,31 @@ def _exit(code: int) -> None:
 # --help, validate and the thin client of a served run start without numpy, numba or xarray.
 
 
+#: what a study file is named
+STUDY_SUFFIXES = (".yaml", ".yml")
+
+
+def no_such_study(study: Path) -> str:
+    """``<path>: no such file``, with the closest study files of its folder when some are
+    close (``did you mean studies/horizontal.yaml?``)."""
+    import difflib    # here: the message is all that needs it
+
+    folder = study.parent
+    names = sorted(p.name for p in folder.glob("*") if p.suffix in STUDY_SUFFIXES) \
+        if folder.is_dir() else []
+    close = difflib.get_close_matches(study.name, names, n=3, cutoff=0.75)
+    hint = (f"; did you mean {' or '.join(str(folder / n) for n in close)}?" if close else "")
+    return f"{study}: no such file{hint}"
+
+
+def _study_exists(study: Path) -> None:
+    """A missing study file ends the command at once (before the slow imports), with the
+    closest names."""
+    if not study.exists():
+        _err(no_such_study(study))
+        raise click.exceptions.Exit(EXIT_INVALID)
+
+
 def _load(study: Path):
     from .study.loader import StudyError, load_study
     try:
@@ -92,6 +117,7 @@ def run(study: Path, out: Optional[Path], workers: Optional[int], scheduler: Opt
         dry_run: bool, server: bool, socket_path: Optional[str]) -> None:
     """Run the study file STUDY: one netCDF dataset per step in the output folder. An
     interrupted run resumes where it stopped."""
+    _study_exists(study)
     if server:
         _run_on_server(study, out, workers, scheduler, dry_run, socket_path)
         return
@@ -191,6 +217,7 @@ def serve(socket_path: Optional[str], workers: Optional[int], stop: bool, status
 @click.argument("study", type=click.Path(path_type=Path), metavar="STUDY")
 def validate(study: Path) -> None:
     """Check the study file STUDY without running it: every problem, as file:line: key."""
+    _study_exists(study)
     from .study.steps import kind_of
     loaded = _load(study)
     st = loaded.study
@@ -213,6 +240,9 @@ def schema() -> None:
 def inspect(path: Path) -> None:
     """Summarise PATH: a dataset written by 'run' (.nc: provenance, variables, key numbers),
     or a study's output folder (the key numbers of each of its datasets)."""
+    if path.is_file() and path.suffix in STUDY_SUFFIXES:
+        _err(study_file_hint(path))
+        raise click.exceptions.Exit(EXIT_INVALID)
     from .study.inspect import NoDatasets, summarize, summarize_folder
     try:
         if path.is_dir():
@@ -229,6 +259,20 @@ def inspect(path: Path) -> None:
         _err(f"{path}: cannot read as a netCDF dataset: {exc}")
         raise click.exceptions.Exit(EXIT_INVALID) from None
     click.echo(text)
+
+
+def study_file_hint(path: Path) -> str:
+    """What to do with a study file given to ``inspect``: validate it, or inspect the output
+    folder its run writes (``outputs/<its name>``, read from its ``name:`` line)."""
+    import re
+
+    try:
+        m = re.search(r"^name:\s*['\"]?([\w.-]+)", path.read_text(encoding="utf-8"), re.M)
+    except (OSError, UnicodeDecodeError):
+        m = None
+    out = f"outputs/{m.group(1)}" if m else "outputs/<study name>"
+    return (f"{path}: a study file, not a dataset: 'monkeystudy validate {path}' checks it; "
+            f"'monkeystudy inspect {out}' summarises the datasets its run writes there")
 
 
 #: still-figure formats ``report --formats`` takes
@@ -256,10 +300,14 @@ def report(path: Path, force: bool, formats: str, no_animation: bool) -> None:
     if not path.is_dir():
         _err(f"{path}: no such folder")
         raise click.exceptions.Exit(EXIT_INVALID)
-    from .plotting.report import (
-        FigureNameClash, NoStudyDatasets, ReportError, ReportInterrupted, StudyIncomplete,
-        report_study,
-    )
+    # said before the plotting code loads (matplotlib, xarray: seconds on a busy machine)
+    click.echo(f"{path}: reading its datasets to plan the figures")
+    from .study.progress import ticking
+    with ticking(click.echo, "loading the plotting code"):
+        from .plotting.report import (
+            FigureNameClash, NoStudyDatasets, ReportError, ReportInterrupted, StudyIncomplete,
+            report_study,
+        )
     try:
         report_study(path, force=force, formats=fmts, animation=not no_animation,
                      progress=click.echo)

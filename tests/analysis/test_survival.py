@@ -220,3 +220,15 @@ def test_the_height_is_the_attached_ends_height_where_the_last_cycle_is_measured
         assert r.cycles[0] == k
         assert r.height[0] == cross[k - 1, L.L_STATE + L.Y]
     assert _runs(Noise(), [0], max_cycles=12).height[0] != 0.0     # the replay drifts
+
+
+def test_runs_counted_one_by_one_are_the_same_runs():
+    """With a progress callback each run is counted as it ends (the runs then run one by
+    one): the same numbers as all runs at once, bit for bit."""
+    noise = Noise(timing=2e-3, mass=0.02)
+    counted = []
+    whole = _runs(noise, np.arange(5), max_cycles=12)
+    one_by_one = _runs(noise, np.arange(5), max_cycles=12, progress=counted.append)
+    assert counted == [1] * 5
+    for field in ("cycles", "failure", "distance", "time", "error", "nfev", "height"):
+        assert np.array_equal(getattr(whole, field), getattr(one_by_one, field)), field

@@ -530,3 +530,37 @@ def test_step_descriptions_on_the_page_are_whole_sentences(reported_study):
     page = (reported_study / "figures" / PAGE).read_text()
     assert "Repeat a refined gait open-loop from its recorded times for <code>cycles</code> " \
            "cycles." in page
+
+
+def test_figures_are_numbered_in_the_order_they_are_said_and_long_work_is_said(
+        reported_copy, monkeypatch):
+    """Each figure's number is given the first time it is said: the lines count up (the
+    longest figures are drawn first, not in the plan's order), and while figures are drawn a
+    line says which, for how long, when none came for a while (here: at once)."""
+    from monkeystudy.plotting import report as R
+
+    monkeypatch.setattr(R, "STILL_DRAWING", 0.0)
+    lines: list[str] = []
+    report_study(reported_copy, force=True, animation=False, formats=("png",), workers=2,
+                 progress=lines.append)
+    first: dict[str, int] = {}
+    for line in lines:
+        m = re.match(r"\[(\d+)/(\d+)\] (\S+): ", line)
+        if m:
+            first.setdefault(m[3], int(m[1]))
+    assert list(first.values()) == list(range(1, len(first) + 1)), lines
+    assert len(first) == len(R.plan(reported_copy, animation=False))
+    drawing = [line for line in lines if line.startswith("drawing ")]
+    assert drawing and all(re.fullmatch(r"drawing (\S+ \(\d+ s\)(, )?)+", line)
+                           for line in drawing), drawing
+
+
+def test_the_report_command_speaks_before_it_loads_the_plotting_code(reported_copy):
+    from click.testing import CliRunner
+
+    from monkeystudy.cli import app
+
+    res = CliRunner().invoke(app, ["report", str(reported_copy), "--no-animation"])
+    assert res.exit_code == 0, res.output
+    assert res.output.splitlines()[0] == f"{reported_copy}: reading its datasets to plan " \
+                                         "the figures"

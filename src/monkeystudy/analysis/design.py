@@ -30,7 +30,7 @@ import math
 import re
 from dataclasses import dataclass, field, replace
 from functools import partial
-from typing import ClassVar, Mapping
+from typing import Callable, ClassVar, Mapping
 
 import numpy as np
 
@@ -872,12 +872,14 @@ def design_basin(space: DesignSpace, result: DesignResult, offsets1, offsets2, *
 
 def design_survival(space: DesignSpace, result: DesignResult, *, runs: int, max_cycles: int,
                     noise: Noise, seed: int, tick: float,
-                    min_advance_fraction: float = 0.5) -> SurvivalRuns:
+                    min_advance_fraction: float = 0.5,
+                    progress: Callable[[int], None] | None = None) -> SurvivalRuns:
     """Runs ``0 .. runs - 1`` of the design's gait from its fixed point under ``noise``
     (:func:`~monkeystudy.analysis.survival.survival_runs`, drawn with ``seed``), on the
     controller ``tick`` [s], each until it fails or completes ``max_cycles``; a cycle whose
     attached end advances less than ``min_advance_fraction`` of the gait's advance stalls the
-    run. The design's own gait: a schedule runs on time, a sequence gait by its guards."""
+    run. The design's own gait: a schedule runs on time, a sequence gait by its guards.
+    ``progress(1)`` as each run ends (:func:`~monkeystudy.analysis.survival.survival_runs`)."""
     gait = replace(space.cycle_gait(result.values, result.period),
                    theta2=float(result.z[0]), tick=float(tick))
     return survival_runs(gait.loop_controller(), cycle_section_state(gait, result.state),
@@ -885,7 +887,7 @@ def design_survival(space: DesignSpace, result: DesignResult, *, runs: int, max_
                          noise=noise, seed=int(seed), robot=space.robot_for(result.values),
                          integrator=space.integrator,
                          min_advance=min_advance_fraction * abs(result.advance),
-                         section=gait.section_observers())
+                         section=gait.section_observers(), progress=progress)
 
 
 def design_cycle_run(space: DesignSpace, result: DesignResult, *, sample_dt: float):

@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, fields
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -223,7 +223,8 @@ def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles:
                   noise: Noise, seed: int, robot: RobotLike = "seed2009",
                   integrator: Integrator = Integrator(), error_bound: float = math.inf,
                   min_advance: float = -math.inf, max_drop: float = math.inf,
-                  section: Observer | Sequence[Observer] | None = None) -> SurvivalRuns:
+                  section: Observer | Sequence[Observer] | None = None,
+                  progress: Callable[[int], None] | None = None) -> SurvivalRuns:
     """Run ``controller`` (a looping program: each cycle ends on a ``cycle_end`` row) from the
     hybrid state ``start`` for each run number in ``runs``.
 
@@ -247,6 +248,10 @@ def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles:
         An exact observer of the section, watched in the cycle's last row, where each cycle
         is measured (one per cycle-ending row of a program that loops over several; default:
         the controller's own observers, else the cycle's end).
+    progress : callable, optional
+        Called with 1 as each run ends (the runs are then run one by one: each run's
+        numbers are the same either way, as its noise depends on the seed, the run number
+        and the cycle only).
     """
     robot = as_robot(robot)
     prog, obs = controller.program()
@@ -264,10 +269,17 @@ def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles:
         if len(runs) else np.empty((0, 2, L.N_PARAMS))
     out = np.zeros((len(runs), L.N_SV_COLS))
     start = np.asarray(start, float)
-    run_block(kernel_method(settings, prog, start[L.H_PHASE]), par_runs, prog, obs, settings,
-              start, noise_roles(prog), noise.vector(), int(seed), runs,
-              np.asarray(reference, float), int(max_cycles),
-              float(error_bound), float(min_advance), out)
+    method, roles, vector = kernel_method(settings, prog, start[L.H_PHASE]), \
+        noise_roles(prog), noise.vector()
+    reference = np.asarray(reference, float)
+    pieces = [slice(0, len(runs))] if progress is None else \
+        [slice(i, i + 1) for i in range(len(runs))]
+    for part in pieces:
+        run_block(method, par_runs[part], prog, obs, settings, start, roles, vector,
+                  int(seed), runs[part], reference, int(max_cycles), float(error_bound),
+                  float(min_advance), out[part])
+        if progress is not None:
+            progress(part.stop - part.start)
     return SurvivalRuns(out[:, L.SV_CYCLES].astype(np.int64),
                         out[:, L.SV_FAILURE].astype(np.int8), out[:, L.SV_DISTANCE].copy(),
                         out[:, L.SV_TIME].copy(), out[:, L.SV_ERROR].copy(),

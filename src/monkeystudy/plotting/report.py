@@ -387,6 +387,11 @@ def no_datasets_message(study_dir: Path) -> str:
     return msg
 
 
+#: while figures are drawn, the longest time without a line [s]: then one says what is being
+#: drawn, for how long (and an animation's frames)
+STILL_DRAWING = 1.5
+
+
 def _quarters(total: int) -> set[int]:
     """Frame counts at which an animation's progress is said: each quarter, and the end."""
     return {max(1, (total * q) // 4) for q in (1, 2, 3, 4)}
@@ -476,9 +481,19 @@ def report_study(study_dir: Path, *, force: bool = False,
             and progress:
         progress("animations as GIF: no ffmpeg (install imageio-ffmpeg for MP4)")
 
-    def say(k: int, job: Job, what: str) -> None:
+    # figures are numbered in the order they are said: up to date first, then each drawn
+    # one as it starts (the longest first, not the plan's order)
+    numbers: dict[str, int] = {}
+    last_line = [time.monotonic()]
+
+    def line(text: str) -> None:
+        last_line[0] = time.monotonic()
         if progress:
-            progress(f"[{k}/{len(jobs)}] {job.name}: {what}")
+            progress(text)
+
+    def say(k: int, job: Job, what: str) -> None:
+        number = numbers.setdefault(job.name, len(numbers) + 1)
+        line(f"[{number}/{len(jobs)}] {job.name}: {what}")
 
     todo: list[tuple[int, Job, dict]] = []
     for k, job in enumerate(jobs, 1):
@@ -498,6 +513,7 @@ def report_study(study_dir: Path, *, force: bool = False,
 
     counts = {"drawn": 0, "skipped": 0}
     said: dict[int, set[int]] = {}
+    drawing: dict[int, list] = {}          # job -> [started, frames done, frames]
 
     def run_one(i: int, send) -> Outcome:
         return draw_job(todo[i][1], fig_dir, formats=formats, fps=fps, max_frames=max_frames,
@@ -506,17 +522,22 @@ def report_study(study_dir: Path, *, force: bool = False,
     def handle(i: int, event: str, value) -> None:
         k, job, entry = todo[i]
         if event == "start":
+            drawing[i] = [time.monotonic(), 0, 0]
             say(k, job, f"drawing ({job.title})")
         elif event == "message":
             done, total = value
+            if i in drawing:
+                drawing[i][1:] = [done, total]
             marks = said.setdefault(i, _quarters(total))
             if done in marks:
                 marks.discard(done)
                 say(k, job, f"animation: {done}/{total} frames")
         elif event == "failed":
+            drawing.pop(i, None)
             failures[job.name] = value
             say(k, job, f"failed: {value.strip().splitlines()[-1]}")
         else:
+            drawing.pop(i, None)
             _record(job, entry, value)
             if value.skipped is not None:
                 counts["skipped"] += 1
@@ -537,11 +558,21 @@ def report_study(study_dir: Path, *, force: bool = False,
         manifest["figures"][job.name] = entry
         _write_manifest(manifest_path, manifest)
 
+    def still_drawing() -> None:
+        """A line when none came for :data:`STILL_DRAWING`: what is being drawn, how long."""
+        now = time.monotonic()
+        if not drawing or now - last_line[0] < STILL_DRAWING:
+            return
+        line("drawing " + ", ".join(
+            f"{todo[i][1].name} ({now - t0:.0f} s"
+            + (f", {done}/{total} frames" if total else "") + ")"
+            for i, (t0, done, total) in sorted(drawing.items(), key=lambda x: x[1][0])))
+
     # longest first (the animations, then the many-panel figures): the processes then finish
     # close together; ties in the plan's order
     order = sorted(range(len(todo)), key=lambda i: -DRAWINGS[todo[i][1].key].cost)
     try:
-        run_jobs(order, run_one, handle, workers or available_cores())
+        run_jobs(order, run_one, handle, workers or available_cores(), still_drawing)
     except KeyboardInterrupt:
         # a drawing process killed while writing leaves its temporary file (.<name>.*)
         for tmp in fig_dir.glob(".*"):

@@ -30,6 +30,9 @@ from typing import Any, Callable, Sequence
 RunOne = Callable[[int, Callable[[Any], None]], Any]
 #: ``handle(k, event, value)``, called in the calling process
 Handle = Callable[[int, str, Any], None]
+#: ``idle()``: called in the calling process at least every :data:`POLL` while jobs run on
+#: the workers
+Idle = Callable[[], None]
 
 #: how often the calling process looks for a worker that died [s]
 POLL = 0.2
@@ -45,9 +48,12 @@ def available_cores() -> int:
         return os.cpu_count() or 1
 
 
-def run_jobs(order: Sequence[int], run_one: RunOne, handle: Handle, workers: int) -> None:
+def run_jobs(order: Sequence[int], run_one: RunOne, handle: Handle, workers: int,
+             idle: Idle | None = None) -> None:
     """Run the jobs ``order`` (indices, in the order they are started) and hand their events
-    to ``handle``; see the module docstring. Returns when every job is done or failed."""
+    to ``handle``; see the module docstring. ``idle()`` is called between events, at least
+    every :data:`POLL` while workers draw (not when the jobs run in this process). Returns
+    when every job is done or failed."""
     order = list(order)
     if not order:
         return
@@ -56,7 +62,7 @@ def run_jobs(order: Sequence[int], run_one: RunOne, handle: Handle, workers: int
         for k in order:
             _run_here(k, run_one, handle)
         return
-    _run_forked(order, run_one, handle, n)
+    _run_forked(order, run_one, handle, n, idle)
 
 
 def _run_here(k: int, run_one: RunOne, handle: Handle) -> None:
@@ -93,7 +99,8 @@ def _worker(run_one: RunOne, tasks, results) -> None:
     results.join_thread()          # every event delivered before the process ends
 
 
-def _run_forked(order: list[int], run_one: RunOne, handle: Handle, n: int) -> None:
+def _run_forked(order: list[int], run_one: RunOne, handle: Handle, n: int,
+                idle: Idle | None = None) -> None:
     ctx = mp.get_context("fork")
     tasks, results = ctx.SimpleQueue(), ctx.Queue()
     for k in order:
@@ -112,13 +119,15 @@ def _run_forked(order: list[int], run_one: RunOne, handle: Handle, n: int) -> No
                 pid, k, event, value = results.get(timeout=POLL)
             except queue.Empty:
                 _dead_workers(procs, running, remaining, handle)
-                continue
-            if event == "start":
-                running[pid] = k
-            elif event in ("done", "failed"):
-                running.pop(pid, None)
-                remaining.discard(k)
-            handle(k, event, value)
+            else:
+                if event == "start":
+                    running[pid] = k
+                elif event in ("done", "failed"):
+                    running.pop(pid, None)
+                    remaining.discard(k)
+                handle(k, event, value)
+            if idle is not None and remaining:
+                idle()
     except BaseException:
         # Ctrl-C (or a failure in ``handle``): stop the workers; each removes the file it
         # was writing on its way out

@@ -45,13 +45,15 @@ class Task:
     """One call ``fn(*args, **kwargs)`` on a worker (an importable function, picklable
     arguments). ``tag`` names its result: a :class:`Block` is saved as a shard (resumable),
     anything else is kept in memory until the step finishes. An ``exclusive`` task runs alone
-    on the pool (it measures wall time)."""
+    on the pool (it measures wall time). ``units``: how much of its step's progress count it
+    is (the runner sets a block's: one, or its points when its kind counts points)."""
 
     tag: Any
     fn: Callable
     args: tuple
     kwargs: dict = field(default_factory=dict)
     exclusive: bool = False
+    units: int = 1
 
 
 def make_blocks(n_points: int, block_size: int) -> list[Block]:

@@ -18,6 +18,7 @@ from contextlib import contextmanager
 from typing import Callable, Iterator
 
 from .errors import RunFailed
+from .progress import open_task_channel
 
 
 class DeferredSignals:
@@ -68,11 +69,14 @@ class DeferredSignals:
         self.previous.clear()
 
 
-def worker_init(driver: int) -> None:
+def worker_init(driver: int, progress=None) -> None:
     """Pool worker start: Ctrl-C is the driver's business; SIGTERM (the driver's
     :meth:`Pool.abort`) ends the worker at once; exit when the driver is gone (after a kill
-    -9 nobody else would stop an idle worker)."""
+    -9 nobody else would stop an idle worker). ``progress``: the queue its tasks' counts go
+    to (:func:`~monkeystudy.study.progress.task_units`)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if progress is not None:
+        open_task_channel(progress)
     # a forked worker inherits the driver's Python handlers: the CLI's SIGTERM-as-interrupt
     # would only end the worker's current task with KeyboardInterrupt, and the worker would
     # go on with the tasks already queued to it while the driver waits for it
@@ -95,13 +99,16 @@ def worker_init(driver: int) -> None:
 
 
 class Pool:
-    """An executor, its number of task slots, and how to stop it at once."""
+    """An executor, its number of task slots, and how to stop it at once; ``progress``: the
+    queue its workers send their tasks' counts to (:func:`~monkeystudy.study.progress.
+    run_counted`), None when they send none (a Dask cluster)."""
 
     def __init__(self, executor: Executor, slots: int, kind: str, closer: Callable[[], None],
-                 fork: Callable[[], Executor] | None = None):
+                 fork: Callable[[], tuple[Executor, object]] | None = None, progress=None):
         self.executor = executor
         self.slots = max(1, int(slots))
         self.kind = kind
+        self.progress = progress
         self._closer = closer
         self._fork = fork
 
@@ -110,7 +117,7 @@ class Pool:
         they inherit the kernels it loaded since; other pools are left as they are."""
         if self._fork is not None:
             self.executor.shutdown(wait=True)
-            self.executor = self._fork()
+            self.executor, self.progress = self._fork()
 
     def submit(self, fn, *args, **kwargs) -> Future:
         return self.executor.submit(fn, *args, **kwargs)
@@ -212,9 +219,12 @@ def local_pool(workers: int | None = None,
         # workers (whose pages then stay shared: the collector never writes to them)
         gc.freeze()
 
-    def fork() -> Executor:
-        ex = ProcessPoolExecutor(max_workers=n, mp_context=ctx,
-                                 initializer=worker_init, initargs=(os.getpid(),))
+    def fork() -> tuple[Executor, object]:
+        # each set of workers its own channel: one a terminated worker may have left locked
+        # goes with its pool
+        progress = ctx.Queue()
+        ex = ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=worker_init,
+                                 initargs=(os.getpid(), progress))
         try:
             # start the workers now, while the driver plans its first tasks
             with DeferredSignals():
@@ -223,9 +233,10 @@ def local_pool(workers: int | None = None,
         except BaseException:   # a Ctrl-C that came while they started: stop them
             Pool(ex, n, "", lambda: None).abort()
             raise
-        return ex
+        return ex, progress
 
-    return Pool(fork(), n, local_pool_kind(n), lambda: None, fork)
+    executor, progress = fork()
+    return Pool(executor, n, local_pool_kind(n), lambda: None, fork, progress)
 
 
 @contextmanager

@@ -6,6 +6,11 @@ updated in place every second on a terminal; a line every ``every`` seconds othe
 how long it took. The thread that keeps the time is joined when the wait ends, and the
 terminal's progress display starts only with the first step: the run's process has no other
 thread when it forks its workers (:func:`monkeystudy.study.pool.mp_context`).
+
+A step counts its work in its own unit (blocks, runs, designs). A task on a worker says how
+much of it is done as it goes (:func:`task_units`, sent over the pool's progress channel:
+:func:`run_counted`), and a step's work in the driver goes in named phases, each with its own
+count (:class:`StepProgress`, :meth:`Reporter.phase`).
 """
 from __future__ import annotations
 
@@ -52,6 +57,12 @@ class Reporter:
         pass
 
     def advance(self, name: str, n: int = 1) -> None:
+        pass
+
+    def phase(self, name: str, label: str, total: int, unit: str, then: str = "",
+              done: int = 0) -> None:
+        """Step ``name`` goes on with its phase ``label``: ``total`` units, ``done`` of them
+        done; ``then`` names the phases still to come after it ("" for the step's last)."""
         pass
 
     def finish(self, name: str, message: str = "") -> None:
@@ -113,6 +124,17 @@ class _Ticker:
         self._thread.join()
 
 
+@contextmanager
+def ticking(echo: Callable[[str], None], what: str, every: float = 1.0) -> Iterator[None]:
+    """Around a wait of a command that speaks in lines: ``echo(f"{what} ({t})")`` every
+    ``every`` seconds while it lasts, from a thread joined when it ends (before any fork)."""
+    ticker = _Ticker(lambda el: echo(f"{what} ({_seconds(el)})"), every)
+    try:
+        yield
+    finally:
+        ticker.stop()
+
+
 class PlainReporter(Reporter):
     """One line per event; progress at most every ``every`` seconds per step."""
 
@@ -120,9 +142,12 @@ class PlainReporter(Reporter):
         self.stream = stream or sys.stderr
         self.every = every
         self._steps: dict[str, list] = {}
+        # a run's worker counts arrive on a thread of their own (:func:`run_counted`)
+        self._lock = threading.RLock()
 
     def _line(self, text: str) -> None:
-        print(f"[monkeystudy] {text}", file=self.stream, flush=True)
+        with self._lock:
+            print(f"[monkeystudy] {text}", file=self.stream, flush=True)
 
     def log(self, message: str) -> None:
         self._line(message)
@@ -147,30 +172,46 @@ class PlainReporter(Reporter):
 
     def start(self, name, total, done=0, unit="blocks"):
         now = time.monotonic()
-        self._steps[name] = [total, done, done, unit, now, now]
-        resumed = f" ({done} already saved)" if done else ""
-        self._line(f"{name}: {units(total, unit)}{resumed}")
+        with self._lock:
+            # total, done, done at the phase's start, unit, step start, last line, phase
+            # label, phase start, phases to come
+            self._steps[name] = [total, done, done, unit, now, now, "", now, ""]
+            resumed = f" ({done} already saved)" if done else ""
+            self._line(f"{name}: {units(total, unit)}{resumed}")
+
+    def phase(self, name, label, total, unit, then="", done=0):
+        now = time.monotonic()
+        with self._lock:
+            st = self._steps.get(name)
+            t0 = st[4] if st else now
+            self._steps[name] = [total, done, done, unit, t0, now, label, now, then]
+            self._line(f"{name}: {label}: {units(total, unit)}"
+                       + (f" (then {then})" if then else ""))
 
     def advance(self, name, n=1):
-        st = self._steps.get(name)
-        if st is None:
-            return
-        st[1] += n
-        total, done, done0, unit, t0, last = st
-        now = time.monotonic()
-        if done < total and now - last < self.every:
-            return
-        st[5] = now
-        el = now - t0
-        rate = (done - done0) / el if el > 0 else 0.0
-        eta = f", eta {(total - done) / rate:.0f} s" if rate > 0 and done < total else ""
-        self._line(f"{name}: {done}/{total} {unit} ({100.0 * done / max(total, 1):.0f}%), "
-                   f"{el:.1f} s{eta}")
+        with self._lock:
+            st = self._steps.get(name)
+            if st is None:
+                return
+            st[1] += n
+            total, done, done0, unit, _, last, label, p0, then = st
+            now = time.monotonic()
+            if done < total and now - last < self.every:
+                return
+            st[5] = now
+            el = now - p0
+            rate = (done - done0) / el if el > 0 else 0.0
+            eta = (f", eta {(total - done) / rate:.0f} s" + (f" then {then}" if then else "")
+                   if rate > 0 and done < total else "")
+            what = f"{name}: {label}" if label else name
+            self._line(f"{what}: {done}/{total} {unit} ({100.0 * done / max(total, 1):.0f}%), "
+                       f"{el:.1f} s{eta}")
 
     def finish(self, name, message=""):
-        st = self._steps.get(name)
-        el = f" in {time.monotonic() - st[4]:.1f} s" if st else ""
-        self._line(f"{name}: done{el}" + (f" - {message}" if message else ""))
+        with self._lock:
+            st = self._steps.get(name)
+            el = f" in {time.monotonic() - st[4]:.1f} s" if st else ""
+            self._line(f"{name}: done{el}" + (f" - {message}" if message else ""))
 
     def fail(self, name, message):
         self._line(f"{name}: {message}")
@@ -198,8 +239,8 @@ class RichReporter(Reporter):
             self.progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(),
                                      MofNCompleteColumn(), TextColumn("{task.fields[unit]}"),
                                      TimeElapsedColumn(), TextColumn("eta"),
-                                     TimeRemainingColumn(), console=self.console,
-                                     transient=False)
+                                     TimeRemainingColumn(), TextColumn("{task.fields[then]}"),
+                                     console=self.console, transient=False)
             self.progress.start()
         return self.progress
 
@@ -240,7 +281,21 @@ class RichReporter(Reporter):
         if done:
             self.log(f"{name}: {units(total, unit)} ({done} already saved)")
         self._tasks[name] = self._display().add_task(name, total=total, completed=done,
-                                                     unit=units(total, unit).split(" ", 1)[1])
+                                                     unit=units(total, unit).split(" ", 1)[1],
+                                                     then="")
+
+    def phase(self, name, label, total, unit, then="", done=0):
+        if name not in self._tasks:
+            self.start(name, total, done, unit)
+        # a new count (its rate and eta start afresh); the step's elapsed time runs on
+        t = self._tasks[name]
+        began = self.progress.tasks[t].start_time
+        self.progress.reset(t, start=True, total=total, completed=done,
+                            description=f"{name}: {label}",
+                            unit=units(total, unit).split(" ", 1)[1],
+                            then=f"then {then}" if then else "")
+        if began is not None:
+            self.progress.tasks[t].start_time = began
 
     def advance(self, name, n=1):
         if name in self._tasks:
@@ -249,7 +304,7 @@ class RichReporter(Reporter):
     def finish(self, name, message=""):
         if name in self._tasks:
             t = self._tasks[name]
-            self.progress.update(t, completed=self.progress.tasks[t].total)
+            self.progress.update(t, completed=self.progress.tasks[t].total, then="")
         if message:
             self.log(f"{name}: {message}")
 
@@ -271,3 +326,85 @@ def make_reporter(stream: TextIO | None = None) -> Reporter:
     except (AttributeError, ValueError):
         tty = False
     return RichReporter(stream) if tty else PlainReporter(stream)
+
+
+class StepProgress:
+    """How a step's work in the driver (a kind's :meth:`~monkeystudy.study.steps.base.
+    StepKind.finish`) shows its phases: :meth:`phase` starts one with its own count on the
+    step's line and returns the function that advances it. Without a reporter, silent."""
+
+    def __init__(self, reporter: Reporter | None = None, name: str = ""):
+        self.reporter = reporter or Reporter()
+        self.name = name
+
+    def phase(self, label: str, total: int, unit: str,
+              then: str = "") -> Callable[[int], None]:
+        """Phase ``label`` of ``total`` ``unit`` (a plural) begins; ``then`` names the phases
+        that follow it. Returns ``advance(n=1)``."""
+        self.reporter.phase(self.name, label, int(total), unit, then)
+
+        def advance(n: int = 1) -> None:
+            self.reporter.advance(self.name, n)
+        return advance
+
+
+# --- counts from the workers ---------------------------------------------------------------------
+#: the least time between two counts a worker sends [s]: the display moves, the pipe stays quiet
+SEND_PERIOD = 0.2
+
+
+class TaskChannel:
+    """A worker's end of its pool's progress channel (a queue the driver reads): the task it
+    runs (its key, set by :func:`run_counted`) and the units it did since its last message."""
+
+    def __init__(self, queue):
+        self.queue = queue
+        self.key = None
+        self.pending = 0
+        self.last = 0.0
+
+    def add(self, n: int) -> None:
+        if self.key is None:
+            return
+        self.pending += n
+        now = time.monotonic()
+        if now - self.last >= SEND_PERIOD:
+            self.queue.put((self.key, self.pending))
+            self.pending, self.last = 0, now
+
+
+#: this process's end of the channel: set once in a pool worker (the pool's initializer,
+#: :func:`open_task_channel`); None in the driver, in tests and on a Dask worker, where
+#: :func:`task_units` does nothing
+_CHANNEL: TaskChannel | None = None
+
+
+def open_task_channel(queue) -> None:
+    """In a pool worker at its start: send the counts of its tasks to ``queue`` (None:
+    send nothing)."""
+    global _CHANNEL
+    _CHANNEL = TaskChannel(queue) if queue is not None else None
+
+
+def task_units(n: int = 1) -> None:
+    """The running task did ``n`` more units of its work (runs, designs): said to the driver
+    (at most every :data:`SEND_PERIOD`) when the task runs on a pool with a progress channel,
+    else nothing."""
+    if _CHANNEL is not None:
+        _CHANNEL.add(n)
+
+
+def run_counted(key, fn: Callable, args: tuple, kwargs: dict):
+    """``fn(*args, **kwargs)`` on a worker, its :func:`task_units` sent under ``key`` (the
+    driver's name for the task). The driver counts whatever was not sent when the result
+    comes."""
+    channel = _CHANNEL
+    if channel is None:
+        return fn(*args, **kwargs)
+    channel.key, channel.pending, channel.last = key, 0, time.monotonic()
+    try:
+        return fn(*args, **kwargs)
+    finally:
+        if channel.pending:      # the count is whole at once, even if the driver is busy
+            channel.queue.put((key, channel.pending))
+        channel.key, channel.pending = None, 0

@@ -13,8 +13,11 @@ process pool or a Dask cluster (:mod:`monkeystudy.study.pool`).
 """
 from __future__ import annotations
 
+import queue
+import threading
 import time
 import traceback
+import uuid
 from collections import deque
 from concurrent.futures import FIRST_COMPLETED, CancelledError, Executor, Future, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -41,7 +44,7 @@ from .failures import FAILED, NOT_RUN, StepFailure, clear_failures, write_failur
 from .loader import LoadedStudy
 from .plan import Plan, StepPlan, plan_study
 from .pool import DeferredSignals, Pool, local_pool_kind, open_pool
-from .progress import Reporter, singular_counts
+from .progress import Reporter, StepProgress, run_counted, singular_counts
 from .spec import GaitSpec, gait_json, gait_spec, integrator_fields
 from .steps import Dependency, StepContext, kind_of
 from .steps.grid import HORIZONTAL_VARIABLES, axes_points, grid_block
@@ -164,6 +167,76 @@ class _Pending:
 
     step: StepPlan
     task: Task
+    key: tuple = ()
+
+
+class TaskCounts:
+    """The progress count of each task on the pool, from what its worker sends as it goes
+    (:func:`~monkeystudy.study.progress.task_units`, read on a thread of its own: the
+    count moves while the driver works on a step) and the rest when its result comes: a
+    task adds its ``units`` to its step's count, never more."""
+
+    def __init__(self, reporter: Reporter):
+        self.rep = reporter
+        self.lock = threading.Lock()
+        self.open: dict[tuple, list] = {}    # key -> [step name, units, units counted]
+        # a resident pool's channel may still hold counts of an earlier run's tasks: keys
+        # are this run's own
+        self.run = uuid.uuid4().hex
+        self.n = 0
+
+    def add(self, step: str, units: int) -> tuple:
+        """A task of ``step`` counting ``units`` goes to the pool: its key."""
+        with self.lock:
+            self.n += 1
+            key = (self.run, self.n)
+            self.open[key] = [step, int(units), 0]
+            return key
+
+    def sent(self, key: tuple, n: int) -> None:
+        """The worker of task ``key`` did ``n`` more units."""
+        with self.lock:
+            c = self.open.get(key)
+            n = min(int(n), c[1] - c[2]) if c is not None else 0
+            if n > 0:
+                c[2] += n
+                self.rep.advance(c[0], n)
+
+    def done(self, key: tuple) -> None:
+        """Task ``key``'s result came: its units not yet counted are."""
+        with self.lock:
+            c = self.open.pop(key, None)
+            if c is not None and c[1] > c[2]:
+                self.rep.advance(c[0], c[1] - c[2])
+
+    def drop(self, key: tuple) -> None:
+        """Task ``key`` counts no more (its step failed)."""
+        with self.lock:
+            self.open.pop(key, None)
+
+    def listen(self, channel) -> "threading.Thread | None":
+        """Read the pool's progress ``channel`` on a daemon thread until :meth:`stop`."""
+        if channel is None:
+            return None
+        self._stop = threading.Event()
+
+        def read():
+            while not self._stop.is_set():
+                try:
+                    key, n = channel.get(timeout=0.25)
+                except queue.Empty:
+                    continue
+                except (OSError, EOFError, ValueError):   # the pool was stopped
+                    return
+                self.sent(key, n)
+        thread = threading.Thread(target=read, name="monkeystudy-counts", daemon=True)
+        thread.start()
+        return thread
+
+    def stop(self, thread: "threading.Thread | None") -> None:
+        if thread is not None:
+            self._stop.set()
+            thread.join(timeout=5)
 
 
 class StudyRun:
@@ -177,6 +250,7 @@ class StudyRun:
         self.pause_after_blocks = pause_after_blocks
         self.pool = pool
         self.rep = reporter
+        self.counts = TaskCounts(reporter)
         self.history = history
         self.spec = gait_spec(plan.loaded.study)
         self.by_name = {s.name: s for s in plan.steps}
@@ -211,7 +285,8 @@ class StudyRun:
                 for d in s.deps}
         return StepContext(step=s.step, study=self.plan.loaded.study, spec=self.spec,
                            path=s.path, out=out, key=s.key, deps=deps, blocks=s.blocks,
-                           read_block=lambda b, s=s: self._block_arrays(s, b))
+                           read_block=lambda b, s=s: self._block_arrays(s, b),
+                           progress=StepProgress(self.rep, s.name))
 
     def _start(self, s: StepPlan) -> None:
         try:
@@ -229,9 +304,20 @@ class StudyRun:
         self.contexts[s.name] = ctx
         if s.blocks:
             self.reused += len(s.saved)
-            self.rep.start(s.name, len(s.blocks), len(s.saved), s.kind.unit)
+
+            def units(b: Block) -> int:
+                return b.size if s.kind.block_units else 1
+            for t in tasks:
+                if isinstance(t.tag, Block):
+                    t.units = units(t.tag)
+            total = sum(units(b) for b in s.blocks)
+            done = sum(units(b) for b in s.blocks if b.index in s.saved)
         else:
-            self.rep.start(s.name, len(tasks), 0, s.kind.unit)
+            total, done = sum(t.units for t in tasks), 0
+        self.rep.start(s.name, total, done, s.kind.unit)
+        phases = s.kind.phases(s.step)
+        if phases:      # the tasks are its first phase: the line says what follows
+            self.rep.phase(s.name, phases[0], total, s.kind.unit, ", ".join(phases[1:]), done)
         self.remaining[s.name] = len(tasks)
         for t in tasks:
             self.queue.append(_Pending(s, t))
@@ -304,7 +390,12 @@ class StudyRun:
     # tasks ----------------------------------------------------------------------------------
     def _submit(self, p: _Pending) -> None:
         t = p.task
-        self.inflight[self.pool.submit(t.fn, *t.args, **t.kwargs)] = p
+        p.key = self.counts.add(p.step.name, t.units)
+        try:
+            self.inflight[self.pool.submit(run_counted, p.key, t.fn, t.args, t.kwargs)] = p
+        except BaseException:
+            self.counts.drop(p.key)
+            raise
 
     def _handle(self, p: _Pending, value: Any) -> None:
         s, tag = p.step, p.task.tag
@@ -317,7 +408,7 @@ class StudyRun:
                 self.held_points += tag.size
         else:
             self.contexts[s.name].results[tag] = value
-        self.rep.advance(s.name)
+        self.counts.done(p.key)
         self.remaining[s.name] -= 1
         if self.remaining[s.name] == 0:
             self._finish(s)
@@ -363,8 +454,12 @@ class StudyRun:
         """Submit, wait and handle until every step is done. Signals (Ctrl-C, SIGTERM) take
         effect between waits (:class:`~monkeystudy.study.pool.DeferredSignals`), at most half
         a second after they arrive."""
-        with DeferredSignals() as signals:
-            self._loop(signals)
+        listener = self.counts.listen(self.pool.progress)
+        try:
+            with DeferredSignals() as signals:
+                self._loop(signals)
+        finally:
+            self.counts.stop(listener)
 
     def _loop(self, signals: DeferredSignals) -> None:
         """Run until nothing is queued, on the pool or waiting. A step that fails stops
@@ -388,6 +483,8 @@ class StudyRun:
                     exc = f.exception()
                 except CancelledError as e:  # e.g. a Dask cluster cancelled it
                     exc = e
+                if exc is not None or p.step.name in self.failed:
+                    self.counts.drop(p.key)
                 if exc is None:
                     if p.step.name in self.failed:
                         if isinstance(p.task.tag, Block):   # keep finished work

@@ -3,6 +3,7 @@ contract, its fixed points and spectral radii, and the same numbers for one and 
 from __future__ import annotations
 
 import json
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -477,3 +478,48 @@ def test_a_design_step_with_no_step_among_its_candidates_hands_on_nothing(tmp_pa
         run_study(load_study(path), tmp_path / "out", workers=1)
     assert not (tmp_path / "out" / "design.nc").exists()
     assert not (tmp_path / "out" / "design_survival.nc").exists()
+
+
+def test_a_design_step_counts_designs_then_each_phase_and_survival_counts_runs(tmp_path):
+    """The design step's line counts its designs, then each of its phases in the driver
+    (refine, screen, checks) with its own count that reaches its total; a survival step
+    counts its runs, not its blocks."""
+    from monkeystudy.study.progress import Reporter
+
+    class Recorder(Reporter):
+        def __init__(self):
+            self.events, self.lock = [], threading.Lock()
+
+        def start(self, name, total, done=0, unit="blocks"):
+            with self.lock:
+                self.events.append(["start", name, "", total, unit, 0])
+
+        def phase(self, name, label, total, unit, then="", done=0):
+            with self.lock:
+                self.events.append(["phase", name, label, total, unit, done])
+
+        def advance(self, name, n=1):
+            with self.lock:
+                for e in reversed(self.events):      # into the step's latest count
+                    if e[0] in ("start", "phase") and e[1] == name:
+                        e[5] += n
+                        break
+
+    path = tmp_path / "segments.yaml"
+    path.write_text(SEGMENTS)
+    rec = Recorder()
+    run_study(load_study(path), tmp_path / "out", workers=1, reporter=rec)
+    design = [(e[0], e[2], e[4]) for e in rec.events if e[1] == "design"]
+    assert design == [("start", "", "designs"), ("phase", "grid", "designs"),
+                      ("phase", "refine", "designs"), ("phase", "screen", "runs"),
+                      ("phase", "checks", "checks")]
+    phases = {e[2]: e for e in rec.events if e[1] == "design" and e[0] == "phase"}
+    assert phases["grid"][3] == 4                          # 2 x 2 designs
+    assert phases["refine"][3] == 1 * (12 + 2)             # one start: 12 designs, 2 replays
+    with xr.open_dataset(tmp_path / "out" / "design.nc") as ds:
+        screened = ds.sizes["candidate"]                  # the candidates there were (<= 3)
+    assert phases["screen"][3] == screened * 6            # 6 runs each
+    for label, e in phases.items():
+        assert e[5] == e[3], (label, e)                   # each count reaches its total
+    survival = [e for e in rec.events if e[1] == "design_survival"]
+    assert [(e[0], e[3], e[4], e[5]) for e in survival] == [("start", 4, "runs", 4)]

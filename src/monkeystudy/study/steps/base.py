@@ -19,6 +19,7 @@ import numpy as np
 
 from .. import provenance
 from ..blocks import Block, Task
+from ..progress import StepProgress
 from ..spec import GaitSpec
 
 if TYPE_CHECKING:
@@ -65,7 +66,7 @@ class StepContext:
 
     ``results`` receives each finished task's value under its tag (block results are saved
     as shards and read back with :meth:`block_arrays`); ``state`` carries the kind's own values
-    from start to finish.
+    from start to finish; ``progress`` shows the phases of its work in the driver.
     """
 
     step: Any
@@ -80,6 +81,7 @@ class StepContext:
     results: dict[Any, Any] = field(default_factory=dict)
     state: dict[str, Any] = field(default_factory=dict)
     read_block: Callable[[Block], dict[str, np.ndarray]] | None = None
+    progress: StepProgress = field(default_factory=StepProgress)
 
     @property
     def name(self) -> str:
@@ -147,6 +149,10 @@ class StepKind:
     gait_kinds: ClassVar[tuple[str, ...]] = ("horizontal",)
     #: what its progress counts (tasks, or ``blocks`` for a resumable kind)
     unit: ClassVar[str] = "tasks"
+    #: its progress counts the points of its blocks (runs, designs: :attr:`unit`), which
+    #: its tasks report as they go (:func:`~monkeystudy.study.progress.task_units`), not
+    #: the blocks
+    block_units: ClassVar[bool] = False
     #: its figures, in drawing order
     figures: ClassVar[tuple[Figure, ...]] = ()
     #: why it has no figure (when ``figures`` is empty)
@@ -213,6 +219,12 @@ class StepKind:
     def block_summary(self, step) -> str:
         """What a resumable step's blocks hold, for the plan's line."""
         return f"{sum(b.size for b in self.blocks(step))} points"
+
+    def phases(self, step) -> tuple[str, ...]:
+        """The phases of its work, in order, when it has several: its tasks on the pool, then
+        its work in :meth:`finish`, each shown with its own count (:attr:`StepContext.
+        progress`); none: its tasks are all of it."""
+        return ()
 
     def n_tasks(self, step, gait) -> int:
         """How many tasks the step queues (``--dry-run`` shows it) for the study's ``gait``

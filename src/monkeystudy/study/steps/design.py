@@ -26,7 +26,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import ClassVar, Literal, Optional
+from typing import Callable, ClassVar, Literal, Optional
 
 import numpy as np
 from pydantic import Field, field_validator, model_validator
@@ -43,6 +43,7 @@ from ..blocks import Block, Task
 from ..errors import RunFailed
 from ..models import Name, StrictModel
 from ..noise import NoiseSpec
+from ..progress import StepProgress, task_units
 from .base import Dependency, Figure, StepContext, StepKind
 from .gait_source import (
     MAX_MAP_DEFECT, GaitStart, design_start, option_problems, read_start,
@@ -316,7 +317,8 @@ def design_block(space: DesignSpace, names: list[str], axes: list[np.ndarray], s
     Each design's gait is solved by Newton from every start, and the converged gait with
     the smallest spectral radius is kept (one design may have several gaits): the previous
     converged design along the last axis (a continuation; none at a line's start), then each
-    of ``starts``, pairs ``(z, balance value or None)`` (the step's gait first).
+    of ``starts``, pairs ``(z, balance value or None)`` (the step's gait first). Each design
+    counts as it is done (:func:`~monkeystudy.study.progress.task_units`).
     """
     shape = tuple(len(a) for a in axes)
     n = hi - lo
@@ -336,6 +338,7 @@ def design_block(space: DesignSpace, names: list[str], axes: list[np.ndarray], s
         for k, v in record(res, space).items():
             out[k][i] = v
         out["multiplier_modulus"][i] = np.abs(res.multipliers_fd)
+        task_units(1)
     return out
 
 
@@ -362,10 +365,11 @@ def _with_balance(free: dict, values: dict, space: DesignSpace) -> dict:
 
 
 # --- refinement and verification (main process) --------------------------------------------------
-def nelder_mead(space: DesignSpace, st: DesignStep, axes, start: dict) -> tuple:
+def nelder_mead(space: DesignSpace, st: DesignStep, axes, start: dict,
+                evaluated: Callable[[int], None] = lambda n: None) -> tuple:
     """Nelder-Mead on the objective from the design ``start`` (a grid design's values and
     gait), in coordinates scaled to the axes' ranges and clipped to them; returns ``(best
-    DesignResult or None, evaluations)``."""
+    DesignResult or None, evaluations)``. ``evaluated(1)`` after each evaluation."""
     from scipy.optimize import minimize   # scipy loads in ~0.2 s: only this step needs it
 
     names = st.names
@@ -377,6 +381,7 @@ def nelder_mead(space: DesignSpace, st: DesignStep, axes, start: dict) -> tuple:
 
     def f(x):
         state["n"] += 1
+        evaluated(1)
         xc = np.clip(x, 0.0, 1.0)
         free = {n: float(lo[k] + span[k] * xc[k]) for k, n in enumerate(names)}
         res = evaluate_design(space, _with_balance(free, state["balance"], space), state["z"])
@@ -399,16 +404,25 @@ def nelder_mead(space: DesignSpace, st: DesignStep, axes, start: dict) -> tuple:
     return best, state["n"]
 
 
-def verify(space: DesignSpace, res: DesignResult, v: DesignVerify) -> dict:
+#: the checks :func:`verify` counts: two replays, the decay run, the basin
+VERIFY_CHECKS = 4
+
+
+def verify(space: DesignSpace, res: DesignResult, v: DesignVerify,
+           checked: Callable[[int], None] = lambda n: None) -> dict:
     """The checks of one design: replays (exact and ticked), the decay of a perturbation, the
-    basin."""
+    basin; ``checked(1)`` after each of the :data:`VERIFY_CHECKS`."""
     exact = replay_design(space, res, cycles=v.cycles, tick=0.0, error_bound=v.error_bound)
+    checked(1)
     ticked = replay_design(space, res, cycles=v.cycles, tick=v.tick,
                            error_bound=v.error_bound)
+    checked(1)
     dist, growth = perturbation_decay(space, res, size=v.perturbation, cycles=v.decay_cycles)
+    checked(1)
     offsets = np.linspace(-v.basin_offset, v.basin_offset, v.basin_num)
     basin = design_basin(space, res, offsets, offsets, max_cycles=v.basin_cycles,
                          error_bound=v.error_bound)
+    checked(1)
     return {"replays": [exact, ticked], "decay": dist, "growth": growth, "offsets": offsets,
             "basin": basin}
 
@@ -464,35 +478,49 @@ def grid_picks(space, st: DesignStep, axes, grid: dict, k: int, reference: Cycle
 
 
 def refine_and_verify(space: DesignSpace, st: DesignStep, axes, grid: dict, starts,
-                      reference: CycleShape) -> dict:
+                      reference: CycleShape, progress: StepProgress | None = None) -> dict:
     """Nelder-Mead from the best grid designs, then the checks of the best design found
     (the best grid design when no refinement improves on it). Every candidate (a refined
     design, a grid design) must be a gait of the starting gait's kind (``reference``,
     :func:`~monkeystudy.analysis.design.step_problems`); the others are refused, listed in
     ``refused`` with the reason, and the best valid one is checked (``RunFailed`` when none
-    is)."""
+    is). ``progress`` shows each phase (refine, screen, checks) with its count."""
+    progress = progress or StepProgress()
     shape = st.shape
     objective = grid["objective"].reshape(shape)
     n_grid = st.screen.candidates if st.screen else 1
     refused: list[dict] = []
+    later = (["screen"] if st.screen else []) + ["checks"]
     picks = grid_picks(space, st, axes, grid, max(st.refine.starts, n_grid), reference,
                        refused)
     refined = []
-    for flat, start in picks[:st.refine.starts]:
+    starting = [(flat, start) for flat, start in picks[:st.refine.starts] if start.ok]
+    # each start: up to max_evaluations designs, then its two replays (one unit each)
+    per_start = st.refine.max_evaluations + 2
+    advance = progress.phase("refine", per_start * len(starting), "designs",
+                             then=", ".join(later))
+    for flat, start in starting:
         idx = np.unravel_index(flat, shape)
-        if not start.ok:
-            continue
-        best, n_eval = nelder_mead(space, st, axes, {"values": start.values,
-                                                              "z": start.z})
+        counted = [0]
+
+        def evaluated(n: int) -> None:
+            if counted[0] < st.refine.max_evaluations:
+                counted[0] += n
+                advance(n)
+        best, n_eval = nelder_mead(space, st, axes, {"values": start.values, "z": start.z},
+                                   evaluated)
+        advance(st.refine.max_evaluations - counted[0])    # converged before its budget
         found = best or start
         why = design_step_problem(space, found, reference) if best is not None else ""
         if why:
             refused.append(refusal(st, found, "refined", why))
         # every refined design's replays too: the smallest rho is not always the one that
         # survives the controller tick
-        reps = [replay_design(space, found, cycles=st.verify.cycles, tick=t,
-                              error_bound=st.verify.error_bound)
-                for t in (0.0, st.verify.tick)]
+        reps = []
+        for t in (0.0, st.verify.tick):
+            reps.append(replay_design(space, found, cycles=st.verify.cycles, tick=t,
+                                      error_bound=st.verify.error_bound))
+            advance(1)
         refined.append({"start": flat, "start_objective": float(objective[idx]),
                         "result": found, "evaluations": n_eval,
                         "cycles_completed": [r.cycles_completed for r in reps],
@@ -508,11 +536,20 @@ def refine_and_verify(space: DesignSpace, st: DesignStep, axes, grid: dict, star
         raise RunFailed(f"{st.name}: no design of the grid has a gait (statuses: "
                         f"{_status_text(grid['status'])})")
     ranked = sorted(candidates, key=lambda r: r.objective(st.objective, st.energy_weight))
-    screened = screen(space, st.screen, ranked) if st.screen else []
+    screened = []
+    if st.screen:
+        n = min(st.screen.candidates, len(ranked))
+        screened = screen(space, st.screen, ranked,
+                          progress.phase("screen", n * st.screen.runs, "runs", then="checks"))
+    # the checks, then the variational multipliers and the film (one unit each)
+    done = progress.phase("checks", VERIFY_CHECKS + 2, "checks")
     best = with_variational(space, screened[0]["result"] if screened else ranked[0])
-    return {"refined": refined, "best": best, "checks": verify(space, best, st.verify),
-            "film": design_cycle_run(space, best, sample_dt=0.005), "screened": screened,
-            "refused": refused}
+    done(1)
+    checks = verify(space, best, st.verify, done)
+    film = design_cycle_run(space, best, sample_dt=0.005)
+    done(1)
+    return {"refined": refined, "best": best, "checks": checks, "film": film,
+            "screened": screened, "refused": refused}
 
 
 def refusal_text(r: dict) -> str:
@@ -521,17 +558,18 @@ def refusal_text(r: dict) -> str:
     return f"{r['source']} design ({design}), objective {r['objective']:.4g}: {r['why']}"
 
 
-def screen(space, sc: DesignScreen, ranked: list[DesignResult]) -> list[dict]:
+def screen(space, sc: DesignScreen, ranked: list[DesignResult],
+           ran: Callable[[int], None] | None = None) -> list[dict]:
     """Survival runs of the first ``sc.candidates`` of ``ranked`` (the lowest objective
     first), each under the screen's noise with the same draws; returned the most robust
     first: the most runs that completed ``max_cycles``, then the most cycles on average, then
-    the lowest objective (the ranked order)."""
+    the lowest objective (the ranked order). ``ran(1)`` as each run ends."""
     noise = sc.noise.level(0)
     out = []
     for rank, res in enumerate(ranked[:sc.candidates]):
         runs = design_survival(space, res, runs=sc.runs, max_cycles=sc.max_cycles,
                                noise=noise, seed=sc.seed, tick=sc.tick,
-                               min_advance_fraction=sc.min_advance_fraction)
+                               min_advance_fraction=sc.min_advance_fraction, progress=ran)
         out.append({"result": res, "rank": rank,
                     "survived": float(np.mean(runs.failure == Status.OK)),
                     "mean_cycles": float(np.mean(runs.cycles))})
@@ -908,7 +946,8 @@ class DesignKind(StepKind):
     gait_kinds = ("horizontal", "sequence")
     accepts = ("shoot", "refine", "floquet")
     provides = "its best design (schedule, robot and fixed point)"
-    unit = "blocks"
+    unit = "designs"
+    block_units = True
     figures = (
         Figure("map", "spectral radius over the design grid",
                "The spectral radius per step over the two most influential free parameters "
@@ -961,6 +1000,9 @@ class DesignKind(StepKind):
         size = step.designs_per_block
         return [Block(i, lo, min(lo + size, n)) for i, lo in enumerate(range(0, n, size))]
 
+    def phases(self, step: DesignStep) -> tuple[str, ...]:
+        return ("grid", "refine") + (("screen",) if step.screen else ()) + ("checks",)
+
     def block_summary(self, step: DesignStep) -> str:
         return " x ".join(f"{n} {a.num}" for n, a in step.parameters.items()) + " designs"
 
@@ -1008,7 +1050,7 @@ class DesignKind(StepKind):
         grid["objective"] = (rho if st.objective == "spectral_radius"
                              else rho + st.energy_weight * grid["energy_per_metre"])
         found = refine_and_verify(space, st, axes, grid, ctx.state["starts"],
-                                  start_shape(gait, ctx.spec.integrator))
+                                  start_shape(gait, ctx.spec.integrator), ctx.progress)
         src = gait.source
         if schedule_design(ctx.spec):
             attrs.update(start_t_switch=src["t_switch"], start_t_motor=src["t_motor"],

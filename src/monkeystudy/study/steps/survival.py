@@ -28,6 +28,7 @@ from .. import datasets as D
 from ..blocks import Block, Task
 from ..models import Name, OpenLoopSettings, Replay, StrictModel
 from ..noise import SOURCES, UNIFORM_PER_RUN, NoiseSpec
+from ..progress import task_units
 from ..spec import GaitSpec
 from .base import Figure, StepContext, StepKind, max_drop_of
 from .gait_source import MAX_MAP_DEFECT, GaitStart, robot_attr, run_problems
@@ -114,13 +115,15 @@ def survival_block(spec: GaitSpec, start: GaitStart, runs: np.ndarray, *, noise:
     """Runs number ``runs`` of the start's gait under ``noise`` (a :class:`~monkeystudy.
     analysis.survival.Noise` as a mapping), on its robot: per run the cycles completed, why it
     stopped, the distance travelled [m], the time [s] and error at its last completed cycle,
-    its RHS evaluations, the attached end's height change there [m]."""
+    its RHS evaluations, the attached end's height change there [m]. Each run counts as it
+    ends (:func:`~monkeystudy.study.progress.task_units`)."""
     controller, hyb, section = survival_controller(start, tick=tick,
                                                    integrator=spec.integrator)
     r = survival_runs(controller, hyb, start.z[-3:], runs=runs, max_cycles=max_cycles,
                       noise=Noise(**noise), seed=seed, robot=start.robot,
                       integrator=spec.integrator, error_bound=error_bound,
-                      min_advance=min_advance, max_drop=max_drop, section=section)
+                      min_advance=min_advance, max_drop=max_drop, section=section,
+                      progress=task_units)
     return {"cycles": r.cycles.astype(np.int64), "failure": r.failure.astype(np.int8),
             "distance": r.distance, "time": r.time, "error": r.error, "nfev": r.nfev,
             "height": r.height}
@@ -273,7 +276,8 @@ class SurvivalKind(StepKind):
     variables = VARIABLES
     gait_kinds = ("horizontal", "sequence")
     accepts = ("shoot", "refine", "floquet", "design")
-    unit = "blocks"
+    unit = "runs"
+    block_units = True
     figures = (
         Figure("survival", "survival per cycle",
                "The fraction of runs still going after each number of cycles, one line per "

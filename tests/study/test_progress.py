@@ -1,0 +1,114 @@
+"""Progress counts: what workers send as they go reaches the reporter, a task never counts
+more than its units, and the plain reporter names a step's phases."""
+from __future__ import annotations
+
+import io
+import queue
+import threading
+import time
+
+from monkeystudy.study import progress as P
+from monkeystudy.study.runner import TaskCounts
+
+
+class Recorder(P.Reporter):
+    """Every reporter call, in order (the counts come from a thread of their own)."""
+
+    def __init__(self):
+        self.events = []
+        self.lock = threading.Lock()
+
+    def start(self, name, total, done=0, unit="blocks"):
+        with self.lock:
+            self.events.append(("start", name, total, done, unit))
+
+    def phase(self, name, label, total, unit, then="", done=0):
+        with self.lock:
+            self.events.append(("phase", name, label, total, unit, then, done))
+
+    def advance(self, name, n=1):
+        with self.lock:
+            self.events.append(("advance", name, n))
+
+    def counted(self, name) -> int:
+        with self.lock:
+            return sum(e[2] for e in self.events if e[0] == "advance" and e[1] == name)
+
+
+def test_a_task_counts_its_units_once_whatever_its_worker_sent():
+    rep = Recorder()
+    counts = TaskCounts(rep)
+    key = counts.add("survival", 10)
+    counts.sent(key, 4)
+    counts.sent(key, 20)           # more than it has left: the rest only
+    assert rep.counted("survival") == 10
+    counts.done(key)               # nothing left to count
+    counts.sent(key, 3)            # a count that comes after its result: ignored
+    assert rep.counted("survival") == 10
+    other = counts.add("survival", 5)
+    counts.sent(other, 2)
+    counts.done(other)             # its result: the 3 units its worker did not send
+    assert rep.counted("survival") == 15
+    dropped = counts.add("design", 7)
+    counts.drop(dropped)           # its step failed: it counts no more
+    counts.sent(dropped, 7)
+    assert rep.counted("design") == 0
+
+
+def test_worker_counts_reach_the_reporter_before_the_result():
+    """The counts are read on a thread of their own: they move while the driver is busy
+    (here: never handles the result)."""
+    rep = Recorder()
+    counts = TaskCounts(rep)
+    channel = queue.Queue()
+    key = counts.add("survival", 100)
+    listener = counts.listen(channel)
+    try:
+        channel.put((key, 30))
+        channel.put((key, 12))
+        deadline = time.monotonic() + 60
+        while rep.counted("survival") < 42 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert rep.counted("survival") == 42
+    finally:
+        counts.stop(listener)
+    assert not listener.is_alive()
+
+
+def test_a_counted_task_sends_its_units_under_its_key(monkeypatch):
+    monkeypatch.setattr(P, "SEND_PERIOD", 0.0)
+    channel = queue.Queue()
+
+    def five_runs():
+        for _ in range(5):
+            P.task_units(1)
+        return "done"
+
+    P.open_task_channel(channel)
+    try:
+        assert P.run_counted(("run", 3), five_runs, (), {}) == "done"
+        P.task_units(1)        # outside a task: counted for nobody
+    finally:
+        P.open_task_channel(None)
+    sent = []
+    while not channel.empty():
+        sent.append(channel.get())
+    assert {k for k, _ in sent} == {("run", 3)} and sum(n for _, n in sent) == 5
+    assert P.run_counted(("run", 4), five_runs, (), {}) == "done"   # no channel: just runs
+    assert channel.empty()
+
+
+def test_the_plain_reporter_says_each_phase_and_counts_within_it():
+    out = io.StringIO()
+    rep = P.PlainReporter(out, every=0.0)
+    rep.start("design", 80, 0, "designs")
+    rep.phase("design", "grid", 80, "designs", "refine, screen, checks")
+    rep.advance("design", 80)
+    rep.phase("design", "screen", 800, "runs", "checks")
+    rep.advance("design", 400)
+    lines = out.getvalue().splitlines()
+    assert lines[1] == "[monkeystudy] design: grid: 80 designs (then refine, screen, checks)"
+    assert lines[2].startswith("[monkeystudy] design: grid: 80/80 designs (100%)")
+    assert lines[3] == "[monkeystudy] design: screen: 800 runs (then checks)"
+    assert lines[4].startswith("[monkeystudy] design: screen: 400/800 runs (50%)")
+    assert "then checks" in lines[4]       # the eta says the step goes on after it
