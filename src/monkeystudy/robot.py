@@ -181,18 +181,59 @@ class Robot:
         min(1, L2/L1)``, so the minimum is ``-g |a - m2 r2 L1/L2| min(1, L2/L1)``. A swing that
         starts with less total energy and no motor can never reach a swap (energy is conserved
         or dissipated): such grid points are marked unreachable without integrating. With a
-        CG off its link's line the bound is each CG's lowest height below its link's end
-        (lower than the least potential on the surface, so still no reachable point is
-        skipped).
+        CG off its link's line the least potential on the surface is found numerically
+        (:meth:`_swap_floor_off_line`).
         """
         l1, l2 = self.link1, self.link2
         a = l1.mass * l1.com + l2.mass * l1.length
         if l1.com_across or l2.com_across:
-            # off-line CGs: each CG's height is bounded by its distance from its link's end
-            return -self.gravity * (math.hypot(a, l1.mass * l1.com_across)
-                                    + l2.mass * math.hypot(l2.com, l2.com_across))
+            return self._swap_floor_off_line()
         k = a - l2.mass * l2.com * l1.length / l2.length
         return -self.gravity * abs(k) * min(1.0, l2.length / l1.length)
+
+    def _swap_floor_off_line(self) -> float:
+        """:meth:`swap_energy_floor` of links whose CGs lie off their lines [J].
+
+        On the surface, ``cos(th1 + th2) = -L1 cos(th1) / L2`` and ``sin(th1 + th2)`` takes
+        either sign, so the potential ``g (-a c1 + m1 sigma1 s1 - m2 r2 c12 + m2 sigma2
+        s12)`` is a function of ``th1`` on each of two branches: minimised on a grid of each
+        interval of ``th1`` where the surface exists, refined by golden sections, its ends
+        evaluated, less 1e-12 of its size (a floor must not exceed the least potential).
+        """
+        l1, l2, g = self.link1, self.link2, self.gravity
+        a = l1.mass * l1.com + l2.mass * l1.length
+        a_s, b, b_s = l1.mass * l1.com_across, l2.mass * l2.com, l2.mass * l2.com_across
+        ratio = l1.length / l2.length
+
+        def potential(th1, branch):
+            c1 = np.cos(th1)
+            c12 = np.clip(-ratio * c1, -1.0, 1.0)
+            s12 = branch * np.sqrt(1.0 - c12 * c12)
+            return g * (-a * c1 + a_s * np.sin(th1) - b * c12 + b_s * s12)
+
+        if ratio <= 1.0:
+            intervals = [(-math.pi, math.pi)]
+        else:                      # the surface exists where |cos th1| <= L2 / L1
+            end = math.acos(1.0 / ratio)
+            intervals = [(end, math.pi - end), (end - math.pi, -end)]
+        best = math.inf
+        golden = (math.sqrt(5.0) - 1.0) / 2.0
+        for lo, hi in intervals:
+            grid = np.linspace(lo, hi, 4097)
+            for branch in (1.0, -1.0):
+                v = potential(grid, branch)
+                best = min(best, float(v.min()), float(v[0]), float(v[-1]))
+                k = int(np.argmin(v))
+                x0, x1 = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
+                for _ in range(80):
+                    xa = x1 - golden * (x1 - x0)
+                    xb = x0 + golden * (x1 - x0)
+                    if potential(xa, branch) < potential(xb, branch):
+                        x1 = xb
+                    else:
+                        x0 = xa
+                best = min(best, float(potential(0.5 * (x0 + x1), branch)))
+        return best - 1e-12 * (1.0 + abs(best))
 
     def to_dict(self) -> dict:
         """Plain values (JSON-ready): ``link1``, ``link2`` (mass, length, com, inertia, and

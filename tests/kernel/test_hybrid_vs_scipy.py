@@ -258,21 +258,26 @@ def test_mirror_symmetry(name, tau, d1, d2):
 
 
 def _swap_surface_min_potential(robot, n=200001):
-    """Least potential energy with B at A's height, by brute force on the swap surface."""
+    """Least potential energy with B at A's height, by brute force on the swap surface,
+    sampled along th1 and along th1 + th2 (where one's cosine nears +-1 the surface turns
+    fast in it, and the other samples it evenly)."""
     l1, l2 = robot.link1, robot.link2
-    th1 = np.linspace(-np.pi, np.pi, n)
-    if l2.length < l1.length:   # the surface ends where |cos th1| = L2/L1: include its ends
-        a = math.acos(l2.length / l1.length)
-        th1 = np.concatenate([th1, [a, -a, math.pi - a, a - math.pi]])
-    c12 = np.clip(-l1.length * np.cos(th1) / l2.length, -2.0, 2.0)
-    ok = np.abs(c12) <= 1.0 + 1e-15
-    c12 = np.clip(c12, -1.0, 1.0)
-    th1 = th1[ok]
+    angle = np.linspace(-np.pi, np.pi, n)
+    pairs = []
+    for ratio, first in ((l1.length / l2.length, True), (l2.length / l1.length, False)):
+        # the other angle's cosine is -ratio times this one's: keep where it exists
+        c_other = -ratio * np.cos(angle)
+        ok = np.abs(c_other) <= 1.0
+        for sgn in (1.0, -1.0):
+            other = sgn * np.arccos(c_other[ok])
+            pairs.append((angle[ok], other) if first else (other, angle[ok]))
     best = np.inf
-    for sgn in (1.0, -1.0):
-        th12 = sgn * np.arccos(c12[ok])
+    for th1, th12 in pairs:
+        # docs/model.md section 1, the CGs' heights with their offsets across the links
         v = -robot.gravity * ((l1.mass * l1.com + l2.mass * l1.length) * np.cos(th1)
-                              + l2.mass * l2.com * np.cos(th12))
+                              - l1.mass * l1.com_across * np.sin(th1)
+                              + l2.mass * l2.com * np.cos(th12)
+                              - l2.mass * l2.com_across * np.sin(th12))
         best = min(best, v.min())
     return best
 
