@@ -7,6 +7,7 @@ friction, with the sensor floor beside them.
 Usage::
 
     python tools/acromonk_replay.py [--extra torque_scale] [--extra shoulder_offset]
+    python tools/acromonk_replay.py --holds     # the two torque holds compared, no fit
 
 Takes a few minutes (the fit replays 170 windows per evaluation).
 """
@@ -33,7 +34,12 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--extra", action="append", default=[],
                         help="fit this parameter too (torque_scale, shoulder_offset)")
+    parser.add_argument("--holds", action="store_true",
+                        help="only compare the centred and the plain torque hold (BF_pd_5x, "
+                             "published damping)")
     args = parser.parse_args()
+    if args.holds:
+        return compare_holds()
     base = acromonk_robot()
     logs = {n: read_log(SHIPPED_LOGS / f"{n}.csv.gz") for n in TRAIN + HELD_OUT}
     train = [ms for n in TRAIN for ms in model_swings(logs[n])]
@@ -79,6 +85,20 @@ def main() -> int:
                   + "  ".join(f"{whole[m][j]:8.4f}          " for m in models))
     print(f"\nidentified below published on {wins['identified']} of {total} "
           "(log, joint, horizon) rows")
+    return 0
+
+
+def compare_holds() -> int:
+    """The elbow's RMS replay error at each horizon on BF_pd_5x with the published damping,
+    the measured torque held centred and plain."""
+    base = acromonk_robot()
+    swings = model_swings(read_log(SHIPPED_LOGS / "BF_pd_5x.csv.gz"))
+    published = ModelValues(PUBLISHED_PIVOT, PUBLISHED_JOINT)
+    print("BF_pd_5x, published damping: elbow RMS replay error [rad] at "
+          + "/".join(f"{h:g}" for h in HORIZONS) + " s")
+    for hold in ("centred", "plain"):
+        e = errors_of(published, base, swings, hold=hold)
+        print(f"{hold:>8}: " + "/".join(f"{e.rms(h)[1]:.4f}" for h in HORIZONS))
     return 0
 
 
