@@ -8,6 +8,7 @@ Usage::
 
     python tools/acromonk_replay.py [--extra torque_scale] [--extra shoulder_offset]
     python tools/acromonk_replay.py --holds     # the two torque holds compared, no fit
+    python tools/acromonk_replay.py --checks    # the frame and signal checks, no fit
 
 Takes a few minutes (the fit replays 170 windows per evaluation).
 """
@@ -16,14 +17,17 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from dataclasses import replace
 
 import numpy as np
 
 from monkeystudy.analysis.measured_replay import (
-    FRICTION, HORIZONS, PUBLISHED_JOINT, PUBLISHED_PIVOT, ModelValues, acromonk_robot,
-    errors_of, identify, model_swings, whole_swing_error,
+    CATCH_REST, FRICTION, HORIZONS, PUBLISHED_JOINT, PUBLISHED_PIVOT, ModelValues,
+    acromonk_robot, chain_closure, errors_of, identify, inverse_dynamics, model_swings,
+    rate_agreement, rate_noise, rest_shoulder, simulated_swing, torque_sign_errors,
+    whole_swing_error,
 )
-from monkeystudy.measured import SHIPPED_LOGS, read_log, sensor_floor
+from monkeystudy.measured import SHIPPED_LOGS, read_log, sensor_floor, swings
 
 TRAIN = ("BF_tvlqr_5x", "BF_pd_5x")
 HELD_OUT = ("BF_rl_5x", "BF_tvlqr_1x", "FB_pd_1x_", "ZB_pd_1x", "ZB_tvlqr_1x", "ZF_pd_1x",
@@ -37,9 +41,13 @@ def main() -> int:
     parser.add_argument("--holds", action="store_true",
                         help="only compare the centred and the plain torque hold (BF_pd_5x, "
                              "published damping)")
+    parser.add_argument("--checks", action="store_true",
+                        help="only the checks of the frame and the signals (no fit)")
     args = parser.parse_args()
     if args.holds:
         return compare_holds()
+    if args.checks:
+        return checks()
     base = acromonk_robot()
     logs = {n: read_log(SHIPPED_LOGS / f"{n}.csv.gz") for n in TRAIN + HELD_OUT}
     train = [ms for n in TRAIN for ms in model_swings(logs[n])]
@@ -99,6 +107,106 @@ def compare_holds() -> int:
     for hold in ("centred", "plain"):
         e = errors_of(published, base, swings, hold=hold)
         print(f"{hold:>8}: " + "/".join(f"{e.rms(h)[1]:.4f}" for h in HORIZONS))
+    return 0
+
+
+def _span(values) -> str:
+    return f"{min(values):.2f}-{max(values):.2f}"
+
+
+#: the smoothing differentiator's half-widths [s] the checks compare (windows of 30-100 ms)
+HALF_WIDTHS = (0.015, 0.025, 0.05)
+
+
+def checks() -> int:
+    """The checks of the frame and the signals (docs/acromonk.md, "Replayed against the
+    model"): the closed chain at the first catch, the torque's sign, the rates against the
+    angles, the rest angle and the inverse dynamics of the training swings."""
+    base = acromonk_robot()
+    published = base.with_friction(PUBLISHED_PIVOT, PUBLISHED_JOINT)
+    logs = {n: read_log(SHIPPED_LOGS / f"{n}.csv.gz") for n in TRAIN}
+    print(f"closed chain: the model's free end from the holding hook [m] over the last "
+          f"{CATCH_REST} s of the first catch")
+    for name in ("BF_pd_5x", "BF_tvlqr_5x"):
+        c = chain_closure(base, logs[name])
+        print(f"  {name:<12} logged shoulder: x {c.free_end[0]:.4f} y {c.free_end[1]:+.4f}   "
+              f"with the URDF offset ({c.urdf_offset:+.4f} rad): x {c.free_end_urdf[0]:.4f} "
+              f"y {c.free_end_urdf[1]:+.4f}")
+    pd1 = model_swings(logs["BF_pd_5x"])[0]
+    right, wrong = torque_sign_errors(published, pd1)
+    print(f"torque sign: {pd1.name}, published damping, elbow RMS replay error at 0.1 s over "
+          f"starts every 0.1 s: logged sign {right:.4f} rad, reversed {wrong:.4f} rad "
+          f"({wrong / right:.1f} times)")
+    ra = rate_agreement(pd1)
+    print(f"rates: {pd1.name}: integrated rate less angle, largest: shoulder "
+          f"{ra.integrated[0]:.4f} rad, elbow {ra.integrated[1]:.4f} rad; difference quotient "
+          f"of the angle less the rate, RMS: shoulder {ra.quotient[0]:.3f} rad/s, elbow "
+          f"{ra.quotient[1]:.3f} rad/s")
+    train = [ms for n in TRAIN for ms in model_swings(logs[n])]
+    spans = [rate_agreement(ms) for ms in train]
+    print(f"  training swings: integrated less angle, largest: shoulder "
+          f"{_span([r.integrated[0] for r in spans])} rad, elbow {_span([r.integrated[1] for r in spans])} rad; quotient RMS: shoulder "
+          f"{_span([r.quotient[0] for r in spans])} rad/s, elbow "
+          f"{_span([r.quotient[1] for r in spans])} rad/s")
+    rest = []
+    for name in ("ZB_pd_1x", "ZF_pd_1x", "ZB_tvlqr_1x", "ZF_tvlqr_1x"):
+        log = read_log(SHIPPED_LOGS / f"{name}.csv.gz")
+        rest.append(f"{name} {log.shoulder_angle[swings(log)[0].start]:.4f}")
+    print(f"rest: logged shoulder at the first swing row (elbow at 0): {', '.join(rest)} rad; "
+          f"the model's theta1 at rest with theta2 = 0: {rest_shoulder(base, 0):.4f} rad")
+
+    noise = np.array([rate_noise(ms) for ms in train])
+    print(f"\ninverse dynamics of the training swings ({', '.join(TRAIN)}; {len(train)} swings),"
+          f" scored on the samples >= {HALF_WIDTHS[1]} s from each swing's ends; ranges over "
+          "swings")
+    print(f"  rate noise (std about a +-{HALF_WIDTHS[1]} s quadratic): shoulder "
+          f"{_span(noise[:, 0])} rad/s, elbow {_span(noise[:, 1])} rad/s")
+    print("  pivot: RMS of M q'' + C q' + G, pivot row [N m]; elbow: RMS of the elbow row less "
+          "the measured torque [N m]; k: elbow row = k torque")
+    print(f"  {'differentiator':<24} {'hook holding':<22} {'roles':<8} {'pivot':>9} "
+          f"{'elbow':>9} {'k':>9} {'gravity':>9}")
+    methods = [("difference", HALF_WIDTHS[1], "difference quotient")] + \
+        [("local_quadratic", h, f"local quadratic +-{1e3 * h:.0f} ms") for h in HALF_WIDTHS]
+    for diff, hw, label in methods:
+        for hook, hook_name in ((0, "motor arm (row 0)"), (1, "IMU arm (row 1)")):
+            for roles in ("logged", "swapped"):
+                ids = [inverse_dynamics(base, ms, differentiator=diff, half_width=hw,
+                                        flipped=hook if roles == "logged" else 1 - hook)
+                       for ms in train if ms.flipped == hook]
+                print(f"  {label:<24} {hook_name:<22} {roles:<8} "
+                      f"{_span([i.pivot_rms for i in ids]):>9} "
+                      f"{_span([i.elbow_rms for i in ids]):>9} "
+                      f"{_span([i.torque_factor for i in ids]):>9} "
+                      f"{_span([i.gravity_rms for i in ids]):>9}")
+    cells = []
+    for hook, hook_name in ((0, "motor arm"), (1, "IMU arm")):
+        negated = [replace(ms, theta1=-ms.theta1, theta1_rate=-ms.theta1_rate)
+                   for ms in train if ms.flipped == hook]
+        cells.append(f"{hook_name} " + _span([
+            inverse_dynamics(base, ms, differentiator="local_quadratic",
+                             half_width=HALF_WIDTHS[1]).pivot_rms for ms in negated]))
+    print(f"  the sign of theta1 reversed (local quadratic +-{1e3 * HALF_WIDTHS[1]:.0f} ms), "
+          f"pivot RMS [N m]: " + ", ".join(cells))
+    print("  the model's own swing (published damping, the measured torque and start), "
+          "BF_pd_5x motor-arm swings: pivot row + published pivot friction, RMS [N m] "
+          "(what the differentiator adds)")
+    # the flipped row's replays of a whole swing run away (the elbow spins), so the motor
+    # arm's swings, whose replays stay near the logged ones, calibrate the differentiators
+    sources = [ms for ms in model_swings(logs["BF_pd_5x"]) if ms.flipped == 0]
+    for noisy in (False, True):
+        own = [simulated_swing(published, ms,
+                               rate_noise_std=rate_noise(ms) if noisy else (0.0, 0.0))
+               for ms in sources]
+        cells = []
+        for diff, hw, label in methods:
+            out = []
+            for sw in own:
+                i = inverse_dynamics(published, sw, differentiator=diff, half_width=hw)
+                f = i.pivot + PUBLISHED_PIVOT.viscous * i.rates[:, 0]
+                out.append(float(np.sqrt(np.mean(f * f))))
+            cells.append(f"{label} {_span(out)}")
+        print(f"    {'rates with the measured noise' if noisy else 'noiseless':<30} "
+              + "; ".join(cells))
     return 0
 
 

@@ -493,3 +493,256 @@ def identify(base: Robot, swings_: Sequence[ModelSwing], *, names: Sequence[str]
                           covariance=cov, model=ModelValues.from_vector(names, x, fixed),
                           rms=float(np.sqrt(np.mean(r * r))), windows=len(wins),
                           residuals=int(r.size), swings=int(G), nfev=int(fit.nfev))
+
+
+# --- checks of the frame and the signals (tools/acromonk_replay.py --checks) ------------------
+#: the last seconds of a catch that count as both hooks resting on their bars [s]
+CATCH_REST = 0.05
+
+
+@dataclass(frozen=True)
+class ChainClosure:
+    """Where the model puts the free end at the close of a log's first catch (both hooks on
+    bars at one height): ``free_end`` (x along the ladder, y up) [m] from the holding hook,
+    with the logged shoulder as ``theta1``; ``free_end_urdf`` with the URDF's hook-frame
+    offset (``urdf_offset`` [rad]) added to it."""
+
+    free_end: tuple[float, float]
+    free_end_urdf: tuple[float, float]
+    urdf_offset: float
+
+
+def _free_end(robot: Robot, theta1: float, theta2: float, flipped: int) -> tuple[float, float]:
+    from ..simulation import physical_points
+
+    s = np.zeros(8)
+    s[L.TH1], s[L.TH2] = theta1, theta2
+    pts = physical_points(robot.params(), s[None], np.array([float(flipped)]))
+    x, y = pts["B" if flipped == 0 else "A"][0]
+    return float(x), float(y)
+
+
+def chain_closure(robot: Robot, log: HardwareLog, urdf: Path | str = ACROMONK_URDF
+                  ) -> ChainClosure:
+    """The model's free end over the last :data:`CATCH_REST` seconds of a flagged log's first
+    catch, in the frame of the swing that catch closes (mean logged shoulder and elbow there).
+
+    The shoulder is still that swing's ``q1`` during its catch (docs/acromonk.md, "Roles and
+    signs"); a free end at the bar's height says the logged shoulder is the angle the model's
+    ``theta1`` is (the line hook-to-elbow), and one well off it says it is not.
+    """
+    from ..measured import CATCH, swings_by_flag
+    from ..urdf import reduce_urdf
+
+    first = swings_by_flag(log)[0]
+    stop = first.stop
+    while stop < len(log) and log.phase[stop] == CATCH:
+        stop += 1
+    rows = np.arange(first.stop, stop)
+    rows = rows[log.time[rows] >= log.time[stop - 1] - CATCH_REST]
+    ms = model_swing(log, first)
+    s = 1 if ms.flipped == 0 else -1
+    th1 = float(np.mean(log.shoulder_angle[rows]))
+    th2 = float(np.mean(s * log.elbow_angle[rows]))
+    offset = reduce_urdf(urdf, links=ACROMONK_LINKS, joints=ACROMONK_JOINTS,
+                         far_grip=ACROMONK_FAR_GRIP).angles.theta1_offset
+    return ChainClosure(_free_end(robot, th1, th2, ms.flipped),
+                        _free_end(robot, th1 + offset, th2, ms.flipped), float(offset))
+
+
+def torque_sign_errors(robot: Robot, ms: ModelSwing, horizon: float = 0.1,
+                       every: float = 0.1) -> tuple[float, float]:
+    """The elbow's RMS replay error [rad] at ``horizon`` [s] over starts every ``every`` [s]
+    of a swing, with the measured torque as logged and with its sign reversed."""
+    reversed_ = replace(ms, torque=-ms.torque)
+    return tuple(float(horizon_errors(robot, [m], horizons=(horizon,), every=every)
+                       .rms(horizon)[1]) for m in (ms, reversed_))
+
+
+@dataclass(frozen=True)
+class RateAgreement:
+    """A swing's logged rates against its logged angles, per joint [theta1, theta2]:
+    ``integrated`` the largest |angle - (first angle + trapezoidal integral of the rate)|
+    [rad]; ``quotient`` the RMS of each interval's difference quotient of the angle less the
+    mean of the rates at its ends [rad s-1]."""
+
+    integrated: np.ndarray
+    quotient: np.ndarray
+
+
+def _distinct_times(ms: ModelSwing) -> np.ndarray:
+    """The rows of a swing without a repeated time stamp (the first of each kept)."""
+    return np.flatnonzero(np.r_[True, np.diff(ms.time) > 0])
+
+
+def rate_agreement(ms: ModelSwing) -> RateAgreement:
+    """How the logged rates (the IMU's gyro, the servo's velocity) follow the logged angles
+    (the IMU's fused estimate, the elbow encoder) over a swing (:class:`RateAgreement`)."""
+    k = _distinct_times(ms)
+    t = ms.time[k]
+    th = ms.angles[k]
+    w = np.column_stack([ms.theta1_rate, ms.theta2_rate])[k]
+    dt = np.diff(t)[:, None]
+    integral = th[0] + np.vstack([np.zeros((1, 2)),
+                                  np.cumsum(0.5 * (w[1:] + w[:-1]) * dt, axis=0)])
+    quotient = np.diff(th, axis=0) / dt - 0.5 * (w[1:] + w[:-1])
+    return RateAgreement(np.max(np.abs(integral - th), axis=0),
+                         np.sqrt(np.mean(quotient * quotient, axis=0)))
+
+
+def local_quadratic(t: np.ndarray, y: np.ndarray, half_width: float
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """A smoothing differentiator for unevenly sampled data: at each sample, the least-squares
+    quadratic in time through the samples within ``half_width`` [s] of it (a Savitzky-Golay
+    filter on the actual sample times); returns its value and its slope there.
+
+    Parameters
+    ----------
+    t : ndarray
+        Sample times [s], increasing.
+    y : ndarray
+        The samples.
+    half_width : float
+        Half the window [s]; a window with fewer than 3 samples is an error.
+    """
+    t = np.asarray(t, float)
+    y = np.asarray(y, float)
+    lo = np.searchsorted(t, t - half_width * (1 + 1e-12), side="left")
+    hi = np.searchsorted(t, t + half_width * (1 + 1e-12), side="right")
+    if np.any(hi - lo < 3):
+        raise ValueError(f"a window of +-{half_width} s holds fewer than 3 samples")
+    value = np.empty(t.size)
+    slope = np.empty(t.size)
+    for k in range(t.size):
+        d = t[lo[k]:hi[k]] - t[k]
+        A = np.column_stack([np.ones_like(d), d, d * d])
+        c = np.linalg.lstsq(A, y[lo[k]:hi[k]], rcond=None)[0]
+        value[k], slope[k] = c[0], c[1]
+    return value, slope
+
+
+#: how :func:`inverse_dynamics` differentiates the logged rates
+DIFFERENTIATORS = ("difference", "local_quadratic")
+
+
+@dataclass(frozen=True)
+class InverseDynamics:
+    """A swing's inverse dynamics: at each scored sample, ``M q'' + C q' + G`` of the pivot
+    row (``pivot``; what friction at the hook alone must balance on a frictionless pin) and of
+    the elbow row (``elbow``; the measured torque less the elbow's friction) [N m], the
+    measured torque on ``theta2`` (``torque``) [N m], gravity's torque in the pivot row
+    (``gravity``) [N m], the sample times (``time``) [s] and the rates used (``rates``,
+    (n, 2) [rad s-1])."""
+
+    time: np.ndarray
+    rates: np.ndarray
+    pivot: np.ndarray
+    elbow: np.ndarray
+    torque: np.ndarray
+    gravity: np.ndarray
+
+    @property
+    def pivot_rms(self) -> float:
+        """RMS of the pivot row [N m]."""
+        return float(np.sqrt(np.mean(self.pivot ** 2)))
+
+    @property
+    def gravity_rms(self) -> float:
+        """RMS of gravity's torque in the pivot row [N m]."""
+        return float(np.sqrt(np.mean(self.gravity ** 2)))
+
+    @property
+    def elbow_rms(self) -> float:
+        """RMS of the elbow row less the measured torque [N m]."""
+        return float(np.sqrt(np.mean((self.elbow - self.torque) ** 2)))
+
+    @property
+    def torque_factor(self) -> float:
+        """The least-squares factor k of ``elbow = k torque`` [1]."""
+        return float(self.elbow @ self.torque / (self.torque @ self.torque))
+
+
+def inverse_dynamics(robot: Robot, ms: ModelSwing, *, differentiator: str = "difference",
+                     half_width: float = 0.02, flipped: int | None = None) -> InverseDynamics:
+    """The rows of ``M q'' + C q' + G`` (docs/model.md section 2, no friction) along a
+    measured swing, the accelerations from its logged rates.
+
+    Parameters
+    ----------
+    robot : Robot
+        The model (its friction is not used).
+    ms : ModelSwing
+        The swing.
+    differentiator : str
+        ``difference``: central difference quotients of the logged rates on the actual
+        sample times (``numpy.gradient``), the rates as logged; ``local_quadratic``: the
+        slope of :func:`local_quadratic` over ``half_width``, the rates its values.
+    half_width : float
+        Both differentiators are scored only on the samples at least this far [s] from the
+        swing's ends (where the local fit is whole; the release and the catch are left out
+        alike), so the two are compared on the same samples.
+    flipped : int, optional
+        The parameter row (default: the swing's own); the other row tests the roles.
+    """
+    from ..kernel.dynamics import swing_matrices
+
+    if differentiator not in DIFFERENTIATORS:
+        raise ValueError(f"differentiator must be one of {DIFFERENTIATORS}, "
+                         f"got {differentiator!r}")
+    k = _distinct_times(ms)
+    t = ms.time[k]
+    th = ms.angles[k]
+    w = np.column_stack([ms.theta1_rate, ms.theta2_rate])[k]
+    if differentiator == "difference":
+        a = np.gradient(w, t, axis=0)
+    else:
+        fits = [local_quadratic(t, w[:, j], half_width) for j in (0, 1)]
+        w = np.column_stack([f[0] for f in fits])
+        a = np.column_stack([f[1] for f in fits])
+    p = robot.params()[ms.flipped if flipped is None else int(flipped)]
+    inside = np.flatnonzero((t >= t[0] + half_width) & (t <= t[-1] - half_width))
+    rows = np.empty((inside.size, 2))
+    gravity = np.empty(inside.size)
+    for i, r in enumerate(inside):
+        M, bias = swing_matrices(p, th[r, 0], th[r, 1], w[r, 0], w[r, 1])
+        rows[i] = M @ a[r] + bias
+        gravity[i] = swing_matrices(p, th[r, 0], th[r, 1], 0.0, 0.0)[1][0]
+    return InverseDynamics(time=t[inside], rates=w[inside], pivot=rows[:, 0], elbow=rows[:, 1],
+                           torque=ms.torque[k][inside], gravity=gravity)
+
+
+def rest_shoulder(robot: Robot, flipped: int = 0) -> float:
+    """The model's ``theta1`` [rad] at rest with the elbow at 0 (``theta2 = 0``): where
+    gravity's torque on the pivot vanishes, nearest the downward vertical."""
+    from ..kernel.dynamics import swing_matrices
+    from scipy.optimize import brentq
+
+    p = robot.params()[int(flipped)]
+    return float(brentq(lambda th1: swing_matrices(p, th1, 0.0, 0.0, 0.0)[1][0], -0.5, 0.5,
+                        xtol=1e-14))
+
+
+def rate_noise(ms: ModelSwing, half_width: float = 0.025) -> np.ndarray:
+    """The std [rad s-1] of each logged rate [theta1, theta2] about its
+    :func:`local_quadratic` fit over ``half_width`` [s]: the rates' noise (with what of the
+    motion a quadratic over the window misses)."""
+    k = _distinct_times(ms)
+    t = ms.time[k]
+    return np.array([float(np.std(w[k] - local_quadratic(t, w[k], half_width)[0]))
+                     for w in (ms.theta1_rate, ms.theta2_rate)])
+
+
+def simulated_swing(robot: Robot, ms: ModelSwing, *, rate_noise_std=(0.0, 0.0),
+                    seed: int = 0) -> ModelSwing:
+    """The model's own swing: one replay of ``ms`` from its first sample with its measured
+    torque, sampled at its (distinct) times, with Gaussian noise of ``rate_noise_std``
+    [rad s-1] per joint added to the rates (``numpy.random.default_rng(seed)``). Its inverse
+    dynamics in ``robot`` are its friction exactly, so what else they show is the
+    differentiator's error."""
+    rep = replay(robot, ms, 0, ms.duration + 1.0)
+    k = _distinct_times(ms)
+    th = np.vstack([ms.angles[:1], rep.simulated])
+    w = np.vstack([[ms.theta1_rate[0], ms.theta2_rate[0]], rep.simulated_rates])
+    w = w + np.random.default_rng(seed).normal(size=w.shape) * np.asarray(rate_noise_std)
+    return ModelSwing(ms.time[k], th[:, 0], th[:, 1], w[:, 0], w[:, 1], ms.torque[k],
+                      ms.flipped, ms.name + " simulated")
