@@ -161,8 +161,9 @@ def checks() -> int:
           "swings")
     print(f"  rate noise (std about a +-{HALF_WIDTHS[1]} s quadratic): shoulder "
           f"{_span(noise[:, 0])} rad/s, elbow {_span(noise[:, 1])} rad/s")
-    print("  pivot: RMS of M q'' + C q' + G, pivot row [N m]; elbow: RMS of the elbow row less "
-          "the measured torque [N m]; k: elbow row = k torque")
+    print("  M q'' + C q' + G + the published friction: pivot: RMS of the pivot row [N m]; "
+          "elbow: RMS of the elbow row less the measured torque [N m]; k: elbow row = "
+          "k torque; gravity: RMS of gravity's torque in the pivot row [N m]")
     print(f"  {'differentiator':<24} {'hook holding':<22} {'roles':<8} {'pivot':>9} "
           f"{'elbow':>9} {'k':>9} {'gravity':>9}")
     methods = [("difference", HALF_WIDTHS[1], "difference quotient")] + \
@@ -170,7 +171,7 @@ def checks() -> int:
     for diff, hw, label in methods:
         for hook, hook_name in ((0, "motor arm (row 0)"), (1, "IMU arm (row 1)")):
             for roles in ("logged", "swapped"):
-                ids = [inverse_dynamics(base, ms, differentiator=diff, half_width=hw,
+                ids = [inverse_dynamics(published, ms, differentiator=diff, half_width=hw,
                                         flipped=hook if roles == "logged" else 1 - hook)
                        for ms in train if ms.flipped == hook]
                 print(f"  {label:<24} {hook_name:<22} {roles:<8} "
@@ -183,13 +184,13 @@ def checks() -> int:
         negated = [replace(ms, theta1=-ms.theta1, theta1_rate=-ms.theta1_rate)
                    for ms in train if ms.flipped == hook]
         cells.append(f"{hook_name} " + _span([
-            inverse_dynamics(base, ms, differentiator="local_quadratic",
+            inverse_dynamics(published, ms, differentiator="local_quadratic",
                              half_width=HALF_WIDTHS[1]).pivot_rms for ms in negated]))
     print(f"  the sign of theta1 reversed (local quadratic +-{1e3 * HALF_WIDTHS[1]:.0f} ms), "
           f"pivot RMS [N m]: " + ", ".join(cells))
     print("  the model's own swing (published damping, the measured torque and start), "
-          "BF_pd_5x motor-arm swings: pivot row + published pivot friction, RMS [N m] "
-          "(what the differentiator adds)")
+          "BF_pd_5x motor-arm swings, as above (what the differentiator and the rates' noise "
+          "make of a swing the model fits exactly)")
     # the flipped row's replays of a whole swing run away (the elbow spins), so the motor
     # arm's swings, whose replays stay near the logged ones, calibrate the differentiators
     sources = [ms for ms in model_swings(logs["BF_pd_5x"]) if ms.flipped == 0]
@@ -197,16 +198,15 @@ def checks() -> int:
         own = [simulated_swing(published, ms,
                                rate_noise_std=rate_noise(ms) if noisy else (0.0, 0.0))
                for ms in sources]
-        cells = []
         for diff, hw, label in methods:
-            out = []
-            for sw in own:
-                i = inverse_dynamics(published, sw, differentiator=diff, half_width=hw)
-                f = i.pivot + PUBLISHED_PIVOT.viscous * i.rates[:, 0]
-                out.append(float(np.sqrt(np.mean(f * f))))
-            cells.append(f"{label} {_span(out)}")
-        print(f"    {'rates with the measured noise' if noisy else 'noiseless':<30} "
-              + "; ".join(cells))
+            for roles in ("logged", "swapped"):
+                ids = [inverse_dynamics(published, sw, differentiator=diff, half_width=hw,
+                                        flipped=0 if roles == "logged" else 1) for sw in own]
+                print(f"  {label:<24} {'noisy rates' if noisy else 'noiseless':<22} "
+                      f"{roles:<8} {_span([i.pivot_rms for i in ids]):>9} "
+                      f"{_span([i.elbow_rms for i in ids]):>9} "
+                      f"{_span([i.torque_factor for i in ids]):>9} "
+                      f"{_span([i.gravity_rms for i in ids]):>9}")
     return 0
 
 

@@ -5,9 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from dataclasses import replace
+
 from monkeystudy.analysis.measured_replay import (
-    ModelSwing, ModelValues, acromonk_robot, held_torque, horizon_errors, identify,
-    model_swings, replay, start_rows,
+    PUBLISHED_JOINT, PUBLISHED_PIVOT, ModelSwing, ModelValues, acromonk_robot, chain_closure,
+    held_torque, horizon_errors, identify, inverse_dynamics, local_quadratic, model_swings,
+    rate_agreement, rate_noise, replay, rest_shoulder, simulated_swing, start_rows,
+    torque_sign_errors,
 )
 from monkeystudy.measured import CATCH, SHIPPED_LOGS, read_log, swings_by_flag
 from monkeystudy.robot import Friction
@@ -57,6 +61,26 @@ def test_the_first_catch_closes_the_chain_on_the_next_bar(robot, name):
     assert 0.33 < x < 0.37
     _, y_urdf = _free_end(robot, th1 - 0.0636, th2, ms.flipped)
     assert abs(y_urdf) > 0.015
+
+
+@pytest.mark.parametrize("name", ["BF_pd_5x", "BF_tvlqr_5x"])
+def test_chain_closure_puts_the_free_end_on_the_next_bar(robot, name):
+    # the same check through chain_closure (tools/acromonk_replay.py --checks): bars 0.34 m
+    # apart at one height; the URDF's hook-frame offset moves the free end off the bar
+    c = chain_closure(robot, read_log(SHIPPED_LOGS / f"{name}.csv.gz"))
+    assert abs(c.free_end[1]) < 0.004 and 0.33 < c.free_end[0] < 0.37
+    assert c.urdf_offset == pytest.approx(-0.0636, abs=1e-4)
+    assert abs(c.free_end_urdf[1]) > 0.015
+
+
+def test_torque_sign_errors_favour_the_logged_sign(robot, pd_swings):
+    right, wrong = torque_sign_errors(robot.with_friction(PUBLISHED_PIVOT, PUBLISHED_JOINT),
+                                      pd_swings[0])
+    assert wrong > 2.5 * right
+    # the two are the same replays with the torque's sign swapped
+    flipped = replace(pd_swings[0], torque=-pd_swings[0].torque)
+    assert torque_sign_errors(robot.with_friction(PUBLISHED_PIVOT, PUBLISHED_JOINT),
+                              flipped) == (wrong, right)
 
 
 def test_the_elbow_torque_drives_theta2_with_its_logged_sign(robot, pd_swings):
@@ -141,3 +165,94 @@ def test_identification_recovers_the_friction_of_a_simulated_swing(pd_swings):
     want = np.array([0.03, 0.02, 0.05, 0.04])
     assert np.allclose(fit.values, want, atol=2e-3), fit.table()
     assert fit.rms < 1e-4
+
+
+# --- the checks of the signals ----------------------------------------------------------------
+def _sine_swing(rate_factor=1.0, seed=3) -> ModelSwing:
+    """theta = (sin 3t, cos 2t) at uneven times 3-15 ms apart, the rates exact times a
+    factor."""
+    rng = np.random.default_rng(seed)
+    t = np.r_[0.0, np.cumsum(rng.uniform(0.003, 0.015, 200))]
+    return ModelSwing(t, np.sin(3 * t), np.cos(2 * t), rate_factor * 3 * np.cos(3 * t),
+                      rate_factor * -2 * np.sin(2 * t), np.zeros_like(t), 0, "sine")
+
+
+def test_rate_agreement_measures_rates_against_angles():
+    good = rate_agreement(_sine_swing())
+    assert np.all(good.integrated < 1e-3) and np.all(good.quotient < 0.01)
+    bad = rate_agreement(_sine_swing(rate_factor=1.1))   # rates 10 % too large
+    assert np.all(bad.integrated > 0.05) and np.all(bad.quotient > 0.1)
+
+
+def test_local_quadratic_is_exact_on_a_quadratic_and_smooths_noise():
+    rng = np.random.default_rng(4)
+    t = np.r_[0.0, np.cumsum(rng.uniform(0.003, 0.015, 300))]
+    y = 2.0 - 3.0 * t + 5.0 * t * t
+    value, slope = local_quadratic(t, y, 0.025)
+    assert np.allclose(value, y, atol=1e-10) and np.allclose(slope, -3.0 + 10.0 * t, atol=1e-8)
+    noisy = y + 0.1 * rng.normal(size=t.size)
+    _, smooth = local_quadratic(t, noisy, 0.025)
+    raw = np.gradient(noisy, t)
+    truth = -3.0 + 10.0 * t
+    assert np.std(smooth - truth) < 0.3 * np.std(raw - truth)
+    with pytest.raises(ValueError, match="fewer than 3 samples"):
+        local_quadratic(t, y, 0.001)
+
+
+def test_inverse_dynamics_of_the_models_own_swing_is_its_friction(robot, pd_swings):
+    # the model's own swing (published damping): its pivot row is -b1 w1 and its elbow row
+    # the torque less b2 w2, to the differentiator's error; the other parameter row is not
+    published = robot.with_friction(PUBLISHED_PIVOT, PUBLISHED_JOINT)
+    own = simulated_swing(published, pd_swings[0])
+    i = inverse_dynamics(published, own, differentiator="difference", half_width=0.025)
+    assert i.pivot_rms < 0.01
+    # the elbow's quotient straddles the held torque's steps (at the midpoints between
+    # samples; up to ~0.3 N m each): a few 0.01 N m, against 0.26-0.51 N m on the logs
+    assert i.elbow_rms < 0.1 and i.torque_factor == pytest.approx(1.0, abs=0.05)
+    # without the friction the rows are the friction torques
+    bare = inverse_dynamics(robot, own, differentiator="difference", half_width=0.025)
+    assert np.allclose(bare.pivot + PUBLISHED_PIVOT.viscous * bare.rates[:, 0], i.pivot)
+    q = inverse_dynamics(published, own, differentiator="local_quadratic", half_width=0.025)
+    assert q.pivot_rms < 0.03
+    assert np.array_equal(q.time, i.time)          # both scored on the same samples
+    swapped = inverse_dynamics(published, own, differentiator="difference", half_width=0.025,
+                               flipped=1)
+    assert swapped.pivot_rms > 10 * i.pivot_rms and swapped.elbow_rms > 3 * i.elbow_rms
+
+
+def test_rate_noise_finds_added_noise_and_smoothing_removes_its_torque(robot, pd_swings):
+    published = robot.with_friction(PUBLISHED_PIVOT, PUBLISHED_JOINT)
+    clean = simulated_swing(published, pd_swings[0])
+    noisy = simulated_swing(published, pd_swings[0], rate_noise_std=(0.1, 0.1), seed=5)
+    assert np.all(rate_noise(clean) < 0.03)
+    assert np.allclose(rate_noise(noisy), 0.1, rtol=0.25)
+    raw = inverse_dynamics(published, noisy, differentiator="difference", half_width=0.025)
+    smooth = inverse_dynamics(published, noisy, differentiator="local_quadratic",
+                              half_width=0.025)
+    assert raw.pivot_rms > 1.0 > 3 * smooth.pivot_rms
+
+
+def test_the_logged_shoulder_sign_fits_the_pivot_row_on_both_hooks(robot, pd_swings):
+    # theta1 with its sign reversed: the pivot row's residual grows several times on the
+    # swings from either hook (a sign error on one hook would show on its swings only)
+    for ms in pd_swings[:2]:
+        neg = replace(ms, theta1=-ms.theta1, theta1_rate=-ms.theta1_rate)
+        kw = dict(differentiator="local_quadratic", half_width=0.025)
+        assert inverse_dynamics(robot, neg, **kw).pivot_rms > \
+            2.5 * inverse_dynamics(robot, ms, **kw).pivot_rms
+
+
+@pytest.mark.parametrize("row", [0, 1])
+def test_rest_shoulder_puts_the_cg_under_the_pivot(robot, row):
+    # with the elbow held at 0 the robot is one rigid body: at rest its CG hangs straight
+    # below the pivot (the frame's origin), and 0.01 rad away it does not
+    def cg_x(th1):
+        s = np.zeros(8)
+        s[2] = th1
+        pts = physical_points(robot.params(), s[None], np.array([float(row)]))
+        m1, m2 = robot.link1.mass, robot.link2.mass
+        return float((m1 * pts["cg1"][0, 0] + m2 * pts["cg2"][0, 0]) / (m1 + m2))
+
+    th1 = rest_shoulder(robot, row)
+    assert abs(cg_x(th1)) < 1e-12
+    assert abs(cg_x(th1 + 0.01)) > 1e-3

@@ -23,8 +23,15 @@ midway to the next (a centred zero-order hold, ``hold="centred"``): it has no ha
 delay. ``hold="plain"`` holds it from its own sample to the next.
 
 **The start.** A replay starts from the logged angles and the logged rates (the IMU's gyro and
-the servo's velocity): integrated, they follow the logged angles to 0.02-0.03 rad over a swing,
-while a difference of the IMU's fused angle departs from the gyro by 0.4 rad/s RMS.
+the servo's velocity): integrated, they follow the logged angles to 0.01-0.04 rad over a
+swing, while a difference quotient of the IMU's fused angle departs from the gyro by
+0.24-0.78 rad/s RMS (:func:`rate_agreement`).
+
+**The checks** (``python tools/acromonk_replay.py --checks``): :func:`chain_closure`,
+:func:`torque_sign_errors`, :func:`rate_agreement`, :func:`rest_shoulder` and the inverse
+dynamics of the measured swings (:func:`inverse_dynamics`, with the accelerations from a
+difference quotient or from :func:`local_quadratic`; :func:`rate_noise` and
+:func:`simulated_swing` calibrate what the rates' noise makes of them).
 """
 from __future__ import annotations
 
@@ -627,9 +634,9 @@ DIFFERENTIATORS = ("difference", "local_quadratic")
 
 @dataclass(frozen=True)
 class InverseDynamics:
-    """A swing's inverse dynamics: at each scored sample, ``M q'' + C q' + G`` of the pivot
-    row (``pivot``; what friction at the hook alone must balance on a frictionless pin) and of
-    the elbow row (``elbow``; the measured torque less the elbow's friction) [N m], the
+    """A swing's inverse dynamics: at each scored sample, ``M q'' + C q' + G`` plus the
+    model's friction torque, of the pivot row (``pivot``; zero for the model on a pin) and of
+    the elbow row (``elbow``; the torque the model needs at the elbow) [N m], the
     measured torque on ``theta2`` (``torque``) [N m], gravity's torque in the pivot row
     (``gravity``) [N m], the sample times (``time``) [s] and the rates used (``rates``,
     (n, 2) [rad s-1])."""
@@ -664,13 +671,15 @@ class InverseDynamics:
 
 def inverse_dynamics(robot: Robot, ms: ModelSwing, *, differentiator: str = "difference",
                      half_width: float = 0.02, flipped: int | None = None) -> InverseDynamics:
-    """The rows of ``M q'' + C q' + G`` (docs/model.md section 2, no friction) along a
-    measured swing, the accelerations from its logged rates.
+    """The rows of ``M q'' + C q' + G`` plus the robot's friction torque (``b w + c sgn w``
+    per joint; docs/model.md section 2) along a measured swing, the accelerations from its
+    logged rates: the pivot row is what the model leaves unbalanced, the elbow row the torque
+    it needs.
 
     Parameters
     ----------
     robot : Robot
-        The model (its friction is not used).
+        The model, with its friction.
     ms : ModelSwing
         The swing.
     differentiator : str
@@ -707,6 +716,8 @@ def inverse_dynamics(robot: Robot, ms: ModelSwing, *, differentiator: str = "dif
         M, bias = swing_matrices(p, th[r, 0], th[r, 1], w[r, 0], w[r, 1])
         rows[i] = M @ a[r] + bias
         gravity[i] = swing_matrices(p, th[r, 0], th[r, 1], 0.0, 0.0)[1][0]
+    for j, f in enumerate((robot.pivot_friction, robot.joint_friction)):
+        rows[:, j] += f.viscous * w[inside, j] + f.coulomb * np.sign(w[inside, j])
     return InverseDynamics(time=t[inside], rates=w[inside], pivot=rows[:, 0], elbow=rows[:, 1],
                            torque=ms.torque[k][inside], gravity=gravity)
 
