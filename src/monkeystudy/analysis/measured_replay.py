@@ -44,9 +44,11 @@ import numpy as np
 
 from ..controllers import Integrator, PhaseSequence, Segment
 from ..kernel import layout as L
-from ..measured import MOTOR_ARM, HardwareLog, Swing, swing_state, swings
+from ..kernel.dynamics import swing_matrices
+from ..measured import CATCH, MOTOR_ARM, HardwareLog, Swing, swing_state, swings, swings_by_flag
 from ..robot import Friction, Robot
-from ..simulation import Status, initial_state, run_controller
+from ..simulation import Status, initial_state, physical_points, run_controller
+from ..urdf import reduce_urdf
 
 #: AcroMonk's URDF in a source checkout (data/acromonk/model)
 ACROMONK_URDF = Path(__file__).resolve().parents[3] / "data" / "acromonk" / "model" / \
@@ -520,8 +522,6 @@ class ChainClosure:
 
 
 def _free_end(robot: Robot, theta1: float, theta2: float, flipped: int) -> tuple[float, float]:
-    from ..simulation import physical_points
-
     s = np.zeros(8)
     s[L.TH1], s[L.TH2] = theta1, theta2
     pts = physical_points(robot.params(), s[None], np.array([float(flipped)]))
@@ -538,9 +538,6 @@ def chain_closure(robot: Robot, log: HardwareLog, urdf: Path | str = ACROMONK_UR
     signs"); a free end at the bar's height says the logged shoulder is the angle the model's
     ``theta1`` is (the line hook-to-elbow), and one well off it says it is not.
     """
-    from ..measured import CATCH, swings_by_flag
-    from ..urdf import reduce_urdf
-
     first = swings_by_flag(log)[0]
     stop = first.stop
     while stop < len(log) and log.phase[stop] == CATCH:
@@ -693,8 +690,6 @@ def inverse_dynamics(robot: Robot, ms: ModelSwing, *, differentiator: str = "dif
     flipped : int, optional
         The parameter row (default: the swing's own); the other row tests the roles.
     """
-    from ..kernel.dynamics import swing_matrices
-
     if differentiator not in DIFFERENTIATORS:
         raise ValueError(f"differentiator must be one of {DIFFERENTIATORS}, "
                          f"got {differentiator!r}")
@@ -725,7 +720,7 @@ def inverse_dynamics(robot: Robot, ms: ModelSwing, *, differentiator: str = "dif
 def rest_shoulder(robot: Robot, flipped: int = 0) -> float:
     """The model's ``theta1`` [rad] at rest with the elbow at 0 (``theta2 = 0``): where
     gravity's torque on the pivot vanishes, nearest the downward vertical."""
-    from ..kernel.dynamics import swing_matrices
+    # scipy only where a check runs: importing the replay stays light
     from scipy.optimize import brentq
 
     p = robot.params()[int(flipped)]
