@@ -247,13 +247,13 @@ def plan(study_dir: Path, *, animation: bool = True, fps: float = 15.0,
                           if how.applies(p, folder)]
                 if len(groups) > 1:
                     jobs.append(Job(figure_name(fig, "", kind.name), [p for g in groups for p in g],
-                                    key, fig.title, sizes=tuple(len(g) for g in groups)))
+                                    key, how.title, sizes=tuple(len(g) for g in groups)))
                 continue
             for p in paths:
                 if how.applies(p, folder):
                     jobs.append(Job(figure_name(fig, p.stem, kind.name),
                                     [p] + how.extra_inputs(p, folder), key,
-                                    f"{p.stem}: {fig.title}", animation=how.animation))
+                                    f"{p.stem}: {how.title}", animation=how.animation))
     clashes = name_clashes(jobs)
     if clashes:
         raise FigureNameClash(f"{study_dir}: " + "; ".join(clashes) + " (a figure is named "
@@ -642,7 +642,8 @@ def _write_page(study_dir: Path, files: list[Path], manifest: dict,
     figures = {name: e.get("outputs", []) for name, e in manifest["figures"].items()
                if "skipped" not in e}
     skipped = {name: e["skipped"] for name, e in manifest["figures"].items() if "skipped" in e}
-    text = render_page(study_dir, datasets, figures, skipped, step_failures)
+    text = render_page(study_dir, datasets, figures, skipped, step_failures,
+                       drawings=DRAWINGS)
     path = study_dir / FIGURES_DIR / PAGE
     if path.exists() and path.read_text() == text:
         return None

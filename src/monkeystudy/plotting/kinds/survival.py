@@ -400,10 +400,33 @@ def plot_height_drift(ds):
 
 #: how the survival step's figures are drawn
 DRAWINGS = {
-    ("survival", "survival"): Drawing(lambda d: plot_survival(d[0])),
-    ("survival", "mfpt"): Drawing(lambda d: plot_mfpt(d[0])),
-    ("survival", "failure_modes"): Drawing(lambda d: plot_failure_modes(d[0])),
-    ("survival", "height_drift"): Drawing(lambda d: plot_height_drift(d[0])),
-    ("survival", "mfpt_comparison"): Drawing(lambda groups: plot_mfpt_comparison(
-        [g[0] for g in groups]), across=True),
+    ("survival", "survival"): Drawing(
+        title="survival per cycle",
+        caption="The fraction of runs still going after each number of cycles, one line per noise "
+                "level: a curve that drops at a fixed cycle count is an unstable gait drifting "
+                "off; one that decays steadily over decades is metastable.",
+        draw=lambda d: plot_survival(d[0])),
+    ("survival", "mfpt"): Drawing(
+        title="mean first-passage time against noise",
+        caption="Mean cycles (and metres) before failure against the noise level, with 95 % "
+                "intervals; arrows are lower bounds (no failure to fit the tail on). The "
+                "Byl-Tedrake plot: a stable gait's MFPT grows steeply as the noise shrinks.",
+        draw=lambda d: plot_mfpt(d[0])),
+    ("survival", "failure_modes"): Drawing(
+        title="how the runs ended",
+        caption="For each noise level, the share of runs by the way they stopped: fell, no swap, "
+                "missed return, error bound, or survived all cycles.",
+        draw=lambda d: plot_failure_modes(d[0])),
+    ("survival", "height_drift"): Drawing(
+        title="height change of each run",
+        caption="How far each run that completed all its cycles ended above or below its start "
+                "height, a histogram per noise level, with the tolerance when the step sets one: "
+                "a gait whose height is neutral wanders off, one that senses its height stays "
+                "within millimetres.",
+        draw=lambda d: plot_height_drift(d[0])),
+    ("survival", "mfpt_comparison"): Drawing(
+        title="MFPT of every gait against noise",
+        caption="Every survival step of the study on one axis: which gait lasts longest at each "
+                "noise level.",
+        draw=lambda groups: plot_mfpt_comparison([g[0] for g in groups]), across=True),
 }

@@ -279,25 +279,11 @@ class SurvivalKind(StepKind):
     unit = "runs"
     block_units = True
     figures = (
-        Figure("survival", "survival per cycle",
-               "The fraction of runs still going after each number of cycles, one line per "
-               "noise level: a curve that drops at a fixed cycle count is an unstable gait "
-               "drifting off; one that decays steadily over decades is metastable."),
-        Figure("mfpt", "mean first-passage time against noise",
-               "Mean cycles (and metres) before failure against the noise level, with 95 % "
-               "intervals; arrows are lower bounds (no failure to fit the tail on). The "
-               "Byl-Tedrake plot: a stable gait's MFPT grows steeply as the noise shrinks."),
-        Figure("failure_modes", "how the runs ended",
-               "For each noise level, the share of runs by the way they stopped: fell, no "
-               "swap, missed return, error bound, or survived all cycles."),
-        Figure("height_drift", "height change of each run",
-               "How far each run that completed all its cycles ended above or below its "
-               "start height, a histogram per noise level, with the tolerance when the step "
-               "sets one: a gait whose height is neutral wanders off, one that senses its "
-               "height stays within millimetres."),
-        Figure("mfpt_comparison", "MFPT of every gait against noise",
-               "Every survival step of the study on one axis: which gait lasts longest at "
-               "each noise level.", across=True),
+        Figure("survival"),
+        Figure("mfpt"),
+        Figure("failure_modes"),
+        Figure("height_drift"),
+        Figure("mfpt_comparison", across=True),
     )
 
     def check_step(self, study, index, step: SurvivalStep, ref, seen) -> list:
