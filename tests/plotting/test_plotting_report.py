@@ -52,6 +52,41 @@ def assert_pdf(path: Path, sha: str):
     assert f"study_sha256={sha}".encode() in data        # Keywords / Subject of the info dict
 
 
+def test_the_report_table_lists_every_declared_figure():
+    """The figure table of plotting/report.py's docstring names each figure every step kind
+    declares (``<kind>_<suffix>``, or ``kind_suffix`` for a figure across steps), no more."""
+    from monkeystudy.plotting import report as R
+    from monkeystudy.study.steps import REGISTRY
+
+    table = re.search(r"^=+  =+  =+$(.*)^=+  =+  =+$", R.__doc__, re.M | re.S).group(1)
+    listed = set()
+    for name in re.findall(r"^``([^`]+)``", table, re.M):
+        step = re.fullmatch(r"<(\w+)>_(\w+)", name)
+        if step:
+            listed.add((*step.groups(), False))
+        else:
+            kind = next(k for k in REGISTRY if name.startswith(k + "_"))
+            listed.add((kind, name[len(kind) + 1:], True))
+    assert listed == {(name, f.suffix, f.across) for name, kind in REGISTRY.items()
+                      for f in kind.figures}
+
+
+def test_the_package_exports_the_plot_function_of_every_kind():
+    """Every ``plot_*`` function of a kind's plotting module is a name of
+    :mod:`monkeystudy.plotting`."""
+    import importlib
+    import inspect
+
+    import monkeystudy.plotting as plotting
+    from monkeystudy.study.steps import REGISTRY
+
+    for name in REGISTRY:
+        module = importlib.import_module(f"monkeystudy.plotting.kinds.{name}")
+        for fname, f in inspect.getmembers(module, inspect.isfunction):
+            if fname.startswith("plot_") and f.__module__ == module.__name__:
+                assert getattr(plotting, fname, None) is f, (name, fname)
+
+
 def test_report_writes_every_figure_with_provenance(reported_study):
     figs = reported_study / "figures"
     expected = {f"{n}.{e}" for n in STILLS for e in ("png", "pdf")}
