@@ -232,3 +232,25 @@ def test_runs_counted_one_by_one_are_the_same_runs():
     assert counted == [1] * 5
     for field in ("cycles", "failure", "distance", "time", "error", "nfev", "height"):
         assert np.array_equal(getattr(whole, field), getattr(one_by_one, field)), field
+
+
+def test_every_noise_source_is_a_field_of_noise_and_the_kernel_draws_its_slot():
+    """SOURCES is Noise's fields (distribution aside), in order; the sources the kernel draws
+    are exactly its noise vector's NZ_* slots, each set from its own field, and the others
+    are drawn per run (run_robot)."""
+    from dataclasses import fields
+
+    from monkeystudy.analysis.survival import SOURCES
+
+    assert [s.name for s in SOURCES] == [f.name for f in fields(Noise)
+                                         if f.name != "distribution"]
+    slots = {n[3:].lower() for n in dir(L) if n.startswith("NZ_") and n != "NZ_UNIFORM"}
+    assert {s.name for s in SOURCES if s.in_kernel} == slots
+    robot = Robot.preset("seed2009")
+    for s in SOURCES:
+        v = Noise(**{s.name: 0.25}).vector()
+        assert v.sum() == (0.25 if s.in_kernel else 0.0), s.name
+        if s.in_kernel:
+            assert v[getattr(L, f"NZ_{s.name.upper()}")] == 0.25
+        else:
+            assert run_robot(robot, Noise(**{s.name: 0.25}), 1, 0) != robot, s.name

@@ -7,6 +7,7 @@ import re
 import os
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -49,6 +50,41 @@ def assert_pdf(path: Path, sha: str):
     data = path.read_bytes()
     assert data[:5] == b"%PDF-" and b"%%EOF" in data[-64:]
     assert f"study_sha256={sha}".encode() in data        # Keywords / Subject of the info dict
+
+
+def test_the_report_table_lists_every_declared_figure():
+    """The figure table of plotting/report.py's docstring names each figure every step kind
+    declares (``<kind>_<suffix>``, or ``kind_suffix`` for a figure across steps), no more."""
+    from monkeystudy.plotting import report as R
+    from monkeystudy.study.steps import REGISTRY
+
+    table = re.search(r"^=+  =+  =+$(.*)^=+  =+  =+$", R.__doc__, re.M | re.S).group(1)
+    listed = set()
+    for name in re.findall(r"^``([^`]+)``", table, re.M):
+        step = re.fullmatch(r"<(\w+)>_(\w+)", name)
+        if step:
+            listed.add((*step.groups(), False))
+        else:
+            kind = next(k for k in REGISTRY if name.startswith(k + "_"))
+            listed.add((kind, name[len(kind) + 1:], True))
+    assert listed == {(name, f.suffix, f.across) for name, kind in REGISTRY.items()
+                      for f in kind.figures}
+
+
+def test_the_package_exports_the_plot_function_of_every_kind():
+    """Every ``plot_*`` function of a kind's plotting module is a name of
+    :mod:`monkeystudy.plotting`."""
+    import importlib
+    import inspect
+
+    import monkeystudy.plotting as plotting
+    from monkeystudy.study.steps import REGISTRY
+
+    for name in REGISTRY:
+        module = importlib.import_module(f"monkeystudy.plotting.kinds.{name}")
+        for fname, f in inspect.getmembers(module, inspect.isfunction):
+            if fname.startswith("plot_") and f.__module__ == module.__name__:
+                assert getattr(plotting, fname, None) is f, (name, fname)
 
 
 def test_report_writes_every_figure_with_provenance(reported_study):
@@ -356,7 +392,7 @@ def test_report_command_says_what_it_did(reported_copy, monkeypatch):
     def broken(d):
         raise RuntimeError("a broken figure")
     monkeypatch.setitem(R.DRAWINGS, ("grid", "surface"),
-                        R.Drawing(broken))
+                        replace(R.DRAWINGS[("grid", "surface")], draw=broken))
     res = runner.invoke(app, ["report", str(reported_copy), "--force", "--no-animation",
                               "--formats", "png"])
     assert res.exit_code == 1
@@ -367,8 +403,8 @@ def test_report_command_says_what_it_did(reported_copy, monkeypatch):
 def test_the_page_links_only_to_files_that_exist(reported_study):
     """Every ``href`` and ``src`` of figures/index.html resolves to a file of the study folder
     (figures beside the page, datasets one folder up) or to an anchor of the page; every
-    figure on disk is on the page, with its kind's caption."""
-    from monkeystudy.study.steps import REGISTRY
+    figure on disk is on the page, with its drawing's caption."""
+    from monkeystudy.plotting.report import DRAWINGS
 
     figs = reported_study / "figures"
     text = (figs / PAGE).read_text()
@@ -384,7 +420,7 @@ def test_the_page_links_only_to_files_that_exist(reported_study):
     assert {f"../{p.name}" for p in reported_study.glob("*.nc")} <= set(links)
     for p in figs.glob("*.png"):
         assert p.name in links, p.name
-    captions = [f.caption for k in REGISTRY.values() for f in k.figures]
+    captions = [how.caption for how in DRAWINGS.values()]
     assert sum(c in text.replace("&#x27;", "'") for c in captions) >= 5
 
 
@@ -399,7 +435,7 @@ def test_a_figure_with_nothing_to_show_is_skipped_with_its_reason(reported_copy,
         raise NothingToDraw("no swap time in this test")
     how = R.DRAWINGS[("grid", "swap_time")]
     monkeypatch.setitem(R.DRAWINGS, ("grid", "swap_time"),
-                        R.Drawing(nothing, extra_inputs=how.extra_inputs))
+                        replace(how, draw=nothing))
     figs = reported_copy / "figures"
     assert (figs / "error_map_swap_time.png").exists()
     lines: list[str] = []
@@ -470,7 +506,8 @@ def test_ctrl_c_stops_the_drawing_processes_and_their_files(study_dir, monkeypat
             tmp.write_bytes(b"partial")
             started.write_text(str(os.getpid()))
             time.sleep(600)
-    monkeypatch.setitem(R.DRAWINGS, ("refine", "convergence"), R.Drawing(slow))
+    monkeypatch.setitem(R.DRAWINGS, ("refine", "convergence"),
+                        replace(R.DRAWINGS[("refine", "convergence")], draw=slow))
 
     sent = []
 

@@ -39,6 +39,19 @@ steps:
 """
 
 
+def test_every_noise_source_has_a_label_and_units_a_figure_shows():
+    """The figures' noise sources are the declared ones, no more and no fewer, each shown in
+    units scaled from its own."""
+    from monkeystudy.analysis.survival import SOURCES as DECLARED
+    from monkeystudy.plotting.kinds.survival import LABELS, SHOWN_UNITS, SOURCES
+
+    assert set(LABELS) == {s.name for s in DECLARED}
+    assert set(SOURCES) == set(LABELS)
+    for s in DECLARED:
+        assert SOURCES[s.name][0] == f"noise_{s.name}"
+        assert SOURCES[s.name][2:] == SHOWN_UNITS[s.units]
+
+
 @pytest.fixture(scope="module")
 def every_source(tmp_path_factory) -> xr.Dataset:
     from monkeystudy.study import parse_study, run_study

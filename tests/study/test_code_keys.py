@@ -42,13 +42,32 @@ def _edit(copy: Path, module: str) -> None:
         fh.write("\n# an edit of this kind's code\n_EDITED = True\n")
 
 
-def test_editing_one_kind_leaves_the_other_kinds_datasets_current(tmp_path):
-    copy = tmp_path / "pkg"
+EVERYTHING = {"coarse_map", "gait1", "minima", "gait1_cycles", "minima_cycles"}
+
+
+@pytest.fixture(scope="module")
+def smoke_run(tmp_path_factory) -> tuple[Path, Path]:
+    """A copy of the package and the datasets of studies/smoke.yaml it made."""
+    base = tmp_path_factory.mktemp("smoke")
+    copy, out = base / "pkg", base / "out"
     shutil.copytree(PKG, copy / "monkeystudy", ignore=shutil.ignore_patterns("__pycache__"))
-    out = tmp_path / "out"
     res = _monkeystudy(copy, "run", SMOKE, "--out", out, "--workers", "1")
     assert res.returncode == 0, res.stderr
-    everything = {"coarse_map", "gait1", "minima", "gait1_cycles", "minima_cycles"}
+    return copy, out
+
+
+@pytest.fixture
+def smoke_copy(smoke_run, tmp_path) -> tuple[Path, Path]:
+    """A copy of :func:`smoke_run`'s package and datasets of this test's own to edit."""
+    copy, out = tmp_path / "pkg", tmp_path / "out"
+    shutil.copytree(smoke_run[0], copy, ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(smoke_run[1], out)
+    return copy, out
+
+
+def test_editing_one_kind_leaves_the_other_kinds_datasets_current(smoke_copy):
+    copy, out = smoke_copy
+    everything = EVERYTHING
     assert _plan(copy, out) == dict.fromkeys(everything, "up to date")
 
     _edit(copy, "study/steps/design.py")          # a kind smoke.yaml does not use
@@ -58,6 +77,39 @@ def test_editing_one_kind_leaves_the_other_kinds_datasets_current(tmp_path):
     assert _plan(copy, out) == {"coarse_map": "up to date", "gait1": "to do",
                                 "minima": "to do", "gait1_cycles": "to do",
                                 "minima_cycles": "to do"}
+
+
+def test_editing_a_figure_caption_leaves_the_datasets_current(smoke_copy):
+    """A figure's title and caption are text of its drawing: editing the captions of the
+    smoke study's kinds (wherever the package holds them) recomputes nothing."""
+    from monkeystudy.plotting.report import DRAWINGS
+
+    copy, out = smoke_copy
+    edited = []
+    for (kind, _), how in DRAWINGS.items():
+        if kind not in ("grid", "refine", "stability"):
+            continue
+        start = how.caption[:30]           # on one line of the source
+        for p in (copy / "monkeystudy").rglob("*.py"):
+            text = p.read_text()
+            if start in text:
+                p.write_text(text.replace(start, start + " (an edited caption)"))
+                edited.append(p)
+    assert edited
+    assert _plan(copy, out) == dict.fromkeys(EVERYTHING, "up to date")
+
+
+def test_no_figure_caption_is_among_the_sources_of_a_kind():
+    """No caption of a figure is a string of a source that keys a dataset."""
+    import ast
+
+    from monkeystudy.plotting.report import DRAWINGS
+
+    strings = set()
+    for p in P.result_sources():
+        strings |= {n.value for n in ast.walk(ast.parse(p.read_text()))
+                    if isinstance(n, ast.Constant) and isinstance(n.value, str)}
+    assert {how.caption for how in DRAWINGS.values()} & strings == set()
 
 
 def test_a_kind_is_keyed_by_its_own_import_closure():

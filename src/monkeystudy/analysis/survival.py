@@ -7,7 +7,8 @@ Legged-robot research measures how long a gait lasts under such noise as *metast
 (Byl & Tedrake, "Metastable walking machines", IJRR 28(8), 2009): the expected number of
 steps before a fall. Here:
 
-* :class:`Noise` - the noise sources, each optional, in SI units;
+* :class:`Noise` - the noise sources, each optional, in SI units; :data:`SOURCES` declares
+  each (where a study states it, its units, what it is);
 * :func:`noise_roles` - which row of a controller program each source acts on;
 * :func:`survival_runs` - independent runs of up to ``max_cycles`` cycles (compiled, one
   call per block of runs; :mod:`monkeystudy.kernel.survival`), each run's noise keyed by
@@ -40,7 +41,7 @@ the constant-rate tail is plausible.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, field, fields
 from typing import Callable, Sequence
 
 import numpy as np
@@ -69,8 +70,39 @@ PARAMETER_SLOTS = {("link1", "mass"): 16, ("link2", "mass"): 17, ("link1", "com"
 
 
 @dataclass(frozen=True)
+class NoiseSource:
+    """One noise source: a field of :class:`Noise`, and what the layers above derive from it
+    (the study file's ``noise:``, the survival dataset's ``noise_<name>`` variable, the units
+    of the figures' axes; a figure's text is the figure's own).
+
+    ``key`` is where a study file states it (below ``noise:``); ``units`` its SI units;
+    ``what`` what it is (the dataset variable's ``long_name``); ``described`` what a study file
+    sets with it (the schema's description, units in brackets); ``bound`` its largest value in a study file (None: no bound);
+    ``uniform_per_run`` a value drawn once per run uniformly on ``[0, value)``, whatever the
+    distribution; ``in_kernel`` whether the kernel draws it (its noise vector's slot
+    ``NZ_<NAME>``) rather than :func:`run_robot`.
+    """
+
+    name: str
+    key: tuple[str, ...]
+    units: str
+    what: str
+    described: str
+    bound: float | None = None
+    uniform_per_run: bool = False
+    in_kernel: bool = True
+
+
+def _source(key: tuple[str, ...], units: str, what: str, described: str, **kw) -> float:
+    """A :class:`Noise` field (0: off) that declares its :class:`NoiseSource`."""
+    return field(default=0.0, metadata={"source": dict(key=key, units=units, what=what,
+                                                       described=described, **kw)})
+
+
+@dataclass(frozen=True)
 class Noise:
-    """Noise sources of a survival run, each 0 (off) by default.
+    """Noise sources of a survival run, each 0 (off) by default: every field but
+    ``distribution`` is a source, declared with what it is (:data:`SOURCES`, in this order).
 
     ``distribution`` gives each draw's shape: ``gaussian`` (the value is the standard
     deviation) or ``uniform`` (the value is the half-width).
@@ -86,55 +118,91 @@ class Noise:
         a height [m], an energy [J]; one draw per guarded action.
     torque : float
         Relative error of each motor pulse's torque [1].
-    latency : float
-        Actuation latency [s]: each run draws one value uniformly on ``[0, latency)`` (always
-        uniform: a build's actuator delay) that delays every magnet and motor action of the
-        run, on top of the jitter.
     mass, com, inertia : float
         Relative uncertainty of each link's mass, CG position and inertia [1], drawn once
         per run (the CG is kept on the link).
     theta2, dtheta1, dtheta2 : float
         Perturbation of the starting section state [rad, rad s-1, rad s-1], once per run.
+    latency : float
+        Actuation latency [s]: each run draws one value uniformly on ``[0, latency)`` (always
+        uniform: a build's actuator delay) that delays every magnet and motor action of the
+        run, on top of the jitter.
     """
 
     distribution: str = "gaussian"
-    timing: float = 0.0
-    angle: float = 0.0
-    rate: float = 0.0
-    height: float = 0.0
-    energy: float = 0.0
-    torque: float = 0.0
-    latency: float = 0.0
-    mass: float = 0.0
-    com: float = 0.0
-    inertia: float = 0.0
-    theta2: float = 0.0
-    dtheta1: float = 0.0
-    dtheta2: float = 0.0
+    timing: float = _source(
+        ("timing",), "s", "actuation timing jitter",
+        "actuation timing jitter per magnet or motor action [s]: a scheduled action moves "
+        "early or late, an action triggered by a sensed state waits the draw's magnitude",
+        bound=1.0)
+    angle: float = _source(
+        ("sensor", "angle"), "rad", "sensor noise on angle guards",
+        "angles (coordinate guards on theta1, theta2) [rad]")
+    rate: float = _source(
+        ("sensor", "rate"), "rad s-1", "sensor noise on rate guards",
+        "angular rates (guards on dtheta1, dtheta2) [rad s-1]")
+    height: float = _source(
+        ("sensor", "height"), "m", "sensor noise on height guards",
+        "heights (free-end height guards, x or y guards) [m]")
+    energy: float = _source(
+        ("sensor", "energy"), "J", "sensor noise on energy guards",
+        "energies (energy and energy-restored guards) [J]")
+    torque: float = _source(
+        ("torque",), "1", "relative torque error of each motor pulse",
+        "relative torque error of each motor pulse [1]", bound=1.0)
+    mass: float = _source(
+        ("parameters", "mass"), "1", "relative uncertainty of each link's mass",
+        "relative uncertainty of each link's mass [1]", bound=0.5, in_kernel=False)
+    com: float = _source(
+        ("parameters", "com"), "1", "relative uncertainty of each link's CG position",
+        "relative uncertainty of each link's CG position [1] (the CG is kept on the link)",
+        bound=0.5, in_kernel=False)
+    inertia: float = _source(
+        ("parameters", "inertia"), "1", "relative uncertainty of each link's inertia",
+        "relative uncertainty of each link's inertia [1]", bound=0.5, in_kernel=False)
+    theta2: float = _source(
+        ("initial_state", "theta2"), "rad", "perturbation of the start's theta2",
+        "theta2 [rad]")
+    dtheta1: float = _source(
+        ("initial_state", "dtheta1"), "rad s-1", "perturbation of the start's dtheta1",
+        "dtheta1 [rad s-1]")
+    dtheta2: float = _source(
+        ("initial_state", "dtheta2"), "rad s-1", "perturbation of the start's dtheta2",
+        "dtheta2 [rad s-1]")
+    latency: float = _source(
+        ("latency",), "s", "actuation latency, drawn once per run uniformly on [0, value): "
+        "the upper end of its range",
+        "actuation latency [s]: each run draws one value uniformly on [0, latency) (uniform "
+        "whatever the distribution: a build's actuator delay), added to the delay of every "
+        "magnet and motor action of the run, before the jitter",
+        bound=1.0, uniform_per_run=True)
 
     def __post_init__(self):
         if self.distribution not in DISTRIBUTIONS:
             raise ValueError(f"distribution must be one of {sorted(DISTRIBUTIONS)}, "
                              f"got {self.distribution!r}")
-        for f in fields(self):
-            if f.name != "distribution":
-                v = float(getattr(self, f.name))
-                if not (math.isfinite(v) and v >= 0.0):
-                    raise ValueError(f"noise {f.name} must be finite and >= 0, got {v!r}")
+        for s in SOURCES:
+            v = float(getattr(self, s.name))
+            if not (math.isfinite(v) and v >= 0.0):
+                raise ValueError(f"noise {s.name} must be finite and >= 0, got {v!r}")
 
     def vector(self) -> np.ndarray:
-        """The kernel's noise vector (layout ``NZ_*``)."""
+        """The kernel's noise vector (layout ``NZ_*``: the sources it draws by their names)."""
         v = np.zeros(L.N_NOISE)
         v[L.NZ_UNIFORM] = DISTRIBUTIONS[self.distribution]
-        v[L.NZ_TIMING], v[L.NZ_ANGLE], v[L.NZ_RATE] = self.timing, self.angle, self.rate
-        v[L.NZ_HEIGHT], v[L.NZ_ENERGY], v[L.NZ_TORQUE] = self.height, self.energy, self.torque
-        v[L.NZ_THETA2], v[L.NZ_DTHETA1], v[L.NZ_DTHETA2] = (self.theta2, self.dtheta1,
-                                                            self.dtheta2)
-        v[L.NZ_LATENCY] = self.latency
+        for s in SOURCES:
+            if s.in_kernel:
+                v[getattr(L, f"NZ_{s.name.upper()}")] = getattr(self, s.name)
         return v
 
     def to_dict(self) -> dict:
         return asdict(self)
+
+
+#: every noise source, in the order of :class:`Noise`'s fields: the one declaration the study
+#: file's ``noise:``, the survival dataset's variables and the figures derive from
+SOURCES: tuple[NoiseSource, ...] = tuple(NoiseSource(f.name, **f.metadata["source"])
+                                         for f in fields(Noise) if "source" in f.metadata)
 
 
 #: the sensor each guard reads: guard kind -> noise source (coordinate guards by index)
@@ -403,5 +471,6 @@ def cycle_grid(max_cycles: int, points: int = 160) -> np.ndarray:
     return np.unique(np.concatenate([[0], g.astype(np.int64), [max_cycles]]))
 
 
-__all__ = ["DISTRIBUTIONS", "MFPT", "Noise", "SurvivalRuns", "cycle_grid", "hazard", "mfpt",
-           "noise_roles", "run_robot", "survival_curve", "survival_runs"]
+__all__ = ["DISTRIBUTIONS", "MFPT", "Noise", "NoiseSource", "SOURCES", "SurvivalRuns",
+           "cycle_grid", "hazard", "mfpt", "noise_roles", "run_robot", "survival_curve",
+           "survival_runs"]

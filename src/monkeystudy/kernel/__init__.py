@@ -7,14 +7,13 @@ division by zero gives ``inf`` or ``nan`` (which the hybrid loop reports as ``ST
 never an exception. Functions that allocate nothing are also compiled without numba's runtime
 (``_nrt=False``): numba otherwise increfs each array argument on entry and decrefs it on exit
 (atomic operations) wherever its pruning pass cannot prove the pair redundant, which it cannot
-in a function that calls another that calls a third (what that cost a gait:
-docs/performance.md, "What makes a gait cheap"). Such a function fails to compile if it ever
+in a function that calls another that calls a third. Such a function fails to compile if it ever
 creates an array, rather than running wrongly.
 
 Small functions are inlined by LLVM (``forceinline=True``): compiled once, then inlined into
 each caller's machine code. Numba's own inlining (``inline="always"``) gives the same code but
 copies and re-analyses the function's IR at every call site, which makes a first run's compile
-seconds longer (docs/performance.md, "Compiling"). Numba's inlining is kept
+longer (docs/performance.md, "Compiling"). Numba's inlining is kept
 where the inlined code must take its caller's flags (the vector field in the Runge-Kutta
 steps, compiled with floating-point contraction: ``dynamics.swing_accel_fused`` and its kin),
 for the wrappers that would otherwise add a level of compiled code above the hybrid loop

@@ -49,9 +49,9 @@ def derive_params(p):
     """Fill the derived slots of a parameter row in place (docs/model.md section 2 shorthand).
 
     Plain Python, like :func:`flipped_params`: only :meth:`monkeystudy.Robot.params` calls
-    them, once per robot, so compiling them would only lengthen a first run (by ~0.4 s,
-    before its gait evaluation can start compiling); the same products and sums in the same
-    order give the same bits.
+    them, once per robot, so compiling them would only lengthen a first run (before its gait
+    evaluation can start compiling); the same products and sums in the same order give the
+    same bits.
     """
     m1, m2, L1, r1, r2 = p[P_M1], p[P_M2], p[P_L1], p[P_R1], p[P_R2]
     sigma1, sigma2 = p[P_S1], p[P_S2]
@@ -97,7 +97,7 @@ def _field_trig(th1, th2):
     """``(s1, c1, s2, c2, s12, c12)`` for the vector fields, the sum angle from the identity.
 
     A sine beside the cosine of the same angle is one :func:`.trig.sincos` (one reduction), so
-    the fields need two instead of three (a gait ~7 % faster, measured with libm's). The
+    the fields need two instead of three. The
     identity's absolute error, ~1 ulp of the products, is below that of ``sin`` of the rounded
     sum ``theta1 + theta2``. (The guards take the sum angle directly: :func:`angle_trig`.)
     """
@@ -229,8 +229,8 @@ def flight_accel_trig(p, tau, fmode, th1, th2, w1, w2):
 # The fields of the Runge-Kutta steps, each compiled once as its own function with the steps'
 # flags (floating-point contraction, no reference counting) and inlined by LLVM into every
 # stage. Numba's own inlining (``inline="always"``) gives the same instructions, but copies and
-# re-analyses the field's IR at each of a step's stages: compiling DOP853's swing step took
-# about 3.4 s that way, 1.5 s this way, with the same bits.
+# re-analyses the field's IR at each of a step's stages, which lengthens the compile of every
+# step.
 _STEP_FIELD = {"cache": True, "forceinline": True, "fastmath": {"contract"},
                "error_model": "numpy", "_nrt": False}
 

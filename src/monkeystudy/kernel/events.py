@@ -178,7 +178,7 @@ def guard_and_rate_step(kind, index, value, phase, p, tau, fmode, y, pivot, eref
 
     Bit for bit :func:`guard_trig` and :func:`guard_rate_kin`. Every array element it may need
     is read first, in straight-line code (with reads inside the kind branches, numba's own
-    inlining kept some six atomic reference-count operations per step, ~7 % of a gait).
+    inlining keeps atomic reference-count operations on every step).
     Compiled without reference counting and inlined by LLVM.
     """
     L1 = p[P_L1]
@@ -419,9 +419,7 @@ def _hermite_root(ga, da, gb, db):
     """Root ``s`` in [0, 1] of a monotone cubic Hermite model with ends of opposite signs.
 
     Newton's method from the secant estimate, kept inside the shrinking bracket (a step
-    leaving it bisects): 3-9 evaluations of the cubic, 4-6 for 88 % of random monotone
-    cubics, where thirty bisections were used before.
-    The estimate only seeds :func:`newton_root` on the dense output, whose own error
+    leaving it bisects). The estimate only seeds :func:`newton_root` on the dense output, whose own error
     dominates long before the cubic's root is resolved to round-off.
     """
     lo = 0.0

@@ -5,7 +5,7 @@ All run the hybrid loop of :func:`monkeystudy.kernel.hybrid.simulate` with a zer
 trajectory, so a search evaluation integrates, locates its events and nothing else.
 
 Numba links a copy of the loop into every separately compiled function that calls it, directly
-or not, and optimises and emits that copy's machine code again: 1.3-1.8 s each on a first run.
+or not, and optimises and emits that copy's machine code again on a first run.
 So the cycle of a sequence gait, which every study's first run evaluates, is a batch of the
 loop itself (:func:`cycle_gait_batch`, array operations around one call of the compiled loop),
 and the compiled horizontal-gait evaluation calls the loop directly
@@ -51,8 +51,8 @@ def start_state(dtheta1, dtheta2, hyb):
 
 @njit(cache=True, error_model="numpy")
 def search_scratch(n_segments):
-    """Work arrays of one search evaluation, allocated once per batch (an allocation costs
-    ~20 ns, a gait ~20 us): the hybrid state, the counters, the segment exit times, and the
+    """Work arrays of one search evaluation, allocated once per batch, not once per point:
+    the hybrid state, the counters, the segment exit times, and the
     zero-size observers, event log and trajectory of a run that records nothing."""
     return (np.empty(N_HYB), np.zeros(N_COUNTS, dtype=np.int64), np.empty(n_segments),
             np.empty((0, N_OBS_COLS)), np.empty((0, N_LOG_COLS)), np.empty(0), np.empty((0, 8)),
@@ -135,7 +135,7 @@ def horizontal_gait_batch(method, par, prog, settings, points, energy_floor, ski
     hyb = scratch[0]
     for i in range(points.shape[0]):
         # the start checked before the call that passes the scratch tuple: marking an
-        # unreachable start then costs no call (47 ns, against 125 ns through the call)
+        # unreachable start then costs no call
         if not _gait_start(par, points[i, 0], points[i, 1], energy_floor, skip_unreachable,
                            hyb, out[i]):
             _gait_run(method, par, prog, settings, points[i, 0], points[i, 1], out[i], scratch)
@@ -173,7 +173,7 @@ def cycle_gait_batch(method, par, prog, obs, settings, theta1, theta2, points, o
     Not compiled: the points are one batch of the compiled loop
     (:func:`~monkeystudy.kernel.hybrid.simulate`), and the starts and the errors are array
     operations around it. A compiled caller would link the loop again and emit its machine
-    code again (a first run's compile: 1.3-1.8 s).
+    code again in a first run's compile.
     """
     n = points.shape[0]
     start = np.empty(N_HYB)

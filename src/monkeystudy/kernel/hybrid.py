@@ -515,8 +515,7 @@ def simulate_implementation(method_code, flies=True):
     the controller's clock and cycle count, the next segment's magnets, the impact, the log)
     or a bound. Each named piece is
     compiled on its own. The segment's entry stays in the loop: called as a function of its
-    own it made a gait slower, and inlining the pieces made a first run longer
-    (docs/performance.md, "Compiling", gives both).
+    own it makes a gait slower, and inlining the pieces makes a first run longer.
     """
     step4, step8, error_sq4, error_sq8, dense_prepare_of_method, n_stages = \
         loop_method_kernels(method_code, flies)
@@ -565,8 +564,8 @@ def _hybrid_loop(method, par, prog, obs, settings, hyb_rows, counts_rows, seg_ro
 
     K = np.zeros((VERN9_N_STAGES_EXTENDED, 8))   # the largest method's stages
     Fd = np.zeros((VERN9_INTERPOLATOR_POWER, 8))
-    # the work vectors are rows of one array, the pairs rows of another: an allocation costs
-    # ~20 ns, and a gait is ~20 us
+    # the work vectors are rows of one array, the pairs rows of another: one allocation each
+    # per run, not one per vector
     vectors = np.zeros((9, 8))
     y = vectors[0]
     f = vectors[1]
@@ -770,9 +769,9 @@ def _hybrid_loop(method, par, prog, obs, settings, hyb_rows, counts_rows, seg_ro
                         h_abs = abs(h)
                         # the method's straight-line steps, called directly: through a wrapper
                         # (inlined or called) numba reference-counts the eight arrays on every
-                        # step (atomic operations; docs/performance.md says what a wrapper
-                        # costs). The controller works on the squared norm en_sq (see
-                        # integrate.error_power_sq). A loop that never flies has no flight step.
+                        # step (atomic operations). The controller works on the squared norm
+                        # en_sq (see integrate.error_power_sq). A loop that never flies has no
+                        # flight step.
                         if not FLIES or n == 4:
                             step4(p, tau, fmode, y, f, h, K, trig_new, y_new, f_new)
                             en_sq = error_sq4(K, h, y, y_new, rtol, atol)

@@ -273,8 +273,7 @@ def dense_eval(method, Fd, y_old, h, x, n, out):
 # dispatcher picks it from the argument's type at no cost, and the hybrid loop of that
 # specialisation calls only that method's steps and dense output (:data:`METHOD_KERNELS`),
 # and only the swing ones when the run cannot fly, so a study compiles what it integrates
-# with (Vern9's two straight-line steps alone take ~10 s to compile, DOP853's flight step and
-# its dense output ~7 s).
+# with (Vern9's straight-line steps and DOP853's flight step take seconds each to compile).
 _SCALAR_TYPES = {
     (METHOD_RK45, True): (np.uint16, types.uint16),
     (METHOD_DOP853, True): (np.uint8, types.uint8),

@@ -4,9 +4,7 @@ constants set otherwise.
 :func:`njit` is numba's ``njit`` without the C-callable wrapper, cached where every kernel
 source decides. Numba compiles, beside every function, a ``cfunc`` wrapper that lets the
 function be passed as a first-class function value; no kernel is used that way (they call each
-other directly), and the wrappers are about 5 % of a first run's compile (1.0-1.2 s of 21 s of
-processor time for the horizontal study's gait evaluation compiled in one process, three runs
-each way). Every kernel module compiles through :func:`njit`, with numba's own options
+other directly), and compiling the wrappers would lengthen every first run. Every kernel module compiles through :func:`njit`, with numba's own options
 otherwise.
 
 **The cache.** Numba's own cache checks only the source file of each function (its modification

@@ -2,12 +2,11 @@
 
 DOP853's controller scales the step by ``SAFETY * en ** (-1/8)`` after every attempted step, and
 the next step cannot start before that factor is known: its latency is paid once per step.
-``pow`` is a library call; the kernel used ``1 / sqrt(sqrt(sqrt(en)))`` after a norm that ends
-in its own square root and division, a dependent chain of four square roots and two divisions.
-Taking the power of the *squared* norm, ``en ** (-1/8) = (en ** 2) ** (-1/16)``, spares the
-norm's square root, and :func:`inv_root16` evaluates the power in straight-line code (integer
-splits of the bits, one table load, five dependent multiply-adds); docs/performance.md ("What
-makes a gait cheap") gives what it saved per step.
+``pow`` is a library call, and ``1 / sqrt(sqrt(sqrt(en)))`` after a norm that ends in its own
+square root and division is a dependent chain of four square roots and two divisions. Taking
+the power of the *squared* norm, ``en ** (-1/8) = (en ** 2) ** (-1/16)``, spares the norm's
+square root, and :func:`inv_root16` evaluates the power in straight-line code (integer splits
+of the bits, one table load, five dependent multiply-adds).
 
 ``x = 2**k m`` with ``k = 16 q + j`` (``0 <= j < 16``) and ``m`` in [1, 2); ``m = (1 + r) / c_i``
 with ``1 / c_i`` the double nearest the reciprocal of the centre of ``m``'s bucket (64 buckets)

@@ -4,9 +4,9 @@ Why not ``np.sin``/``np.cos``: numba lowers them to calls into the C library, an
 side of a swing needs the sines and cosines of two angles at every stage. A call clobbers every
 floating-point register (all are caller-saved on x86-64), so the stage sums are spilled and
 reloaded around each call, and the two angles cannot be evaluated side by side. Here the
-reduction and both polynomials are straight-line code the compiler inlines and interleaves: a
-dependent chain of two sines and cosines costs ~19 ns instead of ~33 ns (``monkeystudy bench``
-prints both, and the swing right-hand side with it).
+reduction and both polynomials are straight-line code the compiler inlines and interleaves
+(``monkeystudy bench`` times a dependent chain of two sines and cosines both ways, line "sine
+and cosine of two angles as a dependent chain", and the swing right-hand side with it).
 
 Algorithm, for ``|x| < REDUCE_BOUND``: ``k = round(x 2/pi)``, ``r = x - k pi/2`` by Cody-Waite
 reduction with ``pi/2`` split into three doubles (each product exact inside a fused

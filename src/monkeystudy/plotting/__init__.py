@@ -5,14 +5,10 @@ the object API in the package style (``monkeystudy.mplstyle``); :func:`report_st
 figures a study folder's datasets support and writes them as PNG and PDF.
 
 Each step kind's figures are drawn by its module ``monkeystudy.plotting.kinds.<kind>``
-(its ``DRAWINGS``); the shared figures (maps, per-cycle plots, the filmstrip and animation)
-are in :mod:`.maps`, :mod:`.cycles` and :mod:`.gait`. Figures of the analysis steps (file
-``figures/<step>_<suffix>``): shoot ``_newton``
-(:func:`plot_shoot_convergence`), floquet ``_multipliers`` (:func:`plot_floquet_multipliers`),
-tick_sweep ``_error_growth`` (:func:`plot_tick_sweep`), basin ``_cycles_map``
-(:func:`plot_basin`), continuation ``_branch`` (:func:`plot_continuation`), work_precision
-``_work_precision`` (:func:`plot_work_precision`); of the stress step: ``_stress``
-(:func:`plot_stress`).
+(its ``DRAWINGS``, with each figure's title and caption); the shared figures (maps, per-cycle
+plots, the filmstrip and animation) are in :mod:`.maps`, :mod:`.cycles` and :mod:`.gait`. The
+figures of every kind, by file name, are the table of :mod:`.report`. Every ``plot_*`` function
+of a kind's module is exported here (``tests/plotting/test_plotting_report.py`` checks it).
 """
 from .maps import (  # noqa: F401
     plot_error_map, plot_error_surface, plot_refine_convergence, plot_swap_time_map,
@@ -24,9 +20,15 @@ from .cycles import (  # noqa: F401
 from .gait import plot_filmstrip, trajectory, write_animation  # noqa: F401
 from .kinds.basin import plot_basin  # noqa: F401
 from .kinds.continuation import plot_continuation  # noqa: F401
+from .kinds.design import (  # noqa: F401
+    plot_design_map, plot_design_multipliers, plot_design_replay, plot_design_screen,
+)
 from .kinds.floquet import plot_floquet_multipliers  # noqa: F401
 from .kinds.shoot import plot_shoot_convergence  # noqa: F401
 from .kinds.stress import plot_stress  # noqa: F401
+from .kinds.survival import (  # noqa: F401
+    plot_failure_modes, plot_height_drift, plot_mfpt, plot_mfpt_comparison, plot_survival,
+)
 from .kinds.tick_sweep import plot_tick_sweep  # noqa: F401
 from .kinds.work_precision import plot_work_precision  # noqa: F401
 from .report import DRAWINGS, ReportError, report_study  # noqa: F401

@@ -1,6 +1,8 @@
-"""How a declared figure is drawn: each figure module lists its :class:`Drawing` objects under
-``(step kind, figure suffix)`` in a ``DRAWINGS`` dict; the report looks them up for the figures
-each step kind declares (:class:`monkeystudy.study.steps.base.Figure`).
+"""How a declared figure is drawn and what it says: each figure module lists its
+:class:`Drawing` objects under ``(step kind, figure suffix)`` in a ``DRAWINGS`` dict; the report
+looks them up for the figures each step kind declares
+(:class:`monkeystudy.study.steps.base.Figure`). A figure's title and caption are its drawing's,
+outside the code that keys the datasets: editing them recomputes nothing.
 
 A drawing whose dataset holds nothing the figure could show (a swap-time map without a single
 gait, a replay that fell before its first cycle) raises :class:`NothingToDraw` with the reason;
@@ -43,9 +45,10 @@ def always(path: Path, folder: Folder) -> bool:
 
 @dataclass(frozen=True)
 class Drawing:
-    """How to draw one figure of a step's dataset.
+    """How to draw one figure of a step's dataset, and what it says.
 
-    ``draw(datasets)`` returns a :class:`matplotlib.figure.Figure` from the datasets of its
+    ``title`` says what it shows (progress lines, the file's metadata); ``caption`` what to
+    look at (the study's HTML page). ``draw(datasets)`` returns a :class:`matplotlib.figure.Figure` from the datasets of its
     inputs (the step's own first, then ``extra_inputs(path, folder)``); an ``animation``
     instead writes its own files: ``draw(datasets, base, provenance) -> paths``. Either may
     raise :class:`NothingToDraw`. ``applies`` says whether the dataset's layout has the figure
@@ -56,6 +59,8 @@ class Drawing:
     are at least two.
     """
 
+    title: str
+    caption: str
     draw: Callable
     extra_inputs: Callable[[Path, Folder], list[Path]] = no_extra_inputs
     applies: Callable[[Path, Folder], bool] = always

@@ -3,7 +3,7 @@
 The page says what was run and what came out: the study's description and file, the robot,
 gait and integrator, then every step in the study's order with its key numbers (what its step
 kind reports of its dataset, :meth:`~monkeystudy.study.steps.base.StepKind.describe`), a link
-to its dataset and its figures, each with the caption its kind declares (what to look at), or
+to its dataset and its figures, each with the caption of its drawing (what to look at), or
 for a figure with nothing to show, why it was not drawn; last, the provenance of every
 dataset. It links only to files beside it (the figures) and
 one folder up (the datasets), so the study folder can be moved or zipped whole.
@@ -23,6 +23,7 @@ from ..study.failures import FAILED, StepFailure
 from ..study.figures import figure_name
 from ..study.progress import singular_counts
 from ..study.steps import REGISTRY
+from .drawing import Drawing
 
 PAGE = "index.html"
 
@@ -234,12 +235,14 @@ def integrator_text(integ: Mapping) -> str:
 def render_page(study_dir: Path, datasets: Mapping[str, object],
                 figures: Mapping[str, Sequence[str]],
                 skipped: Mapping[str, str] | None = None,
-                failures: Mapping[str, StepFailure] | None = None) -> str:
+                failures: Mapping[str, StepFailure] | None = None, *,
+                drawings: Mapping[tuple[str, str], Drawing]) -> str:
     """The page's HTML for the datasets of a study folder (``{step name: xarray Dataset}``),
     the figures drawn from them (``{figure name: [file names]}``), those skipped with
     nothing to show (``{figure name: reason}``) and the failure markers of its last run
     (``{step name: StepFailure}``): every step of the study is listed, a step without a
-    dataset with what became of it."""
+    dataset with what became of it. ``drawings`` (by ``(step kind, figure suffix)``) give
+    each figure's title and caption."""
     skipped = dict(skipped or {})
     failures = dict(failures or {})
     kinds = study_steps(datasets, failures)
@@ -309,11 +312,12 @@ def render_page(study_dir: Path, datasets: Mapping[str, object],
             if fig.across:
                 continue            # under "Across steps"
             key = figure_name(fig, name, kind.name)
+            how = drawings[(kind.name, fig.suffix)]
             if key in figures:
-                out.append(_figure_html(key, figures[key], fig.title, fig.caption))
+                out.append(_figure_html(key, figures[key], how.title, how.caption))
                 used.add(key)
             elif key in skipped:
-                out.append(_skipped_html(key, fig.title, fig.caption, skipped[key]))
+                out.append(_skipped_html(key, how.title, how.caption, skipped[key]))
                 used.add(key)
     across = [(kind, fig) for kind in REGISTRY.values() for fig in kind.figures if fig.across
               and figure_name(fig, "", kind.name) in set(figures) | set(skipped)]
@@ -321,10 +325,11 @@ def render_page(study_dir: Path, datasets: Mapping[str, object],
         out.append("<h2>Across steps</h2>")
         for kind, fig in across:
             key = figure_name(fig, "", kind.name)
+            how = drawings[(kind.name, fig.suffix)]
             if key in figures:
-                out.append(_figure_html(key, figures[key], fig.title, fig.caption))
+                out.append(_figure_html(key, figures[key], how.title, how.caption))
             else:
-                out.append(_skipped_html(key, fig.title, fig.caption, skipped[key]))
+                out.append(_skipped_html(key, how.title, how.caption, skipped[key]))
             used.add(key)
     rest = sorted(set(figures) - used)
     if rest:

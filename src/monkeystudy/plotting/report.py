@@ -24,6 +24,7 @@ file (``figures/``)                    what                                    s
 ``<grid>_surface``                     sqrt(error) surface, no-gait floor      3
 ``<grid>_map``                         error map truncated at 5, minima, the   4, 9, 10
                                        grid's least error
+``<grid>_swap_time``                   swap time over the grid                 -
 ``<refine>_convergence``               best-vertex error per iteration (0:     (text 4.2)
                                        the start)
 ``<stability>_error``                  error per cycle, log scale              5, 8
@@ -43,9 +44,16 @@ file (``figures/``)                    what                                    s
 ``<design>_multipliers``               the best design's multipliers           -
 ``<design>_replay``                    the best design's open-loop replays     5-7
 ``<design>_filmstrip``                 the best design's cycle                 2 (from data)
+``<design>_screen``                    candidates screened by survival         -
+``<survival>_survival``                survival fraction per cycle, per level  -
+``<survival>_mfpt``                    mean first-passage time against noise   -
+``<survival>_failure_modes``           how the runs ended, per level           -
+``<survival>_height_drift``            height change of each completed run     -
+``survival_mfpt_comparison``           every survival step's MFPT              -
 =====================================  ======================================  ==============
 
-Which figures a dataset gets is what its step kind declares
+The table lists every figure the step kinds declare (``tests/plotting/test_plotting_report.py``
+holds it to them). Which figures a dataset gets is what its step kind declares
 (:attr:`monkeystudy.study.steps.base.StepKind.figures`); how each is drawn is registered by the
 kind's own plotting module, ``monkeystudy.plotting.kinds.<kind>`` (its ``DRAWINGS``), loaded for
 every kind of the step registry (:data:`DRAWINGS`).
@@ -247,13 +255,13 @@ def plan(study_dir: Path, *, animation: bool = True, fps: float = 15.0,
                           if how.applies(p, folder)]
                 if len(groups) > 1:
                     jobs.append(Job(figure_name(fig, "", kind.name), [p for g in groups for p in g],
-                                    key, fig.title, sizes=tuple(len(g) for g in groups)))
+                                    key, how.title, sizes=tuple(len(g) for g in groups)))
                 continue
             for p in paths:
                 if how.applies(p, folder):
                     jobs.append(Job(figure_name(fig, p.stem, kind.name),
                                     [p] + how.extra_inputs(p, folder), key,
-                                    f"{p.stem}: {fig.title}", animation=how.animation))
+                                    f"{p.stem}: {how.title}", animation=how.animation))
     clashes = name_clashes(jobs)
     if clashes:
         raise FigureNameClash(f"{study_dir}: " + "; ".join(clashes) + " (a figure is named "
@@ -642,7 +650,8 @@ def _write_page(study_dir: Path, files: list[Path], manifest: dict,
     figures = {name: e.get("outputs", []) for name, e in manifest["figures"].items()
                if "skipped" not in e}
     skipped = {name: e["skipped"] for name, e in manifest["figures"].items() if "skipped" in e}
-    text = render_page(study_dir, datasets, figures, skipped, step_failures)
+    text = render_page(study_dir, datasets, figures, skipped, step_failures,
+                       drawings=DRAWINGS)
     path = study_dir / FIGURES_DIR / PAGE
     if path.exists() and path.read_text() == text:
         return None

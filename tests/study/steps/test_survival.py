@@ -123,6 +123,36 @@ def test_levels_come_from_the_lists_and_scalars_apply_to_every_level():
     assert blocks == [(0, 3), (3, 6)]                          # no block spans two levels
 
 
+def test_every_noise_source_is_a_key_of_the_study_file_and_a_variable_of_the_dataset():
+    """The study file's noise: states each declared source at its key, with its bound, and
+    nothing else; the survival dataset has a noise_<name> variable of each, in its units."""
+    import pydantic
+
+    from monkeystudy.analysis.survival import SOURCES
+    from monkeystudy.study.noise import NoiseSpec
+    from monkeystudy.study.steps.survival import VARIABLES
+
+    def keys(model, above=()):
+        for name, f in model.model_fields.items():
+            sub = f.annotation if isinstance(f.annotation, type) and issubclass(
+                f.annotation, pydantic.BaseModel) else None
+            yield from keys(sub, above + (name,)) if sub else [above + (name,)]
+
+    assert set(keys(NoiseSpec)) - {("distribution",)} == {s.key for s in SOURCES}
+    def stated(key, value) -> dict:
+        return {key[0]: stated(key[1:], value) if len(key) > 1 else value}
+
+    for s in SOURCES:
+        spec = NoiseSpec.model_validate(stated(s.key, [0.0, 0.1]))
+        assert spec.swept() == [s.name] and getattr(spec.level(1), s.name) == 0.1
+        if s.bound is not None:
+            with pytest.raises(pydantic.ValidationError, match=f"<= {s.bound}"):
+                NoiseSpec.model_validate(stated(s.key, 2 * s.bound))
+    noise = {k: v for k, v in VARIABLES.items() if k.startswith("noise_")}
+    assert {k: v.units for k, v in noise.items()} == {f"noise_{s.name}": s.units
+                                                      for s in SOURCES}
+
+
 def test_the_smoke_datasets_are_written_as_declared(smoke):
     for name in ("open_loop.nc", "state_based.nc"):
         assert_written_as_declared(smoke[0] / name, "survival")

@@ -97,5 +97,10 @@ def plot_basin(ds, *, cmap: str = "viridis", numbers: int = 225):
 
 #: how the basin step's figure is drawn
 DRAWINGS = {
-    ("basin", "cycles_map"): Drawing(lambda d: plot_basin(d[0])),
+    ("basin", "cycles_map"): Drawing(
+        title="cycles to failure around the gait",
+        caption="Cycles survived from each perturbed start (colour), the gait at the centre: a "
+                "stable gait has a patch of starts that last max_cycles; an unstable one only a "
+                "thin band, or nothing.",
+        draw=lambda d: plot_basin(d[0])),
 }

@@ -180,5 +180,10 @@ def plot_continuation(ds):
 
 #: how the continuation step's figure is drawn
 DRAWINGS = {
-    ("continuation", "branch"): Drawing(lambda d: plot_continuation(d[0])),
+    ("continuation", "branch"): Drawing(
+        title="gait family, |lambda| along it",
+        caption="The family's rates against the parameter (top) and the multipliers' moduli along "
+                "it (bottom): where a modulus crosses 1 the gait gains or loses stability; folds "
+                "and bifurcations are marked.",
+        draw=lambda d: plot_continuation(d[0])),
 }

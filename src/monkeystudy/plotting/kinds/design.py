@@ -318,14 +318,35 @@ def has_film(ds) -> bool:
 
 
 DRAWINGS = {
-    ("design", "map"): Drawing(lambda d: plot_design_map(d[0])),
-    ("design", "multipliers"): Drawing(lambda d: plot_design_multipliers(d[0])),
-    ("design", "replay"): Drawing(lambda d: plot_design_replay(d[0]), cost=2.0),
-    ("design", "filmstrip"): Drawing(lambda d: plot_filmstrip(d[0], gait=best_rates(d[0])),
-                                     cost=3.0,
-                                     applies=lambda path, folder: has_film(
-                                         folder.loaded(path))),
-    ("design", "screen"): Drawing(lambda d: plot_design_screen(d[0]),
-                                  applies=lambda path, folder: has_screen(
-                                      folder.loaded(path))),
+    ("design", "map"): Drawing(
+        title="spectral radius over the design grid",
+        caption="The spectral radius per step over the two most influential free parameters (the "
+                "smallest over the others), the rho = 1 contour drawn, the grid's failures blank "
+                "and the best design marked: where, if anywhere, the gait is stable (a schedule's "
+                "open-loop map; a sequence gait's full map, the height included).",
+        draw=lambda d: plot_design_map(d[0])),
+    ("design", "multipliers"): Drawing(
+        title="multipliers of the best design",
+        caption="The best design's multipliers on the unit circle, by variational equations and "
+                "by finite differences (they coincide): a design is stable when all lie inside.",
+        draw=lambda d: plot_design_multipliers(d[0])),
+    ("design", "replay"): Drawing(
+        title="replay of the best design",
+        caption="The best design run from its fixed point (a schedule open loop, a sequence gait "
+                "by its own controller), with exact timing and on the controller tick: section "
+                "error, kinetic energy and pivot height per cycle (the 2009 study's figures 5-7), "
+                "and the decay of a small perturbation against the leading multiplier.",
+        draw=lambda d: plot_design_replay(d[0]), cost=2.0),
+    ("design", "filmstrip"): Drawing(
+        title="one cycle of the best design",
+        caption="The best design's gait cycle frame by frame, with its schedule below.",
+        draw=lambda d: plot_filmstrip(d[0], gait=best_rates(d[0])), cost=3.0,
+        applies=lambda path, folder: has_film(folder.loaded(path))),
+    ("design", "screen"): Drawing(
+        title="candidates screened by survival",
+        caption="With a screen: each candidate's share of survival runs that completed, against "
+                "its spectral radius; the design checked (starred) is the one that lasts, which "
+                "need not be the most contracting.",
+        draw=lambda d: plot_design_screen(d[0]),
+        applies=lambda path, folder: has_screen(folder.loaded(path))),
 }

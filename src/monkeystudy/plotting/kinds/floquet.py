@@ -237,5 +237,12 @@ def plot_floquet_multipliers(ds):
 
 #: how the floquet step's figure is drawn
 DRAWINGS = {
-    ("floquet", "multipliers"): Drawing(lambda d: plot_floquet_multipliers(d[0])),
+    ("floquet", "multipliers"): Drawing(
+        title="multipliers and the unit circle",
+        caption="The return map's Floquet multipliers in the complex plane: any outside the unit "
+                "circle makes the gait unstable; variational equations (filled) and finite "
+                "differences (open) must coincide. With height_in_map, a second row: the full "
+                "map's multipliers, the attached end's height included (a multiplier 1 there is "
+                "the neutral height; a catch at a sensed height makes it 0).",
+        draw=lambda d: plot_floquet_multipliers(d[0])),
 }

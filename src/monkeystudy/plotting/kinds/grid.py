@@ -20,9 +20,24 @@ def has_swap_times(path: Path, folder: Folder) -> bool:
 
 #: how the grid step's figures are drawn
 DRAWINGS = {
-    ("grid", "surface"): Drawing(lambda d: plot_error_surface(d[0]), cost=3.0),
-    ("grid", "map"): Drawing(lambda d: plot_error_map(d[0], d[1:]),
-                             extra_inputs=refine_datasets, cost=2.0),
-    ("grid", "swap_time"): Drawing(lambda d: plot_swap_time_map(d[0], d[1:]),
-                                   extra_inputs=refine_datasets, applies=has_swap_times),
+    ("grid", "surface"): Drawing(
+        title="sqrt(error) surface",
+        caption="The study's figure 3: sqrt(error) over the grid; the flat floor is where no gait "
+                "reaches the swap. Look for the valley along the floor's border. Gaps are jumps "
+                "of the error (the swap moves to another swing), not missing data; dots are "
+                "points with a gait in no cell of the surface.",
+        draw=lambda d: plot_error_surface(d[0]), cost=3.0),
+    ("grid", "map"): Drawing(
+        title="error map with minima",
+        caption="The study's figures 4, 9 and 10: the error truncated at 5, the refined minima "
+                "marked. Dark is a small error: the gaits lie in the dark valley.",
+        draw=lambda d: plot_error_map(d[0], d[1:]),
+        extra_inputs=refine_datasets, cost=2.0),
+    ("grid", "swap_time"): Drawing(
+        title="swap time over the grid",
+        caption="When the swap comes: a jump in colour is a start whose swap comes on a later "
+                "swing. A minimum on the far side of such a jump is a gait of another kind than "
+                "the study's first-swing gait.",
+        draw=lambda d: plot_swap_time_map(d[0], d[1:]),
+        extra_inputs=refine_datasets, applies=has_swap_times),
 }

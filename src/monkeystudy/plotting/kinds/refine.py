@@ -16,6 +16,11 @@ def has_iterations(path: Path, folder: Folder) -> bool:
 
 #: how the refine step's figure is drawn
 DRAWINGS = {
-    ("refine", "convergence"): Drawing(lambda d: plot_refine_convergence(d[0]),
-                                       applies=has_iterations),
+    ("refine", "convergence"): Drawing(
+        title="Nelder-Mead convergence",
+        caption="The best vertex's error per Nelder-Mead iteration, one line per start: a line "
+                "that flattens above the tolerance stalled; one that ends at the iteration limit "
+                "did not converge.",
+        draw=lambda d: plot_refine_convergence(d[0]),
+        applies=has_iterations),
 }

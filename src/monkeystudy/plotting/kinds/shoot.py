@@ -135,5 +135,9 @@ def plot_shoot_convergence(ds):
 
 #: how the shoot step's figure is drawn
 DRAWINGS = {
-    ("shoot", "newton"): Drawing(lambda d: plot_shoot_convergence(d[0])),
+    ("shoot", "newton"): Drawing(
+        title="residual norm per Newton iteration",
+        caption="Each solution's residual norm per Newton iteration on a log scale: quadratic "
+                "convergence shows as the exponent doubling; a line that stalls did not converge.",
+        draw=lambda d: plot_shoot_convergence(d[0])),
 }

@@ -38,17 +38,39 @@ def animation(d, base: Path, prov: dict, *, fps: float, max_frames: int,
 
 #: how the stability step's figures are drawn
 DRAWINGS = {
-    ("stability", "error"): Drawing(lambda d: plot_error_per_cycle(d[0], gait=run_gait(d)),
-                                    extra_inputs=stability_inputs),
+    ("stability", "error"): Drawing(
+        title="error per cycle",
+        caption="The study's figures 5 and 8: the error against the start at each cycle's end, on "
+                "a log scale. A straight rise is exponential growth: the gait is unstable.",
+        draw=lambda d: plot_error_per_cycle(d[0], gait=run_gait(d)),
+        extra_inputs=stability_inputs),
     ("stability", "kinetic_energy"): Drawing(
-        lambda d: plot_kinetic_energy(d[0], gait=run_gait(d)), extra_inputs=stability_inputs),
-    ("stability", "height"): Drawing(lambda d: plot_pivot_height(d[0], gait=run_gait(d)),
-                                     extra_inputs=stability_inputs),
-    ("stability", "error_comparison"): Drawing(comparison, extra_inputs=stability_inputs,
-                                               across=True),
+        title="kinetic energy per cycle",
+        caption="The study's figure 6: the kinetic energy where each cycle ends; it drifts once "
+                "the gait degrades.",
+        draw=lambda d: plot_kinetic_energy(d[0], gait=run_gait(d)),
+        extra_inputs=stability_inputs),
+    ("stability", "height"): Drawing(
+        title="attached-end height per cycle",
+        caption="The study's figure 7: the height of the attached end per cycle; a falling line "
+                "is the robot sinking down the wall.",
+        draw=lambda d: plot_pivot_height(d[0], gait=run_gait(d)),
+        extra_inputs=stability_inputs),
+    ("stability", "error_comparison"): Drawing(
+        title="error per cycle of all multi-cycle runs",
+        caption="Every multi-cycle run's error per cycle on one axis: which gait lasts longest, "
+                "and whether they grow at the same rate.",
+        draw=comparison, extra_inputs=stability_inputs, across=True),
     ("stability", "filmstrip"): Drawing(
-        lambda d: plot_filmstrip(d[0], gait=gait_point(d[0], d[1:])),
+        title="one gait cycle",
+        caption="The study's figure 2, from data: one cycle frame by frame.",
+        draw=lambda d: plot_filmstrip(d[0], gait=gait_point(d[0], d[1:])),
         extra_inputs=stability_inputs, applies=replay_recorded, cost=3.0),
-    ("stability", "animation"): Drawing(animation, extra_inputs=stability_inputs,
-                                        applies=replay_recorded, animation=True, cost=8.0),
+    ("stability", "animation"): Drawing(
+        title="animation",
+        caption="The whole run as a video, the view moving with the robot: the links coloured by "
+                "what the controller does, the magnets that held, and why the run stopped if it "
+                "stopped early.",
+        draw=animation, extra_inputs=stability_inputs, applies=replay_recorded,
+        animation=True, cost=8.0),
 }

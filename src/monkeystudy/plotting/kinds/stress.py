@@ -250,5 +250,10 @@ def plot_stress(ds):
 # ----------------------------------------------------------------------------------------------
 #: how the stress step's figure is drawn
 DRAWINGS = {
-    ("stress", "stress"): Drawing(lambda d: plot_stress(d[0])),
+    ("stress", "stress"): Drawing(
+        title="energy drift, long runs, extreme cases",
+        caption="Left: relative energy drift against time per tolerance (a slope of 1 is linear "
+                "growth, as for any non-symplectic method). Middle: how each long run ended. "
+                "Right: the status counts of the extreme cases.",
+        draw=lambda d: plot_stress(d[0])),
 }

@@ -22,6 +22,7 @@ import matplotlib
 import numpy as np
 from matplotlib.lines import Line2D
 
+from ...analysis.survival import SOURCES as NOISE_SOURCES
 from ..labels import run_line, two_titles
 from ..common import (
     BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, count, finite, fmt_tick, json_attr,
@@ -29,22 +30,32 @@ from ..common import (
 )
 from ..drawing import Drawing, NothingToDraw
 
-#: each noise source: (variable, label, unit text, scale to the label's unit)
-SOURCES = {
-    "timing": ("noise_timing", "timing jitter", "ms", 1e3),
-    "latency": ("noise_latency", "actuation latency (per run, uniform up to)", "ms", 1e3),
-    "angle": ("noise_angle", "angle-sensor noise", "rad", 1.0),
-    "rate": ("noise_rate", "rate-sensor noise", "rad/s", 1.0),
-    "height": ("noise_height", "height-sensor noise", "mm", 1e3),
-    "energy": ("noise_energy", "energy-sensor noise", "J", 1.0),
-    "torque": ("noise_torque", "torque error", "%", 100.0),
-    "mass": ("noise_mass", "mass uncertainty", "%", 100.0),
-    "com": ("noise_com", "CG uncertainty", "%", 100.0),
-    "inertia": ("noise_inertia", "inertia uncertainty", "%", 100.0),
-    "theta2": ("noise_theta2", "start θ2 perturbation", "rad", 1.0),
-    "dtheta1": ("noise_dtheta1", "start θ̇1 perturbation", "rad/s", 1.0),
-    "dtheta2": ("noise_dtheta2", "start θ̇2 perturbation", "rad/s", 1.0),
+#: each noise source's name on a figure, in the order the figures list them: the sources of
+#: :data:`~monkeystudy.analysis.survival.SOURCES`, no more and no fewer (a test holds them)
+LABELS = {
+    "timing": "timing jitter",
+    "latency": "actuation latency (per run, uniform up to)",
+    "angle": "angle-sensor noise",
+    "rate": "rate-sensor noise",
+    "height": "height-sensor noise",
+    "energy": "energy-sensor noise",
+    "torque": "torque error",
+    "mass": "mass uncertainty",
+    "com": "CG uncertainty",
+    "inertia": "inertia uncertainty",
+    "theta2": "start θ2 perturbation",
+    "dtheta1": "start θ̇1 perturbation",
+    "dtheta2": "start θ̇2 perturbation",
 }
+#: a noise source's SI units as a figure shows them: (unit text, scale from the SI value)
+SHOWN_UNITS = {"s": ("ms", 1e3), "m": ("mm", 1e3), "1": ("%", 100.0), "rad": ("rad", 1.0),
+               "rad s-1": ("rad/s", 1.0), "J": ("J", 1.0)}
+#: each noise source: (variable, label, unit text, scale to the label's unit), in the order
+#: of :data:`LABELS` (a source without a label is named as it is declared, last)
+SOURCES = {s.name: (f"noise_{s.name}", LABELS.get(s.name, s.name), *SHOWN_UNITS[s.units])
+           for s in sorted(NOISE_SOURCES, key=lambda s: (s.name not in LABELS,
+                                                         list(LABELS).index(s.name)
+                                                         if s.name in LABELS else 0))}
 FAILURE_COLOURS = {"survived": GREEN, "fell": VERMILLION, "no_switch": ORANGE,
                    "energy_not_restored": PURPLE, "no_return_to_vertical": SKY,
                    "error_bound": BLUE, "stalled": "#999999", "horizon": BLACK}
@@ -400,10 +411,33 @@ def plot_height_drift(ds):
 
 #: how the survival step's figures are drawn
 DRAWINGS = {
-    ("survival", "survival"): Drawing(lambda d: plot_survival(d[0])),
-    ("survival", "mfpt"): Drawing(lambda d: plot_mfpt(d[0])),
-    ("survival", "failure_modes"): Drawing(lambda d: plot_failure_modes(d[0])),
-    ("survival", "height_drift"): Drawing(lambda d: plot_height_drift(d[0])),
-    ("survival", "mfpt_comparison"): Drawing(lambda groups: plot_mfpt_comparison(
-        [g[0] for g in groups]), across=True),
+    ("survival", "survival"): Drawing(
+        title="survival per cycle",
+        caption="The fraction of runs still going after each number of cycles, one line per noise "
+                "level: a curve that drops at a fixed cycle count is an unstable gait drifting "
+                "off; one that decays steadily over decades is metastable.",
+        draw=lambda d: plot_survival(d[0])),
+    ("survival", "mfpt"): Drawing(
+        title="mean first-passage time against noise",
+        caption="Mean cycles (and metres) before failure against the noise level, with 95 % "
+                "intervals; arrows are lower bounds (no failure to fit the tail on). The "
+                "Byl-Tedrake plot: a stable gait's MFPT grows steeply as the noise shrinks.",
+        draw=lambda d: plot_mfpt(d[0])),
+    ("survival", "failure_modes"): Drawing(
+        title="how the runs ended",
+        caption="For each noise level, the share of runs by the way they stopped: fell, no swap, "
+                "missed return, error bound, or survived all cycles.",
+        draw=lambda d: plot_failure_modes(d[0])),
+    ("survival", "height_drift"): Drawing(
+        title="height change of each run",
+        caption="How far each run that completed all its cycles ended above or below its start "
+                "height, a histogram per noise level, with the tolerance when the step sets one: "
+                "a gait whose height is neutral wanders off, one that senses its height stays "
+                "within millimetres.",
+        draw=lambda d: plot_height_drift(d[0])),
+    ("survival", "mfpt_comparison"): Drawing(
+        title="MFPT of every gait against noise",
+        caption="Every survival step of the study on one axis: which gait lasts longest at each "
+                "noise level.",
+        draw=lambda groups: plot_mfpt_comparison([g[0] for g in groups]), across=True),
 }

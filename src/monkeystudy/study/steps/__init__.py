@@ -3,7 +3,8 @@
 Each kind (a :class:`~monkeystudy.study.steps.base.StepKind`) declares its study-file model,
 dependencies, cross-step checks, tasks, dataset, key numbers and figures; the schema, the
 planner, the runner, ``monkeystudy inspect`` and the report iterate over :data:`REGISTRY`.
-Adding a kind is a module here, a line below, and its figure in :mod:`monkeystudy.plotting`.
+What adding a kind takes is listed in docs/architecture.md ("Step kinds"), and
+``tests/test_architecture.py`` checks each of its parts.
 """
 from __future__ import annotations
 

@@ -35,14 +35,12 @@ class Figure:
     ``across`` figure is drawn once per study from all datasets of its kind
     (``figures/<kind>_<suffix>``).
 
-    ``title`` says what it shows (progress lines, the file's metadata); ``caption`` what to
-    look at (the study's HTML page). The drawing itself lives in :mod:`monkeystudy.plotting`,
-    registered under ``(kind, suffix)``.
+    The drawing, with the figure's title and caption, lives in :mod:`monkeystudy.plotting`,
+    registered under ``(kind, suffix)``: its text is not among the sources that key the kind's
+    datasets.
     """
 
     suffix: str
-    title: str
-    caption: str
     across: bool = False
 
 

@@ -116,10 +116,7 @@ class BasinKind(StepKind):
     accepts = ("shoot", "floquet")
     unit = "blocks"
     figures = (
-        Figure("cycles_map", "cycles to failure around the gait",
-               "Cycles survived from each perturbed start (colour), the gait at the centre: "
-               "a stable gait has a patch of starts that last max_cycles; an unstable one "
-               "only a thin band, or nothing."),
+        Figure("cycles_map"),
     )
 
     def check_step(self, study, index, step: BasinStep, ref, seen) -> list:

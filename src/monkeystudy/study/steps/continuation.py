@@ -300,10 +300,7 @@ class ContinuationKind(StepKind):
     accepts = ("shoot", "floquet")
     unit = "branches"
     figures = (
-        Figure("branch", "gait family, |lambda| along it",
-               "The family's rates against the parameter (top) and the multipliers' moduli "
-               "along it (bottom): where a modulus crosses 1 the gait gains or loses "
-               "stability; folds and bifurcations are marked."),
+        Figure("branch"),
     )
 
     def check_step(self, study, index, step: ContinuationStep, ref, seen) -> list:

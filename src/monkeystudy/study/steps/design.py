@@ -949,28 +949,11 @@ class DesignKind(StepKind):
     unit = "designs"
     block_units = True
     figures = (
-        Figure("map", "spectral radius over the design grid",
-               "The spectral radius per step over the two most influential free parameters "
-               "(the smallest over the others), the rho = 1 contour drawn, the grid's "
-               "failures blank and the best design marked: where, if anywhere, the gait is "
-               "stable (a schedule's open-loop map; a sequence gait's full map, the height "
-               "included)."),
-        Figure("multipliers", "multipliers of the best design",
-               "The best design's multipliers on the unit circle, by variational equations "
-               "and by finite differences (they coincide): a design is stable when all lie "
-               "inside."),
-        Figure("replay", "replay of the best design",
-               "The best design run from its fixed point (a schedule open loop, a sequence "
-               "gait by its own controller), with exact timing and on "
-               "the controller tick: section error, kinetic energy and pivot height per cycle "
-               "(the 2009 study's figures 5-7), and the decay of a small perturbation against "
-               "the leading multiplier."),
-        Figure("filmstrip", "one cycle of the best design",
-               "The best design's gait cycle frame by frame, with its schedule below."),
-        Figure("screen", "candidates screened by survival",
-               "With a screen: each candidate's share of survival runs that completed, "
-               "against its spectral radius; the design checked (starred) is the one that "
-               "lasts, which need not be the most contracting."),
+        Figure("map"),
+        Figure("multipliers"),
+        Figure("replay"),
+        Figure("filmstrip"),
+        Figure("screen"),
     )
 
     def check_step(self, study, index, step: DesignStep, ref, seen) -> list:

@@ -389,12 +389,7 @@ class FloquetKind(StepKind):
     provides = "its fixed point (the return map's a step runs)"
     unit = "controllers"
     figures = (
-        Figure("multipliers", "multipliers and the unit circle",
-               "The return map's Floquet multipliers in the complex plane: any outside the "
-               "unit circle makes the gait unstable; variational equations (filled) and finite "
-               "differences (open) must coincide. With height_in_map, a second row: the full "
-               "map's multipliers, the attached end's height included (a multiplier 1 there "
-               "is the neutral height; a catch at a sensed height makes it 0)."),
+        Figure("multipliers"),
     )
 
     def check_step(self, study, index, step: FloquetStep, ref, seen) -> list:

@@ -276,18 +276,9 @@ class GridKind(StepKind):
     provides = "its best minima (starts of a refinement)"
     unit = "blocks"
     figures = (
-        Figure("surface", "sqrt(error) surface",
-               "The study's figure 3: sqrt(error) over the grid; the flat floor is where no "
-               "gait reaches the swap. Look for the valley along the floor's border. Gaps "
-               "are jumps of the error (the swap moves to another swing), not missing data; "
-               "dots are points with a gait in no cell of the surface."),
-        Figure("map", "error map with minima",
-               "The study's figures 4, 9 and 10: the error truncated at 5, the refined minima "
-               "marked. Dark is a small error: the gaits lie in the dark valley."),
-        Figure("swap_time", "swap time over the grid",
-               "When the swap comes: a jump in colour is a start whose swap comes on a later "
-               "swing. A minimum on the far side of such a jump is a gait of another kind "
-               "than the study's first-swing gait."),
+        Figure("surface"),
+        Figure("map"),
+        Figure("swap_time"),
     )
 
     def blocks(self, step: GridStep) -> list[Block]:

@@ -233,10 +233,7 @@ class RefineKind(StepKind):
     provides = "its refined gait (the lowest error, or start_index)"
     unit = "refinements"
     figures = (
-        Figure("convergence", "Nelder-Mead convergence",
-               "The best vertex's error per Nelder-Mead iteration, one line per start: a line "
-               "that flattens above the tolerance stalled; one that ends at the iteration "
-               "limit did not converge."),
+        Figure("convergence"),
     )
 
     def deps(self, step: RefineStep) -> tuple[str, ...]:

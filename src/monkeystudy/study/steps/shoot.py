@@ -274,10 +274,7 @@ class ShootKind(StepKind):
     provides = "its lowest-error usable solution (or solution: i)"
     unit = "starts"
     figures = (
-        Figure("newton", "residual norm per Newton iteration",
-               "Each solution's residual norm per Newton iteration on a log scale: quadratic "
-               "convergence shows as the exponent doubling; a line that stalls did not "
-               "converge."),
+        Figure("newton"),
     )
 
     def n_tasks(self, step: ShootStep, gait) -> int:

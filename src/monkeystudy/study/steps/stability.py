@@ -247,24 +247,12 @@ class StabilityKind(StepKind):
     accepts = ("refine", "floquet")
     unit = "runs"
     figures = (
-        Figure("error", "error per cycle",
-               "The study's figures 5 and 8: the error against the start at each cycle's end, "
-               "on a log scale. A straight rise is exponential growth: the gait is unstable."),
-        Figure("kinetic_energy", "kinetic energy per cycle",
-               "The study's figure 6: the kinetic energy where each cycle ends; it drifts "
-               "once the gait degrades."),
-        Figure("height", "attached-end height per cycle",
-               "The study's figure 7: the height of the attached end per cycle; a falling "
-               "line is the robot sinking down the wall."),
-        Figure("filmstrip", "one gait cycle",
-               "The study's figure 2, from data: one cycle frame by frame."),
-        Figure("animation", "animation",
-               "The whole run as a video, the view moving with the robot: the links coloured "
-               "by what the controller does, the magnets that held, and why the run stopped "
-               "if it stopped early."),
-        Figure("error_comparison", "error per cycle of all multi-cycle runs",
-               "Every multi-cycle run's error per cycle on one axis: which gait lasts "
-               "longest, and whether they grow at the same rate.", across=True),
+        Figure("error"),
+        Figure("kinetic_energy"),
+        Figure("height"),
+        Figure("filmstrip"),
+        Figure("animation"),
+        Figure("error_comparison", across=True),
     )
 
     def check_step(self, study, index, step: StabilityStep, ref, seen) -> list:

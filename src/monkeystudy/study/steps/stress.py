@@ -313,10 +313,7 @@ class StressKind(StepKind):
     variables = VARIABLES
     unit = "runs"
     figures = (
-        Figure("stress", "energy drift, long runs, extreme cases",
-               "Left: relative energy drift against time per tolerance (a slope of 1 is "
-               "linear growth, as for any non-symplectic method). Middle: how each long run "
-               "ended. Right: the status counts of the extreme cases."),
+        Figure("stress"),
     )
 
     def n_tasks(self, step: StressStep, gait) -> int:

@@ -27,7 +27,7 @@ from ...simulation import STATUS_NAMES, Status
 from .. import datasets as D
 from ..blocks import Block, Task
 from ..models import Name, OpenLoopSettings, Replay, StrictModel
-from ..noise import SOURCES, UNIFORM_PER_RUN, NoiseSpec
+from ..noise import SOURCES, NoiseSpec
 from ..progress import task_units
 from ..spec import GaitSpec
 from .base import Figure, StepContext, StepKind, max_drop_of
@@ -167,10 +167,10 @@ VARIABLES = {
     "cycle": D.Variable(("cycle",), np.int64, "1", "cycles completed"),
     "failure_mode": D.label_coordinate("failure_mode", "why a run stopped (survived: it "
                                        "completed max_cycles)"),
-    **{f"noise_{name}": D.Variable(("level",), np.float64, units,
-                                   what + ("" if name in UNIFORM_PER_RUN else "{spread}"),
-                                   {"key": "noise." + ".".join(path)})
-       for path, name, units, what in SOURCES},
+    **{f"noise_{s.name}": D.Variable(("level",), np.float64, s.units,
+                                     s.what + ("" if s.uniform_per_run else "{spread}"),
+                                     {"key": "noise." + ".".join(s.key)})
+       for s in SOURCES},
     "cycles_completed": D.Variable(("level", "run"), np.int64, "1",
                                    "cycles the run completed within the bounds"),
     "failure": D.Variable(("level", "run"), np.int8, "1", "why the run stopped (survived: "
@@ -239,9 +239,9 @@ def write_survival(path: Path, attrs: dict, step: SurvivalStep, arrays: dict) ->
         D.write_coordinate(nc, VARIABLES, "run", np.arange(runs))
         D.write_coordinate(nc, VARIABLES, "cycle", grid)
         D.write_coordinate(nc, VARIABLES, "failure_mode", list(FAILURE_NAMES))
-        for _, name, _, _ in SOURCES:
-            write(f"noise_{name}", [step.noise.level(k).to_dict()[name]
-                                    for k in range(n_levels)])
+        for s in SOURCES:
+            write(f"noise_{s.name}", [getattr(step.noise.level(k), s.name)
+                                      for k in range(n_levels)])
         write("cycles_completed", arrays["cycles"])
         write("failure", arrays["failure"])
         write("distance", arrays["distance"])
@@ -279,25 +279,11 @@ class SurvivalKind(StepKind):
     unit = "runs"
     block_units = True
     figures = (
-        Figure("survival", "survival per cycle",
-               "The fraction of runs still going after each number of cycles, one line per "
-               "noise level: a curve that drops at a fixed cycle count is an unstable gait "
-               "drifting off; one that decays steadily over decades is metastable."),
-        Figure("mfpt", "mean first-passage time against noise",
-               "Mean cycles (and metres) before failure against the noise level, with 95 % "
-               "intervals; arrows are lower bounds (no failure to fit the tail on). The "
-               "Byl-Tedrake plot: a stable gait's MFPT grows steeply as the noise shrinks."),
-        Figure("failure_modes", "how the runs ended",
-               "For each noise level, the share of runs by the way they stopped: fell, no "
-               "swap, missed return, error bound, or survived all cycles."),
-        Figure("height_drift", "height change of each run",
-               "How far each run that completed all its cycles ended above or below its "
-               "start height, a histogram per noise level, with the tolerance when the step "
-               "sets one: a gait whose height is neutral wanders off, one that senses its "
-               "height stays within millimetres."),
-        Figure("mfpt_comparison", "MFPT of every gait against noise",
-               "Every survival step of the study on one axis: which gait lasts longest at "
-               "each noise level.", across=True),
+        Figure("survival"),
+        Figure("mfpt"),
+        Figure("failure_modes"),
+        Figure("height_drift"),
+        Figure("mfpt_comparison", across=True),
     )
 
     def check_step(self, study, index, step: SurvivalStep, ref, seen) -> list:

@@ -154,10 +154,7 @@ class TickSweepKind(StepKind):
     accepts = ("shoot", "floquet")
     unit = "runs"
     figures = (
-        Figure("error_growth", "error per cycle per tick, |lambda|^2n",
-               "The error per cycle for each controller tick beside the growth the leading "
-               "multiplier predicts (dashed): a finer tick only delays the fall when the "
-               "lines run parallel to the prediction."),
+        Figure("error_growth"),
     )
 
     def deps(self, step: TickSweepStep) -> tuple[str, ...]:

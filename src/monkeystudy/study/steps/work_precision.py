@@ -167,10 +167,7 @@ class WorkPrecisionKind(StepKind):
     unit = "measurements"
     reproducible = False
     figures = (
-        Figure("work_precision", "wall time per gait against error",
-               "Time per gait against the error of the gait error, one line per integrator: "
-               "lower left is better; the ratio to scipy's solve_ivp on the same gaits is in "
-               "the legend."),
+        Figure("work_precision"),
     )
 
     def start(self, ctx: StepContext) -> list[Task]:
