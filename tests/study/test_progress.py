@@ -7,6 +7,7 @@ import queue
 import threading
 import time
 
+from monkeystudy.study import counts as C
 from monkeystudy.study import progress as P
 from monkeystudy.study.runner import TaskCounts
 
@@ -76,25 +77,25 @@ def test_worker_counts_reach_the_reporter_before_the_result():
 
 
 def test_a_counted_task_sends_its_units_under_its_key(monkeypatch):
-    monkeypatch.setattr(P, "SEND_PERIOD", 0.0)
+    monkeypatch.setattr(C, "SEND_PERIOD", 0.0)
     channel = queue.Queue()
 
     def five_runs():
         for _ in range(5):
-            P.task_units(1)
+            C.task_units(1)
         return "done"
 
-    P.open_task_channel(channel)
+    C.open_task_channel(channel)
     try:
-        assert P.run_counted(("run", 3), five_runs, (), {}) == "done"
-        P.task_units(1)        # outside a task: counted for nobody
+        assert C.run_counted(("run", 3), five_runs, (), {}) == "done"
+        C.task_units(1)        # outside a task: counted for nobody
     finally:
-        P.open_task_channel(None)
+        C.open_task_channel(None)
     sent = []
     while not channel.empty():
         sent.append(channel.get())
     assert {k for k, _ in sent} == {("run", 3)} and sum(n for _, n in sent) == 5
-    assert P.run_counted(("run", 4), five_runs, (), {}) == "done"   # no channel: just runs
+    assert C.run_counted(("run", 4), five_runs, (), {}) == "done"   # no channel: just runs
     assert channel.empty()
 
 

@@ -18,7 +18,7 @@ from contextlib import contextmanager
 from typing import Callable, Iterator
 
 from .errors import RunFailed
-from .progress import open_task_channel
+from .counts import open_task_channel
 
 
 class DeferredSignals:
@@ -73,7 +73,7 @@ def worker_init(driver: int, progress=None) -> None:
     """Pool worker start: Ctrl-C is the driver's business; SIGTERM (the driver's
     :meth:`Pool.abort`) ends the worker at once; exit when the driver is gone (after a kill
     -9 nobody else would stop an idle worker). ``progress``: the queue its tasks' counts go
-    to (:func:`~monkeystudy.study.progress.task_units`)."""
+    to (:func:`~monkeystudy.study.counts.task_units`)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if progress is not None:
         open_task_channel(progress)

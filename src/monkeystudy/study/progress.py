@@ -8,9 +8,8 @@ terminal's progress display starts only with the first step: the run's process h
 thread when it forks its workers (:func:`monkeystudy.study.pool.mp_context`).
 
 A step counts its work in its own unit (blocks, runs, designs). A task on a worker says how
-much of it is done as it goes (:func:`task_units`, sent over the pool's progress channel:
-:func:`run_counted`), and a step's work in the driver goes in named phases, each with its own
-count (:class:`StepProgress`, :meth:`Reporter.phase`).
+much of it is done as it goes, and a step's work in the driver goes in named phases, each with
+its own count: :mod:`.counts` holds that side (what the steps call), this module the display.
 """
 from __future__ import annotations
 
@@ -326,85 +325,3 @@ def make_reporter(stream: TextIO | None = None) -> Reporter:
     except (AttributeError, ValueError):
         tty = False
     return RichReporter(stream) if tty else PlainReporter(stream)
-
-
-class StepProgress:
-    """How a step's work in the driver (a kind's :meth:`~monkeystudy.study.steps.base.
-    StepKind.finish`) shows its phases: :meth:`phase` starts one with its own count on the
-    step's line and returns the function that advances it. Without a reporter, silent."""
-
-    def __init__(self, reporter: Reporter | None = None, name: str = ""):
-        self.reporter = reporter or Reporter()
-        self.name = name
-
-    def phase(self, label: str, total: int, unit: str,
-              then: str = "") -> Callable[[int], None]:
-        """Phase ``label`` of ``total`` ``unit`` (a plural) begins; ``then`` names the phases
-        that follow it. Returns ``advance(n=1)``."""
-        self.reporter.phase(self.name, label, int(total), unit, then)
-
-        def advance(n: int = 1) -> None:
-            self.reporter.advance(self.name, n)
-        return advance
-
-
-# --- counts from the workers ---------------------------------------------------------------------
-#: the least time between two counts a worker sends [s]: the display moves, the pipe stays quiet
-SEND_PERIOD = 0.2
-
-
-class TaskChannel:
-    """A worker's end of its pool's progress channel (a queue the driver reads): the task it
-    runs (its key, set by :func:`run_counted`) and the units it did since its last message."""
-
-    def __init__(self, queue):
-        self.queue = queue
-        self.key = None
-        self.pending = 0
-        self.last = 0.0
-
-    def add(self, n: int) -> None:
-        if self.key is None:
-            return
-        self.pending += n
-        now = time.monotonic()
-        if now - self.last >= SEND_PERIOD:
-            self.queue.put((self.key, self.pending))
-            self.pending, self.last = 0, now
-
-
-#: this process's end of the channel: set once in a pool worker (the pool's initializer,
-#: :func:`open_task_channel`); None in the driver, in tests and on a Dask worker, where
-#: :func:`task_units` does nothing
-_CHANNEL: TaskChannel | None = None
-
-
-def open_task_channel(queue) -> None:
-    """In a pool worker at its start: send the counts of its tasks to ``queue`` (None:
-    send nothing)."""
-    global _CHANNEL
-    _CHANNEL = TaskChannel(queue) if queue is not None else None
-
-
-def task_units(n: int = 1) -> None:
-    """The running task did ``n`` more units of its work (runs, designs): said to the driver
-    (at most every :data:`SEND_PERIOD`) when the task runs on a pool with a progress channel,
-    else nothing."""
-    if _CHANNEL is not None:
-        _CHANNEL.add(n)
-
-
-def run_counted(key, fn: Callable, args: tuple, kwargs: dict):
-    """``fn(*args, **kwargs)`` on a worker, its :func:`task_units` sent under ``key`` (the
-    driver's name for the task). The driver counts whatever was not sent when the result
-    comes."""
-    channel = _CHANNEL
-    if channel is None:
-        return fn(*args, **kwargs)
-    channel.key, channel.pending, channel.last = key, 0, time.monotonic()
-    try:
-        return fn(*args, **kwargs)
-    finally:
-        if channel.pending:      # the count is whole at once, even if the driver is busy
-            channel.queue.put((key, channel.pending))
-        channel.key, channel.pending = None, 0

@@ -44,7 +44,8 @@ from .failures import FAILED, NOT_RUN, StepFailure, clear_failures, write_failur
 from .loader import LoadedStudy
 from .plan import Plan, StepPlan, plan_study
 from .pool import DeferredSignals, Pool, local_pool_kind, open_pool
-from .progress import Reporter, StepProgress, run_counted, singular_counts
+from .counts import StepProgress, run_counted
+from .progress import Reporter, singular_counts
 from .spec import GaitSpec, gait_json, gait_spec, integrator_fields
 from .steps import Dependency, StepContext, kind_of
 from .steps.grid import HORIZONTAL_VARIABLES, axes_points, grid_block
@@ -172,7 +173,7 @@ class _Pending:
 
 class TaskCounts:
     """The progress count of each task on the pool, from what its worker sends as it goes
-    (:func:`~monkeystudy.study.progress.task_units`, read on a thread of its own: the
+    (:func:`~monkeystudy.study.counts.task_units`, read on a thread of its own: the
     count moves while the driver works on a step) and the rest when its result comes: a
     task adds its ``units`` to its step's count, never more."""
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from .. import provenance
 from ..blocks import Block, Task
-from ..progress import StepProgress
+from ..counts import StepProgress
 from ..spec import GaitSpec
 
 if TYPE_CHECKING:
@@ -148,7 +148,7 @@ class StepKind:
     #: what its progress counts (tasks, or ``blocks`` for a resumable kind)
     unit: ClassVar[str] = "tasks"
     #: its progress counts the points of its blocks (runs, designs: :attr:`unit`), which
-    #: its tasks report as they go (:func:`~monkeystudy.study.progress.task_units`), not
+    #: its tasks report as they go (:func:`~monkeystudy.study.counts.task_units`), not
     #: the blocks
     block_units: ClassVar[bool] = False
     #: its figures, in drawing order

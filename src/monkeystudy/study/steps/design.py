@@ -43,7 +43,7 @@ from ..blocks import Block, Task
 from ..errors import RunFailed
 from ..models import Name, StrictModel
 from ..noise import NoiseSpec
-from ..progress import StepProgress, task_units
+from ..counts import StepProgress, task_units
 from .base import Dependency, Figure, StepContext, StepKind
 from .gait_source import (
     MAX_MAP_DEFECT, GaitStart, design_start, option_problems, read_start,
@@ -318,7 +318,7 @@ def design_block(space: DesignSpace, names: list[str], axes: list[np.ndarray], s
     the smallest spectral radius is kept (one design may have several gaits): the previous
     converged design along the last axis (a continuation; none at a line's start), then each
     of ``starts``, pairs ``(z, balance value or None)`` (the step's gait first). Each design
-    counts as it is done (:func:`~monkeystudy.study.progress.task_units`).
+    counts as it is done (:func:`~monkeystudy.study.counts.task_units`).
     """
     shape = tuple(len(a) for a in axes)
     n = hi - lo

@@ -28,7 +28,7 @@ from .. import datasets as D
 from ..blocks import Block, Task
 from ..models import Name, OpenLoopSettings, Replay, StrictModel
 from ..noise import SOURCES, NoiseSpec
-from ..progress import task_units
+from ..counts import task_units
 from ..spec import GaitSpec
 from .base import Figure, StepContext, StepKind, max_drop_of
 from .gait_source import MAX_MAP_DEFECT, GaitStart, robot_attr, run_problems
@@ -116,7 +116,7 @@ def survival_block(spec: GaitSpec, start: GaitStart, runs: np.ndarray, *, noise:
     analysis.survival.Noise` as a mapping), on its robot: per run the cycles completed, why it
     stopped, the distance travelled [m], the time [s] and error at its last completed cycle,
     its RHS evaluations, the attached end's height change there [m]. Each run counts as it
-    ends (:func:`~monkeystudy.study.progress.task_units`)."""
+    ends (:func:`~monkeystudy.study.counts.task_units`)."""
     controller, hyb, section = survival_controller(start, tick=tick,
                                                    integrator=spec.integrator)
     r = survival_runs(controller, hyb, start.z[-3:], runs=runs, max_cycles=max_cycles,
