@@ -110,8 +110,8 @@ def plot_design_map(ds):
                                 "included) over the design grid" if ds.attrs.get("height_in_map")
                                 else "Spectral radius of the open-loop return map over the "
                                 "design grid"), f"{count(ds.attrs.get('designs', r.size), 'design')}, {n_ok} "
-                          f"with a gait{more}; balance: {ds.attrs.get('balance')}; ρ = 1 contour "
-                          f"in red. {ds.attrs.get('verdict', '')}. {run_line(ds, tick=False)}")
+                          f"with a gait{more}; balance: {ds.attrs.get('balance')}; ρ = 1 in "
+                          f"orange. {ds.attrs.get('verdict', '')}. {run_line(ds, tick=False)}")
         ax = body.add_subplot()
         if len(kept) == 1:
             x = ds[kept[0]].values
