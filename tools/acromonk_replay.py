@@ -23,7 +23,8 @@ import numpy as np
 
 from monkeystudy.analysis.measured_replay import (
     CATCH_REST, FRICTION, HORIZONS, PUBLISHED_JOINT, PUBLISHED_PIVOT, ModelValues,
-    acromonk_robot, chain_closure, errors_of, identify, inverse_dynamics, model_swings,
+    acromonk_robot, chain_closure, energy_balance, errors_of, identify, inverse_dynamics,
+    model_swings, rate_square_integrals, viscous_from_energy,
     rate_agreement, rate_noise, rest_shoulder, simulated_swing, torque_sign_errors,
     whole_swing_error,
 )
@@ -154,6 +155,23 @@ def checks() -> int:
         rest.append(f"{name} {log.shoulder_angle[swings(log)[0].start]:.4f}")
     print(f"rest: logged shoulder at the first swing row (elbow at 0): {', '.join(rest)} rad; "
           f"the model's theta1 at rest with theta2 = 0: {rest_shoulder(base, 0):.4f} rad")
+
+    print("\nenergy budget of each training swing in the model [J]: the measured torque's work, "
+          "the mechanical energy's change, their difference (dissipated), and the largest "
+          "gain beyond the work; in the swing's own parameter row, then in the other")
+    for ms in train:
+        own, other = energy_balance(base, ms), energy_balance(base, ms, 1 - ms.flipped)
+        print(f"  {ms.name:<14} {'motor' if ms.flipped == 0 else 'IMU':>5} arm holds: work "
+              f"{own.motor_work:5.2f}, change {own.energy_change:+5.2f}, dissipated "
+              f"{own.dissipated:5.2f}, largest gain {own.largest_gain:4.2f}; other row: "
+              f"change {other.energy_change:+5.2f}, dissipated {other.dissipated:5.2f}, "
+              f"largest gain {other.largest_gain:4.2f}")
+    published_loss = [PUBLISHED_PIVOT.viscous * i[0] + PUBLISHED_JOINT.viscous * i[1]
+                      for i in map(rate_square_integrals, train)]
+    b = viscous_from_energy(base, train)
+    print(f"  the published damping dissipates {_span(published_loss)} J along these motions; "
+          f"the viscous friction whose dissipation fits the budgets best (nnls): pivot "
+          f"{b[0]:.3f}, joint {b[1]:.3f} N m s")
 
     noise = np.array([rate_noise(ms) for ms in train])
     print(f"\ninverse dynamics of the training swings ({', '.join(TRAIN)}; {len(train)} swings),"

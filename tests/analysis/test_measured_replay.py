@@ -256,3 +256,20 @@ def test_rest_shoulder_puts_the_cg_under_the_pivot(robot, row):
     th1 = rest_shoulder(robot, row)
     assert abs(cg_x(th1)) < 1e-12
     assert abs(cg_x(th1 + 0.01)) > 1e-3
+
+
+def test_the_energy_budget_of_the_models_own_swing_is_its_friction(robot, pd_swings):
+    # a swing the model made: without friction the measured torque's work is the energy's
+    # change (the trapezoids' error only); with viscous friction the budget's loss is the
+    # friction's dissipation, and the energy-only estimate finds that friction again
+    from monkeystudy.analysis.measured_replay import (
+        energy_balance, rate_square_integrals, viscous_from_energy)
+
+    bare = energy_balance(robot, simulated_swing(robot, pd_swings[0]))
+    assert abs(bare.dissipated) < 0.02 * abs(bare.motor_work)
+    damped_robot = robot.with_friction(Friction(0.03), Friction(0.05))
+    damped = [simulated_swing(damped_robot, ms) for ms in pd_swings[:3]]
+    for ms in damped:
+        loss = np.dot([0.03, 0.05], rate_square_integrals(ms))
+        assert energy_balance(robot, ms).dissipated == pytest.approx(loss, rel=0.05)
+    assert viscous_from_energy(robot, damped) == pytest.approx([0.03, 0.05], abs=0.005)

@@ -44,7 +44,7 @@ import numpy as np
 
 from ..controllers import Integrator, PhaseSequence, Segment
 from ..kernel import layout as L
-from ..kernel.dynamics import swing_matrices
+from ..kernel.dynamics import swing_matrices, total_energy8
 from ..measured import CATCH, MOTOR_ARM, HardwareLog, Swing, swing_state, swings, swings_by_flag
 from ..robot import Friction, Robot
 from ..simulation import Status, initial_state, physical_points, run_controller
@@ -752,3 +752,66 @@ def simulated_swing(robot: Robot, ms: ModelSwing, *, rate_noise_std=(0.0, 0.0),
     w = w + np.random.default_rng(seed).normal(size=w.shape) * np.asarray(rate_noise_std)
     return ModelSwing(ms.time[k], th[:, 0], th[:, 1], w[:, 0], w[:, 1], ms.torque[k],
                       ms.flipped, ms.name + " simulated")
+
+
+@dataclass(frozen=True)
+class EnergyBalance:
+    """A measured swing's energy budget in the model (:func:`energy_balance`) [J].
+
+    Attributes
+    ----------
+    motor_work : float
+        The measured torque's work on the elbow, the trapezoid of ``torque * theta2_rate``.
+    energy_change : float
+        The model's mechanical energy of the last sample less that of the first.
+    dissipated : float
+        ``motor_work - energy_change``: what friction (or a torque the sensor overstates) took.
+    largest_gain : float
+        The largest rise of ``energy_change - motor_work`` from its running minimum: energy the
+        swing gained beyond the measured work (0 for a consistent frame and a passive joint).
+    """
+
+    motor_work: float
+    energy_change: float
+    dissipated: float
+    largest_gain: float
+
+
+def energy_balance(robot: Robot, ms: ModelSwing, flipped: int | None = None) -> EnergyBalance:
+    """The energy budget of a measured swing in ``robot`` (parameter row ``flipped``, default
+    the swing's own): the mechanical energy at every sample from the measured angles and
+    rates, against the measured torque's work. Without friction and with a faithful torque
+    the two changes are equal; a frame error shows as energy gained beyond the work."""
+    p = robot.params()[ms.flipped if flipped is None else int(flipped)]
+    state = np.zeros(8)
+    energy = np.empty(len(ms))
+    for k in range(len(ms)):
+        state[2], state[3] = ms.theta1[k], ms.theta2[k]
+        state[6], state[7] = ms.theta1_rate[k], ms.theta2_rate[k]
+        energy[k] = total_energy8(p, state)
+    power = ms.torque * ms.theta2_rate
+    work = np.concatenate([[0.0], np.cumsum(0.5 * (power[1:] + power[:-1]) * np.diff(ms.time))])
+    excess = energy - energy[0] - work
+    return EnergyBalance(float(work[-1]), float(energy[-1] - energy[0]),
+                         float(work[-1] - (energy[-1] - energy[0])),
+                         float(np.max(excess - np.minimum.accumulate(excess))))
+
+
+def rate_square_integrals(ms: ModelSwing) -> np.ndarray:
+    """``[integral of theta1_rate^2, integral of theta2_rate^2]`` over the swing [rad^2 s-1]
+    (trapezoids on the samples): a viscous friction ``b`` at a joint dissipates ``b`` times
+    its integral [J]."""
+    dt = np.diff(ms.time)
+    return np.array([float(np.sum(0.5 * (w[1:] ** 2 + w[:-1] ** 2) * dt))
+                     for w in (ms.theta1_rate, ms.theta2_rate)])
+
+
+def viscous_from_energy(robot: Robot, swings_: Sequence[ModelSwing]) -> np.ndarray:
+    """The viscous friction ``[b_pivot, b_joint]`` [N m s] (each >= 0) whose dissipation along
+    the measured motions best matches each swing's :func:`energy_balance` (least squares over
+    the swings, ``scipy.optimize.nnls``): an estimate from energy alone, without a replay."""
+    from scipy.optimize import nnls
+
+    a = np.array([rate_square_integrals(ms) for ms in swings_])
+    d = np.array([energy_balance(robot, ms).dissipated for ms in swings_])
+    return nnls(a, d)[0]
