@@ -57,16 +57,22 @@ def readable_log(text: str, info: ValidationInfo) -> str:
     cache = (info.context if info.context is not None else {}).setdefault("hardware_logs", {})
     key = str(path)
     if key not in cache:
-        try:
-            log = read_log(path)
-            cache[key] = log if swings(log) else f"{path}: no swing to replay"
-        except FileNotFoundError:
+        if not path.is_file():
             cache[key] = f"no such file: {path}"
-        except (LogError, OSError) as exc:
-            cache[key] = str(exc)
+        else:
+            try:
+                log = read_log(path)
+                cache[key] = log if swings(log) else f"{path}: no swing to replay"
+            except (LogError, OSError) as exc:
+                cache[key] = str(exc)
     if isinstance(cache[key], str):
         raise ValueError(cache[key])
     return text
+
+
+def log_name(text: str) -> str:
+    """A log's name: its file name without ``.csv`` / ``.csv.gz``."""
+    return Path(text).name.removesuffix(".gz").removesuffix(".csv")
 
 
 LogFile = Annotated[str, Field(min_length=1), AfterValidator(readable_log)]
@@ -128,6 +134,8 @@ class HardwareReplayStep(StrictModel):
                     "data/acromonk/model/acromonk_mujoco.xml: 0.044 N m s at the hook, "
                     "0.06 N m s at the elbow, viscous)")
     _paths: dict = PrivateAttr(default_factory=dict)
+    #: a training log marks its catches (None: not every log was read)
+    _flagged: bool | None = PrivateAttr(None)
 
     @field_validator("horizons")
     @classmethod
@@ -140,25 +148,34 @@ class HardwareReplayStep(StrictModel):
     def _logs(self, info: ValidationInfo) -> "HardwareReplayStep":
         cache = (info.context or {}).get("hardware_logs", {})
         self._paths = {t: str(log_path(t, info)) for t in self.train + self.held_out}
-        names: dict[str, str] = {}
-        for t in self.train + self.held_out:
-            name = Path(t).name.removesuffix(".gz").removesuffix(".csv")
-            if name in names:
-                raise ValueError(f"logs {names[name]!r} and {t!r} have one name {name!r} "
-                                 "(the dataset's log coordinate)")
-            names[name] = t
         logs = [cache.get(self._paths[t]) for t in self.train]
-        if all(log is not None for log in logs) and not any(log.phase is not None
-                                                            for log in logs):
-            raise ValueError("train: no log has a state_machine_flag column (the sensor "
-                             "floor is measured on the catches it marks)")
+        self._flagged = (any(log.phase is not None for log in logs)
+                         if all(log is not None for log in logs) else None)
         return self
+
+    def problems(self, index: int) -> list[tuple[tuple, str]]:
+        """Problems across its logs (``index``: the step's place in the study): two logs
+        with one name, no training log that marks its catches."""
+        out: list[tuple[tuple, str]] = []
+        seen: dict[str, str] = {}
+        for key, items in (("train", self.train), ("held_out", self.held_out)):
+            for k, t in enumerate(items):
+                name = log_name(t)
+                if name in seen:
+                    out.append((("steps", index, key, k),
+                                f"{name!r} is also the name of {seen[name]!r} (a log is named "
+                                "by its file name without .csv/.csv.gz)"))
+                seen.setdefault(name, t)
+        if self._flagged is False:
+            out.append((("steps", index, "train"),
+                        "no log has a state_machine_flag column (the sensor floor is "
+                        "measured on the catches it marks)"))
+        return out
 
     def log_files(self) -> dict[str, str]:
         """Every log's name (its file name without ``.csv``/``.csv.gz``) and absolute
         path, training logs first, in the study's order."""
-        return {Path(p).name.removesuffix(".gz").removesuffix(".csv"): p
-                for p in (self._paths[t] for t in self.train + self.held_out)}
+        return {log_name(p): p for p in (self._paths[t] for t in self.train + self.held_out)}
 
     def train_names(self) -> list[str]:
         """The training logs' names."""
@@ -308,8 +325,8 @@ VARIABLES = {
     "swing_samples": D.Variable(("swing",), np.int32, "1",
                                 "samples of the swing with distinct times (sample < this)"),
     "swing_rms": D.Variable(("model", "swing", "joint"), np.float64, "rad",
-                            "RMS over the swing of the angle error of one replay from its "
-                            "first sample to its last"),
+                            "RMS over the swing's samples after its first of the angle error "
+                            "of one replay from its first sample to its last"),
     "time": D.Variable(("swing", "sample"), np.float64, "s",
                        "time from the swing's first sample (NaN past its last)"),
     "measured_angle": D.Variable(("swing", "sample", "joint"), np.float64, "rad",
@@ -486,13 +503,14 @@ class HardwareReplayKind(StepKind):
     )
 
     def check_step(self, study, index: int, step, ref, seen) -> list:
+        problems = step.problems(index)
         if not isinstance(study.robot, UrdfRobotParams):
             what = (f"the preset {study.robot!r}" if isinstance(study.robot, str)
                     else "explicit parameters")
             return [(("robot",), f"a hardware_replay step replays a robot read from its URDF "
                                  f"(robot: {{urdf: ...}}), whose links say which hook is end A; "
-                                 f"got {what}")]
-        return []
+                                 f"got {what}")] + problems
+        return problems
 
     def n_tasks(self, step: HardwareReplayStep, gait) -> int:
         return 1 + 2 * len(step.log_files())
