@@ -575,4 +575,14 @@ class HardwareReplayKind(StepKind):
                     total += hs.size
         out.append(f"held out: identified below published_damping in {below} of {total} "
                    "(log, joint, horizon) rows")
+        out.append("the identified model's whole-swing RMS error per swing [rad], shoulder/"
+                   "elbow (m: from the motor arm, i: from the IMU arm)")
+        swing_rms = ds["swing_rms"].values[0]
+        hooks = ds["swing_hook"].values
+        swing_log = ds["swing_log"].values
+        for log in ds["log"].values:
+            cells = ", ".join(f"{swing_rms[i, 0]:.2f}/{swing_rms[i, 1]:.2f} "
+                              f"{'m' if hooks[i] == 'motor_arm' else 'i'}"
+                              for i in np.flatnonzero(swing_log == log))
+            out.append(f"  {log}: {cells}")
         return out
