@@ -281,9 +281,10 @@ def plot_held_out(ds):
             fig, f"AcroMonk's held-out logs: the replay's RMS angle error, identified model "
                  f"below the published damping in {below} of {total} (log, joint, horizon)",
             f"RMS over starts every {float(ds.attrs.get('start_every', math.nan)):g} s "
-            f"through each swing of the error at each horizon after the start, and over "
-            f"whole-swing replays. Dashed: the sensor floor, the largest std over the last 0.05 s of "
-            f"the catches of {', '.join(json_attr(ds, 'floor_logs', []))} (both hooks on their "
+            "through each swing of the error at each horizon after the start, and over "
+            "whole-swing replays. Dashed: the sensor floor, the largest std over the last "
+            f"0.05 s of the catches of {', '.join(json_attr(ds, 'floor_logs', []))} (both hooks "
+            "on their "
             f"bars), for the shoulder plus the IMU's drift times the horizon. "
             f"{identified_text(ds)}.\n{run_text(ds)}")
         axes = body.subplots(len(joints), hs.size + 1, squeeze=False, sharey="row")
