@@ -23,6 +23,9 @@ from .kinds.continuation import plot_continuation  # noqa: F401
 from .kinds.design import (  # noqa: F401
     plot_design_map, plot_design_multipliers, plot_design_replay, plot_design_screen,
 )
+from .kinds.hardware_replay import (  # noqa: F401
+    plot_held_out, plot_parameters, plot_residuals, plot_swings,
+)
 from .kinds.floquet import plot_floquet_multipliers  # noqa: F401
 from .kinds.shoot import plot_shoot_convergence  # noqa: F401
 from .kinds.stress import plot_stress  # noqa: F401

@@ -18,39 +18,45 @@ its files is missing, so a second call on unchanged datasets writes nothing, and
 interrupted by Ctrl-C redoes only what it had not finished. Figures whose datasets were
 deleted are removed.
 
-=====================================  ======================================  ==============
-file (``figures/``)                    what                                    study figure
-=====================================  ======================================  ==============
-``<grid>_surface``                     sqrt(error) surface, no-gait floor      3
-``<grid>_map``                         error map truncated at 5, minima, the   4, 9, 10
-                                       grid's least error
-``<grid>_swap_time``                   swap time over the grid                 -
-``<refine>_convergence``               best-vertex error per iteration (0:     (text 4.2)
-                                       the start)
-``<stability>_error``                  error per cycle, log scale              5, 8
-``<stability>_kinetic_energy``         kinetic energy per cycle                6
-``<stability>_height``                 attached-end height per cycle           7
-``<stability>_filmstrip``              one gait cycle, frame by frame          2 (from data)
-``<stability>_animation``              the whole run (MP4, or GIF)             -
-``stability_error_comparison``         all multi-cycle runs' errors            5 + 8
-``<shoot>_newton``                     residual norm per Newton iteration      -
-``<floquet>_multipliers``              multipliers and the unit circle         -
-``<tick_sweep>_error_growth``          error per cycle per tick, |lambda|^2n   -
-``<basin>_cycles_map``                 cycles to failure around the gait       -
-``<continuation>_branch``              gait family, |lambda| along it          -
-``<work_precision>_work_precision``    wall time per gait against error        -
-``<stress>_stress``                    energy drift, long runs, extreme cases  -
-``<design>_map``                       spectral radius over the design grid    -
-``<design>_multipliers``               the best design's multipliers           -
-``<design>_replay``                    the best design's open-loop replays     5-7
-``<design>_filmstrip``                 the best design's cycle                 2 (from data)
-``<design>_screen``                    candidates screened by survival         -
-``<survival>_survival``                survival fraction per cycle, per level  -
-``<survival>_mfpt``                    mean first-passage time against noise   -
-``<survival>_failure_modes``           how the runs ended, per level           -
-``<survival>_height_drift``            height change of each completed run     -
-``survival_mfpt_comparison``           every survival step's MFPT              -
-=====================================  ======================================  ==============
+=======================================  ======================================  ==============
+file (``figures/``)                      what                                    study figure
+=======================================  ======================================  ==============
+``<grid>_surface``                       sqrt(error) surface, no-gait floor      3
+``<grid>_map``                           error map truncated at 5, minima, the   4, 9, 10
+                                         grid's least error
+``<grid>_swap_time``                     swap time over the grid                 -
+``<refine>_convergence``                 best-vertex error per iteration (0:     (text 4.2)
+                                         the start)
+``<stability>_error``                    error per cycle, log scale              5, 8
+``<stability>_kinetic_energy``           kinetic energy per cycle                6
+``<stability>_height``                   attached-end height per cycle           7
+``<stability>_filmstrip``                one gait cycle, frame by frame          2 (from data)
+``<stability>_animation``                the whole run (MP4, or GIF)             -
+``stability_error_comparison``           all multi-cycle runs' errors            5 + 8
+``<shoot>_newton``                       residual norm per Newton iteration      -
+``<floquet>_multipliers``                multipliers and the unit circle         -
+``<tick_sweep>_error_growth``            error per cycle per tick, |lambda|^2n   -
+``<basin>_cycles_map``                   cycles to failure around the gait       -
+``<continuation>_branch``                gait family, |lambda| along it          -
+``<work_precision>_work_precision``      wall time per gait against error        -
+``<stress>_stress``                      energy drift, long runs, extreme cases  -
+``<design>_map``                         spectral radius over the design grid    -
+``<design>_multipliers``                 the best design's multipliers           -
+``<design>_replay``                      the best design's open-loop replays     5-7
+``<design>_filmstrip``                   the best design's cycle                 2 (from data)
+``<design>_screen``                      candidates screened by survival         -
+``<hardware_replay>_swings_train``       training swings: measured against the   -
+                                         identified model's replay
+``<hardware_replay>_swings_held_out``    held-out swings, likewise               -
+``<hardware_replay>_residuals``          the replay's angle error over time      -
+``<hardware_replay>_parameters``         identified parameters, 95 % intervals   -
+``<hardware_replay>_held_out``           held-out errors of the three models     -
+``<survival>_survival``                  survival fraction per cycle, per level  -
+``<survival>_mfpt``                      mean first-passage time against noise   -
+``<survival>_failure_modes``             how the runs ended, per level           -
+``<survival>_height_drift``              height change of each completed run     -
+``survival_mfpt_comparison``             every survival step's MFPT              -
+=======================================  ======================================  ==============
 
 The table lists every figure the step kinds declare (``tests/plotting/test_plotting_report.py``
 holds it to them). Which figures a dataset gets is what its step kind declares

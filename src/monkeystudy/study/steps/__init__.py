@@ -14,6 +14,7 @@ from .continuation import ContinuationKind
 from .design import DesignKind
 from .floquet import FloquetKind
 from .grid import GridKind
+from .hardware_replay import HardwareReplayKind
 from .refine import RefineKind
 from .shoot import ShootKind
 from .stability import StabilityKind
@@ -26,7 +27,7 @@ from .work_precision import WorkPrecisionKind
 REGISTRY: dict[str, StepKind] = {k.name: k for k in (
     GridKind(), RefineKind(), StabilityKind(), ShootKind(), FloquetKind(), TickSweepKind(),
     BasinKind(), ContinuationKind(), WorkPrecisionKind(), StressKind(), SurvivalKind(),
-    DesignKind(),
+    DesignKind(), HardwareReplayKind(),
 )}
 
 
