@@ -111,7 +111,8 @@ def step_keys(study: Study) -> dict[str, str]:
     gait, the integrator, the step's own settings, its dependencies' keys and the code its
     kind runs. Editing one step (or adding one), or the code of another kind, leaves the
     others' keys, datasets and shards valid; editing the robot, gait or integrator changes
-    every key."""
+    every key. A step that reads files outside the study (:meth:`~monkeystudy.study.steps.
+    base.StepKind.input_files`: a hardware log) is keyed on their contents too."""
     common = {"schema_version": study.schema_version, "robot": study.to_robot().to_dict(),
               "gait": gait_json(study),
               "integrator": integrator_fields(study.integrator.to_integrator())}
@@ -120,8 +121,20 @@ def step_keys(study: Study) -> dict[str, str]:
         kind = kind_of(s)
         payload = dict(common, step=s.model_dump(mode="json", by_alias=True),
                        code=kind.code_sha256, deps=[keys[d] for d in kind.deps(s)])
+        files = kind.input_files(s)
+        if files:       # absent otherwise: the keys of steps that read no file are unchanged
+            payload["input_files"] = [file_sha256(f) for f in files]
         keys[s.name] = hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
     return keys
+
+
+def file_sha256(path: str | Path) -> str:
+    """The SHA-256 of a file's bytes (hex)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            digest.update(chunk)
+    return digest.hexdigest()
 
 
 def dataset_current(path: Path, step_sha256: str, code_sha256: str) -> bool:

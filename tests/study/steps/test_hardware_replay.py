@@ -85,6 +85,34 @@ def test_logs_are_relative_to_the_study_file(tmp_path):
                                              .resolve())
 
 
+def test_the_step_is_keyed_on_its_logs_contents(tmp_path):
+    # a dataset is current only while the logs it was made from are unchanged: an edited log
+    # (same name, same path) changes the step's key
+    import gzip
+    import shutil
+
+    from monkeystudy.study.plan import step_keys
+
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    for name in ("BF_pd_5x", "ZB_pd_1x"):
+        shutil.copy(LOGS / f"{name}.csv.gz", logs / f"{name}.csv.gz")
+    study = tmp_path / "s.yaml"
+    study.write_text(text(train=f"{logs}/BF_pd_5x.csv.gz", held=f"{logs}/ZB_pd_1x.csv.gz"))
+    before = step_keys(load_study(study).study)["hw"]
+    assert step_keys(load_study(study).study)["hw"] == before
+    held = logs / "ZB_pd_1x.csv.gz"
+    with gzip.open(held, "rt") as f:
+        rows = f.read().splitlines(keepends=True)
+    # one measured value changed in its last digit
+    row = rows[-1].split(",")
+    row[2] = row[2][:-1] + ("1" if row[2][-1] != "1" else "2")
+    rows[-1] = ",".join(row)
+    with gzip.open(held, "wt") as f:
+        f.writelines(rows)
+    assert step_keys(load_study(study).study)["hw"] != before
+
+
 BAD = [
     # (study text, expected "s.yaml:line: key: message" start)
     (text(robot="robot: seed2009\n"),

@@ -190,6 +190,12 @@ class StepKind:
         name = getattr(step, "from_", None)
         return (name,) if name is not None else ()
 
+    def input_files(self, step) -> tuple[str, ...]:
+        """Files outside the study a step reads (paths): their contents are part of its key
+        (:func:`~monkeystudy.study.plan.step_keys`), so a dataset is current only while they
+        are unchanged. Default: none."""
+        return ()
+
     def check(self, study, index: int, step, seen: dict[str, Any]) -> list[Problem]:
         """Problems across steps (``seen``: the earlier steps by name): its ``from:`` names an
         earlier step of a kind it :attr:`accepts`, then the kind's own

@@ -512,6 +512,10 @@ class HardwareReplayKind(StepKind):
                                  f"got {what}")] + problems
         return problems
 
+    def input_files(self, step: HardwareReplayStep) -> tuple[str, ...]:
+        """The logs: a dataset is current only while their contents are unchanged."""
+        return tuple(step.log_files().values())
+
     def n_tasks(self, step: HardwareReplayStep, gait) -> int:
         return 1 + 2 * len(step.log_files())
 
