@@ -96,3 +96,25 @@ def test_residuals_are_simulated_less_measured(ds):
             pts = artists(fig, f"starts_identified_{joint}_{k}")[0].get_offsets()
             np.testing.assert_array_equal(np.asarray(pts)[:, 1],
                                           ds["start_error"].values[0, on_held, j, k])
+
+
+def test_the_page_shows_the_cgs_offsets_across_the_links(ds, tmp_path):
+    # a robot whose CGs lie off its links' lines: the set-up table has their offsets, as the
+    # dataset's robot attribute holds them; an in-line robot's table has no such column
+    import json
+
+    from monkeystudy.plotting.page import render_page
+    from monkeystudy.plotting.report import DRAWINGS
+
+    html = render_page(tmp_path, {"replay": ds}, {}, drawings=DRAWINGS)
+    assert "CG across the link" in html
+    for link in ("link1", "link2"):
+        across = json.loads(ds.attrs["robot"])[link]["com_across"]
+        assert f"<td>{across:.10g} m</td>" in html
+    in_line = ds.copy()
+    robot = json.loads(ds.attrs["robot"])
+    for link in ("link1", "link2"):
+        del robot[link]["com_across"]
+    in_line.attrs["robot"] = json.dumps(robot)
+    assert "CG across the link" not in render_page(tmp_path, {"replay": in_line}, {},
+                                                   drawings=DRAWINGS)

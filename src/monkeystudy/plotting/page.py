@@ -150,12 +150,16 @@ def _num(value) -> str:
 
 
 def _robot_table(robot: Mapping) -> str:
+    links = (("link1", "link 1 (end A)"), ("link2", "link 2 (end B)"))
+    # a robot whose CGs lie off its links' lines (docs/model.md section 1) shows their offsets
+    across = any(robot.get(key, {}).get("com_across") for key, _ in links)
     rows = []
-    for key, label in (("link1", "link 1 (end A)"), ("link2", "link 2 (end B)")):
+    for key, label in links:
         lk = robot.get(key, {})
         rows.append(f"<tr><td>{_e(label)}</td><td>{_num(lk.get('mass'))} kg</td>"
                     f"<td>{_num(lk.get('length'))} m</td><td>{_num(lk.get('com'))} m</td>"
-                    f"<td>{_num(lk.get('inertia'))} kg m²</td></tr>")
+                    + (f"<td>{_num(lk.get('com_across', 0.0))} m</td>" if across else "")
+                    + f"<td>{_num(lk.get('inertia'))} kg m²</td></tr>")
     friction = []
     for key, label in (("pivot_friction", "pivot"), ("joint_friction", "joint")):
         f = robot.get(key) or {}
@@ -163,7 +167,8 @@ def _robot_table(robot: Mapping) -> str:
             friction.append(f"{label}: viscous {f.get('viscous')} N m s, Coulomb "
                             f"{f.get('coulomb')} N m")
     return ("<table><tr><th></th><th>mass</th><th>length</th><th>CG from its proximal end</th>"
-            "<th>inertia about the CG</th></tr>" + "".join(rows) + "</table>"
+            + ("<th>CG across the link (counter-clockwise)</th>" if across else "")
+            + "<th>inertia about the CG</th></tr>" + "".join(rows) + "</table>"
             f"<p>gravity {robot.get('gravity')} m s⁻²; friction: "
             f"{_e('; '.join(friction) or 'none')}</p>")
 
