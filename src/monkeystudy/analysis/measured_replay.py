@@ -810,6 +810,7 @@ def viscous_from_energy(robot: Robot, swings_: Sequence[ModelSwing]) -> np.ndarr
     """The viscous friction ``[b_pivot, b_joint]`` [N m s] (each >= 0) whose dissipation along
     the measured motions best matches each swing's :func:`energy_balance` (least squares over
     the swings, ``scipy.optimize.nnls``): an estimate from energy alone, without a replay."""
+    # scipy only where a check runs: importing the replay stays light
     from scipy.optimize import nnls
 
     a = np.array([rate_square_integrals(ms) for ms in swings_])
