@@ -123,18 +123,9 @@ def step_keys(study: Study) -> dict[str, str]:
                        code=kind.code_sha256, deps=[keys[d] for d in kind.deps(s)])
         files = kind.input_files(s)
         if files:       # absent otherwise: the keys of steps that read no file are unchanged
-            payload["input_files"] = [file_sha256(f) for f in files]
+            payload["input_files"] = [P.file_sha256(f) for f in files]
         keys[s.name] = hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
     return keys
-
-
-def file_sha256(path: str | Path) -> str:
-    """The SHA-256 of a file's bytes (hex)."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            digest.update(chunk)
-    return digest.hexdigest()
 
 
 def dataset_current(path: Path, step_sha256: str, code_sha256: str) -> bool:

@@ -211,6 +211,15 @@ def run_command(study, out=None, workers: int | None = None, scheduler: str | No
                     + ([f"--server --socket {server}"] if server else []))
 
 
+def file_sha256(path: str | Path) -> str:
+    """The SHA-256 of a file's bytes (hex)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
 def run_key(study_sha256: str) -> str:
     """Key of one study text run by this code: names shard folders, checked in datasets."""
     return hashlib.sha256(f"{study_sha256}:{code_sha256()}".encode()).hexdigest()

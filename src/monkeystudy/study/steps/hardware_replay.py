@@ -10,7 +10,6 @@ dataset is bit-reproducible.
 """
 from __future__ import annotations
 
-import hashlib
 import json
 from pathlib import Path
 from typing import Annotated, Any, Literal, Sequence
@@ -26,6 +25,7 @@ from ...analysis.measured_replay import (
 from ...measured import LogError, read_log, sensor_floor, swings
 from ...robot import Friction, Robot
 from .. import datasets as D
+from .. import provenance
 from ..blocks import Task
 from ..models import FrictionSettings, JointFriction, Name, StrictModel, UrdfRobotParams, unique
 from ..spec import GaitSpec
@@ -396,10 +396,6 @@ def floor_of(paths: Sequence[str], horizons: Sequence[float]) -> tuple[np.ndarra
     return np.vstack([sh + drift * h, np.full(h.size, el)]), [n for n, _ in floors]
 
 
-def sha256_of(path: str) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
 def write_hardware_replay(path: Path, attrs: dict, step: HardwareReplayStep, fitted: dict,
                           others: dict[tuple[str, str], dict]) -> dict[str, Any]:
     """Write a hardware_replay dataset (docs/datasets.md) from :func:`identify_task`'s
@@ -470,7 +466,7 @@ def write_hardware_replay(path: Path, attrs: dict, step: HardwareReplayStep, fit
         D.set_global_attrs(nc, dict(
             attrs, train=names[:n_train], held_out_logs=names[n_train:],
             log_files=list(step.train + step.held_out),
-            log_sha256={n: sha256_of(files[n]) for n in names},
+            log_sha256={n: provenance.file_sha256(files[n]) for n in names},
             start_every=step.start_every, identify_window=step.identify.window,
             identify_every=step.identify.every,
             identify_max_evaluations=step.identify.max_evaluations,
