@@ -9,8 +9,8 @@ import numpy as np
 from .kernel.dynamics import derive_params, flipped_params
 from .urdf import UrdfReduction, reduce_urdf
 from .kernel.layout import (
-    N_PARAMS, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_I1, P_I2, P_L1, P_L2, P_M1,
-    P_M2, P_R1, P_R2, P_S1, P_S2,
+    N_PARAMS, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_GEAR, P_HOUSING1, P_I1, P_I2,
+    P_L1, P_L2, P_M1, P_M2, P_R1, P_R2, P_ROTOR, P_S1, P_S2,
 )
 
 
@@ -75,6 +75,38 @@ class Friction:
 
 
 @dataclass(frozen=True)
+class Rotor:
+    """The joint motor's rotor (docs/model.md section 2, "The motor's rotor"): its inertia
+    about its own axis [kg m^2], the gear ratio (rotor turns per turn of the joint,
+    counted from the link that holds the motor's housing) [1], and that link (1 or 2).
+
+    The rotor turns with the housing's link plus ``gear_ratio`` times the other link's
+    angle relative to it, so its kinetic energy adds a constant block to the mass matrix: with
+    the housing on link 1, ``inertia * [[1, N], [N, N^2]]`` in ``(theta1, theta2)``; seen from
+    the other end, ``N`` becomes ``1 - N``. ``N^2 * inertia`` is the inertia reflected to the
+    joint that a datasheet calls the rotor's reflected inertia. Zero inertia (the default)
+    is a robot without one.
+    """
+
+    inertia: float = 0.0
+    gear_ratio: float = 1.0
+    housing: int = 1
+
+    def validate(self, where: str) -> None:
+        _check_nonnegative(f"{where}.inertia", self.inertia)
+        if not math.isfinite(float(self.gear_ratio)):
+            raise ValueError(f"{where}.gear_ratio must be finite, got {self.gear_ratio!r}")
+        if self.housing not in (1, 2):
+            raise ValueError(f"{where}.housing must be 1 or 2 (the link that holds the "
+                             f"motor's housing), got {self.housing!r}")
+
+    @property
+    def reflected_inertia(self) -> float:
+        """``gear_ratio^2 * inertia``: the rotor's inertia seen at the joint [kg m^2]."""
+        return self.gear_ratio * self.gear_ratio * self.inertia
+
+
+@dataclass(frozen=True)
 class Robot:
     """The MonkeyBot: two links, gravity [m s-2], friction at the pivot and the joint.
 
@@ -88,6 +120,7 @@ class Robot:
     pivot_friction: Friction = field(default_factory=Friction)
     joint_friction: Friction = field(default_factory=Friction)
     name: str = "custom"
+    rotor: Rotor = field(default_factory=Rotor)
 
     def __post_init__(self):
         self.link1.validate("link1")
@@ -95,6 +128,7 @@ class Robot:
         _check_positive("gravity", self.gravity)
         self.pivot_friction.validate("friction.pivot")
         self.joint_friction.validate("friction.joint")
+        self.rotor.validate("rotor")
 
     # -- presets ---------------------------------------------------------------------------
     @classmethod
@@ -155,6 +189,10 @@ class Robot:
         return replace(self, pivot_friction=pivot or self.pivot_friction,
                        joint_friction=joint or self.joint_friction)
 
+    def with_rotor(self, rotor: Rotor) -> "Robot":
+        """This robot with the joint motor's rotor ``rotor``."""
+        return replace(self, rotor=rotor)
+
     # -- kernel view -------------------------------------------------------------------------
     def params(self) -> np.ndarray:
         """Parameter rows for the kernels: ``float64[2, N_PARAMS]`` (normal, flipped)."""
@@ -167,6 +205,8 @@ class Robot:
         p[P_G] = self.gravity
         p[P_B_PIVOT], p[P_C_PIVOT] = self.pivot_friction.viscous, self.pivot_friction.coulomb
         p[P_B_JOINT], p[P_C_JOINT] = self.joint_friction.viscous, self.joint_friction.coulomb
+        p[P_ROTOR], p[P_GEAR] = self.rotor.inertia, self.rotor.gear_ratio
+        p[P_HOUSING1] = 1.0 if self.rotor.housing == 1 else 0.0
         derive_params(p)
         par = np.empty((2, N_PARAMS))
         par[0] = p
@@ -238,11 +278,14 @@ class Robot:
     def to_dict(self) -> dict:
         """Plain values (JSON-ready): ``link1``, ``link2`` (mass, length, com, inertia, and
         com_across unless it is 0), ``gravity``, ``pivot_friction``, ``joint_friction``
-        (viscous, coulomb), ``name``."""
+        (viscous, coulomb), ``name``, and ``rotor`` (inertia, gear_ratio, housing) unless it
+        is the default, none."""
         d = asdict(self)
         for link in ("link1", "link2"):
             if d[link]["com_across"] == 0.0:
                 del d[link]["com_across"]     # an in-line link is described as it always was
+        if self.rotor == Rotor():
+            del d["rotor"]                    # so is a robot without a rotor
         return d
 
     @classmethod
@@ -252,7 +295,7 @@ class Robot:
         return cls(Link(**d["link1"]), Link(**d["link2"]), gravity=float(d.get("gravity", 9.81)),
                    pivot_friction=Friction(**d.get("pivot_friction") or {}),
                    joint_friction=Friction(**d.get("joint_friction") or {}),
-                   name=str(d.get("name", "custom")))
+                   name=str(d.get("name", "custom")), rotor=Rotor(**d.get("rotor") or {}))
 
 
 def _seed2009() -> Robot:

@@ -5,7 +5,7 @@ import functools
 
 import numpy as np
 
-from monkeystudy import Friction, Link, Robot
+from monkeystudy import Friction, Link, Robot, Rotor
 
 #: An asymmetric robot (unequal masses, lengths, CG positions and inertias).
 ASYMMETRIC = Robot(Link(1.2, 0.7, 0.42, 0.035), Link(0.8, 0.55, 0.15, 0.02), gravity=9.81,
@@ -15,11 +15,18 @@ ASYMMETRIC = Robot(Link(1.2, 0.7, 0.42, 0.035), Link(0.8, 0.55, 0.15, 0.02), gra
 OFF_LINE = Robot(Link(1.04, 0.315, 0.234, 0.0017, -0.0058),
                  Link(0.63, 0.315, 0.124, 0.0041, 0.0088), gravity=9.81, name="off_line")
 
+#: OFF_LINE with a geared motor's rotor in its joint, the housing on link 1 (seen from end B,
+#: on link 2), about as large as a small servo's; a rotor 100 times heavier makes its terms
+#: stand out above round-off in every comparison.
+GEARED = Robot(OFF_LINE.link1, OFF_LINE.link2, gravity=9.81, name="geared",
+               rotor=Rotor(inertia=6e-3, gear_ratio=6.0, housing=1))
+
 ROBOTS = {
     "seed2009": Robot.preset("seed2009"),
     "uniform_rod": Robot.preset("uniform_rod"),
     "asymmetric": ASYMMETRIC,
     "off_line": OFF_LINE,
+    "geared": GEARED,
 }
 
 

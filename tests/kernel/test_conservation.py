@@ -32,6 +32,7 @@ SWING_CASES = [
     ("seed2009", dict(dtheta1=1.0, dtheta2=-2.0, theta1=0.3)),
     ("uniform_rod", dict(dtheta1=4.0, dtheta2=12.0)),
     ("asymmetric", dict(dtheta1=-3.0, dtheta2=9.0, theta1=1.0, theta2=-0.5)),
+    ("geared", dict(dtheta1=2.0, dtheta2=-6.0, theta1=0.4, theta2=0.3)),
 ]
 
 
@@ -84,7 +85,7 @@ def _flight_invariants(ref, states):
     return lin, cg, np.array(ang), ang_scale, np.array(k_int)
 
 
-@pytest.mark.parametrize("name", ["asymmetric", "seed2009"])
+@pytest.mark.parametrize("name", ["asymmetric", "seed2009", "geared"])
 def test_flight_conservation(name):
     robot = ROBOTS[name]
     ref = RefRobot.from_robot(robot)

@@ -6,6 +6,8 @@ section 1 and derives ``M``, ``C qdot`` and ``G`` with sympy, for flight (4-DOF)
 kinematics are compared with the lambdified derivation at random states of random (generally
 asymmetric) robots, to a relative 1e-12.
 """
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import sympy as sp
@@ -59,7 +61,7 @@ def test_model_md_closed_forms_equal_derivation(sym):
     """docs/model.md section 2, typed in, minus the derivation simplifies to zero (both systems)."""
     x, y, th1, th2 = sym.symbols.q
     dx, dy, w1, w2 = sym.symbols.qd
-    m1, m2, L1, L2, r1, r2, I1, I2, g, sg1, sg2 = sym.symbols.prm
+    m1, m2, L1, L2, r1, r2, I1, I2, g, sg1, sg2, Ir, N, housing1 = sym.symbols.prm
     s1, c1, s2, c2 = sp.sin(th1), sp.cos(th1), sp.sin(th2), sp.cos(th2)
     s12, c12 = sp.sin(th1 + th2), sp.cos(th1 + th2)
     a = m1 * r1 + m2 * L1
@@ -70,6 +72,9 @@ def test_model_md_closed_forms_equal_derivation(sym):
     Ms = sp.Matrix([[I1 + I2 + m1 * (r1**2 + sg1**2) + m2 * L1**2 + m2 * (r2**2 + sg2**2)
                      + 2 * hc2, I2 + m2 * (r2**2 + sg2**2) + hc2],
                     [I2 + m2 * (r2**2 + sg2**2) + hc2, I2 + m2 * (r2**2 + sg2**2)]])
+    # the rotor's constant block: Ir [[1, k], [k, k^2]], k = N (housing on link 1) or 1 - N
+    k = housing1 * N + (1 - housing1) * (1 - N)
+    Ms = Ms + Ir * sp.Matrix([[1, k], [k, k**2]])
     Cs = sp.Matrix([-hs2 * (2 * w1 * w2 + w2**2), hs2 * w1**2])
     Gs = sp.Matrix([g * (a * s1 + a_s * c1 + m2 * r2 * s12 + m2 * sg2 * c12),
                     g * (m2 * r2 * s12 + m2 * sg2 * c12)])
@@ -263,7 +268,8 @@ def test_derived_parameters():
 
 def test_flipped_params_are_the_robot_seen_from_b():
     """docs/model.md section 3: links swap, CGs re-measured from the new proximal ends; friction
-    stays with the pivot and the joint; the CGs' offsets across the links change sign. Row 1 of
+    stays with the pivot and the joint; the CGs' offsets across the links change sign; the
+    motor's housing stays on its link, which is link 2 seen from B. Row 1 of
     ``Robot.params()`` is that robot."""
     rng = np.random.default_rng(11)
     for robot in [*ROBOTS.values(), *(random_robot(rng, True) for _ in range(10))]:
@@ -274,7 +280,8 @@ def test_flipped_params_are_the_robot_seen_from_b():
                             Link(l1.mass, l1.length, l1.length - l1.com, l1.inertia,
                                  -l1.com_across),
                             gravity=robot.gravity, pivot_friction=robot.pivot_friction,
-                            joint_friction=robot.joint_friction)
+                            joint_friction=robot.joint_friction,
+                            rotor=replace(robot.rotor, housing=3 - robot.rotor.housing))
         par = robot.params()
         np.testing.assert_allclose(dyn.flipped_params(par[0]), seen_from_b.params()[0],
                                    rtol=1e-15, atol=1e-15)

@@ -46,6 +46,9 @@ class RefRobot:
     c_joint: float = 0.0
     sigma1: float = 0.0     # CG offsets across the links [m] (docs/model.md section 1)
     sigma2: float = 0.0
+    rotor: float = 0.0      # the joint motor's rotor inertia [kg m^2], gear ratio, and 1.0 when
+    gear: float = 1.0       # its housing is on link 1, 0.0 on link 2 (docs/model.md section 2)
+    housing1: float = 1.0
 
     # -- construction ---------------------------------------------------------------------
     @classmethod
@@ -55,18 +58,20 @@ class RefRobot:
         return cls(l1.mass, l2.mass, l1.length, l2.length, l1.com, l2.com, l1.inertia,
                    l2.inertia, robot.gravity, robot.pivot_friction.viscous,
                    robot.pivot_friction.coulomb, robot.joint_friction.viscous,
-                   robot.joint_friction.coulomb, l1.com_across, l2.com_across)
+                   robot.joint_friction.coulomb, l1.com_across, l2.com_across,
+                   robot.rotor.inertia, robot.rotor.gear_ratio,
+                   1.0 if robot.rotor.housing == 1 else 0.0)
 
     @property
     def prm(self):
         return (self.m1, self.m2, self.L1, self.L2, self.r1, self.r2, self.I1, self.I2, self.g,
-                self.sigma1, self.sigma2)
+                self.sigma1, self.sigma2, self.rotor, self.gear, self.housing1)
 
     def flipped(self) -> "RefRobot":
         """The same robot seen from end B (docs/model.md section 3); friction stays with its joint."""
         return replace(self, m1=self.m2, m2=self.m1, L1=self.L2, L2=self.L1, I1=self.I2,
                        I2=self.I1, r1=self.L2 - self.r2, r2=self.L1 - self.r1,
-                       sigma1=-self.sigma2, sigma2=-self.sigma1)
+                       sigma1=-self.sigma2, sigma2=-self.sigma1, housing1=1.0 - self.housing1)
 
     # -- matrices -------------------------------------------------------------------------
     def flight_matrices(self, s8):

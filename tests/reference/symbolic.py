@@ -3,15 +3,19 @@
 Only the *positions* of section 1 are typed in (with ``cos`` in the y coordinates, docs/model.md
 section 5); the mass matrix, Coriolis/centrifugal vector and gravity vector are derived:
 
-    K = 1/2 (m1 |v_CG1|^2 + m2 |v_CG2|^2 + I1 w1^2 + I2 (w1 + w2)^2),  V = g (m1 y_CG1 + m2 y_CG2)
+    K = 1/2 (m1 |v_CG1|^2 + m2 |v_CG2|^2 + I1 w1^2 + I2 (w1 + w2)^2 + Ir w_rotor^2),
+    V = g (m1 y_CG1 + m2 y_CG2)
     M = d^2 K / d qdot^2,   C qdot = (d (M qdot) / dq) qdot - dK/dq,   G = dV/dq
 
 Flight (q = [x, y, th1, th2]) and swing (q = [th1, th2], x and y constant) are derived
 separately. The derivation takes a few seconds: :func:`derivation` caches it per process.
 
-Parameters are passed as ``prm = (m1, m2, L1, L2, r1, r2, I1, I2, g, sigma1, sigma2)``:
-``sigma_i`` is link i's CG offset across the line between its joints, counter-clockwise
-positive (docs/model.md section 1), 0 for in-line links.
+Parameters are passed as ``prm = (m1, m2, L1, L2, r1, r2, I1, I2, g, sigma1, sigma2, Ir, N,
+housing1)``: ``sigma_i`` is link i's CG offset across the line between its joints,
+counter-clockwise positive (docs/model.md section 1), 0 for in-line links; ``Ir`` the joint
+motor's rotor inertia, ``N`` its gear ratio and ``housing1`` 1 when its housing is on link 1,
+0 when on link 2. The rotor turns at ``w_rotor``: its housing link's rate plus ``N`` times the
+other link's rate relative to it, ``w1 + N w2`` or ``(w1 + w2) - N w2``.
 """
 from __future__ import annotations
 
@@ -20,7 +24,8 @@ from types import SimpleNamespace
 
 import sympy as sp
 
-PARAM_NAMES = ("m1", "m2", "L1", "L2", "r1", "r2", "I1", "I2", "g", "sigma1", "sigma2")
+PARAM_NAMES = ("m1", "m2", "L1", "L2", "r1", "r2", "I1", "I2", "g", "sigma1", "sigma2", "Ir",
+               "N", "housing1")
 
 
 def _positions(x, y, th1, th2, L1, r1, L2, r2, sigma1, sigma2):
@@ -53,8 +58,8 @@ def derivation() -> SimpleNamespace:
     x, y, th1, th2 = sp.symbols("x y theta1 theta2", real=True)
     dx, dy, w1, w2 = sp.symbols("dx dy w1 w2", real=True)
     m1, m2, L1, L2, r1, r2, I1, I2, g = sp.symbols(" ".join(PARAM_NAMES[:9]), positive=True)
-    sigma1, sigma2 = sp.symbols(" ".join(PARAM_NAMES[9:]), real=True)
-    prm = (m1, m2, L1, L2, r1, r2, I1, I2, g, sigma1, sigma2)
+    sigma1, sigma2, Ir, N, housing1 = sp.symbols(" ".join(PARAM_NAMES[9:]), real=True)
+    prm = (m1, m2, L1, L2, r1, r2, I1, I2, g, sigma1, sigma2, Ir, N, housing1)
 
     cg1, joint, cg2, b = _positions(x, y, th1, th2, L1, r1, L2, r2, sigma1, sigma2)
 
@@ -66,8 +71,9 @@ def derivation() -> SimpleNamespace:
         # angular velocities from the angles themselves (w1 and w1 + w2 in both systems)
         om1 = w1
         om2 = w1 + w2
+        om_rotor = housing1 * (om1 + N * w2) + (1 - housing1) * (om2 - N * w2)
         K = sp.Rational(1, 2) * (m1 * v1.dot(v1) + m2 * v2.dot(v2) + I1 * om1 ** 2
-                                 + I2 * om2 ** 2)
+                                 + I2 * om2 ** 2 + Ir * om_rotor ** 2)
         V = g * (m1 * cg1[1] + m2 * cg2[1])
         return sp.expand(K), V
 
@@ -90,7 +96,8 @@ def derivation() -> SimpleNamespace:
     cross = lambda r, v: r[0] * v[1] - r[1] * v[0]  # noqa: E731
     ang_terms = sp.Matrix([m1 * cross(cg1 - sp.Matrix([px, py]), v1),
                            m2 * cross(cg2 - sp.Matrix([px, py]), v2),
-                           I1 * w1, I2 * (w1 + w2)])
+                           I1 * w1, I2 * (w1 + w2),
+                           Ir * (housing1 * (w1 + N * w2) + (1 - housing1) * (w1 + w2 - N * w2))])
     ang = sum(ang_terms)
     cg = (m1 * cg1 + m2 * cg2) / (m1 + m2)
 

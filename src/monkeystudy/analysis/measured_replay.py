@@ -46,7 +46,7 @@ from ..controllers import Integrator, PhaseSequence, Segment
 from ..kernel import layout as L
 from ..kernel.dynamics import swing_matrices, total_energy8
 from ..measured import CATCH, MOTOR_ARM, HardwareLog, Swing, swing_state, swings, swings_by_flag
-from ..robot import Friction, Robot
+from ..robot import Friction, Robot, Rotor
 from ..simulation import Status, initial_state, physical_points, run_controller
 from ..urdf import reduce_urdf
 
@@ -57,6 +57,10 @@ ACROMONK_URDF = Path(__file__).resolve().parents[3] / "data" / "acromonk" / "mod
 ACROMONK_LINKS = ("hook_1", "link_2")
 ACROMONK_JOINTS = ("virtul_joint_hook_1", "joint_1")
 ACROMONK_FAR_GRIP = "hook_2"
+#: AcroMonk's elbow servo (data/acromonk/hardware/testbench-description.md: an mjbots qdd100,
+#: a 6:1 planetary gear) with its housing on the motor arm, link 1: the rotor's geometry,
+#: its inertia left to be identified (zero here)
+ACROMONK_ROTOR = Rotor(inertia=0.0, gear_ratio=6.0, housing=1)
 #: AcroMonk's MuJoCo model (data/acromonk/model/acromonk_mujoco.xml): joint damping [N m s]
 #: at the bar (the pivot) and at the elbow (the joint), viscous only
 PUBLISHED_PIVOT = Friction(viscous=0.044)
@@ -74,10 +78,10 @@ def acromonk_robot(pivot: Friction | None = None, joint: Friction | None = None,
                    urdf: Path | str = ACROMONK_URDF) -> Robot:
     """AcroMonk's planar robot from its URDF (:meth:`Robot.from_urdf`), with the given
     friction at the pivot (the holding hook on its bar) and the joint (the elbow); zero
-    unless given."""
+    unless given; its elbow servo's rotor geometry (:data:`ACROMONK_ROTOR`, zero inertia)."""
     return Robot.from_urdf(urdf, links=ACROMONK_LINKS, joints=ACROMONK_JOINTS,
                            far_grip=ACROMONK_FAR_GRIP, pivot_friction=pivot,
-                           joint_friction=joint, name="acromonk")
+                           joint_friction=joint, name="acromonk").with_rotor(ACROMONK_ROTOR)
 
 
 @dataclass(frozen=True)
@@ -323,14 +327,17 @@ def whole_swing_error(robot: Robot, ms: ModelSwing, *, hold: str = "centred",
 
 
 # --- identification ---------------------------------------------------------------------------
-#: the parameters :func:`identify` can fit: name -> (units, lower bound, upper bound, start)
+#: the parameters :func:`identify` can fit: name -> (units, lower bound, upper bound, start,
+#: scale: the size of a change the fit resolves, which sets its difference step)
 PARAMETERS = {
-    "pivot_viscous": ("N m s", 0.0, 1.0, 0.02),
-    "pivot_coulomb": ("N m", 0.0, 1.0, 0.02),
-    "joint_viscous": ("N m s", 0.0, 1.0, 0.02),
-    "joint_coulomb": ("N m", 0.0, 1.0, 0.02),
-    "shoulder_offset": ("rad", -0.2, 0.2, 0.0),
-    "torque_scale": ("1", 0.2, 2.0, 1.0),
+    "pivot_viscous": ("N m s", 0.0, 1.0, 0.02, 1.0),
+    "pivot_coulomb": ("N m", 0.0, 1.0, 0.02, 1.0),
+    "joint_viscous": ("N m s", 0.0, 1.0, 0.02, 1.0),
+    "joint_coulomb": ("N m", 0.0, 1.0, 0.02, 1.0),
+    "shoulder_offset": ("rad", -0.2, 0.2, 0.0, 1.0),
+    "torque_scale": ("1", 0.2, 2.0, 1.0, 1.0),
+    # the elbow servo's rotor inertia about its axis (reflected to the elbow: 36 times it)
+    "rotor_inertia": ("kg m2", 0.0, 1e-3, 0.0, 1e-4),
 }
 FRICTION = ("pivot_viscous", "pivot_coulomb", "joint_viscous", "joint_coulomb")
 
@@ -338,12 +345,15 @@ FRICTION = ("pivot_viscous", "pivot_coulomb", "joint_viscous", "joint_coulomb")
 @dataclass(frozen=True)
 class ModelValues:
     """A model's values beyond the URDF: friction at the pivot and the joint, an offset added
-    to the logged shoulder angle [rad] and a scale on the measured torque [1]."""
+    to the logged shoulder angle [rad], a scale on the measured torque [1] and the elbow
+    servo's rotor inertia [kg m^2] (None: the base robot's; a value replaces the inertia of
+    the base robot's rotor, whose gear ratio and housing stay)."""
 
     pivot: Friction = Friction()
     joint: Friction = Friction()
     shoulder_offset: float = 0.0
     torque_scale: float = 1.0
+    rotor_inertia: float | None = None
 
     @classmethod
     def from_vector(cls, names: Sequence[str], x, base: "ModelValues | None" = None):
@@ -355,11 +365,15 @@ class ModelValues:
                    Friction(v.get("joint_viscous", b.joint.viscous),
                             v.get("joint_coulomb", b.joint.coulomb)),
                    v.get("shoulder_offset", b.shoulder_offset),
-                   v.get("torque_scale", b.torque_scale))
+                   v.get("torque_scale", b.torque_scale),
+                   v.get("rotor_inertia", b.rotor_inertia))
 
     def robot(self, base: Robot) -> Robot:
-        """``base`` with this friction."""
-        return base.with_friction(self.pivot, self.joint)
+        """``base`` with this friction and rotor inertia."""
+        robot = base.with_friction(self.pivot, self.joint)
+        if self.rotor_inertia is None:
+            return robot
+        return robot.with_rotor(replace(base.rotor, inertia=self.rotor_inertia))
 
     def swings(self, swings_: Sequence[ModelSwing]) -> list[ModelSwing]:
         """The swings with this shoulder offset added."""
@@ -422,8 +436,9 @@ class Identification:
         for k, n in enumerate(self.names):
             lo, hi = self.ci95[k]
             ilo, ihi = self.ci95_iid[k]
-            out.append(f"{n:<16} {self.values[k]:9.4f} {PARAMETERS[n][0]:<6} 95 % "
-                       f"[{lo:8.4f}, {hi:8.4f}] (swing-clustered)  [{ilo:8.4f}, {ihi:8.4f}] "
+            f = ".4f" if PARAMETERS[n][4] >= 1e-2 else ".3e"
+            out.append(f"{n:<16} {self.values[k]:9{f}} {PARAMETERS[n][0]:<6} 95 % "
+                       f"[{lo:8{f}}, {hi:8{f}}] (swing-clustered)  [{ilo:8{f}}, {ihi:8{f}}] "
                        f"(windows independent)")
         return "\n".join(out)
 
@@ -444,8 +459,9 @@ def identify(base: Robot, swings_: Sequence[ModelSwing], *, names: Sequence[str]
 
     ``fixed`` gives the parameters not fitted. The fit is
     ``scipy.optimize.least_squares`` (trust-region reflective, bounds from
-    :data:`PARAMETERS`, a forward-difference Jacobian with steps of 1e-3 of
-    ``max(1, |x|)``: far above the replay's integration error).
+    :data:`PARAMETERS`, a forward-difference Jacobian with steps of 1e-3 of each
+    parameter's scale times ``max(1, |x|)``: far above the replay's integration error; the
+    parameters scaled by those scales).
     """
     # scipy only where a fit runs: importing the replay stays light
     from scipy.optimize import least_squares
@@ -461,6 +477,7 @@ def identify(base: Robot, swings_: Sequence[ModelSwing], *, names: Sequence[str]
     lo = np.array([PARAMETERS[n][1] for n in names])
     hi = np.array([PARAMETERS[n][2] for n in names])
     start = np.array([PARAMETERS[n][3] for n in names]) if x0 is None else np.asarray(x0, float)
+    scale = np.array([PARAMETERS[n][4] for n in names])
     groups: list[int] = []
 
     def residuals(x):
@@ -475,8 +492,8 @@ def identify(base: Robot, swings_: Sequence[ModelSwing], *, names: Sequence[str]
             groups.extend([i] * rep.error.size)
         return np.concatenate(out)
 
-    fit = least_squares(residuals, np.clip(start, lo, hi), bounds=(lo, hi), diff_step=1e-3,
-                        x_scale=1.0, max_nfev=max_nfev, method="trf")
+    fit = least_squares(residuals, np.clip(start, lo, hi), bounds=(lo, hi),
+                        diff_step=1e-3 * scale, x_scale=scale, max_nfev=max_nfev, method="trf")
     r = residuals(fit.x)
     J = fit.jac
     g = np.array(groups)

@@ -34,8 +34,8 @@ import numpy as np
 from .jit import njit
 from .layout import (
     FLIES, P_A, P_AS, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_H, P_HS, P_I1, P_I2,
-    P_K11, P_K22, P_L1, P_L2, P_M1, P_M2, P_M2R2, P_M2S2, P_MTOT, P_R1, P_R2, P_S1, P_S2,
-    PHASE_SWING, PHASE_FLIGHT,
+    P_GEAR, P_HOUSING1, P_J11, P_J12, P_J22, P_K11, P_K22, P_L1, P_L2, P_M1, P_M2, P_M2R2,
+    P_M2S2, P_MTOT, P_R1, P_R2, P_ROTOR, P_S1, P_S2, PHASE_SWING, PHASE_FLIGHT,
 )
 from .trig import sincos
 
@@ -66,6 +66,12 @@ def derive_params(p):
     p[P_AS] = m1 * sigma1
     p[P_HS] = m2 * sigma2 * L1
     p[P_M2S2] = m2 * sigma2
+    # the rotor turns with its housing's link plus gear ratio times the other link's angle
+    # relative to that link: w1 + N w2 (housing on link 1) or (w1 + w2) - N w2 (on link 2)
+    rate = p[P_GEAR] if p[P_HOUSING1] == 1.0 else 1.0 - p[P_GEAR]
+    p[P_J11] = p[P_ROTOR]
+    p[P_J12] = rate * p[P_ROTOR]
+    p[P_J22] = rate * rate * p[P_ROTOR]
 
 
 def flipped_params(p):
@@ -75,7 +81,7 @@ def flipped_params(p):
     (``r1' = L2 - r2``, ``r2' = L1 - r1``) and each link's direction reverses, so its
     across-offset changes sign (``sigma1' = -sigma2``, ``sigma2' = -sigma1``; ``0 - x``: an
     in-line link keeps ``+0.0``). Friction belongs to the pivot and the joint, not to a link,
-    so it is unchanged.
+    so it is unchanged; the motor's housing stays on its link, which changes number.
     """
     q = np.array(p, dtype=np.float64)
     q[P_M1], q[P_M2] = p[P_M2], p[P_M1]
@@ -85,6 +91,7 @@ def flipped_params(p):
     q[P_R2] = p[P_L1] - p[P_R1]
     q[P_S1] = 0.0 - p[P_S2]
     q[P_S2] = 0.0 - p[P_S1]
+    q[P_HOUSING1] = 1.0 - p[P_HOUSING1]
     derive_params(q)
     return q
 
@@ -136,9 +143,9 @@ def _swing_terms_t(p, tau, fmode, s1, c1, s2, c2, s12, c12, w1, w2):
     # mass matrix: h s2 + hs c2 (hs = 0 for an in-line link 2)
     hs2 = h * s2 + hs * c2
     gm2r2s12 = p[P_G] * p[P_M2R2] * s12 + p[P_G] * p[P_M2S2] * c12
-    m11 = p[P_K11] + 2.0 * h * c2 - 2.0 * hs * s2
-    m12 = p[P_K22] + h * c2 - hs * s2
-    m22 = p[P_K22]
+    m11 = p[P_K11] + 2.0 * h * c2 - 2.0 * hs * s2 + p[P_J11]
+    m12 = p[P_K22] + h * c2 - hs * s2 + p[P_J12]
+    m22 = p[P_K22] + p[P_J22]
     # the term in s12 last: it waits on both angles' sines and cosines (the identity of
     # _field_trig), the latest operand of a stage, so the other terms are summed meanwhile
     r1 = (hs2 * (2.0 * w1 * w2 + w2 * w2) - p[P_G] * p[P_A] * s1
@@ -280,9 +287,9 @@ def _flight_accel_t(p, tau, fmode, s1, c1, s2, c2, s12, c12, w1, w2):
     gm2r2s12 = p[P_G] * m2r2 * s12 + p[P_G] * m2s2 * c12
     r1 = hs2 * (2.0 * w1 * w2 + w2 * w2) - p[P_G] * a * s1 - gm2r2s12 - p[P_G] * a_s * c1
     r2 = -hs2 * w1 * w1 - gm2r2s12 + tau - p[P_B_JOINT] * w2 - p[P_C_JOINT] * fmode[1]
-    m11 = p[P_K11] + 2.0 * h * c2 - 2.0 * hs * s2
-    m12 = p[P_K22] + h * c2 - hs * s2
-    m22 = p[P_K22]
+    m11 = p[P_K11] + 2.0 * h * c2 - 2.0 * hs * s2 + p[P_J11]
+    m12 = p[P_K22] + h * c2 - hs * s2 + p[P_J12]
+    m22 = p[P_K22] + p[P_J22]
     # Schur complement S = Ms - B^T B / mt, reduced rhs = r_th - B^T r_xy / mt
     inv_mt = 1.0 / mt
     s11 = m11 - (b02 * b02 + b12 * b12) * inv_mt
@@ -372,7 +379,8 @@ def holding_torque(phase, p, tau, fmode, y, k):
         s2, c2 = sincos(th2)
         r2 = (-(h * s2 + hs * c2) * w1 * w1 - p[P_G] * p[P_M2R2] * s12 + tau
               - p[P_B_JOINT] * w2 - p[P_G] * p[P_M2S2] * c12)
-        return (b03 * ax + b13 * ay + (p[P_K22] + h * c2 - hs * s2) * a1 + p[P_K22] * a2 - r2)
+        return (b03 * ax + b13 * ay + (p[P_K22] + h * c2 - hs * s2 + p[P_J12]) * a1
+                + (p[P_K22] + p[P_J22]) * a2 - r2)
     return 0.0
 
 
@@ -394,15 +402,17 @@ def kinetic_energy(p, th1, th2, vx, vy, w1, w2):
 @njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def kinetic_energy_rot(p, s2, c2, w1, w2):
     """The rotational part of :func:`kinetic_energy` (all of it while swinging) [J]."""
-    return kinetic_rot_s(p[P_H], p[P_HS], p[P_K11], p[P_K22], s2, c2, w1, w2)
+    return kinetic_rot_s(p[P_H], p[P_HS], p[P_K11], p[P_K22], p[P_J11], p[P_J12], p[P_J22],
+                         s2, c2, w1, w2)
 
 
 @njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
-def kinetic_rot_s(h, hs, k11, k22, s2, c2, w1, w2):
-    """:func:`kinetic_energy_rot` from scalars (``P_H``, ``P_HS``, ``P_K11``, ``P_K22``)."""
-    m11 = k11 + 2.0 * h * c2 - 2.0 * hs * s2
-    m12 = k22 + h * c2 - hs * s2
-    return 0.5 * (m11 * w1 * w1 + 2.0 * m12 * w1 * w2 + k22 * w2 * w2)
+def kinetic_rot_s(h, hs, k11, k22, j11, j12, j22, s2, c2, w1, w2):
+    """:func:`kinetic_energy_rot` from scalars (``P_H``, ``P_HS``, ``P_K11``, ``P_K22``,
+    ``P_J11``, ``P_J12``, ``P_J22``)."""
+    m11 = k11 + 2.0 * h * c2 - 2.0 * hs * s2 + j11
+    m12 = k22 + h * c2 - hs * s2 + j12
+    return 0.5 * (m11 * w1 * w1 + 2.0 * m12 * w1 * w2 + (k22 + j22) * w2 * w2)
 
 
 @njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
@@ -495,9 +505,9 @@ def flight_matrices(p, s):
     M[0, 3] = M[3, 0] = b03
     M[1, 2] = M[2, 1] = b12
     M[1, 3] = M[3, 1] = b13
-    M[2, 2] = p[P_K11] + 2.0 * h * c2 - 2.0 * hs * s2
-    M[2, 3] = M[3, 2] = p[P_K22] + h * c2 - hs * s2
-    M[3, 3] = p[P_K22]
+    M[2, 2] = p[P_K11] + 2.0 * h * c2 - 2.0 * hs * s2 + p[P_J11]
+    M[2, 3] = M[3, 2] = p[P_K22] + h * c2 - hs * s2 + p[P_J12]
+    M[3, 3] = p[P_K22] + p[P_J22]
     w12 = w1 + w2
     hs2 = h * s2 + hs * c2
     Cq = np.empty(4)
@@ -562,9 +572,9 @@ def attach_xy_end(p, s):
     h = p[P_H]
     hs = p[P_HS]
     s2, c2 = sincos(th2)
-    m11 = p[P_K11] + 2.0 * h * c2 - 2.0 * hs * s2
-    m12 = p[P_K22] + h * c2 - hs * s2
-    m22 = p[P_K22]
+    m11 = p[P_K11] + 2.0 * h * c2 - 2.0 * hs * s2 + p[P_J11]
+    m12 = p[P_K22] + h * c2 - hs * s2 + p[P_J12]
+    m22 = p[P_K22] + p[P_J22]
     r1 = m11 * w1 + m12 * w2 + b02 * vx + b12 * vy
     r2 = m12 * w1 + m22 * w2 + b03 * vx + b13 * vy
     det = m11 * m22 - m12 * m12

@@ -23,7 +23,8 @@ from .integrate import dense_eval
 from .jit import njit
 from .layout import (
     G_COORD, G_ENERGY, G_ENERGY_RESTORED, G_FREE_END_HEIGHT, G_FREE_END_Y, G_SLIP_STOP,
-    G_STICK_BREAK, P_A, P_AS, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_H, P_HS, P_K11,
+    G_STICK_BREAK, P_A, P_AS, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_H, P_HS,
+    P_J11, P_J12, P_J22, P_K11,
     P_K22, P_L1, P_L2, P_M2R2, P_M2S2, P_MTOT, PHASE_FLIGHT, PHASE_SWING, T_C1, T_C12, T_C2, T_S1, T_S12, T_S2,
 )
 
@@ -123,12 +124,13 @@ def guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, s1, c1, s2
     fm = fmode[0] if index == 0 else fmode[1]
     return guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, s2, c2,
                    s12, c12, p[P_L1], p[P_L2], p[P_G], p[P_MTOT], p[P_A], p[P_AS], p[P_M2R2],
-                   p[P_M2S2], p[P_H], p[P_HS], p[P_K11], p[P_K22], w * fm)
+                   p[P_M2S2], p[P_H], p[P_HS], p[P_K11], p[P_K22], p[P_J11], p[P_J12],
+                   p[P_J22], w * fm)
 
 
 @njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
 def guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, s2, c2, s12,
-            c12, L1, L2, g, mt, a, a_s, m2r2, m2s2, h, hs, k11, k22, slip):
+            c12, L1, L2, g, mt, a, a_s, m2r2, m2s2, h, hs, k11, k22, j11, j12, j22, slip):
     """:func:`guard` from scalars only: the unpacked state, the sines and cosines, the
     parameters it reads, and ``slip`` (the slipping DOF's speed times its mode)."""
     if kind == G_FREE_END_HEIGHT:
@@ -137,7 +139,7 @@ def guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, s
     if kind == G_ENERGY_RESTORED or kind == G_ENERGY:
         # G_ENERGY_RESTORED's ``value``: energy to add to the latched reference [J] (a climb of
         # dh needs M g dh); the same arithmetic as dynamics.total_energy8, bit for bit
-        e = kinetic_rot_s(h, hs, k11, k22, s2, c2, w1, w2)
+        e = kinetic_rot_s(h, hs, k11, k22, j11, j12, j22, s2, c2, w1, w2)
         if vx != 0.0 or vy != 0.0:
             e += kinetic_trans_s(a, a_s, m2r2, m2s2, mt, c1, s1, c12, s12, vx, vy, w1, w2)
         e = e + potential_s(g, mt, a, a_s, m2r2, m2s2, yy, s1, c1, s12, c12)
@@ -193,6 +195,9 @@ def guard_and_rate_step(kind, index, value, phase, p, tau, fmode, y, pivot, eref
     hs = p[P_HS]
     k11 = p[P_K11]
     k22 = p[P_K22]
+    j11 = p[P_J11]
+    j12 = p[P_J12]
+    j22 = p[P_J22]
     bj = p[P_B_JOINT]
     cj = p[P_C_JOINT]
     bp = p[P_B_PIVOT]
@@ -222,7 +227,8 @@ def guard_and_rate_step(kind, index, value, phase, p, tau, fmode, y, pivot, eref
     w = w1 if index == 0 else w2
     fm = fm0 if index == 0 else fm1
     gv = guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, s2, c2, s12,
-                 c12, L1, L2, g, mt, a, a_s, m2r2, m2s2, h, hs, k11, k22, w * fm)
+                 c12, L1, L2, g, mt, a, a_s, m2r2, m2s2, h, hs, k11, k22, j11, j12, j22,
+                 w * fm)
     r = rate_kin_s(kind, index, phase, tau, vx, vy, w1, w2, s1, s12, L1, L2, bj, cj, bp, cp,
                    fm0, fm1)
     return gv, r

@@ -21,7 +21,14 @@ P_S1, P_S2 = 19, 20    # sigma1, sigma2
 P_AS = 21       # m1 sigma1                              [kg m]
 P_HS = 22       # m2 sigma2 L1                           [kg m^2]
 P_M2S2 = 23     # m2 sigma2                              [kg m]
-N_PARAMS = 24
+# the joint motor's rotor (docs/model.md section 2, "The motor's rotor"): its inertia about its
+# axis [kg m^2], the gear ratio (rotor turns per turn of the joint) [1], 1.0 when its housing
+# is fixed to link 1 of the frame and 0.0 when to link 2, and the constant inertia it adds to
+# the (theta1, theta2) block of the mass matrix, J11, J12, J22 [kg m^2]; all zero without a
+# rotor, where the terms they enter are exact zeros, as for the CG offsets above
+P_ROTOR, P_GEAR, P_HOUSING1 = 24, 25, 26
+P_J11, P_J12, P_J22 = 27, 28, 29
+N_PARAMS = 30
 
 # --- full state in the current frame (flight coordinates, docs/model.md section 1) --------------
 # [x, y, theta1, theta2, dx, dy, dtheta1, dtheta2]; (x, y) is the "attached" end of the frame.

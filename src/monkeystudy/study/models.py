@@ -27,7 +27,7 @@ from ..controllers import (
     TORQUE_FRAMES, Integrator, Segment, SequenceGait, horizontal_gait,
     torques_from_motor_frame,
 )
-from ..robot import PRESETS, Friction, Link, Robot
+from ..robot import PRESETS, Friction, Link, Robot, Rotor
 from ..simulation import STATUS_NAMES
 from ..urdf import UrdfError, check_names, load_urdf, reduce_urdf
 
@@ -151,6 +151,18 @@ class FrictionSettings(StrictModel):
                                  description="friction at the motor joint")
 
 
+class RotorParams(StrictModel):
+    """The joint motor's rotor (docs/model.md section 2, "The motor's rotor")."""
+
+    inertia: float = Field(0.0, ge=0, description="the rotor's inertia about its axis [kg m2] "
+                                                  "(0: no rotor)")
+    gear_ratio: float = Field(1.0, gt=0, description="rotor turns per turn of the joint [1]")
+    housing: Literal[1, 2] = Field(1, description="the link that holds the motor's housing")
+
+    def to_rotor(self) -> Rotor:
+        return Rotor(self.inertia, self.gear_ratio, self.housing)
+
+
 class RobotParams(StrictModel):
     """Explicit robot parameters (docs/model.md section 1)."""
 
@@ -159,6 +171,8 @@ class RobotParams(StrictModel):
     links: list[LinkParams] = Field(min_length=2, max_length=2,
                                     description="[link 1 (end A), link 2 (end B)]")
     friction: FrictionSettings = Field(default_factory=FrictionSettings)
+    rotor: RotorParams = Field(default_factory=RotorParams,
+                               description="the joint motor's rotor (none by default)")
 
     def to_robot(self) -> Robot:
         """The :class:`~monkeystudy.Robot` these parameters describe."""
@@ -166,7 +180,8 @@ class RobotParams(StrictModel):
         f = self.friction
         return Robot(links[0], links[1], gravity=self.gravity,
                      pivot_friction=Friction(f.pivot.viscous, f.pivot.coulomb),
-                     joint_friction=Friction(f.joint.viscous, f.joint.coulomb), name=self.name)
+                     joint_friction=Friction(f.joint.viscous, f.joint.coulomb), name=self.name,
+                     rotor=self.rotor.to_rotor())
 
 
 def urdf_path(text: str, info: ValidationInfo) -> Path:
@@ -232,6 +247,9 @@ class UrdfRobotParams(StrictModel):
     friction: FrictionSettings = Field(default_factory=FrictionSettings,
                                        description="joint friction (a URDF without "
                                        "<dynamics> states none)")
+    rotor: RotorParams = Field(default_factory=RotorParams,
+                               description="the joint motor's rotor (a URDF does not state "
+                                           "one; none by default)")
     _robot: Robot = PrivateAttr()
 
     @field_validator("urdf")
@@ -258,7 +276,8 @@ class UrdfRobotParams(StrictModel):
         f = self.friction
         self._robot = Robot.from_urdf(reduction, gravity=self.gravity, name=self.name,
                                       pivot_friction=Friction(f.pivot.viscous, f.pivot.coulomb),
-                                      joint_friction=Friction(f.joint.viscous, f.joint.coulomb))
+                                      joint_friction=Friction(f.joint.viscous, f.joint.coulomb)
+                                      ).with_rotor(self.rotor.to_rotor())
         return self
 
     def to_robot(self) -> Robot:

@@ -87,7 +87,8 @@ class IdentifySettings(StrictModel):
         list(FRICTION), min_length=1,
         description="the parameters fitted: " + ", ".join(
             f"{n} [{u}]" for n, (u, *_) in PARAMETERS.items())
-        + " (the others keep the frictionless model's values: 0, a torque scale of 1)")
+        + " (the others keep the frictionless model's values: 0, a torque scale of 1, the "
+        "study robot's rotor inertia)")
     window: float = Field(0.3, gt=0, le=5.0, description="length of a shooting window [s]")
     every: float = Field(0.1, gt=0, le=5.0, description="a window starts every this many "
                                                        "seconds of each swing [s]")
