@@ -7,6 +7,7 @@ friction, with the sensor floor beside them.
 Usage::
 
     python tools/acromonk_replay.py [--extra torque_scale] [--extra shoulder_offset]
+                                    [--extra rotor_inertia] [--window 0.3]
     python tools/acromonk_replay.py --holds     # the two torque holds compared, no fit
     python tools/acromonk_replay.py --checks    # the frame and signal checks, no fit
 
@@ -38,10 +39,12 @@ HELD_OUT = ("BF_rl_5x", "BF_tvlqr_1x", "FB_pd_1x_", "ZB_pd_1x", "ZB_tvlqr_1x", "
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--extra", action="append", default=[],
-                        help="fit this parameter too (torque_scale, shoulder_offset)")
+                        help="fit this parameter too (torque_scale, shoulder_offset, rotor_inertia)")
     parser.add_argument("--holds", action="store_true",
                         help="only compare the centred and the plain torque hold (BF_pd_5x, "
                              "published damping)")
+    parser.add_argument("--window", type=float, default=0.3,
+                        help="length of a shooting window [s] (default 0.3)")
     parser.add_argument("--checks", action="store_true",
                         help="only the checks of the frame and the signals (no fit)")
     args = parser.parse_args()
@@ -53,9 +56,9 @@ def main() -> int:
     logs = {n: read_log(SHIPPED_LOGS / f"{n}.csv.gz") for n in TRAIN + HELD_OUT}
     train = [ms for n in TRAIN for ms in model_swings(logs[n])]
     t0 = time.time()
-    fit = identify(base, train, names=FRICTION + tuple(args.extra))
+    fit = identify(base, train, names=FRICTION + tuple(args.extra), window=args.window)
     print(f"identified on {', '.join(TRAIN)}: {fit.swings} swings, {fit.windows} windows of "
-          f"0.3 s every 0.1 s, {fit.residuals} residuals, rms {fit.rms:.4f} rad, "
+          f"{args.window:g} s every 0.1 s, {fit.residuals} residuals, rms {fit.rms:.4f} rad, "
           f"{fit.nfev} evaluations, {time.time() - t0:.0f} s")
     print(fit.table())
     floors = [sensor_floor(logs[n]) for n in TRAIN]
@@ -72,6 +75,7 @@ def main() -> int:
           + "  ".join(f"{m:>19}" for m in models) + f"  {'floor':>8}")
     wins = {m: 0 for m in models}
     total = 0
+    log_ratio = {"shoulder": [], "elbow": []}    # log(identified / published) per row
     for name in HELD_OUT:
         sws = model_swings(logs[name])
         errs = {m: errors_of(v, base, sws) for m, v in models.items()}
@@ -82,6 +86,7 @@ def main() -> int:
                 floor = sh_std + drift * h if j == 0 else el_std
                 total += 1
                 wins["identified"] += rms["identified"] < rms["published"]
+                log_ratio[joint].append(np.log(rms["identified"] / rms["published"]))
                 print(f"{name:<12} {joint:<8} {h:5.1f} {errs['identified'].count(h):6d}  "
                       + "  ".join(f"{rms[m]:8.4f} ({med[m]:7.4f})" for m in models)
                       + f"  {floor:8.1e}")
@@ -94,6 +99,10 @@ def main() -> int:
                   + "  ".join(f"{whole[m][j]:8.4f}          " for m in models))
     print(f"\nidentified below published on {wins['identified']} of {total} "
           "(log, joint, horizon) rows")
+    both = log_ratio["shoulder"] + log_ratio["elbow"]
+    print("identified / published RMS, geometric mean over the rows: "
+          f"{np.exp(np.mean(both)):.3f} (shoulder {np.exp(np.mean(log_ratio['shoulder'])):.3f}, "
+          f"elbow {np.exp(np.mean(log_ratio['elbow'])):.3f})")
     return 0
 
 

@@ -213,6 +213,17 @@ class Robot:
         par[1] = flipped_params(p)
         return par
 
+    @property
+    def is_mirror_image(self) -> bool:
+        """True when the robot seen from end B is the robot seen from end A (mirror-image
+        links, and a rotor whose block is the same from both ends): its two parameter rows
+        agree in every slot the equations read (the housing's link number is a label that
+        changes with the end; the rotor's block it sets is compared)."""
+        par = self.params()
+        read = np.ones(N_PARAMS, dtype=bool)
+        read[P_HOUSING1] = False
+        return bool(np.allclose(par[0, read], par[1, read], rtol=0, atol=1e-14))
+
     def swap_energy_floor(self) -> float:
         """Least potential energy [J] with the free end at the attached end's height.
 

@@ -125,10 +125,10 @@ def test_a_repeated_time_stamp_makes_no_piece():
 
 
 # --- the errors ------------------------------------------------------------------------------
-def _simulated_swing(robot, ms: ModelSwing) -> ModelSwing:
-    """The model's own swing: the measured torque and start, integrated, sampled at the log's
-    times."""
-    rep = replay(robot, ms, 0, ms.duration + 1.0)
+def _simulated_swing(robot, ms: ModelSwing, torque_scale: float = 1.0) -> ModelSwing:
+    """The model's own swing: the measured torque (times ``torque_scale``) and start,
+    integrated, sampled at the log's times; the torque it carries is the measured one."""
+    rep = replay(robot, ms, 0, ms.duration + 1.0, torque_scale=torque_scale)
     th = np.vstack([ms.angles[:1], rep.simulated])
     w = np.vstack([[ms.theta1_rate[0], ms.theta2_rate[0]], rep.simulated_rates])
     keep = np.r_[True, np.diff(ms.time) > 0]
@@ -164,6 +164,21 @@ def test_identification_recovers_the_friction_of_a_simulated_swing(pd_swings):
     fit = identify(base, [own], window=0.3, every=0.1, max_nfev=40)
     want = np.array([0.03, 0.02, 0.05, 0.04])
     assert np.allclose(fit.values, want, atol=2e-3), fit.table()
+    assert fit.rms < 1e-4
+
+
+@pytest.mark.slow
+def test_identification_recovers_the_rotor_and_the_torque_scale_of_a_simulated_swing(pd_swings):
+    # a swing from the motor arm and one from the IMU arm (the rotor's block differs between
+    # the frames: 36 and 25 times its inertia), made with a known rotor inertia, a known scale
+    # on the measured torque and friction at the elbow
+    truth = ModelValues(joint=Friction(0.05), torque_scale=0.85, rotor_inertia=2.5e-4)
+    base = acromonk_robot()
+    own = [_simulated_swing(truth.robot(base), ms, torque_scale=0.85) for ms in pd_swings[:2]]
+    assert {ms.flipped for ms in own} == {0, 1}
+    fit = identify(base, own, names=("joint_viscous", "rotor_inertia", "torque_scale"),
+                   window=0.3, every=0.1, max_nfev=40)
+    assert np.allclose(fit.values, [0.05, 2.5e-4, 0.85], rtol=1e-2, atol=1e-6), fit.table()
     assert fit.rms < 1e-4
 
 

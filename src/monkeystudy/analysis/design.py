@@ -174,8 +174,7 @@ class DesignSpace:
         if unknown:
             raise ValueError(f"unknown design parameters {sorted(unknown)}; known: "
                              f"{sorted(PARAMETERS)}")
-        par = self.robot.params()
-        if not np.allclose(par[0], par[1], rtol=0, atol=1e-14):
+        if not self.robot.is_mirror_image:
             raise ValueError("the base robot of a design search needs mirror-image links")
 
     @property
@@ -406,8 +405,7 @@ class SegmentDesignSpace:
         if self.base_gait.clocked:
             raise ValueError("a segment design needs a gait whose clock restarts at its "
                              "section (no period)")
-        par = self.robot.params()
-        if not np.allclose(par[0], par[1], rtol=0, atol=1e-14):
+        if not self.robot.is_mirror_image:
             raise ValueError("the robot of a design search needs mirror-image links")
         for name in self.base:
             self.parameter(name)

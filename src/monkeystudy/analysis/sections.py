@@ -142,8 +142,7 @@ def cycle_full_map(w, gait: SequenceGait, *, robot: RobotLike = "seed2009",
 
 
 def check_mirror_links(robot):
-    par = robot.params()
-    if not np.allclose(par[0], par[1], rtol=0, atol=1e-14):
+    if not robot.is_mirror_image:
         raise ValueError("one-cycle return maps need mirror-image links (the frame flips at "
                          "every swap); compose two cycles for this robot")
 

@@ -8,8 +8,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from ..controllers import Integrator, SequenceGait, horizontal_gait
 from ..robot import Robot
 
@@ -87,8 +85,7 @@ def mirror_problem(robot: Robot) -> str | None:
     The frame flips to the other end at every swap, so a one-cycle return map compares like
     with like only when the links are mirror images (:mod:`monkeystudy.analysis.sections`).
     """
-    par = robot.params()
-    if np.allclose(par[0], par[1], rtol=0, atol=1e-14):
+    if robot.is_mirror_image:
         return None
     return ("needs mirror-image links (same mass, length, inertia and friction; link 2's "
             "com = its length - link 1's com): the frame flips at every swap, so a one-cycle "

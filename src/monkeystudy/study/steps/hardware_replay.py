@@ -366,9 +366,11 @@ VARIABLES = {
 }
 
 
-def parameter_value(values: ModelValues, name: str) -> float:
+def parameter_value(values: ModelValues, name: str, robot: Robot) -> float:
     """A model's value of parameter ``name`` (:data:`~monkeystudy.analysis.measured_replay.
-    PARAMETERS`)."""
+    PARAMETERS`) on the study's ``robot``."""
+    if name == "rotor_inertia":
+        return float(values.robot(robot).rotor.inertia)
     return float({"pivot_viscous": values.pivot.viscous, "pivot_coulomb": values.pivot.coulomb,
                   "joint_viscous": values.joint.viscous, "joint_coulomb": values.joint.coulomb,
                   "shoulder_offset": values.shoulder_offset,
@@ -462,8 +464,9 @@ def write_hardware_replay(path: Path, attrs: dict, step: HardwareReplayStep, fit
         write("identified_value", fit.values)
         write("ci95_clustered", fit.ci95)
         write("ci95_independent", fit.ci95_iid)
-        write("model_value", np.array([[parameter_value(models[m], n) for n in fit.names]
-                                       for m in MODELS]))
+        robot = Robot.from_dict(attrs["robot"])
+        write("model_value", np.array([[parameter_value(models[m], n, robot)
+                                        for n in fit.names] for m in MODELS]))
         D.set_global_attrs(nc, dict(
             attrs, train=names[:n_train], held_out_logs=names[n_train:],
             log_files=list(step.train + step.held_out),
