@@ -546,6 +546,20 @@ def test_steps_that_run_no_gait_load_their_own_integrators_kernels(tmp_path, mon
     spec = gait_spec(gaited.study)
     steps = plan_study(gaited, tmp_path / "g").steps
     assert spec.has_gait and R.kernel_specs(spec, steps) == [(spec, steps)]
+    # a step that runs no gait beside one that does: the study's spec loads its kernels when
+    # its integrator's method is the study's, else a spec without a gait of its own does
+    acro = (root / "studies" / "acromonk_smoke.yaml").read_text()
+    for method, own in (("dop853", False), ("rk45", True)):
+        text = acro.replace("steps:\n", "gait: {kind: horizontal, motor_torque: 0.6354}\n"
+                            f"integrator: {{method: {method}}}\nsteps:\n"
+                            "  - {name: g, kind: refine, start: [0.9, 10.9]}\n")
+        both = parse_study(text, "both.yaml", root / "studies" / "both.yaml")
+        spec = gait_spec(both.study)
+        steps = plan_study(both, tmp_path / method).steps
+        got = [(ks.has_gait, ks.integrator.method, [s.name for s in st])
+               for ks, st in R.kernel_specs(spec, steps)]
+        assert got == ([(True, method, ["g"]), (False, "dop853", ["replay"])] if own else
+                       [(True, method, ["g", "replay"])]), got
 
 
 def test_ctrl_c_while_a_dataset_is_written_waits_for_it(tmp_path, monkeypatch):

@@ -121,7 +121,8 @@ def kernel_specs(spec: GaitSpec, steps: list[StepPlan]) -> list[tuple[GaitSpec,
     study's ``spec`` (its gait and integrator) for the steps that run the gait, and for those
     that do not (:attr:`~monkeystudy.study.steps.base.StepKind.runs_gait`), a spec without a
     gait per integration method of their own integrators
-    (:attr:`~monkeystudy.study.steps.base.StepKind.own_integrator`)."""
+    (:attr:`~monkeystudy.study.steps.base.StepKind.own_integrator`) unless the study's spec
+    loads that method's kernels already."""
     out: list[tuple[GaitSpec, list[StepPlan]]] = []
     gait = [s for s in steps if s.kind.runs_gait]
     if gait:
@@ -130,7 +131,11 @@ def kernel_specs(spec: GaitSpec, steps: list[StepPlan]) -> list[tuple[GaitSpec,
     integrators: dict[str, Integrator] = {}
     for s in steps:
         integ = s.kind.own_integrator
-        if not s.kind.runs_gait and integ is not None:
+        if s.kind.runs_gait or integ is None:
+            continue
+        if gait and integ.method == spec.integrator.method:
+            gait.append(s)     # its runs compile with the gait's
+        else:
             own.setdefault(integ.method, []).append(s)
             integrators.setdefault(integ.method, integ)
     out += [(GaitSpec(spec.robot, integrators[m], math.nan, math.nan, has_gait=False), own[m])
