@@ -118,3 +118,17 @@ def test_the_page_shows_the_cgs_offsets_across_the_links(ds, tmp_path):
     in_line.attrs["robot"] = json.dumps(robot)
     assert "CG across the link" not in render_page(tmp_path, {"replay": in_line}, {},
                                                    drawings=DRAWINGS)
+
+
+def test_the_page_of_a_study_that_runs_no_gait_states_none(ds, tmp_path):
+    # studies/acromonk_smoke.yaml runs no gait: its page's set-up says what the replays ran
+    # (the dataset's replay integrator), never a gait or the study's integrator
+    from monkeystudy.analysis.measured_replay import REPLAY_INTEGRATOR
+    from monkeystudy.plotting.page import render_page
+    from monkeystudy.plotting.report import DRAWINGS
+
+    html = render_page(tmp_path, {"replay": ds}, {}, drawings=DRAWINGS)
+    assert "Gait:" not in html and "Integrator:" not in html
+    assert "No step of this study runs a gait" in html
+    assert (f"integrated with {REPLAY_INTEGRATOR.method.upper()}, rtol "
+            f"{REPLAY_INTEGRATOR.rtol:g}, atol {REPLAY_INTEGRATOR.atol:g}.") in html

@@ -520,6 +520,48 @@ def test_first_run_says_it_compiles_and_a_cached_run_does_not(tmp_path, monkeypa
     assert helpers == ["dop853"]
 
 
+def test_steps_that_run_no_gait_load_their_own_integrators_kernels(tmp_path, monkeypatch):
+    """A study whose steps run no gait (hardware_replay) has no gait to evaluate: the warm-up
+    before fanning out loads the controller runs of its steps' own integrator, without the
+    gait evaluation, and leaves a marker of its own; a study whose steps run its gait loads
+    the gait's kernels with the study's integrator, as ever."""
+    from monkeystudy.analysis.measured_replay import REPLAY_INTEGRATOR
+    from monkeystudy.study.spec import gait_spec
+
+    root = Path(__file__).resolve().parents[2]
+    loaded = load_study(root / "studies" / "acromonk_smoke.yaml")
+    plan = plan_study(loaded, tmp_path / "acro")
+    specs = R.kernel_specs(gait_spec(loaded.study), plan.steps)
+    assert [(ks.has_gait, ks.integrator, [s.name for s in steps])
+            for ks, steps in specs] == [(False, REPLAY_INTEGRATOR, ["replay"])]
+    markers = tmp_path / "markers"
+    markers.mkdir()
+    monkeypatch.setattr(R, "KERNEL_CACHE_DIR", str(markers))
+    R.load_kernels(specs[0][0], runs=True)
+    assert [p.name for p in markers.iterdir()] == ["loaded-dop853-runs-without-gait"]
+    from monkeystudy.study import parse_study
+    gaited = parse_study("schema_version: 1\nname: g\nrobot: seed2009\n"
+                         "gait: {kind: horizontal, motor_torque: 0.6354}\n"
+                         "steps: [{name: g, kind: refine, start: [0.9, 10.9]}]\n")
+    spec = gait_spec(gaited.study)
+    steps = plan_study(gaited, tmp_path / "g").steps
+    assert spec.has_gait and R.kernel_specs(spec, steps) == [(spec, steps)]
+    # a step that runs no gait beside one that does: the study's spec loads its kernels when
+    # its integrator's method is the study's, else a spec without a gait of its own does
+    acro = (root / "studies" / "acromonk_smoke.yaml").read_text()
+    for method, own in (("dop853", False), ("rk45", True)):
+        text = acro.replace("steps:\n", "gait: {kind: horizontal, motor_torque: 0.6354}\n"
+                            f"integrator: {{method: {method}}}\nsteps:\n"
+                            "  - {name: g, kind: refine, start: [0.9, 10.9]}\n")
+        both = parse_study(text, "both.yaml", root / "studies" / "both.yaml")
+        spec = gait_spec(both.study)
+        steps = plan_study(both, tmp_path / method).steps
+        got = [(ks.has_gait, ks.integrator.method, [s.name for s in st])
+               for ks, st in R.kernel_specs(spec, steps)]
+        assert got == ([(True, method, ["g"]), (False, "dop853", ["replay"])] if own else
+                       [(True, method, ["g", "replay"])]), got
+
+
 def test_ctrl_c_while_a_dataset_is_written_waits_for_it(tmp_path, monkeypatch):
     """A Ctrl-C that lands while a step writes its dataset takes effect once the file is
     complete: the run stops (exit 3), the dataset written is whole and current, the rerun

@@ -1,12 +1,13 @@
 """One HTML page per study (``figures/index.html``), self-contained next to its images.
 
-The page says what was run and what came out: the study's description and file, the robot,
-gait and integrator, then every step in the study's order with its key numbers (what its step
-kind reports of its dataset, :meth:`~monkeystudy.study.steps.base.StepKind.describe`), a link
-to its dataset and its figures, each with the caption of its drawing (what to look at), or
-for a figure with nothing to show, why it was not drawn; last, the provenance of every
-dataset. It links only to files beside it (the figures) and
-one folder up (the datasets), so the study folder can be moved or zipped whole.
+The page says what was run and what came out: the study's description and file, the robot
+(its joint motor's rotor when it has one), the gait and integrator its steps ran (or what a
+step that runs no gait ran instead), then every step in the study's order with its key
+numbers (what its step kind reports of its dataset, :meth:`~monkeystudy.study.steps.base.
+StepKind.describe`), a link to its dataset and its figures, each with the caption of its
+drawing (what to look at), or for a figure with nothing to show, why it was not drawn; last,
+the provenance of every dataset. It links only to files beside it (the figures) and one
+folder up (the datasets), so the study folder can be moved or zipped whole.
 """
 from __future__ import annotations
 
@@ -170,7 +171,26 @@ def _robot_table(robot: Mapping) -> str:
             + ("<th>CG across the link (counter-clockwise)</th>" if across else "")
             + "<th>inertia about the CG</th></tr>" + "".join(rows) + "</table>"
             f"<p>gravity {robot.get('gravity')} m s⁻²; friction: "
-            f"{_e('; '.join(friction) or 'none')}</p>")
+            f"{_e('; '.join(friction) or 'none')}</p>" + _rotor_text(robot.get("rotor")))
+
+
+def _rotor_text(rotor) -> str:
+    """The joint motor's rotor of a robot attribute (``Robot.to_dict()``'s ``rotor``:
+    inertia [kg m2], gear_ratio [1], housing 1 or 2) in words, with the inertia it reflects to
+    the joint, N² I_r (docs/model.md section 2); empty when the robot has none."""
+    if not isinstance(rotor, Mapping):
+        return ""
+    try:
+        inertia, ratio = float(rotor["inertia"]), float(rotor["gear_ratio"])
+        housing = int(rotor["housing"])
+    except (KeyError, TypeError, ValueError):
+        return "<p>" + _e(f"joint motor's rotor: {json.dumps(rotor, sort_keys=True)}") + "</p>"
+    end = {1: "link 1 (end A)", 2: "link 2 (end B)"}.get(housing, f"link {housing}")
+    return ("<p>" + _e(f"joint motor's rotor: inertia {_num(inertia)} kg m² about its axis, "
+                       f"gear ratio {_num(ratio)} (rotor turns per turn of the joint), "
+                       "reflected to the joint N² I")
+            + "<sub>r</sub>" + _e(f" = {_num(ratio * ratio * inertia)} kg m²; its housing on "
+                                  f"{end}") + "</p>")
 
 
 def _figure_html(name: str, outputs: Sequence[str], title: str, caption: str) -> str:
@@ -237,6 +257,23 @@ def integrator_text(integ: Mapping) -> str:
     return ", ".join(parts)
 
 
+def _own_setup(datasets: Mapping[str, object], kinds: Mapping[str, str], names: Sequence[str],
+               runs_gait: bool) -> list[str]:
+    """The set-up's sentences on the steps ``names`` that run neither the study's gait nor its
+    integrator: what each ran instead (its kind's :meth:`~monkeystudy.study.steps.base.
+    StepKind.own_setup` of its dataset)."""
+    if not names:
+        return []
+    head = ("These steps run neither the gait nor the integrator above: " if runs_gait else
+            "No step of this study runs a gait or the study's integrator: ")
+    parts = []
+    for n in names:
+        text = REGISTRY[kinds[n]].own_setup(datasets[n])
+        parts.append(f'<a href="#step-{_e(n)}">{_e(n)}</a> [{_e(kinds[n])}] '
+                     + _e(text or "runs its own"))
+    return ["<p>" + _e(head) + "; ".join(parts) + ".</p>"]
+
+
 def render_page(study_dir: Path, datasets: Mapping[str, object],
                 figures: Mapping[str, Sequence[str]],
                 skipped: Mapping[str, str] | None = None,
@@ -261,6 +298,12 @@ def render_page(study_dir: Path, datasets: Mapping[str, object],
     robot = _json(first, "robot") or {}
     gait = _json(first, "gait") or {}
     integ = _json(first, "integrator") or {}
+    # the study's gait and integrator are what its steps ran unless no step runs them
+    # (StepKind.runs_gait); a study text that cannot be read: as the dataset records them
+    runs_gait = (any(getattr(REGISTRY.get(k), "runs_gait", True) for k in kinds.values())
+                 if kinds else bool(gait))
+    own = [n for n in order if n in datasets and n in kinds and kinds[n] in REGISTRY
+           and not REGISTRY[kinds[n]].runs_gait]
     out = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'>"
            f"<title>{_e(study)}: monkeystudy</title><style>{STYLE}</style></head><body>",
            f"<h1>Study <code>{_e(study)}</code></h1>",
@@ -269,8 +312,9 @@ def render_page(study_dir: Path, datasets: Mapping[str, object],
            + '<a href="#provenance">provenance</a></nav>',
            "<h2>Set-up</h2>",
            f"<p>Robot <code>{_e(robot.get('name', '?'))}</code>:</p>", _robot_table(robot),
-           "<p>Gait: " + _e(gait_text(gait)) + ". Integrator: " + _e(integrator_text(integ))
-           + ".</p>",
+           *(["<p>Gait: " + _e(gait_text(gait)) + ". Integrator: "
+              + _e(integrator_text(integ)) + ".</p>"] if runs_gait else []),
+           *_own_setup(datasets, kinds, own, runs_gait),
            "<details><summary>study file</summary><pre>"
            + _e(first.get("study_text", "")) + "</pre></details>",
            "<h2>Steps</h2>"]

@@ -13,6 +13,7 @@ process pool or a Dask cluster (:mod:`monkeystudy.study.pool`).
 """
 from __future__ import annotations
 
+import math
 import queue
 import threading
 import time
@@ -30,7 +31,7 @@ import numpy as np
 
 from .. import __version__, compiling
 from ..compiling import KERNEL_CACHE_DIR
-from ..controllers import Integrator
+from ..controllers import Integrator, horizontal_gait
 from ..robot import SEED2009_TORQUE
 from ..simulation import (
     RobotLike, Status, as_robot, initial_state, loaded_kernels, run_controller,
@@ -92,17 +93,20 @@ def failures_text(summary: RunSummary) -> str:
 
 def step_attrs(loaded: LoadedStudy, step, history: str) -> dict:
     """Global attributes of a step's dataset (docs/datasets.md), before the step's own; a
-    gait that states its torques' frame (``torque_frame``) is named with it."""
+    gait that states its torques' frame (``torque_frame``) is named with it, and a study
+    without a gait has no ``gait`` attribute."""
     study = loaded.study
     frame = ({"torque_frame": study.gait.torque_frame}
-             if "torque_frame" in study.gait.model_fields_set else {})
+             if study.gait is not None and "torque_frame" in study.gait.model_fields_set
+             else {})
+    gait = {"gait": gait_json(study)} if study.gait is not None else {}
     return {
         "title": f"{study.name}: {step.name}",
         "study_name": study.name, "step_name": step.name, "step_kind": step.kind,
         "study_description": study.description,
         "step": step.model_dump(mode="json", by_alias=True),
         "study_text": loaded.text, "study_sha256": loaded.sha256,
-        "robot": study.to_robot().to_dict(), "gait": gait_json(study),
+        "robot": study.to_robot().to_dict(), **gait,
         "integrator": integrator_fields(study.integrator.to_integrator()),
         "monkeystudy_version": __version__, "git_revision": P.git_revision(),
         "code_sha256": kind_of(step).code_sha256, "library_versions": P.library_versions(),
@@ -111,16 +115,46 @@ def step_attrs(loaded: LoadedStudy, step, history: str) -> dict:
     }
 
 
-def kernels_marker(method: str, *, runs: bool = False,
-                   variational: bool = False) -> Path | None:
+def kernel_specs(spec: GaitSpec, steps: list[StepPlan]) -> list[tuple[GaitSpec,
+                                                                    list[StepPlan]]]:
+    """What a run of ``steps`` compiles before fanning out, each with the steps it serves: the
+    study's ``spec`` (its gait and integrator) for the steps that run the gait, and for those
+    that do not (:attr:`~monkeystudy.study.steps.base.StepKind.runs_gait`), a spec without a
+    gait per integration method of their own integrators
+    (:attr:`~monkeystudy.study.steps.base.StepKind.own_integrator`) unless the study's spec
+    loads that method's kernels already."""
+    out: list[tuple[GaitSpec, list[StepPlan]]] = []
+    gait = [s for s in steps if s.kind.runs_gait]
+    if gait:
+        out.append((spec, gait))
+    own: dict[str, list[StepPlan]] = {}
+    integrators: dict[str, Integrator] = {}
+    for s in steps:
+        integ = s.kind.own_integrator
+        if s.kind.runs_gait or integ is None:
+            continue
+        if gait and integ.method == spec.integrator.method:
+            gait.append(s)     # its runs compile with the gait's
+        else:
+            own.setdefault(integ.method, []).append(s)
+            integrators.setdefault(integ.method, integ)
+    out += [(GaitSpec(spec.robot, integrators[m], math.nan, math.nan, has_gait=False), own[m])
+            for m in own]
+    return out
+
+
+def kernels_marker(method: str, *, runs: bool = False, variational: bool = False,
+                   gait: bool = True) -> Path | None:
     """A file in the kernel cache (keyed by every kernel source) that :func:`load_kernels`
     leaves once these kernels were compiled for the integration ``method`` (each method is its
-    own specialisation): its absence means a first run, which compiles. None when the cache
-    is not ours (a read-only home)."""
+    own specialisation; ``gait`` False: without the gait evaluation, :func:`kernel_specs`): its
+    absence means a first run, which compiles. None when the cache is not ours (a read-only
+    home)."""
     if not KERNEL_CACHE_DIR:
         return None
     return Path(KERNEL_CACHE_DIR) / "-".join(["loaded", method] + ["runs"] * runs
-                                             + ["variational"] * variational)
+                                             + ["variational"] * variational
+                                             + ["without-gait"] * (not gait))
 
 
 def load_kernels(spec: GaitSpec, *, runs: bool = False, variational: bool = False,
@@ -128,18 +162,22 @@ def load_kernels(spec: GaitSpec, *, runs: bool = False, variational: bool = Fals
     """Compile (or load from the on-disk cache) the kernels the tasks use, once, in the
     driver, before fanning out: parallel first compiles would race on the cache.
 
-    Always the gait evaluation; ``runs``: the controller runs of multi-cycle steps;
-    ``variational``: the variational-equation kernels of floquet and continuation steps.
-    ``ahead`` (a first run, nothing cached): a second process compiles the hybrid loop's
-    callees meanwhile (:mod:`monkeystudy.compiling`); it is stopped once the gait evaluation
-    is loaded, before anything else compiles (the runs link the same compiled loop).
+    The gait evaluation, unless ``spec`` has no gait (``has_gait`` False); ``runs``: the
+    controller runs of multi-cycle steps (without a gait, of the steps' own controllers: a
+    horizontal gait's controller compiles the same loop); ``variational``: the
+    variational-equation kernels of floquet and continuation steps. ``ahead`` (a first run,
+    nothing cached): a second process compiles the hybrid loop's callees meanwhile
+    (:mod:`monkeystudy.compiling`); it is stopped once the gait evaluation is loaded, before
+    anything else compiles (the runs link the same compiled loop).
     """
-    ctrl = spec.sequence.controller() if runs else None
-    helper = compiling.start(spec.integrator.method) if ahead else None
+    gait = spec.sequence if spec.has_gait else horizontal_gait(SEED2009_TORQUE)
+    ctrl = gait.controller() if runs else None
+    helper = compiling.start(spec.integrator.method) if ahead and spec.has_gait else None
 
     def compile_all():
         try:
-            grid_block(spec, np.array([[1.0, 11.0]]))
+            if spec.has_gait:
+                grid_block(spec, np.array([[1.0, 11.0]]))
         finally:
             compiling.stop(helper)   # the loop's callees are all here now
         if ctrl is not None:
@@ -153,7 +191,8 @@ def load_kernels(spec: GaitSpec, *, runs: bool = False, variational: bool = Fals
         compiling.on_own_thread(compile_all)
     finally:
         compiling.stop(helper)      # an interrupted wait leaves no helper compiling on
-    marker = kernels_marker(spec.integrator.method, runs=runs, variational=variational)
+    marker = kernels_marker(spec.integrator.method, runs=runs, variational=variational,
+                            gait=spec.has_gait)
     if marker is not None:
         try:
             marker.touch()
@@ -578,15 +617,19 @@ def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
     run = None
     try:
         def warm_up():
-            needs = {"runs": any(s.kind.needs_runs(s.step) for s in todo),
-                     "variational": any(s.kind.needs_variational(s.step) for s in todo)}
-            method = spec.integrator.method
-            marker = kernels_marker(method, **needs)
+            for ks, steps in kernel_specs(spec, todo):
+                warm_up_kernels(ks, steps)
+
+        def warm_up_kernels(ks: GaitSpec, steps: list[StepPlan]):
+            needs = {"runs": any(s.kind.needs_runs(s.step) for s in steps),
+                     "variational": any(s.kind.needs_variational(s.step) for s in steps)}
+            method = ks.integrator.method
+            marker = kernels_marker(method, **needs, gait=ks.has_gait)
             # nothing loaded yet for this method: compile the loop's callees on the idle core
             first = marker is not None and not any(marker.parent.glob(f"loaded-{method}*"))
 
             def load():
-                load_kernels(spec, **needs, ahead=first)
+                load_kernels(ks, **needs, ahead=first)
             if pool is not None or marker is None or marker.exists():
                 load()     # cached: loads in about a second, silently
                 return

@@ -1,5 +1,6 @@
 """The study file schema (version 1): a study names a robot, a gait with its controller settings,
-an integrator and a list of steps.
+an integrator and a list of steps; a study whose steps run no gait (:attr:`~monkeystudy.study.
+steps.base.StepKind.runs_gait`: hardware_replay) has no gait.
 
 The models are strict, frozen pydantic v2 models (:mod:`monkeystudy.study.models`); each step
 kind brings its own (:mod:`monkeystudy.study.steps`). Everything is checked here, before any
@@ -9,7 +10,7 @@ between steps (:func:`cross_check`, which asks each step's kind).
 """
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal, Union
+from typing import Annotated, Any, Literal, Optional, Union
 
 from pydantic import ConfigDict, Field, TypeAdapter, ValidationError
 
@@ -37,7 +38,10 @@ class Study(StrictModel):
     name: Name = Field(description="study name (output folder outputs/<name>)")
     description: str = Field("", description="free text")
     robot: RobotSpec = Field(description="a preset name, explicit parameters or a URDF file")
-    gait: StudyGait
+    gait: Optional[StudyGait] = Field(
+        None, description="the gait the steps run, with its controller settings (required "
+                          "unless no step runs one: " + ", ".join(
+                              k.name for k in REGISTRY.values() if not k.runs_gait) + ")")
     integrator: IntegratorSettings = Field(default_factory=IntegratorSettings)
     steps: list[Step] = Field(min_length=1, description="steps, run in dependency order")
 
@@ -65,8 +69,9 @@ def cross_check(study: Study) -> list[Problem]:
 
     Step names must be unique, and so must the names of the figures they make
     (:func:`figure_name_clash`); a step whose kind does not support the study's gait is
-    refused; every other check is the step kind's own (:meth:`~monkeystudy.study.steps.base.
-    StepKind.check`), given the earlier steps by name.
+    refused, and so is a study without a gait whose steps run one (:attr:`~monkeystudy.study.
+    steps.base.StepKind.runs_gait`); every other check is the step kind's own
+    (:meth:`~monkeystudy.study.steps.base.StepKind.check`), given the earlier steps by name.
     """
     return _check_steps(study, list(enumerate(study.steps)), {})
 
@@ -108,9 +113,10 @@ def _check_steps(study: Study | None, steps: list[tuple[int, Any]],
     """:func:`cross_check` of ``steps`` (valid steps at their index in the file) in a study
     whose steps named in ``invalid`` (at their index) are not valid; ``study`` None: its
     robot, gait or integrator are not valid either."""
-    gait = study.gait.kind if study is not None else None
+    gait = study.gait.kind if study is not None and study.gait is not None else None
     supported = ", ".join(k.name for k in REGISTRY.values() if gait in k.gait_kinds)
     problems: list[Problem] = []
+    need_gait: list[str] = []    # the steps that run a gait the study does not have
     seen: dict[str, Any] = {}
     figures: dict[str, tuple[str, str, str]] = {}
     for i, s in steps:
@@ -126,6 +132,11 @@ def _check_steps(study: Study | None, steps: list[tuple[int, Any]],
         if study is None:
             if judged:
                 problems.extend(_from_problems(kind, i, s, seen))
+        elif study.gait is None and kind.runs_gait:
+            need_gait.append(f"{s.name!r} ({s.kind})")   # its checks would read the gait
+        elif study.gait is None:
+            if judged:
+                problems.extend(kind.check(study, i, s, seen))
         elif gait not in kind.gait_kinds:
             problems.append((("steps", i, "kind"), f"a {s.kind} step needs a "
                              f"{' or '.join(kind.gait_kinds)} gait (a {gait} gait supports "
@@ -133,6 +144,13 @@ def _check_steps(study: Study | None, steps: list[tuple[int, Any]],
         elif judged:
             problems.extend(kind.check(study, i, s, seen))
         seen.setdefault(s.name, s)
+    if need_gait:
+        many = len(need_gait) > 1
+        gaitless = kinds_text([k.name for k in REGISTRY.values() if not k.runs_gait])
+        names = " and ".join([", ".join(need_gait[:-1]), need_gait[-1]] if many else need_gait)
+        problems.append((("gait",), f"required key missing: step{'s' if many else ''} {names} "
+                         f"run{'' if many else 's'} the study's gait (only {gaitless} steps "
+                         f"run none)"))
     return problems
 
 

@@ -6,6 +6,7 @@ nothing rebuilt on the workers), and datasets record it as ``Robot.to_dict()`` J
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from ..controllers import Integrator, SequenceGait, horizontal_gait
@@ -37,6 +38,10 @@ class GaitSpec:
         The frame the study wrote the gait's torques in (``attached_end`` or ``motor``,
         :data:`~monkeystudy.controllers.TORQUE_FRAMES`); ``sequence`` carries them in the
         kernel's frame either way. Datasets that record torques over time state them in it.
+    has_gait : bool
+        False: a study without a gait (its steps run none, :attr:`~monkeystudy.study.steps.
+        base.StepKind.runs_gait`): ``torque`` and ``tick`` NaN, ``sequence`` None; its tasks
+        use the robot (and their own integrator) alone.
     """
 
     robot: Robot
@@ -46,8 +51,14 @@ class GaitSpec:
     sequence: SequenceGait | None = None
     swap_motor_times: bool | None = None
     torque_frame: str = "attached_end"
+    has_gait: bool = True
 
     def __post_init__(self):
+        if not self.has_gait:
+            if self.sequence is not None:
+                raise ValueError("a GaitSpec without a gait has no sequence")
+            object.__setattr__(self, "swap_motor_times", False)
+            return
         if self.swap_motor_times is None:
             object.__setattr__(self, "swap_motor_times", self.sequence is None)
         if self.sequence is None:
@@ -57,12 +68,17 @@ class GaitSpec:
     def n_cycle_segments(self) -> int:
         """Segments of the gait's cycle, the section included, as datasets record them per
         segment (0: named the 2009 way)."""
-        return 0 if self.swap_motor_times else len(self.sequence.segments) + 1
+        return 0 if self.swap_motor_times or self.sequence is None else \
+            len(self.sequence.segments) + 1
 
 
 def gait_spec(study) -> GaitSpec:
-    """The :class:`GaitSpec` of a validated :class:`~monkeystudy.study.schema.Study`."""
+    """The :class:`GaitSpec` of a validated :class:`~monkeystudy.study.schema.Study` (one
+    without a gait: ``has_gait`` False)."""
     g = study.gait
+    if g is None:
+        return GaitSpec(study.to_robot(), study.integrator.to_integrator(), math.nan, math.nan,
+                        has_gait=False)
     return GaitSpec(study.to_robot(), study.integrator.to_integrator(), float(g.motor_torque),
                     float(g.tick), g.gait(), g.conventions.swap_motor_times,
                     getattr(g, "torque_frame", "attached_end"))
@@ -74,9 +90,9 @@ def integrator_fields(integrator: Integrator) -> dict:
             "max_time": integrator.max_time, "controller": integrator.controller}
 
 
-def gait_json(study) -> dict:
-    """The study's gait as datasets and step keys record it."""
-    return study.gait.model_dump(mode="json")
+def gait_json(study) -> dict | None:
+    """The study's gait as datasets and step keys record it (None: the study has none)."""
+    return study.gait.model_dump(mode="json") if study.gait is not None else None
 
 
 def mirror_problem(robot: Robot) -> str | None:

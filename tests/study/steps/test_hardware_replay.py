@@ -37,8 +37,7 @@ robot:
 BASE = """\
 schema_version: 1
 name: v
-{robot}gait: {{kind: horizontal, motor_torque: 0.6354, tick: 0.001}}
-steps:
+{robot}{gait}steps:
   - name: hw
     kind: hardware_replay
     train: [{train}]
@@ -46,9 +45,12 @@ steps:
 {body}"""
 
 
+GAIT = "gait: {kind: horizontal, motor_torque: 0.6354, tick: 0.001}\n"
+
+
 def text(body: str = "", *, train: str = f"{LOGS}/BF_pd_5x.csv.gz",
-         held: str = f"{LOGS}/ZB_pd_1x.csv.gz", robot: str = ROBOT) -> str:
-    return BASE.format(robot=robot, train=train, held=held, body=body)
+         held: str = f"{LOGS}/ZB_pd_1x.csv.gz", robot: str = ROBOT, gait: str = GAIT) -> str:
+    return BASE.format(robot=robot, train=train, held=held, body=body, gait=gait)
 
 
 def refused(study_text: str) -> list[str]:
@@ -142,7 +144,34 @@ def test_bad_settings_are_refused_at_their_line(study_text, expected):
     assert any(line.startswith(expected) for line in lines), lines
 
 
+def test_a_study_of_hardware_replay_steps_alone_needs_no_gait():
+    # the logs' measured torque drives the robot: the study names no gait, and its spec, step
+    # key and dataset attributes hold none (the attributes have no gait, not a dummy one)
+    from monkeystudy.study.plan import step_keys
+    from monkeystudy.study.runner import step_attrs
+    from monkeystudy.study.spec import gait_spec
+
+    loaded = parse_study(text(gait=""), "s.yaml")
+    study = loaded.study
+    assert study.gait is None
+    spec = gait_spec(study)
+    assert not spec.has_gait and spec.sequence is None and spec.robot == study.to_robot()
+    with_gait = parse_study(text(), "s.yaml").study
+    assert step_keys(study)["hw"] != step_keys(with_gait)["hw"]
+    attrs = step_attrs(loaded, study.step("hw"), "history")
+    assert "gait" not in attrs and attrs["robot"] == study.to_robot().to_dict()
+    assert REGISTRY["hardware_replay"].runs_gait is False
+
+
+def test_a_study_without_a_gait_is_refused_when_a_step_runs_one():
+    lines = refused(text("  - {name: g, kind: refine, start: [0.9, 10.9]}\n", gait=""))
+    assert lines == ["s.yaml:1: gait: required key missing: step 'g' (refine) runs the "
+                     "study's gait (only hardware_replay steps run none)"], lines
+
+
 def test_shipped_studies():
+    # the step runs no gait: the shipped studies name none
+    assert load_study(FULL).study.gait is None and load_study(SMOKE).study.gait is None
     full = load_study(FULL).study.step("replay")
     assert list(full.log_files()) == ["BF_tvlqr_5x", "BF_pd_5x", "BF_rl_5x", "BF_tvlqr_1x",
                                       "FB_pd_1x_", "ZB_pd_1x", "ZB_tvlqr_1x", "ZF_pd_1x",
@@ -165,6 +194,16 @@ def smoke(tmp_path_factory):
 
 def test_the_dataset_is_written_as_declared(smoke):
     assert_written_as_declared(smoke[1] / "replay.nc", "hardware_replay")
+
+
+def test_the_dataset_states_the_replays_integrator_and_no_gait(smoke):
+    from monkeystudy.analysis.measured_replay import REPLAY_INTEGRATOR
+
+    attrs = open_dataset(smoke[1], "replay.nc").attrs
+    assert "gait" not in attrs
+    assert attrs["replay_integrator"] == (f"{REPLAY_INTEGRATOR.method} rtol "
+                                          f"{REPLAY_INTEGRATOR.rtol:g} atol "
+                                          f"{REPLAY_INTEGRATOR.atol:g}")
 
 
 def test_logs_and_swings_are_labelled(smoke):

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any, Callable, ClassVar, Mapping
 
 import numpy as np
 
+from ...controllers import Integrator
 from .. import provenance
 from ..blocks import Block, Task
 from ..counts import StepProgress
@@ -145,6 +146,12 @@ class StepKind:
     provides: ClassVar[str] = ""
     #: the gaits it supports (``horizontal``, ``sequence``)
     gait_kinds: ClassVar[tuple[str, ...]] = ("horizontal",)
+    #: its tasks run the study's gait with the study's integrator; False: they run neither
+    #: (a study whose steps all are so needs no ``gait:``), but :attr:`own_integrator`
+    runs_gait: ClassVar[bool] = True
+    #: the integrator its tasks run with when they do not run the study's (:attr:`runs_gait`
+    #: False): the runner loads its kernels before fanning out
+    own_integrator: ClassVar[Integrator | None] = None
     #: what its progress counts (tasks, or ``blocks`` for a resumable kind)
     unit: ClassVar[str] = "tasks"
     #: its progress counts the points of its blocks (runs, designs: :attr:`unit`), which
@@ -264,6 +271,12 @@ class StepKind:
     def describe(self, ds) -> list[str]:
         """Key numbers of one of its datasets (an ``xarray.Dataset``), one line each."""
         return []
+
+    def own_setup(self, ds) -> str:
+        """What a step of a kind that does not run the study's gait (:attr:`runs_gait` False)
+        ran instead, in words, from one of its datasets (an ``xarray.Dataset``): the page's
+        set-up says it. Empty by default."""
+        return ""
 
 
 def no_earlier(name: str, kind: str, found) -> str:

@@ -493,6 +493,9 @@ class HardwareReplayKind(StepKind):
     model = HardwareReplayStep
     variables = VARIABLES
     gait_kinds = ("horizontal", "sequence")
+    # the logs' measured torque drives the robot: no gait, and a fixed integrator
+    runs_gait = False
+    own_integrator = REPLAY_INTEGRATOR
     unit = "tasks"
     figures = (
         Figure("swings_train"),
@@ -545,6 +548,16 @@ class HardwareReplayKind(StepKind):
         return (f"identified on {fit.swings} swings ({fit.windows} windows, rms "
                 f"{fit.rms:.4f} rad): {values}; held out: identified below the published "
                 f"damping in {r['below']} of {r['rows']} (log, joint, horizon) rows")
+
+    def own_setup(self, ds) -> str:
+        """The replays in words, their integrator from attr ``replay_integrator``
+        (``<method> rtol <rtol> atol <atol>``)."""
+        words = str(ds.attrs.get("replay_integrator", "")).split()
+        integ = (", ".join([words[0].upper()] + [f"{k} {v}" for k, v in
+                                                  zip(words[1::2], words[2::2])])
+                 if words else "an integrator its dataset does not record")
+        return ("replays each log's measured elbow torque through the robot with each model's "
+                f"friction (identified, published damping, none), integrated with {integ}")
 
     def describe(self, ds) -> list[str]:
         out = [f"identified on {', '.join(json.loads(ds.attrs['train']))} "
