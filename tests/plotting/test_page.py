@@ -94,3 +94,13 @@ def test_the_robot_table_shows_the_joint_motors_rotor(housing, link):
 def test_a_robot_without_a_rotor_shows_none():
     html = page({"map": dataset("grid", "map", MIXED.split("  - {name: replay")[0])})
     assert "rotor" not in html
+
+
+def test_a_rotor_without_inertia_is_said_as_its_geometry_alone():
+    # a study that identifies the rotor's inertia states only its gear and housing
+    robot = replace(Robot.preset("seed2009"), rotor=Rotor(gear_ratio=6.0, housing=1))
+    html = page({"map": dataset("grid", "map", MIXED.split("  - {name: replay")[0],
+                                robot=robot)})
+    assert ("joint motor&#x27;s rotor: gear ratio 6 (rotor turns per turn of the joint), its "
+            "housing on link 1 (end A); its inertia not given (0 kg m²)") in html
+    assert "reflected" not in html

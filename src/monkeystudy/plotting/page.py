@@ -186,6 +186,10 @@ def _rotor_text(rotor) -> str:
     except (KeyError, TypeError, ValueError):
         return "<p>" + _e(f"joint motor's rotor: {json.dumps(rotor, sort_keys=True)}") + "</p>"
     end = {1: "link 1 (end A)", 2: "link 2 (end B)"}.get(housing, f"link {housing}")
+    if inertia == 0.0:     # the geometry alone, for a step that identifies the inertia
+        return ("<p>" + _e(f"joint motor's rotor: gear ratio {_num(ratio)} (rotor turns per "
+                           f"turn of the joint), its housing on {end}; its inertia not given "
+                           "(0 kg m²)") + "</p>")
     return ("<p>" + _e(f"joint motor's rotor: inertia {_num(inertia)} kg m² about its axis, "
                        f"gear ratio {_num(ratio)} (rotor turns per turn of the joint), "
                        "reflected to the joint N² I")

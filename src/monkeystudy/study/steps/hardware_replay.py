@@ -108,7 +108,8 @@ def _published_default() -> FrictionSettings:
 
 class HardwareReplayStep(StrictModel):
     """The study's URDF robot replayed against hardware logs with their measured elbow
-    torque: friction identified on the training logs, then the replay's angle error over
+    torque: friction (and, if asked, the motor's rotor inertia, a torque scale, a shoulder
+    offset) identified on the training logs, then the replay's angle error over
     many starts and whole swings for the identified model, the published damping and no
     friction (monkeystudy.analysis.measured_replay; docs/acromonk.md). Deterministic: the
     dataset is bit-reproducible."""
