@@ -366,3 +366,63 @@ def test_the_lowest_error_of_a_lone_row_is_shown(datasets):
     panel = dots.axes
     fig.canvas.draw()
     assert not any(t.get_text() for t in panel.xaxis.get_minorticklabels())
+
+
+def test_the_animation_legend_shows_each_stage_in_the_colour_the_robot_is_drawn(
+        datasets, tmp_path, monkeypatch):
+    """Issue 41: the animation's legend gave "motor on" vermillion (the motor-on colour of a
+    robot hanging from A) while the horizontal gait's robot, hanging from B with its motor
+    on, is drawn amber. Each stage the run passes through has a legend line of the colour
+    and words of :data:`STAGES`, and no legend line has a stage colour the run never shows."""
+    from monkeystudy.plotting import gait
+
+    figures, made = [], gait.new_figure
+
+    def keep(**kwargs):
+        figures.append(made(**kwargs))
+        return figures[-1]
+
+    monkeypatch.setattr(gait, "new_figure", keep)
+    s = datasets["stability_1"]
+    write_animation(s, tmp_path / "anim", {}, max_frames=4, fps=2, fmt="gif")
+    stages = set(trajectory(s).stage)
+    assert "B+motor" in stages                    # the horizontal gait's motor phase
+    legend = figures[0].legends[0]
+    drawn = {}
+    for line, text in zip(legend.get_lines(), legend.get_texts()):
+        drawn[text.get_text()] = line.get_color()
+    stage_colours = {colour for colour, _ in gait.STAGES.values()}
+    for key in stages:
+        colour, words = gait.STAGES[key]
+        assert drawn.get(words) == colour, (key, drawn)
+    shown = {c for c in drawn.values() if c in stage_colours}
+    assert shown == {gait.STAGES[k][0] for k in stages}, drawn
+
+
+def test_filmstrip_text_is_readable_on_the_page_and_frame_numbers_inside_the_timeline(
+        datasets):
+    """Issue 41: the 12-inch filmstrip (1800 px at 150 dpi) was scaled to the page's 1100 px,
+    leaving 7-pt text 8.9 px high and less; the numbers of the first and last frames were cut
+    at the timeline's ends. Every text is at least 10 px high at the page's width and every
+    frame number lies inside the timeline."""
+    import matplotlib
+
+    from monkeystudy.plotting.common import PAGE_WIDTH_PX, style
+
+    with style():
+        dpi = float(matplotlib.rcParams["savefig.dpi"])
+    fig = plot_filmstrip(datasets["stability_1"])
+    fig.canvas.draw()
+    shown = min(1.0, PAGE_WIDTH_PX / (fig.get_figwidth() * dpi))    # page / figure
+    texts = [t for t in fig.findobj(lambda a: hasattr(a, "get_fontsize")
+                                    and hasattr(a, "get_text"))
+             if t.get_visible() and t.get_text().strip()]
+    smallest = min(t.get_fontsize() for t in texts)
+    assert smallest * dpi / 72.0 * shown >= 10.0, smallest
+    numbers = [a for a in fig.findobj() if a.get_gid() == "frame_number"]
+    assert len(numbers) >= 8
+    renderer = fig.canvas.get_renderer()
+    box = numbers[0].axes.get_window_extent(renderer)
+    for n in numbers:
+        ext = n.get_window_extent(renderer)
+        assert box.x0 <= ext.x0 and ext.x1 <= box.x1, (n.get_text(), ext, box)

@@ -36,6 +36,9 @@ MINIMUM_COLOUR = "#39d353"      # the study marks its minima with green squares 
 #: units of the gait error e: theta2_f^2 [rad2] plus two squared rate differences [rad2 s-2],
 #: a sum of mixed units as the 2009 study defines it (docs/model.md)
 ERROR_UNITS = "[rad² + rad² s⁻²]"
+#: the width of the study page's column [px] (:mod:`.page`): a wider figure is shown scaled
+#: down to it
+PAGE_WIDTH_PX = 1100
 
 
 def style():

@@ -23,13 +23,14 @@ from ..study.failures import FAILED, StepFailure
 from ..study.figures import figure_name
 from ..study.progress import singular_counts
 from ..study.steps import REGISTRY
+from .common import PAGE_WIDTH_PX
 from .drawing import Drawing
 
 PAGE = "index.html"
 
 STYLE = """
 body { font: 15px/1.45 system-ui, -apple-system, "Segoe UI", sans-serif; color: #1b1b1b;
-       max-width: 1100px; margin: 2em auto; padding: 0 1.5em; }
+       max-width: {page_width}px; margin: 2em auto; padding: 0 1.5em; }
 h1 { font-size: 1.7em; margin-bottom: 0.1em; } h2 { margin-top: 2em; border-bottom: 1px solid #ccc; }
 h3 { margin-top: 1.6em; } h3 small { color: #666; font-weight: normal; }
 table { border-collapse: collapse; margin: 0.5em 0; } td, th { padding: 0.2em 0.8em;
@@ -44,7 +45,7 @@ nav { display: flex; flex-wrap: wrap; gap: 0.2em 1em; } .muted { color: #666; fo
 .skipped { border: 1px dashed #bbb; padding: 0.8em 1em; background: #fafafa; }
 .skipped p { margin: 0 0 0.3em; }
 .failed { border-left: 4px solid #c0392b; padding: 0.4em 0.8em; background: #fdf2f1; }
-"""
+""".replace("{page_width}", str(PAGE_WIDTH_PX))
 
 
 def _e(text) -> str:
