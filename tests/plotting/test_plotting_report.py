@@ -564,9 +564,23 @@ def test_step_descriptions_on_the_page_are_whole_sentences(reported_study):
         assert text.endswith(".") and whole.startswith(text), kind.name
         rest = whole[len(text):]
         assert rest == "" or re.match(r"\s+[A-Z`(]", rest), (kind.name, rest[:20])
+
+
+def test_a_step_description_names_the_step_s_own_numbers(reported_study):
+    """Issue 41: the page printed the stability kind's docstring as is, "for ``cycles``
+    cycles": a numeric setting the description names reads as the step's value, in the
+    right number; a setting the study file leaves out, as its default."""
+    from monkeystudy.plotting.page import description
+    from monkeystudy.study.steps import REGISTRY
+
+    doc = REGISTRY["stability"].model.__doc__
+    assert description(doc, {"cycles": 30}).endswith("recorded times for 30 cycles.")
+    assert description(doc, {"cycles": 1}).endswith("recorded times for 1 cycle.")
     page = (reported_study / "figures" / PAGE).read_text()
-    assert "Repeat a refined gait open-loop from its recorded times for <code>cycles</code> " \
-           "cycles." in page
+    cycles = xr.open_dataset(reported_study / "stability_1.nc").sizes["cycle"]
+    assert (f"Repeat a refined gait open-loop from its recorded times for {cycles} "
+            f"cycle{'s' if cycles != 1 else ''}.") in page
+    assert "<code>cycles</code>" not in page
 
 
 def test_figures_are_numbered_in_the_order_they_are_said_and_long_work_is_said(
