@@ -177,6 +177,29 @@ def test_error_per_cycle_is_the_dataset_on_a_log_axis(datasets):
     assert "rad² + rad² s⁻²" in line.axes.get_ylabel() and "cycle" in line.axes.get_xlabel()
 
 
+def labelled_ticks(axis) -> list[float]:
+    """The values of the ticks of ``axis`` (drawn) with a label, within its view."""
+    lo, hi = sorted(axis.get_view_interval())
+    ticks = axis.get_major_ticks() + axis.get_minor_ticks()
+    return sorted(t.get_loc() for t in ticks
+                  if t.label1.get_text() and lo * (1 - 1e-9) <= t.get_loc() <= hi * (1 + 1e-9))
+
+
+def test_a_log_axis_within_a_decade_has_labelled_ticks_around_its_values(datasets):
+    """Issue 41: errors from 1.1e-4 to 8e-4 (smoke's minima_cycles) had no labelled tick
+    below 2e-4 and none above 6e-4. A log axis shorter than a decade ends on labelled ticks
+    and labels every minor one: the lowest and highest values lie between labelled ticks."""
+    s = datasets["stability_1"].copy()
+    n = s.sizes["cycle"]
+    s["error"] = ("cycle", np.geomspace(1.12e-4, 7.95e-4, n))
+    fig = plot_error_per_cycle(s)
+    fig.canvas.draw()
+    axis = by_gid(fig, "error").axes.yaxis
+    labelled = labelled_ticks(axis)
+    assert len(labelled) >= 4, labelled
+    assert labelled[0] <= 1.12e-4 and labelled[-1] >= 7.95e-4, labelled
+
+
 def test_error_comparison_draws_every_run(datasets):
     ss = [datasets["stability_1"], datasets["stability_2"]]
     fig = plot_error_comparison(ss)

@@ -20,7 +20,7 @@ import matplotlib.style
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
-from matplotlib.ticker import FuncFormatter
+from matplotlib.ticker import FuncFormatter, LogFormatterSciNotation
 
 import monkeystudy
 from ..robot import Robot
@@ -253,6 +253,30 @@ def plain_log_labels(axis) -> None:
 def _short_range(axis) -> bool:
     lo, hi = sorted(axis.get_view_interval())
     return lo > 0 and hi / lo < 10.0
+
+
+def readable_log_axis(ax, which: str = "y") -> None:
+    """Give a log axis of ``ax`` (``"x"`` or ``"y"``, its data drawn) enough labelled ticks:
+    a view shorter than a decade ends on one-digit multiples of its decade (``1e-4`` to
+    ``9e-4``, not a view between two labelled ticks) and labels every minor tick; a view with
+    fewer than two powers of ten in it labels some minor ticks too."""
+    axis = ax.yaxis if which == "y" else ax.xaxis
+    get, put = (ax.get_ylim, ax.set_ylim) if which == "y" else (ax.get_xlim, ax.set_xlim)
+    lo, hi = sorted(get())
+    if axis.get_scale() != "log" or not (0 < lo < hi) or not math.isfinite(hi):
+        return
+    powers = math.floor(math.log10(hi)) - math.ceil(math.log10(lo)) + 1
+    if powers >= 2:
+        return
+    if hi / lo < 10.0:
+        scale = 10.0 ** math.floor(math.log10(lo))
+        lo = math.floor(lo / scale * (1 + 1e-12)) * scale
+        scale = 10.0 ** math.floor(math.log10(hi))
+        hi = math.ceil(hi / scale * (1 - 1e-12)) * scale
+        put(lo, hi)
+    # minor ticks: every one labelled within a decade, a subset over one to two decades
+    axis.set_minor_formatter(LogFormatterSciNotation(labelOnlyBase=False,
+                                                     minor_thresholds=(math.inf, 1.0)))
 
 
 def finite_or_nan(x) -> float:

@@ -27,7 +27,8 @@ from scipy import ndimage
 
 from ..simulation import Status
 from .common import (
-    ERROR_UNITS, MINIMUM_COLOUR, count, finite, new_figure, run_label, status_name, style,
+    ERROR_UNITS, MINIMUM_COLOUR, count, finite, new_figure, readable_log_axis, run_label,
+    status_name, style,
 )
 from .labels import duration
 from .drawing import NothingToDraw
@@ -802,6 +803,7 @@ def plot_refine_convergence(refine):
         ax.plot([], [], marker="o", ms=9, mfc="none", mec="0.3", mew=1.5, ls="none",
                 label="iterate 0: the start")
         ax.set_yscale("log")
+        readable_log_axis(ax)
         ax.set_xlabel("Nelder–Mead iteration (0: the start)")
         ax.xaxis.set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
         ax.set_ylabel(("section" if is_sequence(refine) else "gait")
