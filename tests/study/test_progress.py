@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import queue
+import re
 import threading
 import time
 
@@ -113,3 +114,32 @@ def test_the_plain_reporter_says_each_phase_and_counts_within_it():
     assert lines[3] == "[monkeystudy] design: screen: 800 runs (then checks)"
     assert lines[4].startswith("[monkeystudy] design: screen: 400/800 runs (50%)")
     assert "then checks" in lines[4]       # the eta says the step goes on after it
+
+
+def test_a_bar_of_a_narrow_terminal_keeps_its_count_and_eta_whole(monkeypatch):
+    """Issue 41: at 80 columns a phase's bar with its words ("design: blocks", "then refine,
+    screen, checks") lost its count and bar to "…". On a terminal of 80 columns (and 60)
+    each bar's line fits, and its count with its unit and its eta are whole: the name and the
+    phases to come are what is cut."""
+    from rich.console import Console
+
+    for columns in (80, 60):
+        monkeypatch.setenv("COLUMNS", str(columns))
+        rep = P.RichReporter(io.StringIO())
+        rep.start("design", 8, 0, "blocks")
+        rep.phase("design", "blocks", 8, "blocks", "refine, screen, checks")
+        rep.advance("design", 3)
+        name = "a_step_name_as_long_as_a_study_file_allows_it_to_be" * 2
+        rep.start(name, 12345, 0, "runs")
+        rep.phase(name, "screen", 12345, "refinements", "checks")
+        rep.advance(name, 123)
+        out = io.StringIO()
+        Console(file=out, width=rep.console.width, color_system=None).print(
+            rep.progress.make_tasks_table(rep.progress.tasks))
+        rep.close()
+        lines = out.getvalue().splitlines()
+        assert rep.console.width == columns and len(lines) == 2, lines
+        for line, count in zip(lines, ("3/8 blocks", "123/12345 refinements")):
+            assert len(line) <= columns, line
+            assert re.search(re.escape(count.split()[0]) + r"\s+" + count.split()[1], line), line
+            assert re.search(r"\d+:\d\d:\d\d eta (-:--:--|\d+:\d\d:\d\d)", line), line

@@ -216,6 +216,19 @@ class PlainReporter(Reporter):
         self._line(f"{name}: {message}")
 
 
+def _words(field: str, style: str):
+    """A progress column of a task's words (``description`` or a field) on one line, cut
+    with "…" when the terminal is too narrow: the table shrinks it before the count."""
+    from rich.progress import ProgressColumn
+    from rich.text import Text
+
+    class Words(ProgressColumn):
+        def render(self, task):
+            text = task.description if field == "description" else task.fields.get(field, "")
+            return Text(str(text), style=style, no_wrap=True, overflow="ellipsis")
+    return Words()
+
+
 class RichReporter(Reporter):
     """A rich progress bar per step, with elapsed time and ETA (on a terminal)."""
 
@@ -228,18 +241,30 @@ class RichReporter(Reporter):
         self._tasks: dict[str, int] = {}
 
     def _display(self):
-        """The progress display, started with the first step (its refresh thread with it)."""
+        """The progress display, started with the first step (its refresh thread with it).
+
+        A step's line is its name and phase, its count and unit, the elapsed time and eta,
+        the bar and the phases still to come. The count and times are never cut; on a narrow
+        terminal the bar, the name and the phases to come shrink (the words cut with "…")."""
         if self.progress is None:
             # loaded with the first step's display, after the compile
             from rich.progress import (
                 BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn,
                 TimeRemainingColumn,
             )
-            self.progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(),
-                                     MofNCompleteColumn(), TextColumn("{task.fields[unit]}"),
-                                     TimeElapsedColumn(), TextColumn("eta"),
-                                     TimeRemainingColumn(), TextColumn("{task.fields[then]}"),
-                                     console=self.console, transient=False)
+            from rich.table import Column
+
+            def whole():
+                return Column(no_wrap=True)
+            self.progress = Progress(
+                _words("description", "bold"),
+                MofNCompleteColumn(table_column=whole()),
+                TextColumn("{task.fields[unit]}", table_column=whole()),
+                TimeElapsedColumn(table_column=whole()),
+                TextColumn("eta", table_column=whole()),
+                TimeRemainingColumn(table_column=whole()),
+                BarColumn(bar_width=24), _words("then", "dim"),
+                console=self.console, transient=False)
             self.progress.start()
         return self.progress
 
