@@ -260,7 +260,7 @@ def test_every_step_of_the_study_is_listed_with_what_became_of_it(reported_copy)
     assert f"step refine_2: failed: {why}" in lines
     assert "step stability_2: not run: step 'refine_2', which it depends on, failed" in lines
     assert any(x.startswith("step stability_1: no dataset") for x in lines)
-    assert lines[-1].endswith("3 step(s) without a current dataset")
+    assert lines[-1].endswith("3 steps without a current dataset")
     page = (reported_copy / "figures" / PAGE).read_text().replace("&#x27;", "'")
     for name in ("error_map", "refine_1", "refine_2", "stability_1", "stability_2"):
         assert f'<h3 id="step-{name}">' in page, name

@@ -24,6 +24,7 @@ from matplotlib.ticker import FuncFormatter, LogFormatterSciNotation
 
 import monkeystudy
 from ..robot import Robot
+from ..study.progress import all_of, count   # re-exported: the figures word counts as the log does
 from ..simulation import STATUS_NAMES
 
 #: The package's style file.
@@ -224,12 +225,6 @@ def save_figure(fig: Figure, base: Path, prov: Mapping[str, str], *,
         if fig.get_layout_engine() is not None:
             fig.set_layout_engine("none")   # laid out once: later formats keep the positions
     return written
-
-
-def count(n: int, noun: str, plural: str | None = None) -> str:
-    """``1 run``, ``2 runs``: a number with its noun in the right number."""
-    n = int(n)
-    return f"{n} {noun if n == 1 else (plural or noun + 's')}"
 
 
 def finite(x) -> bool:

@@ -21,7 +21,7 @@ from ruamel.yaml import YAML, YAMLError
 from .. import __version__
 from ..study.failures import FAILED, StepFailure
 from ..study.figures import figure_name
-from ..study.progress import singular_counts
+from ..study.progress import count, singular_counts
 from ..study.steps import REGISTRY
 from .common import PAGE_WIDTH_PX
 from .drawing import Drawing
@@ -309,7 +309,8 @@ def render_page(study_dir: Path, datasets: Mapping[str, object],
            + _e(first.get("study_text", "")) + "</pre></details>",
            "<h2>Steps</h2>"]
     if missing:
-        out.append('<p class="failed">' + _e(f"{len(missing)} of {len(kinds)} steps have no "
+        out.append('<p class="failed">' + _e(f"{len(missing)} of {count(len(kinds), 'step')} "
+                                             f"{'has' if len(missing) == 1 else 'have'} no "
                                              "dataset: ")
                    + ", ".join(f'<a href="#step-{_e(n)}">{_e(n)}</a>' for n in missing)
                    + ".</p>")
