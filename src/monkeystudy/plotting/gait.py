@@ -521,13 +521,13 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
         fig.legend(handles=stage_handles(run_stages(traj), lw=3)
                    + [Line2D([], [], label="end A", **END_A),
                       Line2D([], [], label="end B", **END_B),
-                      Line2D([], [], label="magnet on", **MAGNET),
+                      Line2D([], [], label="magnet on", **dict(MAGNET, ms=9)),
                       Line2D([], [], color="0.5", lw=0.8, ls="--", label="start height"),
                       Line2D([], [], color="0.75", lw=0.8, label="path of the joint"),
                       Line2D([], [], marker="v", color="#B8860B", ms=5, ls="none",
                              label="a magnet attached here")],
-                   loc="lower center", bbox_to_anchor=(0.5, 0.065), ncols=3, fontsize=6,
-                   frameon=False, columnspacing=1.2, handlelength=1.8)
+                   loc="lower center", bbox_to_anchor=(0.5, 0.055), ncols=4, fontsize=6,
+                   frameon=False, columnspacing=1.2, handlelength=1.5, labelspacing=0.5)
         # the view, in metres, of the axes box's shape: it holds the robot's full swing
         # horizontally with room to travel, and its reach vertically
         box = ax.get_position(original=True)
