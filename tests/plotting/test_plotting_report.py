@@ -366,7 +366,7 @@ def test_pipeline_builds_then_has_nothing_to_do(tmp_path):
     second = build("--studies", str(study), "--out", str(out), "--no-animation",
                    "--formats", "png")
     assert second.returncode == 0, second.stdout + second.stderr
-    assert "all 3 up to date" in second.stdout and "wrote 0 file(s)" in second.stdout
+    assert "all 3 datasets up to date" in second.stdout and "wrote 0 files" in second.stdout
     after = mtimes(figs) | {p.name: p.stat().st_mtime_ns for p in (out / "tiny").glob("*.nc")}
     assert after == before
 
