@@ -52,6 +52,7 @@ def datasets_step(study: Path, out: Path, *, workers: int | None, dry_run: bool)
     """Bring the study's datasets up to date. Returns (study name, study dir, state, ok)."""
     from monkeystudy.study.loader import StudyError, load_study
     from monkeystudy.study.plan import plan_study
+    from monkeystudy.study.progress import all_of, count
 
     try:
         loaded = load_study(study)
@@ -63,7 +64,7 @@ def datasets_step(study: Path, out: Path, *, workers: int | None, dry_run: bool)
     plan = plan_study(loaded, study_dir)
     todo = [s.name for s in plan.steps if not s.up_to_date]
     if not todo:
-        log(f"  datasets: all {len(plan.steps)} up to date in {study_dir}")
+        log(f"  datasets: {all_of(len(plan.steps), 'dataset')} up to date in {study_dir}")
         return name, study_dir, "up to date", True
     log(f"  datasets: {len(todo)} of {len(plan.steps)} missing or stale ({', '.join(todo)})")
     if dry_run:
@@ -81,7 +82,7 @@ def datasets_step(study: Path, out: Path, *, workers: int | None, dry_run: bool)
         log(f"  datasets: the run failed (exit {rc}) after {dt:.1f} s")
         return name, study_dir, f"run failed (exit {rc})", False
     log(f"  datasets: done in {dt:.1f} s")
-    return name, study_dir, f"ran {len(todo)} step(s) in {dt:.0f} s", True
+    return name, study_dir, f"ran {count(len(todo), 'step')} in {dt:.0f} s", True
 
 
 def figures_step(study_dir: Path, *, force: bool, animation: bool, dry_run: bool,
@@ -90,6 +91,7 @@ def figures_step(study_dir: Path, *, force: bool, animation: bool, dry_run: bool
     from monkeystudy.plotting.report import (
         FigureNameClash, ReportError, StudyIncomplete, report_study, study_datasets,
     )
+    from monkeystudy.study.progress import count
 
     if not study_dir.is_dir() or not study_datasets(study_dir):
         log("  figures: no datasets yet")
@@ -105,16 +107,17 @@ def figures_step(study_dir: Path, *, force: bool, animation: bool, dry_run: bool
                                formats=formats, progress=progress)
     except ReportError as exc:
         log(f"  figures: {exc}")
-        return f"{len(exc.failures)} failed, {len(exc.written)} file(s) written", False
+        return f"{len(exc.failures)} failed, {count(len(exc.written), 'file')} written", False
     except FigureNameClash as exc:
         log(f"  figures: {exc}")
         return "refused: figure names clash", False
     except StudyIncomplete as exc:    # the rest is drawn; the page lists the missing steps
         log(f"  figures: {exc}")
         n = len(exc.failed) + len(exc.missing)
-        return f"wrote {len(exc.written)} file(s); {n} step(s) without a dataset", False
+        return f"wrote {count(len(exc.written), 'file')}; {count(n, 'step')} without a dataset", \
+            False
     verb = "would write" if dry_run else "wrote"
-    return f"{verb} {len(written)} file(s) in {time.monotonic() - t0:.0f} s", True
+    return f"{verb} {count(len(written), 'file')} in {time.monotonic() - t0:.0f} s", True
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -183,6 +183,7 @@ def serve(socket_path: Optional[str], workers: Optional[int], stop: bool, status
     """Keep the kernels loaded and a worker pool warm; 'monkeystudy run STUDY --server' hands
     studies to it."""
     from .service.client import ServiceError, default_socket, request
+    from .study.progress import count
 
     path = socket_path or default_socket()
     if stop or status:
@@ -192,7 +193,8 @@ def serve(socket_path: Optional[str], workers: Optional[int], stop: bool, status
             _err(f"monkeystudy serve: {exc}")
             raise click.exceptions.Exit(EXIT_FAILED) from None
         state = "stopping" if stop else (
-            f"{msg.get('workers')} worker(s), monkeystudy {msg.get('version')}, sources "
+            f"{count(msg.get('workers') or 0, 'worker')}, monkeystudy {msg.get('version')}, "
+            "sources "
             f"{msg.get('source_sha256', '')[:12]}")
         click.echo(f"server pid {msg.get('pid')} at {path}: {state}")
         return

@@ -5,6 +5,7 @@ the others. The datasets are small but real (analysisdata.py)."""
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
 from pathlib import Path
@@ -131,6 +132,22 @@ def test_axes_have_units_and_titles_say_what_was_run(ds, step):
 
 
 # --- shoot ----------------------------------------------------------------------------------
+def test_shoot_order_panel_labels_the_same_powers_of_ten_on_both_axes(ds):
+    """Issue 41: the square r[k+1]-against-r[k] panel labelled every third power of ten on one
+    axis and every second on the other, so its slopes did not read from the labels. Both
+    axes label the same powers of ten, at least three of them, within the view."""
+    fig = shoot.plot_shoot_convergence(ds["shoot"])
+    fig.canvas.draw()
+    axr = by_gid(fig, "ratio_0").axes
+
+    def labelled(axis):
+        lo, hi = sorted(axis.get_view_interval())
+        return [round(math.log10(t.get_loc()), 6) for t in axis.get_major_ticks()
+                if t.label1.get_text() and lo <= t.get_loc() <= hi]
+    xs, ys = labelled(axr.xaxis), labelled(axr.yaxis)
+    assert xs == ys and len(xs) >= 3, (xs, ys)
+
+
 def test_shoot_lines_are_the_newton_histories(ds):
     d = ds["shoot"]
     fig = shoot.plot_shoot_convergence(d)

@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from matplotlib.collections import PathCollection, QuadMesh
 from matplotlib.figure import Figure
+from matplotlib.text import Text
 from PIL import Image
 
 from monkeystudy import OpenLoop, evaluate_horizontal_gait, simulate
@@ -175,6 +177,29 @@ def test_error_per_cycle_is_the_dataset_on_a_log_axis(datasets):
     assert "rad² + rad² s⁻²" in line.axes.get_ylabel() and "cycle" in line.axes.get_xlabel()
 
 
+def labelled_ticks(axis) -> list[float]:
+    """The values of the ticks of ``axis`` (drawn) with a label, within its view."""
+    lo, hi = sorted(axis.get_view_interval())
+    ticks = axis.get_major_ticks() + axis.get_minor_ticks()
+    return sorted(t.get_loc() for t in ticks
+                  if t.label1.get_text() and lo * (1 - 1e-9) <= t.get_loc() <= hi * (1 + 1e-9))
+
+
+def test_a_log_axis_within_a_decade_has_labelled_ticks_around_its_values(datasets):
+    """Issue 41: errors from 1.1e-4 to 8e-4 (smoke's minima_cycles) had no labelled tick
+    below 2e-4 and none above 6e-4. A log axis shorter than a decade ends on labelled ticks
+    and labels every minor one: the lowest and highest values lie between labelled ticks."""
+    s = datasets["stability_1"].copy()
+    n = s.sizes["cycle"]
+    s["error"] = ("cycle", np.geomspace(1.12e-4, 7.95e-4, n))
+    fig = plot_error_per_cycle(s)
+    fig.canvas.draw()
+    axis = by_gid(fig, "error").axes.yaxis
+    labelled = labelled_ticks(axis)
+    assert len(labelled) >= 4, labelled
+    assert labelled[0] <= 1.12e-4 and labelled[-1] >= 7.95e-4, labelled
+
+
 def test_error_comparison_draws_every_run(datasets):
     ss = [datasets["stability_1"], datasets["stability_2"]]
     fig = plot_error_comparison(ss)
@@ -328,9 +353,12 @@ def test_animation_reports_every_frame(datasets, tmp_path):
     assert seen == [(k, 8) for k in range(1, 9)]         # 6 frames + the end held 1 s
 
 
-def test_a_point_list_is_titled_as_its_points_and_its_blank_cells_are_explained(datasets):
+def test_a_point_list_is_titled_and_drawn_as_its_points(datasets):
     """An explicit point list of 3 points at 3 values of each rate was titled "over a 3×3
-    grid of initial rates", and its 6 cells without a point were blank without a word."""
+    grid of initial rates", and drawn as a mesh of cells, 6 of its 9 blank (issue 41: five
+    listed points "a 4×4 grid", drawn as a mesh). It is titled by its points and each point
+    is a marker at its rates, coloured by its value; a full grid written as a list stays a
+    mesh of cells."""
     stacked = datasets["error_map"].stack(point=("dtheta1", "dtheta2")).reset_index("point")
     picked, seen1, seen2 = [], set(), set()         # 3 points with a gait, no value shared
     for k in np.flatnonzero(stacked["status"].values == 0):
@@ -344,11 +372,21 @@ def test_a_point_list_is_titled_as_its_points_and_its_blank_cells_are_explained(
     for fig in (plot_error_map(three), plot_swap_time_map(three), plot_error_surface(three)):
         title = fig._suptitle.get_text()
         assert "3 listed points" in title and "grid" not in title, title
-    legend = [t.get_text() for leg in plot_error_map(three).legends for t in leg.get_texts()]
-    assert any(t.startswith("blank: no listed point") for t in legend), legend
-    # every cell of a full grid written as a list holds a point: nothing is blank
-    legend = [t.get_text() for leg in plot_error_map(stacked).legends for t in leg.get_texts()]
-    assert not any(t.startswith("blank:") for t in legend), legend
+    points = np.column_stack([three["dtheta1"].values, three["dtheta2"].values])
+    for fig, gid, name in ((plot_error_map(three), "error", "error"),
+                           (plot_swap_time_map(three), "t_switch", "t_switch")):
+        drawn = by_gid(fig, gid)
+        assert isinstance(drawn, PathCollection), type(drawn)      # markers, not a mesh
+        np.testing.assert_allclose(np.sort(drawn.get_offsets(), axis=0),
+                                   np.sort(points, axis=0))
+        order = np.lexsort(points.T[::-1])
+        got = np.lexsort(np.asarray(drawn.get_offsets()).T[::-1])
+        want = three[name].values[order]
+        if name == "error":
+            want = np.minimum(want, 5.0)
+        np.testing.assert_allclose(np.asarray(drawn.get_array())[got], want)
+    # every cell of a full grid written as a list holds a point: cells, as for a grid
+    assert isinstance(by_gid(plot_error_map(stacked), "error"), QuadMesh)
 
 
 def test_the_lowest_error_of_a_lone_row_is_shown(datasets):
@@ -366,3 +404,125 @@ def test_the_lowest_error_of_a_lone_row_is_shown(datasets):
     panel = dots.axes
     fig.canvas.draw()
     assert not any(t.get_text() for t in panel.xaxis.get_minorticklabels())
+
+
+def test_the_animation_legend_shows_each_stage_in_the_colour_the_robot_is_drawn(
+        datasets, tmp_path, monkeypatch):
+    """Issue 41: the animation's legend gave "motor on" vermillion (the motor-on colour of a
+    robot hanging from A) while the horizontal gait's robot, hanging from B with its motor
+    on, is drawn amber. Each stage the run passes through has a legend line of the colour
+    and words of :data:`STAGES`, and no legend line has a stage colour the run never shows."""
+    from monkeystudy.plotting import gait
+
+    figures, made = [], gait.new_figure
+
+    def keep(**kwargs):
+        figures.append(made(**kwargs))
+        return figures[-1]
+
+    monkeypatch.setattr(gait, "new_figure", keep)
+    s = datasets["stability_1"]
+    write_animation(s, tmp_path / "anim", {}, max_frames=4, fps=2, fmt="gif")
+    stages = set(trajectory(s).stage)
+    assert "B+motor" in stages                    # the horizontal gait's motor phase
+    legend = figures[0].legends[0]
+    drawn = {}
+    for line, text in zip(legend.get_lines(), legend.get_texts()):
+        drawn[text.get_text()] = line.get_color()
+    stage_colours = {colour for colour, _ in gait.STAGES.values()}
+    for key in stages:
+        colour, words = gait.STAGES[key]
+        assert drawn.get(words) == colour, (key, drawn)
+    shown = {c for c in drawn.values() if c in stage_colours}
+    assert shown == {gait.STAGES[k][0] for k in stages}, drawn
+
+
+def test_filmstrip_text_is_readable_on_the_page_and_frame_numbers_inside_the_timeline(
+        datasets):
+    """Issue 41: the 12-inch filmstrip (1800 px at 150 dpi) was scaled to the page's 1100 px,
+    leaving 7-pt text 8.9 px high and less; the numbers of the first and last frames were cut
+    at the timeline's ends. Every text is at least 10 px high at the page's width and every
+    frame number lies inside the timeline."""
+    import matplotlib
+
+    from monkeystudy.plotting.common import PAGE_WIDTH_PX, style
+
+    with style():
+        dpi = float(matplotlib.rcParams["savefig.dpi"])
+    fig = plot_filmstrip(datasets["stability_1"])
+    fig.canvas.draw()
+    shown = min(1.0, PAGE_WIDTH_PX / (fig.get_figwidth() * dpi))    # page / figure
+    texts = [t for t in fig.findobj(lambda a: hasattr(a, "get_fontsize")
+                                    and hasattr(a, "get_text"))
+             if t.get_visible() and t.get_text().strip()]
+    smallest = min(t.get_fontsize() for t in texts)
+    assert smallest * dpi / 72.0 * shown >= 10.0, smallest
+    numbers = [a for a in fig.findobj() if a.get_gid() == "frame_number"]
+    assert len(numbers) >= 8
+    renderer = fig.canvas.get_renderer()
+    box = numbers[0].axes.get_window_extent(renderer)
+    for n in numbers:
+        ext = n.get_window_extent(renderer)
+        assert box.x0 <= ext.x0 and ext.x1 <= box.x1, (n.get_text(), ext, box)
+
+
+def test_the_e_one_line_of_a_row_above_one_is_labelled_inside_the_panel(datasets):
+    """Issue 41: a lone row whose lowest error is above 1 put e = 1 at the side panel's left
+    edge and its label outside the panel."""
+    grid = datasets["error_map"]
+    j = int(np.flatnonzero((grid["status"] == 0).any("dtheta1").values)[0])
+    row = grid.isel(dtheta2=[j])
+    row["error"] = row["error"] + 3.0                     # every error of the row above 1
+    fig = plot_error_map(row)
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    axp = by_gid(fig, "row_minimum").axes
+    label, = [t for t in axp.texts if t.get_text() == "e = 1"]
+    panel = axp.get_window_extent(renderer)
+    ext = label.get_window_extent(renderer)
+    assert panel.x0 <= ext.x0 and ext.x1 <= panel.x1, (ext, panel)
+    lo, hi = label.axes.get_xlim()
+    assert lo < 1.0 < hi
+
+
+def test_durations_read_in_seconds_from_one_second(datasets):
+    """Issue 41: a motor phase of 2.69 s read "motor on for 2.69e+03 ms"."""
+    from monkeystudy.plotting.labels import duration
+
+    assert duration(0.031) == "31 ms"
+    assert duration(2.69) == "2.69 s"
+    assert duration(float("nan")) == "–"
+    grid = datasets["error_map"].copy()
+    grid["t_motor"] = grid["t_motor"] * 0.0 + 2.69
+    legend = [t.get_text() for leg in plot_error_map(grid).legends for t in leg.get_texts()]
+    assert any("motor on for 2.69 s" in t for t in legend), legend
+
+
+def test_labels_of_the_least_error_and_a_minimum_on_it_are_clear_of_every_marker(datasets):
+    """Issue 41: a refined minimum on (or beside) the grid's least error lay under its star,
+    its number under the star's "least e". The squares are drawn over the star and every
+    label lies inside the map, clear of every marker and of every other label."""
+    grid = datasets["error_map"]
+    g = grid_arrays(grid)
+    i, j = np.unravel_index(np.nanargmin(np.where(g.ok, g.error, np.nan)), g.error.shape)
+    on, near = datasets["refine_1"].copy(), datasets["refine_2"].copy()
+    on["dtheta1"], on["dtheta2"] = ((), float(g.dtheta1[i])), ((), float(g.dtheta2[j]))
+    step = float(g.dtheta1[1] - g.dtheta1[0]) * 0.2
+    near["dtheta1"], near["dtheta2"] = ((), float(g.dtheta1[i]) + step), \
+        ((), float(g.dtheta2[j]))
+    for fig in (plot_error_map(grid, [on, near]), plot_swap_time_map(grid, [on, near])):
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        star = by_gid(fig, "least_error")
+        squares = [a for a in fig.findobj() if str(a.get_gid()).startswith("minimum_")]
+        labels = [a for a in fig.findobj() if str(a.get_gid()).startswith("label_")]
+        labels.append(by_gid(fig, "least_error_label"))
+        assert len(squares) == 2 and len(labels) == 3
+        assert all(sq.get_zorder() > star.get_zorder() for sq in squares)
+        box = star.axes.get_window_extent(renderer)
+        marks = [m.get_window_extent(renderer) for m in squares + [star]]
+        texts = [Text.get_window_extent(t, renderer) for t in labels]     # the words alone
+        for k, t in enumerate(texts):
+            assert box.x0 <= t.x0 and t.x1 <= box.x1 and box.y0 <= t.y0 and t.y1 <= box.y1
+            for other in marks + texts[:k] + texts[k + 1:]:
+                assert not t.overlaps(other), (labels[k].get_text(), t, other)

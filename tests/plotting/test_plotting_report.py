@@ -260,7 +260,7 @@ def test_every_step_of_the_study_is_listed_with_what_became_of_it(reported_copy)
     assert f"step refine_2: failed: {why}" in lines
     assert "step stability_2: not run: step 'refine_2', which it depends on, failed" in lines
     assert any(x.startswith("step stability_1: no dataset") for x in lines)
-    assert lines[-1].endswith("3 step(s) without a current dataset")
+    assert lines[-1].endswith("3 steps without a current dataset")
     page = (reported_copy / "figures" / PAGE).read_text().replace("&#x27;", "'")
     for name in ("error_map", "refine_1", "refine_2", "stability_1", "stability_2"):
         assert f'<h3 id="step-{name}">' in page, name
@@ -366,7 +366,7 @@ def test_pipeline_builds_then_has_nothing_to_do(tmp_path):
     second = build("--studies", str(study), "--out", str(out), "--no-animation",
                    "--formats", "png")
     assert second.returncode == 0, second.stdout + second.stderr
-    assert "all 3 up to date" in second.stdout and "wrote 0 file(s)" in second.stdout
+    assert "all 3 datasets up to date" in second.stdout and "wrote 0 files" in second.stdout
     after = mtimes(figs) | {p.name: p.stat().st_mtime_ns for p in (out / "tiny").glob("*.nc")}
     assert after == before
 
@@ -564,9 +564,23 @@ def test_step_descriptions_on_the_page_are_whole_sentences(reported_study):
         assert text.endswith(".") and whole.startswith(text), kind.name
         rest = whole[len(text):]
         assert rest == "" or re.match(r"\s+[A-Z`(]", rest), (kind.name, rest[:20])
+
+
+def test_a_step_description_names_the_step_s_own_numbers(reported_study):
+    """Issue 41: the page printed the stability kind's docstring as is, "for ``cycles``
+    cycles": a numeric setting the description names reads as the step's value, in the
+    right number; a setting the study file leaves out, as its default."""
+    from monkeystudy.plotting.page import description
+    from monkeystudy.study.steps import REGISTRY
+
+    doc = REGISTRY["stability"].model.__doc__
+    assert description(doc, {"cycles": 30}).endswith("recorded times for 30 cycles.")
+    assert description(doc, {"cycles": 1}).endswith("recorded times for 1 cycle.")
     page = (reported_study / "figures" / PAGE).read_text()
-    assert "Repeat a refined gait open-loop from its recorded times for <code>cycles</code> " \
-           "cycles." in page
+    cycles = xr.open_dataset(reported_study / "stability_1.nc").sizes["cycle"]
+    assert (f"Repeat a refined gait open-loop from its recorded times for {cycles} "
+            f"cycle{'s' if cycles != 1 else ''}.") in page
+    assert "<code>cycles</code>" not in page
 
 
 def test_figures_are_numbered_in_the_order_they_are_said_and_long_work_is_said(

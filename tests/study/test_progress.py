@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import queue
+import re
 import threading
 import time
 
@@ -113,3 +114,68 @@ def test_the_plain_reporter_says_each_phase_and_counts_within_it():
     assert lines[3] == "[monkeystudy] design: screen: 800 runs (then checks)"
     assert lines[4].startswith("[monkeystudy] design: screen: 400/800 runs (50%)")
     assert "then checks" in lines[4]       # the eta says the step goes on after it
+
+
+def test_a_bar_of_a_narrow_terminal_keeps_its_count_and_eta_whole(monkeypatch):
+    """Issue 41: at 80 columns a phase's bar with its words ("design: blocks", "then refine,
+    screen, checks") lost its count and bar to "…". On a terminal of 80 columns (and 60)
+    each bar's line fits, and its count with its unit and its eta are whole: the name and the
+    phases to come are what is cut."""
+    from rich.console import Console
+
+    for columns in (80, 60):
+        monkeypatch.setenv("COLUMNS", str(columns))
+        rep = P.RichReporter(io.StringIO())
+        rep.start("design", 8, 0, "blocks")
+        rep.phase("design", "blocks", 8, "blocks", "refine, screen, checks")
+        rep.advance("design", 3)
+        name = "a_step_name_as_long_as_a_study_file_allows_it_to_be" * 2
+        rep.start(name, 12345, 0, "runs")
+        rep.phase(name, "screen", 12345, "refinements", "checks")
+        rep.advance(name, 123)
+        out = io.StringIO()
+        Console(file=out, width=rep.console.width, color_system=None).print(
+            rep.progress.make_tasks_table(rep.progress.tasks))
+        rep.close()
+        lines = out.getvalue().splitlines()
+        assert rep.console.width == columns and len(lines) == 2, lines
+        for line, count in zip(lines, ("3/8 blocks", "123/12345 refinements")):
+            assert len(line) <= columns, line
+            assert re.search(re.escape(count.split()[0]) + r"\s+" + count.split()[1], line), line
+            assert re.search(r"\d+:\d\d:\d\d eta (-:--:--|\d+:\d\d:\d\d)", line), line
+
+
+def test_counts_are_worded_in_the_right_number():
+    """Issue 41: "1 cycles", "1 candidates", "for all 1 cycle", "2 level(s)", "drew 1
+    figure(s)": one helper words a count (:func:`count`, :func:`all_of`), and the lines the
+    step kinds word for any count are settled where they are shown (:func:`singular_counts`)."""
+    assert P.count(1, "cycle") == "1 cycle" and P.count(0, "cycle") == "0 cycles"
+    assert P.count(2, "minimum", "minima") == "2 minima"
+    assert [P.all_of(n, "cycle") for n in (1, 2, 5)] == ["the 1 cycle", "both cycles",
+                                                         "all 5 cycles"]
+    assert P.units(1, "branches") == "1 branch" and P.units(1, "blocks") == "1 block"
+    for line, shown in (
+            ("8 runs x 2 level(s); MFPT", "8 runs x 2 levels; MFPT"),
+            ("1 noise level(s) x 1 runs of up to 1 cycles", "1 noise level x 1 run of up to "
+                                                            "1 cycle"),
+            ("refused 1 candidate(s), no gait of", "refused 1 candidate, no gait of"),
+            ("chosen by survival: 1 candidates, 1 gaits", "chosen by survival: 1 candidate, "
+                                                          "1 gait"),
+            ("1 step(s) per cycle", "1 step per cycle"),
+            ("1/1 blocks, 0.1 runs, 21 points, 11 cycles", "1/1 blocks, 0.1 runs, 21 points, "
+                                                           "11 cycles")):
+        assert P.singular_counts(line) == shown
+
+
+def test_a_run_with_one_step_up_to_date_says_so_in_the_singular(tmp_path):
+    """Issue 41: "all 1 datasets up to date"."""
+    from monkeystudy.study import parse_study, run_study
+
+    text = ("schema_version: 1\nname: one\nrobot: seed2009\n"
+            "gait: {kind: horizontal, motor_torque: 0.6354, tick: 0.001}\n"
+            "steps:\n  - {name: pts, kind: grid, points: [[0.9, 10.9]]}\n")
+    loaded = parse_study(text, "one.yaml", tmp_path / "one.yaml")
+    run_study(loaded, tmp_path / "out", workers=1)
+    log = io.StringIO()
+    run_study(loaded, tmp_path / "out", workers=1, reporter=P.PlainReporter(log))
+    assert "one: the 1 dataset up to date in" in log.getvalue(), log.getvalue()

@@ -20,10 +20,11 @@ import matplotlib.style
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
-from matplotlib.ticker import FuncFormatter
+from matplotlib.ticker import FuncFormatter, LogFormatterSciNotation
 
 import monkeystudy
 from ..robot import Robot
+from ..study.progress import all_of, count   # re-exported: the figures word counts as the log does
 from ..simulation import STATUS_NAMES
 
 #: The package's style file.
@@ -36,6 +37,9 @@ MINIMUM_COLOUR = "#39d353"      # the study marks its minima with green squares 
 #: units of the gait error e: theta2_f^2 [rad2] plus two squared rate differences [rad2 s-2],
 #: a sum of mixed units as the 2009 study defines it (docs/model.md)
 ERROR_UNITS = "[rad² + rad² s⁻²]"
+#: the width of the study page's column [px] (:mod:`.page`): a wider figure is shown scaled
+#: down to it
+PAGE_WIDTH_PX = 1100
 
 
 def style():
@@ -223,12 +227,6 @@ def save_figure(fig: Figure, base: Path, prov: Mapping[str, str], *,
     return written
 
 
-def count(n: int, noun: str, plural: str | None = None) -> str:
-    """``1 run``, ``2 runs``: a number with its noun in the right number."""
-    n = int(n)
-    return f"{n} {noun if n == 1 else (plural or noun + 's')}"
-
-
 def finite(x) -> bool:
     """Whether ``x`` is a finite number (text of a non-finite value says nothing)."""
     try:
@@ -250,6 +248,30 @@ def plain_log_labels(axis) -> None:
 def _short_range(axis) -> bool:
     lo, hi = sorted(axis.get_view_interval())
     return lo > 0 and hi / lo < 10.0
+
+
+def readable_log_axis(ax, which: str = "y") -> None:
+    """Give a log axis of ``ax`` (``"x"`` or ``"y"``, its data drawn) enough labelled ticks:
+    a view shorter than a decade ends on one-digit multiples of its decade (``1e-4`` to
+    ``9e-4``, not a view between two labelled ticks) and labels every minor tick; a view with
+    fewer than two powers of ten in it labels some minor ticks too."""
+    axis = ax.yaxis if which == "y" else ax.xaxis
+    get, put = (ax.get_ylim, ax.set_ylim) if which == "y" else (ax.get_xlim, ax.set_xlim)
+    lo, hi = sorted(get())
+    if axis.get_scale() != "log" or not (0 < lo < hi) or not math.isfinite(hi):
+        return
+    powers = math.floor(math.log10(hi)) - math.ceil(math.log10(lo)) + 1
+    if powers >= 2:
+        return
+    if hi / lo < 10.0:
+        scale = 10.0 ** math.floor(math.log10(lo))
+        lo = math.floor(lo / scale * (1 + 1e-12)) * scale
+        scale = 10.0 ** math.floor(math.log10(hi))
+        hi = math.ceil(hi / scale * (1 - 1e-12)) * scale
+        put(lo, hi)
+    # minor ticks: every one labelled within a decade, a subset over one to two decades
+    axis.set_minor_formatter(LogFormatterSciNotation(labelOnlyBase=False,
+                                                     minor_thresholds=(math.inf, 1.0)))
 
 
 def finite_or_nan(x) -> float:

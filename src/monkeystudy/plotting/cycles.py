@@ -18,8 +18,8 @@ import numpy as np
 from matplotlib.ticker import MaxNLocator
 
 from .common import (
-    BLUE, ERROR_UNITS, GREEN, VERMILLION, count, finite, link_lengths, new_figure, robot_object,
-    run_label, status_name, style,
+    BLUE, ERROR_UNITS, GREEN, VERMILLION, count, finite, link_lengths, new_figure,
+    readable_log_axis, robot_object, run_label, status_name, style,
 )
 from ..analysis.gait_kind import gait_kind_text
 from ..simulation import Status, kinetic_energy
@@ -232,6 +232,7 @@ def plot_error_comparison(stabs: Sequence, *, gaits: Sequence = (), labels: Sequ
                            colour=VERMILLION if _single else colours[k % len(colours)],
                            who="run" if _single else s.attrs.get("step_name", "run"))
         _cycle_limits(ax, stabs)
+        readable_log_axis(ax)
         ax.set_ylabel(f"error e at the {_crossing(stabs[0])}  {ERROR_UNITS}")
         if _single:
             title = ("Error per cycle of the gait under its own controller" if own_controller(stabs[0])

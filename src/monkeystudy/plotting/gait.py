@@ -22,6 +22,7 @@ import numpy as np
 from matplotlib.lines import Line2D
 from PIL import Image
 from matplotlib.patches import Patch
+from matplotlib.ticker import MaxNLocator
 
 from .cycles import gait_text, own_controller, stop_note
 from .drawing import NothingToDraw
@@ -42,6 +43,9 @@ STAGES = {
     "fixed": ("0.45", "both ends attached"),
 }
 SWAP_COLOUR = "black"
+#: a filmstrip's width [in]: at 150 dpi the study page (1100 px wide) shows it at 0.73 of its
+#: size, its smallest text (7 pt) still 10.7 px high
+FILMSTRIP_WIDTH = 10.0
 END_A = dict(marker="o", ms=7, mfc="black", mec="black", ls="none")
 END_B = dict(marker="s", ms=7, mfc="white", mec="black", mew=1.4, ls="none")
 MAGNET = dict(marker="o", ms=14, mfc="none", mec="#B8860B", mew=2.0, ls="none")
@@ -71,6 +75,20 @@ class Trajectory:
         a = self.attached
         return np.flatnonzero((a[1:] != a[:-1]) & np.isin(a[1:], ["A", "B"])
                               & np.isin(a[:-1], ["A", "B"])) + 1
+
+
+def run_stages(traj: Trajectory) -> list[str]:
+    """The stages (keys of :data:`STAGES`) the trajectory passes through, in that order."""
+    seen = set(traj.stage)
+    return [k for k in STAGES if k in seen]
+
+
+def stage_handles(keys, *, patch: bool = False, lw: float = 3.0) -> list:
+    """Legend entries of the stages ``keys``, in :data:`STAGES`' colours and words (the
+    colours the robot is drawn in): bands (``patch``) or lines ``lw`` points wide."""
+    if patch:
+        return [Patch(color=STAGES[k][0], alpha=0.5, label=STAGES[k][1]) for k in keys]
+    return [Line2D([], [], color=STAGES[k][0], lw=lw, label=STAGES[k][1]) for k in keys]
 
 
 def has_trajectory(ds) -> bool:
@@ -171,7 +189,7 @@ def _draw_pose(ax, traj: Trajectory, i: int, colour, *, labels: bool = False,
             ax.plot(*pos, zorder=3, **MAGNET)
     if labels:
         for name, pos in (("A", traj.A[i]), ("B", traj.B[i])):
-            ax.annotate(name, pos, xytext=(6, -12), textcoords="offset points", fontsize=9,
+            ax.annotate(name, pos, xytext=(7, -4), textcoords="offset points", fontsize=9,
                         fontweight="bold", zorder=7)
     return line, a, b
 
@@ -237,9 +255,9 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
     nrows = int(np.ceil(n / ncols))
     span = max(xlim[1] - xlim[0], 1e-6)
     height = max(ylim[1] - ylim[0], 1e-6)
-    panel_w = 11.5 / ncols
+    panel_w = (FILMSTRIP_WIDTH - 0.5) / ncols
     with style():
-        fig = new_figure(figsize=(12.0, nrows * panel_w * height / span + 2.8))
+        fig = new_figure(figsize=(FILMSTRIP_WIDTH, nrows * panel_w * height / span + 2.8))
         gs = fig.add_gridspec(nrows + 1, ncols, height_ratios=[1.0] * nrows + [0.55])
         swaps = set(traj.swaps())
         axes = []
@@ -259,6 +277,7 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
                          fontweight="bold" if tag else "normal", color=colour, loc="center")
             ax.set_aspect("equal", adjustable="box")
             ax.tick_params(labelsize=7)
+            ax.xaxis.set_major_locator(MaxNLocator(nbins=3))     # narrow panels
             if k % ncols != 0:
                 ax.tick_params(labelleft=False)
             if k // ncols != nrows - 1 and k + ncols < n:
@@ -290,10 +309,12 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
                 tl.axvline(traj.t[s], color=SWAP_COLOUR, lw=1.5, ls="--")
         for k, i in enumerate(frames):
             tl.annotate(str(k + 1), (traj.t[i], 0.97), xycoords=("data", "axes fraction"),
-                        ha="center", va="top", fontsize=7,
+                        ha="center", va="top", fontsize=8, gid="frame_number",
                         bbox=dict(boxstyle="round,pad=0.12", fc="white", ec="none", alpha=0.8))
             tl.axvline(traj.t[i], ymin=0.8, ymax=0.86, color="0.3", lw=0.8)
-        tl.set_xlim(t[0], t[-1])
+        # room at both ends for the numbers of the first and last frames, centred on them
+        margin = 0.025 * max(t[-1] - t[0], 1e-9)
+        tl.set_xlim(t[0] - margin, t[-1] + margin)
         seg = traj.torque[i0:i1]
         tmax = max(float(np.nanmax(seg)) if i1 > i0 else 0.0, 0.0)
         tmin = min(float(np.nanmin(seg)) if i1 > i0 else 0.0, 0.0)
@@ -303,7 +324,7 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
         tl.set_xlabel("time  [s]")
         tl.set_ylabel("motor torque\n(motor frame)\n[N m]" if
                       stab.attrs.get("torque_frame") == "motor" else "motor torque\n[N m]")
-        handles = [Patch(color=STAGES[k][0], alpha=0.5, label=STAGES[k][1]) for k in seen]
+        handles = stage_handles([k for k in STAGES if k in seen], patch=True)
         handles += [Line2D([], [], color=SWAP_COLOUR, ls="--", label="magnet swap"),
                     Line2D([], [], label="end A", **END_A),
                     Line2D([], [], label="end B", **END_B),
@@ -497,18 +518,16 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
                      ha="left", fontweight="bold")
         ax.set_title(run_label(stab) + (f"; playback ×{speed:.1f}" if speed > 1 else ""),
                      fontsize=6.5, fontweight="normal", loc="left")
-        fig.legend(handles=[Line2D([], [], label="end A", **END_A),
-                            Line2D([], [], label="end B", **END_B),
-                            Line2D([], [], label="magnet on", **MAGNET),
-                            Line2D([], [], color=STAGES["A"][0], lw=3, label="hanging from A"),
-                            Line2D([], [], color=STAGES["B"][0], lw=3, label="hanging from B"),
-                            Line2D([], [], color=STAGES["A+motor"][0], lw=3, label="motor on"),
-                            Line2D([], [], color="0.5", lw=0.8, ls="--", label="start height"),
-                            Line2D([], [], color="0.75", lw=0.8, label="path of the joint"),
-                            Line2D([], [], marker="v", color="#B8860B", ms=5, ls="none",
-                                   label="a magnet attached here")],
-                   loc="lower center", bbox_to_anchor=(0.5, 0.065), ncols=5, fontsize=6,
-                   frameon=False, columnspacing=1.2, handlelength=1.8)
+        fig.legend(handles=stage_handles(run_stages(traj), lw=3)
+                   + [Line2D([], [], label="end A", **END_A),
+                      Line2D([], [], label="end B", **END_B),
+                      Line2D([], [], label="magnet on", **dict(MAGNET, ms=9)),
+                      Line2D([], [], color="0.5", lw=0.8, ls="--", label="start height"),
+                      Line2D([], [], color="0.75", lw=0.8, label="path of the joint"),
+                      Line2D([], [], marker="v", color="#B8860B", ms=5, ls="none",
+                             label="a magnet attached here")],
+                   loc="lower center", bbox_to_anchor=(0.5, 0.055), ncols=4, fontsize=6,
+                   frameon=False, columnspacing=1.2, handlelength=1.5, labelspacing=0.5)
         # the view, in metres, of the axes box's shape: it holds the robot's full swing
         # horizontally with room to travel, and its reach vertically
         box = ax.get_position(original=True)

@@ -140,6 +140,16 @@ def sci(x: float, digits: int = 2) -> str:
     return f"{x:.{digits - 1}e}".replace("e-0", "e-").replace("e+0", "e+")
 
 
+def duration(seconds: float) -> str:
+    """A duration as a person reads it: ``31 ms`` below a second, ``2.69 s`` from one second
+    up (three significant digits); ``–`` when it is not a number."""
+    if not math.isfinite(seconds):
+        return "–"
+    if abs(seconds) < 1.0:
+        return f"{seconds * 1e3:.3g} ms"
+    return f"{seconds:.3g} s"
+
+
 def positive(y) -> np.ndarray:
     """Values for a log axis: non-positive and non-finite ones masked."""
     y = np.asarray(y, float)

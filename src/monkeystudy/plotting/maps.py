@@ -27,8 +27,10 @@ from scipy import ndimage
 
 from ..simulation import Status
 from .common import (
-    ERROR_UNITS, MINIMUM_COLOUR, count, finite, new_figure, run_label, status_name, style,
+    ERROR_UNITS, MINIMUM_COLOUR, count, finite, new_figure, readable_log_axis, run_label,
+    status_name, style,
 )
+from .labels import duration
 from .drawing import NothingToDraw
 
 D1_LABEL = r"initial $\dot\theta_1$  [rad s$^{-1}$]"
@@ -218,15 +220,36 @@ def _grid_title(g: GridData, what: str) -> str:
     return (f"{what} over a {g.dtheta1.size}×{g.dtheta2.size} grid of initial rates")
 
 
-def listed_cells_handles(g: GridData) -> list:
-    """The legend entry that says how an explicit point list is drawn (each point as the cell
-    around it among the listed values; blank: no listed point) when its cells leave some of
-    the map blank; none for a grid of two axes."""
-    if not g.listed or not (g.status == MISSING).any():
-        return []
-    return [Patch(facecolor="white", edgecolor="0.6", linewidth=0.5,
-                  label="blank: no listed point (each listed point is drawn as the cell "
-                        "around it)")]
+def scattered(g: GridData) -> bool:
+    """Whether the grid is an explicit point list that leaves cells of the product of its
+    values empty: its points are drawn as points (a list that fills its product, a grid
+    written point by point, is drawn as cells)."""
+    return bool(g.listed) and bool((g.status == MISSING).any())
+
+
+#: how a listed point is drawn on a map (``s`` in points²): over the grid's least-error star
+#: (zorder 6), whose tips show around it, under the refined minima's squares
+POINT_MARKER = dict(marker="o", s=90, edgecolors="black", linewidths=0.6, zorder=6.5)
+
+
+def draw_points(ax, g: GridData, values: np.ndarray, *, cmap: str, vmin: float, vmax: float,
+                gid: str):
+    """Draw a listed grid's points as markers: those with a value coloured by it (``values``
+    indexed like ``g.error``; gid ``gid``), those without a gait in their category's colour
+    and hatch (gid ``nogait_<category>``). Returns the coloured collection (for a colour
+    bar) and the categories' legend entries."""
+    has = np.isfinite(values) & (g.status != MISSING)
+    i, j = np.nonzero(has)
+    coloured = ax.scatter(g.dtheta1[i], g.dtheta2[j], c=values[i, j], cmap=cmap, vmin=vmin,
+                          vmax=vmax, gid=gid, **POINT_MARKER)
+    handles = []
+    for key, mask, colour, hatch, label in g.category_masks():
+        i, j = np.nonzero(mask)
+        ax.scatter(g.dtheta1[i], g.dtheta2[j], color=colour, hatch=hatch,
+                   gid=f"nogait_{key}", **POINT_MARKER)
+        handles.append(Line2D([], [], ls="none", marker="o", ms=9, mfc=colour,
+                              mec="black", label=label))
+    return coloured, handles
 
 
 # ----------------------------------------------------------------------------------------------
@@ -274,18 +297,22 @@ def plot_error_map(grid, refines: Sequence = (), *, vmax: float = 5.0, cmap: str
         else:
             fig = new_figure(figsize=(7.4, 6.4))
             ax, axp = fig.add_subplot(), None
-        ax.grid(False)
-        mesh = ax.pcolormesh(e1, e2, clipped, cmap=cmap, vmin=0.0, vmax=vmax, shading="flat",
-                             gid="error", rasterized=True, zorder=1)
+        handles = []
+        if scattered(g):
+            mesh, handles = draw_points(ax, g, np.minimum(g.error, vmax), cmap=cmap, vmin=0.0,
+                                        vmax=vmax, gid="error")
+        else:
+            ax.grid(False)
+            mesh = ax.pcolormesh(e1, e2, clipped, cmap=cmap, vmin=0.0, vmax=vmax,
+                                 shading="flat", gid="error", rasterized=True, zorder=1)
+            for key, mask, colour, hatch, label in g.category_masks():
+                ax.add_patch(_hatch_patch(mask_path(mask, e1, e2), colour, hatch,
+                                          f"nogait_{key}"))
+                handles.append(_legend_patch(colour, hatch, label))
         cb = fig.colorbar(mesh, ax=[ax, axp] if profile else ax, extend="max", pad=0.02,
                           shrink=0.9)
         cb.set_label(f"{'section' if g.sequence else 'gait'} error e  {ERROR_UNITS}  (values above "
                      f"{vmax:g} shown as {vmax:g})")
-        handles = []
-        for key, mask, colour, hatch, label in g.category_masks():
-            ax.add_patch(_hatch_patch(mask_path(mask, e1, e2), colour, hatch, f"nogait_{key}"))
-            handles.append(_legend_patch(colour, hatch, label))
-        handles += listed_cells_handles(g)
         ax.set_xlim(e1[0], e1[-1])
         ax.set_ylim(e2[0], e2[-1])
         ax.set_xlabel(D1_LABEL)
@@ -360,16 +387,20 @@ def plot_swap_time_map(grid, refines: Sequence = (), *, cmap: str = "viridis"):
     with style():
         fig = new_figure(figsize=(7.4, 6.4))
         ax = fig.add_subplot()
-        ax.grid(False)
-        mesh = ax.pcolormesh(e1, e2, np.ma.masked_invalid(ts).T, cmap=cmap, shading="flat",
-                             gid="t_switch", rasterized=True, zorder=1)
+        handles = []
+        if scattered(g):
+            mesh, handles = draw_points(ax, g, ts, cmap=cmap, vmin=float(np.nanmin(ts)),
+                                        vmax=float(np.nanmax(ts)), gid="t_switch")
+        else:
+            ax.grid(False)
+            mesh = ax.pcolormesh(e1, e2, np.ma.masked_invalid(ts).T, cmap=cmap,
+                                 shading="flat", gid="t_switch", rasterized=True, zorder=1)
+            for key, mask, colour, hatch, label in g.category_masks():
+                ax.add_patch(_hatch_patch(mask_path(mask, e1, e2), colour, hatch,
+                                          f"nogait_{key}"))
+                handles.append(_legend_patch(colour, hatch, label))
         cb = fig.colorbar(mesh, ax=ax, pad=0.02, shrink=0.9)
         cb.set_label("swap time t_switch  [s]")
-        handles = []
-        for key, mask, colour, hatch, label in g.category_masks():
-            ax.add_patch(_hatch_patch(mask_path(mask, e1, e2), colour, hatch, f"nogait_{key}"))
-            handles.append(_legend_patch(colour, hatch, label))
-        handles += listed_cells_handles(g)
         # numbered as on the error map, so that the two figures read together
         handles += mark_minima(fig, ax, minima_shown(minima_from(refines), e1, e2), e1, e2,
                                least_error(grid, g), values=False)
@@ -428,24 +459,31 @@ def mark_minima(fig, ax, shown: Sequence[Minimum], e1: np.ndarray, e2: np.ndarra
                 least: LeastError | None, *, values: bool) -> list:
     """Mark the refined minima (green squares, numbered 1, 2, ... in ``shown``'s order) and
     the grid's least error (a white star labelled "least e"); returns their legend entries,
-    with the values (``values``) or pointing to the error map for them."""
+    with the values (``values``) or pointing to the error map for them. The star lies under
+    the squares (a minimum on the grid's least error still shows), the labels over both,
+    each placed beside its marker clear of every marker and earlier label."""
     lo1, hi1, lo2, hi2 = e1[0], e1[-1], e2[0], e2[-1]
     points = [(m.dtheta1, m.dtheta2) for m in shown]
+    sizes = [label_size(str(k), 9) for k in range(1, len(shown) + 1)]
     if least is not None:
         points.append((least.dtheta1, least.dtheta2))
-    offsets = _label_offsets([((x - lo1) / (hi1 - lo1), (y - lo2) / (hi2 - lo2))
-                              for x, y in points], fig.get_size_inches())
+        sizes.append(label_size("least e", 8))
+    box = ax.get_position()
+    axes_pt = (box.width * fig.get_figwidth() * 72.0, box.height * fig.get_figheight() * 72.0)
+    offsets = label_offsets([((x - lo1) / (hi1 - lo1), (y - lo2) / (hi2 - lo2))
+                             for x, y in points], sizes, axes_pt,
+                            marker_pt=[8.0] * len(shown) + [15.0] * (least is not None))
     outline = [withStroke(linewidth=2.5, foreground="black")]
     handles = []
     for k, (m, off) in enumerate(zip(shown, offsets), 1):
         # the square marks the minimum; its number keys the value in the legend (labels
         # beside close minima would cover each other's markers)
         ax.plot(m.dtheta1, m.dtheta2, marker="s", ms=8, mfc=MINIMUM_COLOUR, mec="black",
-                mew=1.0, ls="none", zorder=6, gid=f"minimum_{m.label}", clip_on=False)
-        ax.annotate(str(k), (m.dtheta1, m.dtheta2), xytext=off,
+                mew=1.0, ls="none", zorder=7, gid=f"minimum_{m.label}", clip_on=False)
+        ax.annotate(str(k), (m.dtheta1, m.dtheta2), xytext=off, ha="left", va="bottom",
                     textcoords="offset points", fontsize=9, fontweight="bold",
-                    color="white", path_effects=outline, zorder=7, gid=f"label_{m.label}",
-                    arrowprops=None if off == (6, 5) else dict(
+                    color="white", path_effects=outline, zorder=9, gid=f"label_{m.label}",
+                    arrowprops=None if max(abs(off[0]), abs(off[1])) < 12 else dict(
                         arrowstyle="-", color="white", lw=0.8, shrinkA=0, shrinkB=4))
         if not values:
             what = "as numbered on the error map"
@@ -456,17 +494,16 @@ def mark_minima(fig, ax, shown: Sequence[Minimum], e1: np.ndarray, e2: np.ndarra
         handles.append(Line2D([], [], marker="s", ms=8, mfc=MINIMUM_COLOUR, mec="black",
                               ls="none", label=f"{k}: {m.label}, {what}"))
     if least is not None:
-        ax.plot(least.dtheta1, least.dtheta2, zorder=8, gid="least_error", clip_on=False,
+        ax.plot(least.dtheta1, least.dtheta2, zorder=6, gid="least_error", clip_on=False,
                 **LEAST_MARKER)
-        off = offsets[-1]
-        ax.annotate("least e", (least.dtheta1, least.dtheta2), xytext=(off[0], off[1]),
-                    textcoords="offset points", fontsize=8, fontweight="bold",
-                    color="white", path_effects=outline, zorder=8, gid="least_error_label")
+        ax.annotate("least e", (least.dtheta1, least.dtheta2), xytext=offsets[-1], ha="left",
+                    va="bottom", textcoords="offset points", fontsize=8, fontweight="bold",
+                    color="white", path_effects=outline, zorder=9, gid="least_error_label")
         if values:
             times = ""
             if finite(least.t_switch) and finite(least.t_motor):
                 times = (f", its swap at {least.t_switch:.3f} s, motor on for "
-                         f"{least.t_motor * 1e3:.3g} ms")
+                         f"{duration(least.t_motor)}")
             text = (f"least e: the grid's least error, e = {least.error:.2g} at "
                     f"({least.dtheta1:.3f}, {least.dtheta2:.3f})\n{times[2:] + ' ' if times else ''}"
                     "(a point of the grid, not refined)")
@@ -476,31 +513,48 @@ def mark_minima(fig, ax, shown: Sequence[Minimum], e1: np.ndarray, e2: np.ndarra
     return handles
 
 
-def _label_offsets(points, fig_size, min_sep: float = 13.0) -> list[tuple[int, int]]:
-    """Offsets [points] for the number labels of markers at ``points`` (axes fractions):
-    beside the marker, moved around it when that would overlap an earlier label or marker."""
-    w, h = 0.7 * fig_size[0] * 72.0, 0.7 * fig_size[1] * 72.0    # axes size, roughly [pt]
-    markers = [(x * w, y * h) for x, y in points]
-    # beside the marker first (right, left), then above and below it
-    candidates = [(6, 5), (-15, 5), (12, -5), (-22, -5), (6, -15), (-15, -15), (6, 20),
-                  (-15, 20), (20, 14), (-28, 14), (6, -30), (-15, -30), (20, 28), (-28, 28)]
+def label_size(text: str, fontsize: float) -> tuple[float, float]:
+    """Roughly the size ``(width, height)`` [pt] of a bold label ``text`` at ``fontsize``."""
+    return 0.68 * fontsize * len(text) + 2.0, 0.95 * fontsize + 2.0
+
+
+def label_offsets(points, sizes, axes_pt, marker_pt, gap: float = 3.0
+                  ) -> list[tuple[float, float]]:
+    """Offsets [pt] of the lower-left corners of labels of ``sizes`` (``(width, height)``
+    [pt]) from their markers at ``points`` (axes fractions; markers ``marker_pt`` wide):
+    beside the marker where the label stays inside the axes (``axes_pt``, its size [pt])
+    and clear of every marker and of the labels placed before it; farther out when the
+    near places are taken; the first place inside the axes when none is clear."""
+    w, h = axes_pt
+    centres = [(x * w, y * h) for x, y in points]
+    markers = [(cx - m / 2, cy - m / 2, cx + m / 2, cy + m / 2)
+               for (cx, cy), m in zip(centres, marker_pt)]
+
+    def overlap(a, b) -> bool:
+        return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
     placed, out = [], []
-    for mx, my in markers:
+    for (cx, cy), (lw, lh), m in zip(centres, sizes, marker_pt):
+        r = m / 2 + gap
+        candidates = []
+        for d in (0.0, 12.0, 26.0):                  # beside the marker, then farther out
+            candidates += [(r + d, -lh / 2), (-r - d - lw, -lh / 2), (r + d, r + d - lh / 2),
+                           (-r - d - lw, r + d - lh / 2), (r + d, -r - d - lh / 2),
+                           (-r - d - lw, -r - d - lh / 2), (-lw / 2, r + d),
+                           (-lw / 2, -r - d - lh)]
+        inside = [(dx, dy) for dx, dy in candidates
+                  if 0 <= cx + dx and cx + dx + lw <= w and 0 <= cy + dy and cy + dy + lh <= h]
         choice = None
-        for dx, dy in candidates:
-            cx, cy = mx + dx + 3, my + dy + 4                 # centre of the digit
-            inside = 6.0 <= cx <= w - 6.0 and 6.0 <= cy <= h - 6.0
-            clear = all(np.hypot(cx - px, cy - py) >= min_sep for px, py in placed) and \
-                all(np.hypot(cx - ox, cy - oy) >= 9.0 for ox, oy in markers)
-            if inside and clear:
+        for dx, dy in inside:
+            rect = (cx + dx, cy + dy, cx + dx + lw, cy + dy + lh)
+            if not any(overlap(rect, o) for o in markers + placed):
                 choice = (dx, dy)
                 break
-        if choice is None:          # crowded: the first position inside the axes
-            choice = next(((dx, dy) for dx, dy in candidates
-                           if 6.0 <= mx + dx + 3 <= w - 6.0 and 6.0 <= my + dy + 4 <= h - 6.0),
-                          candidates[0])
+        if choice is None:
+            choice = inside[0] if inside else candidates[0]
         out.append(choice)
-        placed.append((mx + choice[0] + 3, my + choice[1] + 4))
+        placed.append((cx + choice[0], cy + choice[1], cx + choice[0] + lw,
+                       cy + choice[1] + lh))
     return out
 
 
@@ -524,12 +578,13 @@ def _row_minimum_panel(axp, g: GridData) -> None:
     axp.axvline(1.0, color="0.5", ls="--", lw=0.8, gid="e_one")
     axp.annotate("e = 1", (1.0, 1.0), xycoords=("data", "axes fraction"), xytext=(-3, -3),
                  textcoords="offset points", rotation=90, ha="right", va="top", fontsize=7.5,
-                 color="0.35")
+                 color="0.35", gid="e_one_label")
     axp.set_xlabel("lowest e of each\n" r"$\dot\theta_2$ row" "\n" + ERROR_UNITS)
     axp.tick_params(labelleft=False)
     finite = low[np.isfinite(low) & (low > 0)]
     if finite.size:
-        axp.set_xlim(10 ** np.floor(np.log10(finite.min())),
+        # whole decades around the values and e = 1, with a decade left of e = 1 for its label
+        axp.set_xlim(10 ** min(np.floor(np.log10(finite.min())), -1.0),
                      10 ** np.ceil(np.log10(max(finite.max(), 1.0))) * 1.0001)
 
 
@@ -748,6 +803,7 @@ def plot_refine_convergence(refine):
         ax.plot([], [], marker="o", ms=9, mfc="none", mec="0.3", mew=1.5, ls="none",
                 label="iterate 0: the start")
         ax.set_yscale("log")
+        readable_log_axis(ax)
         ax.set_xlabel("Nelder–Mead iteration (0: the start)")
         ax.xaxis.set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
         ax.set_ylabel(("section" if is_sequence(refine) else "gait")

@@ -22,15 +22,16 @@ from ruamel.yaml import YAML, YAMLError
 from .. import __version__
 from ..study.failures import FAILED, StepFailure
 from ..study.figures import figure_name
-from ..study.progress import singular_counts
+from ..study.progress import count, singular_counts
 from ..study.steps import REGISTRY
+from .common import PAGE_WIDTH_PX
 from .drawing import Drawing
 
 PAGE = "index.html"
 
 STYLE = """
 body { font: 15px/1.45 system-ui, -apple-system, "Segoe UI", sans-serif; color: #1b1b1b;
-       max-width: 1100px; margin: 2em auto; padding: 0 1.5em; }
+       max-width: {page_width}px; margin: 2em auto; padding: 0 1.5em; }
 h1 { font-size: 1.7em; margin-bottom: 0.1em; } h2 { margin-top: 2em; border-bottom: 1px solid #ccc; }
 h3 { margin-top: 1.6em; } h3 small { color: #666; font-weight: normal; }
 table { border-collapse: collapse; margin: 0.5em 0; } td, th { padding: 0.2em 0.8em;
@@ -45,7 +46,7 @@ nav { display: flex; flex-wrap: wrap; gap: 0.2em 1em; } .muted { color: #666; fo
 .skipped { border: 1px dashed #bbb; padding: 0.8em 1em; background: #fafafa; }
 .skipped p { margin: 0 0 0.3em; }
 .failed { border-left: 4px solid #c0392b; padding: 0.4em 0.8em; background: #fdf2f1; }
-"""
+""".replace("{page_width}", str(PAGE_WIDTH_PX))
 
 
 def _e(text) -> str:
@@ -75,15 +76,39 @@ def tidy(line: str) -> str:
     return singular_counts(line)
 
 
-def description(doc: str | None) -> str:
+def description(doc: str | None, settings: Mapping | None = None) -> str:
     """A step kind's description for the page: the first sentence of its model's docstring,
-    whole (the docstring's first line may stop mid-sentence), on one line."""
+    whole (the docstring's first line may stop mid-sentence), on one line. A numeric
+    setting it names (````cycles````) reads as the step's value in ``settings``
+    (``for 30 cycles``), a count of one in the singular."""
     para = re.split(r"\n\s*\n", (doc or "").strip(), maxsplit=1)[0]
     text = " ".join(para.split())
     # a sentence ends at ". " before a capital or markup, never inside ``literal`` text
     ends = [m.end(1) for m in re.finditer(r"(\.)\s+(?=[A-Z`(])", text)
             if text[:m.start()].count("``") % 2 == 0]
-    return text[:ends[0]] if ends else text
+    text = text[:ends[0]] if ends else text
+    if not settings:
+        return text
+
+    def value(m):
+        v = settings.get(m.group(1))
+        number = isinstance(v, (int, float)) and not isinstance(v, bool)
+        return f"{v:g}" if number else m.group(0)
+    return singular_counts(re.sub(r"``(\w+)``", value, text))
+
+
+def step_settings(datasets: Mapping[str, object],
+                  failures: Mapping[str, StepFailure] | None = None) -> dict[str, dict]:
+    """Each step's settings as the study last run wrote them (:func:`study_steps`' study
+    text), the defaults of its kind's settings under them: ``{name: {key: value}}``."""
+    out = {}
+    for name, entry in _newest_steps(datasets, failures).items():
+        kind = REGISTRY.get(str(entry.get("kind")))
+        defaults = {} if kind is None else {
+            key: f.default for key, f in kind.model.model_fields.items()
+            if isinstance(f.default, (int, float, str))}
+        out[name] = {**defaults, **entry}
+    return out
 
 
 #: the time at the start of a dataset's ``history`` (ISO 8601)
@@ -97,6 +122,13 @@ def study_steps(datasets: Mapping[str, object],
     the failure markers of the folder's last run (dated by ``time``). The text is read as
     YAML, not validated (a study run by an earlier version may break a newer rule). Empty
     when no study text can be read."""
+    return {name: str(entry.get("kind", "?"))
+            for name, entry in _newest_steps(datasets, failures).items()}
+
+
+def _newest_steps(datasets: Mapping[str, object],
+                  failures: Mapping[str, StepFailure] | None = None) -> dict[str, dict]:
+    """``{name: settings}`` of the steps of the newest study text (:func:`study_steps`)."""
     texts: list[tuple[str, str]] = []
     for ds in datasets.values():
         text = ds.attrs.get("study_text")
@@ -111,12 +143,13 @@ def study_steps(datasets: Mapping[str, object],
     return {}
 
 
-def _named_steps(text: str) -> dict[str, str]:
-    """``{name: kind}`` of the steps of a study file's text (empty if it cannot be read)."""
+def _named_steps(text: str) -> dict[str, dict]:
+    """``{name: settings}`` of the steps of a study file's text (empty if it cannot be
+    read)."""
     try:
         data = YAML(typ="safe").load(text)
-        return {str(s["name"]): str(s.get("kind", "?")) for s in data["steps"]}
-    except (YAMLError, TypeError, KeyError, AttributeError):
+        return {str(s["name"]): dict(s) for s in data["steps"]}
+    except (YAMLError, TypeError, KeyError, AttributeError, ValueError):
         return {}
 
 
@@ -292,6 +325,7 @@ def render_page(study_dir: Path, datasets: Mapping[str, object],
     skipped = dict(skipped or {})
     failures = dict(failures or {})
     kinds = study_steps(datasets, failures)
+    settings = step_settings(datasets, failures)
     order = step_order(datasets, failures)
     missing = missing_steps(datasets, failures)
     first = next((datasets[n].attrs for n in order if n in datasets), None)
@@ -323,7 +357,8 @@ def render_page(study_dir: Path, datasets: Mapping[str, object],
            + _e(first.get("study_text", "")) + "</pre></details>",
            "<h2>Steps</h2>"]
     if missing:
-        out.append('<p class="failed">' + _e(f"{len(missing)} of {len(kinds)} steps have no "
+        out.append('<p class="failed">' + _e(f"{len(missing)} of {count(len(kinds), 'step')} "
+                                             f"{'has' if len(missing) == 1 else 'have'} no "
                                              "dataset: ")
                    + ", ".join(f'<a href="#step-{_e(n)}">{_e(n)}</a>' for n in missing)
                    + ".</p>")
@@ -334,7 +369,8 @@ def render_page(study_dir: Path, datasets: Mapping[str, object],
             out.append(f'<h3 id="step-{_e(name)}">{_e(name)} <small>[{_e(kinds[name])}]'
                        f'</small></h3>')
             if kind is not None:
-                out.append(f"<p>{_prose(description(kind.model.__doc__))}</p>")
+                out.append("<p>" + _prose(description(kind.model.__doc__, settings.get(name)))
+                           + "</p>")
             out.append(f'<p class="failed">{_e(missing[name].rstrip("."))}.</p>')
             continue
         ds = datasets[name]
@@ -350,7 +386,8 @@ def render_page(study_dir: Path, datasets: Mapping[str, object],
                                                  "dataset below is of an earlier run.")
                        + "</p>")
         if kind is not None:
-            out.append(f"<p>{_prose(description(kind.model.__doc__))}</p>")
+            out.append("<p>" + _prose(description(kind.model.__doc__, settings.get(name)))
+                           + "</p>")
             try:
                 lines = kind.describe(ds)
             except Exception as exc:   # a dataset of another version: still show the rest

@@ -79,6 +79,7 @@ import xarray as xr
 
 from ..study.failures import FAILED, StepFailure, read_failures
 from ..study.figures import figure_name
+from ..study.progress import count
 from ..study.steps import REGISTRY
 from . import gait
 from .common import STYLE_FILE, atomic_path, provenance, save_figure
@@ -100,7 +101,7 @@ class ReportError(RuntimeError):
         self.failures = failures
         self.written = written
         lines = "\n".join(f"  {k}: {v.strip().splitlines()[-1]}" for k, v in failures.items())
-        super().__init__(f"{len(failures)} figure(s) failed:\n{lines}")
+        super().__init__(f"{count(len(failures), 'figure')} failed:\n{lines}")
 
 
 class StudyIncomplete(RuntimeError):
@@ -137,8 +138,9 @@ class ReportInterrupted(KeyboardInterrupt):
     def __init__(self, written: list[Path], left: int):
         self.written = written
         self.left = left
-        super().__init__(f"interrupted: {len(written)} file(s) written, {left} figure(s) "
-                         "left to draw; run the same command again to finish")
+        super().__init__(f"interrupted: {count(len(written), 'file')} written, "
+                         f"{count(left, 'figure')} left to draw; run the same command again "
+                         "to finish")
 
 
 @dataclass
@@ -605,20 +607,21 @@ def report_study(study_dir: Path, *, force: bool = False,
     if progress:
         if steps:
             states = {n: w.split(":")[0] for n, w in incomplete.items()}
-            progress(f"{plural(len(steps), 'step')} in the study: " + ", ".join(
+            progress(f"{count(len(steps), 'step')} in the study: " + ", ".join(
                 n + (f" ({states[n]})" if n in states else "") for n in steps))
         for name, what in incomplete.items():
             progress(f"step {name}: {what}")
         up = len(jobs) - len(todo)
         page_path = fig_dir / PAGE
-        steps = (f"; {len(incomplete)} step(s) without a current dataset" if incomplete
-                 else "")
+        steps = (f"; {count(len(incomplete), 'step')} without a current dataset"
+                 if incomplete else "")
         if dry_run:
-            progress(f"{study_dir}: {len(written)} file(s) would be written{steps}")
+            progress(f"{study_dir}: {count(len(written), 'file')} would be written{steps}")
         elif not written and not skipped:
-            progress(f"{study_dir}: up to date ({len(jobs)} figures, {page_path}){steps}")
+            progress(f"{study_dir}: up to date ({count(len(jobs), 'figure')}, {page_path})"
+                     f"{steps}")
         else:
-            progress(f"{study_dir}: drew {drawn} figure(s), "
+            progress(f"{study_dir}: drew {count(drawn, 'figure')}, "
                      + (f"{skipped} skipped (nothing to show), " if skipped else "")
                      + f"{up} up to date"
                      + (f", {len(failures)} failed" if failures else "")
@@ -630,11 +633,6 @@ def report_study(study_dir: Path, *, force: bool = False,
                               [n for n in incomplete if n not in step_failures], written,
                               fig_dir / PAGE)
     return written
-
-
-def plural(n: int, noun: str) -> str:
-    """``1 step``, ``2 steps``."""
-    return f"{n} {noun}{'' if n == 1 else 's'}"
 
 
 def dataset_attrs(files: Sequence[Path]) -> dict[str, SimpleNamespace]:

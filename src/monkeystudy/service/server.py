@@ -21,7 +21,7 @@ from ..study.command import execute_run, pause_from_env
 from ..study.loader import StudyError, load_study, parse_study
 from ..study.plan import default_out
 from ..study.pool import local_pool
-from ..study.progress import PlainReporter
+from ..study.progress import PlainReporter, count
 from ..study.runner import load_kernels
 from ..study.spec import gait_spec
 from ..study.steps import REGISTRY
@@ -93,7 +93,7 @@ class Server:
         finally:
             gc.enable()
         self._bind()
-        self._say(f"pid {os.getpid()}, {self.pool.slots} worker(s), listening on {self.path} "
+        self._say(f"pid {os.getpid()}, {count(self.pool.slots, 'worker')}, listening on {self.path} "
                   "(Ctrl-C or 'monkeystudy serve --stop' stops)")
 
     def _check_free(self) -> None:

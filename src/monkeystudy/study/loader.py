@@ -23,6 +23,7 @@ from ruamel.yaml.error import MarkedYAMLError, YAMLError
 
 from . import schema as S
 from .models import SEEN_MODELS
+from .progress import count
 
 
 @dataclass(frozen=True)
@@ -304,8 +305,8 @@ def _message(err: dict, parent_cls: type | None) -> str:
         if lo == 2 or hi == 2:  # points and links: every 2-list of the schema is exactly 2
             return f"must have exactly 2 items, got {n}"
         if t == "too_short":
-            return f"must have at least {lo} items, got {n}"
-        return f"must have at most {hi} items, got {n}"
+            return f"must have at least {count(lo, 'item')}, got {n}"
+        return f"must have at most {count(hi, 'item')}, got {n}"
     if t == "list_type":
         return f"must be a list{got}"
     if t in ("model_type", "dict_type", "model_attributes_type"):

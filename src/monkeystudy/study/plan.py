@@ -18,6 +18,7 @@ from . import datasets as D
 from . import provenance as P
 from .blocks import Block, saved_blocks, shard_dir
 from .loader import LoadedStudy
+from .progress import count, singular_counts
 from .schema import Study
 from .spec import gait_json, integrator_fields
 from .steps import StepKind, kind_of
@@ -55,11 +56,11 @@ class StepPlan:
             return [f"{head}: up to date"]
         dep = f" after {', '.join(self.deps)}" if self.deps else ""
         if not self.blocks:
-            n = self.n_tasks
-            return [f"{head}: {n} task{'s' if n > 1 else ''}{dep}"]
+            return [f"{head}: {count(self.n_tasks, 'task')}{dep}"]
         todo = self.todo_blocks()
-        lines = [f"{head}: {len(todo)} of {len(self.blocks)} blocks to do "
-                 f"({self.kind.block_summary(self.step)}, {len(self.saved)} saved){dep}"]
+        lines = [f"{head}: {len(todo)} of {count(len(self.blocks), 'block')} to do "
+                 f"({singular_counts(self.kind.block_summary(self.step))}, "
+                 f"{len(self.saved)} saved){dep}"]
         if todo:
             lines.append(f"    blocks: {block_ranges([b.index for b in todo])}")
         return lines

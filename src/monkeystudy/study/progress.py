@@ -21,17 +21,52 @@ from contextlib import contextmanager
 from typing import Callable, Iterator, TextIO
 
 
-#: a count of one followed by a plural noun (``1 cycles``): the step kinds word their lines for
-#: any count
-_ONE_PLURAL = re.compile(r"(?<![\d.×])1 (runs|cycles|points|starts|iterations|iterates|designs|"
-                         r"levels|solutions|blocks|samples|candidates|vertical crossings)\b")
+def count(n: int, noun: str, plural: str | None = None) -> str:
+    """``1 run``, ``2 runs``, ``0 runs``: a number with its noun in the right number (the
+    plural ``plural``, else the noun with an s). Every count the package words goes through
+    it, or through :func:`singular_counts` for lines the step kinds word for any count."""
+    n = int(n)
+    return f"{n} {noun if n == 1 else (plural or noun + 's')}"
+
+
+def all_of(n: int, noun: str, plural: str | None = None) -> str:
+    """``all 5 cycles``, ``both cycles``, ``the 1 cycle``: every one of ``n`` things."""
+    n = int(n)
+    if n == 1:
+        return f"the 1 {noun}"
+    return f"both {plural or noun + 's'}" if n == 2 else f"all {count(n, noun, plural)}"
+
+
+def singular(plural: str) -> str:
+    """The singular of a plural noun as the package writes them (``blocks``, ``branches``,
+    ``vertical crossings``; ``minima``)."""
+    if plural.endswith("minima"):
+        return plural[:-1] + "um"
+    if plural.endswith(("ches", "shes", "sses", "xes")):
+        return plural[:-2]
+    return plural[:-1] if plural.endswith("s") and plural != "s" else plural
+
+
+#: the plural nouns the step kinds count in their lines
+COUNTED = ("runs", "cycles", "points", "starts", "iterations", "iterates", "designs", "levels",
+           "noise levels", "solutions", "blocks", "samples", "candidates", "gaits", "steps",
+           "vertical crossings", "refinements", "tasks", "branches", "swings", "logs",
+           "failures", "datasets")
+_NOUNS = "|".join(sorted((re.escape(n) for n in COUNTED), key=len, reverse=True))
+#: a count of one followed by a plural noun (``1 cycles``): the step kinds word their lines
+#: for any count
+_ONE_PLURAL = re.compile(rf"(?<![\d.×/])1 ({_NOUNS})\b")
+#: a count with a noun whose plural is left open (``2 level(s)``, ``1 noise level(s)``)
+_EITHER = re.compile(r"(?<![\d.×/])(\d+) ((?:[a-z]+ )?[a-z]+)\(s\)")
 
 
 def singular_counts(line: str) -> str:
-    """``line`` with every count of one in the singular (``1 of 1 cycles`` -> ``1 of 1
-    cycle``), as the run's log, ``monkeystudy inspect`` and the study's page show a step's
-    lines."""
-    return _ONE_PLURAL.sub(lambda m: "1 " + m.group(1)[:-1], line)
+    """``line`` with every count in the right number: a count of one in the singular (``1
+    of 1 cycles`` -> ``1 of 1 cycle``), a plural left open settled (``1 level(s)`` -> ``1
+    level``, ``2 level(s)`` -> ``2 levels``), as the run's log, ``monkeystudy inspect``, the
+    dry run's plan and the study's page show a step's lines."""
+    line = _EITHER.sub(lambda m: count(int(m.group(1)), m.group(2)), line)
+    return _ONE_PLURAL.sub(lambda m: "1 " + singular(m.group(1)), line)
 
 
 class Waited:
@@ -92,9 +127,7 @@ class Reporter:
 
 def units(n: int, unit: str) -> str:
     """``unit`` (a plural: ``blocks``, ``branches``) for a count of ``n``: ``1 block``."""
-    if n == 1 and unit.endswith("s") and unit != "s":
-        unit = unit[:-2] if unit.endswith(("ches", "shes", "sses", "xes")) else unit[:-1]
-    return f"{n} {unit}"
+    return count(n, singular(unit), unit)
 
 
 def _seconds(t: float) -> str:
@@ -216,6 +249,20 @@ class PlainReporter(Reporter):
         self._line(f"{name}: {message}")
 
 
+def _words(field: str, style: str):
+    """A progress column of a task's words (``description`` or a field) on one line, cut
+    with "…" when the terminal is too narrow: the table shrinks it before the count."""
+    # rich loads with the display, only on a terminal (as in RichReporter)
+    from rich.progress import ProgressColumn
+    from rich.text import Text
+
+    class Words(ProgressColumn):
+        def render(self, task):
+            text = task.description if field == "description" else task.fields.get(field, "")
+            return Text(str(text), style=style, no_wrap=True, overflow="ellipsis")
+    return Words()
+
+
 class RichReporter(Reporter):
     """A rich progress bar per step, with elapsed time and ETA (on a terminal)."""
 
@@ -228,18 +275,30 @@ class RichReporter(Reporter):
         self._tasks: dict[str, int] = {}
 
     def _display(self):
-        """The progress display, started with the first step (its refresh thread with it)."""
+        """The progress display, started with the first step (its refresh thread with it).
+
+        A step's line is its name and phase, its count and unit, the elapsed time and eta,
+        the bar and the phases still to come. The count and times are never cut; on a narrow
+        terminal the bar, the name and the phases to come shrink (the words cut with "…")."""
         if self.progress is None:
             # loaded with the first step's display, after the compile
             from rich.progress import (
                 BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn,
                 TimeRemainingColumn,
             )
-            self.progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(),
-                                     MofNCompleteColumn(), TextColumn("{task.fields[unit]}"),
-                                     TimeElapsedColumn(), TextColumn("eta"),
-                                     TimeRemainingColumn(), TextColumn("{task.fields[then]}"),
-                                     console=self.console, transient=False)
+            from rich.table import Column
+
+            def whole():
+                return Column(no_wrap=True)
+            self.progress = Progress(
+                _words("description", "bold"),
+                MofNCompleteColumn(table_column=whole()),
+                TextColumn("{task.fields[unit]}", table_column=whole()),
+                TimeElapsedColumn(table_column=whole()),
+                TextColumn("eta", table_column=whole()),
+                TimeRemainingColumn(table_column=whole()),
+                BarColumn(bar_width=24), _words("then", "dim"),
+                console=self.console, transient=False)
             self.progress.start()
         return self.progress
 

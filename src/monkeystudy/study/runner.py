@@ -46,7 +46,7 @@ from .loader import LoadedStudy
 from .plan import Plan, StepPlan, plan_study
 from .pool import DeferredSignals, Pool, local_pool_kind, open_pool
 from .counts import StepProgress, run_counted
-from .progress import Reporter, singular_counts
+from .progress import Reporter, all_of, count, singular_counts
 from .spec import GaitSpec, gait_json, gait_spec, integrator_fields
 from .steps import Dependency, StepContext, kind_of
 from .steps.grid import HORIZONTAL_VARIABLES, axes_points, grid_block
@@ -86,7 +86,7 @@ def failures_text(summary: RunSummary) -> str:
         [f"{name}: not run: {why}" for name, why in summary.not_run.items()]
     if len(lines) == 1:
         return lines[0]
-    head = (f"{plural(len(summary.failed), 'step')} failed"
+    head = (f"{count(len(summary.failed), 'step')} failed"
             + (f", {len(summary.not_run)} not run" if summary.not_run else "") + ":")
     return "\n  ".join([head] + lines)
 
@@ -484,7 +484,7 @@ class StudyRun:
     def _pause(self, signals: DeferredSignals) -> None:
         """Hold the run until a signal's handler raises or the pool loses a worker (the
         test hook)."""
-        self.rep.log(f"paused after {plural(self.computed, 'computed block')} "
+        self.rep.log(f"paused after {count(self.computed, 'computed block')} "
                      "($MONKEYSTUDY_PAUSE_AFTER_BLOCKS), waiting for a signal")
         while self.pool.usable:
             signals.check()
@@ -540,7 +540,7 @@ class StudyRun:
                     self._fail(p.step, exc, p.task)
             if broken is not None:
                 self.pool.abort()
-                failed = (f"; {plural(len(self.failed), 'step')} failed before "
+                failed = (f"; {count(len(self.failed), 'step')} failed before "
                           f"({', '.join(self.failed)})" if self.failed else "")
                 raise RunInterrupted(f"a worker died ({type(broken).__name__}: {broken}); "
                                      "finished blocks are saved: rerun the same command to "
@@ -602,8 +602,8 @@ def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
     if plan.out.is_dir():
         clear_failures(plan.out)      # the markers say what the last run left undone
     if plan.up_to_date:
-        reporter.log(f"{loaded.study.name}: all {len(plan.steps)} datasets up to date in "
-                     f"{plan.out}")
+        reporter.log(f"{loaded.study.name}: {all_of(len(plan.steps), 'dataset')} up to date "
+                     f"in {plan.out}")
         return RunSummary(plan.out, [], current, 0, 0)
     plan.out.mkdir(parents=True, exist_ok=True)
     history = P.history_line(command if command is not None else
@@ -612,7 +612,7 @@ def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
     spec = gait_spec(loaded.study)
     where = (pool.kind if pool is not None else f"dask {scheduler}" if scheduler else
              local_pool_kind(workers))
-    reporter.log(f"{loaded.study.name}: {plural(len(todo), 'step')} to run "
+    reporter.log(f"{loaded.study.name}: {count(len(todo), 'step')} to run "
                  f"({', '.join(s.name for s in todo)}) on {where} -> {plan.out}")
     run = None
     try:
@@ -655,27 +655,22 @@ def run_study(loaded: LoadedStudy, out: str | Path | None = None, *,
     return summary
 
 
-def plural(n: int, noun: str) -> str:
-    """``1 step``, ``2 steps``."""
-    return f"{n} {noun}{'' if n == 1 else 's'}"
-
-
 def interrupted_message(plan: Plan, run: "StudyRun | None") -> str:
     """What an interrupted run leaves: the datasets it wrote and the blocks it saved."""
     todo = [s for s in plan.steps if not s.up_to_date]
     written = len(run.written) if run is not None else 0
     saved = sum(len(s.saved) for s in todo if s.blocks and s.name not in
                 (run.done if run is not None else ()))
-    failed = (f" ({plural(len(run.failed), 'step')} failed before: "
+    failed = (f" ({count(len(run.failed), 'step')} failed before: "
               f"{', '.join(run.failed)})" if run is not None and run.failed else "")
     if written == 0 and saved == 0:
         return ("interrupted before any step finished: nothing to keep yet (compiled kernels "
                 f"are cached){failed}; rerun the same command to start again")
     parts = []
     if written:
-        parts.append(f"{written} of {plural(len(todo), 'dataset')} written")
+        parts.append(f"{written} of {count(len(todo), 'dataset')} written")
     if saved:
-        parts.append(f"{plural(saved, 'finished block')} saved")
+        parts.append(f"{count(saved, 'finished block')} saved")
     return f"interrupted; {' and '.join(parts)}{failed}: rerun the same command to resume"
 
 

@@ -83,3 +83,33 @@ steps:
     assert str(exc.value) == (
         "best: start: {from: map, best: 2}: grid 'map': 2 starts requested, but only 1 of its "
         "3 points has a gait (an error value): ask for at most 1, or widen or move the grid")
+
+
+def test_a_search_that_finds_no_gait_says_so_not_best_error_nan(tmp_path):
+    """Issue 41: a refinement whose every point failed said "best error nan" in the run's log
+    and "error nan" in ``monkeystudy inspect``. It says that it found no gait, so there is no
+    error, with the status its search ended on."""
+    import io
+
+    from monkeystudy.study import parse_study, run_study
+    from monkeystudy.study.inspect import summarize
+    from monkeystudy.study.progress import PlainReporter
+
+    text = """\
+schema_version: 1
+name: nogait
+robot: seed2009
+gait: {kind: horizontal, motor_torque: 0.6354, tick: 0.001}
+integrator: {rtol: 1.0e-8, atol: 1.0e-10}
+steps:
+  - {name: lost, kind: refine, start: [0.05, 6.0], maxiter: 3}
+"""
+    log = io.StringIO()
+    run_study(parse_study(text, "nogait.yaml", tmp_path / "nogait.yaml"), tmp_path / "out",
+              workers=1, reporter=PlainReporter(log))
+    done = [line for line in log.getvalue().splitlines()
+            if line.startswith("[monkeystudy] lost: done")]
+    assert len(done) == 1, log.getvalue()
+    assert "nan" not in done[0] and "no gait found, so no error" in done[0], done[0]
+    shown = summarize(tmp_path / "out" / "lost.nc")
+    assert "nan" not in shown and "no error (no gait found)" in shown, shown

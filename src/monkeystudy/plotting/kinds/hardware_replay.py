@@ -20,8 +20,8 @@ import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-from ..common import BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, YELLOW, json_attr, \
-    new_figure, robot_name, style
+from ..common import BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, YELLOW, count, \
+    json_attr, new_figure, robot_name, style
 from ..drawing import Drawing, NothingToDraw
 from ..labels import OUTLINE, RATE, SUB, two_titles, values_of
 
@@ -215,8 +215,8 @@ def plot_parameters(ds):
         train = ", ".join(json_attr(ds, "train", []))
         body = two_titles(
             fig, "AcroMonk: the identified parameters with their 95 % intervals",
-            f"fitted on {train}: {ds.attrs.get('fit_swings')} swings, "
-            f"{ds.attrs.get('fit_windows')} windows of "
+            f"fitted on {train}: {count(ds.attrs.get('fit_swings', 0), 'swing')}, "
+            f"{count(ds.attrs.get('fit_windows', 0), 'window')} of "
             f"{float(ds.attrs.get('identify_window', math.nan)):g} s every "
             f"{float(ds.attrs.get('identify_every', math.nan)):g} s, RMS residual "
             f"{float(ds.attrs.get('fit_rms', math.nan)):.3f} rad. Thick: swing-clustered "

@@ -9,11 +9,12 @@ import math
 
 import numpy as np
 from matplotlib.lines import Line2D
-from matplotlib.ticker import MaxNLocator
+from matplotlib.ticker import FixedLocator, MaxNLocator
 
 from ..drawing import Drawing
 from ..common import (
-    BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, count, json_attr, new_figure, style,
+    BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, count, json_attr, new_figure,
+    readable_log_axis, style,
 )
 from ..labels import OUTLINE, SUB, attr_float, positive, run_line, sci, two_titles, values_of
 
@@ -30,6 +31,17 @@ def quadratic_constant(history, floor: float) -> float:
     a, b = h[:-1], h[1:]
     ok = (a > 0) & (a < 1) & (b > floor)
     return float(np.median(b[ok] / a[ok] ** 2)) if ok.any() else math.nan
+
+
+def decade_ticks(lo: float, hi: float, most: int = 6) -> np.ndarray:
+    """Powers of ten in ``[lo, hi]``, every k-th (the fewest k leaving at most ``most``),
+    taken so that ``10^0`` is among them when in range."""
+    k0, k1 = math.ceil(math.log10(lo)), math.floor(math.log10(hi))
+    if k1 < k0:
+        return np.array([])
+    step = max(1, math.ceil((k1 - k0 + 1) / most))
+    first = k0 + (-k0) % step           # aligned to 0: 10^0 is a tick when in range
+    return 10.0 ** np.arange(first, k1 + 1, step, dtype=float)
 
 
 def plot_shoot_convergence(ds):
@@ -81,7 +93,7 @@ def plot_shoot_convergence(ds):
             ax.plot(x, positive(y), marker="o", ms=3.5, color=c, gid=f"history_{i}")
             m = SHOOT_METHODS[meth[i]] if 0 <= meth[i] < len(SHOOT_METHODS) else "?"
             state = (f"converged in {count(y.size - 1, 'iteration')}" if conv[i] == 1
-                     else f"not converged, stopped after {y.size - 1}")
+                     else f"not converged, stopped after {count(y.size - 1, 'iteration')}")
             handles.append(Line2D([], [], color=c, marker="o", ms=3.5, label=(
                 f"solution {i}: {m}, {state}: ({d1[i]:.6f}, {d2[i]:.6f}) rad s⁻¹, "
                 f"|r| = {sci(res[i])}, e = {sci(err[i])}")))
@@ -101,6 +113,7 @@ def plot_shoot_convergence(ds):
             handles.append(Line2D([], [], color="0.4", ls=":", label=f"Newton tolerance "
                                                                      f"{sci(tol, 1)}"))
         ax.set_yscale("log")
+        readable_log_axis(ax)
         ax.set_xlabel("Newton iteration (0: the start)")
         ax.set_ylabel("residual norm |r|  [1]")
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
@@ -125,6 +138,11 @@ def plot_shoot_convergence(ds):
             axr.set_ylim(lo, hi)
         axr.set_xscale("log")
         axr.set_yscale("log")
+        if r.size:
+            # the same powers of ten on both axes (at most six), so that the square's slopes
+            # read from its labels
+            for axis in (axr.xaxis, axr.yaxis):
+                axis.set_major_locator(FixedLocator(decade_ticks(lo, hi)))
         axr.set_box_aspect(1.0)                 # equal ranges in a square: slopes read true
         axr.set_xlabel("residual norm r[k]  [1]")
         axr.set_ylabel("next residual norm r[k+1]  [1]")

@@ -13,7 +13,7 @@ from matplotlib.ticker import MaxNLocator
 
 from ..drawing import Drawing
 from ..common import (
-    BLACK, BLUE, ERROR_UNITS, GREEN, ORANGE, PURPLE, SKY, VERMILLION, count, fmt_tick,
+    BLACK, BLUE, ERROR_UNITS, GREEN, ORANGE, PURPLE, SKY, VERMILLION, all_of, count, fmt_tick,
     new_figure, status_name, style,
 )
 from ...simulation import Status
@@ -91,7 +91,7 @@ def plot_tick_sweep(ds):
         i0 = exact[0]
         title = ("Error per cycle of the exact-timing replay: " + (
             f"above {bound:g} from cycle {to_bound[i0]}" if exceeded(i0)
-            else f"below {bound:g} for all {count(done[i0], 'cycle')}"))
+            else f"below {bound:g} for {all_of(done[i0], 'cycle')}"))
         verdict = ("the gait leaves the bound without any tick" if exceeded(i0)
                    else f"no departure within {count(done[i0], 'cycle')}")
     elif exact and exceeded(exact[0]):
@@ -103,8 +103,8 @@ def plot_tick_sweep(ds):
     elif exact:
         i0 = exact[0]
         failed = [i for i in range(len(ticks)) if ticks[i] > 0 and exceeded(i)]
-        title = (f"{question}\n" + ("Yes: with exact timing the gait holds all "
-                                     f"{count(done[i0], 'cycle')}" if failed else
+        title = (f"{question}\n" + ("Yes: with exact timing the gait holds "
+                                     f"{all_of(done[i0], 'cycle')}" if failed else
                                      "No run left the gait: error per cycle for each tick"))
         verdict = ("with exact timing the error stays below the bound" + (
             "; the tick's rounding is what drives the runs off the gait" if failed else ""))
@@ -144,7 +144,7 @@ def plot_tick_sweep(ds):
                         mew=0.7, ls="none", zorder=6, gid=f"to_bound_{i}")
                 when = f"error > {bound:g} from cycle {to_bound[i]}"
             else:
-                when = f"error ≤ {bound:g} for all {count(done[i], 'cycle')}"
+                when = f"error ≤ {bound:g} for {all_of(done[i], 'cycle')}"
             stop = ""
             if status[i] not in (Status.OK, Status.END_TIME) and done[i] < n_cycles:
                 ok = np.flatnonzero(np.isfinite(e) & (e > 0))

@@ -12,7 +12,8 @@ from matplotlib.lines import Line2D
 
 from ..drawing import Drawing
 from ..common import (
-    BLACK, BLUE, ERROR_UNITS, GREEN, ORANGE, PURPLE, SKY, VERMILLION, new_figure, style,
+    BLACK, BLUE, ERROR_UNITS, GREEN, ORANGE, PURPLE, SKY, VERMILLION, count, new_figure,
+    style,
 )
 from ..labels import OUTLINE, SUB, positive, run_line, sci, two_titles, values_of
 
@@ -57,7 +58,8 @@ def plot_work_precision(ds):
     with style():
         fig = new_figure(figsize=(10.0, 6.4))
         rep = ds.attrs.get("repeat")
-        sub = (f"Errors: max over {npts if npts is not None else '?'} gaits of |result − "
+        sub = (f"Errors: max over {count(npts, 'gait') if npts is not None else '? gaits'} of "
+               "|result − "
                f"reference|, reference {ref}; time: wall time per gait"
                + (f", best of {rep}" if rep is not None else "")
                + " (machine-dependent)\n" + run_line(ds, tick=False, integrator=False))

@@ -281,8 +281,14 @@ class RefineKind(StepKind):
         b = results[best]
         kind = (f", {gait_kind_text(b['vertical_passes'])}" if ctx.spec.swap_motor_times
                 else "")
-        msg = (f"best error {b['error']:.3g} at ({b['x'][0]:.6g}, {b['x'][1]:.6g}){kind}, "
-               f"{outcome_text(b['converged'], b['message'], len(b['iterate_error']) - 1)}")
+        at = f"({b['x'][0]:.6g}, {b['x'][1]:.6g})"
+        outcome = outcome_text(b['converged'], b['message'], len(b['iterate_error']) - 1)
+        if math.isfinite(b["error"]):
+            msg = f"best error {b['error']:.3g} at {at}{kind}, {outcome}"
+        else:       # every vertex failed, so the penalty was all the search could compare
+            msg = (f"no gait found, so no error: the search ended at {at} with status "
+                   f"{STATUS_NAMES[int(b['status'])]}, every point it tried without a gait; "
+                   f"{outcome}")
         if len(results) > 1:
             n_conv = sum(r["converged"] for r in results)
             msg += f" (start {best}); {n_conv} of {len(results)} starts converged"
@@ -310,8 +316,10 @@ class RefineKind(StepKind):
                 "t_switch" in ds else ""
             times = (f"; swap at {ts[k]:.6g} s, motor {tm[k]:.6g} s" if np.isfinite(ts[k])
                      else "")
+            error = (f"error {err[k]:.4g}" if np.isfinite(err[k]) else
+                     "no error (no gait found)")
             lines.append(f"start {k}: ({s1[k]:.6g}, {s2[k]:.6g}) -> ({d1[k]:.6g}, {d2[k]:.6g}) "
-                         f"rad s-1, error {err[k]:.4g}, {STATUS_NAMES[int(st[k])]}{kind}; "
+                         f"rad s-1, {error}, {STATUS_NAMES[int(st[k])]}{kind}; "
                          f"{outcome_text(int(conv[k]), str(msgs[min(k, len(msgs) - 1)]), int(iterates[k]) - 1)}"
                          f"{times}")
         return lines
