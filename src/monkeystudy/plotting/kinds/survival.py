@@ -165,18 +165,33 @@ def noise_text(ds) -> str:
     """The noise of the levels, each source under the distribution the dataset draws it
     from: ``gaussian draws (values: standard deviations): at every level timing 1 ms, mass
     1 %; latency drawn once per run uniformly on [0, 1 ms)``."""
-    dist = str(ds.attrs.get("noise_distribution", "gaussian"))
-    shape = DISTRIBUTION_WORDS.get(dist, f"{dist} draws")
-    swept = _swept(ds)
-    drawn = [s for s in swept if s not in UNIFORM_PER_RUN]
     fixed = [p for p in fixed_noise(ds).split(", ") if p]
+    return _noise_words(str(ds.attrs.get("noise_distribution", "gaussian")), fixed,
+                        _swept(ds), "at every level ")
+
+
+def noise_values_text(values: dict) -> str:
+    """Noise given as a study file's flat ``{source: value [SI], "distribution": ...}`` (a
+    design screen's ``screen_noise``) in words, each source under its distribution, values in
+    the figures' units (:func:`noise_text`)."""
+    parts = []
+    for source, (_var, _label, unit, scale) in SOURCES.items():
+        v = values.get(source)
+        if isinstance(v, (int, float)) and v > 0:
+            parts.append(source_value(source, float(v) * scale, unit))
+    return _noise_words(str(values.get("distribution", "gaussian")), parts, [], "")
+
+
+def _noise_words(dist: str, fixed: list[str], swept: list[str], every: str) -> str:
+    shape = DISTRIBUTION_WORDS.get(dist, f"{dist} draws")
+    drawn = [s for s in swept if s not in UNIFORM_PER_RUN]
     per_run = [p for p in fixed if p.split(NBSP)[0] in UNIFORM_PER_RUN]
     fixed = [p for p in fixed if p not in per_run]
     parts = []
     if drawn or fixed:
         parts.append(shape + ": " + ", ".join(
             ([f"{', '.join(drawn)} as swept"] if drawn else [])
-            + ([f"at every level {', '.join(fixed)}"] if fixed else [])))
+            + ([f"{every}{', '.join(fixed)}"] if fixed else [])))
     for s in swept:
         if s in UNIFORM_PER_RUN:
             parts.append(f"{s} as swept, drawn once per run uniformly on [0, value)")
