@@ -146,3 +146,40 @@ def test_the_screen_names_its_axis_and_noise_in_words_and_units(least_screen):
     assert "max_cycles" not in label and "all 2 cycles" in label, label
     texts = " ".join(t.get_text() for t in fig.findobj(Text)).replace("\n", " ")
     assert re.search(r"timing\s1\sms", texts), texts
+
+
+def _filmstrip(ds):
+    from monkeystudy.plotting.gait import plot_filmstrip
+    from monkeystudy.plotting.kinds.design import best_rates, has_film
+
+    assert has_film(ds)
+    fig = plot_filmstrip(ds, gait=best_rates(ds))
+    fig.canvas.draw()
+    return fig
+
+
+def test_the_filmstrip_shows_each_time_once(least_screen):
+    """A stage that began 75 ns after the start gave two frames at t = 0.000 s, their
+    timeline marks one on the other."""
+    fig = _filmstrip(least_screen)
+    times = [re.search(r"t = ([\d.]+) s", ax.get_title()).group(1) for ax in fig.axes[:-1]]
+    assert len(times) == len(set(times)), times
+    timeline = fig.axes[-1]
+    marks = [t.get_window_extent() for t in timeline.texts if t.get_text().isdigit()]
+    assert len(marks) == len(times)
+    for k, a in enumerate(marks):
+        for b in marks[k + 1:]:
+            assert not a.overlaps(b), (a, b)
+
+
+def test_the_filmstrip_names_the_ends_inside_the_first_frame(least_screen):
+    """End B's name, below it, ran out of the frame into the next row's title."""
+    fig = _filmstrip(least_screen)
+    first = fig.axes[0]
+    names = [t for t in first.texts if t.get_text() in ("A", "B")]
+    assert len(names) == 2
+    inside = first.get_window_extent()
+    for name in names:
+        box = name.get_window_extent()
+        assert inside.x0 <= box.x0 and box.x1 <= inside.x1, name.get_text()
+        assert inside.y0 <= box.y0 and box.y1 <= inside.y1, name.get_text()
