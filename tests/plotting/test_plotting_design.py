@@ -183,3 +183,16 @@ def test_the_filmstrip_names_the_ends_inside_the_first_frame(least_screen):
         box = name.get_window_extent()
         assert inside.x0 <= box.x0 and box.x1 <= inside.x1, name.get_text()
         assert inside.y0 <= box.y0 and box.y1 <= inside.y1, name.get_text()
+
+
+def test_a_step_name_of_100_characters_keeps_the_design_figures_whole(least_screen):
+    """The subtitle's run line ends with the step name: 100 characters in one word."""
+    from monkeystudy.plotting.kinds.design import best_rates, plot_design_replay
+    from monkeystudy.plotting.gait import plot_filmstrip
+    from test_plotting_survival import LONG_NAME, fits_in_the_figure
+
+    ds = least_screen.copy()
+    ds.attrs["step_name"] = LONG_NAME
+    for fig in (plot_design_screen(ds), plot_design_map(ds), plot_design_replay(ds),
+                plot_filmstrip(ds, gait=best_rates(ds))):
+        fits_in_the_figure(fig)

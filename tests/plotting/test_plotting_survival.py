@@ -256,3 +256,29 @@ def test_every_mfpt_0_skips_the_figure_saying_why(every_source):
     assert not [a for a in fig.findobj() if str(a.get_gid()).startswith("mfpt_zero")]
     assert any("not shown (every MFPT 0 cycles): zero" in t.get_text().replace("\n", " ")
                for t in fig.findobj(Text))
+
+
+#: a step name as long as the schema allows
+LONG_NAME = ("Survival_Of_The_Designed_Gait_" * 4)[:100]
+
+
+def fits_in_the_figure(fig) -> None:
+    """No warning while the figure is laid out and drawn, and everything drawn lies within
+    it."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")              # a collapsed layout warns
+        fig.canvas.draw()
+    drawn = fig.get_tightbbox(fig.canvas.get_renderer())                     # inches
+    width, height = fig.get_size_inches()
+    assert drawn.x0 >= -0.02 and drawn.x1 <= width + 0.02, (drawn, width)
+    assert drawn.y0 >= -0.02 and drawn.y1 <= height + 0.02, (drawn, height)
+
+
+def test_a_step_name_of_100_characters_keeps_the_figure_whole(every_source):
+    """The title, one word of 100 characters after "Survival under noise:", ran off the
+    figure."""
+    assert len(LONG_NAME) == 100
+    ds = every_source.copy()
+    ds.attrs["step_name"] = LONG_NAME
+    for plot in (plot_survival, plot_failure_modes, plot_height_drift):
+        fits_in_the_figure(plot(ds))

@@ -25,6 +25,7 @@ from matplotlib.patches import Patch
 
 from .cycles import gait_text, own_controller, stop_note
 from .drawing import NothingToDraw
+from .labels import wrap_text
 from .common import (
     BLUE, GREEN, ORANGE, PURPLE, VERMILLION, atomic_path, link_lengths, new_figure, run_label,
     style,
@@ -331,7 +332,9 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
         run = "run under the gait's own controller" if own_controller(stab) else "open-loop run"
         fig.suptitle(f"Gait cycle {cycle} of the {run}, "
                      f"{gait_text(stab, gait)}", x=0.01, ha="left", fontweight="bold")
-        tl.set_title(run_label(stab), fontsize=8.5, fontweight="normal", loc="left")
+        # wrapped: a long step name would run off the figure
+        tl.set_title(wrap_text(run_label(stab), int(fig.get_figwidth() * 72 * 0.85 / 4.8)),
+                     fontsize=8.5, fontweight="normal", loc="left")
     return fig
 
 
