@@ -185,14 +185,15 @@ def test_the_filmstrip_names_the_ends_inside_the_first_frame(least_screen):
         assert inside.y0 <= box.y0 and box.y1 <= inside.y1, name.get_text()
 
 
-def test_a_step_name_of_100_characters_keeps_the_design_figures_whole(least_screen):
-    """The subtitle's run line ends with the step name: 100 characters in one word."""
+def test_study_and_step_names_of_100_characters_keep_the_design_figures_whole(least_screen):
+    """The run lines end with the study and step names, each up to 100 characters in one
+    word: the filmstrip's ran off the figure."""
     from monkeystudy.plotting.kinds.design import best_rates, plot_design_replay
     from monkeystudy.plotting.gait import plot_filmstrip
     from test_plotting_survival import LONG_NAME, fits_in_the_figure
 
     ds = least_screen.copy()
-    ds.attrs["step_name"] = LONG_NAME
+    ds.attrs.update(step_name=LONG_NAME, study_name=LONG_NAME.lower())
     for fig in (plot_design_screen(ds), plot_design_map(ds), plot_design_replay(ds),
                 plot_filmstrip(ds, gait=best_rates(ds))):
         fits_in_the_figure(fig)

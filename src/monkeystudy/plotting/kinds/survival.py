@@ -399,7 +399,7 @@ def plot_failure_modes(ds):
     labels = [level_text(ds, i, LEVEL_WIDTH) for i in range(n)]
     lines = sum(label.count("\n") + 1 for label in labels)
     with style():
-        fig = new_figure(figsize=(7.4, 2.2 + 0.75 * n + 0.16 * (lines - n)))
+        fig = new_figure(figsize=(7.4, 2.1 + 0.6 * n + 0.16 * (lines - n)))
         body = two_titles(fig, f"How the runs ended: {ds.attrs.get('step_name')}",
                           _subtitle(ds))
         ax = body.subplots()
