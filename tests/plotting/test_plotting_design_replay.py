@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 import xarray as xr
+from matplotlib.legend import Legend
 from matplotlib.text import Text
 
 from monkeystudy.plotting.kinds.design import plot_design_replay
@@ -60,3 +62,49 @@ def test_a_decay_run_without_a_fitted_growth_says_so(design):
     labels = texts(plot_design_replay(unfitted))
     assert not any("nan" in t for t in labels), labels
     assert "perturbed run (growth not fitted: fewer than 3 cycles in its window)" in labels
+
+
+def _by_gid(fig) -> dict:
+    return {a.get_gid(): a for a in fig.findobj() if a.get_gid()}
+
+
+def test_the_exact_timing_traces_are_drawn_over_the_ticks(design):
+    """The exact-timing kinetic energy, steady, hid under the tick's noisy trace."""
+    assert list(design["replay_tick"].values[:2]) == [0.0, 0.001]
+    parts = _by_gid(plot_design_replay(design))
+    for key in ("error", "kinetic_energy", "pivot_height"):
+        assert parts[f"{key}_0"].get_zorder() > parts[f"{key}_1"].get_zorder(), key
+
+
+def test_the_error_bound_is_drawn_over_the_traces_and_the_legend_off_them(design):
+    """The error bound, dotted grey, lay under the tick's trace; the legend covered the
+    exact-timing trace."""
+    fig = plot_design_replay(design)
+    fig.canvas.draw()
+    parts = _by_gid(fig)
+    bound = parts["error_bound"]
+    ax = bound.axes
+    lo, hi = ax.get_ylim()
+    assert bound.get_ydata()[0] == float(design.attrs["error_bound"])
+    assert lo < float(design.attrs["error_bound"]) < hi
+    assert bound.get_zorder() > max(parts[f"error_{i}"].get_zorder() for i in (0, 1))
+    legends = [leg for leg in fig.findobj(Legend)
+               if any(t.get_text().startswith("exact timing") for t in leg.get_texts())]
+    assert legends
+    for a in (parts["error_0"].axes, parts["kinetic_energy_0"].axes,
+              parts["pivot_height_0"].axes):
+        assert not legends[0].get_window_extent().overlaps(a.get_window_extent())
+
+
+def test_the_perturbation_panel_spans_the_runs_decades(design):
+    """A run at its floor of 1e-12 and a prediction extrapolated to 1e-42: the axis ran to
+    1e-42, the run squeezed into its top."""
+    ds = design.copy(deep=True)
+    ds["perturbation_distance"] = (ds["perturbation_distance"].dims,
+                                   np.array([1e-3, 1e-8, 1e-12, 1e-12]))
+    ds.attrs["multiplier_power"] = 1e-8
+    fig = plot_design_replay(ds)
+    fig.canvas.draw()
+    ax = _by_gid(fig)["decay"].axes
+    lo, hi = ax.get_ylim()
+    assert 1e-13 <= lo <= 1e-12 and 1e-3 <= hi <= 1e-2, (lo, hi)

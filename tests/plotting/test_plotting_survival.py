@@ -2,8 +2,10 @@
 short survival run of the 2009 gait with every noise source on at its second level."""
 from __future__ import annotations
 
+import re
 import warnings
 
+import numpy as np
 import pytest
 import xarray as xr
 from matplotlib.legend import Legend
@@ -115,3 +117,168 @@ def test_the_comparison_shows_a_step_without_noise_and_names_no_source_twice(eve
     labels = [t.get_text() for leg in fig.findobj(Legend) for t in leg.get_texts()]
     single_label = " ".join(t for t in labels if t.startswith("single:")).replace("\n", " ")
     assert "also" in single_label and "timing" not in single_label.split("also", 1)[1], labels
+
+
+def _extent(artist):
+    return artist.get_window_extent(artist.figure.canvas.get_renderer())
+
+
+def test_the_height_drift_legend_lies_off_the_histogram(every_source):
+    """The legend (loc "best") sat on the histogram's peak: no free corner in the axes."""
+    fig = plot_height_drift(every_source)
+    fig.canvas.draw()
+    legends = fig.findobj(Legend)
+    assert legends
+    ax = next(a for a in fig.findobj() if str(a.get_gid()).startswith("height_drift_")).axes
+    for leg in legends:
+        assert not _extent(leg).overlaps(ax.get_window_extent()), "a legend in the axes"
+
+
+def test_a_survival_of_0993_stands_off_no_failure(every_source):
+    """On a 0-1 survival axis 7 failures in 1000 runs lay 0.7 % of the axes' height below
+    the line of no failure: the curve looked flat."""
+    ds = every_source.copy(deep=True)
+    surv = np.ones(ds["survival"].shape)
+    surv[:, -1] = 0.993
+    ds["survival"] = (ds["survival"].dims, surv)
+    ds.attrs["runs"] = 1000
+    fig = plot_survival(ds)
+    fig.canvas.draw()
+    line = next(a for a in fig.findobj() if a.get_gid() == "survival_0")
+    ax = line.axes
+    y = ax.transData.transform(np.column_stack(line.get_data()))[:, 1]
+    assert y.max() - y.min() >= 0.1 * ax.get_window_extent().height
+
+
+def test_failure_counts_are_written_and_a_few_failures_are_seen(every_source):
+    """7 failures in 1000 runs were invisible slivers of the bar, without a count."""
+    from monkeystudy.plotting.kinds.survival import LEAST_SHARE
+
+    ds = every_source.copy(deep=True)
+    modes = [str(m) for m in ds["failure_mode"].values]
+    counts = np.zeros(ds["failure_count"].shape, int)
+    counts[:, modes.index("survived")] = 993
+    counts[:, modes.index("horizon")] = 1
+    counts[:, modes.index("stalled")] = 6
+    ds["failure_count"] = (ds["failure_count"].dims, counts)
+    fig = plot_failure_modes(ds)
+    fig.canvas.draw()
+    written = " ".join(t.get_text() for t in fig.findobj(Text)
+                       if str(t.get_gid()).startswith("mode_counts_"))
+    for text in ("993 survived", "1 horizon", "6 stalled"):
+        assert written.count(text) == ds.sizes["level"], (text, written)
+    ax = fig.axes[0]
+    per_pt = ax.get_window_extent().width / fig.dpi * 72.0     # points of a share of 1
+    for mode in ("horizon", "stalled"):
+        bars = [a for a in fig.findobj() if a.get_gid() == f"mode_{mode}"]
+        assert len(bars) == ds.sizes["level"]
+        for patch in bars:
+            assert patch.get_width() >= LEAST_SHARE - 1e-12 and patch.get_width() * per_pt >= 4
+
+
+def _lines(fig):
+    return [line for leg in fig.findobj(Legend) for t in leg.get_texts()
+            for line in t.get_text().split("\n")]
+
+
+def _same_noise(every_source, name_a: str):
+    one = every_source.isel(level=[1])
+    one.attrs.update(swept="[]")
+    a, b = one.copy(), one.copy()
+    a.attrs["step_name"], b.attrs["step_name"] = name_a, "b"
+    return [a, b]
+
+
+def test_no_value_in_the_comparison_legend_leaves_its_unit(every_source):
+    """The legend broke "com 1 %" across lines."""
+    from monkeystudy.plotting.kinds.survival import SOURCES, SHOWN_UNITS
+
+    # a line ending in a source's name or a number, or starting with a unit
+    broken_name = re.compile(r"(\b(" + "|".join(SOURCES) + r")|\d)\s*$")
+    broken_unit = re.compile(r"^\s*(" + "|".join(re.escape(u) for u, _ in
+                                                SHOWN_UNITS.values()) + r")\b")
+    for k in range(1, 40):          # step names that move every break along the label
+        fig = plot_mfpt_comparison(_same_noise(every_source, "a" * k))
+        fig.canvas.draw()
+        for line in _lines(fig):
+            assert not broken_name.search(line) and not broken_unit.search(line), line
+
+
+def test_steps_at_the_same_noise_are_drawn_side_by_side(every_source):
+    """Two gaits' lower bounds at 1 ms: the one arrow hidden under the other."""
+    fig = plot_mfpt_comparison(_same_noise(every_source, "a"))
+    fig.canvas.draw()
+    xs = []
+    for name in ("a", "b"):
+        mark = next(m for m in fig.findobj() if m.get_gid() in (f"mfpt_{name}_bound",
+                                                                 f"mfpt_{name}"))
+        xs.append(mark.get_transform().transform(np.column_stack(mark.get_data()))[0, 0])
+    assert abs(xs[0] - xs[1]) >= 10, xs
+
+
+def test_the_subtitle_names_each_sources_distribution(every_source):
+    """The subtitle said "gaussian noise (at every level: ..., latency 0.1 ms)": the latency
+    is drawn once per run uniformly whatever the distribution."""
+    ds = every_source.isel(level=[1])
+    ds.attrs.update(swept="[]", noise_distribution="gaussian")
+    texts = [t.get_text().replace("\n", " ") for t in plot_survival(ds).findobj(Text)]
+    subtitle = next(t for t in texts if "gaussian" in t)
+    gaussian = subtitle.split("gaussian", 1)[1].split(";", 1)[0]
+    assert "timing" in gaussian and "latency" not in gaussian, subtitle
+    assert re.search(r"latency drawn once per run uniformly on \[0,\s0\.1\s+ms\)", subtitle), \
+        subtitle
+
+
+def _no_mfpt(ds, name):
+    zero = ds.copy(deep=True)
+    for v in ("mfpt", "mfpt_low", "mfpt_high"):
+        zero[v] = zero[v] * 0.0
+    zero["mfpt_method"] = zero["mfpt_method"] * 0
+    zero.attrs["step_name"] = name
+    return zero
+
+
+def test_every_mfpt_0_skips_the_figure_saying_why(every_source):
+    """Every MFPT 0 cycles drew an empty log axis (matplotlib: "Data has no positive
+    values")."""
+    from monkeystudy.plotting.drawing import NothingToDraw
+    from monkeystudy.plotting.kinds.survival import plot_mfpt
+
+    zero = _no_mfpt(every_source, "zero")
+    with pytest.raises(NothingToDraw, match="MFPT is 0 cycles"):
+        plot_mfpt(zero)
+    with pytest.raises(NothingToDraw, match="MFPT is 0 cycles"):
+        plot_mfpt_comparison([zero, _no_mfpt(every_source, "nil")])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        fig = plot_mfpt_comparison([zero, every_source])
+        fig.canvas.draw()
+    assert not [a for a in fig.findobj() if str(a.get_gid()).startswith("mfpt_zero")]
+    assert any("not shown (every MFPT 0 cycles): zero" in t.get_text().replace("\n", " ")
+               for t in fig.findobj(Text))
+
+
+#: a step name as long as the schema allows
+LONG_NAME = ("Survival_Of_The_Designed_Gait_" * 4)[:100]
+
+
+def fits_in_the_figure(fig) -> None:
+    """No warning while the figure is laid out and drawn, and everything drawn lies within
+    it."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")              # a collapsed layout warns
+        fig.canvas.draw()
+    drawn = fig.get_tightbbox(fig.canvas.get_renderer())                     # inches
+    width, height = fig.get_size_inches()
+    assert drawn.x0 >= -0.02 and drawn.x1 <= width + 0.02, (drawn, width)
+    assert drawn.y0 >= -0.02 and drawn.y1 <= height + 0.02, (drawn, height)
+
+
+def test_a_step_name_of_100_characters_keeps_the_figure_whole(every_source):
+    """The title, one word of 100 characters after "Survival under noise:", ran off the
+    figure."""
+    assert len(LONG_NAME) == 100
+    ds = every_source.copy()
+    ds.attrs["step_name"] = LONG_NAME
+    for plot in (plot_survival, plot_failure_modes, plot_height_drift):
+        fits_in_the_figure(plot(ds))

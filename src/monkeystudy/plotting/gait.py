@@ -26,6 +26,7 @@ from matplotlib.ticker import MaxNLocator
 
 from .cycles import gait_text, own_controller, stop_note
 from .drawing import NothingToDraw
+from .labels import wrap_text
 from .common import (
     BLUE, GREEN, ORANGE, PURPLE, VERMILLION, atomic_path, link_lengths, new_figure, run_label,
     style,
@@ -175,7 +176,7 @@ def _world_limits(traj: Trajectory, sl: slice, pad: float = 0.12):
 
 
 def _draw_pose(ax, traj: Trajectory, i: int, colour, *, labels: bool = False,
-               gid: str = "pose", lw: float = 3.0):
+               gid: str = "pose", lw: float = 3.0, limits=None):
     xs = [traj.A[i, 0], traj.joint[i, 0], traj.B[i, 0]]
     ys = [traj.A[i, 1], traj.joint[i, 1], traj.B[i, 1]]
     line, = ax.plot(xs, ys, "-", color=colour, lw=lw, solid_capstyle="round", gid=gid,
@@ -188,18 +189,33 @@ def _draw_pose(ax, traj: Trajectory, i: int, colour, *, labels: bool = False,
         if att in (end, "both"):
             ax.plot(*pos, zorder=3, **MAGNET)
     if labels:
+        # each name on the side of its end toward the middle of the frame (``limits``: its
+        # x and y ranges), so that it stays inside the frame
+        (x0, x1), (y0, y1) = limits or ((-np.inf, np.inf), (-np.inf, np.inf))
         for name, pos in (("A", traj.A[i]), ("B", traj.B[i])):
-            ax.annotate(name, pos, xytext=(7, -4), textcoords="offset points", fontsize=9,
-                        fontweight="bold", zorder=7)
+            right = not pos[0] > (x0 + x1) / 2
+            up = pos[1] < (y0 + y1) / 2
+            ax.annotate(name, pos, xytext=(6 if right else -6, 4 if up else -4),
+                        textcoords="offset points", fontsize=9, fontweight="bold", zorder=7,
+                        ha="left" if right else "right", va="bottom" if up else "top",
+                        gid=f"end_name_{name}")
     return line, a, b
+
+
+#: frames closer in time than this show the same time in their titles (to the ms) [s]
+SAME_TIME = 5e-4
 
 
 def _pick_frames(traj: Trajectory, i0: int, i1: int, n_frames: int) -> list[int]:
     """``n_frames`` sample indices in ``[i0, i1)``: the first sample of every stage (start,
-    swap, motor off, ...) and the last sample, the rest evenly spaced in time in between."""
+    swap, motor off, ...) and the last sample, the rest evenly spaced in time in between.
+    Of key samples less than :data:`SAME_TIME` apart only the later is kept (a stage that
+    begins at once: the start's pose, titled with the stage that follows)."""
     t = traj.t[i0:i1]
     st = traj.stage[i0:i1]
-    keys = {i0, i1 - 1} | {i0 + int(c) for c in np.flatnonzero(st[1:] != st[:-1]) + 1}
+    keys = sorted({i0, i1 - 1} | {i0 + int(c) for c in np.flatnonzero(st[1:] != st[:-1]) + 1})
+    apart = [k for k, after in zip(keys, keys[1:]) if traj.t[after] - traj.t[k] >= SAME_TIME]
+    keys = set(apart + keys[-1:])
     n_even = max(n_frames - len(keys), 0)
     if n_even == 0:
         return sorted(keys)
@@ -213,7 +229,7 @@ def _pick_frames(traj: Trajectory, i0: int, i1: int, n_frames: int) -> list[int]
     for (a, b), m in zip(zip(ks[:-1], ks[1:]), share):
         for x in np.linspace(traj.t[a], traj.t[b], m + 2)[1:-1]:
             j = i0 + int(np.argmin(np.abs(t - x)))
-            if j not in idx:
+            if min(abs(traj.t[j] - traj.t[k]) for k in idx) >= SAME_TIME:
                 idx.add(j)
     return sorted(idx)
 
@@ -271,7 +287,7 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
             ax.plot(traj.A[i0:i1, 0], traj.A[i0:i1, 1], color="0.8", lw=0.8, zorder=1)
             ax.plot(traj.B[i0:i1, 0], traj.B[i0:i1, 1], color="0.8", lw=0.8, ls="--", zorder=1)
             ax.axhline(0.0, color="0.6", lw=0.6, ls=":", zorder=0)
-            _draw_pose(ax, traj, i, colour, labels=(k == 0))
+            _draw_pose(ax, traj, i, colour, labels=(k == 0), limits=(xlim, ylim))
             tag = _change_tag(stage, i, i in swaps)
             ax.set_title(f"{k + 1}: t = {traj.t[i]:.3f} s\n{tag.strip() or ' '}", fontsize=8.5,
                          fontweight="bold" if tag else "normal", color=colour, loc="center")
@@ -337,7 +353,9 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
         run = "run under the gait's own controller" if own_controller(stab) else "open-loop run"
         fig.suptitle(f"Gait cycle {cycle} of the {run}, "
                      f"{gait_text(stab, gait)}", x=0.01, ha="left", fontweight="bold")
-        tl.set_title(run_label(stab), fontsize=8.5, fontweight="normal", loc="left")
+        # wrapped: a long step name would run off the figure
+        tl.set_title(wrap_text(run_label(stab), int(fig.get_figwidth() * 72 * 0.85 / 4.8)),
+                     fontsize=8.5, fontweight="normal", loc="left")
     return fig
 
 

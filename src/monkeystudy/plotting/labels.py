@@ -106,12 +106,20 @@ def visible_len(word: str) -> int:
 
 
 def wrap_text(text: str, width: int) -> str:
-    """Greedy word wrap of each line of ``text`` to ``width`` visible characters."""
+    """Greedy word wrap of each line of ``text`` to ``width`` visible characters; a word
+    longer than a line (a step name of 100 characters) is cut into lines of ``width``."""
     out = []
     for line in text.split("\n"):
         cur, n = [], 0
         for w in line.split(" "):
             k = visible_len(w)
+            while k > width and "$" not in w:
+                if cur:
+                    out.append(" ".join(cur))
+                    cur, n = [], 0
+                out.append(w[:width])
+                w = w[width:]
+                k = len(w)
             if cur and n + 1 + k > width:
                 out.append(" ".join(cur))
                 cur, n = [], 0

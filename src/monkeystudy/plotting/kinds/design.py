@@ -21,15 +21,17 @@ import warnings
 
 import numpy as np
 from matplotlib.colors import LogNorm
+from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 from matplotlib.ticker import MaxNLocator
 
-from ..labels import attr_float, run_line, two_titles
+from ..labels import OUTLINE, attr_float, run_line, two_titles
 from ..common import (
     BLACK, BLUE, GREEN, ORANGE, VERMILLION, count, json_attr, new_figure, style,
 )
 from ..drawing import Drawing
 from ..gait import plot_filmstrip
+from .survival import noise_values_text
 
 #: axis labels of the design parameters (name -> label with units)
 LABELS = {
@@ -45,6 +47,12 @@ LABELS = {
     "mass_ratio": "mass ratio m2 / m1",
     "length_ratio": "length ratio L2 / L1",
 }
+
+
+#: the zorder of the replay traces (the exact-timing one above, the error bound above both)
+TRACE_Z = 2.0
+#: the colour of the rho = 1 contour (its legend entry draws the same)
+RHO_ONE_COLOUR = VERMILLION
 
 
 def axis_label(ds, name: str) -> str:
@@ -106,17 +114,18 @@ def plot_design_map(ds):
         if len(dims) > 2 else ""
     with style():
         fig = new_figure(figsize=(8.0, 7.0))
-        body = two_titles(fig, ("Spectral radius of the full return map (the height "
-                                "included) over the design grid" if ds.attrs.get("height_in_map")
-                                else "Spectral radius of the open-loop return map over the "
-                                "design grid"), f"{count(ds.attrs.get('designs', r.size), 'design')}, {n_ok} "
-                          f"with a gait{more}; balance: {ds.attrs.get('balance')}; ρ = 1 in "
-                          f"orange. {ds.attrs.get('verdict', '')}. {run_line(ds, tick=False)}")
+        body = two_titles(fig, ("Spectral radius of the full return map, height included, "
+                                "per design" if ds.attrs.get("height_in_map")
+                                else "Spectral radius of the open-loop return map per design"),
+                          f"{count(ds.attrs.get('designs', r.size), 'design')}, {n_ok} "
+                          f"with a gait{more}; balance: {ds.attrs.get('balance')}. "
+                          f"{ds.attrs.get('verdict', '')}. {run_line(ds, tick=False)}")
         ax = body.add_subplot()
         if len(kept) == 1:
             x = ds[kept[0]].values
             ax.plot(x, r, "o-", color=BLUE, gid="rho_map")
-            ax.axhline(1.0, color=VERMILLION, ls="--", lw=1.2, label="ρ = 1", gid="rho_one")
+            ax.axhline(1.0, color=RHO_ONE_COLOUR, ls="--", lw=1.2, label="ρ = 1",
+                       gid="rho_one")
             ax.set_xlabel(axis_label(ds, kept[0]))
             ax.set_ylabel("spectral radius ρ per step")
             ax.set_yscale("log")
@@ -131,21 +140,29 @@ def plot_design_map(ds):
             fin = np.isfinite(r)
             if fin.sum() >= 4 and np.nanmin(r) < 1.0 < np.nanmax(r):
                 cs = ax.contour(x, y, np.where(fin, r, np.nan), levels=[1.0],
-                                colors=VERMILLION, linewidths=2.0)
+                                colors=RHO_ONE_COLOUR, linewidths=2.0)
                 cs.set_gid("rho_one")
+                ax.plot([], [], color=RHO_ONE_COLOUR, lw=2.0, label="ρ = 1 (stable where ρ < 1)")
             ax.set_xlabel(axis_label(ds, xd))
             ax.set_ylabel(axis_label(ds, yd))
             gb = np.unravel_index(np.nanargmin(np.where(fin, r, np.inf)), r.shape) \
                 if fin.any() else None
             if gb is not None:
-                ax.plot([x[gb[1]]], [y[gb[0]]], "s", ms=11, mfc="none", mec=ORANGE, mew=2,
-                        gid="grid_best", label=f"best of the grid, ρ = {r[gb]:.4g}")
+                # wider than the star, hollow: a best design at the grid's best rings it
+                ax.plot([x[gb[1]]], [y[gb[0]]], "s", ms=24, mfc="none", mec=ORANGE, mew=2.2,
+                        gid="grid_best", zorder=4, label=f"best of the grid, ρ = {r[gb]:.4g}")
             bx, by = attr_float(ds, "best_" + xd), attr_float(ds, "best_" + yd)
             chosen = ("the design chosen by survival" if ds.attrs.get("chosen_by") == "survival"
                       else "best design")
-            ax.plot([bx], [by], "*", ms=16, color=VERMILLION, mec=BLACK, gid="best",
+            ax.plot([bx], [by], "*", ms=16, color=VERMILLION, mec=BLACK, gid="best", zorder=5,
                     label=f"{chosen}, ρ = {attr_float(ds, 'best_spectral_radius'):.4g}")
-            ax.legend(loc="best", fontsize=8.5)
+            # below the axes: a legend in them covers a row of designs; the grid's best
+            # at the star's size there
+            handles, labels = ax.get_legend_handles_labels()
+            handles = [Line2D([], [], ls="none", marker="s", ms=11, mfc="none", mec=ORANGE,
+                              mew=2.2) if h.get_gid() == "grid_best" else h for h in handles]
+            body.legend(handles, labels, loc="outside lower center", fontsize=8.5,
+                        ncols=min(len(handles), 3), frameon=False)
     return fig
 
 
@@ -230,13 +247,19 @@ def plot_design_replay(ds):
             if walked[i] != done[i]:
                 label += f", {int(walked[i])} walked"
             c = colours[i % len(colours)]
+            # exact timing on top, outlined: the tick's noisy traces would hide a steady one
+            exact = dict(lw=2.0, zorder=TRACE_Z + 1, path_effects=OUTLINE) if t == 0 else \
+                dict(lw=1.0, zorder=TRACE_Z, alpha=0.85)
             for ax, key in zip((axs[0, 0], axs[0, 1], axs[1, 0]),
                                ("error", "kinetic_energy", "pivot_height")):
                 y = ds[f"replay_{key}"].values[i]
-                ax.plot(cycle, y, "-", color=c, lw=1.3, gid=f"{key}_{i}", label=label)
+                ax.plot(cycle, y, "-", color=c, gid=f"{key}_{i}", label=label, **exact)
         axs[0, 0].set_yscale("log")
-        axs[0, 0].axhline(attr_float(ds, "error_bound"), color="0.5", ls=":",
-                          label="error bound")
+        bound = attr_float(ds, "error_bound")
+        if math.isfinite(bound):
+            axs[0, 0].axhline(bound, color=BLACK, ls="--", lw=1.6, zorder=TRACE_Z + 2,
+                              path_effects=OUTLINE, gid="error_bound",
+                              label=f"error bound {bound:g}")
         axs[0, 0].set_ylabel("section error vs the fixed point\n[rad² + rad² s⁻²]")
         axs[0, 1].set_ylabel("kinetic energy at the vertical  [J]")
         axs[1, 0].set_ylabel("height of the attached end  [m]")
@@ -247,7 +270,10 @@ def plot_design_replay(ds):
             ax.set_xlabel("gait cycle")
             ax.set_xlim(0.0, max(float(np.max(cycle)) if cycle.size else 1.0, 1.0) + 0.5)
             ax.xaxis.set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
-        axs[0, 0].legend(fontsize=8.5, loc="lower right")
+        # below the panels: the traces fill the panels' width
+        handles, labels = axs[0, 0].get_legend_handles_labels()
+        body.legend(handles, labels, loc="outside lower center", ncols=min(len(handles), 3),
+                    fontsize=8.5, frameon=False)
         d = ds["perturbation_distance"].values
         k = ds["decay_cycle"].values
         ax = axs[1, 1]
@@ -260,10 +286,15 @@ def plot_design_replay(ds):
         if d.size and math.isfinite(lam):
             ax.semilogy(k, d[0] * lam ** (k - 1.0), "--", color=VERMILLION, gid="predicted",
                         label=f"leading multiplier: {lam:.4g} per cycle")
+        positive = d[np.isfinite(d) & (d > 0)]
+        if positive.size:
+            # the run's decades: the prediction beyond the run's floor leaves the panel
+            ax.set_ylim(10.0 ** (math.floor(math.log10(positive.min())) - 0.5),
+                        10.0 ** (math.ceil(math.log10(positive.max())) + 0.5))
         ax.set_xlabel("cycle")
         ax.xaxis.set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
         ax.set_ylabel("distance from the fixed point  |z_k − z*|")
-        ax.legend(fontsize=8.5)
+        ax.legend(fontsize=8.5, loc="upper right")
         ax.set_title("decay of a perturbation along the leading eigenvector", fontsize=9)
     return fig
 
@@ -278,16 +309,15 @@ def plot_design_screen(ds):
     survived = 100.0 * ds["screen_survived"].values
     a = ds.attrs
     noise = json_attr(ds, "screen_noise", {})
-    on = ", ".join(f"{k} {v:g}" for k, v in noise.items()
-                   if k != "distribution" and isinstance(v, (int, float)) and v)
+    on = noise_values_text(noise if isinstance(noise, dict) else {})
     with style():
         fig = new_figure(figsize=(7.4, 5.2))
         body = two_titles(fig, "Candidates screened by survival",
                           f"{count(rho.size, 'candidate')}, each "
                           f"{count(a['screen_runs'], 'run')} of up to "
                           f"{count(a['screen_max_cycles'], 'cycle')} on the "
-                          f"{float(a['screen_tick']) * 1e3:g} ms tick under {on} "
-                          f"(seed {int(a['screen_seed'])}); the design checked is the one "
+                          f"{float(a['screen_tick']) * 1e3:g} ms tick; {on}; "
+                          f"seed {int(a['screen_seed'])}; the design checked is the one "
                           f"that lasts. {run_line(ds, tick=False)}")
         ax = body.subplots()
         ax.plot(rho, survived, "o", ms=9, color=BLUE, gid="candidates",
@@ -295,7 +325,8 @@ def plot_design_screen(ds):
         ax.plot(rho[:1], survived[:1], "*", ms=18, color=VERMILLION, mec=BLACK, gid="chosen",
                 label=f"chosen: ρ = {rho[0]:.4g}, {survived[0]:.4g} % of its runs completed")
         ax.set_xlabel("spectral radius ρ per step (finite differences)")
-        ax.set_ylabel("runs that completed max_cycles  [%]")
+        ax.set_ylabel(f"runs that completed all {count(a['screen_max_cycles'], 'cycle')}"
+                      "  [%]")
         ax.set_ylim(-5, 105)
         ax.legend(loc="best", fontsize=8.5)
     return fig

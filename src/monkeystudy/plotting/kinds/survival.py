@@ -1,8 +1,8 @@
 """Figures of survival datasets (docs/datasets.md, "survival"): how long gaits last under
 noise.
 
-* :func:`plot_survival` - the fraction of runs still going against the cycles completed, one
-  line per noise level (log cycles);
+* :func:`plot_survival` - the fraction of runs that failed before each number of cycles, one
+  line per noise level (log cycles; the fraction linear below one run's share, log above);
 * :func:`plot_mfpt` - the mean first-passage time against the swept noise (log-log), 95 %
   intervals, lower bounds as arrows; the right axis in metres;
 * :func:`plot_failure_modes` - for each level, the share of runs by how they ended;
@@ -15,12 +15,15 @@ each docstring) so the tests can read back their data.
 from __future__ import annotations
 
 import math
+import re
 import textwrap
 from typing import Sequence
 
 import matplotlib
 import numpy as np
 from matplotlib.lines import Line2D
+from matplotlib.ticker import FuncFormatter
+from matplotlib.transforms import ScaledTranslation
 
 from ...analysis.survival import SOURCES as NOISE_SOURCES
 from ..labels import run_line, two_titles
@@ -62,6 +65,23 @@ FAILURE_COLOURS = {"survived": GREEN, "fell": VERMILLION, "no_switch": ORANGE,
 #: failure modes in words where the flag's name is terse
 FAILURE_WORDS = {"horizon": "horizon (a guard never fired)"}
 METHOD_MEAN, METHOD_TAIL, METHOD_LOWER_BOUND = 0, 1, 2
+#: joins a noise source's name, value and unit (``com 1 %``): a wrapped line never splits them
+NBSP = "\u00a0"
+
+
+#: a number (or a pair in brackets) and the unit after it (``428 ms``, ``(4.8, -1.6) rad/s``)
+NUMBER_UNIT = re.compile(r"([\d)]) (ms|mm|%|rad/s|rad|J|s)\b")
+
+
+def glue_units(text: str) -> str:
+    """``text`` with each number joined to its unit by a non-breaking space."""
+    return NUMBER_UNIT.sub(lambda m: m.group(1) + NBSP + m.group(2), text)
+
+
+def source_value(source: str, value: float, unit: str) -> str:
+    """``com 1 %``: a source's value, its name, number and unit joined by non-breaking
+    spaces."""
+    return f"{source}{NBSP}{value:.3g}{NBSP}{unit}"
 
 
 def _swept(ds) -> list[str]:
@@ -97,7 +117,7 @@ def level_text(ds, i: int, width: int | None = None) -> str:
     parts = []
     for source, (var, label, unit, scale) in SOURCES.items():
         if var in ds and float(ds[var].values[i]) > 0:
-            parts.append(f"{source} {float(ds[var].values[i]) * scale:.3g} {unit}")
+            parts.append(source_value(source, float(ds[var].values[i]) * scale, unit))
     if not parts:
         return "no noise"
     if width is None:
@@ -130,8 +150,55 @@ def fixed_noise(ds, leave: str | None = None) -> str:
     parts = []
     for source, (var, label, unit, scale) in SOURCES.items():
         if source not in swept and var in ds and float(ds[var].values[0]) > 0:
-            parts.append(f"{source} {float(ds[var].values[0]) * scale:.3g} {unit}")
+            parts.append(source_value(source, float(ds[var].values[0]) * scale, unit))
     return ", ".join(parts)
+
+
+#: what a noise value is under each distribution of :class:`~monkeystudy.analysis.survival.Noise`
+DISTRIBUTION_WORDS = {"gaussian": "gaussian draws (values: standard deviations)",
+                      "uniform": "uniform draws (values: half-widths)"}
+#: the noise sources drawn once per run uniformly on [0, value), whatever the distribution
+UNIFORM_PER_RUN = frozenset(s.name for s in NOISE_SOURCES if s.uniform_per_run)
+
+
+def noise_text(ds) -> str:
+    """The noise of the levels, each source under the distribution the dataset draws it
+    from: ``gaussian draws (values: standard deviations): at every level timing 1 ms, mass
+    1 %; latency drawn once per run uniformly on [0, 1 ms)``."""
+    fixed = [p for p in fixed_noise(ds).split(", ") if p]
+    return _noise_words(str(ds.attrs.get("noise_distribution", "gaussian")), fixed,
+                        _swept(ds), "at every level ")
+
+
+def noise_values_text(values: dict) -> str:
+    """Noise given as a study file's flat ``{source: value [SI], "distribution": ...}`` (a
+    design screen's ``screen_noise``) in words, each source under its distribution, values in
+    the figures' units (:func:`noise_text`)."""
+    parts = []
+    for source, (_var, _label, unit, scale) in SOURCES.items():
+        v = values.get(source)
+        if isinstance(v, (int, float)) and v > 0:
+            parts.append(source_value(source, float(v) * scale, unit))
+    return _noise_words(str(values.get("distribution", "gaussian")), parts, [], "")
+
+
+def _noise_words(dist: str, fixed: list[str], swept: list[str], every: str) -> str:
+    shape = DISTRIBUTION_WORDS.get(dist, f"{dist} draws")
+    drawn = [s for s in swept if s not in UNIFORM_PER_RUN]
+    per_run = [p for p in fixed if p.split(NBSP)[0] in UNIFORM_PER_RUN]
+    fixed = [p for p in fixed if p not in per_run]
+    parts = []
+    if drawn or fixed:
+        parts.append(shape + ": " + ", ".join(
+            ([f"{', '.join(drawn)} as swept"] if drawn else [])
+            + ([f"{every}{', '.join(fixed)}"] if fixed else [])))
+    for s in swept:
+        if s in UNIFORM_PER_RUN:
+            parts.append(f"{s} as swept, drawn once per run uniformly on [0, value)")
+    for p in per_run:
+        name, value = p.split(NBSP, 1)
+        parts.append(f"{name} drawn once per run uniformly on [0,{NBSP}{value})")
+    return "; ".join(parts) if parts else "no noise"
 
 
 def _subtitle(ds) -> str:
@@ -142,11 +209,9 @@ def _subtitle(ds) -> str:
                      + ([f"error > {bound:g}"] if math.isfinite(bound) else [])
                      + ([f"advanced < {advance:g} m in a cycle"] if math.isfinite(advance)
                         else []))
-    fixed = fixed_noise(ds)
     return (f"{gait_text(ds)}; {count(a['runs'], 'run')} per level, up to "
-            f"{count(a['max_cycles'], 'cycle')}; failure: {fail}\n{fmt_tick(a.get('tick'))}, {a.get('noise_distribution')} "
-            f"noise{' (at every level: ' + fixed + ')' if fixed else ''}, seed "
-            f"{a.get('seed')}; " + run_line(ds, tick=False))
+            f"{count(a['max_cycles'], 'cycle')}; failure: {fail}\n{fmt_tick(a.get('tick'))}; "
+            f"{noise_text(ds)}; seed {a.get('seed')}; " + run_line(ds, tick=False))
 
 
 #: legend entries of the interval markers
@@ -171,13 +236,17 @@ def _colours(n: int):
 
 
 def plot_survival(ds):
-    """Survival fraction against cycles completed, one step line per noise level.
+    """The fraction of runs that failed before each number of cycles (one less the survival
+    fraction), one step line per noise level; the fraction on a scale linear below one run
+    in all and logarithmic above, so that one failure in a thousand runs stands off zero as
+    far as one in a hundred stands off it.
 
-    gids: ``survival_<level>``.
+    gids: ``survival_<level>`` (y: the failed fraction).
     """
     c = np.asarray(ds["cycle"].values, float)
     s = np.asarray(ds["survival"].values, float)
     n = ds.sizes["level"]
+    runs = int(ds.attrs.get("runs", ds.sizes.get("run", 1)))
     with style():
         fig = new_figure(figsize=(7.4, 5.4))
         body = two_titles(fig, f"Survival under noise: {ds.attrs.get('step_name')}",
@@ -186,14 +255,19 @@ def plot_survival(ds):
         for i, col in enumerate(_colours(n)):
             # cycle 0 cannot sit on a log axis: the curve starts at cycle 1
             keep = c >= 1
-            ax.step(c[keep], s[i, keep], where="post", color=col, lw=2,
+            ax.step(c[keep], 1.0 - s[i, keep], where="post", color=col, lw=2,
                     gid=f"survival_{i}", label=level_text(ds, i, LEVEL_WIDTH))
         ax.set_xscale("log")
         plain_log_labels(ax.xaxis)
-        ax.set_ylim(-0.03, 1.03)
+        # a survival of 0.993 sits 0.007 below 1: linear up to one run's share, then decades
+        ax.set_yscale("symlog", linthresh=1.0 / max(runs, 1), linscale=0.5)
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{v:g}"))
+        ax.set_ylim(0.0, 1.0)
+        ax.axhline(0.0, color="0.3", lw=0.8, zorder=1)
         ax.set_xlim(1, max(float(ds.attrs["max_cycles"]), 2))
         ax.set_xlabel("cycles completed  c")
-        ax.set_ylabel("fraction of runs with ≥ c cycles")
+        ax.set_ylabel("fraction of runs that failed before c cycles\n(1 − survival; "
+                      f"one run in all: {1.0 / max(runs, 1):.3g})")
         if n > 4:
             body.legend(loc="outside lower center", title="noise level", fontsize=8.5,
                         ncols=min(n, 4), frameon=False)
@@ -202,24 +276,46 @@ def plot_survival(ds):
     return fig
 
 
-def _mfpt_points(ax, x, ds, colour, label, gid, metres: bool = False):
-    """MFPT with its interval against ``x``; lower bounds as upward arrows."""
+def has_mfpt(ds) -> bool:
+    """Whether any level has an MFPT (or a lower bound) above 0 cycles: what a log axis can
+    show."""
+    method = np.asarray(ds["mfpt_method"].values, int)
+    shown = np.where(method == METHOD_LOWER_BOUND, np.asarray(ds["mfpt_low"].values, float),
+                     np.asarray(ds["mfpt"].values, float))
+    return bool(np.any(np.isfinite(shown) & (shown > 0)))
+
+
+#: why an MFPT figure is skipped when no level has an MFPT above 0 cycles
+NO_MFPT = "every MFPT is 0 cycles (each run failed in its first cycle): nothing to show on " \
+          "a log axis; the failure modes show how the runs ended"
+
+
+def _mfpt_points(ax, x, ds, colour, label, gid, metres: bool = False, dodge: float = 0.0):
+    """MFPT with its interval against ``x``; lower bounds as upward arrows; the artists
+    moved ``dodge`` points sideways (to set several steps at the same noise side by
+    side)."""
     pre = "mfpt_distance" if metres else "mfpt"
     y, lo, hi = (np.asarray(ds[f"{pre}{s}"].values, float) for s in ("", "_low", "_high"))
     method = np.asarray(ds["mfpt_method"].values, int)
     bound = method == METHOD_LOWER_BOUND
     est = ~bound & np.isfinite(y)
+    drawn = []
     if est.any():
         top = np.where(np.isfinite(hi[est]), hi[est] - y[est], 0.0)
-        ax.errorbar(x[est], y[est], yerr=[y[est] - lo[est], top], color=colour, marker="o",
-                    capsize=3, lw=1.8, label=label, gid=gid)
+        bars = ax.errorbar(x[est], y[est], yerr=[y[est] - lo[est], top], color=colour,
+                           marker="o", capsize=3, lw=1.8, label=label, gid=gid)
+        drawn += [a for a in bars.get_children() if a is not None]
         open_top = est & ~np.isfinite(hi)
         if open_top.any():
-            ax.plot(x[open_top], y[open_top] * 3.0, ls="none", marker=r"$\uparrow$", ms=14,
-                    color=colour, gid=f"{gid}_open")
+            drawn += ax.plot(x[open_top], y[open_top] * 3.0, ls="none", marker=r"$\uparrow$",
+                             ms=14, color=colour, gid=f"{gid}_open")
     if bound.any():
-        ax.plot(x[bound], lo[bound], ls="none", marker=r"$\Uparrow$", ms=16, color=colour,
-                gid=f"{gid}_bound", label=None if est.any() else label)
+        drawn += ax.plot(x[bound], lo[bound], ls="none", marker=r"$\Uparrow$", ms=16,
+                         color=colour, gid=f"{gid}_bound", label=None if est.any() else label)
+    if dodge:
+        shift = ax.transData + ScaledTranslation(dodge / 72.0, 0.0, ax.figure.dpi_scale_trans)
+        for artist in drawn:
+            artist.set_transform(shift)
     return bool((est & ~np.isfinite(hi)).any()), bool(bound.any())
 
 
@@ -231,6 +327,8 @@ def plot_mfpt(ds):
     gids: ``mfpt`` (the error bars), ``mfpt_bound`` (lower bounds), ``mfpt_open`` (estimates
     whose interval has no upper end).
     """
+    if not has_mfpt(ds):
+        raise NothingToDraw(NO_MFPT)
     _, x, xlabel = noise_axis(ds)
     with style():
         fig = new_figure(figsize=(7.4, 5.4))
@@ -270,20 +368,38 @@ def plot_mfpt(ds):
     return fig
 
 
-def plot_failure_modes(ds):
-    """For each noise level a horizontal bar split by how the runs ended (their share).
+#: the least width of a bar segment of a failure mode some run ended by [share of runs]: one
+#: run in a thousand is 0.001, a sliver no one sees (the counts beside the bar are exact)
+LEAST_SHARE = 0.015
 
-    gids: ``mode_<failure mode>``.
+
+def shown_shares(counts: np.ndarray) -> np.ndarray:
+    """The bar widths of each level's failure modes: their shares of the runs, a mode some
+    run ended by at least :data:`LEAST_SHARE` wide (taken from the widest mode)."""
+    share = counts / np.maximum(counts.sum(axis=1, keepdims=True), 1)
+    shown = np.where(counts > 0, np.maximum(share, LEAST_SHARE), 0.0)
+    for i in range(shown.shape[0]):
+        if counts[i].any():
+            widest = int(np.argmax(share[i]))
+            shown[i, widest] -= shown[i].sum() - share[i].sum()
+    return shown
+
+
+def plot_failure_modes(ds):
+    """For each noise level a horizontal bar split by how the runs ended (their share; a
+    mode of a few runs at least :data:`LEAST_SHARE` wide), its counts written below it.
+
+    gids: ``mode_<failure mode>`` (the bars), ``mode_counts_<level>`` (the counts).
     """
     counts = np.asarray(ds["failure_count"].values, float)
     modes = [str(m) for m in ds["failure_mode"].values]
     n = counts.shape[0]
-    share = counts / np.maximum(counts.sum(axis=1, keepdims=True), 1)
+    share = shown_shares(counts)
     used = [k for k in range(len(modes)) if counts[:, k].any()]
     labels = [level_text(ds, i, LEVEL_WIDTH) for i in range(n)]
     lines = sum(label.count("\n") + 1 for label in labels)
     with style():
-        fig = new_figure(figsize=(7.4, 1.9 + 0.5 * n + 0.16 * (lines - n)))
+        fig = new_figure(figsize=(7.4, 2.1 + 0.6 * n + 0.16 * (lines - n)))
         body = two_titles(fig, f"How the runs ended: {ds.attrs.get('step_name')}",
                           _subtitle(ds))
         ax = body.subplots()
@@ -293,15 +409,34 @@ def plot_failure_modes(ds):
             col = FAILURE_COLOURS.get(modes[k], extra[j % len(extra)])
             ax.barh(np.arange(n), share[:, k], left=left, color=col,
                     label=FAILURE_WORDS.get(modes[k], modes[k]), gid=f"mode_{modes[k]}",
-                    height=0.6)
+                    height=0.5)
             left += share[:, k]
+        for i in range(n):
+            ax.text(1.0, i + 0.3, ", ".join(f"{int(counts[i, k])} {modes[k]}" for k in used
+                                             if counts[i, k]) or "no runs",
+                    ha="right", va="top", fontsize=8, gid=f"mode_counts_{i}")
+        ax.set_ylim(n - 0.35, -0.45)
         ax.set_yticks(np.arange(n), labels)
-        ax.invert_yaxis()
         ax.set_xlim(0, 1)
         ax.set_xlabel("share of runs")
         ax.grid(False, axis="y")
         body.legend(loc="outside lower center", ncols=min(len(used), 4), frameon=False)
     return fig
+
+
+#: the sideways distance between steps drawn at the same noise [pt]: a double arrow's width
+DODGE = 14.0
+
+
+def _share_noise(members) -> bool:
+    """Whether two of the steps have a level at the same noise."""
+    seen: set = set()
+    for ds in members:
+        xs = set(np.round(noise_axis(ds)[1], 12).tolist())
+        if seen & xs:
+            return True
+        seen |= xs
+    return False
 
 
 def plot_mfpt_comparison(datasets: Sequence):
@@ -311,31 +446,42 @@ def plot_mfpt_comparison(datasets: Sequence):
     gids: ``mfpt_<step name>`` (and ``..._bound``, ``..._open``).
     """
     colours = [BLUE, VERMILLION, GREEN, PURPLE, ORANGE, SKY]
+    empty = [str(ds.attrs.get("step_name", "?")) for ds in datasets if not has_mfpt(ds)]
+    if len(empty) == len(datasets):
+        raise NothingToDraw(NO_MFPT.replace("every MFPT is", "every step's MFPT is"))
+    first = datasets[0]
+    datasets = [ds for ds in datasets if has_mfpt(ds)]
     groups: dict[str, list] = {}
     for ds in datasets:
         groups.setdefault(noise_axis(ds)[2], []).append(ds)
+    shared = any(len(members) > 1 and _share_noise(members) for members in groups.values())
     with style():
         fig = new_figure(figsize=(7.6, 2.2 + 3.6 * len(groups)))
-        first = datasets[0]
         body = two_titles(fig, "Mean first-passage time to failure of every gait",
                           f"study {first.attrs.get('study_name')}; " +
-                          run_line(first, tick=False).split(", study")[0])
+                          run_line(first, tick=False).split(", study")[0]
+                          + ("; steps at the same noise drawn side by side"
+                             if shared else "")
+                          + (f"; not shown (every MFPT 0 cycles): {', '.join(empty)}"
+                             if empty else ""))
         axes = np.atleast_1d(body.subplots(len(groups), 1, squeeze=False)[:, 0])
         any_open = any_bound = False
         k = 0
         for ax, (xlabel, members) in zip(axes, groups.items()):
             every_x = []
-            for ds in members:
+            dodge = DODGE if _share_noise(members) else 0.0
+            for m, ds in enumerate(members):
                 source, x, _ = noise_axis(ds)
                 every_x.append(x)
                 name = ds.attrs.get("step_name", f"step {k}")
                 fixed = fixed_noise(ds, leave=source)
                 # wrapped: a label wider than the axes would run off the figure
-                label = textwrap.fill(f"{name}: {gait_text(ds)}, "
-                                      f"{fmt_tick(ds.attrs.get('tick'))}"
-                                      + (f"; also {fixed}" if fixed else ""), 60)
+                label = textwrap.fill(glue_units(f"{name}: {gait_text(ds)}, "
+                                                 f"{fmt_tick(ds.attrs.get('tick'))}"
+                                                 + (f"; also {fixed}" if fixed else "")), 60)
                 est_open, bound = _mfpt_points(ax, x, ds, colours[k % len(colours)], label,
-                                               f"mfpt_{name}")
+                                               f"mfpt_{name}",
+                                               dodge=dodge * (m - (len(members) - 1) / 2))
                 any_open, any_bound = any_open or est_open, any_bound or bound
                 k += 1
             # a step without noise sits at 0, which a log axis cannot show
@@ -405,7 +551,10 @@ def plot_height_drift(ds):
         ax.set_xlabel(f"attached end's height after {count(ds.attrs['max_cycles'], 'cycle')} "
                       "less its start height  [mm]")
         ax.set_ylabel("runs")
-        ax.legend(loc="best", fontsize=8)
+        # below the axes: the histogram's peak may be anywhere
+        handles, labels = ax.get_legend_handles_labels()
+        body.legend(handles, labels, loc="outside lower center", fontsize=8,
+                    ncols=min(len(handles), 2), frameon=False)
     return fig
 
 
@@ -413,9 +562,10 @@ def plot_height_drift(ds):
 DRAWINGS = {
     ("survival", "survival"): Drawing(
         title="survival per cycle",
-        caption="The fraction of runs still going after each number of cycles, one line per noise "
-                "level: a curve that drops at a fixed cycle count is an unstable gait drifting "
-                "off; one that decays steadily over decades is metastable.",
+        caption="The fraction of runs that failed before each number of cycles (one less the "
+                "survival), one line per noise level, on decades above one run's share: a curve "
+                "that jumps at a fixed cycle count is an unstable gait drifting off; one that "
+                "climbs steadily over decades is metastable.",
         draw=lambda d: plot_survival(d[0])),
     ("survival", "mfpt"): Drawing(
         title="mean first-passage time against noise",
