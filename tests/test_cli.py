@@ -160,3 +160,15 @@ def test_inspect_on_a_study_file_points_to_validate_and_its_outputs(runner, monk
         "studies/horizontal.yaml: a study file, not a dataset: 'monkeystudy validate "
         "studies/horizontal.yaml' checks it; 'monkeystudy inspect outputs/horizontal' "
         "summarises the datasets its run writes there")
+
+
+def test_run_says_what_it_does_before_the_simulator_loads(runner, tmp_path):
+    # the simulator's code takes seconds to load: the first words come before it, and a bad
+    # study's located error after them
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(SMOKE.read_text().replace("schema_version: 1", "schema_version: 1\nbogus: 1"))
+    result = runner.invoke(app, ["run", str(bad), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2
+    lines = result.output.splitlines()
+    assert lines[0] == f"{bad}: loading the simulator to check the study"
+    assert any("bogus" in line for line in lines[1:])

@@ -136,12 +136,18 @@ def run(study: Path, out: Optional[Path], workers: Optional[int], scheduler: Opt
 
 def _run(study: Path, out: Optional[Path], workers: Optional[int], scheduler: Optional[str],
          dry_run: bool) -> None:
-    from .service.client import sigterm_as_interrupt
-    from .study.command import PAUSE_ENV, execute_run, pause_from_env
-    from .study.progress import make_reporter
-    from .study.provenance import run_command
+    from .study.progress import ticking
 
-    loaded = _load(study)
+    # said before the study's code loads (numba and the schema's models: 2 s on an idle
+    # machine, more on a busy one), and ticking while it does
+    _err(f"{study}: loading the simulator to check the study")
+    with ticking(_err, "loading the simulator and checking the study"):
+        from .service.client import sigterm_as_interrupt
+        from .study.command import PAUSE_ENV, execute_run, pause_from_env
+        from .study.progress import make_reporter
+        from .study.provenance import run_command
+
+        loaded = _load(study)
     if scheduler and workers is not None:
         _err("--workers applies to the local pool; with --scheduler the cluster decides")
         raise click.exceptions.Exit(EXIT_INVALID)
