@@ -70,6 +70,7 @@ import hashlib
 import importlib
 import json
 import time
+from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 from types import SimpleNamespace
@@ -79,7 +80,7 @@ import xarray as xr
 
 from ..study.failures import FAILED, StepFailure, read_failures
 from ..study.figures import figure_name
-from ..study.progress import count
+from ..study.progress import count, ticking
 from ..study.steps import REGISTRY
 from . import gait
 from .common import STYLE_FILE, atomic_path, provenance, save_figure
@@ -470,7 +471,12 @@ def report_study(study_dir: Path, *, force: bool = False,
     if not study_dir.is_dir():
         raise FileNotFoundError(f"no study folder {study_dir}")
     formats = list(dict.fromkeys(["png"] + [f.lower() for f in formats]))
-    jobs = plan(study_dir, animation=animation, fps=fps, max_frames=max_frames)
+    # reading the datasets, hashing them and the plotting code takes seconds for a large
+    # study: said while it lasts
+    with ticking(progress, "planning the figures") if progress else nullcontext():
+        jobs = plan(study_dir, animation=animation, fps=fps, max_frames=max_frames)
+        hashes = {p: file_sha256(p) for job in jobs for p in job.inputs}
+        code = code_hash()
     files = study_datasets(study_dir)
     step_failures = read_failures(study_dir)
     if not files and not step_failures:
@@ -488,8 +494,6 @@ def report_study(study_dir: Path, *, force: bool = False,
         fig_dir.mkdir(parents=True, exist_ok=True)
     manifest_path = fig_dir / MANIFEST
     manifest = _read_manifest(manifest_path)
-    code = code_hash()
-    hashes: dict[Path, str] = {}
     written: list[Path] = []
     failures: dict[str, str] = {}
     options = {"formats": formats, "fps": fps, "max_frames": max_frames}
@@ -513,9 +517,6 @@ def report_study(study_dir: Path, *, force: bool = False,
 
     todo: list[tuple[int, Job, dict]] = []
     for k, job in enumerate(jobs, 1):
-        for p in job.inputs:
-            if p not in hashes:
-                hashes[p] = file_sha256(p)
         entry = {"inputs": {p.name: hashes[p] for p in job.inputs}, "code": code,
                  "options": options if job.animation else {"formats": formats}}
         if not force and _current(manifest["figures"].get(job.name, {}), entry, fig_dir):
