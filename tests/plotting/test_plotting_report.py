@@ -615,3 +615,22 @@ def test_the_report_command_speaks_before_it_loads_the_plotting_code(reported_co
     assert res.exit_code == 0, res.output
     assert res.output.splitlines()[0] == f"{reported_copy}: reading its datasets to plan " \
                                          "the figures"
+
+
+def test_the_planning_of_the_figures_is_said_while_it_lasts(reported_copy, monkeypatch):
+    # reading and hashing a large study's datasets takes seconds: the report ticks through it
+    from contextlib import contextmanager
+
+    import monkeystudy.plotting.report as report_module
+    ticked = []
+
+    @contextmanager
+    def recording(echo, what, every=1.0):
+        ticked.append(what)
+        echo(f"{what} (1.0 s)")
+        yield
+
+    monkeypatch.setattr(report_module, "ticking", recording)
+    lines: list[str] = []
+    assert report_study(reported_copy, progress=lines.append, **FAST) == []
+    assert ticked == ["planning the figures"] and lines[0] == "planning the figures (1.0 s)"
