@@ -180,6 +180,10 @@ def test_shipped_studies():
     assert full.horizons == [0.1, 0.2, 0.5]
     smoke = load_study(SMOKE).study.step("replay")
     assert smoke.train_names() == ["BF_pd_5x"] and smoke.horizons == [0.1, 0.2]
+    # the study and tools/acromonk_replay.py (acromonk_robot) state one servo geometry
+    from monkeystudy.analysis.measured_replay import ACROMONK_ROTOR, acromonk_robot
+    assert load_study(FULL).study.to_robot() == acromonk_robot()
+    assert acromonk_robot().rotor == ACROMONK_ROTOR
 
 
 # --- the smoke run -----------------------------------------------------------------------------
