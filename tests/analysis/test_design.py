@@ -170,3 +170,53 @@ def test_a_design_that_spins_link_2_is_refused_and_one_that_swings_is_not():
     why = design_step_problem(space, spin, reference)
     assert "link 1 passes the section 4 times per cycle, the starting gait 1" in why
     assert "link 2 turns through link 1" in why
+
+
+# --- a robot without mirror-image links: a two-swap cycle --------------------------------------
+from monkeystudy.analysis.measured_replay import acromonk_robot  # noqa: E402
+from monkeystudy.robot import Friction, Rotor  # noqa: E402
+
+#: a two-swap brachiation of AcroMonk (hook catches where the free end falls through the
+#: holding end's height; motor frame [N m], s): a fixed point of its return map, found by the
+#: refine and floquet steps, unstable (rho 8.18)
+BRACHIATION = {
+    "kind": "sequence", "torque_frame": "motor",
+    "section": {"theta1": 0.0, "direction": "either", "theta2": 0.15718415},
+    "segments": [
+        {"until": "free_end_y", "value": 0.0, "direction": "falling",
+         "torque": -0.36501134, "clock": "reset"},
+        {"until": "time", "value": 0.39134575, "magnets": "swap", "torque": 2.58882863},
+        {"until": "coord", "coord": "theta1", "value": 0.0, "direction": "either"},
+        {"until": "free_end_y", "value": 0.0, "direction": "falling",
+         "torque": -2.81165613, "clock": "reset"},
+        {"until": "time", "value": 0.08122807, "magnets": "swap", "torque": 1.63025727}]}
+Z_BRACHIATION = np.array([0.15718415, -7.3971987, 1.7245056])
+
+
+def acromonk_for_design() -> Robot:
+    return acromonk_robot(Friction(0.0, 0.0), Friction(0.04144, 0.0)).with_rotor(
+        Rotor(2.453e-4, 6.0, 1))
+
+
+def test_a_two_swap_cycle_designs_a_robot_without_mirror_image_links():
+    """A cycle that ends hanging from A again compares like with like for any robot: the
+    segment design solves AcroMonk's two-swap brachiation (links 1.04 and 0.63 kg) and its
+    full map's multipliers by variational equations and by finite differences agree; a
+    one-swap cycle on the same robot is refused (it would compare B's frame with A's)."""
+    robot = acromonk_for_design()
+    assert not robot.is_mirror_image
+    gait = SequenceGaitSpec.model_validate(BRACHIATION).gait()
+    space = SegmentDesignSpace(gait, robot, motor_frame=True, integrator=TIGHT,
+                               torque_limit=3.0)      # N m: the lab's trajectory optimisation
+    assert "outside [-2.0, 2.0]" in SegmentDesignSpace(
+        gait, robot, motor_frame=True).buildable(space.values())     # the default limit
+    res = with_variational(space, evaluate_design(space, {}, Z_BRACHIATION + [0.0, 0.01, -0.01]))
+    assert res.ok, res.message
+    np.testing.assert_allclose(res.z, Z_BRACHIATION, atol=1e-6)
+    assert abs(res.spectral_radius - res.spectral_radius_fd) < 1e-6
+    assert res.spectral_radius == pytest.approx(8.18385, abs=1e-4)
+    assert abs(res.advance) == pytest.approx(0.633954, abs=1e-5)     # two bars of the cycle
+    one_swap = dict(BRACHIATION, segments=BRACHIATION["segments"][:2])
+    with pytest.raises(ValueError, match="mirror-image links"):
+        SegmentDesignSpace(SequenceGaitSpec.model_validate(one_swap).gait(), robot,
+                           motor_frame=True, integrator=TIGHT)

@@ -47,7 +47,7 @@ from ..simulation import Status, energies, run_controller
 from .multipliers import jacobian_fd, sorted_eigs
 from .replay import cycles_to_bound, growth_per_cycle, sequence_basin, sequence_cycles
 from .survival import Noise, SurvivalRuns, survival_runs
-from .sections import TIGHT, cycle_full_map, cycle_section_state
+from .sections import TIGHT, check_cycle_frame, cycle_full_map, cycle_section_state
 from .variational import sequence_variational_jacobian
 
 
@@ -382,6 +382,8 @@ class SegmentDesignSpace:
         Stability of the full map (height included) instead of the section map.
     integrator, tol, max_iter, fd_step
         As :class:`DesignSpace`'s.
+    torque_limit : float
+        The largest torque magnitude a torque parameter may take [N m] (the motor's limit).
     """
 
     base_gait: SequenceGait
@@ -393,6 +395,7 @@ class SegmentDesignSpace:
     tol: float = 1e-11
     max_iter: int = 12
     fd_step: float = 1e-5
+    torque_limit: float = SEGMENT_TORQUE_BOUND
 
     balance: ClassVar[str] = "none"
     clock: ClassVar[str] = "reset_at_vertical"
@@ -405,8 +408,10 @@ class SegmentDesignSpace:
         if self.base_gait.clocked:
             raise ValueError("a segment design needs a gait whose clock restarts at its "
                              "section (no period)")
-        if not self.robot.is_mirror_image:
-            raise ValueError("the robot of a design search needs mirror-image links")
+        # a cycle that ends hanging from A (two swaps) is defined for any robot
+        check_cycle_frame(self.base_gait, self.robot)
+        if not self.torque_limit > 0:
+            raise ValueError(f"torque_limit must be positive, got {self.torque_limit!r} N m")
         for name in self.base:
             self.parameter(name)
 
@@ -436,7 +441,7 @@ class SegmentDesignSpace:
         seg = self.base_gait.segments[k - 1]
         if m.group(2) == "torque":
             frame = "motor" if self.motor_frame else "attached end's"
-            return Parameter("N m", -SEGMENT_TORQUE_BOUND, SEGMENT_TORQUE_BOUND,
+            return Parameter("N m", -self.torque_limit, self.torque_limit,
                              f"segment {k}'s motor torque ({frame} frame)", "schedule")
         if seg.until == "coord":
             unit, what = COORD_UNITS[seg.coord], f"{seg.coord} {seg.direction}"
