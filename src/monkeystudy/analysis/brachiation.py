@@ -22,7 +22,8 @@ measured, not estimated).
 
 **The catch** is the series' last sample: the free end's velocity there, from the kernel's
 points (:func:`monkeystudy.simulation.physical_points`) and the rigid-body rule ``v = ω × r``
-per link, its speed and its angle below the horizontal.
+per link, its speed and its angle below the horizontal (counted from the direction away from
+the held end).
 """
 from __future__ import annotations
 
@@ -129,7 +130,9 @@ class Measures:
     catch_speed : float
         The free end's speed at the last sample [m s-1].
     catch_angle : float
-        The angle of its velocity below the horizontal [rad] (positive: moving down).
+        The angle of its velocity below the horizontal [rad], counted from the direction away
+        from the held end along the ladder: 0 onward, pi/2 straight down, pi back toward the
+        held bar, negative rising.
     catch_position : tuple of float
         The free end at the last sample from the held end (x, y) [m].
     largest_gap : float
@@ -165,7 +168,8 @@ def measures(robot: Robot, series: ModelSwing, *, gap_threshold: float = GAP_THR
                     positive_work=positive_work(t, series.torque, series.theta2_rate),
                     torque_square=torque_square_integral(t, series.torque),
                     peak_torque=float(np.max(np.abs(series.torque))),
-                    catch_speed=math.hypot(vx, vy), catch_angle=math.atan2(-vy, abs(vx)),
+                    catch_speed=math.hypot(vx, vy),
+                    catch_angle=math.atan2(-vy, math.copysign(1.0, float(pos[0, 0])) * vx),
                     catch_position=(float(pos[0, 0]), float(pos[0, 1])),
                     largest_gap=gap, gapped=gap > gap_threshold)
 
