@@ -129,10 +129,12 @@ class Measures:
         Largest ``|τ|`` [N m].
     catch_speed : float
         The free end's speed at the last sample [m s-1].
+    catch_onward, catch_down : float
+        Its velocity's components [m s-1] along the ladder away from the held end (onward) and
+        downward.
     catch_angle : float
-        The angle of its velocity below the horizontal [rad], counted from the direction away
-        from the held end along the ladder: 0 onward, pi/2 straight down, pi back toward the
-        held bar, negative rising.
+        The angle of its velocity below the horizontal [rad], counted from the onward
+        direction: 0 onward, pi/2 straight down, pi back toward the held bar, negative rising.
     catch_position : tuple of float
         The free end at the last sample from the held end (x, y) [m].
     largest_gap : float
@@ -147,6 +149,8 @@ class Measures:
     torque_square: float
     peak_torque: float
     catch_speed: float
+    catch_onward: float
+    catch_down: float
     catch_angle: float
     catch_position: tuple[float, float]
     largest_gap: float
@@ -162,14 +166,15 @@ def measures(robot: Robot, series: ModelSwing, *, gap_threshold: float = GAP_THR
         raise ValueError(f"{series.name}: a brachiation needs at least two samples")
     pos, vel = free_end_velocity(robot, series.theta1[-1], series.theta2[-1],
                                  series.theta1_rate[-1], series.theta2_rate[-1], series.flipped)
-    vx, vy = float(vel[0, 0]), float(vel[0, 1])
+    onward = math.copysign(1.0, float(pos[0, 0])) * float(vel[0, 0])
+    down = -float(vel[0, 1])
     gap = float(np.max(np.diff(t)))
     return Measures(name=series.name, duration=float(t[-1] - t[0]),
                     positive_work=positive_work(t, series.torque, series.theta2_rate),
                     torque_square=torque_square_integral(t, series.torque),
                     peak_torque=float(np.max(np.abs(series.torque))),
-                    catch_speed=math.hypot(vx, vy),
-                    catch_angle=math.atan2(-vy, math.copysign(1.0, float(pos[0, 0])) * vx),
+                    catch_speed=math.hypot(onward, down), catch_onward=onward,
+                    catch_down=down, catch_angle=math.atan2(down, onward),
                     catch_position=(float(pos[0, 0]), float(pos[0, 1])),
                     largest_gap=gap, gapped=gap > gap_threshold)
 
@@ -270,6 +275,9 @@ class OpenLoop:
         The plan's own closest approach over the same window [m].
     final_state, planned_final_state : ndarray
         ``[theta1, theta2, dtheta1, dtheta2]`` at the final time, simulated and planned.
+    elbow_peak : float
+        The largest ``|theta2|`` of the run [rad] (the model has no joint limit; the plans'
+        hyperparameters bound it at 2.88 rad).
     """
 
     name: str
@@ -283,6 +291,7 @@ class OpenLoop:
     planned_closest: float
     final_state: np.ndarray
     planned_final_state: np.ndarray
+    elbow_peak: float
 
     def caught(self, capture_radius: float) -> bool:
         """The capture rule: the free end comes within ``capture_radius`` [m] of the target
@@ -322,12 +331,29 @@ def open_loop(robot: Robot, plan: ModelSwing, *, horizon: float | None = None,
                     final_miss=float(np.hypot(*(sim[-1] - want[-1]))), target=target,
                     closest=float(d_sim[k]), closest_time=float(rep.time[k]),
                     planned_closest=float(np.min(np.where(window, d_plan, np.inf))),
-                    final_state=final, planned_final_state=planned)
+                    final_state=final, planned_final_state=planned,
+                    elbow_peak=float(np.max(np.abs(rep.simulated[:, 1]))))
 
 
 #: the models the nominal trajectories are run on: name -> values (on :func:`acromonk_robot`)
 OPEN_LOOP_MODELS = {"identified": IDENTIFIED, "published": PUBLISHED,
                     "frictionless": FRICTIONLESS}
+
+
+def closed_chain(robot: Robot, distance: float = LADDER_DISTANCE,
+                 urdf: str | Path = ACROMONK_URDF) -> tuple[float, float, float, float]:
+    """The pose with the held end and the free end on bars ``distance`` [m] apart at one
+    height, hanging below them: ``(theta1, theta2)`` of parameter row 0 and the URDF's joint
+    angles ``(q1, q2)`` [rad] (the triangle of the two links and the bars' chord)."""
+    l1, l2, d = robot.link1.length, robot.link2.length, float(distance)
+    alpha = math.acos((l1 * l1 + d * d - l2 * l2) / (2.0 * l1 * d))
+    th1 = 0.5 * math.pi - alpha
+    th12 = math.atan2(d - l1 * math.sin(th1), -l1 * math.cos(th1))
+    th2 = th12 - th1
+    a = reduce_urdf(urdf, links=ACROMONK_LINKS, joints=ACROMONK_JOINTS,
+                    far_grip=ACROMONK_FAR_GRIP).angles
+    q1, q2 = a.urdf_angles(th1, th2)
+    return th1, th2, float(q1), float(q2)
 
 
 def open_loop_models(base: Robot | None = None) -> dict[str, Robot]:
@@ -345,3 +371,115 @@ def catch_distances(robot: Robot, series: Sequence[ModelSwing]) -> np.ndarray:
         x, y = float(p[0, 0]), float(p[0, 1])
         out.append(math.hypot(x - math.copysign(LADDER_DISTANCE, x), y))
     return np.array(out)
+
+
+# --- the comparison table (tools/acromonk_brachiation.py) -------------------------------------
+#: the open-loop runs of the table: label -> (model, torque scale on the plan's torque)
+OPEN_LOOP_RUNS = {"identified": ("identified", 1.0),
+                  "identified, torque x0.8087": ("identified", IDENTIFIED.torque_scale),
+                  "published": ("published", 1.0),
+                  "frictionless": ("frictionless", 1.0)}
+
+
+def capture_radius(robot: Robot, logs: Sequence[HardwareLog]) -> float:
+    """The capture rule's radius [m]: the farthest the free end was from the next bar at the
+    catch instant of a brachiation the hardware caught (the flagged logs' brachiations, each
+    followed by the state machine's catch; :func:`catch_distances`)."""
+    dist = [catch_distances(robot, log_brachiations(log)) for log in logs if has_flag(log)]
+    if not dist:
+        raise ValueError("no flagged log: the capture radius needs the hardware's catches")
+    return float(np.max(np.concatenate(dist)))
+
+
+def _mean_sd(values: Sequence[float], fmt: str) -> str:
+    v = np.asarray(values, float)
+    if v.size == 1:
+        return f"{v[0]:{fmt}}"
+    return f"{v.mean():{fmt}}±{v.std(ddof=1):{fmt.lstrip('+')}}"
+
+
+def _measure_columns(ms: Sequence[Measures]) -> list[str]:
+    return [_mean_sd([m.duration for m in ms], ".3f"),
+            _mean_sd([m.positive_work for m in ms], ".2f"),
+            _mean_sd([m.torque_square for m in ms], ".2f"),
+            _mean_sd([m.peak_torque for m in ms], ".2f"),
+            _mean_sd([m.catch_speed for m in ms], ".2f"),
+            _mean_sd([m.catch_onward for m in ms], "+.2f"),
+            _mean_sd([m.catch_down for m in ms], "+.2f")]
+
+
+def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
+    cols = [header] + [list(r) for r in rows]
+    width = [max(len(r[k]) for r in cols) for k in range(len(header))]
+    return ["  ".join(c.ljust(w) for c, w in zip(r, width)).rstrip() for r in cols]
+
+
+MEASURE_HEADER = ("n", "duration_s", "work+_J", "int_tau2_N2m2s", "peak_tau_Nm", "catch_m/s",
+                  "onward_m/s", "down_m/s")
+
+
+def comparison(logs: Sequence[HardwareLog], *, trajectories: Sequence[str] = NOMINAL_TRAJECTORIES,
+               base: Robot | None = None) -> str:
+    """The comparison table of docs/acromonk.md, "Brachiations measured", as text."""
+    base = base or acromonk_robot()
+    out = ["Per log (mean±sd over its brachiations; torque as logged, the servo's estimate: at",
+           f"the elbow the peak and the work are x{IDENTIFIED.torque_scale:.4f}, "
+           f"int tau2 x{IDENTIFIED.torque_scale ** 2:.3f}; the catch: the free end's speed and",
+           "its velocity onward along the ladder and down at the catch instant: the first catch",
+           "row, or the last row of a log that ends with its trajectory):"]
+    rows = []
+    for log in logs:
+        spans = (("release->catch", True), ("swing->catch", False)) if has_flag(log) else \
+            (("swing->catch", False),)
+        for span, with_release in spans:
+            ms = [measures(base, b) for b in log_brachiations(log, with_release=with_release)]
+            gaps = sum(m.gapped for m in ms)
+            rows.append([log.name, span, str(len(ms))] + _measure_columns(ms)
+                        + [f"{gaps} gapped" if gaps else ""])
+    out += _table(("log", "span") + MEASURE_HEADER + ("",), rows)
+
+    plans = {name: nominal_trajectory(name) for name in trajectories}
+    out += ["", "Nominal trajectories (the plan's torque; catch: its last sample; free end from "
+                "the held end):"]
+    rows = []
+    for name, plan in plans.items():
+        m = measures(base, plan)
+        rows.append([name, "1"] + _measure_columns([m])
+                    + [f"{m.catch_position[0]:+.4f}", f"{m.catch_position[1]:+.4f}"])
+    out += _table(("plan",) + MEASURE_HEADER + ("end_x_m", "end_y_m"), rows)
+
+    th1, th2, q1, q2 = closed_chain(base)
+    out += ["", f"Both hooks on bars {LADDER_DISTANCE} m apart: theta1 {th1:.4f}, theta2 {th2:.4f} "
+                f"rad; URDF q1 {math.degrees(q1):.1f}, q2 {math.degrees(q2):.1f} deg. The plans "
+                "end at URDF (q1, q2) [deg]: " + ", ".join(
+                    f"{name} ({math.degrees(p.theta1[-1] - (th1 - q1)):.1f}, "
+                    f"{math.degrees(p.theta2[-1] - (th2 - q2)):.1f})" for name, p in plans.items())
+            + "."]
+    radius = capture_radius(base, logs)
+    out += ["", f"Capture rule: the free end within {radius:.4f} m of the target bar "
+                f"({LADDER_DISTANCE} m ahead) in the last {APPROACH_WINDOW:.0%} of the plan "
+                "(the farthest catch-instant distance of the flagged logs' caught brachiations)."]
+    robots = open_loop_models(base)
+    rows, results = [], {}
+    for name, plan in plans.items():
+        for label, (model, scale) in OPEN_LOOP_RUNS.items():
+            ol = open_loop(robots[model], plan, torque_scale=scale)
+            results[name, label] = ol
+            rows.append([name, label, f"{ol.final_miss:.4f}", f"{ol.closest:.4f}",
+                         f"{ol.closest_time:.3f}", f"{ol.planned_closest:.4f}",
+                         f"{ol.elbow_peak:.2f}", "yes" if ol.caught(radius) else "no"])
+    out += ["", "Open loop from each plan's first state, its torque held centred on the samples:"]
+    out += _table(("plan", "model", "end_miss_m", "closest_m", "at_s", "plan_closest_m",
+                   "elbow_max_rad", "caught"), rows)
+    if "BF" in plans:
+        out += ["", "Brachiations without the tracker (a chain BF, then FB or BF with the roles "
+                    "swapped):"]
+        for label in OPEN_LOOP_RUNS:
+            ol = results["BF", label]
+            if ol.caught(radius):
+                out.append(f"  {label}: the first BF is caught (closest {ol.closest:.4f} m); "
+                           "the chain needs a catch model")
+            else:
+                out.append(f"  {label}: 0 (the first BF misses: closest {ol.closest:.4f} m, "
+                           f"{ol.final_miss:.4f} m from the plan's free end at its end)")
+    return "\n".join(out)
