@@ -14,7 +14,7 @@ from monkeystudy.analysis.brachiation import (
     log_brachiations, measures, nominal_trajectory, open_loop, positive_work, read_trajectory,
     torque_square_integral, ACROMONK_TRAJECTORIES,
 )
-from monkeystudy.analysis.measured_replay import ModelSwing, acromonk_robot
+from monkeystudy.analysis.measured_replay import ModelSwing, acromonk_robot, replay
 from monkeystudy.measured import CATCH, RELEASE, SHIPPED_LOGS, SWING, read_log, swings
 
 
@@ -84,7 +84,6 @@ def test_the_free_end_velocity_is_the_derivative_of_the_kernels_free_end(robot, 
     difference's own error (O(h²) of the free end's third derivative: seen ~1e-5 m/s)."""
     plan = replace(nominal_trajectory("BF"), flipped=flipped)
     ol = open_loop(IDENTIFIED.robot(robot), plan)
-    from monkeystudy.analysis.measured_replay import replay
     rep = replay(IDENTIFIED.robot(robot), plan, 0, plan.duration)
     pos, vel = free_end_velocity(robot, rep.simulated[:, 0], rep.simulated[:, 1],
                                  rep.simulated_rates[:, 0], rep.simulated_rates[:, 1], flipped)

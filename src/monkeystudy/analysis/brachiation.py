@@ -467,10 +467,11 @@ def comparison(logs: Sequence[HardwareLog], *, trajectories: Sequence[str] = NOM
             results[name, label] = ol
             rows.append([name, label, f"{ol.final_miss:.4f}", f"{ol.closest:.4f}",
                          f"{ol.closest_time:.3f}", f"{ol.planned_closest:.4f}",
+                         f"{ol.final_state[1]:+.3f}", f"{ol.planned_final_state[1]:+.3f}",
                          f"{ol.elbow_peak:.2f}", "yes" if ol.caught(radius) else "no"])
     out += ["", "Open loop from each plan's first state, its torque held centred on the samples:"]
     out += _table(("plan", "model", "end_miss_m", "closest_m", "at_s", "plan_closest_m",
-                   "elbow_max_rad", "caught"), rows)
+                   "end_theta2", "plan_theta2", "max_abs_theta2", "caught"), rows)
     if "BF" in plans:
         out += ["", "Brachiations without the tracker (a chain BF, then FB or BF with the roles "
                     "swapped):"]
