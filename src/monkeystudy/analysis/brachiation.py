@@ -449,16 +449,23 @@ def comparison(logs: Sequence[HardwareLog], *, trajectories: Sequence[str] = NOM
     out += _table(("plan",) + MEASURE_HEADER + ("end_x_m", "end_y_m"), rows)
 
     th1, th2, q1, q2 = closed_chain(base)
+    angles = reduce_urdf(ACROMONK_URDF, links=ACROMONK_LINKS, joints=ACROMONK_JOINTS,
+                         far_grip=ACROMONK_FAR_GRIP).angles
+    back = np.degrees(angles.urdf_angles(-th1, -th2))
+    ends = {name: np.degrees(angles.urdf_angles(p.theta1[-1], p.theta2[-1]))
+            for name, p in plans.items()}
     out += ["", f"Both hooks on bars {LADDER_DISTANCE} m apart: theta1 {th1:.4f}, theta2 {th2:.4f} "
-                f"rad; URDF q1 {math.degrees(q1):.1f}, q2 {math.degrees(q2):.1f} deg. The plans "
-                "end at URDF (q1, q2) [deg]: " + ", ".join(
-                    f"{name} ({math.degrees(p.theta1[-1] - (th1 - q1)):.1f}, "
-                    f"{math.degrees(p.theta2[-1] - (th2 - q2)):.1f})" for name, p in plans.items())
-            + "."]
+                f"rad; URDF (q1, q2) ({math.degrees(q1):.1f}, {math.degrees(q2):.1f}) deg forward, "
+                f"({back[0]:.1f}, {back[1]:.1f}) deg backward.",
+            "The plans end at URDF (q1, q2) [deg]: " + ", ".join(
+                f"{name} ({e[0]:.1f}, {e[1]:.1f})" for name, e in ends.items()) + "."]
+    flagged = [catch_distances(base, log_brachiations(log)) for log in logs if has_flag(log)]
     radius = capture_radius(base, logs)
+    low = float(np.min(np.concatenate(flagged)))
     out += ["", f"Capture rule: the free end within {radius:.4f} m of the target bar "
-                f"({LADDER_DISTANCE} m ahead) in the last {APPROACH_WINDOW:.0%} of the plan "
-                "(the farthest catch-instant distance of the flagged logs' caught brachiations)."]
+                f"({LADDER_DISTANCE} m ahead) in the last {APPROACH_WINDOW:.0%} of the plan: the",
+            f"farthest of the flagged logs' catch rows from the bar ({low:.4f}-{radius:.4f} m over "
+            f"{sum(d.size for d in flagged)} caught brachiations)."]
     robots = open_loop_models(base)
     rows, results = [], {}
     for name, plan in plans.items():
