@@ -5,17 +5,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from monkeystudy.analysis.brachiation import (
-    GAP_THRESHOLD, IDENTIFIED, NOMINAL_TRAJECTORIES, free_end, free_end_velocity,
-    log_brachiations, measures, nominal_trajectory, open_loop, positive_work, read_trajectory,
-    torque_square_integral, ACROMONK_TRAJECTORIES,
+    ACROMONK_TRAJECTORIES, GAP_THRESHOLD, IDENTIFIED, NOMINAL_TRAJECTORIES, capture_radius,
+    closed_chain, comparison, free_end, free_end_velocity, log_brachiations, measures,
+    nominal_trajectory, open_loop, positive_work, read_trajectory, torque_square_integral,
 )
 from monkeystudy.analysis.measured_replay import ModelSwing, acromonk_robot, replay
-from monkeystudy.measured import CATCH, RELEASE, SHIPPED_LOGS, SWING, read_log, swings
+from monkeystudy.measured import (CATCH, RELEASE, SHIPPED_LOGS, SWING, log_paths, read_log,
+                                  swings)
 
 
 @pytest.fixture(scope="module")
@@ -182,3 +184,43 @@ def test_the_open_loop_compares_the_free_end_with_the_plans(robot):
     assert ol.final_miss == pytest.approx(float(np.hypot(*(ol.free_end[-1] - end[0]))),
                                           rel=1e-12)
     assert ol.time[-1] == pytest.approx(plan.time[-1], abs=1e-12)
+
+
+def test_the_closed_chain_puts_the_free_end_on_the_next_bar(robot):
+    """Both hooks on bars 0.34 m apart: the kernel's free end at (0.34, 0) from the held end,
+    and the URDF angles are the model's through the URDF's angle map (theta1 = q1 - 0.0636)."""
+    th1, th2, q1, q2 = closed_chain(robot)
+    _, _, end = free_end(robot, th1, th2, 0)
+    np.testing.assert_allclose(end[0], [0.34, 0.0], atol=1e-14)
+    assert q2 == th2 and q1 - th1 == pytest.approx(math.atan2(0.02, 0.31401), abs=1e-5)
+
+
+def test_the_capture_radius_needs_a_flagged_log(robot):
+    with pytest.raises(ValueError, match="no flagged log"):
+        capture_radius(robot, [read_log(SHIPPED_LOGS / "ZF_pd_1x.csv.gz")])
+
+
+# --- the documented numbers ---------------------------------------------------------------------
+DOC = Path(__file__).resolve().parents[2] / "docs" / "acromonk.md"
+
+
+def test_the_identified_values_are_the_ones_the_docs_quote():
+    """IDENTIFIED holds the study's identified model as docs/acromonk.md quotes it from
+    ``monkeystudy inspect outputs/acromonk``."""
+    text = " ".join(DOC.read_text().split())
+    assert (f"pivot Coulomb {IDENTIFIED.pivot.coulomb} N m" in text
+            and f"joint viscous {IDENTIFIED.joint.viscous} N m s" in text
+            and f"rotor inertia {IDENTIFIED.rotor_inertia:.7f} kg m2" in text
+            and f"torque scale {IDENTIFIED.torque_scale} " in text)
+    assert IDENTIFIED.pivot.viscous == IDENTIFIED.joint.coulomb == 0.0
+
+
+def test_the_docs_table_is_what_the_tool_prints():
+    """docs/acromonk.md, "Brachiations measured", quotes tools/acromonk_brachiation.py's
+    output exactly (the shipped logs, the four plans)."""
+    text = DOC.read_text()
+    section = text[text.index("## Brachiations measured"):]
+    start = section.index("```text\n") + len("```text\n")
+    quoted = section[start:section.index("```", start)].rstrip("\n")
+    logs = [read_log(p) for p in log_paths(SHIPPED_LOGS)]
+    assert quoted == comparison(logs)
