@@ -355,8 +355,8 @@ def test_animation_reports_every_frame(datasets, tmp_path):
 
 def test_a_point_list_is_titled_and_drawn_as_its_points(datasets):
     """An explicit point list of 3 points at 3 values of each rate was titled "over a 3×3
-    grid of initial rates", and drawn as a mesh of cells, 6 of its 9 blank (issue 41: five
-    listed points "a 4×4 grid", drawn as a mesh). It is titled by its points and each point
+    grid of initial rates", and drawn as a mesh of cells, 6 of its 9 blank (five listed
+    points: "a 4×4 grid", drawn as a mesh). It is titled by its points and each point
     is a marker at its rates, coloured by its value; a full grid written as a list stays a
     mesh of cells."""
     stacked = datasets["error_map"].stack(point=("dtheta1", "dtheta2")).reset_index("point")
