@@ -13,11 +13,15 @@ from typing import Callable
 class StepProgress:
     """How a step's work in the driver (a kind's :meth:`~monkeystudy.study.steps.base.
     StepKind.finish`) shows its phases: :meth:`phase` starts one with its own count on the
-    step's line and returns the function that advances it. Without a reporter, silent."""
+    step's line and returns the function that advances it; :meth:`estimate` says how long a
+    phase still to come is expected to take (the step's eta counts it). Without a reporter,
+    silent. ``clock`` [s] times the work an estimate is made from (a test gives its own)."""
 
-    def __init__(self, reporter=None, name: str = ""):
+    def __init__(self, reporter=None, name: str = "",
+                 clock: Callable[[], float] = time.monotonic):
         self.reporter = reporter        # a progress.Reporter, or None: silent
         self.name = name
+        self.clock = clock
 
     def phase(self, label: str, total: int, unit: str,
               then: str = "") -> Callable[[int], None]:
@@ -31,6 +35,11 @@ class StepProgress:
         def advance(n: int = 1) -> None:
             reporter.advance(self.name, n)
         return advance
+
+    def estimate(self, label: str, seconds: float) -> None:
+        """Phase ``label``, still to come, is expected to take ``seconds`` [s]."""
+        if self.reporter is not None:
+            self.reporter.estimate(self.name, label, float(seconds))
 
 
 # --- counts from the workers ---------------------------------------------------------------------
