@@ -9,7 +9,7 @@ from dataclasses import replace
 
 from monkeystudy.analysis.measured_replay import (
     PUBLISHED_JOINT, PUBLISHED_PIVOT, ModelSwing, ModelValues, acromonk_robot, chain_closure,
-    held_torque, horizon_errors, identify, inverse_dynamics, local_quadratic, model_swings,
+    held_torque, horizon_errors, identify, identify_evaluations, inverse_dynamics, local_quadratic, model_swings,
     rate_agreement, rate_noise, replay, rest_shoulder, simulated_swing, start_rows,
     torque_sign_errors,
 )
@@ -180,6 +180,23 @@ def test_identification_recovers_the_rotor_and_the_torque_scale_of_a_simulated_s
                    window=0.3, every=0.1, max_nfev=40)
     assert np.allclose(fit.values, [0.05, 2.5e-4, 0.85], rtol=1e-2, atol=1e-6), fit.table()
     assert fit.rms < 1e-4
+
+
+def test_identify_says_each_residual_evaluation_as_it_makes_it():
+    """Issue 41: the identification (minutes on studies/acromonk.yaml) said nothing until it
+    was over. ``evaluated(1)`` comes once per residual evaluation, as it is made: at least
+    least_squares' own (its nfev) and the fit's last, at most :func:`identify_evaluations`
+    (its Jacobians' too), and the fit is the one made without it."""
+    sws = model_swings(read_log(SHIPPED_LOGS / "ZB_pd_1x.csv.gz"))
+    base = acromonk_robot()
+    said = []
+    fit = identify(base, sws, names=("joint_viscous", "torque_scale"), window=0.3, every=0.3,
+                   max_nfev=3, evaluated=said.append)
+    assert set(said) == {1}
+    assert fit.nfev + 1 <= len(said) <= identify_evaluations(3, 2) == 3 * 3 + 1
+    silent = identify(base, sws, names=("joint_viscous", "torque_scale"), window=0.3,
+                      every=0.3, max_nfev=3)
+    assert np.array_equal(silent.values, fit.values) and silent.rms == fit.rms
 
 
 # --- the checks of the signals ----------------------------------------------------------------

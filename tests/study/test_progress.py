@@ -32,6 +32,10 @@ class Recorder(P.Reporter):
         with self.lock:
             self.events.append(("advance", name, n))
 
+    def finish(self, name, message=""):
+        with self.lock:
+            self.events.append(("finish", name))
+
     def counted(self, name) -> int:
         with self.lock:
             return sum(e[2] for e in self.events if e[0] == "advance" and e[1] == name)
@@ -244,3 +248,55 @@ def test_a_phase_bar_gives_the_eta_of_its_whole_step_as_far_as_it_is_estimated()
     assert "step eta" not in line()
     rep.close()
 
+
+def test_a_tasks_phases_are_counts_of_their_own_beside_its_steps_tasks():
+    """Issue 41: a hardware_replay step's line sat at 18/19 tasks for the minutes of its
+    identification. A task's phases (:func:`~monkeystudy.study.counts.task_phase`) are
+    counts of their own under its step (``<step>: <phase>``), each up to its total and
+    finished when the next begins or the task's result comes; the step counts the task's
+    units when its result comes, whatever its phases counted."""
+    rep = Recorder()
+    counts = TaskCounts(rep)
+    fit = counts.add("replay", 1)
+    other = counts.add("replay", 1)
+    counts.sent(fit, C.TaskPhase("identify", 7, "residual evaluations"))
+    counts.sent(fit, 1)
+    counts.sent(fit, 2)
+    counts.done(other)                       # another task of the step: the step's count
+    counts.sent(fit, C.TaskPhase("replays", 2, "logs"))
+    counts.sent(fit, 5)                      # more than the phase has: its total only
+    counts.done(fit)
+    assert rep.events == [
+        ("start", "replay: identify", 7, 0, "residual evaluations"),
+        ("advance", "replay: identify", 1), ("advance", "replay: identify", 2),
+        ("advance", "replay", 1),
+        ("advance", "replay: identify", 4),  # the fit converged: its count made whole
+        ("finish", "replay: identify"),
+        ("start", "replay: replays", 2, 0, "logs"),
+        ("advance", "replay: replays", 2),
+        ("finish", "replay: replays"),
+        ("advance", "replay", 1)]
+
+
+def test_a_task_phase_goes_over_the_channel_after_the_units_before_it(monkeypatch):
+    """A worker's units of one phase reach the driver before the next phase begins (a
+    count sent late would count in the wrong phase)."""
+    monkeypatch.setattr(C, "SEND_PERIOD", 60.0)       # units held back until flushed
+    channel = queue.Queue()
+
+    def two_phases():
+        C.task_phase("identify", 3, "residual evaluations")
+        C.task_units(3)
+        C.task_phase("replays", 2, "logs")
+        C.task_units(2)
+
+    C.open_task_channel(channel)
+    try:
+        C.run_counted(("run", 1), two_phases, (), {})
+    finally:
+        C.open_task_channel(None)
+    sent = []
+    while not channel.empty():
+        sent.append(channel.get()[1])
+    assert sent == [C.TaskPhase("identify", 3, "residual evaluations"), 3,
+                    C.TaskPhase("replays", 2, "logs"), 2]

@@ -1,12 +1,14 @@
 """The counting side of a run's progress: what a step kind calls to say how much of its work
 is done, apart from how it is shown (:mod:`.progress`), so that the display's code is not among
 the sources a dataset is keyed on (docs/architecture.md). A task on a worker counts its units
-(:func:`task_units`, sent over the pool's progress channel: :func:`run_counted`); a step's work
-in the driver goes in named phases, each with its own count (:class:`StepProgress`).
+(:func:`task_units`, sent over the pool's progress channel: :func:`run_counted`), and a long
+task its own phases (:func:`task_phase`); a step's work in the driver goes in named phases,
+each with its own count (:class:`StepProgress`).
 """
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from typing import Callable
 
 
@@ -47,6 +49,16 @@ class StepProgress:
 SEND_PERIOD = 0.2
 
 
+@dataclass(frozen=True)
+class TaskPhase:
+    """A task's phase, as its worker says it over the channel: ``label``, ``total`` units
+    of ``unit`` (a plural)."""
+
+    label: str
+    total: int
+    unit: str
+
+
 class TaskChannel:
     """A worker's end of its pool's progress channel (a queue the driver reads): the task it
     runs (its key, set by :func:`run_counted`) and the units it did since its last message."""
@@ -65,6 +77,14 @@ class TaskChannel:
         if now - self.last >= SEND_PERIOD:
             self.queue.put((self.key, self.pending))
             self.pending, self.last = 0, now
+
+    def phase(self, phase: TaskPhase) -> None:
+        if self.key is None:
+            return
+        if self.pending:            # the units of the phase before: counted in it
+            self.queue.put((self.key, self.pending))
+        self.queue.put((self.key, phase))
+        self.pending, self.last = 0, time.monotonic()
 
 
 #: this process's end of the channel: set once in a pool worker (the pool's initializer,
@@ -86,6 +106,15 @@ def task_units(n: int = 1) -> None:
     else nothing."""
     if _CHANNEL is not None:
         _CHANNEL.add(n)
+
+
+def task_phase(label: str, total: int, unit: str) -> None:
+    """The running task goes on with its phase ``label`` of ``total`` ``unit`` (a plural),
+    which its :func:`task_units` count from here on (its earlier phase, if any, is over).
+    Said to the driver at once, which shows it as a count of its own under the task's step,
+    when the task runs on a pool with a progress channel; else nothing."""
+    if _CHANNEL is not None:
+        _CHANNEL.phase(TaskPhase(label, int(total), unit))
 
 
 def run_counted(key, fn: Callable, args: tuple, kwargs: dict):
