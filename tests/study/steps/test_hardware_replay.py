@@ -311,7 +311,8 @@ def test_the_identification_and_the_replays_after_it_count_as_they_go(tmp_path):
     """Issue 41: on studies/acromonk.yaml the step's line sat at 18/19 tasks for the minutes
     of the least-squares identification. The identification counts its residual
     evaluations as it makes them (``replay: identify``, out of the most it can make:
-    :func:`identify_evaluations`) and the identified model's replays of the logs after it
+    :func:`identify_evaluations`, said to be that) and the identified model's replays of the
+    logs after it
     count the logs (``replay: replays``); each count reaches its total."""
     import threading
 
@@ -343,7 +344,7 @@ def test_the_identification_and_the_replays_after_it_count_as_they_go(tmp_path):
     run_study(load_study(path), tmp_path / "out", workers=1, reporter=rec)
     most = identify_evaluations(3, 1)
     fit = [e for e in rec.events if e[1] == "hw: identify"]
-    assert fit[0] == ("start", "hw: identify", most, "residual evaluations")
+    assert fit[0] == ("start", "hw: identify", most, "residual evaluations at most")
     assert fit[-1] == ("finish", "hw: identify")
     # counted as they come (a worker sends its count at most every 0.2 s), the rest of the
     # most when the fit is over

@@ -265,12 +265,14 @@ def identify_task(spec: GaitSpec, train: list[str], logs: list[str], *, names: S
 
     Two phases, each with its count (:func:`~monkeystudy.study.counts.task_phase`):
     ``identify`` counts the fit's residual evaluations against the most it can make
-    (:func:`~monkeystudy.analysis.measured_replay.identify_evaluations`; a fit that
-    converges sooner completes the count), ``replays`` the logs replayed."""
+    (:func:`~monkeystudy.analysis.measured_replay.identify_evaluations`, worded "at most":
+    a fit that converges sooner completes the count), ``replays`` the logs replayed."""
     base = spec.robot
     sws = [ms for p in train for ms in model_swings(read_log(p))]
     most = identify_evaluations(max_nfev, len(names))
-    task_phase("identify", most, "residual evaluations")
+    # the most, not what the fit will make (on studies/acromonk.yaml about a fifth): the
+    # count and its eta say so
+    task_phase("identify", most, "residual evaluations at most")
     evaluated = [0]
 
     def count(n: int) -> None:
