@@ -312,8 +312,7 @@ def test_the_identification_and_the_replays_after_it_count_as_they_go(tmp_path):
     of the least-squares identification. The identification counts its residual
     evaluations as it makes them (``replay: identify``, out of the most it can make:
     :func:`identify_evaluations`, said to be that) and the identified model's replays of the
-    logs after it
-    count the logs (``replay: replays``); each count reaches its total."""
+    logs after it count the logs (``replay: replays``); each count reaches its total."""
     import threading
 
     from monkeystudy.analysis.measured_replay import identify_evaluations
