@@ -315,7 +315,6 @@ def test_the_identification_and_the_replays_after_it_count_as_they_go(tmp_path):
     logs after it count the logs (``replay: replays``); each count reaches its total."""
     import threading
 
-    from monkeystudy.analysis.measured_replay import identify_evaluations
     from monkeystudy.study.progress import Reporter
 
     class Recorder(Reporter):
@@ -341,8 +340,10 @@ def test_the_identification_and_the_replays_after_it_count_as_they_go(tmp_path):
                          gait=""))
     rec = Recorder()
     run_study(load_study(path), tmp_path / "out", workers=1, reporter=rec)
-    most = identify_evaluations(3, 1)
     fit = [e for e in rec.events if e[1] == "hw: identify"]
+    assert fit, [e for e in rec.events if e[1] == "hw"]   # the step's count of tasks alone
+    from monkeystudy.analysis.measured_replay import identify_evaluations
+    most = identify_evaluations(3, 1)
     assert fit[0] == ("start", "hw: identify", most, "residual evaluations at most")
     assert fit[-1] == ("finish", "hw: identify")
     # counted as they come (a worker sends its count at most every 0.2 s), the rest of the
