@@ -182,6 +182,24 @@ def test_identification_recovers_the_rotor_and_the_torque_scale_of_a_simulated_s
     assert fit.rms < 1e-4
 
 
+def test_identify_says_each_residual_evaluation_as_it_makes_it():
+    """Issue 41: the identification (minutes on studies/acromonk.yaml) said nothing until it
+    was over. ``evaluated(1)`` comes once per residual evaluation, as it is made: at least
+    least_squares' own (its nfev) and the fit's last, at most :func:`identify_evaluations`
+    (its Jacobians' too), and the fit is the one made without it."""
+    sws = model_swings(read_log(SHIPPED_LOGS / "ZB_pd_1x.csv.gz"))
+    base = acromonk_robot()
+    said = []
+    fit = identify(base, sws, names=("joint_viscous", "torque_scale"), window=0.3, every=0.3,
+                   max_nfev=3, evaluated=said.append)
+    assert set(said) == {1}
+    from monkeystudy.analysis.measured_replay import identify_evaluations
+    assert fit.nfev + 1 <= len(said) <= identify_evaluations(3, 2) == 3 * 3 + 1
+    silent = identify(base, sws, names=("joint_viscous", "torque_scale"), window=0.3,
+                      every=0.3, max_nfev=3)
+    assert np.array_equal(silent.values, fit.values) and silent.rms == fit.rms
+
+
 # --- the checks of the signals ----------------------------------------------------------------
 def _sine_swing(rate_factor=1.0, seed=3) -> ModelSwing:
     """theta = (sin 3t, cos 2t) at uneven times 3-15 ms apart, the rates exact times a

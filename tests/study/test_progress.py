@@ -32,6 +32,10 @@ class Recorder(P.Reporter):
         with self.lock:
             self.events.append(("advance", name, n))
 
+    def finish(self, name, message=""):
+        with self.lock:
+            self.events.append(("finish", name))
+
     def counted(self, name) -> int:
         with self.lock:
             return sum(e[2] for e in self.events if e[0] == "advance" and e[1] == name)
@@ -179,3 +183,120 @@ def test_a_run_with_one_step_up_to_date_says_so_in_the_singular(tmp_path):
     log = io.StringIO()
     run_study(loaded, tmp_path / "out", workers=1, reporter=P.PlainReporter(log))
     assert "one: the 1 dataset up to date in" in log.getvalue(), log.getvalue()
+
+
+def test_a_phase_line_gives_the_eta_of_its_whole_step_as_far_as_it_is_estimated():
+    """Issue 41: a design step's line gave the eta of its phase only. The plain reporter's
+    line (an injected clock) gives the step's eta too: the phase's own plus the estimate of
+    every phase to come that has one, the others named after it; the last phase's is its
+    own."""
+    now = [0.0]
+    out = io.StringIO()
+    rep = P.PlainReporter(out, every=0.0, clock=lambda: now[0])
+    rep.start("design", 100, 0, "designs")
+    rep.phase("design", "grid", 100, "designs", "refine, screen, checks")
+    now[0] = 10.0
+    rep.advance("design", 50)                    # 5 designs/s: 10 s left
+    rep.estimate("design", "checks", 30.0)
+    rep.phase("design", "refine", 200, "designs", "screen, checks")
+    now[0] = 14.0
+    rep.advance("design", 100)                   # 25 designs/s: 4 s left
+    rep.phase("design", "screen", 800, "runs", "checks")
+    now[0] = 22.0
+    rep.advance("design", 400)                   # 50 runs/s: 8 s left
+    rep.phase("design", "checks", 6, "checks")
+    now[0] = 25.0
+    rep.advance("design", 3)                     # 1 check/s: 3 s left
+    lines = out.getvalue().splitlines()
+    assert lines[2].endswith("eta 10 s then refine, screen, checks; "
+                             "step eta 10 s + refine, screen, checks"), lines[2]
+    assert lines[4].endswith("eta 4 s then screen, checks; step eta 34 s + screen"), lines[4]
+    assert lines[6].endswith("eta 8 s then checks; step eta 38 s"), lines[6]
+    assert lines[8].endswith("3/6 checks (50%), 3.0 s, eta 3 s"), lines[8]
+
+
+def test_a_phase_bar_gives_the_eta_of_its_whole_step_as_far_as_it_is_estimated():
+    """The rich bar of a phase (an injected clock) shows the step's eta beside the phase's
+    (the phase's eta plus the estimates of the phases to come), and after the bar the
+    phases to come it leaves out, or the phases to come when it leaves out none."""
+    from rich.console import Console
+
+    now = [0.0]
+    rep = P.RichReporter(io.StringIO(), clock=lambda: now[0])
+
+    def line() -> str:
+        out = io.StringIO()
+        Console(file=out, width=160, color_system=None).print(
+            rep.progress.make_tasks_table(rep.progress.tasks))
+        return out.getvalue().strip()
+
+    rep.start("design", 100, 0, "designs")
+    rep.phase("design", "refine", 200, "designs", "screen, checks")
+    rep.estimate("design", "checks", 30.0)
+    for t in (2.0, 4.0):                         # 25 designs/s: 100 left, 4 s
+        now[0] = t
+        rep.advance("design", 50)
+    shown = line()
+    assert "eta 0:00:04 step eta 0:00:34" in shown and shown.endswith("+ screen"), shown
+    rep.phase("design", "screen", 800, "runs", "checks")
+    for t in (6.0, 10.0):                        # 100 runs/s: 400 left, 4 s
+        now[0] = t
+        rep.advance("design", 400 if t == 10.0 else 0)
+    shown = line()
+    assert "eta 0:00:04 step eta 0:00:34" in shown and shown.endswith("then checks"), shown
+    rep.phase("design", "checks", 6, "checks")
+    assert "step eta" not in line()
+    rep.close()
+
+
+def test_a_tasks_phases_are_counts_of_their_own_beside_its_steps_tasks():
+    """Issue 41: a hardware_replay step's line sat at 18/19 tasks for the minutes of its
+    identification. A task's phases (:func:`~monkeystudy.study.counts.task_phase`) are
+    counts of their own under its step (``<step>: <phase>``), each up to its total and
+    finished when the next begins or the task's result comes; the step counts the task's
+    units when its result comes, whatever its phases counted."""
+    rep = Recorder()
+    counts = TaskCounts(rep)
+    fit = counts.add("replay", 1)
+    other = counts.add("replay", 1)
+    counts.sent(fit, C.TaskPhase("identify", 7, "residual evaluations"))
+    counts.sent(fit, 1)
+    counts.sent(fit, 2)
+    counts.done(other)                       # another task of the step: the step's count
+    counts.sent(fit, C.TaskPhase("replays", 2, "logs"))
+    counts.sent(fit, 5)                      # more than the phase has: its total only
+    counts.done(fit)
+    assert rep.events == [
+        ("start", "replay: identify", 7, 0, "residual evaluations"),
+        ("advance", "replay: identify", 1), ("advance", "replay: identify", 2),
+        ("advance", "replay", 1),
+        ("advance", "replay: identify", 4),  # the fit converged: its count made whole
+        ("finish", "replay: identify"),
+        ("start", "replay: replays", 2, 0, "logs"),
+        ("advance", "replay: replays", 2),
+        ("finish", "replay: replays"),
+        ("advance", "replay", 1)]
+
+
+def test_a_task_phase_goes_over_the_channel_after_the_units_before_it(monkeypatch):
+    """A worker's units of one phase reach the driver before the next phase begins (a
+    count sent late would count in the wrong phase)."""
+    monkeypatch.setattr(C, "SEND_PERIOD", 60.0)       # units held back until flushed
+    channel = queue.Queue()
+
+    def two_phases():
+        C.task_phase("identify", 3, "residual evaluations")
+        C.task_units(3)
+        C.task_phase("replays", 2, "logs")
+        C.task_units(2)
+
+    C.open_task_channel(channel)
+    try:
+        C.run_counted(("run", 1), two_phases, (), {})
+    finally:
+        C.open_task_channel(None)
+    sent = []
+    while not channel.empty():
+        sent.append(channel.get()[1])
+    assert sent == [C.TaskPhase("identify", 3, "residual evaluations"), 3,
+                    C.TaskPhase("replays", 2, "logs"), 2]

@@ -450,9 +450,18 @@ def shooting_windows(swings_: Sequence[ModelSwing], window: float, every: float)
             for r in start_rows(ms, every, window)]
 
 
+def identify_evaluations(max_nfev: int, n_parameters: int) -> int:
+    """The most residual evaluations :func:`identify` makes (each a replay of every
+    window): ``least_squares`` evaluates at most ``max_nfev`` points (its ``nfev``) and
+    after each at most one forward-difference Jacobian of ``n_parameters`` more (which its
+    ``nfev`` does not count), then :func:`identify` evaluates the fit once more."""
+    return int(max_nfev) * (1 + int(n_parameters)) + 1
+
+
 def identify(base: Robot, swings_: Sequence[ModelSwing], *, names: Sequence[str] = FRICTION,
              fixed: ModelValues = ModelValues(), window: float = 0.3, every: float = 0.1,
-             hold: str = "centred", x0=None, max_nfev: int = 60) -> Identification:
+             hold: str = "centred", x0=None, max_nfev: int = 60,
+             evaluated: Callable[[int], None] | None = None) -> Identification:
     """Fit the named parameters (:data:`PARAMETERS`) by least squares over multiple-shooting
     windows of the swings: each window is replayed from its measured start state for
     ``window`` [s] and every later sample's angle error of both joints is a residual [rad].
@@ -461,7 +470,8 @@ def identify(base: Robot, swings_: Sequence[ModelSwing], *, names: Sequence[str]
     ``scipy.optimize.least_squares`` (trust-region reflective, bounds from
     :data:`PARAMETERS`, a forward-difference Jacobian with steps of 1e-3 of each
     parameter's scale times ``max(1, |x|)``: far above the replay's integration error; the
-    parameters scaled by those scales).
+    parameters scaled by those scales). ``evaluated(1)`` after each residual evaluation (at
+    most :func:`identify_evaluations`), for a count of the fit as it goes.
     """
     # scipy only where a fit runs: importing the replay stays light
     from scipy.optimize import least_squares
@@ -490,6 +500,8 @@ def identify(base: Robot, swings_: Sequence[ModelSwing], *, names: Sequence[str]
             rep = replay(robot, sws[i], row, window, hold=hold, torque_scale=mv.torque_scale)
             out.append(rep.error.ravel())
             groups.extend([i] * rep.error.size)
+        if evaluated is not None:
+            evaluated(1)
         return np.concatenate(out)
 
     fit = least_squares(residuals, np.clip(start, lo, hi), bounds=(lo, hi),

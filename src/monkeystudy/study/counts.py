@@ -1,23 +1,29 @@
 """The counting side of a run's progress: what a step kind calls to say how much of its work
 is done, apart from how it is shown (:mod:`.progress`), so that the display's code is not among
 the sources a dataset is keyed on (docs/architecture.md). A task on a worker counts its units
-(:func:`task_units`, sent over the pool's progress channel: :func:`run_counted`); a step's work
-in the driver goes in named phases, each with its own count (:class:`StepProgress`).
+(:func:`task_units`, sent over the pool's progress channel: :func:`run_counted`), and a long
+task its own phases (:func:`task_phase`); a step's work in the driver goes in named phases,
+each with its own count (:class:`StepProgress`).
 """
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from typing import Callable
 
 
 class StepProgress:
     """How a step's work in the driver (a kind's :meth:`~monkeystudy.study.steps.base.
     StepKind.finish`) shows its phases: :meth:`phase` starts one with its own count on the
-    step's line and returns the function that advances it. Without a reporter, silent."""
+    step's line and returns the function that advances it; :meth:`estimate` says how long a
+    phase still to come is expected to take (the step's eta counts it). Without a reporter,
+    silent. ``clock`` [s] times the work an estimate is made from (a test gives its own)."""
 
-    def __init__(self, reporter=None, name: str = ""):
+    def __init__(self, reporter=None, name: str = "",
+                 clock: Callable[[], float] = time.monotonic):
         self.reporter = reporter        # a progress.Reporter, or None: silent
         self.name = name
+        self.clock = clock
 
     def phase(self, label: str, total: int, unit: str,
               then: str = "") -> Callable[[int], None]:
@@ -32,10 +38,25 @@ class StepProgress:
             reporter.advance(self.name, n)
         return advance
 
+    def estimate(self, label: str, seconds: float) -> None:
+        """Phase ``label``, still to come, is expected to take ``seconds`` [s]."""
+        if self.reporter is not None:
+            self.reporter.estimate(self.name, label, float(seconds))
+
 
 # --- counts from the workers ---------------------------------------------------------------------
 #: the least time between two counts a worker sends [s]: the display moves, the pipe stays quiet
 SEND_PERIOD = 0.2
+
+
+@dataclass(frozen=True)
+class TaskPhase:
+    """A task's phase, as its worker says it over the channel: ``label``, ``total`` units
+    of ``unit`` (a plural)."""
+
+    label: str
+    total: int
+    unit: str
 
 
 class TaskChannel:
@@ -57,6 +78,14 @@ class TaskChannel:
             self.queue.put((self.key, self.pending))
             self.pending, self.last = 0, now
 
+    def phase(self, phase: TaskPhase) -> None:
+        if self.key is None:
+            return
+        if self.pending:            # the units of the phase before: counted in it
+            self.queue.put((self.key, self.pending))
+        self.queue.put((self.key, phase))
+        self.pending, self.last = 0, time.monotonic()
+
 
 #: this process's end of the channel: set once in a pool worker (the pool's initializer,
 #: :func:`open_task_channel`); None in the driver, in tests and on a Dask worker, where
@@ -77,6 +106,15 @@ def task_units(n: int = 1) -> None:
     else nothing."""
     if _CHANNEL is not None:
         _CHANNEL.add(n)
+
+
+def task_phase(label: str, total: int, unit: str) -> None:
+    """The running task goes on with its phase ``label`` of ``total`` ``unit`` (a plural),
+    which its :func:`task_units` count from here on (its earlier phase, if any, is over).
+    Said to the driver at once, which shows it as a count of its own under the task's step,
+    when the task runs on a pool with a progress channel; else nothing."""
+    if _CHANNEL is not None:
+        _CHANNEL.phase(TaskPhase(label, int(total), unit))
 
 
 def run_counted(key, fn: Callable, args: tuple, kwargs: dict):

@@ -10,6 +10,9 @@ thread when it forks its workers (:func:`monkeystudy.study.pool.mp_context`).
 A step counts its work in its own unit (blocks, runs, designs). A task on a worker says how
 much of it is done as it goes, and a step's work in the driver goes in named phases, each with
 its own count: :mod:`.counts` holds that side (what the steps call), this module the display.
+A phase's line also gives the eta of its whole step: the phase's own eta plus the seconds a
+step expects each phase still to come to take (:meth:`Reporter.estimate`), with the phases it
+has no estimate of named after it (``step eta 40 s + screen``).
 """
 from __future__ import annotations
 
@@ -99,6 +102,12 @@ class Reporter:
         done; ``then`` names the phases still to come after it ("" for the step's last)."""
         pass
 
+    def estimate(self, name: str, label: str, seconds: float) -> None:
+        """Phase ``label`` of step ``name``, still to come, is expected to take ``seconds``
+        [s]: the step's eta counts it (a phase to come without an estimate is named
+        instead)."""
+        pass
+
     def finish(self, name: str, message: str = "") -> None:
         pass
 
@@ -132,6 +141,25 @@ def units(n: int, unit: str) -> str:
 
 def _seconds(t: float) -> str:
     return f"{t:.0f} s" if t >= 10 else f"{t:.1f} s"
+
+
+def phases_to_come(then: str) -> list[str]:
+    """The labels of the phases to come, from a phase's ``then`` (``"screen, checks"``)."""
+    return [x.strip() for x in then.split(",") if x.strip()]
+
+
+def step_eta(phase_left: float | None, then: str, estimates: dict[str, float]) -> tuple:
+    """The eta of a whole step [s] as far as it can be estimated: ``phase_left`` (the current
+    phase's eta; None: not known yet) plus the estimate of every phase to come that has one
+    (``estimates``), and the labels of those that have none. ``(None, [])`` when no phase
+    comes after the current one; ``(None, labels)`` while the phase's eta is not known."""
+    later = phases_to_come(then)
+    if not later:
+        return None, []
+    unknown = [x for x in later if x not in estimates]
+    if phase_left is None:
+        return None, unknown
+    return phase_left + sum(estimates[x] for x in later if x in estimates), unknown
 
 
 class _Ticker:
@@ -170,10 +198,13 @@ def ticking(echo: Callable[[str], None], what: str, every: float = 1.0) -> Itera
 class PlainReporter(Reporter):
     """One line per event; progress at most every ``every`` seconds per step."""
 
-    def __init__(self, stream: TextIO | None = None, every: float = 5.0):
+    def __init__(self, stream: TextIO | None = None, every: float = 5.0,
+                 clock: Callable[[], float] = time.monotonic):
         self.stream = stream or sys.stderr
         self.every = every
+        self.clock = clock              # [s]: time.monotonic, or a test's
         self._steps: dict[str, list] = {}
+        self._estimates: dict[str, dict[str, float]] = {}
         # a run's worker counts arrive on a thread of their own (:func:`run_counted`)
         self._lock = threading.RLock()
 
@@ -203,8 +234,9 @@ class PlainReporter(Reporter):
         self._line(f"{done} in {_seconds(waited.elapsed)}")
 
     def start(self, name, total, done=0, unit="blocks"):
-        now = time.monotonic()
+        now = self.clock()
         with self._lock:
+            self._estimates[name] = {}
             # total, done, done at the phase's start, unit, step start, last line, phase
             # label, phase start, phases to come
             self._steps[name] = [total, done, done, unit, now, now, "", now, ""]
@@ -212,7 +244,7 @@ class PlainReporter(Reporter):
             self._line(f"{name}: {units(total, unit)}{resumed}")
 
     def phase(self, name, label, total, unit, then="", done=0):
-        now = time.monotonic()
+        now = self.clock()
         with self._lock:
             st = self._steps.get(name)
             t0 = st[4] if st else now
@@ -227,22 +259,31 @@ class PlainReporter(Reporter):
                 return
             st[1] += n
             total, done, done0, unit, _, last, label, p0, then = st
-            now = time.monotonic()
+            now = self.clock()
             if done < total and now - last < self.every:
                 return
             st[5] = now
             el = now - p0
             rate = (done - done0) / el if el > 0 else 0.0
-            eta = (f", eta {(total - done) / rate:.0f} s" + (f" then {then}" if then else "")
-                   if rate > 0 and done < total else "")
+            left = (total - done) / rate if rate > 0 and done < total else None
+            eta = (f", eta {left:.0f} s" + (f" then {then}" if then else "")
+                   if left is not None else "")
+            whole, unknown = step_eta(left, then, self._estimates.get(name, {}))
+            if whole is not None:
+                eta += f"; step eta {whole:.0f} s" + (f" + {', '.join(unknown)}"
+                                                       if unknown else "")
             what = f"{name}: {label}" if label else name
             self._line(f"{what}: {done}/{total} {unit} ({100.0 * done / max(total, 1):.0f}%), "
                        f"{el:.1f} s{eta}")
 
+    def estimate(self, name, label, seconds):
+        with self._lock:
+            self._estimates.setdefault(name, {})[label] = float(seconds)
+
     def finish(self, name, message=""):
         with self._lock:
             st = self._steps.get(name)
-            el = f" in {time.monotonic() - st[4]:.1f} s" if st else ""
+            el = f" in {self.clock() - st[4]:.1f} s" if st else ""
             self._line(f"{name}: done{el}" + (f" - {message}" if message else ""))
 
     def fail(self, name, message):
@@ -263,23 +304,64 @@ def _words(field: str, style: str):
     return Words()
 
 
+def _step_eta_column():
+    """A progress column of a phase's step eta (:func:`step_eta`: the phase's eta from its
+    rate plus the estimates of the phases to come): ``step eta 0:00:40``, never cut; empty
+    for a step without phases to come. The phases to come without an estimate are named in
+    the words after the bar (:func:`_then_words`)."""
+    # rich loads with the display, only on a terminal (as in RichReporter)
+    from rich.progress import ProgressColumn
+    from rich.table import Column
+    from rich.text import Text
+
+    class StepEta(ProgressColumn):
+        def render(self, task):
+            then = task.fields.get("later", "")
+            if not phases_to_come(then):
+                return Text("")
+            left = None if task.finished else task.time_remaining
+            whole, _ = step_eta(left, then, task.fields.get("estimates", {}))
+            return Text("step eta " + ("-:--:--" if whole is None else _hms(whole)),
+                        style="cyan")
+    return StepEta(table_column=Column(no_wrap=True))
+
+
+def _then_words(then: str, estimates: dict[str, float]) -> str:
+    """The words after a phase's bar: the phases to come that its step eta leaves out (no
+    estimate), ``+ screen, checks``; else the phases to come, ``then checks``."""
+    unknown = step_eta(0.0, then, estimates)[1]
+    if unknown:
+        return "+ " + ", ".join(unknown)
+    return f"then {then}" if then else ""
+
+
+def _hms(t: float) -> str:
+    """``0:01:05``: a time [s] as rich's time columns show it (whole seconds)."""
+    t = max(int(t), 0)
+    return f"{t // 3600}:{t // 60 % 60:02d}:{t % 60:02d}"
+
+
 class RichReporter(Reporter):
     """A rich progress bar per step, with elapsed time and ETA (on a terminal)."""
 
-    def __init__(self, stream: TextIO | None = None):
+    def __init__(self, stream: TextIO | None = None,
+                 clock: Callable[[], float] = time.monotonic):
         # rich loads in ~0.1 s: only a run on a terminal pays for it
         from rich.console import Console
 
         self.console = Console(file=stream or sys.stderr)
+        self.clock = clock              # [s]: the bars' times; time.monotonic, or a test's
         self.progress = None
         self._tasks: dict[str, int] = {}
+        self._estimates: dict[str, dict[str, float]] = {}
 
     def _display(self):
         """The progress display, started with the first step (its refresh thread with it).
 
         A step's line is its name and phase, its count and unit, the elapsed time and eta,
-        the bar and the phases still to come. The count and times are never cut; on a narrow
-        terminal the bar, the name and the phases to come shrink (the words cut with "…")."""
+        the step's eta (with phases to come), the bar and the phases still to come. The count
+        and times are never cut; on a narrow terminal the bar, the name and the phases to
+        come shrink (the words cut with "…")."""
         if self.progress is None:
             # loaded with the first step's display, after the compile
             from rich.progress import (
@@ -297,8 +379,9 @@ class RichReporter(Reporter):
                 TimeElapsedColumn(table_column=whole()),
                 TextColumn("eta", table_column=whole()),
                 TimeRemainingColumn(table_column=whole()),
+                _step_eta_column(),
                 BarColumn(bar_width=24), _words("then", "dim"),
-                console=self.console, transient=False)
+                console=self.console, transient=False, get_time=self.clock)
             self.progress.start()
         return self.progress
 
@@ -338,9 +421,10 @@ class RichReporter(Reporter):
     def start(self, name, total, done=0, unit="blocks"):
         if done:
             self.log(f"{name}: {units(total, unit)} ({done} already saved)")
+        self._estimates[name] = {}
         self._tasks[name] = self._display().add_task(name, total=total, completed=done,
                                                      unit=units(total, unit).split(" ", 1)[1],
-                                                     then="")
+                                                     then="", later="", estimates={})
 
     def phase(self, name, label, total, unit, then="", done=0):
         if name not in self._tasks:
@@ -351,7 +435,8 @@ class RichReporter(Reporter):
         self.progress.reset(t, start=True, total=total, completed=done,
                             description=f"{name}: {label}",
                             unit=units(total, unit).split(" ", 1)[1],
-                            then=f"then {then}" if then else "")
+                            then=_then_words(then, self._estimates.get(name, {})),
+                            later=then, estimates=dict(self._estimates.get(name, {})))
         if began is not None:
             self.progress.tasks[t].start_time = began
 
@@ -359,10 +444,18 @@ class RichReporter(Reporter):
         if name in self._tasks:
             self.progress.advance(self._tasks[name], n)
 
+    def estimate(self, name, label, seconds):
+        est = self._estimates.setdefault(name, {})
+        est[label] = float(seconds)
+        if name in self._tasks:
+            t = self._tasks[name]
+            then = self.progress.tasks[t].fields.get("later", "")
+            self.progress.update(t, estimates=dict(est), then=_then_words(then, est))
+
     def finish(self, name, message=""):
         if name in self._tasks:
             t = self._tasks[name]
-            self.progress.update(t, completed=self.progress.tasks[t].total, then="")
+            self.progress.update(t, completed=self.progress.tasks[t].total, then="", later="")
         if message:
             self.log(f"{name}: {message}")
 

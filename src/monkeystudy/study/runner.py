@@ -45,7 +45,7 @@ from .failures import FAILED, NOT_RUN, StepFailure, clear_failures, write_failur
 from .loader import LoadedStudy
 from .plan import Plan, StepPlan, plan_study
 from .pool import DeferredSignals, Pool, local_pool_kind, open_pool
-from .counts import StepProgress, run_counted
+from .counts import StepProgress, TaskPhase, run_counted
 from .progress import Reporter, all_of, count, singular_counts
 from .spec import GaitSpec, gait_json, gait_spec, integrator_fields
 from .steps import Dependency, StepContext, kind_of
@@ -214,12 +214,19 @@ class TaskCounts:
     """The progress count of each task on the pool, from what its worker sends as it goes
     (:func:`~monkeystudy.study.counts.task_units`, read on a thread of its own: the
     count moves while the driver works on a step) and the rest when its result comes: a
-    task adds its ``units`` to its step's count, never more."""
+    task adds its ``units`` to its step's count, never more.
+
+    A long task may count in phases of its own (:func:`~monkeystudy.study.counts.
+    task_phase`, e.g. a fit's residual evaluations): each is a count of its own under its
+    step (``<step>: <phase>``, up to the phase's total) beside the step's count of tasks,
+    which the task adds its ``units`` to when its result comes."""
 
     def __init__(self, reporter: Reporter):
         self.rep = reporter
         self.lock = threading.Lock()
-        self.open: dict[tuple, list] = {}    # key -> [step name, units, units counted]
+        # key -> [step name, units, units counted, its phase's count's name ("": none),
+        # the phase's total, the phase's units counted]
+        self.open: dict[tuple, list] = {}
         # a resident pool's channel may still hold counts of an earlier run's tasks: keys
         # are this run's own
         self.run = uuid.uuid4().hex
@@ -230,23 +237,49 @@ class TaskCounts:
         with self.lock:
             self.n += 1
             key = (self.run, self.n)
-            self.open[key] = [step, int(units), 0]
+            self.open[key] = [step, int(units), 0, "", 0, 0]
             return key
 
-    def sent(self, key: tuple, n: int) -> None:
-        """The worker of task ``key`` did ``n`` more units."""
+    def sent(self, key: tuple, n) -> None:
+        """The worker of task ``key`` did ``n`` more units (an int), or began a phase (a
+        :class:`~monkeystudy.study.counts.TaskPhase`)."""
         with self.lock:
             c = self.open.get(key)
-            n = min(int(n), c[1] - c[2]) if c is not None else 0
+            if c is None:
+                return
+            if isinstance(n, TaskPhase):
+                self._end_phase(c)
+                c[3:6] = [f"{c[0]}: {n.label}", n.total, 0]
+                self.rep.start(c[3], n.total, 0, n.unit)
+                return
+            if c[3]:
+                n = min(int(n), c[4] - c[5])
+                if n > 0:
+                    c[5] += n
+                    self.rep.advance(c[3], n)
+                return
+            n = min(int(n), c[1] - c[2])
             if n > 0:
                 c[2] += n
                 self.rep.advance(c[0], n)
 
+    def _end_phase(self, c: list) -> None:
+        """The phase of task ``c`` (if any) is over: its count whole and finished."""
+        if c[3]:
+            if c[4] > c[5]:
+                self.rep.advance(c[3], c[4] - c[5])
+            self.rep.finish(c[3])
+            c[3] = ""
+
     def done(self, key: tuple) -> None:
-        """Task ``key``'s result came: its units not yet counted are."""
+        """Task ``key``'s result came: its units not yet counted are (and its phase is
+        over)."""
         with self.lock:
             c = self.open.pop(key, None)
-            if c is not None and c[1] > c[2]:
+            if c is None:
+                return
+            self._end_phase(c)
+            if c[1] > c[2]:
                 self.rep.advance(c[0], c[1] - c[2])
 
     def drop(self, key: tuple) -> None:

@@ -505,11 +505,16 @@ def test_a_design_step_counts_designs_then_each_phase_and_survival_counts_runs(t
                         e[5] += n
                         break
 
+        def estimate(self, name, label, seconds):
+            with self.lock:
+                self.events.append(["estimate", name, label, seconds, "", 0])
+
     path = tmp_path / "segments.yaml"
     path.write_text(SEGMENTS)
     rec = Recorder()
     run_study(load_study(path), tmp_path / "out", workers=1, reporter=rec)
-    design = [(e[0], e[2], e[4]) for e in rec.events if e[1] == "design"]
+    design = [(e[0], e[2], e[4]) for e in rec.events if e[1] == "design"
+              and e[0] != "estimate"]
     assert design == [("start", "", "designs"), ("phase", "grid", "designs"),
                       ("phase", "refine", "designs"), ("phase", "screen", "runs"),
                       ("phase", "checks", "checks")]
@@ -521,5 +526,11 @@ def test_a_design_step_counts_designs_then_each_phase_and_survival_counts_runs(t
     assert phases["screen"][3] == screened * 6            # 6 runs each
     for label, e in phases.items():
         assert e[5] == e[3], (label, e)                   # each count reaches its total
+    # the step's eta: the checks estimated from each refined design's replays while the
+    # refine runs (one start), the screen not (no sound estimate before it runs)
+    at = {e[2]: i for i, e in enumerate(rec.events) if e[1] == "design" and e[0] == "phase"}
+    estimates = [(i, e) for i, e in enumerate(rec.events) if e[0] == "estimate"]
+    assert [(e[1], e[2]) for _, e in estimates] == [("design", "checks")]
+    assert all(at["refine"] < i < at["screen"] and 0 < e[3] < 60 for i, e in estimates)
     survival = [e for e in rec.events if e[1] == "design_survival"]
     assert [(e[0], e[3], e[4], e[5]) for e in survival] == [("start", 4, "runs", 4)]

@@ -408,6 +408,18 @@ def nelder_mead(space: DesignSpace, st: DesignStep, axes, start: dict,
 VERIFY_CHECKS = 4
 
 
+def checks_seconds(v: DesignVerify, per_cycle: dict[float, float]) -> float:
+    """How long the checks of the best design are expected to take [s]: the cycles they run
+    at most (the two replays' ``cycles``, the decay run's, every basin start's, the film's
+    one) at ``per_cycle``, the seconds a cycle of a refined design's replay took on the
+    same tick (0: exact timing; {0: s, v.tick: s}): the checks replay such a design the same
+    way, and a basin start that falls early only makes them shorter."""
+    exact = per_cycle[0.0]
+    ticked = per_cycle.get(v.tick, exact)
+    return (v.cycles * (exact + ticked)
+            + (v.decay_cycles + v.basin_num ** 2 * v.basin_cycles + 1) * exact)
+
+
 def verify(space: DesignSpace, res: DesignResult, v: DesignVerify,
            checked: Callable[[int], None] = lambda n: None) -> dict:
     """The checks of one design: replays (exact and ticked), the decay of a perturbation, the
@@ -497,6 +509,8 @@ def refine_and_verify(space: DesignSpace, st: DesignStep, axes, grid: dict, star
     starting = [(flat, start) for flat, start in picks[:st.refine.starts] if start.ok]
     # each start: up to max_evaluations designs, then its two replays (one unit each)
     per_start = st.refine.max_evaluations + 2
+    # the replays' time [s] and cycles by tick: the checks' estimate (checks_seconds)
+    cycle_cost: dict[float, list] = {}
     advance = progress.phase("refine", per_start * len(starting), "designs",
                              then=", ".join(later))
     for flat, start in starting:
@@ -518,9 +532,15 @@ def refine_and_verify(space: DesignSpace, st: DesignStep, axes, grid: dict, star
         # survives the controller tick
         reps = []
         for t in (0.0, st.verify.tick):
+            began = progress.clock()
             reps.append(replay_design(space, found, cycles=st.verify.cycles, tick=t,
                                       error_bound=st.verify.error_bound))
+            spent = cycle_cost.setdefault(t, [0.0, 0])
+            spent[0] += progress.clock() - began
+            spent[1] += max(reps[-1].error.size, 1)
             advance(1)
+        progress.estimate("checks", checks_seconds(
+            st.verify, {t: sec / n for t, (sec, n) in cycle_cost.items()}))
         refined.append({"start": flat, "start_objective": float(objective[idx]),
                         "result": found, "evaluations": n_eval,
                         "cycles_completed": [r.cycles_completed for r in reps],

@@ -20,13 +20,14 @@ from pydantic import AfterValidator, Field, PrivateAttr, ValidationInfo, field_v
 
 from ...analysis.measured_replay import (
     FRICTION, HORIZON_MARGIN, PARAMETERS, REPLAY_INTEGRATOR, ModelValues, horizon_errors,
-    identify, model_swings, replay,
+    identify, identify_evaluations, model_swings, replay,
 )
 from ...measured import LogError, read_log, sensor_floor, swings
 from ...robot import Friction, Robot
 from .. import datasets as D
 from .. import provenance
 from ..blocks import Task
+from ..counts import task_phase, task_units
 from ..models import FrictionSettings, JointFriction, Name, StrictModel, UrdfRobotParams, unique
 from ..spec import GaitSpec
 from .base import Figure, StepContext, StepKind
@@ -260,14 +261,33 @@ def identify_task(spec: GaitSpec, train: list[str], logs: list[str], *, names: S
     """Identify ``names`` on the swings of the ``train`` logs (paths;
     :func:`~monkeystudy.analysis.measured_replay.identify` with the study's robot, its
     friction replaced), then replay every log of ``logs`` with the identified model
-    (:func:`evaluate_log`, with the whole-swing series)."""
+    (:func:`evaluate_log`, with the whole-swing series).
+
+    Two phases, each with its count (:func:`~monkeystudy.study.counts.task_phase`):
+    ``identify`` counts the fit's residual evaluations against the most it can make
+    (:func:`~monkeystudy.analysis.measured_replay.identify_evaluations`, worded "at most":
+    a fit that converges sooner completes the count), ``replays`` the logs replayed."""
     base = spec.robot
     sws = [ms for p in train for ms in model_swings(read_log(p))]
+    most = identify_evaluations(max_nfev, len(names))
+    # the most, not what the fit will make (on studies/acromonk.yaml about a fifth): the
+    # count and its eta say so
+    task_phase("identify", most, "residual evaluations at most")
+    evaluated = [0]
+
+    def count(n: int) -> None:
+        evaluated[0] += n
+        task_units(n)
     fit = identify(base, sws, names=tuple(names), window=window, every=every,
-                   max_nfev=max_nfev)
-    return {"fit": fit,
-            "logs": [evaluate_log(fit.model, base, p, horizons=horizons, every=start_every,
-                                  series=True) for p in logs]}
+                   max_nfev=max_nfev, evaluated=count)
+    task_units(most - evaluated[0])
+    task_phase("replays", len(logs), "logs")
+    replayed = []
+    for p in logs:
+        replayed.append(evaluate_log(fit.model, base, p, horizons=horizons, every=start_every,
+                                     series=True))
+        task_units(1)
+    return {"fit": fit, "logs": replayed}
 
 
 def model_task(spec: GaitSpec, values: ModelValues, path: str, *, horizons: Sequence[float],
