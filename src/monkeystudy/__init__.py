@@ -18,7 +18,7 @@ __version__ = "0.1.0"
 _EXPORTS = {
     "controllers": ("HorizontalSearch", "Integrator", "Observer", "OpenLoop", "PhaseSequence",
                     "Segment", "SequenceGait", "horizontal_gait"),
-    "robot": ("Friction", "Link", "Robot", "Rotor", "SEED2009_TORQUE"),
+    "robot": ("Friction", "Link", "Motor", "Robot", "Rotor", "SEED2009_TORQUE"),
     "simulation": ("GaitResult", "RunResult", "Status", "evaluate_cycle_gaits", "evaluate_gaits",
                    "evaluate_horizontal_gait", "initial_state", "run_controller", "simulate"),
 }
@@ -29,7 +29,7 @@ if TYPE_CHECKING:  # static analysers and IDEs see the eager imports
         HorizontalSearch, Integrator, Observer, OpenLoop, PhaseSequence, Segment, SequenceGait,
         horizontal_gait,
     )
-    from .robot import SEED2009_TORQUE, Friction, Link, Robot, Rotor  # noqa: F401
+    from .robot import SEED2009_TORQUE, Friction, Link, Motor, Robot, Rotor  # noqa: F401
     from .simulation import (  # noqa: F401
         GaitResult, RunResult, Status, evaluate_cycle_gaits, evaluate_gaits,
         evaluate_horizontal_gait, initial_state, run_controller, simulate,

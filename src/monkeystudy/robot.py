@@ -107,6 +107,27 @@ class Rotor:
 
 
 @dataclass(frozen=True)
+class Motor:
+    """The joint motor's limits: the largest torque magnitude it gives [N m] and the largest
+    joint speed |dtheta2/dt| it turns at [rad s-1]; inf (the default) where none is stated.
+
+    A robot from a URDF takes its motor joint's ``<limit effort velocity>``. The limits bound
+    what a design search may ask of the motor (:class:`~monkeystudy.analysis.
+    SegmentDesignSpace`) and a study's gait is checked against them; the simulation itself
+    applies the torques it is given.
+    """
+
+    torque_limit: float = math.inf
+    speed_limit: float = math.inf
+
+    def validate(self, where: str) -> None:
+        for name in ("torque_limit", "speed_limit"):
+            value = float(getattr(self, name))
+            if math.isnan(value) or value <= 0.0:
+                raise ValueError(f"{where}.{name} must be > 0 (inf: none), got {value!r}")
+
+
+@dataclass(frozen=True)
 class Robot:
     """The MonkeyBot: two links, gravity [m s-2], friction at the pivot and the joint.
 
@@ -121,6 +142,7 @@ class Robot:
     joint_friction: Friction = field(default_factory=Friction)
     name: str = "custom"
     rotor: Rotor = field(default_factory=Rotor)
+    motor: Motor = field(default_factory=Motor)
 
     def __post_init__(self):
         self.link1.validate("link1")
@@ -129,6 +151,7 @@ class Robot:
         self.pivot_friction.validate("friction.pivot")
         self.joint_friction.validate("friction.joint")
         self.rotor.validate("rotor")
+        self.motor.validate("motor")
 
     # -- presets ---------------------------------------------------------------------------
     @classmethod
@@ -167,6 +190,9 @@ class Robot:
         name : str, optional
             The robot's label (default: the URDF's robot name).
 
+        The motor's limits are the motor joint's ``<limit effort velocity>``
+        (:class:`Motor`; :meth:`with_motor` sets others).
+
         Raises
         ------
         monkeystudy.urdf.UrdfError
@@ -183,7 +209,8 @@ class Robot:
                     for lk in (red.link1, red.link2))
         return cls(lk1, lk2, gravity=gravity, pivot_friction=pivot_friction or Friction(),
                    joint_friction=joint_friction or Friction(),
-                   name=red.name if name is None else name)
+                   name=red.name if name is None else name,
+                   motor=Motor(red.motor_effort, red.motor_velocity))
 
     def with_friction(self, pivot: Friction | None = None, joint: Friction | None = None):
         return replace(self, pivot_friction=pivot or self.pivot_friction,
@@ -192,6 +219,10 @@ class Robot:
     def with_rotor(self, rotor: Rotor) -> "Robot":
         """This robot with the joint motor's rotor ``rotor``."""
         return replace(self, rotor=rotor)
+
+    def with_motor(self, motor: Motor) -> "Robot":
+        """This robot with the joint motor's limits ``motor``."""
+        return replace(self, motor=motor)
 
     # -- kernel view -------------------------------------------------------------------------
     def params(self) -> np.ndarray:
@@ -289,14 +320,19 @@ class Robot:
     def to_dict(self) -> dict:
         """Plain values (JSON-ready): ``link1``, ``link2`` (mass, length, com, inertia, and
         com_across unless it is 0), ``gravity``, ``pivot_friction``, ``joint_friction``
-        (viscous, coulomb), ``name``, and ``rotor`` (inertia, gear_ratio, housing) unless it
-        is the default, none."""
+        (viscous, coulomb), ``name``, ``rotor`` (inertia, gear_ratio, housing) unless it
+        is the default, none, and ``motor`` (torque_limit [N m], speed_limit [rad s-1], null
+        for none) unless it states no limit."""
         d = asdict(self)
         for link in ("link1", "link2"):
             if d[link]["com_across"] == 0.0:
                 del d[link]["com_across"]     # an in-line link is described as it always was
         if self.rotor == Rotor():
             del d["rotor"]                    # so is a robot without a rotor
+        if self.motor == Motor():
+            del d["motor"]                    # and one whose motor states no limit
+        else:                                 # JSON has no infinity
+            d["motor"] = {k: (None if math.isinf(v) else v) for k, v in d["motor"].items()}
         return d
 
     @classmethod
@@ -306,7 +342,9 @@ class Robot:
         return cls(Link(**d["link1"]), Link(**d["link2"]), gravity=float(d.get("gravity", 9.81)),
                    pivot_friction=Friction(**d.get("pivot_friction") or {}),
                    joint_friction=Friction(**d.get("joint_friction") or {}),
-                   name=str(d.get("name", "custom")), rotor=Rotor(**d.get("rotor") or {}))
+                   name=str(d.get("name", "custom")), rotor=Rotor(**d.get("rotor") or {}),
+                   motor=Motor(**{k: (math.inf if v is None else float(v))
+                                  for k, v in (d.get("motor") or {}).items()}))
 
 
 def _seed2009() -> Robot:

@@ -100,6 +100,8 @@ class UrdfReduction:
     the world (dropped); ``out_of_plane`` maps each reduced point (``end_A``, ``joint``,
     ``end_B``, ``cg1``, ``cg2``) to its offset along ``normal`` from end A [m] (irrelevant to
     planar motion, reported so that a reader sees what was projected away).
+    ``motor_effort`` [N m] and ``motor_velocity`` [rad s-1] are the motor joint's ``<limit>``
+    (inf where the URDF states none).
     """
 
     name: str
@@ -111,6 +113,8 @@ class UrdfReduction:
     plane_y: tuple[float, float, float]
     environment: tuple[str, ...]
     out_of_plane: dict[str, float]
+    motor_effort: float = math.inf
+    motor_velocity: float = math.inf
 
     def describe(self) -> str:
         """The reduction in a few lines of text (the numbers docs/model.md quotes)."""
@@ -123,6 +127,8 @@ class UrdfReduction:
         a = self.angles
         rows.append(f"angles: theta1 = q1 + {a.theta1_offset:.6g} rad, theta2 = "
                     f"{'' if a.theta2_sign > 0 else '-'}q2 + {a.theta2_offset:.6g} rad")
+        rows.append(f"motor joint limits: effort {self.motor_effort:.6g} N m, velocity "
+                    f"{self.motor_velocity:.6g} rad s-1")
         rows.append("environment (dropped): " + (", ".join(self.environment) or "none"))
         rows.append("out of plane (dropped) [m]: " + ", ".join(
             f"{k} {v:.6g}" for k, v in self.out_of_plane.items()))
@@ -321,7 +327,18 @@ def reduce_urdf(source, *, links: tuple[str, str], joints: tuple[str, str],
         name=str(robot.name), link1=pl1, link2=pl2, angles=angles,
         normal=tuple(float(x) for x in normal), plane_x=tuple(float(x) for x in plane_x),
         plane_y=tuple(float(x) for x in plane_y), environment=environment,
-        out_of_plane={k: float((p - end_a) @ normal) for k, p in point.items()})
+        out_of_plane={k: float((p - end_a) @ normal) for k, p in point.items()},
+        motor_effort=_limit(motor, "effort"), motor_velocity=_limit(motor, "velocity"))
+
+
+def _limit(joint, which: str) -> float:
+    """A joint's ``<limit>`` attribute ``which`` (``effort`` [N m] or ``velocity``
+    [rad s-1]); inf where the URDF states none, or a value that is not positive (no motor
+    could move within it)."""
+    value = getattr(joint.limit, which, None) if joint.limit is not None else None
+    if value is None or not float(value) > 0.0:
+        return math.inf
+    return float(value)
 
 
 __all__ = ["AXIS_TOLERANCE", "PlanarLink", "UrdfAngles", "UrdfError", "UrdfReduction",

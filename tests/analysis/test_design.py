@@ -208,8 +208,6 @@ def test_a_two_swap_cycle_designs_a_robot_without_mirror_image_links():
     gait = SequenceGaitSpec.model_validate(BRACHIATION).gait()
     space = SegmentDesignSpace(gait, robot, motor_frame=True, integrator=TIGHT,
                                torque_limit=3.0)      # N m: the lab's trajectory optimisation
-    assert "outside [-2.0, 2.0]" in SegmentDesignSpace(
-        gait, robot, motor_frame=True).buildable(space.values())     # the default limit
     res = with_variational(space, evaluate_design(space, {}, Z_BRACHIATION + [0.0, 0.01, -0.01]))
     assert res.ok, res.message
     np.testing.assert_allclose(res.z, Z_BRACHIATION, atol=1e-6)

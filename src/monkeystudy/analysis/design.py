@@ -382,8 +382,10 @@ class SegmentDesignSpace:
         Stability of the full map (height included) instead of the section map.
     integrator, tol, max_iter, fd_step
         As :class:`DesignSpace`'s.
-    torque_limit : float
-        The largest torque magnitude a torque parameter may take [N m] (the motor's limit).
+    torque_limit : float, optional
+        The largest torque magnitude a torque parameter may take [N m]: default the robot's
+        motor's (:class:`~monkeystudy.Motor`), or :data:`SEGMENT_TORQUE_BOUND` for a motor
+        that states no limit.
     """
 
     base_gait: SequenceGait
@@ -395,7 +397,7 @@ class SegmentDesignSpace:
     tol: float = 1e-11
     max_iter: int = 12
     fd_step: float = 1e-5
-    torque_limit: float = SEGMENT_TORQUE_BOUND
+    torque_limit: float | None = None
 
     balance: ClassVar[str] = "none"
     clock: ClassVar[str] = "reset_at_vertical"
@@ -410,8 +412,13 @@ class SegmentDesignSpace:
                              "section (no period)")
         # a cycle that ends hanging from A (two swaps) is defined for any robot
         check_cycle_frame(self.base_gait, self.robot)
-        if not self.torque_limit > 0:
-            raise ValueError(f"torque_limit must be positive, got {self.torque_limit!r} N m")
+        if self.torque_limit is None:
+            motor = self.robot.motor.torque_limit
+            object.__setattr__(self, "torque_limit",
+                               motor if math.isfinite(motor) else SEGMENT_TORQUE_BOUND)
+        if not (self.torque_limit > 0 and math.isfinite(self.torque_limit)):
+            raise ValueError(f"torque_limit must be positive and finite, got "
+                             f"{self.torque_limit!r} N m")
         for name in self.base:
             self.parameter(name)
 

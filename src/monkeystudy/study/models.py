@@ -27,7 +27,7 @@ from ..controllers import (
     TORQUE_FRAMES, Integrator, Segment, SequenceGait, horizontal_gait,
     torques_from_motor_frame,
 )
-from ..robot import PRESETS, Friction, Link, Robot, Rotor
+from ..robot import PRESETS, Friction, Link, Motor, Robot, Rotor
 from ..simulation import STATUS_NAMES
 from ..urdf import UrdfError, check_names, load_urdf, reduce_urdf
 
@@ -163,6 +163,23 @@ class RotorParams(StrictModel):
         return Rotor(self.inertia, self.gear_ratio, self.housing)
 
 
+class MotorParams(StrictModel):
+    """The joint motor's limits (``monkeystudy.Motor``); a field left out states none (a
+    URDF robot: the motor joint's ``<limit>``)."""
+
+    torque_limit: Optional[float] = Field(None, gt=0, allow_inf_nan=False,
+                                          description="the largest torque magnitude the motor "
+                                                      "gives [N m]")
+    speed_limit: Optional[float] = Field(None, gt=0, allow_inf_nan=False,
+                                         description="the largest joint speed |dtheta2/dt| "
+                                                     "[rad s-1]")
+
+    def to_motor(self, base: Motor = Motor()) -> Motor:
+        """``base`` with the limits these parameters state."""
+        return Motor(base.torque_limit if self.torque_limit is None else self.torque_limit,
+                     base.speed_limit if self.speed_limit is None else self.speed_limit)
+
+
 class RobotParams(StrictModel):
     """Explicit robot parameters (docs/model.md section 1)."""
 
@@ -173,6 +190,8 @@ class RobotParams(StrictModel):
     friction: FrictionSettings = Field(default_factory=FrictionSettings)
     rotor: RotorParams = Field(default_factory=RotorParams,
                                description="the joint motor's rotor (none by default)")
+    motor: MotorParams = Field(default_factory=MotorParams,
+                               description="the joint motor's limits (none by default)")
 
     def to_robot(self) -> Robot:
         """The :class:`~monkeystudy.Robot` these parameters describe."""
@@ -181,7 +200,7 @@ class RobotParams(StrictModel):
         return Robot(links[0], links[1], gravity=self.gravity,
                      pivot_friction=Friction(f.pivot.viscous, f.pivot.coulomb),
                      joint_friction=Friction(f.joint.viscous, f.joint.coulomb), name=self.name,
-                     rotor=self.rotor.to_rotor())
+                     rotor=self.rotor.to_rotor(), motor=self.motor.to_motor())
 
 
 def urdf_path(text: str, info: ValidationInfo) -> Path:
@@ -250,6 +269,9 @@ class UrdfRobotParams(StrictModel):
     rotor: RotorParams = Field(default_factory=RotorParams,
                                description="the joint motor's rotor (a URDF does not state "
                                            "one; none by default)")
+    motor: MotorParams = Field(default_factory=MotorParams,
+                               description="the joint motor's limits (default: the motor "
+                                           "joint's <limit effort velocity> in the URDF)")
     _robot: Robot = PrivateAttr()
 
     @field_validator("urdf")
@@ -278,6 +300,7 @@ class UrdfRobotParams(StrictModel):
                                       pivot_friction=Friction(f.pivot.viscous, f.pivot.coulomb),
                                       joint_friction=Friction(f.joint.viscous, f.joint.coulomb)
                                       ).with_rotor(self.rotor.to_rotor())
+        self._robot = self._robot.with_motor(self.motor.to_motor(self._robot.motor))
         return self
 
     def to_robot(self) -> Robot:

@@ -73,7 +73,22 @@ def cross_check(study: Study) -> list[Problem]:
     steps.base.StepKind.runs_gait`); every other check is the step kind's own
     (:meth:`~monkeystudy.study.steps.base.StepKind.check`), given the earlier steps by name.
     """
-    return _check_steps(study, list(enumerate(study.steps)), {})
+    return motor_problems(study) + _check_steps(study, list(enumerate(study.steps)), {})
+
+
+def motor_problems(study: Study) -> list[Problem]:
+    """Each torque of the study's gait [N m] larger than its robot's motor gives
+    (``robot.motor.torque_limit``; a robot whose motor states no limit has none)."""
+    gait = study.gait
+    if gait is None:
+        return []
+    limit = study.to_robot().motor.torque_limit
+    torques = ([(("gait", "motor_torque"), gait.motor_torque)] if gait.kind == "horizontal"
+               else [(("gait", "segments", k, "torque"), seg.torque)
+                     for k, seg in enumerate(gait.segments)]
+               + [(("gait", "section", "torque"), gait.section.torque)])
+    return [(path, f"{abs(tau)!r} N m is more than the robot's motor gives (its torque_limit "
+                   f"{limit!r} N m)") for path, tau in torques if abs(tau) > limit]
 
 
 def cross_check_parts(data: Any, context: dict | None = None) -> list[Problem]:
@@ -105,7 +120,8 @@ def cross_check_parts(data: Any, context: dict | None = None) -> list[Problem]:
                                      context=context)
     except ValidationError:
         study = None
-    return _check_steps(study, valid, invalid)
+    return (motor_problems(study) if study is not None else []) + _check_steps(study, valid,
+                                                                              invalid)
 
 
 def _check_steps(study: Study | None, steps: list[tuple[int, Any]],
@@ -173,4 +189,4 @@ def json_schema() -> dict:
 
 
 __all__ = ["SCHEMA_VERSION", "Problem", "Step", "Study", "cross_check", "cross_check_parts",
-           "json_schema"]
+           "json_schema", "motor_problems"]
