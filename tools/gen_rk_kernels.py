@@ -21,6 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
 from monkeystudy.kernel import tableaux as T  # noqa: E402
+from monkeystudy.kernel.dynamics import PACKED_FLIGHT, PACKED_SWING  # noqa: E402
 
 TARGET = ROOT / "src" / "monkeystudy" / "kernel" / "rk_explicit.py"
 
@@ -28,9 +29,7 @@ TARGET = ROOT / "src" / "monkeystudy" / "kernel" / "rk_explicit.py"
 # packed layout: positions then velocities; the vector field's derivative of a position is
 # the matching velocity, so only the accelerations need the dynamics
 TRIG = ["s1", "c1", "s2", "c2", "s12", "c12"]  # order of layout.T_*
-SWING = {"n": 4, "pos": [0, 1], "vel": [2, 3], "accel": "swing_accel", "args": (0, 1, 2, 3)}
-FLIGHT = {"n": 8, "pos": [0, 1, 2, 3], "vel": [4, 5, 6, 7], "accel": "flight_accel",
-          "args": (2, 3, 6, 7)}
+SWING, FLIGHT = PACKED_SWING, PACKED_FLIGHT  # the room's packed layouts (kernel/dynamics.py)
 
 
 def needed(lay) -> list[int]:

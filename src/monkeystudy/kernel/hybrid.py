@@ -39,18 +39,21 @@ from numba import typeof, types
 from numba.core.imputils import lower_builtin
 from numba.extending import type_callable
 
-from .dynamics import attach_xy_end, flip_state, holding_torque, rhs, total_energy8
+from .dynamics import (
+    TWO_LINK, attach_xy_end, flip_state, holding_torque, pack, rhs, total_energy8, unpack,
+    unpack_into,
+)
 from .events import (
     crosses, guard_and_rate_step, guard_rate_field, guard_rate_trig_value,
-    guard_rate_value, guard_trig_value, guard_value, hermite_flags, locate_first, pack,
-    rate_uses_field, unpack, unpack_into,
+    guard_rate_value, guard_trig_value, guard_value, hermite_flags, locate_first,
+    rate_uses_field,
 )
 from .integrate import (
     MAX_FACTOR, METHOD_KERNELS, MIN_FACTOR, PI_ERR_FLOOR, SAFETY, SWING_DENSE_PREPARE,
     choice_of_type, dense_eval, error_estimator_order, error_power_sq, pi_factor,
     select_initial_step,
 )
-from .jit import njit, specialised, specialised_globals
+from .jit import Model, njit, specialised, specialised_globals
 from .layout import (
     C_ATOL, C_CONTROLLER, C_MAX_CYCLES, C_MAX_DROP, C_MAX_SEGMENT_TIME, C_MAX_STEP, C_MAX_STEPS,
     C_RTOL, C_SAMPLE_DT, C_T_END, C_TICK, C_TICK_PHASE, C_ZERO_BAND, CONTROLLER_PI, FLIES,
@@ -500,12 +503,17 @@ def loop_callees(method_code):
     ))
 
 
-def simulate_implementation(method_code, flies=True):
+def simulate_implementation(method_code, flies=True, model: Model = TWO_LINK):
     """The hybrid loop of :func:`simulate` for one integration method (``METHOD_*``), as a
     plain function whose step, error norm and dense output are that method's own (and only
-    the swing ones unless ``flies``): :func:`hybrid_loop` compiles it (one specialisation per
-    method and phase set, which compiles only those steps); interpreted
-    (``NUMBA_DISABLE_JIT``), it runs as it is.
+    the swing ones unless ``flies``), and whose model of the robot is ``model``'s kernels:
+    :func:`hybrid_loop` compiles it (one specialisation per method, phase set and model,
+    which compiles only those steps); interpreted (``NUMBA_DISABLE_JIT``), it runs as it is.
+
+    The model's kernels are globals of the loop's copy, and of copies of every callee that
+    calls one of them (:func:`.jit.specialised_globals`, suffix the model's name), as the
+    method's steps are; the two-link model's are the kernels every module imports, so its
+    loops copy nothing for it.
 
     The loop: enter a segment (its magnets, :func:`apply_magnets`, then torque, reference
     energy and friction modes), integrate one leg step by step, locating the segment guard's
@@ -522,12 +530,15 @@ def simulate_implementation(method_code, flies=True):
     scope = dict(globals(), method_code=method_code, n_stages=n_stages,
                  step4=step4, step8=step8, error_sq4=error_sq4, error_sq8=error_sq8,
                  dense_prepare_of_method=dense_prepare_of_method)
+    scope = specialised_globals(_hybrid_loop.__code__, scope, model.name, model.kernels)
     if not flies:
         scope = specialised_globals(_hybrid_loop.__code__, scope, *WITHOUT_FLIGHT)
     # the specialisation's choices are globals of its own copy of the loop, not closure
     # cells: numba keys its disk cache on a closure's pickled cells, and a dispatcher
     # pickles differently in every process, so a closure would never load from the cache
     name = f"hybrid_loop_{_METHOD_NAMES[method_code]}_{'flight' if flies else 'swing'}"
+    if model != TWO_LINK:
+        name += f"_{model.name}"
     loop = FunctionType(_hybrid_loop.__code__, scope, name)
     loop.__qualname__ = name     # numba names its cache files after it
     return loop
@@ -973,24 +984,28 @@ def _hybrid_loop(method, par, prog, obs, settings, hyb_rows, counts_rows, seg_ro
 _METHOD_NAMES = {METHOD_RK45: "rk45", METHOD_DOP853: "dop853", METHOD_VERN9: "vern9"}
 
 
-#: the compiled loop of each (method, flies) made in this process: :func:`hybrid_loop`
+#: the compiled loop of each (method, flies, model) made in this process: :func:`hybrid_loop`
 _LOOPS = {}
 
 
-def hybrid_loop(method_code, flies=True):
-    """The compiled hybrid loop of one integration method (``METHOD_*``) and phase set (only
-    the swing steps unless ``flies``): a numba dispatcher of :func:`simulate_implementation`,
-    named ``hybrid_loop_<method>_<swing|flight>``, made once per process (two dispatchers
-    of one function, both loading its cached compile, would define the same symbols twice).
+def hybrid_loop(method_code, flies=True, model: Model = TWO_LINK):
+    """The compiled hybrid loop of one integration method (``METHOD_*``), phase set (only
+    the swing steps unless ``flies``) and model of the robot (:class:`.jit.Model`, the
+    two-link robot of :mod:`.dynamics` by default): a numba dispatcher of
+    :func:`simulate_implementation`, named ``hybrid_loop_<method>_<swing|flight>`` (with
+    ``_<model>`` after it for a model other than the two-link one), made once per process
+    (two dispatchers of one function, both loading its cached compile, would define the same
+    symbols twice).
 
     Cached on disk under its name: :func:`simulate` and every compiled caller (gait
     evaluations, survival, design), in any process, link that one compile, where a loop
     compiled as part of each caller would be compiled again by each process that needs it
     (the loop is most of a first run's compile). Its own name gives each specialisation its
     own cache index, so processes saving different specialisations at once cannot misfile
-    them.
+    them. :func:`simulate` and the compiled callers (:func:`simulate_loop`) run the two-link
+    model's loops.
     """
-    key = (int(method_code), bool(flies))
+    key = (int(method_code), bool(flies), model)
     if key not in _LOOPS:
         _LOOPS[key] = njit(cache=True, error_model="numpy")(simulate_implementation(*key))
     return _LOOPS[key]
