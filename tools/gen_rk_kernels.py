@@ -255,7 +255,7 @@ a stage's newest term is added in scalars, straight from the field. ``FM`` allow
 floating-point contraction (fused multiply-add): it never reassociates sums, so the result is
 as accurate as the generic loop (a single rounding per multiply-add instead of two).
 """
-from .dynamics import (\n    flight_accel_fused, flight_accel_trig_fused, swing_accel_fused, swing_accel_trig_fused,\n)
+from .dynamics import (\n    FIELDS,\n)
 from .intrinsics import combine_rows4, combine_rows8
 from .jit import njit
 
@@ -268,6 +268,10 @@ EM = "numpy"
 
 
 '''
+    # the room's fields the steps call, by name (one line, as the file has always had them)
+    fields = sorted(f"{lay['accel']}{kind}" for lay in (SWING, FLIGHT)
+                    for kind in ("_fused", "_trig_fused"))
+    head = head.replace("FIELDS", ", ".join(fields))
     body = [
         gen_step("dop853", T.DOP853_A, T.DOP853_B, T.DOP853_N_STAGES),
         gen_step("rk45", T.RK45_A, T.RK45_B, T.RK45_N_STAGES),
