@@ -262,3 +262,45 @@ def test_the_kernel_package_imports_only_numpy_numba_and_the_standard_library():
                 continue
             bad += [f"{path.name}: {n}" for n in names if n.split(".")[0] not in allowed]
     assert not bad, bad
+
+
+#: the kernel module that is the robot's model (the room, docs/architecture.md): the only one
+#: that reads the robot's parameters, but the Coulomb limits the hybrid loop's stick-slip
+#: logic compares holding torques with
+ROOM = "dynamics.py"
+LOOP_READS = {"P_C_PIVOT", "P_C_JOINT"}
+
+
+def robot_parameter_reads(folder: Path) -> list[str]:
+    """``file:line: name`` of every robot parameter index (``layout.P_*``) that a kernel module
+    of ``folder`` other than the room and the layout names, bar :data:`LOOP_READS`."""
+    bad = []
+    for path in sorted(folder.glob("*.py")):
+        if path.name in (ROOM, "layout.py"):
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = []
+            if isinstance(node, ast.Name):
+                names = [node.id]
+            elif isinstance(node, ast.Attribute):
+                names = [node.attr]
+            elif isinstance(node, ast.ImportFrom):
+                names = [a.asname or a.name for a in node.names]
+            bad += [f"{path.name}:{node.lineno}: {n}" for n in names
+                    if re.fullmatch(r"P_[A-Z0-9_]+", n) and n not in LOOP_READS]
+    return bad
+
+
+def test_only_the_room_reads_the_robots_geometry():
+    """The two-link geometry (lengths, CG offsets, masses and inertias and what derives from
+    them) is spelled in one kernel module: the guards, steps and loop reach it through the
+    room's functions (e.g. ``dynamics.free_end_height_s``, ``dynamics.guard_params``)."""
+    assert not robot_parameter_reads(PKG / "kernel")
+
+
+@pytest.mark.parametrize("code", ["h = -p[P_L1] * c1\n", "from .layout import P_R2\n",
+                                  "h = p[layout.P_K11]\n"])
+def test_a_kernel_module_spelling_the_geometry_is_found(tmp_path, code):
+    (tmp_path / "guards.py").write_text(code)
+    (tmp_path / ROOM).write_text("h = -p[P_L1] * c1\n")
+    assert len(robot_parameter_reads(tmp_path)) == 1

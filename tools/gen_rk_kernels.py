@@ -21,6 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
 from monkeystudy.kernel import tableaux as T  # noqa: E402
+from monkeystudy.kernel.dynamics import PACKED_FLIGHT, PACKED_SWING  # noqa: E402
 
 TARGET = ROOT / "src" / "monkeystudy" / "kernel" / "rk_explicit.py"
 
@@ -28,9 +29,7 @@ TARGET = ROOT / "src" / "monkeystudy" / "kernel" / "rk_explicit.py"
 # packed layout: positions then velocities; the vector field's derivative of a position is
 # the matching velocity, so only the accelerations need the dynamics
 TRIG = ["s1", "c1", "s2", "c2", "s12", "c12"]  # order of layout.T_*
-SWING = {"n": 4, "pos": [0, 1], "vel": [2, 3], "accel": "swing_accel", "args": (0, 1, 2, 3)}
-FLIGHT = {"n": 8, "pos": [0, 1, 2, 3], "vel": [4, 5, 6, 7], "accel": "flight_accel",
-          "args": (2, 3, 6, 7)}
+SWING, FLIGHT = PACKED_SWING, PACKED_FLIGHT  # the room's packed layouts (kernel/dynamics.py)
 
 
 def needed(lay) -> list[int]:
@@ -256,7 +255,7 @@ a stage's newest term is added in scalars, straight from the field. ``FM`` allow
 floating-point contraction (fused multiply-add): it never reassociates sums, so the result is
 as accurate as the generic loop (a single rounding per multiply-add instead of two).
 """
-from .dynamics import (\n    flight_accel_fused, flight_accel_trig_fused, swing_accel_fused, swing_accel_trig_fused,\n)
+from .dynamics import (\n    FIELDS,\n)
 from .intrinsics import combine_rows4, combine_rows8
 from .jit import njit
 
@@ -269,6 +268,10 @@ EM = "numpy"
 
 
 '''
+    # the room's fields the steps call, by name (one line, as the file has always had them)
+    fields = sorted(f"{lay['accel']}{kind}" for lay in (SWING, FLIGHT)
+                    for kind in ("_fused", "_trig_fused"))
+    head = head.replace("FIELDS", ", ".join(fields))
     body = [
         gen_step("dop853", T.DOP853_A, T.DOP853_B, T.DOP853_N_STAGES),
         gen_step("rk45", T.RK45_A, T.RK45_B, T.RK45_N_STAGES),

@@ -31,8 +31,10 @@ GUARD_KINDS = {
     "energy_restored": L.G_ENERGY_RESTORED, "coord": L.G_COORD, "energy": L.G_ENERGY,
     "free_end_y": L.G_FREE_END_Y,
 }
-COORD_INDEX = {"x": 0, "y": 1, "theta1": 2, "theta2": 3, "dx": 4, "dy": 5, "dtheta1": 6,
-               "dtheta2": 7}
+#: a coord guard's coordinate: its name in programs and study files, and its slot in the
+#: kernel's full state (layout ``X`` .. ``DTH2``)
+COORD_INDEX = {"x": L.X, "y": L.Y, "theta1": L.TH1, "theta2": L.TH2, "dx": L.DX, "dy": L.DY,
+               "dtheta1": L.DTH1, "dtheta2": L.DTH2}
 DIRECTIONS = {"rising": 1.0, "falling": -1.0, "either": 0.0}
 
 

@@ -515,8 +515,8 @@ STATE_VARIABLES = (
     ("x", L.X, "m", "x of the attached end"), ("y", L.Y, "m", "y of the attached end"),
     ("theta1", L.TH1, "rad", "link 1's angle from the downward vertical"),
     ("theta2", L.TH2, "rad", "link 2's angle relative to link 1"),
-    ("x_dot", 4, "m s-1", "rate of x of the attached end (0 unless flying)"),
-    ("y_dot", 5, "m s-1", "rate of y of the attached end (0 unless flying)"),
+    ("x_dot", L.DX, "m s-1", "rate of x of the attached end (0 unless flying)"),
+    ("y_dot", L.DY, "m s-1", "rate of y of the attached end (0 unless flying)"),
     ("theta1_dot", L.DTH1, "rad s-1", "rate of link 1's angle"),
     ("theta2_dot", L.DTH2, "rad s-1", "rate of link 2's relative angle"),
 )

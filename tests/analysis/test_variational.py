@@ -56,8 +56,8 @@ def kernel_log(gait, z, robot="seed2009"):
 # the compiled helpers against the simulator's own functions
 # ------------------------------------------------------------------------------------------
 def test_kernel_helpers_agree_with_the_simulator():
-    from monkeystudy.kernel.dynamics import rhs, total_energy8
-    from monkeystudy.kernel.events import guard, pack
+    from monkeystudy.kernel.dynamics import pack, rhs, total_energy8
+    from monkeystudy.kernel.events import guard
     from monkeystudy.kernel.hybrid import apply_magnets
     from monkeystudy.kernel.variational import (
         energy8_gradient, entry_reset, field8, field8_jacobian, guard8, guard8_gradient,

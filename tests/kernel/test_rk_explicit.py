@@ -18,8 +18,9 @@ import numpy as np
 import pytest
 
 from monkeystudy.kernel import dynamics as dyn
+from monkeystudy.kernel.dynamics import trig_of
 from monkeystudy.kernel.events import (
-    guard, guard_and_rate_step, guard_rate, guard_rate_trig, guard_trig, trig_of,
+    guard, guard_and_rate_step, guard_rate, guard_rate_trig, guard_trig,
 )
 from monkeystudy.kernel.integrate import error_power_sq, rk_step
 from monkeystudy.kernel.layout import (

@@ -87,3 +87,69 @@ def test_a_run_that_never_flies_compiles_the_swing_field_alone_bit_for_bit():
     # read as False, the flight branch is dropped before typing (tests/kernel/test_jit.py)
     assert rhs_swing.py_func.__globals__["FLIES"] is False
     assert hold_swing.py_func.__globals__["FLIES"] is False
+
+
+def _run_loop(loop, method, prog, obs, settings, hyb0, n_samp=4096, log_cap=256):
+    """One run of a compiled hybrid loop from ``hyb0``: every array it writes."""
+    from monkeystudy.kernel import layout as L
+
+    hyb = hyb0.copy()[None]
+    counts = np.zeros((1, L.N_COUNTS), np.int64)
+    seg_times = np.empty((1, prog.shape[0]))
+    log = np.empty((log_cap, L.N_LOG_COLS))
+    st, sy, sm = np.empty(n_samp), np.empty((n_samp, 8)), np.empty((n_samp, L.N_MODE_COLS))
+    loop(method, ROBOT.params(), prog, obs, settings, hyb, counts, seg_times, log, st, sy, sm)
+    n_log, n_s = counts[0, L.K_LOG], counts[0, L.K_SAMPLES]
+    return hyb, counts, seg_times, log[:n_log], st[:n_s], sy[:n_s], sm[:n_s]
+
+
+def guard_value_of_events():
+    from monkeystudy.kernel.events import guard_value
+    return guard_value
+
+
+def test_the_loop_built_on_a_second_model_calls_its_kernels_and_gives_the_same_bits():
+    """The loop is specialised on the robot's model as on the method: a model made of the
+    two-link model's kernels under a name of its own (copies, compiled apart) gives a loop
+    whose every callee that calls a model kernel is a copy calling the copies, and three
+    cycles of the 2009 gait, sampled and logged, to the same bits as the two-link loop."""
+    from monkeystudy.controllers import horizontal_gait
+    from monkeystudy.kernel.dynamics import MODEL_KERNELS, TWO_LINK
+    from monkeystudy.kernel.hybrid import hybrid_loop, simulate_implementation
+    from monkeystudy.kernel.jit import Model, renamed
+    from monkeystudy.kernel.layout import K_CYCLES
+    from monkeystudy.simulation import initial_state
+
+    twin = Model("twin", {name: renamed(kernel, "twin")
+                          for name, kernel in TWO_LINK.kernels.items()})
+    assert twin != TWO_LINK and set(twin.kernels) == set(MODEL_KERNELS)
+    # the two-link model is every module's own: its loops copy nothing
+    own = simulate_implementation(METHOD_RK45, True)
+    assert own.__name__ == "hybrid_loop_rk45_flight"
+    assert all(own.__globals__[name] is kernel for name, kernel in TWO_LINK.kernels.items()
+               if name in own.__globals__)
+    assert own.__globals__["guard_value"] is guard_value_of_events()
+    built = simulate_implementation(METHOD_RK45, False, twin)
+    assert built.__name__ == "hybrid_loop_rk45_swing_twin"
+    # the loop's own calls of model kernels read the twin's (without flight: their copies)
+    assert built.__globals__["pack"] is twin.kernels["pack"]
+    assert built.__globals__["rhs"].py_func.__name__ == "rhs_twin_without_flight"
+    # a callee reaching the model through another module is a copy reading the twin's
+    guard_value = built.__globals__["guard_value"]
+    assert guard_value.py_func.__name__ == "guard_value_twin"
+    guard_t = guard_value.py_func.__globals__["guard"].py_func.__globals__["guard_t"]
+    assert guard_t.py_func.__name__ == "guard_t_twin"
+    assert guard_t.py_func.__globals__["guard_params"] is twin.kernels["guard_params"]
+    step4 = built.__globals__["step4"]
+    assert step4.py_func.__globals__["swing_accel_fused"] is twin.kernels["swing_accel_fused"]
+
+    gait = horizontal_gait(SEED2009_TORQUE)
+    prog, obs = gait.program()
+    st = settings_vector(Integrator(method="rk45"), max_cycles=3, sample_dt=1e-3)
+    method = kernel_method(st, prog, PHASE_SWING)
+    hyb0 = initial_state(1.3, 11.0)
+    want = _run_loop(hybrid_loop(METHOD_RK45, False), method, prog, obs, st, hyb0)
+    got = _run_loop(hybrid_loop(METHOD_RK45, False, twin), method, prog, obs, st, hyb0)
+    assert want[1][0, K_CYCLES] == 3 and want[3].shape[0] > 2 and want[4].shape[0] > 100
+    for a, b in zip(want, got):
+        assert a.shape == b.shape and a.tobytes() == b.tobytes()

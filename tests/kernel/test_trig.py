@@ -13,7 +13,7 @@ from numba import njit
 
 from monkeystudy.kernel import trig
 from monkeystudy.kernel.dynamics import angle_trig, swing_accel_trig
-from monkeystudy.kernel.events import trig_of
+from monkeystudy.kernel.dynamics import trig_of
 from monkeystudy.kernel.layout import PHASE_SWING, T_C1, T_C12, T_C2, T_S1, T_S12, T_S2
 
 #: fdlibm's kernels are within 1 ulp; the reduction here drops fdlibm's tail (one double for
@@ -106,7 +106,7 @@ def test_complex_arguments_pass_through_numpy():
 
 def test_same_bits_in_a_contracting_step_and_in_the_guards():
     """The step's last stage (compiled with ``fastmath={'contract'}``) and the guards'
-    :func:`.events.trig_of` (strict) see the same sines and cosines, bit for bit: every
+    :func:`.dynamics.trig_of` (strict) see the same sines and cosines, bit for bit: every
     product that feeds an addition is an explicit fused multiply-add."""
     from monkeystudy import Robot
     from monkeystudy.kernel.rk_explicit import FM

@@ -1,4 +1,10 @@
-"""Equations of motion, energy, kinematics, impact and flip of the MonkeyBot (compiled).
+"""The robot's model (the room): state layout, equations of motion, energy, kinematics, impact
+and flip of the MonkeyBot (compiled).
+
+Everything that is the two-link robot is here, and no other kernel module reads its
+parameters: the guards, the generated steps and the hybrid loop reach it through the
+functions below, named in :data:`MODEL_KERNELS`; :data:`TWO_LINK` is the model the loop is
+built on (docs/architecture.md, "The robot's model").
 
 Every sine and cosine is :func:`.trig.sincos`, one definition (the guards' energies and heights
 then equal those of :func:`total_energy8` and :func:`free_end_offset` bit for bit). It also
@@ -31,11 +37,12 @@ import math
 
 import numpy as np
 
-from .jit import njit
+from .jit import Model, njit
 from .layout import (
     FLIES, P_A, P_AS, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_H, P_HS, P_I1, P_I2,
     P_GEAR, P_HOUSING1, P_J11, P_J12, P_J22, P_K11, P_K22, P_L1, P_L2, P_M1, P_M2, P_M2R2,
-    P_M2S2, P_MTOT, P_R1, P_R2, P_ROTOR, P_S1, P_S2, PHASE_SWING, PHASE_FLIGHT,
+    P_M2S2, P_MTOT, P_R1, P_R2, P_ROTOR, P_S1, P_S2, PHASE_SWING, PHASE_FLIGHT, T_C1,
+    T_C12, T_C2, T_S1, T_S12, T_S2,
 )
 from .trig import sincos
 
@@ -97,6 +104,75 @@ def flipped_params(p):
 
 
 # ----------------------------------------------------------------------------------------------
+# state layout per phase: the full 8-state (layout ``X`` .. ``DTH2``) and the packed vectors
+# the integrator steps (module docstring); nothing else maps one to the other
+# ----------------------------------------------------------------------------------------------
+#: the packed vectors as the generated Runge-Kutta steps take them (tools/gen_rk_kernels.py
+#: writes kernel/rk_explicit.py from these): the length ``n``, the slots of the positions and
+#: of their rates (a position's derivative is its rate, read from the stage), and the field
+#: ``accel`` (this module's ``<accel>_fused`` and ``<accel>_trig_fused``) with the slots it
+#: takes, the angles then their rates; the accelerations are the derivatives of ``vel``
+PACKED_SWING = {"n": 4, "pos": [0, 1], "vel": [2, 3], "accel": "swing_accel",
+                "args": (0, 1, 2, 3)}
+PACKED_FLIGHT = {"n": 8, "pos": [0, 1, 2, 3], "vel": [4, 5, 6, 7], "accel": "flight_accel",
+                 "args": (2, 3, 6, 7)}
+
+
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
+def unpack(phase, y, pivot):
+    """Full 8-state ``(x, y, th1, th2, dx, dy, dth1, dth2)`` from a packed vector."""
+    if phase == PHASE_FLIGHT:
+        return y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7]
+    return pivot[0], pivot[1], y[0], y[1], 0.0, 0.0, y[2], y[3]
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def pack(phase, s8, y):
+    """Packed integration vector of a phase from a full 8-state; returns its length."""
+    if phase == PHASE_FLIGHT:
+        for i in range(8):
+            y[i] = s8[i]
+        return 8
+    y[0] = s8[2]
+    y[1] = s8[3]
+    y[2] = s8[6]
+    y[3] = s8[7]
+    return 4
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def unpack_into(phase, y, pivot, s8):
+    """The full 8-state of a packed vector (:func:`unpack`) into ``s8``."""
+    x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
+    s8[0] = x
+    s8[1] = yy
+    s8[2] = th1
+    s8[3] = th2
+    s8[4] = vx
+    s8[5] = vy
+    s8[6] = w1
+    s8[7] = w2
+
+
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
+def trig_of(phase, y, trig):
+    """Sines and cosines of a packed state's angles into ``trig`` (layout ``T_*``)."""
+    if phase == PHASE_FLIGHT:
+        th1 = y[2]
+        th2 = y[3]
+    else:
+        th1 = y[0]
+        th2 = y[1]
+    s1, c1, s2, c2, s12, c12 = angle_trig(th1, th2)
+    trig[T_S1] = s1
+    trig[T_C1] = c1
+    trig[T_S2] = s2
+    trig[T_C2] = c2
+    trig[T_S12] = s12
+    trig[T_C12] = c12
+
+
+# ----------------------------------------------------------------------------------------------
 # equations of motion
 # ----------------------------------------------------------------------------------------------
 @njit(cache=True, inline="always", error_model="numpy")
@@ -118,7 +194,7 @@ def angle_trig(th1, th2):
     """``(s1, c1, s2, c2, s12, c12)`` with the sum angle taken directly (layout ``T_*``).
 
     The one definition of the sines and cosines the guards see: the step's last stage
-    (:func:`swing_accel_trig`, :func:`flight_accel_trig`) and :func:`.events.trig_of` both
+    (:func:`swing_accel_trig`, :func:`flight_accel_trig`) and :func:`trig_of` both
     use it, so they agree bit for bit.
     """
     s1, c1 = sincos(th1)
@@ -472,6 +548,46 @@ def free_end_offset(p, th1, th2):
     return p[P_L1] * s1 + p[P_L2] * s12, -p[P_L1] * c1 - p[P_L2] * c12
 
 
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
+def guard_params(p):
+    """The parameters the guards read (:mod:`.events`), as scalars, in one straight-line read:
+    ``(L1, L2, g, mt, a, a_s, m2r2, m2s2, h, hs, k11, k22, j11, j12, j22, b_joint, c_joint,
+    b_pivot, c_pivot)`` (``P_L1``, ``P_L2``, ``P_G``, ``P_MTOT``, ``P_A``, ``P_AS``,
+    ``P_M2R2``, ``P_M2S2``, ``P_H``, ``P_HS``, ``P_K11``, ``P_K22``, ``P_J11``, ``P_J12``,
+    ``P_J22``, ``P_B_JOINT``, ``P_C_JOINT``, ``P_B_PIVOT``, ``P_C_PIVOT``) [SI]; the guards
+    pass them on to the functions below and to the energies' ``*_s`` functions."""
+    return (p[P_L1], p[P_L2], p[P_G], p[P_MTOT], p[P_A], p[P_AS], p[P_M2R2], p[P_M2S2],
+            p[P_H], p[P_HS], p[P_K11], p[P_K22], p[P_J11], p[P_J12], p[P_J22], p[P_B_JOINT],
+            p[P_C_JOINT], p[P_B_PIVOT], p[P_C_PIVOT])
+
+
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
+def free_end_height_s(L1, L2, c1, c12):
+    """Height of the free end above the (x, y) end [m], from the link lengths ``L1``, ``L2``
+    [m] and the cosines of ``theta1`` and ``theta1 + theta2`` (docs/model.md section 1, B)."""
+    return -L1 * c1 - L2 * c12
+
+
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
+def free_end_height_rate_s(L1, L2, s1, s12, w1, w2):
+    """Rate of :func:`free_end_height_s` [m s-1], from the sines of ``theta1`` and
+    ``theta1 + theta2`` and the rates ``w1``, ``w2`` [rad s-1] of the angles."""
+    return L1 * s1 * w1 + L2 * s12 * (w1 + w2)
+
+
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
+def free_end_y_s(y_end, L1, L2, c1, c12):
+    """World height of the free end [m] with the (x, y) end at height ``y_end`` [m] (see
+    :func:`free_end_height_s`; summed from ``y_end``, not added to the height)."""
+    return y_end - L1 * c1 - L2 * c12
+
+
+@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
+def free_end_y_rate_s(vy, L1, L2, s1, s12, w1, w2):
+    """Rate of :func:`free_end_y_s` [m s-1] with the (x, y) end rising at ``vy`` [m s-1]."""
+    return vy + L1 * s1 * w1 + L2 * s12 * (w1 + w2)
+
+
 @njit(cache=True, error_model="numpy", _nrt=False)
 def points8(p, s, out):
     """World positions of the (x, y) end, CG1, joint, CG2 and the free end: ``out[5, 2]``."""
@@ -612,3 +728,19 @@ def flip_state(p, s):
     s[5] = vy + L1 * s1 * w1 + L2 * s12 * (w1 + w2)
     s[6] = w1 + w2
     s[7] = -w2
+
+
+# ----------------------------------------------------------------------------------------------
+# the model: what the hybrid loop is built on (docs/architecture.md, "The robot's model")
+# ----------------------------------------------------------------------------------------------
+#: the kernels of this module that the hybrid loop and its callees (events, integrate, the
+#: generated steps) call, by the names they call them: what a model of the robot provides
+MODEL_KERNELS = (
+    "pack", "unpack", "unpack_into", "angle_trig", "rhs", "swing_accel_fused",
+    "swing_accel_trig_fused", "flight_accel_fused", "flight_accel_trig_fused", "holding_torque",
+    "attach_xy_end", "flip_state", "total_energy8", "kinetic_rot_s", "kinetic_trans_s",
+    "potential_s", "guard_params", "free_end_height_s", "free_end_height_rate_s", "free_end_y_s",
+    "free_end_y_rate_s",
+)
+#: the two-link robot: the model of every hybrid loop unless another is given
+TWO_LINK = Model("two_link", {name: globals()[name] for name in MODEL_KERNELS})

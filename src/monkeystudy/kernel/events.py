@@ -17,15 +17,14 @@ import math
 import numpy as np
 
 from .dynamics import (
-    angle_trig, kinetic_rot_s, kinetic_trans_s, potential_s, rhs,
+    angle_trig, free_end_height_rate_s, free_end_height_s, free_end_y_rate_s, free_end_y_s,
+    guard_params, kinetic_rot_s, kinetic_trans_s, potential_s, rhs, unpack,
 )
 from .integrate import dense_eval
 from .jit import njit
 from .layout import (
     G_COORD, G_ENERGY, G_ENERGY_RESTORED, G_FREE_END_HEIGHT, G_FREE_END_Y, G_SLIP_STOP,
-    G_STICK_BREAK, P_A, P_AS, P_B_JOINT, P_B_PIVOT, P_C_JOINT, P_C_PIVOT, P_G, P_H, P_HS,
-    P_J11, P_J12, P_J22, P_K11,
-    P_K22, P_L1, P_L2, P_M2R2, P_M2S2, P_MTOT, PHASE_FLIGHT, PHASE_SWING, T_C1, T_C12, T_C2, T_S1, T_S12, T_S2,
+    G_STICK_BREAK, PHASE_FLIGHT, PHASE_SWING, T_C1, T_C12, T_C2, T_S1, T_S12, T_S2,
 )
 
 EPS = 2.220446049250313e-16
@@ -33,59 +32,6 @@ N_SCAN = 8  # dense-output sub-intervals checked when a step is flagged
 #: an interior extremum of the guard's cubic model nearer zero than this many times the
 #: model's variation on the step is checked on the dense output (:func:`hermite_flags`)
 GRAZE_MARGIN = 8.0
-
-
-@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
-def unpack(phase, y, pivot):
-    """Full 8-state ``(x, y, th1, th2, dx, dy, dth1, dth2)`` from a packed vector."""
-    if phase == PHASE_FLIGHT:
-        return y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7]
-    return pivot[0], pivot[1], y[0], y[1], 0.0, 0.0, y[2], y[3]
-
-
-@njit(cache=True, error_model="numpy", _nrt=False)
-def pack(phase, s8, y):
-    """Packed integration vector of a phase from a full 8-state; returns its length."""
-    if phase == PHASE_FLIGHT:
-        for i in range(8):
-            y[i] = s8[i]
-        return 8
-    y[0] = s8[2]
-    y[1] = s8[3]
-    y[2] = s8[6]
-    y[3] = s8[7]
-    return 4
-
-
-@njit(cache=True, error_model="numpy", _nrt=False)
-def unpack_into(phase, y, pivot, s8):
-    x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
-    s8[0] = x
-    s8[1] = yy
-    s8[2] = th1
-    s8[3] = th2
-    s8[4] = vx
-    s8[5] = vy
-    s8[6] = w1
-    s8[7] = w2
-
-
-@njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
-def trig_of(phase, y, trig):
-    """Sines and cosines of a packed state's angles into ``trig`` (layout ``T_*``)."""
-    if phase == PHASE_FLIGHT:
-        th1 = y[2]
-        th2 = y[3]
-    else:
-        th1 = y[0]
-        th2 = y[1]
-    s1, c1, s2, c2, s12, c12 = angle_trig(th1, th2)
-    trig[T_S1] = s1
-    trig[T_C1] = c1
-    trig[T_S2] = s2
-    trig[T_C2] = c2
-    trig[T_S12] = s12
-    trig[T_C12] = c12
 
 
 @njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
@@ -122,10 +68,11 @@ def guard_t(kind, index, value, phase, p, tau, fmode, y, pivot, eref, s1, c1, s2
     x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
     w = w1 if index == 0 else w2
     fm = fmode[0] if index == 0 else fmode[1]
+    L1, L2, g, mt, a, a_s, m2r2, m2s2, h, hs, k11, k22, j11, j12, j22, _, _, _, _ = \
+        guard_params(p)
     return guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, s2, c2,
-                   s12, c12, p[P_L1], p[P_L2], p[P_G], p[P_MTOT], p[P_A], p[P_AS], p[P_M2R2],
-                   p[P_M2S2], p[P_H], p[P_HS], p[P_K11], p[P_K22], p[P_J11], p[P_J12],
-                   p[P_J22], w * fm)
+                   s12, c12, L1, L2, g, mt, a, a_s, m2r2, m2s2, h, hs, k11, k22, j11, j12, j22,
+                   w * fm)
 
 
 @njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
@@ -135,7 +82,7 @@ def guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, s
     parameters it reads, and ``slip`` (the slipping DOF's speed times its mode)."""
     if kind == G_FREE_END_HEIGHT:
         # ``value``: the height above the attached end to reach [m] (0: the study's swap)
-        return -L1 * c1 - L2 * c12 - value
+        return free_end_height_s(L1, L2, c1, c12) - value
     if kind == G_ENERGY_RESTORED or kind == G_ENERGY:
         # G_ENERGY_RESTORED's ``value``: energy to add to the latched reference [J] (a climb of
         # dh needs M g dh); the same arithmetic as dynamics.total_energy8, bit for bit
@@ -147,7 +94,7 @@ def guard_s(kind, index, value, eref, x, yy, th1, th2, vx, vy, w1, w2, s1, c1, s
             return e - eref - value
         return e - value
     if kind == G_FREE_END_Y:
-        return yy - L1 * c1 - L2 * c12 - value
+        return free_end_y_s(yy, L1, L2, c1, c12) - value
     if kind == G_COORD:
         if index == 0:
             return x - value
@@ -183,25 +130,8 @@ def guard_and_rate_step(kind, index, value, phase, p, tau, fmode, y, pivot, eref
     inlining keeps atomic reference-count operations on every step).
     Compiled without reference counting and inlined by LLVM.
     """
-    L1 = p[P_L1]
-    L2 = p[P_L2]
-    g = p[P_G]
-    mt = p[P_MTOT]
-    a = p[P_A]
-    a_s = p[P_AS]
-    m2r2 = p[P_M2R2]
-    m2s2 = p[P_M2S2]
-    h = p[P_H]
-    hs = p[P_HS]
-    k11 = p[P_K11]
-    k22 = p[P_K22]
-    j11 = p[P_J11]
-    j12 = p[P_J12]
-    j22 = p[P_J22]
-    bj = p[P_B_JOINT]
-    cj = p[P_C_JOINT]
-    bp = p[P_B_PIVOT]
-    cp = p[P_C_PIVOT]
+    L1, L2, g, mt, a, a_s, m2r2, m2s2, h, hs, k11, k22, j11, j12, j22, bj, cj, bp, cp = \
+        guard_params(p)
     fm0 = fmode[0]
     fm1 = fmode[1]
     s1 = trig[T_S1]
@@ -292,9 +222,9 @@ def guard_rate_kin(kind, index, phase, p, tau, fmode, y, pivot, s1, s12):
     """Rate of a guard that does not need the vector field (kinematics and power), from
     ``sin(theta1)`` and ``sin(theta1 + theta2)``."""
     x, yy, th1, th2, vx, vy, w1, w2 = unpack(phase, y, pivot)
-    return rate_kin_s(kind, index, phase, tau, vx, vy, w1, w2, s1, s12, p[P_L1], p[P_L2],
-                      p[P_B_JOINT], p[P_C_JOINT], p[P_B_PIVOT], p[P_C_PIVOT], fmode[0],
-                      fmode[1])
+    L1, L2, _, _, _, _, _, _, _, _, _, _, _, _, _, bj, cj, bp, cp = guard_params(p)
+    return rate_kin_s(kind, index, phase, tau, vx, vy, w1, w2, s1, s12, L1, L2, bj, cj, bp, cp,
+                      fmode[0], fmode[1])
 
 
 @njit(cache=True, forceinline=True, error_model="numpy", _nrt=False)
@@ -302,9 +232,9 @@ def rate_kin_s(kind, index, phase, tau, vx, vy, w1, w2, s1, s12, L1, L2, bj, cj,
                fm1):
     """:func:`guard_rate_kin` from scalars only."""
     if kind == G_FREE_END_HEIGHT:
-        return L1 * s1 * w1 + L2 * s12 * (w1 + w2)
+        return free_end_height_rate_s(L1, L2, s1, s12, w1, w2)
     if kind == G_FREE_END_Y:
-        return vy + L1 * s1 * w1 + L2 * s12 * (w1 + w2)
+        return free_end_y_rate_s(vy, L1, L2, s1, s12, w1, w2)
     if kind == G_ENERGY_RESTORED or kind == G_ENERGY:
         # dE/dt [W]: motor work tau dth2 less viscous and Coulomb dissipation
         pw = tau * w2 - bj * w2 * w2 - cj * fm1 * w2

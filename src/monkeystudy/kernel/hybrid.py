@@ -39,21 +39,25 @@ from numba import typeof, types
 from numba.core.imputils import lower_builtin
 from numba.extending import type_callable
 
-from .dynamics import attach_xy_end, flip_state, holding_torque, rhs, total_energy8
+from .dynamics import (
+    TWO_LINK, attach_xy_end, flip_state, holding_torque, pack, rhs, total_energy8, unpack,
+    unpack_into,
+)
 from .events import (
     crosses, guard_and_rate_step, guard_rate_field, guard_rate_trig_value,
-    guard_rate_value, guard_trig_value, guard_value, hermite_flags, locate_first, pack,
-    rate_uses_field, unpack, unpack_into,
+    guard_rate_value, guard_trig_value, guard_value, hermite_flags, locate_first,
+    rate_uses_field,
 )
 from .integrate import (
     MAX_FACTOR, METHOD_KERNELS, MIN_FACTOR, PI_ERR_FLOOR, SAFETY, SWING_DENSE_PREPARE,
     choice_of_type, dense_eval, error_estimator_order, error_power_sq, pi_factor,
     select_initial_step,
 )
-from .jit import njit, specialised, specialised_globals
+from .jit import Model, njit, specialised, specialised_globals
 from .layout import (
     C_ATOL, C_CONTROLLER, C_MAX_CYCLES, C_MAX_DROP, C_MAX_SEGMENT_TIME, C_MAX_STEP, C_MAX_STEPS,
-    C_RTOL, C_SAMPLE_DT, C_T_END, C_TICK, C_TICK_PHASE, C_ZERO_BAND, CONTROLLER_PI, FLIES,
+    C_RTOL, C_SAMPLE_DT, C_T_END, C_TICK, C_TICK_PHASE, C_ZERO_BAND, CONTROLLER_PI, DTH1, DTH2,
+    DX, DY, FLIES,
     G_ENERGY_RESTORED, G_NONE, G_SLIP_STOP, G_STICK_BREAK, G_TIME, H_CLOCK, H_CYCLES, H_EREF,
     H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG, H_T, H_TORQUE, H_Y_REF, K_CYCLES, K_EVENTS,
     K_LOG, K_NFEV, K_REJECTED, K_SAMPLES, K_STATUS, K_STEPS, L_CYCLE, L_E_AFTER, L_E_BEFORE,
@@ -62,7 +66,7 @@ from .layout import (
     O_GINDEX, O_GUARD, O_GVALUE, O_SEGMENT, P_C_JOINT, P_C_PIVOT, PHASE_FIXED, PHASE_FLIGHT,
     PHASE_SWING, S_CLOCK, S_CYCLE, S_DELAY, S_FAIL, S_GDIR, S_GINDEX, S_GUARD, S_GVALUE,
     S_MAG_A, S_MAG_B, S_NEXT, S_SET_EREF, S_SWAP, S_TICKED, S_TORQUE, ST_BUFFER_FULL,
-    ST_END_TIME, ST_FELL, ST_HORIZON, ST_NONFINITE, ST_OK, ST_STEP_FAILURE,
+    ST_END_TIME, ST_FELL, ST_HORIZON, ST_NONFINITE, ST_OK, ST_STEP_FAILURE, N_STATE, X, Y,
 )
 from .tableaux import VERN9_INTERPOLATOR_POWER, VERN9_N_STAGES_EXTENDED
 
@@ -100,7 +104,7 @@ def apply_magnets(par, s8, phase, flipped, mag_a, mag_b, swap):
         new_b = att_b if mag_b < 0 else mag_b > 0
     if new_a and new_b:
         if not (att_a and att_b):
-            s8[4] = s8[5] = s8[6] = s8[7] = 0.0
+            s8[DX] = s8[DY] = s8[DTH1] = s8[DTH2] = 0.0
         return PHASE_FIXED, flipped
     if new_a or new_b:
         want_xy_is_a = new_a
@@ -111,11 +115,11 @@ def apply_magnets(par, s8, phase, flipped, mag_a, mag_b, swap):
         if not was_attached:
             attach_xy_end(par[flipped], s8)
         else:
-            s8[4] = 0.0
-            s8[5] = 0.0
+            s8[DX] = 0.0
+            s8[DY] = 0.0
         return PHASE_SWING, flipped
     if phase == PHASE_FIXED:
-        s8[4] = s8[5] = s8[6] = s8[7] = 0.0
+        s8[DX] = s8[DY] = s8[DTH1] = s8[DTH2] = 0.0
     return PHASE_FLIGHT, flipped
 
 
@@ -127,14 +131,14 @@ def init_friction(phase, p, tau, s8, fmode, y, pivot):
         if c <= 0.0 or (k == 0 and phase != PHASE_SWING):
             fmode[k] = 1.0
             continue
-        w = s8[6 + k]
+        w = s8[DTH1 + k]
         if w != 0.0:
             fmode[k] = 1.0 if w > 0.0 else -1.0
     for k in range(2):
         c = p[P_C_PIVOT] if k == 0 else p[P_C_JOINT]
         if c <= 0.0 or (k == 0 and phase != PHASE_SWING):
             continue
-        if s8[6 + k] == 0.0:
+        if s8[DTH1 + k] == 0.0:
             pack(phase, s8, y)
             hold = holding_torque(phase, p, tau, fmode, y, k)
             if abs(hold) <= c:
@@ -232,13 +236,13 @@ def change_friction_mode(k, phase, flipped, p, tau, fmode, s8, y, t, cycles, cou
     sticks if the holding torque is within the Coulomb limit, else slips the other way);
     stuck, the holding torque reached the limit (it slips). Logged. Returns
     ``(n_log, status)`` (``ST_BUFFER_FULL`` if the log is full, else -1)."""
-    s8[6 + k] = 0.0  # zero speed exactly at the event
+    s8[DTH1 + k] = 0.0  # zero speed exactly at the event
     pack(phase, s8, y)
     c = p[P_C_PIVOT] if k == 0 else p[P_C_JOINT]
     if fmode[k] == 0.0:
         hold = holding_torque(phase, p, tau, fmode, y, k)
         fmode[k] = -1.0 if hold > 0.0 else 1.0
-        s8[6 + k] = 0.0
+        s8[DTH1 + k] = 0.0
     else:
         hold = holding_torque(phase, p, tau, fmode, y, k)
         if abs(hold) <= c:
@@ -388,7 +392,7 @@ def write_log(log, row, t, kind, ident, cycle, phase, flipped, e_before, e_after
     log[row, L_FLIPPED] = flipped
     log[row, L_E_BEFORE] = e_before
     log[row, L_E_AFTER] = e_after
-    for i in range(8):
+    for i in range(N_STATE):
         log[row, L_STATE + i] = s8[i]
 
 
@@ -398,7 +402,7 @@ def write_sample(samp_t, samp_y, samp_mode, row, t, s8, phase, flipped, tau, seg
     if row >= samp_t.shape[0]:
         return -1
     samp_t[row] = t
-    for i in range(8):
+    for i in range(N_STATE):
         samp_y[row, i] = s8[i]
     samp_mode[row, M_PHASE] = phase
     samp_mode[row, M_FLIPPED] = flipped
@@ -500,12 +504,17 @@ def loop_callees(method_code):
     ))
 
 
-def simulate_implementation(method_code, flies=True):
+def simulate_implementation(method_code, flies=True, model: Model = TWO_LINK):
     """The hybrid loop of :func:`simulate` for one integration method (``METHOD_*``), as a
     plain function whose step, error norm and dense output are that method's own (and only
-    the swing ones unless ``flies``): :func:`hybrid_loop` compiles it (one specialisation per
-    method and phase set, which compiles only those steps); interpreted
-    (``NUMBA_DISABLE_JIT``), it runs as it is.
+    the swing ones unless ``flies``), and whose model of the robot is ``model``'s kernels:
+    :func:`hybrid_loop` compiles it (one specialisation per method, phase set and model,
+    which compiles only those steps); interpreted (``NUMBA_DISABLE_JIT``), it runs as it is.
+
+    The model's kernels are globals of the loop's copy, and of copies of every callee that
+    calls one of them (:func:`.jit.specialised_globals`, suffix the model's name), as the
+    method's steps are; the two-link model's are the kernels every module imports, so its
+    loops copy nothing for it.
 
     The loop: enter a segment (its magnets, :func:`apply_magnets`, then torque, reference
     energy and friction modes), integrate one leg step by step, locating the segment guard's
@@ -522,12 +531,15 @@ def simulate_implementation(method_code, flies=True):
     scope = dict(globals(), method_code=method_code, n_stages=n_stages,
                  step4=step4, step8=step8, error_sq4=error_sq4, error_sq8=error_sq8,
                  dense_prepare_of_method=dense_prepare_of_method)
+    scope = specialised_globals(_hybrid_loop.__code__, scope, model.name, model.kernels)
     if not flies:
         scope = specialised_globals(_hybrid_loop.__code__, scope, *WITHOUT_FLIGHT)
     # the specialisation's choices are globals of its own copy of the loop, not closure
     # cells: numba keys its disk cache on a closure's pickled cells, and a dispatcher
     # pickles differently in every process, so a closure would never load from the cache
     name = f"hybrid_loop_{_METHOD_NAMES[method_code]}_{'flight' if flies else 'swing'}"
+    if model != TWO_LINK:
+        name += f"_{model.name}"
     loop = FunctionType(_hybrid_loop.__code__, scope, name)
     loop.__qualname__ = name     # numba names its cache files after it
     return loop
@@ -595,7 +607,7 @@ def _hybrid_loop(method, par, prog, obs, settings, hyb_rows, counts_rows, seg_ro
             pairs[:, :] = 0.0
             g_obs[:] = 0.0
         en_prev = 1.0  # the PI controller's previous accepted error norm
-        for i in range(8):
+        for i in range(N_STATE):
             s8[i] = hyb[i]
         t = hyb[H_T]
         phase = int(hyb[H_PHASE])
@@ -609,7 +621,7 @@ def _hybrid_loop(method, par, prog, obs, settings, hyb_rows, counts_rows, seg_ro
         cycles = int(hyb[H_CYCLES])
         y_ref = hyb[H_Y_REF]
         if not math.isfinite(y_ref):
-            y_ref = s8[1]
+            y_ref = s8[Y]
         for i in range(seg_times.shape[0]):
             seg_times[i] = np.nan
 
@@ -645,8 +657,8 @@ def _hybrid_loop(method, par, prog, obs, settings, hyb_rows, counts_rows, seg_ro
                 if prog[seg, S_SET_EREF] > 0:
                     eref = total_energy8(p, s8)
                 n = pack(phase, s8, y)
-                pivot[0] = s8[0]
-                pivot[1] = s8[1]
+                pivot[0] = s8[X]
+                pivot[1] = s8[Y]
                 init_friction(phase, p, tau, s8, fmode, y, pivot)
                 seg_start = t
                 pending = np.inf
@@ -656,7 +668,7 @@ def _hybrid_loop(method, par, prog, obs, settings, hyb_rows, counts_rows, seg_ro
                     if n_samp < 0:
                         status = ST_BUFFER_FULL
                         break
-                if phase == PHASE_SWING and s8[1] < y_ref - max_drop:
+                if phase == PHASE_SWING and s8[Y] < y_ref - max_drop:
                     status = ST_FELL
                     break
             # ------------------------------------------------------------------ one leg
@@ -684,8 +696,8 @@ def _hybrid_loop(method, par, prog, obs, settings, hyb_rows, counts_rows, seg_ro
                     t_target = t
             t_stop = min(t_limit, t_target)
             n = pack(phase, s8, y)
-            pivot[0] = s8[0]
-            pivot[1] = s8[1]
+            pivot[0] = s8[X]
+            pivot[1] = s8[Y]
 
             fired = False       # the segment's guard fired at time t (state at t in y/s8)
             # a friction mode change at time t. np.int64, here and for the log kinds: numba
@@ -949,7 +961,7 @@ def _hybrid_loop(method, par, prog, obs, settings, hyb_rows, counts_rows, seg_ro
                 status = fail if fail > 0 else ST_HORIZON
 
         # ---------------------------------------------------------------------- write back
-        for i in range(8):
+        for i in range(N_STATE):
             hyb[i] = s8[i]
         hyb[H_T] = t
         hyb[H_PHASE] = phase
@@ -973,24 +985,28 @@ def _hybrid_loop(method, par, prog, obs, settings, hyb_rows, counts_rows, seg_ro
 _METHOD_NAMES = {METHOD_RK45: "rk45", METHOD_DOP853: "dop853", METHOD_VERN9: "vern9"}
 
 
-#: the compiled loop of each (method, flies) made in this process: :func:`hybrid_loop`
+#: the compiled loop of each (method, flies, model) made in this process: :func:`hybrid_loop`
 _LOOPS = {}
 
 
-def hybrid_loop(method_code, flies=True):
-    """The compiled hybrid loop of one integration method (``METHOD_*``) and phase set (only
-    the swing steps unless ``flies``): a numba dispatcher of :func:`simulate_implementation`,
-    named ``hybrid_loop_<method>_<swing|flight>``, made once per process (two dispatchers
-    of one function, both loading its cached compile, would define the same symbols twice).
+def hybrid_loop(method_code, flies=True, model: Model = TWO_LINK):
+    """The compiled hybrid loop of one integration method (``METHOD_*``), phase set (only
+    the swing steps unless ``flies``) and model of the robot (:class:`.jit.Model`, the
+    two-link robot of :mod:`.dynamics` by default): a numba dispatcher of
+    :func:`simulate_implementation`, named ``hybrid_loop_<method>_<swing|flight>`` (with
+    ``_<model>`` after it for a model other than the two-link one), made once per process
+    (two dispatchers of one function, both loading its cached compile, would define the same
+    symbols twice).
 
     Cached on disk under its name: :func:`simulate` and every compiled caller (gait
     evaluations, survival, design), in any process, link that one compile, where a loop
     compiled as part of each caller would be compiled again by each process that needs it
     (the loop is most of a first run's compile). Its own name gives each specialisation its
     own cache index, so processes saving different specialisations at once cannot misfile
-    them.
+    them. :func:`simulate` and the compiled callers (:func:`simulate_loop`) run the two-link
+    model's loops.
     """
-    key = (int(method_code), bool(flies))
+    key = (int(method_code), bool(flies), model)
     if key not in _LOOPS:
         _LOOPS[key] = njit(cache=True, error_model="numpy")(simulate_implementation(*key))
     return _LOOPS[key]

@@ -22,7 +22,10 @@ warning) rather than risk a stale cache.
 :func:`specialised` copies a kernel with module constants of its own (e.g. ``FLIES`` False for
 runs that never fly): numba reads a module constant as a literal when it compiles, and drops a
 branch that a literal condition never takes before typing it, so the copy compiles without the
-code that branch calls, and so does every kernel that links the copy.
+code that branch calls, and so does every kernel that links the copy. The same mechanism sets
+kernels in place of others: a :class:`Model` is the named set of kernels that make the robot's
+model (``kernel/dynamics.py``, the room), and the hybrid loop of a model other than the
+two-link one calls that model's kernels through copies of its callees.
 """
 import hashlib
 import os
@@ -165,8 +168,11 @@ def njit(function=None, *, cache: bool = False, **options):
 OVERLOAD_OPTIONS = {"no_cfunc_wrapper": True}
 
 
-#: the copies :func:`specialised` has made in this process, by (kernel, suffix, constants)
+#: the copies :func:`specialised` and :func:`renamed` have made in this process, by (kernel,
+#: suffix, constants)
 _COPIES = {}
+#: a global absent from a kernel's scope (None could be a module constant's value)
+_UNSET = object()
 
 
 def _global_names(code: CodeType):
@@ -180,12 +186,14 @@ def _global_names(code: CodeType):
 
 def specialised_globals(code: CodeType, scope: dict, suffix: str, constants: dict) -> dict:
     """The globals ``code`` (a kernel's, whose globals are ``scope``) compiles with to read
-    ``constants`` (module constant name to value) in place of its module's: those names set,
-    and each kernel it calls that reads them, itself or through its own calls, replaced by its
+    ``constants`` (global name to value: a module constant, or a kernel in place of the one of
+    that name, as a :class:`Model` gives them) in place of its module's: those names set, and
+    each kernel it calls that reads them, itself or through its own calls, replaced by its
     :func:`specialised` copy; ``scope`` itself when nothing ``code`` reads or calls reads
-    them."""
+    them, or reads them as they are (the very objects ``constants`` gives)."""
     names = _global_names(code)
-    changed = {name: value for name, value in constants.items() if name in names}
+    changed = {name: value for name, value in constants.items()
+               if name in names and scope.get(name, _UNSET) is not value}
     for name in names:
         callee = scope.get(name)
         if isinstance(callee, Dispatcher):
@@ -209,15 +217,57 @@ def specialised(kernel: Dispatcher, suffix: str, **constants) -> Dispatcher:
     if key not in _COPIES:
         function = kernel.py_func
         scope = specialised_globals(function.__code__, function.__globals__, suffix, constants)
-        if scope is function.__globals__:
-            _COPIES[key] = kernel
-        else:
-            name = f"{function.__name__}_{suffix}"
-            copy = FunctionType(function.__code__, scope, name, function.__defaults__,
-                                function.__closure__)
-            copy.__qualname__ = name     # numba names its cache files after it
-            copy.__doc__ = function.__doc__
-            copy.__module__ = function.__module__
-            _COPIES[key] = njit(cache=True, locals=kernel.locals,
-                                **kernel.targetoptions)(copy)
+        _COPIES[key] = kernel if scope is function.__globals__ else \
+            _compiled_copy(kernel, suffix, scope)
     return _COPIES[key]
+
+
+def _compiled_copy(kernel: Dispatcher, suffix: str, scope: dict) -> Dispatcher:
+    """A dispatcher of ``kernel``'s Python function with the globals ``scope``, named
+    ``<name>_<suffix>``, with ``kernel``'s compile options, cached on disk."""
+    function = kernel.py_func
+    name = f"{function.__name__}_{suffix}"
+    copy = FunctionType(function.__code__, scope, name, function.__defaults__,
+                        function.__closure__)
+    copy.__qualname__ = name     # numba names its cache files after it
+    copy.__doc__ = function.__doc__
+    copy.__module__ = function.__module__
+    return njit(cache=True, locals=kernel.locals, **kernel.targetoptions)(copy)
+
+
+def renamed(kernel: Dispatcher, suffix: str) -> Dispatcher:
+    """``kernel`` as a kernel of its own, ``<name>_<suffix>``: the same code, globals and
+    compile options, compiled and cached apart (made once per process, as
+    :func:`specialised` copies are). For a :class:`Model` made of another's kernels."""
+    key = (kernel, suffix, "renamed")
+    if key not in _COPIES:
+        _COPIES[key] = _compiled_copy(kernel, suffix, kernel.py_func.__globals__)
+    return _COPIES[key]
+
+
+class Model:
+    """A model of the robot for the hybrid loop: a name and the kernels that make it, by the
+    global names the loop and its callees call them (``kernel/dynamics.MODEL_KERNELS``).
+
+    :func:`monkeystudy.kernel.hybrid.hybrid_loop` builds a loop of a model as it builds one of
+    an integration method: a copy of the loop whose globals, and those of every callee that
+    reads one of these names (:func:`specialised_globals`, suffix :attr:`name`), are the
+    model's kernels. Hashable by name and kernels.
+    """
+
+    def __init__(self, name: str, kernels: dict):
+        if not name.isidentifier():
+            raise ValueError(f"a model's name must be an identifier, got {name!r}")
+        self.name = name
+        #: global name to kernel (numba dispatchers)
+        self.kernels = dict(kernels)
+        self._key = (name, tuple(sorted(self.kernels.items())))
+
+    def __eq__(self, other):
+        return isinstance(other, Model) and self._key == other._key
+
+    def __hash__(self):
+        return hash(self._key)
+
+    def __repr__(self):
+        return f"Model({self.name!r}, {len(self.kernels)} kernels)"

@@ -32,6 +32,7 @@ N_PARAMS = 30
 
 # --- full state in the current frame (flight coordinates, docs/model.md section 1) --------------
 # [x, y, theta1, theta2, dx, dy, dtheta1, dtheta2]; (x, y) is the "attached" end of the frame.
+# The room (kernel/dynamics.py: pack, unpack) maps it to and from each phase's packed vector.
 X, Y, TH1, TH2, DX, DY, DTH1, DTH2 = 0, 1, 2, 3, 4, 5, 6, 7
 N_STATE = 8
 

@@ -21,7 +21,7 @@ go to the C library.
 The same bits wherever it is inlined: :func:`sincos` is compiled on its own, strictly (no
 fast-math flags), and LLVM keeps those per-instruction flags when it inlines it, so the
 ``contract`` flag of the Runge-Kutta steps does not reach it, and the sines a step leaves for
-the guards equal those :func:`.events.trig_of` computes (tested). The polynomial steps are
+the guards equal those :func:`.dynamics.trig_of` computes (tested). The polynomial steps are
 explicit fused multiply-adds (``llvm.fma``, one rounding each) for speed and accuracy, not left
 to contraction.
 
