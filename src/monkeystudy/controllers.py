@@ -29,7 +29,7 @@ from .kernel.integrate import method_scalar
 GUARD_KINDS = {
     "none": L.G_NONE, "time": L.G_TIME, "free_end_height": L.G_FREE_END_HEIGHT,
     "energy_restored": L.G_ENERGY_RESTORED, "coord": L.G_COORD, "energy": L.G_ENERGY,
-    "free_end_y": L.G_FREE_END_Y,
+    "free_end_y": L.G_FREE_END_Y, "bar": L.G_BAR,
 }
 #: a coord guard's coordinate: its name in programs and study files, and its slot in the
 #: kernel's full state (layout ``X`` .. ``DTH2``)
@@ -50,7 +50,15 @@ class Segment:
         height), ``energy_restored`` (energy back to the latched reference plus ``value``
         [J]), ``coord`` (``coord`` crosses ``value``),
         ``energy`` (total energy crosses ``value`` [J]), ``free_end_y`` (the free end's world
-        height crosses ``value`` [m]), or ``none`` (only the horizon ends it).
+        height crosses ``value`` [m]), ``bar`` (a catch on a bar ``value`` [m] above and
+        ``bar_dx`` [m] ahead of the attached end: the free end comes down through the bar's
+        height within ``bar_window`` [m] of it horizontally; docs/model.md section 6), or
+        ``none`` (only the horizon ends it).
+    bar_dx, bar_window : float
+        A ``bar`` guard's bar: its horizontal offset from the attached end, world x, signed
+        by the direction of travel [m], and the largest horizontal distance of the free end
+        from it at which the hook catches it [m] (> 0). A catch is never on a controller
+        tick and has no delay.
     magnets : str
         Entry action: ``keep``, ``swap``, ``A``, ``B``, ``both`` or ``none`` (which ends are on).
     torque : float
@@ -74,6 +82,8 @@ class Segment:
     next: int | None = None      # default: the following row; -1 stops
     fail_status: int = L.ST_HORIZON
     delay: float = 0.0
+    bar_dx: float = 0.0
+    bar_window: float = 0.0
 
     def row(self, index: int, n_rows: int) -> np.ndarray:
         r = np.zeros(L.N_SEG_COLS)
@@ -95,6 +105,18 @@ class Segment:
         if self.delay < 0 and self.until != "time":
             raise ValueError(f"segment {index}: a state guard's delay is a latency, >= 0 "
                              f"(got {self.delay!r})")
+        if self.until == "bar":
+            if not (math.isfinite(self.bar_dx) and math.isfinite(self.bar_window)
+                    and self.bar_window > 0.0):
+                raise ValueError(f"segment {index}: a bar guard needs a finite bar_dx and a "
+                                 f"bar_window > 0 [m] (got {self.bar_dx!r}, "
+                                 f"{self.bar_window!r})")
+            if self.direction != "falling":
+                raise ValueError(f"segment {index}: a bar guard is falling (the hook comes "
+                                 f"down onto the bar), got {self.direction!r}")
+            if self.delay != 0.0:
+                raise ValueError(f"segment {index}: a bar guard has no delay (the hook "
+                                 f"catches when it meets the bar), got {self.delay!r}")
         r[L.S_MAG_A], r[L.S_MAG_B], r[L.S_SWAP] = mags[self.magnets]
         r[L.S_TORQUE] = self.torque
         r[L.S_SET_EREF] = 1.0 if self.latch_energy else 0.0
@@ -102,13 +124,17 @@ class Segment:
         r[L.S_GINDEX] = COORD_INDEX[self.coord]
         r[L.S_GVALUE] = self.value
         r[L.S_GDIR] = DIRECTIONS[self.direction]
-        r[L.S_TICKED] = 1.0 if self.ticked else 0.0
+        # a catch is physical: never on the controller's tick
+        r[L.S_TICKED] = 1.0 if self.ticked and self.until != "bar" else 0.0
         nxt = index + 1 if self.next is None else self.next
         r[L.S_NEXT] = nxt if nxt < n_rows else -1
         r[L.S_CLOCK] = {"keep": 0, "reset": 1, "advance": 2}[self.clock]
         r[L.S_FAIL] = self.fail_status
         r[L.S_CYCLE] = 1.0 if self.cycle_end else 0.0
         r[L.S_DELAY] = self.delay
+        if self.until == "bar":
+            r[L.S_BAR_DX] = self.bar_dx
+            r[L.S_BAR_WINDOW] = self.bar_window
         return r
 
 
@@ -123,6 +149,8 @@ class Observer:
     segment: int = -1   # watch only in this program row (-1: always)
 
     def row(self) -> np.ndarray:
+        if self.until == "bar":
+            raise ValueError("an observer cannot watch a bar: a catch is a segment's guard")
         r = np.zeros(L.N_OBS_COLS)
         r[L.O_GUARD] = GUARD_KINDS[self.until]
         r[L.O_GINDEX] = COORD_INDEX[self.coord]

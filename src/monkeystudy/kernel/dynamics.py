@@ -740,7 +740,7 @@ MODEL_KERNELS = (
     "swing_accel_trig_fused", "flight_accel_fused", "flight_accel_trig_fused", "holding_torque",
     "attach_xy_end", "flip_state", "total_energy8", "kinetic_rot_s", "kinetic_trans_s",
     "potential_s", "guard_params", "free_end_height_s", "free_end_height_rate_s", "free_end_y_s",
-    "free_end_y_rate_s",
+    "free_end_y_rate_s", "free_end_offset",
 )
 #: the two-link robot: the model of every hybrid loop unless another is given
 TWO_LINK = Model("two_link", {name: globals()[name] for name in MODEL_KERNELS})

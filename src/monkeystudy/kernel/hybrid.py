@@ -40,8 +40,8 @@ from numba.core.imputils import lower_builtin
 from numba.extending import type_callable
 
 from .dynamics import (
-    TWO_LINK, attach_xy_end, flip_state, holding_torque, pack, rhs, total_energy8, unpack,
-    unpack_into,
+    TWO_LINK, attach_xy_end, flip_state, free_end_offset, holding_torque, pack, rhs,
+    total_energy8, unpack, unpack_into,
 )
 from .events import (
     crosses, guard_and_rate_step, guard_rate_field, guard_rate_trig_value,
@@ -58,13 +58,13 @@ from .layout import (
     C_ATOL, C_CONTROLLER, C_MAX_CYCLES, C_MAX_DROP, C_MAX_SEGMENT_TIME, C_MAX_STEP, C_MAX_STEPS,
     C_RTOL, C_SAMPLE_DT, C_T_END, C_TICK, C_TICK_PHASE, C_ZERO_BAND, CONTROLLER_PI, DTH1, DTH2,
     DX, DY, FLIES,
-    G_ENERGY_RESTORED, G_NONE, G_SLIP_STOP, G_STICK_BREAK, G_TIME, H_CLOCK, H_CYCLES, H_EREF,
+    G_BAR, G_ENERGY_RESTORED, G_FREE_END_HEIGHT, G_NONE, G_SLIP_STOP, G_STICK_BREAK, G_TIME, H_CLOCK, H_CYCLES, H_EREF,
     H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG, H_T, H_TORQUE, H_Y_REF, K_CYCLES, K_EVENTS,
     K_LOG, K_NFEV, K_REJECTED, K_SAMPLES, K_STATUS, K_STEPS, L_CYCLE, L_E_AFTER, L_E_BEFORE,
     L_FLIPPED, L_ID, L_KIND, L_PHASE, L_STATE, L_T, LOG_FRICTION, LOG_OBSERVER, LOG_SEGMENT,
     M_FLIPPED, M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, METHOD_RK45, METHOD_VERN9, O_GDIR,
     O_GINDEX, O_GUARD, O_GVALUE, O_SEGMENT, P_C_JOINT, P_C_PIVOT, PHASE_FIXED, PHASE_FLIGHT,
-    PHASE_SWING, S_CLOCK, S_CYCLE, S_DELAY, S_FAIL, S_GDIR, S_GINDEX, S_GUARD, S_GVALUE,
+    PHASE_SWING, S_BAR_DX, S_BAR_WINDOW, S_CLOCK, S_CYCLE, S_DELAY, S_FAIL, S_GDIR, S_GINDEX, S_GUARD, S_GVALUE,
     S_MAG_A, S_MAG_B, S_NEXT, S_SET_EREF, S_SWAP, S_TICKED, S_TORQUE, ST_BUFFER_FULL,
     ST_END_TIME, ST_FELL, ST_HORIZON, ST_NONFINITE, ST_OK, ST_STEP_FAILURE, N_STATE, X, Y,
 )
@@ -178,14 +178,17 @@ def friction_active(k, phase, p):
 @njit(cache=True, error_model="numpy", _nrt=False)
 def segment_event_in_step(gkind, gindex, gvalue, gdir, t, t_new, g_seg, gb, r_seg, rb, method,
                           Fd, y, h, n, phase, p, tau, fmode, pivot, eref, ybuf, work, ticked,
-                          tick, tick_phase, pending, pending_sign):
+                          tick, tick_phase, pending, pending_sign, bar, bar_dx, bar_window):
     """The segment guard's event in the step ``(t, t_new]``, whose guard values (``g_seg``,
     ``gb``) and rates flag a possible crossing; the dense output is prepared in ``Fd``.
 
     Returns ``(t_ev, pending, pending_sign)``: the event's time (inf: none in this step); a
     ticked guard found crossing is acted on at the first tick at or after the crossing where
     its condition still holds, and a tick past ``t_new`` is left ``pending`` with the guard's
-    sign before the crossing (module docstring).
+    sign before the crossing (module docstring). With ``bar`` (a ``G_BAR`` row, never ticked),
+    a crossing is a catch only if the free end is then within ``bar_window`` [m] of
+    ``bar_dx`` [m] horizontally from the attached end; outside, the hook passes the bar and
+    the search goes on from the crossing.
     """
     t_ev = np.inf
     ta = t
@@ -197,6 +200,21 @@ def segment_event_in_step(gkind, gindex, gvalue, gdir, t, t_new, g_seg, gb, r_se
         if tc == np.inf:
             break
         sign_before = 1.0 if ga > 0.0 else -1.0
+        if bar:
+            dense_eval(method, Fd, y, h, (tc - t) / h, n, ybuf)
+            _, _, th1, th2, _, _, _, _ = unpack(phase, ybuf, pivot)
+            ox, _ = free_end_offset(p, th1, th2)
+            if abs(ox - bar_dx) <= bar_window:
+                t_ev = tc
+                break
+            if tc <= ta or tc >= t_new:
+                break
+            # the search goes on past this crossing: from a guard of exactly zero, the
+            # half-open sign rule cannot find the same crossing again
+            ta = tc
+            ga = 0.0
+            ra = guard_rate_value(gkind, gindex, phase, p, tau, fmode, ybuf, pivot, work)
+            continue
         if not ticked:
             t_ev = tc
             break
@@ -490,7 +508,7 @@ def loop_callees(method_code):
         (locate_first, (I, I, F, F, F, F, F, F, F, F, method, M, V, F, F, I, I, V, F, V, V, F,
                         V, V)),
         (segment_event_in_step, (I, I, F, F, F, F, F, F, F, F, method, M, V, F, I, I, V, F, V,
-                                 V, F, V, V, B, F, F, F, F)),
+                                 V, F, V, V, B, F, F, F, F, B, F, F)),
         (guard_rate_trig_value, (I, I, I, V, F, V, V, V, V, V)),
         (_locate_friction, (I, I, F, F, F, F, method, M, V, F, I, I, V, F, V, V, V)),
         (unpack_into, (I, V, V, V)),
@@ -676,7 +694,12 @@ def _hybrid_loop(method, par, prog, obs, settings, hyb_rows, counts_rows, seg_ro
             gindex = int(prog[seg, S_GINDEX])
             gvalue = prog[seg, S_GVALUE]
             gdir = prog[seg, S_GDIR]
-            ticked = prog[seg, S_TICKED] > 0 and tick > 0.0
+            # a catch on a bar is the free end's height guard with a window and a snap; the
+            # hook meets the bar when it does, never on a controller tick
+            bar = gkind == G_BAR
+            if bar:
+                gkind = G_FREE_END_HEIGHT
+            ticked = prog[seg, S_TICKED] > 0 and tick > 0.0 and not bar
             state_guard = gkind != G_NONE and gkind != G_TIME
             horizon = seg_start + max_seg_time
             t_limit = min(horizon, t_end)
@@ -838,7 +861,8 @@ def _hybrid_loop(method, par, prog, obs, settings, hyb_rows, counts_rows, seg_ro
                             t_ev, pending, pending_sign = segment_event_in_step(
                                 gkind, gindex, gvalue, gdir, t, t_new, g_seg, gb, r_seg, rb,
                                 method, Fd, y, h, n, phase, p, tau, fmode, pivot, eref, ybuf,
-                                work, ticked, tick, tick_phase, pending, pending_sign)
+                                work, ticked, tick, tick_phase, pending, pending_sign, bar,
+                                prog[seg, S_BAR_DX], prog[seg, S_BAR_WINDOW])
                         g_seg = gb
                         r_seg = rb
                     elif state_guard and t_new == pending:
@@ -944,12 +968,23 @@ def _hybrid_loop(method, par, prog, obs, settings, hyb_rows, counts_rows, seg_ro
                 continue
             if fired:
                 delayed_exit = np.inf
+                # a catch's bar, in the world: dx, dy from the end the robot hangs from
+                caught = bar and phase == PHASE_SWING
+                bar_x = s8[X] + prog[seg, S_BAR_DX]
+                bar_y = s8[Y] + gvalue
+                flipped_before = flipped
                 status, seg, phase, flipped, clock0, cycles, n_log, n_samp = exit_segment(
                     par, prog, seg, t, s8, phase, flipped, tau, gvalue, clock0, cycles,
                     max_cycles, counts, seg_times, log, n_log, sampling, samp_t, samp_y,
                     samp_mode, n_samp)
                 if status >= 0:
                     break
+                if caught and phase == PHASE_SWING and flipped != flipped_before:
+                    # the snap: the groove guides the bar in, a rigid translation of the
+                    # robot putting the new attached end on the bar (angles and rates kept);
+                    # the log row holds the state before it, so the catch offset is an output
+                    s8[X] = bar_x
+                    s8[Y] = bar_y
                 entering = True
                 magnets_done = True   # the next segment's magnets (the impact, in the log)
                 continue

@@ -63,6 +63,9 @@ G_ENERGY_RESTORED = 2   # E - E_ref - value, E_ref latched on entering a SET_ERE
 G_COORD = 3             # state[index] - value (index into the 8-state above)
 G_ENERGY = 4            # E - value                                             [J]
 G_FREE_END_Y = 5        # world height of the free end - value                  [m]
+G_BAR = 6               # a catch on a bar: free end's height above the attached end - value (the
+#                         bar's rise dy) [m], falling, a catch only within S_BAR_WINDOW of the
+#                         bar horizontally; the new attached end is then snapped onto the bar
 G_SLIP_STOP = 10        # internal: a slipping Coulomb DOF reaches zero speed
 G_STICK_BREAK = 11      # internal: a stuck DOF's holding torque exceeds the Coulomb limit
 
@@ -84,7 +87,9 @@ S_CYCLE = 13       # 1: leaving this segment completes one cycle
 S_DELAY = 14       # the exit (and the next row's entry actions) comes this long after the
 #                    guard fires [s]: a time guard's instant moves by it (either sign), a
 #                    state guard's action waits for it (>= 0; an actuation latency)
-N_SEG_COLS = 15
+S_BAR_DX = 15      # G_BAR: the bar's horizontal offset from the attached end, world x [m]
+S_BAR_WINDOW = 16  # G_BAR: largest horizontal distance of the free end from the bar at a catch [m]
+N_SEG_COLS = 17
 
 # --- observer table: non-terminal guards whose crossings are logged -----------------------------
 O_GUARD, O_GINDEX, O_GVALUE, O_GDIR = 0, 1, 2, 3
