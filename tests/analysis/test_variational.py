@@ -375,3 +375,27 @@ def test_event_times_that_differ_are_named_as_numbers():
     assert "np." not in message and "float64" not in message, message
     assert re.match(r"segment 1 exits at 0\.6234394\d+ s here, 0\.6234394\d+ s in the kernel",
                     message), message
+
+
+def test_a_catch_on_a_bar_matches_fd():
+    """AcroMonk's two-swap brachiation (tests/analysis/test_design.py) with each catch a bar
+    (``until: bar``: 3.4 cm and 60 cm ahead of the hook it hangs from, in -x): the
+    variational Jacobian through the window and the snap agrees with finite differences, and
+    with the free-end guard's gait (the snap moves no angle or rate)."""
+    from monkeystudy.study.models import SequenceGaitSpec
+    from test_design import BRACHIATION, Z_BRACHIATION, acromonk_for_design
+    robot = acromonk_for_design()
+    segs = [dict(s) for s in BRACHIATION["segments"]]
+    for k, dx in ((0, -0.03), (3, -0.60)):
+        for key in ("value", "direction"):
+            segs[k].pop(key)
+        segs[k].update(until="bar", bar={"dx": dx, "dy": 0.0, "window": 0.02})
+    gait = SequenceGaitSpec.model_validate(dict(BRACHIATION, segments=segs)).gait()
+    res = kernel_log(gait, Z_BRACHIATION, robot)
+    exits = res.log[res.log[:, L.L_KIND] == L.LOG_SEGMENT]
+    assert exits[3, L.L_STATE + L.X] == pytest.approx(-0.03 - 0.600, abs=0.02)
+    assert res.state[L.X] == -0.03 - 0.60       # the snaps: each pivot is its bar
+    J = sequence_variational_jacobian(gait, Z_BRACHIATION, robot=robot)
+    assert rel(J, fd(gait, Z_BRACHIATION, robot)) < 1e-6
+    free_end = SequenceGaitSpec.model_validate(BRACHIATION).gait()
+    assert rel(J, sequence_variational_jacobian(free_end, Z_BRACHIATION, robot=robot)) < 1e-9

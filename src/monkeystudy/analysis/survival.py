@@ -219,7 +219,8 @@ def noise_roles(prog: np.ndarray) -> np.ndarray:
     motor torque: its timing jitters (a time guard's instant shifts either way, a state
     guard's action waits, ``JITTER_LATENCY``). A state guard reads a sensor: coordinates by
     their kind (angles, rates; positions as heights), heights and energies (``RL_SENSOR``).
-    A row with a non-zero torque is a motor pulse (``RL_PULSE``).
+    A row with a non-zero torque is a motor pulse (``RL_PULSE``). A catch on a bar
+    (``G_BAR``) is physical: no sensor, no jitter, no latency.
     """
     prog = np.asarray(prog, float)
     roles = np.zeros((prog.shape[0], L.N_ROLE_COLS))
@@ -229,7 +230,8 @@ def noise_roles(prog: np.ndarray) -> np.ndarray:
             to = prog[nxt]
             actuation = (to[L.S_SWAP] > 0 or to[L.S_MAG_A] >= 0 or to[L.S_MAG_B] >= 0
                          or to[L.S_TORQUE] != row[L.S_TORQUE])
-            if actuation:
+            # a catch on a bar is the hook meeting the bar: no controller acts, nothing jitters
+            if actuation and int(row[L.S_GUARD]) != L.G_BAR:
                 roles[k, L.RL_JITTER] = (L.JITTER_SHIFT if int(row[L.S_GUARD]) == L.G_TIME
                                          else L.JITTER_LATENCY)
         guard = int(row[L.S_GUARD])

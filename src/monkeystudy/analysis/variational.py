@@ -251,7 +251,7 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
             t_e, dt_e = clock0 + value, dclock.copy()
             s, Phi = _flow(phase, p, tau, s, Phi, t, t_e, rtol)
         elif kind in (L.G_FREE_END_HEIGHT, L.G_ENERGY_RESTORED, L.G_COORD, L.G_ENERGY,
-                      L.G_FREE_END_Y):
+                      L.G_FREE_END_Y, L.G_BAR):
             s, Phi = _flow(phase, p, tau, s, Phi, t, t_kernel, rtol)
             t_e = t_kernel
             # the crossing on this trajectory: Newton from the kernel's time (they differ by
@@ -290,6 +290,10 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
             s = _check_state(s, res.state[:8], "the section")
             M = Phi + np.outer(f_minus, dt_e)
             return M[cols, :]
+        caught = kind == L.G_BAR and phase == L.PHASE_SWING
+        bar = s[L.X] + prog[seg, L.S_BAR_DX], s[L.Y] + value
+        pivot_rows = Phi[[L.X, L.Y], :].copy()
+        flipped_before = flipped
         seg = int(prog[seg, L.S_NEXT])
         enter(seg, f_minus, dt_e)
         s = _check_state(s, row[L.L_STATE:L.L_STATE + 8], f"the exit of segment "
@@ -297,6 +301,11 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
         if phase != int(row[L.L_PHASE]) or flipped != int(row[L.L_FLIPPED]):
             raise RuntimeError(f"phase/frame after segment {int(row[L.L_ID])} differ from "
                                "the kernel's")
+        if caught and phase == L.PHASE_SWING and flipped != flipped_before:
+            # the snap onto the bar (the kernel's log holds the state before it): the new
+            # pivot is the old one plus the bar's offset, so it moves as the old pivot did
+            s[L.X], s[L.Y] = bar
+            Phi[[L.X, L.Y], :] = pivot_rows
     raise RuntimeError("the kernel log has no segment exits")
 
 

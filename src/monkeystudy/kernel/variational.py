@@ -16,7 +16,7 @@ from .jit import njit
 from .dynamics import flight_accel, free_end_offset, rhs_flight, swing_accel, total_energy8
 from .hybrid import apply_magnets
 from .layout import (
-    G_COORD, G_ENERGY, G_ENERGY_RESTORED, G_FREE_END_HEIGHT, G_FREE_END_Y,
+    G_BAR, G_COORD, G_ENERGY, G_ENERGY_RESTORED, G_FREE_END_HEIGHT, G_FREE_END_Y,
     PHASE_FLIGHT, PHASE_SWING,
 )
 
@@ -110,7 +110,9 @@ def guard8(kind, index, value, p, s, eref):
     """A segment guard on the full 8-state, as :func:`.events.guard` computes it, from the
     8-state so that complex steps pass through (``G_TIME`` and ``G_NONE`` are not state
     guards: 0, typed like ``s`` so that every branch returns the same type)."""
-    if kind == G_FREE_END_HEIGHT:
+    if kind == G_FREE_END_HEIGHT or kind == G_BAR:
+        # a bar's guard is the free end's height less the bar's rise (its window and snap
+        # are the loop's and the reset's)
         return free_end_offset(p, s[2], s[3])[1] - value
     if kind == G_ENERGY_RESTORED:
         return total_energy8(p, s) - eref - value

@@ -419,12 +419,25 @@ class Gait(StrictModel):
 
 
 GuardName = Literal["time", "free_end_height", "energy_restored", "coord", "energy",
-                    "free_end_y", "none"]
+                    "free_end_y", "bar", "none"]
 CoordName = Literal["x", "y", "theta1", "theta2", "dx", "dy", "dtheta1", "dtheta2"]
 Direction = Literal["rising", "falling", "either"]
 
 #: the status a segment's horizon reports, by guard (the study's names where they fit)
 SEGMENT_FAIL = {"free_end_height": "no_switch", "energy_restored": "energy_not_restored"}
+
+
+class BarSpec(StrictModel):
+    """The bar a ``until: bar`` segment catches, from the bar the robot hangs from (docs/model.md
+    section 6, "A catch on a bar"): a ladder's equal spacing is ``dx`` = the spacing, a higher
+    bar ``dy`` > 0, a missing bar ``dx`` = two spacings."""
+
+    dx: float = Field(description="the bar's horizontal offset from the attached end [m], "
+                                  "world x, signed by the direction of travel")
+    dy: float = Field(0.0, description="the bar's height above the bar the robot hangs "
+                                       "from [m]")
+    window: float = Field(gt=0.0, le=1.0, description="the largest horizontal distance of "
+                          "the free end from the bar at which the hook catches it [m]")
 
 
 class SegmentSpec(StrictModel):
@@ -437,7 +450,8 @@ class SegmentSpec(StrictModel):
                              "energy_restored (energy back to the latched reference + value "
                              "[J]), coord (coord crosses value), energy (total energy "
                              "crosses value [J]), free_end_y (free end's world height "
-                             "crosses value [m]), none (only the horizon)")
+                             "crosses value [m]), bar (the hook comes down onto the bar "
+                             "given by bar), none (only the horizon)")
     value: float = Field(0.0, description="guard value, in the guard's units (s, m, J, rad, "
                                           "rad s-1 or m s-1)")
     coord: CoordName = Field("theta1", description="the coordinate of a coord guard (frame "
@@ -458,10 +472,32 @@ class SegmentSpec(StrictModel):
                             "it (it restarts there, so the time guards of the segments after "
                             "it count from this exit, e.g. a pulse timed from a catch)")
 
-    recorded_when_set: ClassVar[frozenset[str]] = frozenset({"clock"})
+    bar: Optional[BarSpec] = Field(None, description="the bar an until: bar segment catches "
+                                   "(dx, dy, window [m]); a catch is physical: never on the "
+                                   "tick, falling, no value, direction or ticked of its own")
+
+    recorded_when_set: ClassVar[frozenset[str]] = frozenset({"clock", "bar"})
+
+    @model_validator(mode="after")
+    def _bar(self) -> "SegmentSpec":
+        if self.until == "bar":
+            if self.bar is None:
+                raise ValueError("until: bar needs bar: {dx, dy, window} [m]")
+            stray = sorted({"value", "direction", "coord", "ticked"} & self.model_fields_set)
+            if stray:
+                raise ValueError(f"until: bar takes its bar from bar: {{dx, dy, window}}; "
+                                 f"{', '.join(stray)} do not apply")
+        elif self.bar is not None:
+            raise ValueError(f"bar applies only to until: bar (got until: {self.until})")
+        return self
 
     def segment(self) -> Segment:
         fail = STATUS_NAMES.index(SEGMENT_FAIL.get(self.until, "horizon"))
+        if self.until == "bar":
+            return Segment("bar", value=self.bar.dy, direction="falling",
+                           magnets=self.magnets, torque=self.torque,
+                           latch_energy=self.latch_energy, ticked=False, clock=self.clock,
+                           fail_status=fail, bar_dx=self.bar.dx, bar_window=self.bar.window)
         return Segment(self.until, value=self.value, coord=self.coord,
                        direction=self.direction, magnets=self.magnets, torque=self.torque,
                        latch_energy=self.latch_energy, ticked=self.ticked, clock=self.clock,
