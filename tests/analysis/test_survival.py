@@ -12,7 +12,9 @@ from monkeystudy.analysis.replay import section_error, sequence_cycles
 from monkeystudy.analysis.survival import (
     Noise, cycle_grid, hazard, mfpt, noise_roles, run_robot, survival_curve, survival_runs,
 )
-from monkeystudy.controllers import HorizontalSearch, Integrator, OpenLoop, horizontal_gait
+from monkeystudy.controllers import (
+    HorizontalSearch, Integrator, OpenLoop, PhaseSequence, Segment, horizontal_gait,
+)
 from monkeystudy.kernel import layout as L
 from monkeystudy.robot import Robot
 from monkeystudy.simulation import initial_state
@@ -109,6 +111,22 @@ def test_noise_roles_of_the_open_loop_and_the_state_based_controller():
     sb = noise_roles(HorizontalSearch(0.6354, loop=True).program()[0])
     assert list(sb[:, L.RL_JITTER]) == [L.JITTER_LATENCY, L.JITTER_LATENCY, L.JITTER_NONE]
     assert list(sb[:, L.RL_SENSOR]) == [L.NZ_HEIGHT, L.NZ_ENERGY, L.NZ_ANGLE]
+
+
+def test_a_catch_on_a_bar_has_no_sensor_jitter_or_latency():
+    """The hook meeting the bar is physics, not a controller acting on a sensed crossing:
+    the row gets no noise role, though the row it leads to swaps (an actuation otherwise)."""
+    gait = PhaseSequence([
+        Segment("bar", value=0.0, direction="falling", bar_dx=0.34, bar_window=0.02,
+                torque=0.5),
+        Segment("time", value=0.2, magnets="swap", torque=0.3),
+        Segment("free_end_height", direction="falling", torque=0.3),
+        Segment("time", value=0.1, magnets="swap", next=0)], tick=0.001)
+    roles = noise_roles(gait.program()[0])
+    assert list(roles[:, L.RL_JITTER]) == [L.JITTER_NONE, L.JITTER_NONE, L.JITTER_LATENCY,
+                                           L.JITTER_SHIFT]
+    assert list(roles[:, L.RL_SENSOR]) == [0, 0, L.NZ_HEIGHT, 0]
+    assert list(roles[:, L.RL_PULSE]) == [1, 1, 1, 0]
 
 
 def test_a_runs_robot_draws_its_parameters_and_keeps_the_cg_on_the_link():

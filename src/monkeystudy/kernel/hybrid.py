@@ -17,6 +17,10 @@ Semantics worth knowing (docs/model.md sections 4 and 6):
   the first tick ``phase + k h`` at or after the crossing *if its condition still holds there*
   (the study's controller samples its conditions on a 1 ms loop). Time guards on a tick fire
   at the first tick at or after their time.
+* A catch on a bar (``G_BAR``) is the free end's height guard, falling, never ticked; a
+  crossing is a catch only within ``S_BAR_WINDOW`` of the bar horizontally (else the search
+  goes on past it), and after the catch's swap the new attached end is snapped onto the bar
+  (a translation; the log row keeps the state before it).
 * Time guards are integration bounds: steps end exactly on them (no interpolation).
 * ``S_DELAY`` moves a segment's exit: a time guard's instant (after the tick) by the delay,
   either sign (never before the segment's start); a state guard's exit waits the delay after
