@@ -193,6 +193,20 @@ BRACHIATION = {
 Z_BRACHIATION = np.array([0.15718415, -7.3971987, 1.7245056])
 
 
+def test_a_bars_rise_is_not_a_design_parameter():
+    """A catch on a bar takes its value from the ladder: a design may vary the catch's
+    torque, not where the bar is."""
+    segs = [dict(s) for s in BRACHIATION["segments"]]
+    for key in ("value", "direction"):
+        segs[0].pop(key)
+    segs[0].update(until="bar", bar={"dx": -0.03, "dy": 0.0, "window": 0.02})
+    gait = SequenceGaitSpec.model_validate(dict(BRACHIATION, segments=segs)).gait()
+    space = SegmentDesignSpace(gait, acromonk_for_design(), motor_frame=True, integrator=TIGHT)
+    assert space.parameter("segment1_torque").unit == "N m"
+    with pytest.raises(ValueError, match="catches a bar"):
+        space.parameter("segment1_value")
+
+
 def acromonk_for_design() -> Robot:
     return acromonk_robot(Friction(0.0, 0.0), Friction(0.04144, 0.0)).with_rotor(
         Rotor(2.453e-4, 6.0, 1))

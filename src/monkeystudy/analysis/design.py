@@ -450,6 +450,9 @@ class SegmentDesignSpace:
             frame = "motor" if self.motor_frame else "attached end's"
             return Parameter("N m", -self.torque_limit, self.torque_limit,
                              f"segment {k}'s motor torque ({frame} frame)", "schedule")
+        if seg.until == "bar":
+            raise ValueError(f"{name}: segment {k} catches a bar, and its value is the bar's "
+                             f"rise (the ladder's geometry, data), not a design parameter")
         if seg.until == "coord":
             unit, what = COORD_UNITS[seg.coord], f"{seg.coord} {seg.direction}"
         else:
