@@ -81,6 +81,9 @@ def test_a_gait_torque_above_the_motors_limit_is_a_located_error():
         parse_study(urdf_study("{torque_limit: 0}"), "limited.yaml")
 
 
+#: a two-swap brachiation of AcroMonk (the hook caught where the free end falls through
+#: the holding end's height; motor frame [N m], s): a fixed point of its return map
+#: (tests/analysis/test_design.py), unstable (rho 8.18)
 BRACHIATION = {
     "kind": "sequence", "torque_frame": "motor",
     "section": {"theta1": 0.0, "direction": "either", "theta2": 0.15718415},

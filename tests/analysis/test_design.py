@@ -176,20 +176,9 @@ def test_a_design_that_spins_link_2_is_refused_and_one_that_swings_is_not():
 from monkeystudy.analysis.measured_replay import acromonk_robot  # noqa: E402
 from monkeystudy.robot import Friction, Rotor  # noqa: E402
 
-#: a two-swap brachiation of AcroMonk (hook catches where the free end falls through the
-#: holding end's height; motor frame [N m], s): a fixed point of its return map, found by the
-#: refine and floquet steps, unstable (rho 8.18)
-BRACHIATION = {
-    "kind": "sequence", "torque_frame": "motor",
-    "section": {"theta1": 0.0, "direction": "either", "theta2": 0.15718415},
-    "segments": [
-        {"until": "free_end_y", "value": 0.0, "direction": "falling",
-         "torque": -0.36501134, "clock": "reset"},
-        {"until": "time", "value": 0.39134575, "magnets": "swap", "torque": 2.58882863},
-        {"until": "coord", "coord": "theta1", "value": 0.0, "direction": "either"},
-        {"until": "free_end_y", "value": 0.0, "direction": "falling",
-         "torque": -2.81165613, "clock": "reset"},
-        {"until": "time", "value": 0.08122807, "magnets": "swap", "torque": 1.63025727}]}
+from test_motor import BRACHIATION  # noqa: E402
+
+#: its fixed point, found by the refine and floquet steps (unstable: rho 8.18)
 Z_BRACHIATION = np.array([0.15718415, -7.3971987, 1.7245056])
 
 

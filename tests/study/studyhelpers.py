@@ -2,10 +2,13 @@
 from __future__ import annotations
 
 import re
+import threading
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
+
+from monkeystudy.study.progress import Reporter
 
 #: A small study exercising every step kind: a 7 x 9 grid in blocks of 10 points (blocks cut
 #: rows), a point-list grid, a two-start refinement from the grid's minima and a stability
@@ -127,3 +130,31 @@ def assert_written_as_declared(path: Path, kind: str, dims_of=None, name_of=None
             for key, value in var.attrs.items():
                 assert np.array_equal(np.asarray(attrs[key]), np.asarray(value)), \
                     (path.name, name, key)
+
+
+class RecordingReporter(Reporter):
+    """Every reporter call, in order (the counts come from a thread of their own)."""
+
+    def __init__(self):
+        self.events = []
+        self.lock = threading.Lock()
+
+    def start(self, name, total, done=0, unit="blocks"):
+        with self.lock:
+            self.events.append(("start", name, total, done, unit))
+
+    def phase(self, name, label, total, unit, then="", done=0):
+        with self.lock:
+            self.events.append(("phase", name, label, total, unit, then, done))
+
+    def advance(self, name, n=1):
+        with self.lock:
+            self.events.append(("advance", name, n))
+
+    def finish(self, name, message=""):
+        with self.lock:
+            self.events.append(("finish", name))
+
+    def counted(self, name) -> int:
+        with self.lock:
+            return sum(e[2] for e in self.events if e[0] == "advance" and e[1] == name)

@@ -12,37 +12,11 @@ from monkeystudy.study import counts as C
 from monkeystudy.study import progress as P
 from monkeystudy.study.runner import TaskCounts
 
-
-class Recorder(P.Reporter):
-    """Every reporter call, in order (the counts come from a thread of their own)."""
-
-    def __init__(self):
-        self.events = []
-        self.lock = threading.Lock()
-
-    def start(self, name, total, done=0, unit="blocks"):
-        with self.lock:
-            self.events.append(("start", name, total, done, unit))
-
-    def phase(self, name, label, total, unit, then="", done=0):
-        with self.lock:
-            self.events.append(("phase", name, label, total, unit, then, done))
-
-    def advance(self, name, n=1):
-        with self.lock:
-            self.events.append(("advance", name, n))
-
-    def finish(self, name, message=""):
-        with self.lock:
-            self.events.append(("finish", name))
-
-    def counted(self, name) -> int:
-        with self.lock:
-            return sum(e[2] for e in self.events if e[0] == "advance" and e[1] == name)
+from studyhelpers import RecordingReporter
 
 
 def test_a_task_counts_its_units_once_whatever_its_worker_sent():
-    rep = Recorder()
+    rep = RecordingReporter()
     counts = TaskCounts(rep)
     key = counts.add("survival", 10)
     counts.sent(key, 4)
@@ -64,7 +38,7 @@ def test_a_task_counts_its_units_once_whatever_its_worker_sent():
 def test_worker_counts_reach_the_reporter_before_the_result():
     """The counts are read on a thread of their own: they move while the driver is busy
     (here: never handles the result)."""
-    rep = Recorder()
+    rep = RecordingReporter()
     counts = TaskCounts(rep)
     channel = queue.Queue()
     key = counts.add("survival", 100)
@@ -255,7 +229,7 @@ def test_a_tasks_phases_are_counts_of_their_own_beside_its_steps_tasks():
     counts of their own under its step (``<step>: <phase>``), each up to its total and
     finished when the next begins or the task's result comes; the step counts the task's
     units when its result comes, whatever its phases counted."""
-    rep = Recorder()
+    rep = RecordingReporter()
     counts = TaskCounts(rep)
     fit = counts.add("replay", 1)
     other = counts.add("replay", 1)

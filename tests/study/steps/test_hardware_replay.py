@@ -18,7 +18,7 @@ from monkeystudy.study import StudyError, load_study, parse_study, run_study
 from monkeystudy.study.steps import REGISTRY
 from monkeystudy.study.steps.hardware_replay import HardwareReplayStep
 
-from studyhelpers import assert_written_as_declared, open_dataset
+from studyhelpers import RecordingReporter, assert_written_as_declared, open_dataset
 
 ROOT = Path(__file__).resolve().parents[3]
 SMOKE = ROOT / "studies" / "acromonk_smoke.yaml"
@@ -308,53 +308,33 @@ def test_the_sensor_floor_is_the_training_logs(smoke):
 
 
 def test_the_identification_and_the_replays_after_it_count_as_they_go(tmp_path):
-    """Issue 41: on studies/acromonk.yaml the step's line sat at 18/19 tasks for the minutes
-    of the least-squares identification. The identification counts its residual
+    """The least-squares identification (minutes on studies/acromonk.yaml) is no silent
+    task at the end of the step's count: it counts its residual
     evaluations as it makes them (``replay: identify``, out of the most it can make:
     :func:`identify_evaluations`, said to be that) and the identified model's replays of the
     logs after it count the logs (``replay: replays``); each count reaches its total."""
-    import threading
-
-    from monkeystudy.study.progress import Reporter
-
-    class Recorder(Reporter):
-        def __init__(self):
-            self.events, self.lock = [], threading.Lock()
-
-        def start(self, name, total, done=0, unit="blocks"):
-            with self.lock:
-                self.events.append(("start", name, total, unit))
-
-        def advance(self, name, n=1):
-            with self.lock:
-                self.events.append(("advance", name, n))
-
-        def finish(self, name, message=""):
-            with self.lock:
-                self.events.append(("finish", name))
-
     path = tmp_path / "tiny.yaml"
     path.write_text(text("    horizons: [0.1]\n"
                          "    identify: {parameters: [joint_viscous], every: 0.3, "
                          "max_evaluations: 3}\n",
                          gait=""))
-    rec = Recorder()
+    rec = RecordingReporter()
     run_study(load_study(path), tmp_path / "out", workers=1, reporter=rec)
     fit = [e for e in rec.events if e[1] == "hw: identify"]
     assert fit, [e for e in rec.events if e[1] == "hw"]   # the step's count of tasks alone
     from monkeystudy.analysis.measured_replay import identify_evaluations
     most = identify_evaluations(3, 1)
-    assert fit[0] == ("start", "hw: identify", most, "residual evaluations at most")
+    assert fit[0] == ("start", "hw: identify", most, 0, "residual evaluations at most")
     assert fit[-1] == ("finish", "hw: identify")
     # counted as they come (a worker sends its count at most every 0.2 s), the rest of the
     # most when the fit is over
     counts = [e[2] for e in fit if e[0] == "advance"]
     assert all(n > 0 for n in counts) and sum(counts) == most, counts
     replays = [e for e in rec.events if e[1] == "hw: replays"]
-    assert replays[0] == ("start", "hw: replays", 2, "logs")
+    assert replays[0] == ("start", "hw: replays", 2, 0, "logs")
     assert sum(e[2] for e in replays if e[0] == "advance") == 2
     assert replays[-1] == ("finish", "hw: replays")
     assert rec.events.index(fit[-1]) < rec.events.index(replays[0])
     tasks = [e for e in rec.events if e[1] == "hw"]
-    assert tasks[0] == ("start", "hw", 5, "tasks")
+    assert tasks[0] == ("start", "hw", 5, 0, "tasks")
     assert sum(e[2] for e in tasks if e[0] == "advance") == 5
