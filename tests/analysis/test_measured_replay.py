@@ -183,7 +183,7 @@ def test_identification_recovers_the_rotor_and_the_torque_scale_of_a_simulated_s
 
 
 def test_identify_says_each_residual_evaluation_as_it_makes_it():
-    """Issue 41: the identification (minutes on studies/acromonk.yaml) said nothing until it
+    """The identification (minutes on studies/acromonk.yaml) said nothing until it
     was over. ``evaluated(1)`` comes once per residual evaluation, as it is made: at least
     least_squares' own (its nfev) and the fit's last, at most :func:`identify_evaluations`
     (its Jacobians' too), and the fit is the one made without it."""

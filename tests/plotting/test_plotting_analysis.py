@@ -133,7 +133,7 @@ def test_axes_have_units_and_titles_say_what_was_run(ds, step):
 
 # --- shoot ----------------------------------------------------------------------------------
 def test_shoot_order_panel_labels_the_same_powers_of_ten_on_both_axes(ds):
-    """Issue 41: the square r[k+1]-against-r[k] panel labelled every third power of ten on one
+    """The square r[k+1]-against-r[k] panel labelled every third power of ten on one
     axis and every second on the other, so its slopes did not read from the labels. Both
     axes label the same powers of ten, at least three of them, within the view."""
     fig = shoot.plot_shoot_convergence(ds["shoot"])

@@ -186,7 +186,7 @@ def labelled_ticks(axis) -> list[float]:
 
 
 def test_a_log_axis_within_a_decade_has_labelled_ticks_around_its_values(datasets):
-    """Issue 41: errors from 1.1e-4 to 8e-4 (smoke's minima_cycles) had no labelled tick
+    """Errors from 1.1e-4 to 8e-4 (smoke's minima_cycles) had no labelled tick
     below 2e-4 and none above 6e-4. A log axis shorter than a decade ends on labelled ticks
     and labels every minor one: the lowest and highest values lie between labelled ticks."""
     s = datasets["stability_1"].copy()
@@ -408,7 +408,7 @@ def test_the_lowest_error_of_a_lone_row_is_shown(datasets):
 
 def test_the_animation_legend_shows_each_stage_in_the_colour_the_robot_is_drawn(
         datasets, tmp_path, monkeypatch):
-    """Issue 41: the animation's legend gave "motor on" vermillion (the motor-on colour of a
+    """The animation's legend gave "motor on" vermillion (the motor-on colour of a
     robot hanging from A) while the horizontal gait's robot, hanging from B with its motor
     on, is drawn amber. Each stage the run passes through has a legend line of the colour
     and words of :data:`STAGES`, and no legend line has a stage colour the run never shows."""
@@ -439,7 +439,7 @@ def test_the_animation_legend_shows_each_stage_in_the_colour_the_robot_is_drawn(
 
 def test_filmstrip_text_is_readable_on_the_page_and_frame_numbers_inside_the_timeline(
         datasets):
-    """Issue 41: the 12-inch filmstrip (1800 px at 150 dpi) was scaled to the page's 1100 px,
+    """The 12-inch filmstrip (1800 px at 150 dpi) was scaled to the page's 1100 px,
     leaving 7-pt text 8.9 px high and less; the numbers of the first and last frames were cut
     at the timeline's ends. Every text is at least 10 px high at the page's width and every
     frame number lies inside the timeline."""
@@ -467,7 +467,7 @@ def test_filmstrip_text_is_readable_on_the_page_and_frame_numbers_inside_the_tim
 
 
 def test_the_e_one_line_of_a_row_above_one_is_labelled_inside_the_panel(datasets):
-    """Issue 41: a lone row whose lowest error is above 1 put e = 1 at the side panel's left
+    """A lone row whose lowest error is above 1 put e = 1 at the side panel's left
     edge and its label outside the panel."""
     grid = datasets["error_map"]
     j = int(np.flatnonzero((grid["status"] == 0).any("dtheta1").values)[0])
@@ -486,7 +486,7 @@ def test_the_e_one_line_of_a_row_above_one_is_labelled_inside_the_panel(datasets
 
 
 def test_durations_read_in_seconds_from_one_second(datasets):
-    """Issue 41: a motor phase of 2.69 s read "motor on for 2.69e+03 ms"."""
+    """A motor phase of 2.69 s read "motor on for 2.69e+03 ms"."""
     from monkeystudy.plotting.labels import duration
 
     assert duration(0.031) == "31 ms"
@@ -499,7 +499,7 @@ def test_durations_read_in_seconds_from_one_second(datasets):
 
 
 def test_labels_of_the_least_error_and_a_minimum_on_it_are_clear_of_every_marker(datasets):
-    """Issue 41: a refined minimum on (or beside) the grid's least error lay under its star,
+    """A refined minimum on (or beside) the grid's least error lay under its star,
     its number under the star's "least e". The squares are drawn over the star and every
     label lies inside the map, clear of every marker and of every other label."""
     grid = datasets["error_map"]

@@ -553,7 +553,7 @@ def test_each_animation_reports_its_frames(study_dir):
 
 
 def test_step_descriptions_on_the_page_are_whole_sentences(reported_study):
-    """Each step's description is its kind's first sentence, whole (issue 31: seven kinds were
+    """Each step's description is its kind's first sentence, whole (seven kinds were once
     cut at their docstring's first line, e.g. "...completes max_cycles: survival per")."""
     from monkeystudy.plotting.page import description
     from monkeystudy.study.steps import REGISTRY
@@ -567,7 +567,7 @@ def test_step_descriptions_on_the_page_are_whole_sentences(reported_study):
 
 
 def test_a_step_description_names_the_step_s_own_numbers(reported_study):
-    """Issue 41: the page printed the stability kind's docstring as is, "for ``cycles``
+    """The page printed the stability kind's docstring as is, "for ``cycles``
     cycles": a numeric setting the description names reads as the step's value, in the
     right number; a setting the study file leaves out, as its default."""
     from monkeystudy.plotting.page import description

@@ -5,7 +5,6 @@ from __future__ import annotations
 import io
 import queue
 import re
-import threading
 import time
 
 from monkeystudy.study import counts as C
@@ -95,7 +94,7 @@ def test_the_plain_reporter_says_each_phase_and_counts_within_it():
 
 
 def test_a_bar_of_a_narrow_terminal_keeps_its_count_and_eta_whole(monkeypatch):
-    """Issue 41: at 80 columns a phase's bar with its words ("design: blocks", "then refine,
+    """At 80 columns a phase's bar with its words ("design: blocks", "then refine,
     screen, checks") lost its count and bar to "…". On a terminal of 80 columns (and 60)
     each bar's line fits, and its count with its unit and its eta are whole: the name and the
     phases to come are what is cut."""
@@ -124,7 +123,7 @@ def test_a_bar_of_a_narrow_terminal_keeps_its_count_and_eta_whole(monkeypatch):
 
 
 def test_counts_are_worded_in_the_right_number():
-    """Issue 41: "1 cycles", "1 candidates", "for all 1 cycle", "2 level(s)", "drew 1
+    """No "1 cycles", "1 candidates", "for all 1 cycle", "2 level(s)", "drew 1
     figure(s)": one helper words a count (:func:`count`, :func:`all_of`), and the lines the
     step kinds word for any count are settled where they are shown (:func:`singular_counts`)."""
     assert P.count(1, "cycle") == "1 cycle" and P.count(0, "cycle") == "0 cycles"
@@ -146,7 +145,7 @@ def test_counts_are_worded_in_the_right_number():
 
 
 def test_a_run_with_one_step_up_to_date_says_so_in_the_singular(tmp_path):
-    """Issue 41: "all 1 datasets up to date"."""
+    """Never "all 1 datasets up to date"."""
     from monkeystudy.study import parse_study, run_study
 
     text = ("schema_version: 1\nname: one\nrobot: seed2009\n"
@@ -160,7 +159,7 @@ def test_a_run_with_one_step_up_to_date_says_so_in_the_singular(tmp_path):
 
 
 def test_a_phase_line_gives_the_eta_of_its_whole_step_as_far_as_it_is_estimated():
-    """Issue 41: a design step's line gave the eta of its phase only. The plain reporter's
+    """A design step's line gave the eta of its phase only. The plain reporter's
     line (an injected clock) gives the step's eta too: the phase's own plus the estimate of
     every phase to come that has one, the others named after it; the last phase's is its
     own."""
@@ -224,7 +223,7 @@ def test_a_phase_bar_gives_the_eta_of_its_whole_step_as_far_as_it_is_estimated()
 
 
 def test_a_tasks_phases_are_counts_of_their_own_beside_its_steps_tasks():
-    """Issue 41: a hardware_replay step's line sat at 18/19 tasks for the minutes of its
+    """A hardware_replay step's line sat at 18/19 tasks for the minutes of its
     identification. A task's phases (:func:`~monkeystudy.study.counts.task_phase`) are
     counts of their own under its step (``<step>: <phase>``), each up to its total and
     finished when the next begins or the task's result comes; the step counts the task's

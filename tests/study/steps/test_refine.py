@@ -86,7 +86,7 @@ steps:
 
 
 def test_a_search_that_finds_no_gait_says_so_not_best_error_nan(tmp_path):
-    """Issue 41: a refinement whose every point failed said "best error nan" in the run's log
+    """A refinement whose every point failed said "best error nan" in the run's log
     and "error nan" in ``monkeystudy inspect``. It says that it found no gait, so there is no
     error, with the status its search ended on."""
     import io
