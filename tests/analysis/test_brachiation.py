@@ -12,10 +12,10 @@ import pytest
 
 from monkeystudy.analysis.brachiation import (
     ACROMONK_TRAJECTORIES, GAP_THRESHOLD, IDENTIFIED, NOMINAL_TRAJECTORIES, capture_radius,
-    closed_chain, comparison, free_end, free_end_velocity, log_brachiations, measures,
+    closed_chain, comparison, free_end_velocity, log_brachiations, measures,
     nominal_trajectory, open_loop, positive_work, read_trajectory, torque_square_integral,
 )
-from monkeystudy.analysis.measured_replay import ModelSwing, acromonk_robot, replay
+from monkeystudy.analysis.measured_replay import ModelSwing, acromonk_robot, free_end, replay
 from monkeystudy.measured import (CATCH, RELEASE, SHIPPED_LOGS, SWING, log_paths, read_log,
                                   swings)
 

@@ -38,11 +38,10 @@ import numpy as np
 from ..kernel import layout as L
 from ..measured import FLAG_COLUMN, RELEASE, HardwareLog, holding, swings
 from ..robot import Friction, Robot
-from ..simulation import physical_points
 from ..urdf import reduce_urdf
 from .measured_replay import (ACROMONK_FAR_GRIP, ACROMONK_JOINTS, ACROMONK_LINKS, ACROMONK_URDF,
                               PUBLISHED_JOINT, PUBLISHED_PIVOT, ModelSwing, ModelValues, Replay,
-                              acromonk_robot, replay)
+                              acromonk_robot, free_end, replay)
 
 #: the lab's direct-collocation trajectories in a source checkout (data/acromonk/trajectories)
 ACROMONK_TRAJECTORIES = ACROMONK_URDF.parents[1] / "trajectories"
@@ -84,18 +83,6 @@ def positive_work(time: np.ndarray, torque: np.ndarray, rate: np.ndarray) -> flo
     span = np.where(mixed, np.abs(a) + np.abs(b), 1.0)
     part = np.where(mixed, 0.5 * hi * hi / span * h, 0.0)
     return float(np.sum(both) + np.sum(part))
-
-
-def free_end(robot: Robot, theta1, theta2, flipped: int) -> tuple[np.ndarray, np.ndarray,
-                                                                   np.ndarray]:
-    """The held end, the joint and the free end [m] ((n, 2) each, x along the ladder, y up)
-    of frame angles [rad], with the held end at the origin (the kernel's points)."""
-    th1, th2 = np.atleast_1d(np.asarray(theta1, float)), np.atleast_1d(np.asarray(theta2, float))
-    s = np.zeros((th1.size, 8))
-    s[:, L.TH1], s[:, L.TH2] = th1, th2
-    pts = physical_points(robot.params(), s, np.full(th1.size, float(flipped)))
-    held, free = ("A", "B") if flipped == 0 else ("B", "A")
-    return pts[held], pts["joint"], pts[free]
 
 
 def free_end_velocity(robot: Robot, theta1, theta2, theta1_rate, theta2_rate,

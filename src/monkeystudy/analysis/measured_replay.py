@@ -550,12 +550,16 @@ class ChainClosure:
     urdf_offset: float
 
 
-def _free_end(robot: Robot, theta1: float, theta2: float, flipped: int) -> tuple[float, float]:
-    s = np.zeros(8)
-    s[L.TH1], s[L.TH2] = theta1, theta2
-    pts = physical_points(robot.params(), s[None], np.array([float(flipped)]))
-    x, y = pts["B" if flipped == 0 else "A"][0]
-    return float(x), float(y)
+def free_end(robot: Robot, theta1, theta2, flipped: int) -> tuple[np.ndarray, np.ndarray,
+                                                                   np.ndarray]:
+    """The held end, the joint and the free end [m] ((n, 2) each, x along the ladder, y up)
+    of frame angles [rad], with the held end at the origin (the kernel's points)."""
+    th1, th2 = np.atleast_1d(np.asarray(theta1, float)), np.atleast_1d(np.asarray(theta2, float))
+    s = np.zeros((th1.size, 8))
+    s[:, L.TH1], s[:, L.TH2] = th1, th2
+    pts = physical_points(robot.params(), s, np.full(th1.size, float(flipped)))
+    held, free = ("A", "B") if flipped == 0 else ("B", "A")
+    return pts[held], pts["joint"], pts[free]
 
 
 def chain_closure(robot: Robot, log: HardwareLog, urdf: Path | str = ACROMONK_URDF
@@ -579,8 +583,10 @@ def chain_closure(robot: Robot, log: HardwareLog, urdf: Path | str = ACROMONK_UR
     th2 = float(np.mean(s * log.elbow_angle[rows]))
     offset = reduce_urdf(urdf, links=ACROMONK_LINKS, joints=ACROMONK_JOINTS,
                          far_grip=ACROMONK_FAR_GRIP).angles.theta1_offset
-    return ChainClosure(_free_end(robot, th1, th2, ms.flipped),
-                        _free_end(robot, th1 + offset, th2, ms.flipped), float(offset))
+    return ChainClosure(tuple(float(v) for v in free_end(robot, th1, th2, ms.flipped)[2][0]),
+                        tuple(float(v) for v in free_end(robot, th1 + offset, th2,
+                                                        ms.flipped)[2][0]),
+                        float(offset))
 
 
 def torque_sign_errors(robot: Robot, ms: ModelSwing, horizon: float = 0.1,
