@@ -412,15 +412,20 @@ class SegmentDesignSpace:
                              "section (no period)")
         # a cycle that ends hanging from A (two swaps) is defined for any robot
         check_cycle_frame(self.base_gait, self.robot)
-        if self.torque_limit is None:
-            motor = self.robot.motor.torque_limit
-            object.__setattr__(self, "torque_limit",
-                               motor if math.isfinite(motor) else SEGMENT_TORQUE_BOUND)
-        if not (self.torque_limit > 0 and math.isfinite(self.torque_limit)):
+        if not (self.torque_bound > 0 and math.isfinite(self.torque_bound)):
             raise ValueError(f"torque_limit must be positive and finite, got "
                              f"{self.torque_limit!r} N m")
         for name in self.base:
             self.parameter(name)
+
+    @property
+    def torque_bound(self) -> float:
+        """The largest torque magnitude of a torque parameter [N m]: ``torque_limit`` if
+        given, else the robot's motor's, else :data:`SEGMENT_TORQUE_BOUND`."""
+        if self.torque_limit is not None:
+            return float(self.torque_limit)
+        motor = self.robot.motor.torque_limit
+        return motor if math.isfinite(motor) else SEGMENT_TORQUE_BOUND
 
     @property
     def section_theta1(self) -> float:
@@ -448,7 +453,7 @@ class SegmentDesignSpace:
         seg = self.base_gait.segments[k - 1]
         if m.group(2) == "torque":
             frame = "motor" if self.motor_frame else "attached end's"
-            return Parameter("N m", -self.torque_limit, self.torque_limit,
+            return Parameter("N m", -self.torque_bound, self.torque_bound,
                              f"segment {k}'s motor torque ({frame} frame)", "schedule")
         if seg.until == "bar":
             raise ValueError(f"{name}: segment {k} catches a bar, and its value is the bar's "
