@@ -11,7 +11,7 @@ for what it needs; nothing integrates on its own.
 """
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -111,6 +111,40 @@ def cycle_map_error(z, gait: SequenceGait, *, robot: RobotLike = "seed2009",
     return float(np.linalg.norm(p - pf))
 
 
+def has_bar_catches(gait: SequenceGait) -> bool:
+    """Whether any segment of ``gait`` ends on a bar (``until: bar``)."""
+    return any(seg.until == "bar" for seg in gait.segments)
+
+
+def rows_on_start_end(gait: SequenceGait) -> list[int]:
+    """Rows of ``gait.segments`` that run hanging from the end the cycle starts from: those
+    up to the first whose exit enters a segment that acts on the magnets (none if the first
+    segment acts on them on entry)."""
+    rows = gait.all_segments()
+    if rows[0].magnets != "keep":
+        return []
+    out = []
+    for k in range(len(gait.segments)):
+        out.append(k)
+        if rows[k + 1].magnets != "keep":
+            break
+    return out
+
+
+def full_map_gait(gait: SequenceGait, y: float) -> SequenceGait:
+    """The gait run by the full map from the attached end's height ``y`` [m]: the ladder is
+    fixed in the world, the bar the cycle starts from at the origin, so a bar caught while
+    the robot still hangs from the start's end is ``y`` lower relative to it than the bar's
+    ``dy`` (each bar is given relative to the bar the robot hangs from). The gait itself
+    when it catches no bar, or when ``y`` is 0."""
+    if y == 0.0 or not has_bar_catches(gait):
+        return gait
+    on_start = set(rows_on_start_end(gait))
+    segs = tuple(replace(seg, value=seg.value - y) if k in on_start and seg.until == "bar"
+                 else seg for k, seg in enumerate(gait.segments))
+    return replace(gait, segments=segs)
+
+
 def cycle_full_map(w, gait: SequenceGait, *, robot: RobotLike = "seed2009",
                    integrator: Integrator = TIGHT) -> tuple[np.ndarray, Status]:
     """One cycle of a sequence gait in the full section state ``w = (y [m], theta2 [rad],
@@ -123,6 +157,12 @@ def cycle_full_map(w, gait: SequenceGait, *, robot: RobotLike = "seed2009",
     y-column is exactly ``e_y`` (a multiplier 1: the height is neutral). A guard on a world
     height (``free_end_y``) breaks that symmetry and can hold the height.
 
+    A gait that catches bars (``until: bar``) runs on a ladder fixed in the world
+    (:func:`full_map_gait`): ``y`` is the start's height off the bar it hangs from, and each
+    catch puts the new attached end on its bar whatever the state, so a cycle that ends on
+    a bar it caught ends at that bar's height: the y-row of the Jacobian is zero (the
+    height's multiplier 0), not a translation.
+
     Returns the full state at the cycle's end (``y`` of the end attached there, ``theta2``
     continued from ``w[1]`` across whole turns) and the run status. Needs a clock that
     restarts at the section (``ValueError`` for a running clock) and, for a cycle ending on
@@ -134,7 +174,8 @@ def cycle_full_map(w, gait: SequenceGait, *, robot: RobotLike = "seed2009",
                          "running clock's phase")
     check_cycle_frame(gait, robot)
     w = np.asarray(w, float)
-    res = run_controller(gait.controller(), cycle_section_state(gait, w[1:], height=w[0]),
+    res = run_controller(full_map_gait(gait, float(w[0])).controller(),
+                         cycle_section_state(gait, w[1:], height=w[0]),
                          robot=robot, integrator=integrator, cycles=1, log_capacity=0)
     th2 = float(w[1]) + wrapped_difference(res.state[L.TH2], float(w[1]))
     return (np.array([res.state[L.Y], th2, res.state[L.DTH1], res.state[L.DTH2]]),
@@ -146,3 +187,83 @@ def check_mirror_links(robot):
         raise ValueError("one-cycle return maps need mirror-image links (the frame flips at "
                          "every swap); compose two cycles for this robot")
 
+
+
+@dataclass(frozen=True)
+class CycleCatches:
+    """The bar catches of one cycle, in the order they happen (arrays of one value per
+    catch).
+
+    Attributes
+    ----------
+    segment : numpy.ndarray of int
+        Row of ``gait.segments`` (from 0) whose ``until: bar`` guard made the catch.
+    offset : numpy.ndarray
+        Horizontal position of the free end relative to its bar at the catch [m] (positive:
+        beyond the bar in +x), the kernel's crossing on its dense output.
+    window : numpy.ndarray
+        The bar's window [m].
+    margin : numpy.ndarray
+        ``window - |offset|`` [m]: positive, the hook caught the bar; the smaller it is, the
+        closer the gait is to missing it.
+    speed : numpy.ndarray
+        Speed of the free end just before the catch [m s-1] (the attached end at rest).
+    velocity : numpy.ndarray, shape (n, 2)
+        The free end's velocity just before the catch, ``(x, y)`` [m s-1].
+    status : Status
+        How the cycle's run ended.
+    """
+
+    segment: np.ndarray
+    offset: np.ndarray
+    window: np.ndarray
+    margin: np.ndarray
+    speed: np.ndarray
+    velocity: np.ndarray
+    status: Status
+
+
+def cycle_catches(z, gait: SequenceGait, *, robot: RobotLike = "seed2009",
+                  integrator: Integrator = TIGHT) -> CycleCatches:
+    """The bar catches of one cycle of ``gait`` from section state ``z`` (as
+    :func:`cycle_return_map`): for each catch its offset from the bar, its offset margin
+    and the hook's speed just before it.
+
+    A catch is the exit of an ``until: bar`` segment into one that swaps the attached end
+    (docs/model.md section 6, "A catch on a bar"); the state just before it is the run's
+    sample at the exit (written before the next segment's impact), its free end measured
+    from the attached end in that frame. A cycle that does not complete has the catches it
+    made before it stopped.
+    """
+    robot = as_robot(robot)
+    check_cycle_frame(gait, robot)
+    prog, _ = gait.program()
+    # one sample per exit: a sampling step longer than the run adds none between events
+    res = run_controller(gait.controller(), cycle_section_state(gait, z), robot=robot,
+                         integrator=integrator, cycles=1, sample_dt=1e6, log_capacity=64)
+    log = res.log[res.log[:, L.L_KIND] == L.LOG_SEGMENT]
+    seg_t, seg_id = res.sample_t, res.sample_segment
+    segment, offset, window, velocity = [], [], [], []
+    flipped = 0
+    for row in log:
+        k = int(row[L.L_ID])
+        after = int(row[L.L_FLIPPED])
+        if (int(prog[k, L.S_GUARD]) == L.G_BAR and after != flipped
+                and k < len(gait.segments)):
+            i = np.flatnonzero((seg_t == row[L.L_T]) & (seg_id == k))[0]
+            s = res.sample_state[i]
+            p = res.params[flipped]
+            l1, l2, w1, w12 = p[L.P_L1], p[L.P_L2], s[L.DTH1], s[L.DTH1] + s[L.DTH2]
+            th1, th12 = s[L.TH1], s[L.TH1] + s[L.TH2]
+            ox = l1 * np.sin(th1) + l2 * np.sin(th12)
+            segment.append(k)
+            offset.append(ox - prog[k, L.S_BAR_DX])
+            window.append(prog[k, L.S_BAR_WINDOW])
+            velocity.append((l1 * np.cos(th1) * w1 + l2 * np.cos(th12) * w12,
+                             l1 * np.sin(th1) * w1 + l2 * np.sin(th12) * w12))
+        flipped = after
+    offset_a, window_a = np.array(offset, float), np.array(window, float)
+    vel = np.array(velocity, float).reshape(-1, 2)
+    return CycleCatches(np.array(segment, int), offset_a, window_a,
+                        window_a - np.abs(offset_a), np.hypot(vel[:, 0], vel[:, 1]), vel,
+                        res.status)

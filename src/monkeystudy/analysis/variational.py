@@ -46,7 +46,7 @@ from ..kernel.variational import (
 )
 from ..robot import SEED2009_TORQUE
 from ..simulation import RobotLike, Status, as_robot, run_controller
-from .sections import TIGHT, check_cycle_frame, cycle_section_state
+from .sections import TIGHT, check_cycle_frame, cycle_section_state, full_map_gait
 
 #: rows/columns of the section coordinates ``z = (theta2, dtheta1, dtheta2)`` in the 8-state
 SECTION_INDEX = (L.TH2, L.DTH1, L.DTH2)
@@ -194,7 +194,8 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
                          "running clock's phase")
     cols = list(FULL_INDEX if height else CLOCKED_INDEX if gait.clocked else SECTION_INDEX)
     z = np.asarray(z, dtype=float).reshape(len(cols))
-    prog, _ = gait.program()
+    # the full map of a bar gait runs on a ladder fixed in the world (sections.full_map_gait)
+    prog, _ = (full_map_gait(gait, float(z[0])) if height else gait).program()
     hyb0 = (cycle_section_state(gait, z[1:], height=z[0]) if height
             else cycle_section_state(gait, z))
     res = run_controller(gait.controller(), hyb0, robot=robot, integrator=integrator,
@@ -213,16 +214,23 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
     out, DR = np.empty(8), np.empty((8, 8))
     grad = np.empty(8)
     A = np.empty((8, 8))
+    # d (x, y) / d z of the bar the robot hangs from, where the bars it catches are placed:
+    # the start's bar is fixed in the world (the start's height, in the full map, is its
+    # height off that bar); an attachment other than a catch makes the new attached end the
+    # reference, as the kernel places bars from it
+    ref_rows = np.zeros((2, n))
 
     def enter(seg, f_minus, dt_e):
         """Entry actions of ``seg`` at an event: reset the state and jump Phi."""
-        nonlocal s, phase, flipped, Phi, eref, deref
+        nonlocal s, phase, flipped, Phi, eref, deref, ref_rows
         ph, fl = entry_reset(par, s, phase, flipped, prog[seg, L.S_MAG_A],
                              prog[seg, L.S_MAG_B], prog[seg, L.S_SWAP] > 0, out, DR)
         phase, flipped = int(ph), int(fl)
         s = out.copy()
         f_plus = _field(phase, par[flipped], prog[seg, L.S_TORQUE], s)
         Phi = DR @ Phi + np.outer(DR @ f_minus - f_plus, dt_e)
+        if prog[seg, L.S_MAG_A] >= 0 or prog[seg, L.S_MAG_B] >= 0 or prog[seg, L.S_SWAP] > 0:
+            ref_rows = Phi[[L.X, L.Y], :].copy()
         if prog[seg, L.S_SET_EREF] > 0:
             # the latched energy moves with the start through the state *and* the entry time
             eref = total_energy8(par[flipped], s)
@@ -268,7 +276,13 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
                 t_e += delta
             guard8_gradient(kind, index, value, p, s, eref, grad)
             f = _field(phase, p, tau, s)
-            dref = deref if kind == L.G_ENERGY_RESTORED else 0.0
+            if kind == L.G_ENERGY_RESTORED:
+                dref = deref
+            elif kind == L.G_BAR:
+                # the guard's value is the bar's rise above the attached end
+                dref = ref_rows[1] - Phi[L.Y]
+            else:
+                dref = 0.0
             dt_e = -(grad @ Phi - dref) / (grad @ f)
         else:
             raise ValueError(f"segment {seg} has no guard that can end it (kind {kind})")
@@ -292,7 +306,7 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
             return M[cols, :]
         caught = kind == L.G_BAR and phase == L.PHASE_SWING
         bar = s[L.X] + prog[seg, L.S_BAR_DX], s[L.Y] + value
-        pivot_rows = Phi[[L.X, L.Y], :].copy()
+        bar_rows = ref_rows.copy()
         flipped_before = flipped
         seg = int(prog[seg, L.S_NEXT])
         enter(seg, f_minus, dt_e)
@@ -303,9 +317,11 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
                                "the kernel's")
         if caught and phase == L.PHASE_SWING and flipped != flipped_before:
             # the snap onto the bar (the kernel's log holds the state before it): the new
-            # pivot is the old one plus the bar's offset, so it moves as the old pivot did
+            # pivot is the bar, a fixed offset from the bar the robot hung from, so it moves
+            # as that bar did (not at all for a bar of the world-fixed ladder)
             s[L.X], s[L.Y] = bar
-            Phi[[L.X, L.Y], :] = pivot_rows
+            Phi[[L.X, L.Y], :] = bar_rows
+            ref_rows = bar_rows
     raise RuntimeError("the kernel log has no segment exits")
 
 
