@@ -20,7 +20,7 @@ from __future__ import annotations
 from .._lazy import lazy_exports
 
 _EXPORTS = {
-    "sections": ("TIGHT", "CycleCatches", "check_cycle_frame", "check_mirror_links",
+    "sections": ("TIGHT", "CycleCatches", "bar_catch_rows", "check_cycle_frame", "check_mirror_links",
                  "cycle_catches", "cycle_full_map", "cycle_map_error", "cycle_return_map",
                  "cycle_section_state", "full_map_gait", "has_bar_catches",
                  "open_loop_return_map", "rows_on_start_end", "search_return_map",

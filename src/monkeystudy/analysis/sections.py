@@ -267,3 +267,11 @@ def cycle_catches(z, gait: SequenceGait, *, robot: RobotLike = "seed2009",
     return CycleCatches(np.array(segment, int), offset_a, window_a,
                         window_a - np.abs(offset_a), np.hypot(vel[:, 0], vel[:, 1]), vel,
                         res.status)
+
+
+def bar_catch_rows(gait: SequenceGait) -> list[int]:
+    """Rows of ``gait.segments`` (from 0) that catch a bar: an ``until: bar`` segment whose
+    exit enters one that acts on the magnets (the swap of docs/model.md section 6)."""
+    rows = gait.all_segments()
+    return [k for k in range(len(gait.segments))
+            if rows[k].until == "bar" and rows[k + 1].magnets != "keep"]

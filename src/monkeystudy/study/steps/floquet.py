@@ -20,7 +20,9 @@ import numpy as np
 from pydantic import Field, field_validator, model_validator
 
 from ...analysis.multipliers import floquet, jacobian_fd, solve_fixed_point, sorted_eigs
-from ...analysis.sections import cycle_full_map, cycle_map_error, cycle_return_map
+from ...analysis.sections import (
+    bar_catch_rows, cycle_catches, cycle_full_map, cycle_map_error, cycle_return_map,
+)
 from ...analysis.variational import sequence_variational_jacobian
 from ...controllers import SequenceGait, open_loop_gait
 from ...simulation import evaluate_cycle_gaits
@@ -113,7 +115,8 @@ def floquet_task(spec: GaitSpec, controller: str, *, gait: SequenceGait, z0,
     ``map_defect = |P(z) - z|``, ``agreement = max|J - J_fd| / max|J|``, ``stable`` (from
     the variational multipliers, neutral ones excluded), and the cycle at the fixed point
     (segment exit times [s], advance [m], error). With ``height``, the same for the full
-    map (:func:`full_map_analysis`): keys ``full_*``.
+    map (:func:`full_map_analysis`): keys ``full_*``. A gait that catches bars adds each
+    catch's offset margin and the hook's speed just before it (:func:`catch_measures`).
     """
     robot, integ = spec.robot, spec.integrator
     gait = dataclasses.replace(gait, tick=0.0)
@@ -143,6 +146,8 @@ def floquet_task(spec: GaitSpec, controller: str, *, gait: SequenceGait, z0,
             out["newton_stop"] = f"not converged: {exc}: analysed at its start"
     at = dataclasses.replace(gait, theta2=float(z[0]))
     r = evaluate_cycle_gaits(np.array([[z[1], z[2]]]), at, robot=robot, integrator=integ)
+    if bar_catch_rows(gait):
+        out.update(catch_measures(spec, gait, z))
     try:
         Jv = jac(z)
         fl = floquet(fmap, z, step=fd_step, neutral_tol=NEUTRAL_TOL)
@@ -169,6 +174,30 @@ def floquet_task(spec: GaitSpec, controller: str, *, gait: SequenceGait, z0,
         "y_advance": float(r["y_advance"][0]), "error": float(r["error"][0]),
     })
     return out
+
+
+def catch_measures(spec: GaitSpec, gait: SequenceGait, z) -> dict:
+    """The bar catches of the cycle from section state ``z``
+    (:func:`~monkeystudy.analysis.sections.cycle_catches`), one value per catching segment
+    of the gait (:func:`~monkeystudy.analysis.sections.bar_catch_rows`, in order):
+    ``catch_offset_margin`` [m] (the bar's window less the free end's horizontal distance
+    from it at the catch) and ``catch_speed`` [m s-1] (the free end's speed just before
+    it); NaN for a segment that made no catch (a cycle that stopped before it)."""
+    rows = bar_catch_rows(gait)
+    margin, speed = np.full(len(rows), np.nan), np.full(len(rows), np.nan)
+    c = cycle_catches(z, gait, robot=spec.robot, integrator=spec.integrator)
+    for k, seg in enumerate(c.segment):
+        if seg in rows:
+            margin[rows.index(seg)], speed[rows.index(seg)] = c.margin[k], c.speed[k]
+    return {"catch_segment": np.array(rows, int), "catch_offset_margin": margin,
+            "catch_speed": speed}
+
+
+def catches_text(r: dict) -> str:
+    """A result's catches in words: offset margins [mm] and catch speeds [m s-1]."""
+    return ("catch offset margin " + ", ".join(f"{1e3 * m:.4g}" for m in
+                                               r["catch_offset_margin"]) + " mm, speed "
+            + ", ".join(f"{v:.4g}" for v in r["catch_speed"]) + " m/s")
 
 
 def full_map_analysis(spec: GaitSpec, gait: SequenceGait, z, fd_step: float) -> dict:
@@ -315,6 +344,19 @@ VARIABLES = {
     "full_stable": D.Variable(("controller",), np.int8, "1",
                               "every multiplier of the full map inside the unit circle (1; "
                               "a neutral height, multiplier 1, is not stable)", optional=True),
+    # a gait that catches bars (until: bar)
+    "catch": D.index_coordinate("catch", "bar catch of the cycle, in the order of its "
+                                "segments", optional=True),
+    "catch_segment": D.Variable(("catch",), np.int32, "1", "segment (from 0) whose until: "
+                                "bar guard makes the catch", optional=True),
+    "catch_offset_margin": D.Variable(("controller", "catch"), np.float64, "m",
+                                      "the bar's window less the free end's horizontal "
+                                      "distance from the bar at the catch (positive: caught; "
+                                      "small: close to missing the bar; NaN: no catch)",
+                                      optional=True),
+    "catch_speed": D.Variable(("controller", "catch"), np.float64, "m s-1",
+                              "speed of the free end (the hook) just before the catch",
+                              optional=True),
 }
 
 
@@ -359,6 +401,8 @@ def write_floquet(path: Path, attrs: dict, results: list[dict], swap_motor: bool
         D.write_declared(nc, VARIABLES, "map_error", stack("map_error"))
         if height:
             write_full_map(nc, results)
+        if "catch_segment" in results[0]:
+            write_catches(nc, results)
         D.set_global_attrs(nc, attrs)
 
 
@@ -377,6 +421,15 @@ def write_full_map(nc, results: list[dict]) -> None:
                 "full_spectral_radius_fd", "full_agreement"):
         D.write_declared(nc, VARIABLES, key, stack(key))
     D.write_declared(nc, VARIABLES, "full_stable", stack("full_stable", np.int8))
+
+
+def write_catches(nc, results: list[dict]) -> None:
+    """The bar catches' variables of a floquet dataset (dim ``catch``), from
+    :func:`catch_measures` results."""
+    D.write_coordinate(nc, VARIABLES, "catch", np.arange(len(results[0]["catch_segment"])))
+    D.write_declared(nc, VARIABLES, "catch_segment", results[0]["catch_segment"])
+    for key in ("catch_offset_margin", "catch_speed"):
+        D.write_declared(nc, VARIABLES, key, np.array([r[key] for r in results], float))
 
 
 # --- the kind ------------------------------------------------------------------------------------
@@ -477,7 +530,11 @@ class FloquetKind(StepKind):
                          f"{r['agreement']:.2g})")
             if st.height_in_map:
                 parts[-1] += (f", full map rho {r['full_spectral_radius']:.6g} (finite "
-                              f"differences {r['full_spectral_radius_fd']:.6g})")
+                              f"differences {r['full_spectral_radius_fd']:.6g}"
+                              + ("; the height reset by the bar catches, multiplier 0"
+                                 if "catch_segment" in r else "") + ")")
+            if "catch_segment" in r:
+                parts[-1] += f", {catches_text(r)}"
         return "; ".join(parts)
 
     def describe(self, ds) -> list[str]:
@@ -519,6 +576,11 @@ class FloquetKind(StepKind):
                            f"(finite differences {float(ds['full_spectral_radius_fd'][i]):.10g}"
                            f"), agreement {float(ds['full_agreement'][i]):.2g}; "
                            f"{'stable' if int(ds['full_stable'][i]) else 'not stable'}, "
-                           f"height included")
+                           f"height included" + ("; on a ladder the height is reset by the "
+                                                 "bar catches (its multiplier 0)"
+                                                 if "catch" in ds.dims else ""))
+            if "catch_offset_margin" in ds:
+                out.append("  " + catches_text(
+                    {k: ds[k].values[i] for k in ("catch_offset_margin", "catch_speed")}))
         return out
 
