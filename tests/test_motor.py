@@ -110,3 +110,22 @@ def test_a_segment_design_bounds_its_torques_by_the_robots_motor():
     assert "segment2_torque = 2.58882863 N m outside [-2.5, 2.5]" in limited.buildable(values)
     assert SegmentDesignSpace(gait, acromonk_robot().with_motor(Motor(3.0)),
                               motor_frame=True).buildable(values) == ""
+
+
+#: BRACHIATION on a ladder: each catch a bar 0.34 m back (window 0.03 m) instead of the start's
+#: world height, the torques re-found for it (AcroMonk, no pivot Coulomb friction, the rotor of
+#: tests/analysis/test_design.acromonk_for_design)
+BAR_BRACHIATION = {
+    "kind": "sequence", "torque_frame": "motor",
+    "section": {"theta1": 0.0, "direction": "either", "theta2": -0.0739151096},
+    "segments": [
+        {"until": "bar", "bar": {"dx": -0.34, "dy": 0.0, "window": 0.03}, "torque": 0.779877,
+         "clock": "reset"},
+        {"until": "time", "value": 0.115121, "magnets": "swap", "torque": -2.47776},
+        {"until": "coord", "coord": "theta1", "value": 0.0, "direction": "either"},
+        {"until": "bar", "bar": {"dx": -0.34, "dy": 0.0, "window": 0.03}, "torque": -1.607085,
+         "clock": "reset"},
+        {"until": "time", "value": 0.95018, "magnets": "swap", "torque": 0.797934}]}
+#: its fixed point (theta2 [rad], dtheta1, dtheta2 [rad s-1]), found by the refine and floquet
+#: steps (stable: section-map multipliers 0.4236, -0.2956, 1.4e-6)
+Z_BAR_BRACHIATION = (-0.0739151096, -3.9857510475, -2.2169045367)

@@ -221,3 +221,75 @@ def test_a_two_swap_cycle_designs_a_robot_without_mirror_image_links():
     with pytest.raises(ValueError, match="mirror-image links"):
         SegmentDesignSpace(SequenceGaitSpec.model_validate(one_swap).gait(), robot,
                            motor_frame=True, integrator=TIGHT)
+
+
+# --- a gait that catches bars ------------------------------------------------------------------
+from test_motor import BAR_BRACHIATION, Z_BAR_BRACHIATION  # noqa: E402
+
+from monkeystudy.analysis.design import OUT_OF_BOUNDS, STATUS_NAMES  # noqa: E402
+from monkeystudy.kernel.design import DS_NO_CYCLE  # noqa: E402
+
+BAR_INTEG = Integrator(method="dop853", rtol=1e-12, atol=1e-13, max_time=6.0)
+#: a 2 x 2 grid of the catches' torques around the bar gait's [N m, motor frame]
+BAR_GRID = [(a, b) for a in (0.77, 0.78) for b in (-1.62, -1.60)]
+
+
+def bar_space(window2: float = 0.03, **kw) -> SegmentDesignSpace:
+    segs = [dict(s) for s in BAR_BRACHIATION["segments"]]
+    segs[3] = dict(segs[3], bar=dict(segs[3]["bar"], window=window2))
+    gait = SequenceGaitSpec.model_validate(dict(BAR_BRACHIATION, segments=segs)).gait()
+    return SegmentDesignSpace(gait, acromonk_for_design(), motor_frame=True,
+                              integrator=BAR_INTEG, **kw)
+
+
+def bar_grid(space):
+    return [evaluate_design(space, {"segment1_torque": a, "segment4_torque": b},
+                            Z_BAR_BRACHIATION) for a, b in BAR_GRID]
+
+
+def test_a_bar_gaits_design_is_measured_on_its_section_map_with_the_height_reset():
+    """A segment design of a bar gait runs (the bars' rises are the ladder's, not parameters
+    to bound) and its full map's spectral radius is the section map's: the catches reset the
+    height (multiplier 0), they do not leave it neutral (1)."""
+    res = with_variational(bar_space(), evaluate_design(bar_space(), {}, Z_BAR_BRACHIATION))
+    assert res.ok, res.message
+    assert res.spectral_radius_fd == pytest.approx(0.423634, abs=1e-6)
+    assert abs(res.spectral_radius - res.spectral_radius_fd) < 1e-6
+    assert abs(res.multipliers[-1]) < 1e-12
+    np.testing.assert_allclose(res.catch_offset_margin, [0.01889087, 0.00538868], atol=1e-7)
+    assert res.max_catch_speed == pytest.approx(6.16405, abs=1e-4)
+    assert res.objective("spectral_radius", 0.0, 0.1) == pytest.approx(
+        res.spectral_radius_fd + 0.1 * res.max_catch_speed, abs=1e-12)
+    assert "segment1_value = 0.05 m" in bar_space().buildable(
+        dict(bar_space().values(), segment1_value=0.05))
+
+
+def test_a_design_whose_catch_falls_outside_a_narrow_window_is_no_cycle():
+    """With the second bar's window narrowed to 26 mm two designs of the grid still catch it
+    (their hook within 26 mm of the bar) and two do not: the hook passes the bar, their cycle
+    ends at its horizon and the design fails as no_cycle, naming the bar."""
+    wide, narrow = bar_grid(bar_space()), bar_grid(bar_space(window2=0.026))
+    assert all(r.ok for r in wide)
+    for w, n in zip(wide, narrow):
+        if w.catch_offset_margin[1] > 0.004:      # inside 26 mm too
+            assert n.ok
+            assert n.catch_offset_margin[1] == pytest.approx(w.catch_offset_margin[1] - 0.004,
+                                                             abs=1e-9)
+        else:
+            assert n.status == DS_NO_CYCLE, n.message
+            assert "segment 4's bar" in n.message and "outside its window 0.026 m" in n.message
+    assert sum(r.ok for r in narrow) == 2
+
+
+def test_a_catch_below_min_offset_margin_is_rejected():
+    """min_offset_margin rejects the grid's designs whose closest catch comes nearer than
+    5 mm to the window's edge (status out_of_bounds, the margin in the message)."""
+    plain = bar_grid(bar_space())
+    held = bar_grid(bar_space(min_offset_margin=0.005))
+    for p, h in zip(plain, held):
+        if p.min_offset_margin >= 0.005:
+            assert h.ok and h.spectral_radius_fd == p.spectral_radius_fd
+        else:
+            assert h.status == OUT_OF_BOUNDS and STATUS_NAMES[h.status] == "out_of_bounds"
+            assert "below min_offset_margin 0.005 m" in h.message
+    assert sum(h.ok for h in held) == 2

@@ -39,15 +39,17 @@ from ..controllers import (
 )
 from ..kernel import layout as L
 from ..kernel.design import (
-    DESIGN_STATUS_NAMES, DS_OK, DS_STENCIL, I_ADVANCE, I_DEFECT, I_ERROR, I_ITERATIONS, I_LOSS,
-    I_NFEV, I_PERIOD, I_RISE, N_INFO, clocked_jacobian, fixed_point,
+    DESIGN_STATUS_NAMES, DS_NO_CYCLE, DS_OK, DS_STENCIL, I_ADVANCE, I_DEFECT, I_ERROR,
+    I_ITERATIONS, I_LOSS, I_NFEV, I_PERIOD, I_RISE, N_INFO, clocked_jacobian, fixed_point,
 )
 from ..robot import Link, Robot
 from ..simulation import Status, energies, run_controller
 from .multipliers import jacobian_fd, sorted_eigs
 from .replay import cycles_to_bound, growth_per_cycle, sequence_basin, sequence_cycles
 from .survival import Noise, SurvivalRuns, survival_runs
-from .sections import TIGHT, check_cycle_frame, cycle_full_map, cycle_section_state
+from .sections import (
+    TIGHT, bar_catch_rows, check_cycle_frame, cycle_catches, cycle_full_map, cycle_section_state,
+)
 from .variational import sequence_variational_jacobian
 
 
@@ -386,6 +388,11 @@ class SegmentDesignSpace:
         The largest torque magnitude a torque parameter may take [N m]: default the robot's
         motor's (:class:`~monkeystudy.Motor`), or :data:`SEGMENT_TORQUE_BOUND` for a motor
         that states no limit.
+    min_offset_margin : float
+        A gait that catches bars: the least offset margin a catch may have [m] (its bar's
+        window less the free end's horizontal distance from the bar at the catch); a design
+        whose gait catches with less is rejected (status ``out_of_bounds``). 0: every catch
+        inside its window.
     """
 
     base_gait: SequenceGait
@@ -398,6 +405,7 @@ class SegmentDesignSpace:
     max_iter: int = 12
     fd_step: float = 1e-5
     torque_limit: float | None = None
+    min_offset_margin: float = 0.0
 
     balance: ClassVar[str] = "none"
     clock: ClassVar[str] = "reset_at_vertical"
@@ -417,6 +425,15 @@ class SegmentDesignSpace:
                              f"{self.torque_limit!r} N m")
         for name in self.base:
             self.parameter(name)
+        if not (self.min_offset_margin >= 0.0 and math.isfinite(self.min_offset_margin)):
+            raise ValueError(f"min_offset_margin must be finite and >= 0, got "
+                             f"{self.min_offset_margin!r} m")
+
+    @property
+    def catch_rows(self) -> list[int]:
+        """Rows of the gait's segments (from 0) that catch a bar
+        (:func:`~monkeystudy.analysis.sections.bar_catch_rows`)."""
+        return bar_catch_rows(self.base_gait)
 
     @property
     def torque_bound(self) -> float:
@@ -489,8 +506,16 @@ class SegmentDesignSpace:
         return self.robot
 
     def buildable(self, values: Mapping[str, float]) -> str:
-        """Why a design cannot run ('' if it can): a value outside its bounds."""
+        """Why a design cannot run ('' if it can): a value outside its bounds, or a bar's
+        rise (a catching segment's value: the ladder's, no parameter) other than the gait's."""
+        for k, seg in enumerate(self.base_gait.segments, start=1):
+            if seg.until == "bar" and values[f"segment{k}_value"] != seg.value:
+                return (f"segment{k}_value = {values[f'segment{k}_value']!r} m: segment {k} "
+                        f"catches a bar {seg.value!r} m above, the ladder's geometry")
         for name in self.parameter_names:
+            if name.endswith("_value") and self.base_gait.segments[
+                    int(SEGMENT_PARAMETER.fullmatch(name).group(1)) - 1].until == "bar":
+                continue
             p = self.parameter(name)
             v = values[name]
             if not p.lower <= v <= p.upper:
@@ -538,6 +563,9 @@ class DesignResult:
     nfev: int
     message: str = ""
     clocked: bool = False            # a running clock: the map's state is (0, z)
+    # a gait that catches bars: per catching segment, in order (NaN: no catch)
+    catch_offset_margin: np.ndarray = field(default_factory=lambda: np.empty(0))  # [m]
+    catch_speed: np.ndarray = field(default_factory=lambda: np.empty(0))          # [m s-1]
 
     @property
     def ok(self) -> bool:
@@ -561,15 +589,40 @@ class DesignResult:
         horizontal gait)."""
         return self.energy_lost / self.advance if self.advance > 0 else math.nan
 
-    def objective(self, kind: str = "spectral_radius", energy_weight: float = 0.0) -> float:
+    def objective(self, kind: str = "spectral_radius", energy_weight: float = 0.0,
+                  catch_speed_weight: float = 0.0) -> float:
         """The search's objective: ``rho`` (finite differences), plus ``energy_weight`` [m
-        J-1] times the energy per metre for ``spectral_radius_energy``; inf if the design
-        has no gait."""
+        J-1] times the energy per metre for ``spectral_radius_energy``, plus
+        ``catch_speed_weight`` [s m-1] times the largest catch speed of a gait that catches
+        bars (:func:`objective_value`); inf if the design has no gait."""
         if not self.ok or not math.isfinite(self.spectral_radius_fd):
             return math.inf
-        if kind == "spectral_radius":
-            return self.spectral_radius_fd
-        return self.spectral_radius_fd + energy_weight * self.energy_per_metre
+        return objective_value(kind, self.spectral_radius_fd, self.energy_per_metre,
+                               energy_weight, self.max_catch_speed, catch_speed_weight)
+
+    @property
+    def max_catch_speed(self) -> float:
+        """The largest speed of the hook just before a catch [m s-1] (NaN: no catch)."""
+        return float(np.max(self.catch_speed)) if self.catch_speed.size else math.nan
+
+    @property
+    def min_offset_margin(self) -> float:
+        """The least offset margin of the cycle's catches [m] (NaN: no catch)."""
+        return (float(np.min(self.catch_offset_margin)) if self.catch_offset_margin.size
+                else math.nan)
+
+
+def objective_value(kind: str, rho, energy_per_metre, energy_weight: float, catch_speed,
+                    catch_speed_weight: float):
+    """A design search's objective from a design's spectral radius per step ``rho``, its
+    energy per metre [J m-1] and its largest catch speed [m s-1] (scalars or arrays):
+    ``rho``, plus ``energy_weight`` [m J-1] times the energy per metre for
+    ``spectral_radius_energy``, plus ``catch_speed_weight`` [s m-1] times the catch speed
+    when that weight is positive."""
+    value = rho if kind == "spectral_radius" else rho + energy_weight * energy_per_metre
+    if catch_speed_weight > 0.0:
+        value = value + catch_speed_weight * catch_speed
+    return value
 
 
 def spectral_radius(J: np.ndarray, steps: int) -> float:
@@ -607,7 +660,7 @@ def motor_frame_pulses(values: Mapping[str, float]) -> list[tuple[float, float, 
 
 
 def evaluate_design(space: DesignSpace, free: Mapping[str, float], z0,
-                    *, variational: bool = False) -> DesignResult:
+                    *, variational: bool = False, diagnose: bool = True) -> DesignResult:
     """Solve a design's gait from the section-state guess ``z0`` and measure its stability.
 
     Parameters
@@ -619,6 +672,9 @@ def evaluate_design(space: DesignSpace, free: Mapping[str, float], z0,
         Newton's start ``(theta2 [rad], dtheta1, dtheta2 [rad s-1])``.
     variational : bool
         Also compute the Jacobian by variational equations (a few milliseconds more).
+    diagnose : bool
+        A gait that catches bars and has no gait here: say whether its catch falls outside
+        a bar's window (:func:`missed_bar`).
 
     Returns
     -------
@@ -667,6 +723,13 @@ def evaluate_design(space: DesignSpace, free: Mapping[str, float], z0,
         clocked_stability(space, res, robot, settings)
     if status == DS_OK and space.height_in_map:
         full_map_stability(space, res)
+    catching = isinstance(space, SegmentDesignSpace) and bool(space.catch_rows)
+    if catching and res.status == DS_OK:
+        catch_check(space, res)
+    elif catching and diagnose and res.status != OUT_OF_BOUNDS:
+        missed = missed_bar(space, values, z0)
+        if missed:
+            res.status, res.message = DS_NO_CYCLE, missed
     if res.status != DS_OK:
         res.spectral_radius_fd = math.nan
         res.jacobian_fd, res.multipliers_fd = nank.copy(), np.full(k, np.nan)
@@ -699,6 +762,73 @@ def clocked_stability(space: DesignSpace, res: DesignResult, robot: Robot,
     res.jacobian_fd = DP
     res.multipliers_fd = sorted_eigs(DP)
     res.spectral_radius_fd = spectral_radius(DP, space.steps)
+
+
+#: a bar's window [m] wide enough that the first crossing of its height catches it (the
+#: robot is shorter): :func:`missed_bar` finds where a design's gait would catch
+OPEN_WINDOW = 10.0
+
+
+def catch_check(space: SegmentDesignSpace, res: DesignResult) -> None:
+    """A solved gait's bar catches, in place: each catching segment's offset margin [m] and
+    catch speed [m s-1] (:func:`~monkeystudy.analysis.sections.cycle_catches`), and the
+    design rejected (status ``out_of_bounds``, the reason in ``message``) when a catch is
+    missing or its margin is below ``space.min_offset_margin``."""
+    rows = space.catch_rows
+    c = cycle_catches(res.z, space.cycle_gait(res.values, res.period),
+                      robot=space.robot_for(res.values), integrator=space.integrator)
+    margin, speed = np.full(len(rows), np.nan), np.full(len(rows), np.nan)
+    for k, seg in enumerate(c.segment):
+        if seg in rows:
+            margin[rows.index(seg)], speed[rows.index(seg)] = c.margin[k], c.speed[k]
+    res.catch_offset_margin, res.catch_speed = margin, speed
+    if not np.all(np.isfinite(margin)):
+        missing = [rows[i] + 1 for i in np.flatnonzero(~np.isfinite(margin))]
+        res.status = OUT_OF_BOUNDS
+        res.message = f"out_of_bounds: no catch by segment(s) {missing} in the cycle"
+    elif np.min(margin) < space.min_offset_margin:
+        i = int(np.argmin(margin))
+        res.status = OUT_OF_BOUNDS
+        res.message = (f"out_of_bounds: segment {rows[i] + 1}'s catch has an offset margin of "
+                       f"{margin[i]:.4g} m, below min_offset_margin "
+                       f"{space.min_offset_margin:.4g} m")
+
+
+def missed_bar(space: SegmentDesignSpace, values: Mapping[str, float], z0) -> str:
+    """Whether a design of a bar gait that has no gait misses a bar ('' if not): the
+    message of status ``no_cycle``.
+
+    Either the design's gait with every bar's window opened (to :data:`OPEN_WINDOW`) exists
+    and catches a bar outside its real window (Newton cannot reach it: the hook passes that
+    bar), or the cycle from Newton's start ``z0`` ends at the horizon of a catching
+    segment (no crossing of the bar's height inside its window).
+    """
+    gait = space.gait_for(values)
+    opened = replace(space, base_gait=replace(space.base_gait, segments=tuple(
+        replace(seg, bar_window=OPEN_WINDOW) if seg.until == "bar" else seg
+        for seg in space.base_gait.segments)))
+    wide = evaluate_design(opened, {k: v for k, v in values.items()
+                                    if k in space.parameter_names}, z0, diagnose=False)
+    if wide.ok:
+        windows = np.array([gait.segments[k].bar_window for k in space.catch_rows])
+        outside = np.flatnonzero(wide.catch_offset_margin - OPEN_WINDOW + windows < 0)
+        if outside.size:
+            k = int(outside[0])
+            off = OPEN_WINDOW - wide.catch_offset_margin[k]
+            return (f"{STATUS_NAMES[DS_NO_CYCLE]}: the design's gait catches segment "
+                    f"{space.catch_rows[k] + 1}'s bar {off:.4g} m from it, outside its window "
+                    f"{windows[k]:g} m: the hook passes that bar")
+    res = run_controller(gait.controller(), cycle_section_state(gait, z0),
+                         robot=space.robot_for(values), integrator=space.integrator, cycles=1,
+                         log_capacity=0)
+    seg = int(res.state[L.H_SEG])
+    base = (f"{STATUS_NAMES[DS_NO_CYCLE]}: the cycle from the start ends "
+            f"{res.status.name.lower()}")
+    if res.status == Status.HORIZON and seg in space.catch_rows:
+        bar = gait.segments[seg]
+        return (f"{base}: the hook passes segment {seg + 1}'s bar, no crossing of its height "
+                f"within its window ({bar.bar_window:g} m of {bar.bar_dx:g} m)")
+    return ""
 
 
 def full_map_stability(space: SegmentDesignSpace, res: DesignResult) -> None:

@@ -35,7 +35,7 @@ from ...analysis.design import (
     BALANCES, CLOCKS, DESIGN_OK, OBJECTIVES, PARAMETERS, SEGMENT_PARAMETER, STATUS_NAMES,
     CycleShape, DesignResult, DesignSpace, SegmentDesignSpace, cycle_shape, design_basin,
     design_cycle_run, design_step_problem, design_survival, evaluate_design,
-    motor_frame_pulses, perturbation_decay, replay_design, with_variational,
+    motor_frame_pulses, objective_value, perturbation_decay, replay_design, with_variational,
 )
 from ...simulation import Status
 from .. import datasets as D
@@ -156,6 +156,13 @@ class DesignStep(StrictModel):
                                            "energy_weight times the energy per metre")
     energy_weight: float = Field(0.0, ge=0, description="weight of the energy per metre "
                                  "[m J-1] in spectral_radius_energy")
+    catch_speed_weight: float = Field(0.0, ge=0, description="a gait that catches bars: "
+                                      "weight [s m-1] of the largest catch speed (the hook's "
+                                      "speed just before a catch) added to the objective")
+    min_offset_margin: float = Field(0.0, ge=0, description="a gait that catches bars: the "
+                                     "least offset margin of a catch [m] (the bar's window "
+                                     "less the hook's horizontal distance from the bar); a "
+                                     "design below it is rejected (status out_of_bounds)")
     clock: Literal[CLOCKS] = Field("reset_at_vertical", description="the schedule's clock: "
                                    "restarted when link 1 passes the vertical (one sensed "
                                    "event per step), or run_on: running on with the gait's "
@@ -180,7 +187,8 @@ class DesignStep(StrictModel):
     start_index: Optional[int] = Field(None, ge=0, description="which start of a refine step "
                                        "(default: the lowest error)")
 
-    recorded_when_set: ClassVar[frozenset[str]] = frozenset({"height_in_map", "screen"})
+    recorded_when_set: ClassVar[frozenset[str]] = frozenset(
+        {"height_in_map", "screen", "catch_speed_weight", "min_offset_margin"})
 
     @field_validator("parameters")
     @classmethod
@@ -280,7 +288,8 @@ def segment_space(gait, robot, step: DesignStep, torque_frame: str, integrator=N
     kw = {} if integrator is None else {"integrator": integrator}
     return SegmentDesignSpace(gait, robot, base=dict(step.fixed),
                               motor_frame=torque_frame == "motor",
-                              height_in_map=step.height_in_map is not False, **kw)
+                              height_in_map=step.height_in_map is not False,
+                              min_offset_margin=step.min_offset_margin, **kw)
 
 
 def schedule_design(spec) -> bool:
@@ -294,7 +303,7 @@ def schedule_design(spec) -> bool:
 #: what a block returns per design (besides the multipliers)
 FIELDS = ("status", "spectral_radius", "spectral_radius_fd", "theta2", "dtheta1", "dtheta2",
           "balance_value", "error", "rise", "advance", "energy_lost", "period", "iterations",
-          "nfev")
+          "nfev", "catch_offset_margin", "catch_speed")
 
 
 def record(res: DesignResult, space: DesignSpace) -> dict:
@@ -306,7 +315,8 @@ def record(res: DesignResult, space: DesignSpace) -> dict:
                               else math.nan),
             "error": res.error, "rise": res.rise, "advance": res.advance,
             "energy_lost": res.energy_lost, "period": res.period,
-            "iterations": res.iterations, "nfev": res.nfev}
+            "iterations": res.iterations, "nfev": res.nfev,
+            "catch_offset_margin": res.min_offset_margin, "catch_speed": res.max_catch_speed}
 
 
 def design_block(space: DesignSpace, names: list[str], axes: list[np.ndarray], starts,
@@ -357,6 +367,12 @@ def solve_design(space: DesignSpace, free: dict, starts) -> DesignResult:
     return last if best is None else with_variational(space, best)
 
 
+def step_objective(res: DesignResult, st: DesignStep) -> float:
+    """The step's objective of a design (:meth:`~monkeystudy.analysis.design.DesignResult.
+    objective` with the step's kind and weights)."""
+    return res.objective(st.objective, st.energy_weight, st.catch_speed_weight)
+
+
 def _with_balance(free: dict, values: dict, space: DesignSpace) -> dict:
     """``free`` with the balance's Newton start taken from a neighbour's solved ``values``."""
     if space.balance == "none":
@@ -385,7 +401,7 @@ def nelder_mead(space: DesignSpace, st: DesignStep, axes, start: dict,
         xc = np.clip(x, 0.0, 1.0)
         free = {n: float(lo[k] + span[k] * xc[k]) for k, n in enumerate(names)}
         res = evaluate_design(space, _with_balance(free, state["balance"], space), state["z"])
-        value = res.objective(st.objective, st.energy_weight)
+        value = step_objective(res, st)
         # leaving the box costs the distance outside: the simplex comes back in
         value += 10.0 * float(np.sum(np.abs(x - xc)))
         if res.ok:
@@ -459,7 +475,7 @@ def refusal(st: DesignStep, res: DesignResult, source: str, why: str) -> dict:
     """A candidate refused as no gait of the starting gait's kind: its free parameters,
     objective, where it came from (``grid`` or ``refined``) and why."""
     return {"source": source, "design": {n: float(res.values[n]) for n in st.names},
-            "objective": float(res.objective(st.objective, st.energy_weight)), "why": why}
+            "objective": float(step_objective(res, st)), "why": why}
 
 
 def grid_picks(space, st: DesignStep, axes, grid: dict, k: int, reference: CycleShape,
@@ -555,7 +571,7 @@ def refine_and_verify(space: DesignSpace, st: DesignStep, axes, grid: dict, star
                                 f"{refusal_text(r)}" for r in refused[:3]))
         raise RunFailed(f"{st.name}: no design of the grid has a gait (statuses: "
                         f"{_status_text(grid['status'])})")
-    ranked = sorted(candidates, key=lambda r: r.objective(st.objective, st.energy_weight))
+    ranked = sorted(candidates, key=lambda r: step_objective(r, st))
     screened = []
     if st.screen:
         n = min(st.screen.candidates, len(ranked))
@@ -739,6 +755,23 @@ VARIABLES: dict[str, D.Variable] = {
     "screen_mean_cycles": D.Variable(("candidate",), np.float64, "1",
                                      "cycles a screen run completed, on average",
                                      optional=True),
+    # a gait that catches bars (until: bar)
+    "catch_offset_margin": D.Variable(PARAMETERS_DIMS, np.float64, "m",
+                                      "least offset margin of the design's catches (a bar's "
+                                      "window less the hook's horizontal distance from it)",
+                                      optional=True),
+    "catch_speed": D.Variable(PARAMETERS_DIMS, np.float64, "m s-1",
+                              "largest speed of the hook just before a catch", optional=True),
+    "catch": D.index_coordinate("catch", "bar catch of the cycle, in the order of its "
+                                "segments", optional=True),
+    "catch_segment": D.Variable(("catch",), np.int32, "1", "segment (from 0) whose until: "
+                                "bar guard makes the catch", optional=True),
+    "best_catch_offset_margin": D.Variable(("catch",), np.float64, "m",
+                                           "best design: the catch's offset margin",
+                                           optional=True),
+    "best_catch_speed": D.Variable(("catch",), np.float64, "m s-1",
+                                   "best design: the hook's speed just before the catch",
+                                   optional=True),
 }
 
 
@@ -769,7 +802,7 @@ def write_design(path: Path, attrs: dict, st: DesignStep, space: DesignSpace, ax
             D.write_declared(nc, VARIABLES, f"{prefix}_{PARAMETER}",
                              [r["result"].values[n] for r in rows],
                              written_as=f"{prefix}_{n}", units=units[n], parameter=n)
-        put(f"{prefix}_objective", [r["result"].objective(st.objective, st.energy_weight)
+        put(f"{prefix}_objective", [step_objective(r["result"], st)
                                     for r in rows])
         put(f"{prefix}_spectral_radius_fd", [r["result"].spectral_radius_fd for r in rows])
 
@@ -784,6 +817,10 @@ def write_design(path: Path, attrs: dict, st: DesignStep, space: DesignSpace, ax
             put(key, grid[key].reshape(shape), dims=tuple(names))
         put("multiplier_modulus", grid["multiplier_modulus"].reshape(*shape, k),
             dims=(*names, "k"))
+        rows = catch_rows(space)
+        if rows:
+            for key in ("catch_offset_margin", "catch_speed"):
+                put(key, grid[key].reshape(shape), dims=tuple(names))
         refined = found["refined"]
         put_designs("refined", "start", refined)
         put("start_objective", [r["start_objective"] for r in refined])
@@ -799,6 +836,11 @@ def write_design(path: Path, attrs: dict, st: DesignStep, space: DesignSpace, ax
         put("best_jacobian_fd", best.jacobian_fd)
         D.write_complex(nc, VARIABLES, "best_multipliers", best.multipliers)
         D.write_complex(nc, VARIABLES, "best_multipliers_fd", best.multipliers_fd)
+        if rows:
+            D.write_coordinate(nc, VARIABLES, "catch", np.arange(len(rows)))
+            put("catch_segment", rows)
+            put("best_catch_offset_margin", best.catch_offset_margin)
+            put("best_catch_speed", best.catch_speed)
         replays = checks["replays"]
         n_cyc = st.verify.cycles
         D.write_coordinate(nc, VARIABLES, "cycle", np.arange(1, n_cyc + 1))
@@ -840,6 +882,11 @@ def write_design(path: Path, attrs: dict, st: DesignStep, space: DesignSpace, ax
             put("screen_survived", [c["survived"] for c in screened])
             put("screen_mean_cycles", [c["mean_cycles"] for c in screened])
         D.set_global_attrs(nc, attrs)
+
+
+def catch_rows(space) -> list[int]:
+    """The design space's catching segments (from 0; none for a horizontal gait's)."""
+    return list(getattr(space, "catch_rows", []))
 
 
 def walks_on(replay, cycles: int) -> bool:
@@ -897,8 +944,7 @@ def best_attrs(space: DesignSpace, st: DesignStep, found: dict) -> dict:
                best_theta2=float(best.z[0]), best_dtheta1=float(best.z[1]),
                best_dtheta2=float(best.z[2]), best_error=best.error, best_rise=best.rise,
                best_advance=best.advance, best_energy_per_metre=best.energy_per_metre,
-               best_period=best.period, best_objective=best.objective(st.objective,
-                                                                      st.energy_weight),
+               best_period=best.period, best_objective=step_objective(best, st),
                decay_growth=checks["growth"], multiplier_power=rho ** space.steps,
                steps_per_cycle=space.steps, balance=space.balance, clock=space.clock,
                objective=st.objective,
@@ -913,6 +959,11 @@ def best_attrs(space: DesignSpace, st: DesignStep, found: dict) -> dict:
                    t_motor=float(best.values["t_motor"]))
     if space.height_in_map:
         out["height_in_map"] = 1
+    if catch_rows(space):
+        out.update(catch_speed_weight=st.catch_speed_weight,
+                   min_offset_margin=st.min_offset_margin,
+                   best_min_offset_margin=best.min_offset_margin,
+                   best_max_catch_speed=best.max_catch_speed)
     screened = found.get("screened") or []
     if screened:
         sc = st.screen
@@ -955,7 +1006,18 @@ def segment_problems(study, index: int, step: DesignStep, names: list[str]) -> l
     if step.clock != "reset_at_vertical":
         out.append((("steps", index, "clock"), "a sequence gait's design runs its own "
                     "clock, restarted at its section"))
-    return out
+    return out + catch_option_problems(index, step, bool(space.catch_rows))
+
+
+def catch_option_problems(index: int, step: DesignStep, catching: bool) -> list:
+    """The catch options (``catch_speed_weight``, ``min_offset_margin``) set for a gait that
+    catches no bar (``catching`` False)."""
+    if catching:
+        return []
+    return [(("steps", index, key), f"{key} weighs a gait's bar catches, and this gait "
+             "catches no bar (until: bar)") for key in ("catch_speed_weight",
+                                                        "min_offset_margin")
+            if getattr(step, key) > 0]
 
 
 # --- the kind ------------------------------------------------------------------------------------
@@ -994,7 +1056,8 @@ class DesignKind(StepKind):
             if step.height_in_map:
                 out.append((("steps", index, "height_in_map"), "the horizontal gait's "
                             "schedules sense no height: its full map has a multiplier 1"))
-            return out + option_problems(step, ref, index)
+            return (out + catch_option_problems(index, step, False)
+                    + option_problems(step, ref, index))
         return out + option_problems(step, ref, index) + segment_problems(study, index, step,
                                                                           names)
 
@@ -1050,8 +1113,9 @@ class DesignKind(StepKind):
             grid["energy_per_metre"] = np.where(grid["advance"] > 0,
                                                 grid["energy_lost"] / grid["advance"], np.nan)
         rho = grid["spectral_radius_fd"]
-        grid["objective"] = (rho if st.objective == "spectral_radius"
-                             else rho + st.energy_weight * grid["energy_per_metre"])
+        grid["objective"] = objective_value(st.objective, rho, grid["energy_per_metre"],
+                                            st.energy_weight, grid["catch_speed"],
+                                            st.catch_speed_weight)
         found = refine_and_verify(space, st, axes, grid, ctx.state["starts"],
                                   start_shape(gait, ctx.spec.integrator), ctx.progress)
         src = gait.source
