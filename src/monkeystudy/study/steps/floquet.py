@@ -71,7 +71,8 @@ class FloquetStep(StrictModel):
                                 "the start [m]: its Jacobian by variational equations and by "
                                 "finite differences, its multipliers and spectral radius "
                                 "(the height is neutral unless a guard senses a world "
-                                "height, e.g. a catch until: free_end_y)")
+                                "height, e.g. a catch until: free_end_y; a catch until: bar "
+                                "resets it to the bar's, so its row is zero)")
 
     recorded_when_set: ClassVar[frozenset[str]] = frozenset({"height_in_map"})
 
