@@ -123,6 +123,12 @@ def test_the_start_must_be_on_steel_and_the_goal_a_disc():
 def test_the_goals_distance_is_zero_inside_its_disc():
     g = Goal((1.0, 1.0), 0.5)
     np.testing.assert_allclose(g.distance([(1.2, 1.0), (3.0, 1.0)]), [0.0, 1.5])
+    # the rim is in the disc, whatever the last bit of the distance to the centre: three
+    # steps of 0.1 m end at 0.30000000000000004
+    g = Goal((0.0, 0.0), 0.3)
+    assert 0.1 + 0.1 + 0.1 > 0.3
+    np.testing.assert_array_equal(g.distance([(0.1 + 0.1 + 0.1, 0.0), (0.3 + 2e-9, 0.0)]) == 0,
+                                  [True, False])
 
 
 def test_with_start_moves_the_robot_and_checks_it():

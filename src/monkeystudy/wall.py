@@ -219,7 +219,8 @@ class Start:
 
 @dataclass(frozen=True)
 class Goal:
-    """Where the robot is to go: a catch within ``radius`` [m] of ``position`` [m] arrives."""
+    """Where the robot is to go: a catch within ``radius`` [m] of ``position`` [m] arrives
+    (the disc is closed, its rim within :data:`BOUNDARY_TOL` included, as steel's is)."""
 
     position: tuple[float, float]
     radius: float
@@ -234,8 +235,8 @@ class Goal:
     def distance(self, points) -> np.ndarray:
         """For each point (N, 2): its distance from the goal's disc [m] (0 inside it)."""
         p = _as_points(points)
-        return np.maximum(np.hypot(p[:, 0] - self.position[0], p[:, 1] - self.position[1])
-                          - self.radius, 0.0)
+        d = np.hypot(p[:, 0] - self.position[0], p[:, 1] - self.position[1]) - self.radius
+        return np.where(d <= BOUNDARY_TOL, 0.0, d)
 
 
 @dataclass(frozen=True)

@@ -25,8 +25,9 @@ point: the magnet lands at the point plus the gait's ``(dx, dy)`` rounded to the
 wall (:meth:`monkeystudy.wall.Wall.can_catch`) and the switch from the node's gait is
 allowed. The rounding adds up along a route: its ``n``-th catch is within ``n * resolution /
 2`` in x and in y of the start plus the gaits' exact steps (``Route.drift_bound``); a walked
-route replans from the sensed position (:func:`replan`), which starts the count again. Every node's point is a catch on steel, so the graph
-lies in the wall's extent, a box of finitely many lattice points: the search terminates.
+route replans from the sensed position (:func:`replan`), which starts the count again.
+Every node's point is a catch on steel, so the graph lies in the wall's extent, a box of
+finitely many lattice points: the search terminates.
 
 Cost of an edge: the step's duration (``cost="time"``) or energy (``"energy"``) plus its
 transition's extra, plus ``risk_weight * (-log(1 - p))`` with ``p`` the step's failure
@@ -431,7 +432,7 @@ def route_graph(wall: Wall, atlas: Sequence[AtlasGait], transitions: Sequence[Tr
     graph, goal_distance = rg.graph, rg._goal_distance
 
     def visit(cells: list[tuple[int, int]]) -> None:
-        """Record the goal distance of cells first seen, and link those in the goal."""
+        """Record the goal distance of the cells first seen."""
         new = [c for c in cells if c not in goal_distance]
         if new:
             pts = origin + res * np.array(new, dtype=float)
