@@ -10,6 +10,7 @@
 * :mod:`.replay` - many cycles: a gait's own controller or its open-loop replay, basins.
 * :mod:`.stress` - numerical stress scenarios (energy drift, long runs, extreme parameters).
 * :mod:`.precision` - run time against error for every integrator, and scipy's.
+* :mod:`.route` - a route over a wall (:mod:`monkeystudy.wall`) from an atlas of gaits (A*).
 
 Everything asks the one simulation path (:mod:`monkeystudy.simulation`) for what it needs. The
 names below are importable from this package directly (loaded on first use); the modules of
@@ -36,5 +37,7 @@ _EXPORTS = {
     "replay": ("SequenceCycles", "motorless", "open_loop_gait", "sequence_basin",
                "sequence_cycles"),
     "precision": ("work_precision",),
+    "route": ("AtlasGait", "NoRoute", "Route", "Transition", "plan_route", "replan",
+              "route_graph", "step_failure"),
 }
 __getattr__, __dir__, __all__ = lazy_exports(__name__, globals(), _EXPORTS)

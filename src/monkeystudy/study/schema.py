@@ -21,6 +21,7 @@ from .models import (
 from .figures import figure_name_clash
 from .steps import REGISTRY
 from .steps.base import kinds_text, no_earlier, source_name
+from .wall_spec import WallSpec, wall_problems
 
 #: a step of any registered kind (pydantic picks the model by ``kind``)
 Step = Annotated[Union[tuple(k.model for k in REGISTRY.values())],  # type: ignore[misc]
@@ -44,6 +45,9 @@ class Study(StrictModel):
                               k.name for k in REGISTRY.values() if not k.runs_gait) + ")")
     integrator: IntegratorSettings = Field(default_factory=IntegratorSettings)
     steps: list[Step] = Field(min_length=1, description="steps, run in dependency order")
+    wall: Optional[WallSpec] = Field(None, description="the wall the robot climbs: steel "
+                                     "regions with holes, the start and the goal (the route "
+                                     "planner's input, docs/route.md; no step reads it)")
 
     def step(self, name: str):
         for s in self.steps:
@@ -62,6 +66,8 @@ Problem = tuple[tuple, str]
 
 #: validates one step of any kind
 STEP = TypeAdapter(Step)
+#: validates a ``wall:`` block
+WALL = TypeAdapter(WallSpec)
 
 
 def cross_check(study: Study) -> list[Problem]:
@@ -71,9 +77,11 @@ def cross_check(study: Study) -> list[Problem]:
     (:func:`figure_name_clash`); a step whose kind does not support the study's gait is
     refused, and so is a study without a gait whose steps run one (:attr:`~monkeystudy.study.
     steps.base.StepKind.runs_gait`); every other check is the step kind's own
-    (:meth:`~monkeystudy.study.steps.base.StepKind.check`), given the earlier steps by name.
+    (:meth:`~monkeystudy.study.steps.base.StepKind.check`), given the earlier steps by name;
+    the ``wall:`` block's start is on steel (:func:`wall_problems`).
     """
-    return motor_problems(study) + _check_steps(study, list(enumerate(study.steps)), {})
+    return motor_problems(study) + wall_problems(study.wall) + \
+        _check_steps(study, list(enumerate(study.steps)), {})
 
 
 def motor_problems(study: Study) -> list[Problem]:
@@ -97,13 +105,15 @@ def cross_check_parts(data: Any, context: dict | None = None) -> list[Problem]:
     the field errors: every valid step is checked against the others, but a step that
     depends on an earlier step that is not valid (its kind's checks would need that step)
     is not; with the robot, gait or integrator not valid, only the steps' names and their
-    ``from:`` (it names an earlier step of a kind it accepts) are checked. ``context`` is the
+    ``from:`` (it names an earlier step of a kind it accepts) are checked; a valid ``wall:``
+    block is checked whatever else is not valid (:func:`wall_problems`). ``context`` is the
     validation context (:func:`monkeystudy.study.loader.parse_study`'s: the study file's
     folder, which a robot's URDF path is relative to).
     """
+    walls = _wall_parts(data)
     steps = data.get("steps") if isinstance(data, dict) else None
     if not isinstance(steps, list):
-        return []
+        return walls
     valid: list[tuple[int, Any]] = []
     invalid: dict[str, int] = {}      # the names of steps that are not valid, first index
     for i, raw in enumerate(steps):
@@ -114,14 +124,25 @@ def cross_check_parts(data: Any, context: dict | None = None) -> list[Problem]:
             if isinstance(name, str):
                 invalid.setdefault(name, i)
     if not valid:
-        return []
+        return walls
     try:
         study = Study.model_validate(dict(data, steps=[steps[i] for i, _ in valid]),
                                      context=context)
     except ValidationError:
         study = None
-    return (motor_problems(study) if study is not None else []) + _check_steps(study, valid,
-                                                                              invalid)
+    return (motor_problems(study) if study is not None else []) + walls + \
+        _check_steps(study, valid, invalid)
+
+
+def _wall_parts(data: Any) -> list[Problem]:
+    """:func:`wall_problems` of the study's ``wall:`` block when the block itself is valid."""
+    raw = data.get("wall") if isinstance(data, dict) else None
+    if raw is None:
+        return []
+    try:
+        return wall_problems(WALL.validate_python(raw))
+    except ValidationError:
+        return []        # the block's own errors are the field errors
 
 
 def _check_steps(study: Study | None, steps: list[tuple[int, Any]],
