@@ -489,8 +489,8 @@ def test_acromonk_brachiation_with_coulomb_friction_matches_fd(joint):
     """AcroMonk's two-swap brachiation (tests/analysis/test_design.py) on the identified
     model (pivot Coulomb 0.07865 N m, joint viscous 0.04144 N m s), with and without
     Coulomb friction at the joint: the hook turns back on its bar 11 times a cycle (each
-    time slipping on), the joint (with Coulomb friction) twice, and the full map's spectral radius by variational
-    equations is the finite differences' to 1e-6."""
+    time slipping on), the joint (with Coulomb friction) twice, and the full map's spectral
+    radius by variational equations is the finite differences' to 1e-6."""
     from test_design import BRACHIATION, Z_BRACHIATION
     from monkeystudy.analysis.measured_replay import acromonk_robot
     from monkeystudy.study.models import SequenceGaitSpec
