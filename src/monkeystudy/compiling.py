@@ -39,7 +39,7 @@ from .kernel.hybrid import loop_callees
 from .kernel.layout import PHASE_SWING
 from .kernel.variational import (
     energy8_gradient, entry_reset, field8, field8_jacobian, guard8, guard8_gradient,
-    variational_rhs8,
+    holding_torque8, holding_torque8_gradient, variational_rhs8,
 )
 
 #: the directory of the kernels' on-disk cache, keyed by a hash of every kernel source
@@ -86,11 +86,14 @@ def compile_variational(params: np.ndarray) -> None:
     """
     s = np.array([0.0, 0.0, 0.1, 0.2, 0.0, 0.0, 1.0, 10.0])
     f, grad, A = np.empty(8), np.empty(8), np.empty((8, 8))
+    fm = np.ones(2)
     for m in (3, 4):     # section states of 3 (clock reset) and 4 (running clock)
         y = np.concatenate([s, np.eye(8)[:, :m].ravel()])
-        variational_rhs8(PHASE_SWING, params[0], 0.0, y, np.empty_like(y))
-    field8(PHASE_SWING, params[0], 0.0, s, f)
-    field8_jacobian(PHASE_SWING, params[0], 0.0, s, A)
+        variational_rhs8(PHASE_SWING, params[0], 0.0, fm, y, np.empty_like(y))
+    field8(PHASE_SWING, params[0], 0.0, fm, s, f)
+    field8_jacobian(PHASE_SWING, params[0], 0.0, fm, s, A)
+    holding_torque8(PHASE_SWING, params[0], 0.0, fm, s, 1)
+    holding_torque8_gradient(PHASE_SWING, params[0], 0.0, fm, s, 1, grad)
     guard8(1, 0, 0.0, params[0], s, 0.0)
     guard8_gradient(1, 0, 0.0, params[0], s, 0.0, grad)
     energy8_gradient(params[0], s, grad)

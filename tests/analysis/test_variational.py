@@ -16,8 +16,8 @@ import pytest
 
 from monkeystudy import Status
 from monkeystudy.analysis import (
-    TIGHT, cycle_return_map, cycle_section_state, jacobian_fd, shoot_grazing,
-    variational_jacobian,
+    TIGHT, cycle_full_map, cycle_return_map, cycle_section_state, jacobian_fd,
+    shoot_grazing, variational_jacobian,
 )
 from monkeystudy.controllers import SequenceGait, Segment, horizontal_gait
 from monkeystudy.kernel import layout as L
@@ -63,11 +63,14 @@ def test_kernel_helpers_agree_with_the_simulator():
         energy8_gradient, entry_reset, field8, field8_jacobian, guard8, guard8_gradient,
     )
 
-    par = ASYMMETRIC.with_friction(Friction(viscous=0.02), Friction(viscous=0.01)).params()
+    from monkeystudy.kernel.dynamics import holding_torque
+    from monkeystudy.kernel.variational import holding_torque8, holding_torque8_gradient
+
+    par = ASYMMETRIC.with_friction(Friction(0.02, 0.3), Friction(0.01, 0.2)).params()
     rng = np.random.default_rng(1)
-    fm = np.ones(2)
     for phase in (L.PHASE_SWING, L.PHASE_FLIGHT):
-        for _ in range(5):
+        for fm in ([1.0, 1.0], [-1.0, 0.0], [0.0, -1.0], [0.0, 0.0], [1.0, -1.0]):
+            fm = np.array(fm)
             s = rng.normal(size=8) * [1, 1, 1, 1, 2, 2, 5, 5]
             if phase == L.PHASE_SWING:
                 s[L.DX] = s[L.DY] = 0.0
@@ -77,20 +80,20 @@ def test_kernel_helpers_agree_with_the_simulator():
             dy = np.empty(8)
             rhs(phase, p, tau, fm, y[:n], dy[:n])
             f = np.empty(8)
-            field8(phase, p, tau, s, f)
+            field8(phase, p, tau, fm, s, f)
             packed = np.empty(8)
             pack(phase, f, packed)
             np.testing.assert_array_equal(packed[:n], dy[:n])
             # field Jacobian against central differences
             A = np.empty((8, 8))
-            field8_jacobian(phase, p, tau, s, A)
+            field8_jacobian(phase, p, tau, fm, s, A)
             Af = np.empty((8, 8))
             for j in range(8):
                 e = np.zeros(8)
                 e[j] = 1e-6
                 fp, fmn = np.empty(8), np.empty(8)
-                field8(phase, p, tau, s + e, fp)
-                field8(phase, p, tau, s - e, fmn)
+                field8(phase, p, tau, fm, s + e, fp)
+                field8(phase, p, tau, fm, s - e, fmn)
                 Af[:, j] = (fp - fmn) / 2e-6
             assert np.abs(A - Af).max() <= 1e-6 * (1 + np.abs(A).max())
             # guards as the simulator evaluates them, and their gradients
@@ -107,6 +110,18 @@ def test_kernel_helpers_agree_with_the_simulator():
                     gfd = (guard8(kind, index, 0.3, p, s + e, -1.5)
                            - guard8(kind, index, 0.3, p, s - e, -1.5)) / 2e-6
                     assert grad[j] == pytest.approx(gfd, rel=1e-7, abs=1e-7)
+            # the holding torque (the break-away guard) and its gradient
+            for k in (0, 1):
+                hold = holding_torque8(phase, p, tau, fm, s, k)
+                assert hold == holding_torque(phase, p, tau, fm, y[:n].copy(), k)
+                grad = np.empty(8)
+                holding_torque8_gradient(phase, p, tau, fm, s, k, grad)
+                for j in range(8):
+                    e = np.zeros(8)
+                    e[j] = 1e-6
+                    hfd = (holding_torque8(phase, p, tau, fm, s + e, k)
+                           - holding_torque8(phase, p, tau, fm, s - e, k)) / 2e-6
+                    assert grad[j] == pytest.approx(hfd, rel=1e-7, abs=1e-7)
             gE = np.empty(8)
             energy8_gradient(p, s, gE)
             e = np.zeros(8)
@@ -339,16 +354,10 @@ def test_collisionless_swap_then_energy_level_guard_is_a_kink(grazing):
 # ------------------------------------------------------------------------------------------
 # refusals, and speed
 # ------------------------------------------------------------------------------------------
-def test_refuses_ticks_coulomb_friction_and_failed_cycles():
+def test_refuses_ticks_and_failed_cycles():
     ticked = SequenceGait(SEARCH.segments, tick=1e-3)
     with pytest.raises(ValueError, match="tick"):
         sequence_variational_jacobian(ticked, Z_SEARCH)
-    coulomb = Robot.preset("seed2009").with_friction(joint=Friction(coulomb=0.01))
-    with pytest.raises(ValueError, match="Coulomb"):
-        sequence_variational_jacobian(SEARCH, Z_SEARCH, robot=coulomb)
-    coulomb = Robot.preset("seed2009").with_friction(pivot=Friction(coulomb=0.01))
-    with pytest.raises(ValueError, match="Coulomb"):
-        sequence_variational_jacobian(SEARCH, Z_SEARCH, robot=coulomb)
     with pytest.raises(ValueError, match="mirror"):
         sequence_variational_jacobian(SEARCH, Z_SEARCH, robot=ASYMMETRIC)  # ends on B
     with pytest.raises(RuntimeError, match="no cycle"):
@@ -399,3 +408,166 @@ def test_a_catch_on_a_bar_matches_fd():
     assert rel(J, fd(gait, Z_BRACHIATION, robot)) < 1e-6
     free_end = SequenceGaitSpec.model_validate(BRACHIATION).gait()
     assert rel(J, sequence_variational_jacobian(free_end, Z_BRACHIATION, robot=robot)) < 1e-9
+
+
+# ------------------------------------------------------------------------------------------
+# Coulomb friction: slip reversals, sticks and break-aways crossed with saltation matrices
+# ------------------------------------------------------------------------------------------
+#: one swing of the hanging robot with the motor off for 0.3 s, to the vertical
+SWING = SequenceGait([Segment("time", value=0.3)], section_theta1=0.0,
+                     section_direction="either")
+
+
+def coulomb(pivot=0.0, joint=0.0):
+    return Robot.preset("seed2009").with_friction(Friction(coulomb=pivot),
+                                                  Friction(coulomb=joint))
+
+
+def coulomb_events(gait, z, robot):
+    """``(dof, what, t)`` of each Coulomb event of one cycle in the kernel's log: ``dof`` 0
+    pivot, 1 joint; ``what`` "reverse" (slips back), "stick" or "break" (break-away), told by
+    whether the DOF's speed is exactly zero at the first sample after the event."""
+    res = run_controller(gait.controller(), cycle_section_state(gait, z), robot=robot,
+                         integrator=TIGHT, cycles=1, sample_dt=1e-4)
+    assert res.status == Status.OK
+    stuck, out = [False, False], []
+    for row in res.log[res.log[:, L.L_KIND] == L.LOG_FRICTION]:
+        k, t = int(row[L.L_ID]), float(row[L.L_T])
+        i = np.searchsorted(res.sample_t, t, side="right")
+        now = bool(res.sample_state[i, L.DTH1 + k] == 0.0)
+        out.append((k, "break" if stuck[k] else "stick" if now else "reverse", t))
+        stuck[k] = now
+    return out
+
+
+def fd_agrees(gait, z, robot, J, height=False):
+    """Fourth-order central differences at two steps, at the integrator's tightest
+    tolerances (TIGHT): the relative differences from ``J``."""
+    f = cycle_full_map if height else cycle_return_map
+    return [rel(J, jacobian_fd(lambda q: f(q, gait, robot=robot), z, h)) for h in (1e-5, 1e-4)]
+
+
+def test_pivot_coulomb_slip_reversals_match_fd():
+    """The search controller's cycle with Coulomb friction at the pivot (the identified
+    AcroMonk's 0.0787 N m): link 1 turns back twice, each time slipping the other way at
+    once (the holding torque beyond the limit): the field jumps by the friction torque's
+    change of sign."""
+    robot = coulomb(pivot=0.0787)
+    assert [e[:2] for e in coulomb_events(SEARCH, Z_SEARCH, robot)] == [(0, "reverse")] * 2
+    J = sequence_variational_jacobian(SEARCH, Z_SEARCH, robot=robot)
+    assert max(fd_agrees(SEARCH, Z_SEARCH, robot, J)) < FD_RTOL       # 1.5e-9, 4.8e-11
+
+
+def test_joint_coulomb_stick_and_break_away_match_fd():
+    """The joint stops and sticks (holding torque within the limit), breaks away while the
+    robot swings (the holding torque reaches 0.2 N m), and sticks again until the section.
+    A stick absorbs perturbations of the joint's speed: the map's dtheta2 row is zero."""
+    robot = coulomb(joint=0.2)
+    z = np.array([0.0, 3.0, -0.5])
+    events = coulomb_events(SWING, z, robot)
+    assert [e[:2] for e in events] == [(1, "stick"), (1, "break"), (1, "stick")]
+    assert events[1][2] < 0.3                  # a break-away event, not a segment's entry
+    J = sequence_variational_jacobian(SWING, z, robot=robot)
+    assert np.all(J[2] == 0.0)
+    assert max(fd_agrees(SWING, z, robot, J)) < FD_RTOL                # 1.2e-10, 2.7e-11
+
+
+def test_joint_coulomb_break_away_at_a_segment_entry_matches_fd():
+    """Stuck through a segment's exit, the joint breaks away on entering the next segment
+    (its torque takes the holding torque past the limit) and sticks again later."""
+    robot = coulomb(joint=0.5)
+    gait = SequenceGait([Segment("time", value=0.3, torque=0.5)], section_theta1=0.0,
+                        section_direction="either")
+    z = np.array([0.0, 3.0, -0.5])
+    assert [e[:2] for e in coulomb_events(gait, z, robot)] == [(1, "reverse"), (1, "stick")]
+    J = sequence_variational_jacobian(gait, z, robot=robot)
+    assert max(fd_agrees(gait, z, robot, J)) < FD_RTOL                 # 2.4e-11, 1.2e-11
+
+
+@pytest.mark.parametrize("joint", [0.0, 0.02])
+def test_acromonk_brachiation_with_coulomb_friction_matches_fd(joint):
+    """AcroMonk's two-swap brachiation (tests/analysis/test_design.py) on the identified
+    model (pivot Coulomb 0.07865 N m, joint viscous 0.04144 N m s), with and without
+    Coulomb friction at the joint: the hook turns back on its bar 11 times a cycle (each
+    time slipping on), the joint (with Coulomb friction) twice, and the full map's spectral
+    radius by variational equations is the finite differences' to 1e-6."""
+    from test_design import BRACHIATION, Z_BRACHIATION
+    from monkeystudy.analysis.measured_replay import acromonk_robot
+    from monkeystudy.study.models import SequenceGaitSpec
+    robot = acromonk_robot(Friction(0.0, 0.07865), Friction(0.04144, joint))
+    gait = SequenceGaitSpec.model_validate(BRACHIATION).gait()
+    events = [e[:2] for e in coulomb_events(gait, Z_BRACHIATION, robot)]
+    assert events.count((0, "reverse")) == 11
+    assert events.count((1, "reverse")) == (2 if joint else 0)
+    assert len(events) == (13 if joint else 11)
+    J = sequence_variational_jacobian(gait, Z_BRACHIATION, robot=robot)
+    assert max(fd_agrees(gait, Z_BRACHIATION, robot, J)) < FD_RTOL
+    w = np.concatenate([[0.0], Z_BRACHIATION])
+    Jh = sequence_variational_jacobian(gait, w, robot=robot, height=True)
+    Jh_fd = jacobian_fd(lambda q: cycle_full_map(q, gait, robot=robot), w, 1e-5)
+    rho, rho_fd = (float(np.abs(np.linalg.eigvals(M)).max()) for M in (Jh, Jh_fd))
+    assert abs(rho - rho_fd) <= 1e-6 * rho_fd                          # 8.77, 1.74
+
+
+def test_holding_torque_at_the_limit_at_a_stop_is_refused():
+    """The torque of the swing's first segment decides whether the joint's first stop
+    slips back (-0.5 N m) or sticks (0): between them, at the torque where the holding
+    torque at the stop is the limit, the map has a kink, and the message names the stop."""
+    from monkeystudy.kernel.variational import holding_torque8
+    robot = coulomb(joint=0.2)
+    z = np.array([0.0, 3.0, 0.5])
+    p = robot.params()[0]
+
+    def gait(tau):
+        return SequenceGait([Segment("time", value=0.3, torque=tau)], section_theta1=0.0,
+                            section_direction="either")
+
+    def margin(tau):
+        res = kernel_log(gait(tau), z, robot)
+        row = res.log[res.log[:, L.L_KIND] == L.LOG_FRICTION][0]
+        s = row[L.L_STATE:L.L_STATE + 8].copy()
+        return abs(holding_torque8(L.PHASE_SWING, p, tau, np.ones(2), s, 1)) - 0.2
+
+    lo, hi = -0.5, 0.0
+    assert margin(lo) > 0 > margin(hi)
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if margin(mid) > 0 else (lo, mid)
+    with pytest.raises(ValueError, match=r"the joint is at rest at its stop in segment 0 "
+                                         r"\(t = 0\.0\d+ s\) with its holding torque at the "
+                                         "Coulomb limit"):
+        sequence_variational_jacobian(gait(lo), z, robot=robot)
+
+
+def test_holding_torque_at_the_limit_at_a_segment_entry_is_refused():
+    """Stuck at a segment's exit, the joint enters a segment whose torque puts its holding
+    torque exactly at the limit: whether it stays stuck depends on the start."""
+    from monkeystudy.kernel.variational import holding_torque8
+    robot = coulomb(joint=0.5)
+    z = np.array([0.0, 3.0, 0.5])
+    first = SequenceGait([Segment("time", value=0.3), Segment("time", value=0.35)],
+                         section_theta1=0.0, section_direction="either")
+    assert [e[:2] for e in coulomb_events(first, z, robot)] == [(1, "stick")]
+    log = kernel_log(first, z, robot).log
+    s = log[log[:, L.L_KIND] == L.LOG_SEGMENT][0, L.L_STATE:L.L_STATE + 8].copy()
+    p = robot.params()[0]
+    tau = holding_torque8(L.PHASE_SWING, p, 0.0, np.ones(2), s, 1) + 0.5
+    assert holding_torque8(L.PHASE_SWING, p, tau, np.ones(2), s, 1) == pytest.approx(-0.5,
+                                                                                     abs=1e-15)
+    gait = SequenceGait([Segment("time", value=0.3), Segment("time", value=0.35, torque=tau)],
+                        section_theta1=0.0, section_direction="either")
+    with pytest.raises(ValueError, match=r"the joint is at rest at the entry of segment 1 "
+                                         r"\(t = 0\.3 s\)"):
+        sequence_variational_jacobian(gait, z, robot=robot)
+    # a little further from the limit, either way, it is differentiable
+    for dtau in (-1e-3, 1e-3):
+        g = SequenceGait([Segment("time", value=0.3),
+                          Segment("time", value=0.35, torque=tau + dtau)],
+                         section_theta1=0.0, section_direction="either")
+        J = sequence_variational_jacobian(g, z, robot=robot)
+        assert max(fd_agrees(g, z, robot, J)) < FD_RTOL
+
+
+def test_a_start_at_rest_with_coulomb_friction_is_refused():
+    with pytest.raises(ValueError, match="the joint starts at rest with Coulomb friction"):
+        sequence_variational_jacobian(SWING, [0.0, 3.0, 0.0], robot=coulomb(joint=0.2))

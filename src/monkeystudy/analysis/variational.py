@@ -2,7 +2,7 @@
 
 :func:`sequence_variational_jacobian` differentiates the return map of any
 :class:`~monkeystudy.controllers.SequenceGait`: swings, flights, catches with either end,
-energy-latched and clock-timed guards, viscous friction. The horizontal gait is one
+energy-latched and clock-timed guards, viscous and Coulomb friction. The horizontal gait is one
 (:func:`~monkeystudy.controllers.horizontal_gait`); :func:`variational_jacobian` names its two
 controllers (its open-loop replay and its state-based search controller).
 
@@ -26,7 +26,14 @@ The method (the standard one for hybrid systems):
    of the controller clock's origin (0, or an earlier exit time after ``clock="reset"``); for a
    segment that ends at once (a level guard already met on entry, a time already past), the
    previous event's ``dt_e``, so that its two resets compose exactly.
-3. The section (``theta1 = c``, free time) projects: ``Phi + f- dt_e``. The start perturbs
+3. A Coulomb friction event (the kernel logs each: a slipping DOF's speed reaches zero, or a
+   stuck DOF's holding torque reaches the limit) has no reset, ``R = I``; the field changes
+   from ``f-`` to ``f+`` (the new friction mode), so ``Phi+ = Phi- + (f- - f+) dt_e`` with
+   the guard's ``dt_e`` (the DOF's speed; ``|hold| - c``). A stick zeroes the speed's row
+   of ``Phi``; at a break-away ``f+ = f-`` (the friction supplies exactly ``c`` on both
+   sides). Where sticking and slipping trade places (the holding torque at ``c`` when the
+   DOF is at rest) the map has a kink and the function refuses.
+4. The section (``theta1 = c``, free time) projects: ``Phi + f- dt_e``. The start perturbs
    ``(theta2, dtheta1, dtheta2)`` (columns 3, 6, 7 of the 8-state); the answer is rows 3, 6, 7.
    The full map (``height=True``) adds the attached end's height ``y`` (column and row 1):
    ``(y, theta2, dtheta1, dtheta2)``.
@@ -42,7 +49,7 @@ from ..kernel import layout as L
 from ..kernel.dynamics import total_energy8
 from ..kernel.variational import (
     energy8_gradient, entry_reset, field8, field8_jacobian, guard8, guard8_gradient,
-    variational_rhs8,
+    holding_torque8, holding_torque8_gradient, variational_rhs8,
 )
 from ..robot import SEED2009_TORQUE
 from ..simulation import RobotLike, Status, as_robot, run_controller
@@ -63,16 +70,21 @@ _STATE_TOL = 1e-7
 _THRESHOLD_MARGIN = 1e-9
 
 
+#: the friction DOFs: name, speed's row in the 8-state
+_FRICTION_DOFS = (("pivot", L.DTH1), ("joint", L.DTH2))
+
+
 # --- any sequence gait ------------------------------------------------------------------------
-def _field(phase: int, p: np.ndarray, tau: float, s: np.ndarray) -> np.ndarray:
+def _field(phase: int, p: np.ndarray, tau: float, fm: np.ndarray, s: np.ndarray) -> np.ndarray:
     f = np.empty(8)
-    field8(phase, p, tau, s, f)
+    field8(phase, p, tau, fm, s, f)
     return f
 
 
-def _flow(phase: int, p: np.ndarray, tau: float, s: np.ndarray, Phi: np.ndarray, t0: float,
-          t1: float, rtol: float) -> tuple[np.ndarray, np.ndarray]:
-    """State and transition matrix carried from ``t0`` to ``t1`` [s] in one phase."""
+def _flow(phase: int, p: np.ndarray, tau: float, fm: np.ndarray, s: np.ndarray,
+          Phi: np.ndarray, t0: float, t1: float, rtol: float) -> tuple[np.ndarray, np.ndarray]:
+    """State and transition matrix carried from ``t0`` to ``t1`` [s] in one phase and one
+    set of friction modes ``fm``."""
     if t1 <= t0 or phase == L.PHASE_FIXED:
         return s.copy(), Phi.copy()
     # scipy.integrate loads in ~0.2 s: only the callers that integrate variations pay it
@@ -81,9 +93,10 @@ def _flow(phase: int, p: np.ndarray, tau: float, s: np.ndarray, Phi: np.ndarray,
     m = Phi.shape[1]
     Y0 = np.concatenate([s, Phi.ravel()])
     dY = np.empty_like(Y0)
+    fm = fm.copy()
 
     def fun(t, Y):
-        variational_rhs8(phase, p, tau, Y, dY)
+        variational_rhs8(phase, p, tau, fm, Y, dY)
         return dY.copy()
 
     # atol two decades below rtol: the transition matrix has entries of order 1 that pass
@@ -135,6 +148,79 @@ def _check_zero_length(kind, index, value, p, s, eref, t, dt, clock0, dclock, se
                        f"{kind})")
 
 
+def _friction_active(k: int, phase: int, coulomb) -> bool:
+    """Whether Coulomb friction DOF ``k`` (0 pivot, 1 joint) acts in ``phase``: a limit above
+    zero, the pivot only while swinging, nothing in the fixed phase (the hybrid loop's
+    ``friction_active``)."""
+    return (coulomb[k] > 0.0 and phase != L.PHASE_FIXED
+            and (k == 1 or phase == L.PHASE_SWING))
+
+
+def _check_coulomb_margin(hold: float, c: float, k: int, where: str, t: float) -> None:
+    """A DOF at rest whose holding torque ``hold`` [N m] is at its Coulomb limit ``c`` [N m]
+    is on the boundary between sticking and slipping: nearby starts stick on one side and
+    slip on the other (or stick for a time proportional to the distance), so the return map
+    has a kink there. Raises ``ValueError`` naming the event."""
+    if abs(abs(hold) - c) > _THRESHOLD_MARGIN * (1.0 + c):
+        return
+    name = _FRICTION_DOFS[k][0]
+    raise ValueError(f"the {name} is at rest at {where} (t = {t:.15g} s) with its holding "
+                     f"torque at the Coulomb limit (|{hold:.12g}| N m vs {c:.12g} N m): "
+                     "whether it sticks or slips changes with the start, the return map is "
+                     "not differentiable here")
+
+
+def _init_friction(phase: int, p: np.ndarray, tau: float, fm: np.ndarray, s: np.ndarray,
+                   coulomb, where: str, t: float, start: bool) -> None:
+    """Friction modes on entering a segment, as the hybrid loop's ``init_friction`` sets
+    them (in place): a moving DOF slips with its speed's sign; one at rest sticks if its
+    holding torque is within the Coulomb limit, else slips against that torque.
+
+    A DOF at rest on entry is at rest for every nearby start when the entry follows a
+    stick or a stop (a fixed phase): smooth unless the holding torque is at the limit
+    (:func:`_check_coulomb_margin`). At the ``start`` of the cycle its rest is a
+    coordinate of the start itself: a kink, refused."""
+    for k in range(2):
+        if not (coulomb[k] > 0.0 and (k == 1 or phase == L.PHASE_SWING)):
+            fm[k] = 1.0
+            continue
+        w = s[_FRICTION_DOFS[k][1]]
+        if w != 0.0:
+            fm[k] = 1.0 if w > 0.0 else -1.0
+    for k in range(2):
+        if not (coulomb[k] > 0.0 and (k == 1 or phase == L.PHASE_SWING)):
+            continue
+        if s[_FRICTION_DOFS[k][1]] == 0.0:
+            hold = float(holding_torque8(phase, p, tau, fm, s, k))
+            if start and phase != L.PHASE_FIXED:
+                raise ValueError(f"the {_FRICTION_DOFS[k][0]} starts at rest with Coulomb "
+                                 "friction: a start moving either way slips for a time "
+                                 "proportional to its speed, the return map is not "
+                                 "differentiable here")
+            if _friction_active(k, phase, coulomb):
+                _check_coulomb_margin(hold, coulomb[k], k, where, t)
+            if abs(hold) <= coulomb[k]:
+                fm[k] = 0.0
+            else:
+                fm[k] = -1.0 if hold > 0.0 else 1.0
+
+
+def _friction_guard(k: int, phase: int, p: np.ndarray, tau: float, fm: np.ndarray,
+                    s: np.ndarray, c: float) -> tuple[float, np.ndarray]:
+    """The guard of friction DOF ``k``'s next event and its gradient w.r.t. the 8-state: a
+    slipping DOF's speed (it stops at zero), a stuck DOF's ``|hold| - c`` (it breaks away at
+    zero; ``hold`` the holding torque [N m], ``c`` the Coulomb limit)."""
+    row = _FRICTION_DOFS[k][1]
+    grad = np.zeros(8)
+    if fm[k] != 0.0:
+        grad[row] = 1.0
+        return float(s[row]), grad
+    hold = float(holding_torque8(phase, p, tau, fm, s, k))
+    holding_torque8_gradient(phase, p, tau, fm, s, k, grad)
+    sign = 1.0 if hold > 0.0 else -1.0
+    return abs(hold) - c, sign * grad
+
+
 def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "seed2009",
                                   integrator: Integrator = TIGHT, rtol: float = 1e-12,
                                   height: bool = False) -> np.ndarray:
@@ -152,9 +238,11 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
         ``(theta1, theta2, dtheta1, dtheta2)`` at clock phase zero (the cycle ends at a fixed
         time: no projection onto a section).
     robot : Robot or str
-        The robot. Coulomb friction is refused (the flow is not smooth where a joint sticks);
-        viscous friction is part of the vector field. A cycle that ends hanging from B needs
-        mirror-image links (as :func:`~monkeystudy.analysis.cycle_return_map`).
+        The robot. Viscous friction is part of the vector field; Coulomb friction enters
+        through its events (a slipping DOF stops: it sticks or slips back; a stuck DOF breaks
+        away), each crossed with its saltation matrix (docs/model.md section 7). A cycle that
+        ends hanging from B needs mirror-image links (as
+        :func:`~monkeystudy.analysis.cycle_return_map`).
     integrator : Integrator
         Settings of the kernel run that finds the event sequence.
     rtol : float
@@ -173,9 +261,12 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
     Raises
     ------
     ValueError
-        ``gait.tick > 0``, Coulomb friction, a cycle ending on B with non-mirror links, or a
-        start on a kink of the map: a segment whose condition is met exactly on entry (e.g.
-        a collisionless swap followed by a motor until the energy is restored).
+        ``gait.tick > 0``, a cycle ending on B with non-mirror links, or a start on a kink of
+        the map: a segment whose condition is met exactly on entry (e.g. a collisionless
+        swap followed by a motor until the energy is restored); a Coulomb DOF at rest with
+        its holding torque at the Coulomb limit (at a stop or a segment's entry: it sticks
+        or slips depending on the start), a stick of zero length, a friction event tangent
+        to its guard, or a start with a Coulomb DOF at rest.
     RuntimeError
         The cycle does not complete (status not OK), or the re-integration departs from the
         kernel's event sequence.
@@ -185,9 +276,7 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
         raise ValueError(f"the return map is differentiable only with exact event timing "
                          f"(tick 0), got tick={gait.tick!r}")
     par = robot.params()
-    if par[0, L.P_C_PIVOT] > 0.0 or par[0, L.P_C_JOINT] > 0.0:
-        raise ValueError("Coulomb friction makes the return map non-smooth (stick-slip "
-                         "events): no variational Jacobian")
+    coulomb = (float(par[0, L.P_C_PIVOT]), float(par[0, L.P_C_JOINT]))
     check_cycle_frame(gait, robot)
     if height and gait.clocked:
         raise ValueError("the full map (height included) is defined on a section, not at a "
@@ -202,11 +291,14 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
                          cycles=1, log_capacity=64)
     if res.status != Status.OK:
         raise RuntimeError(f"no cycle from this point (status {res.status.name.lower()})")
-    log = res.log[res.log[:, L.L_KIND] == L.LOG_SEGMENT]
+    log = res.log[(res.log[:, L.L_KIND] == L.LOG_SEGMENT)
+                  | (res.log[:, L.L_KIND] == L.LOG_FRICTION)]
 
     n = len(cols)
     s = hyb0[:8].copy()
     phase, flipped = L.PHASE_SWING, 0
+    fm = np.ones(2)                   # friction modes: slip sign +-1, 0 stuck
+    stuck_since = [np.nan, np.nan]    # when each friction DOF last stuck [s]
     Phi = np.eye(8)[:, cols]          # d s / d z at fixed time
     t, dt = 0.0, np.zeros(n)          # time of the latest event and d t / d z
     clock0, dclock = 0.0, np.zeros(n)
@@ -220,14 +312,22 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
     # reference, as the kernel places bars from it
     ref_rows = np.zeros((2, n))
 
-    def enter(seg, f_minus, dt_e):
-        """Entry actions of ``seg`` at an event: reset the state and jump Phi."""
+    def enter(seg, f_minus, dt_e, start=False):
+        """Entry actions of ``seg`` at an event: reset the state, set the friction modes and
+        jump Phi."""
         nonlocal s, phase, flipped, Phi, eref, deref, ref_rows
         ph, fl = entry_reset(par, s, phase, flipped, prog[seg, L.S_MAG_A],
                              prog[seg, L.S_MAG_B], prog[seg, L.S_SWAP] > 0, out, DR)
         phase, flipped = int(ph), int(fl)
         s = out.copy()
-        f_plus = _field(phase, par[flipped], prog[seg, L.S_TORQUE], s)
+        tau = prog[seg, L.S_TORQUE]
+        was_stuck = fm == 0.0
+        _init_friction(phase, par[flipped], tau, fm, s, coulomb, f"the entry of segment {seg}",
+                       t, start)
+        for k in range(2):
+            if fm[k] == 0.0 and not was_stuck[k]:
+                stuck_since[k] = t
+        f_plus = _field(phase, par[flipped], tau, fm, s)
         Phi = DR @ Phi + np.outer(DR @ f_minus - f_plus, dt_e)
         if prog[seg, L.S_MAG_A] >= 0 or prog[seg, L.S_MAG_B] >= 0 or prog[seg, L.S_SWAP] > 0:
             ref_rows = Phi[[L.X, L.Y], :].copy()
@@ -237,19 +337,86 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
             energy8_gradient(par[flipped], s, grad)
             deref = grad @ (Phi + np.outer(f_plus, dt_e))
 
+    def locate(g_of, p, tau, t_e):
+        """Newton from the kernel's time ``t_e`` to the crossing of the guard ``g_of(s) ->
+        (g, grad)`` on this trajectory (they differ by round-off and the integrators'
+        errors, ~1e-13 s; first-order Taylor steps are exact to O(dt^2) ~ 1e-26); returns
+        the crossing's time, the guard's gradient and the field there."""
+        nonlocal s, Phi
+        for _ in range(3):
+            g, gr = g_of(s)
+            f = _field(phase, p, tau, fm, s)
+            delta = -g / (gr @ f)
+            field8_jacobian(phase, p, tau, fm, s, A)
+            s = s + f * delta
+            Phi = Phi + (A @ Phi) * delta
+            t_e += delta
+        _, gr = g_of(s)
+        return t_e, gr, _field(phase, p, tau, fm, s)
+
+    def segment_guard(kind, index, value, p):
+        def g_of(x):
+            gr = np.empty(8)
+            guard8_gradient(kind, index, value, p, x, eref, gr)
+            return guard8(kind, index, value, p, x, eref), gr
+        return g_of
+
     seg = int(hyb0[L.H_SEG])
-    enter(seg, np.zeros(8), dt)       # the start is at t = 0 whatever z: dt = 0
+    enter(seg, np.zeros(8), dt, start=True)   # the start is at t = 0 whatever z: dt = 0
     t_kernel_prev = 0.0
     for k, row in enumerate(log):
+        p = par[flipped]
+        tau = prog[seg, L.S_TORQUE]
+        t_kernel = row[L.L_T]
+        if row[L.L_KIND] == L.LOG_FRICTION:
+            # a Coulomb event: a guard crossing with no jump of the state, across which the
+            # field changes (docs/model.md section 7, "Coulomb friction")
+            j = int(row[L.L_ID])
+            name, speed = _FRICTION_DOFS[j]
+            c = coulomb[j]
+            stuck = fm[j] == 0.0
+            s, Phi = _flow(phase, p, tau, fm, s, Phi, t, t_kernel, rtol)
+            t_e, grad_g, f_minus = locate(
+                lambda x: _friction_guard(j, phase, p, tau, fm, x, c), p, tau, t_kernel)
+            what = (f"the {name}'s break-away" if stuck else f"the {name}'s stop") + \
+                f" (t = {t_e:.15g} s)"
+            if not abs(t_e - t_kernel) <= 1e-8 * (1.0 + abs(t_kernel)):
+                raise RuntimeError(f"{what} here, at {float(t_kernel):.15g} s in the kernel: "
+                                   "event sequences differ")
+            s[speed] = 0.0    # the kernel's state at the event, exactly at rest
+            hold = float(holding_torque8(phase, p, tau, fm, s, j))
+            if stuck:
+                if not t_e - stuck_since[j] > _THRESHOLD_MARGIN * (1.0 + abs(t_e)):
+                    raise ValueError(f"{what} ends a stick of zero length: nearby starts do "
+                                     "not stick at all, the return map is not "
+                                     "differentiable here")
+                fm[j] = -1.0 if hold > 0.0 else 1.0
+            else:
+                _check_coulomb_margin(hold, c, j, f"its stop in segment {seg}", t_e)
+                if abs(hold) <= c:
+                    fm[j] = 0.0
+                    stuck_since[j] = t_e
+                else:
+                    fm[j] = -1.0 if hold > 0.0 else 1.0
+            rate = float(grad_g @ f_minus)
+            if not abs(rate) > 0.0:
+                raise ValueError(f"{what} is tangent to its guard (rate {rate:.3g}): the "
+                                 "return map is not differentiable here")
+            dt_e = -(grad_g @ Phi) / rate
+            # saltation: the state is continuous, the field jumps from f- to f+ (a stick
+            # zeroes the speed's row: perturbations along it are absorbed)
+            f_plus = _field(phase, p, tau, fm, s)
+            Phi = Phi + np.outer(f_minus - f_plus, dt_e)
+            s = _check_state(s, row[L.L_STATE:L.L_STATE + 8], what)
+            t, dt = t_e, dt_e
+            t_kernel_prev = t_kernel
+            continue
         if int(row[L.L_ID]) != seg:
             raise RuntimeError(f"kernel log row {k} exits segment {int(row[L.L_ID])}, "
                                f"expected {seg}")
-        p = par[flipped]
-        tau = prog[seg, L.S_TORQUE]
         kind = int(prog[seg, L.S_GUARD])
         index = int(prog[seg, L.S_GINDEX])
         value = prog[seg, L.S_GVALUE]
-        t_kernel = row[L.L_T]
         if t_kernel == t_kernel_prev:
             # ended at once (energy already restored on entry, or a time already past): the
             # exit moves with the entry, and the two resets compose exactly
@@ -257,25 +424,11 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
             t_e, dt_e = t, dt
         elif kind == L.G_TIME:
             t_e, dt_e = clock0 + value, dclock.copy()
-            s, Phi = _flow(phase, p, tau, s, Phi, t, t_e, rtol)
+            s, Phi = _flow(phase, p, tau, fm, s, Phi, t, t_e, rtol)
         elif kind in (L.G_FREE_END_HEIGHT, L.G_ENERGY_RESTORED, L.G_COORD, L.G_ENERGY,
                       L.G_FREE_END_Y, L.G_BAR):
-            s, Phi = _flow(phase, p, tau, s, Phi, t, t_kernel, rtol)
-            t_e = t_kernel
-            # the crossing on this trajectory: Newton from the kernel's time (they differ by
-            # round-off and the integrators' errors, ~1e-13 s); first-order Taylor steps are
-            # exact to O(dt^2) ~ 1e-26
-            for _ in range(3):
-                g = guard8(kind, index, value, p, s, eref)
-                guard8_gradient(kind, index, value, p, s, eref, grad)
-                f = _field(phase, p, tau, s)
-                delta = -g / (grad @ f)
-                field8_jacobian(phase, p, tau, s, A)
-                s = s + f * delta
-                Phi = Phi + (A @ Phi) * delta
-                t_e += delta
-            guard8_gradient(kind, index, value, p, s, eref, grad)
-            f = _field(phase, p, tau, s)
+            s, Phi = _flow(phase, p, tau, fm, s, Phi, t, t_kernel, rtol)
+            t_e, grad_g, f = locate(segment_guard(kind, index, value, p), p, tau, t_kernel)
             if kind == L.G_ENERGY_RESTORED:
                 dref = deref
             elif kind == L.G_BAR:
@@ -283,14 +436,14 @@ def sequence_variational_jacobian(gait: SequenceGait, z, *, robot: RobotLike = "
                 dref = ref_rows[1] - Phi[L.Y]
             else:
                 dref = 0.0
-            dt_e = -(grad @ Phi - dref) / (grad @ f)
+            dt_e = -(grad_g @ Phi - dref) / (grad_g @ f)
         else:
             raise ValueError(f"segment {seg} has no guard that can end it (kind {kind})")
         if not abs(t_e - t_kernel) <= 1e-8 * (1.0 + abs(t_kernel)):
             raise RuntimeError(f"segment {seg} exits at {float(t_e):.15g} s here, "
                                f"{float(t_kernel):.15g} s in the kernel: event sequences "
                                "differ")
-        f_minus = _field(phase, p, tau, s)
+        f_minus = _field(phase, p, tau, fm, s)
         t_kernel_prev = t_kernel
         t, dt = t_e, dt_e
         clock_mode = int(prog[seg, L.S_CLOCK])

@@ -7,13 +7,16 @@ simulator integrates (no second copy of the equations to drift out of step).
 Every phase on the full 8-state ``s = [x, y, theta1, theta2, dx, dy, dtheta1, dtheta2]``
 (swinging, ``(x, y)`` and ``(dx, dy)`` stay put), so that transition matrices keep one shape
 through swings, flights and stops and every reset is an 8 -> 8 map: the field, its Jacobian,
-the segment guards and the entry magnet actions (used by
+the segment guards, the holding torque of a stuck DOF (the break-away guard of Coulomb
+friction) and the entry magnet actions (used by
 :mod:`monkeystudy.analysis.variational` for every gait, the horizontal gait included).
 """
 import numpy as np
 from .jit import njit
 
-from .dynamics import flight_accel, free_end_offset, rhs_flight, swing_accel, total_energy8
+from .dynamics import (
+    flight_accel, free_end_offset, holding_torque, rhs_flight, swing_accel, total_energy8,
+)
 from .hybrid import apply_magnets
 from .layout import (
     G_BAR, G_COORD, G_ENERGY, G_ENERGY_RESTORED, G_FREE_END_HEIGHT, G_FREE_END_Y,
@@ -27,17 +30,16 @@ CSTEP = 1e-30
 # any phase on the full 8-state
 # ----------------------------------------------------------------------------------------------
 @njit(cache=True, error_model="numpy")
-def field8(phase, p, tau, s, f):
+def field8(phase, p, tau, fm, s, f):
     """Vector field of either phase on the full 8-state ``[x, y, th1, th2, dx, dy, dth1,
     dth2]`` (complex-capable).
 
     Swinging, the (x, y) end is pinned: ``d(x, y)/dt = d(dx, dy)/dt = 0`` (and ``dx = dy = 0``
-    on every swing state the resets produce); the fixed phase does not move. ``fmode = 1``:
-    no DOF is stuck. Viscous friction is part of the field; Coulomb friction would enter with
-    a frozen slip sign and stick-slip events, which make a return map non-smooth, so callers
-    refuse it.
+    on every swing state the resets produce); the fixed phase does not move. ``fm`` are the
+    friction modes (:mod:`.dynamics`: the Coulomb slip sign +-1 of the pivot and the joint,
+    0 stuck), constant between friction events as in the hybrid loop: viscous friction and a
+    slipping DOF's Coulomb torque are part of the field, a stuck DOF has zero acceleration.
     """
-    fm = np.ones(2)
     for i in range(8):
         f[i] = 0.0
     if phase == PHASE_SWING:
@@ -51,8 +53,9 @@ def field8(phase, p, tau, s, f):
 
 
 @njit(cache=True, error_model="numpy")
-def field8_jacobian(phase, p, tau, s, A):
-    """``A[i, j] = d f_i / d s_j`` of :func:`field8` (complex step, exact to round-off).
+def field8_jacobian(phase, p, tau, fm, s, A):
+    """``A[i, j] = d f_i / d s_j`` of :func:`field8` in friction modes ``fm`` (complex step,
+    exact to round-off).
 
     The accelerations depend only on (th1, th2, dth1, dth2) (translation invariance), so four
     complex evaluations give every column.
@@ -60,7 +63,6 @@ def field8_jacobian(phase, p, tau, s, A):
     A[:, :] = 0.0
     if phase != PHASE_SWING and phase != PHASE_FLIGHT:
         return
-    fm = np.ones(2)
     z = np.empty(4, dtype=np.complex128)
     cols = (2, 3, 6, 7)
     for k in range(4):
@@ -88,14 +90,14 @@ def field8_jacobian(phase, p, tau, s, A):
 
 
 @njit(cache=True, error_model="numpy")
-def variational_rhs8(phase, p, tau, Y, dY):
+def variational_rhs8(phase, p, tau, fm, Y, dY):
     """Augmented field on ``Y = [s (8), Phi (8 x m, row-major)]``: ``ds = f(s)``,
-    ``dPhi = A(s) Phi``, for either phase."""
+    ``dPhi = A(s) Phi``, for either phase, in friction modes ``fm``."""
     m = (Y.shape[0] - 8) // 8
     A = np.empty((8, 8))
     # A is sparse (velocity rows are unit entries, positions never enter): skip its zeros
-    field8(phase, p, tau, Y[:8], dY[:8])
-    field8_jacobian(phase, p, tau, Y[:8], A)
+    field8(phase, p, tau, fm, Y[:8], dY[:8])
+    field8_jacobian(phase, p, tau, fm, Y[:8], A)
     for i in range(8):
         for j in range(m):
             acc = 0.0
@@ -134,6 +136,34 @@ def guard8_gradient(kind, index, value, p, s, eref, grad):
             z[i] = s[i]
         z[j] += 1j * CSTEP
         grad[j] = guard8(kind, index, value, p, z, eref).imag / CSTEP
+
+
+@njit(cache=True, error_model="numpy")
+def holding_torque8(phase, p, tau, fm, s, k):
+    """:func:`.dynamics.holding_torque` of friction DOF ``k`` (0 pivot, 1 joint) from the
+    full 8-state [N m] (complex-capable): the torque the friction must supply to hold DOF
+    ``k`` at zero speed, the other DOF in its mode ``fm``."""
+    if phase == PHASE_SWING:
+        y = np.empty(4, dtype=s.dtype)
+        y[0] = s[2]
+        y[1] = s[3]
+        y[2] = s[6]
+        y[3] = s[7]
+        return holding_torque(phase, p, tau, fm, y, k)
+    # the flight state is the 8-state itself; the fixed phase holds with no friction
+    return holding_torque(phase, p, tau, fm, s.copy(), k)
+
+
+@njit(cache=True, error_model="numpy")
+def holding_torque8_gradient(phase, p, tau, fm, s, k, grad):
+    """Gradient of :func:`holding_torque8` w.r.t. the 8-state [N m per unit of each state
+    component] (complex step)."""
+    z = np.empty(8, dtype=np.complex128)
+    for j in range(8):
+        for i in range(8):
+            z[i] = s[i]
+        z[j] += 1j * CSTEP
+        grad[j] = holding_torque8(phase, p, tau, fm, z, k).imag / CSTEP
 
 
 @njit(cache=True, error_model="numpy")

@@ -127,3 +127,52 @@ def test_an_unconverged_polish_is_said_and_refused_by_the_next_step(tmp_path, mo
     assert any(ln.startswith("floquet: sequence: Newton not converged: 1 iteration,")
                for ln in lines), lines
     assert "Newton not converged: 1 iteration," in str(refused.value)
+
+
+#: AcroMonk's two-swap brachiation (tests/analysis/test_design.py) on the identified model
+#: with Coulomb friction at the hook and the elbow; a short refinement (not to a gait)
+COULOMB = """\
+schema_version: 1
+name: coulomb_floquet
+robot:
+  urdf: {urdf}
+  links: [hook_1, link_2]
+  joints: [virtul_joint_hook_1, joint_1]
+  far_grip: hook_2
+  friction: {{pivot: {{coulomb: 0.07865}}, joint: {{viscous: 0.04144, coulomb: 0.02}}}}
+gait:
+  kind: sequence
+  torque_frame: motor
+  section: {{theta1: 0.0, direction: either, theta2: 0.15718415}}
+  segments:
+    - {{until: free_end_y, value: 0.0, direction: falling, torque: -0.36501134, clock: reset}}
+    - {{until: time, value: 0.39134575, magnets: swap, torque: 2.58882863}}
+    - {{until: coord, coord: theta1, value: 0.0, direction: either}}
+    - {{until: free_end_y, value: 0.0, direction: falling, torque: -2.81165613, clock: reset}}
+    - {{until: time, value: 0.08122807, magnets: swap, torque: 1.63025727}}
+integrator: {{method: dop853, rtol: 1.0e-12, atol: 1.0e-13, max_time: 3.0}}
+steps:
+  - {{name: best, kind: refine, start: [-7.3971987, 1.7245056], maxfev: 10}}
+  - {{name: floquet, kind: floquet, from: best, height_in_map: true}}
+"""
+
+
+def test_a_coulomb_robots_floquet_step_has_both_jacobians(tmp_path):
+    """Coulomb friction at the pivot and the joint: the floquet step analyses the map by
+    variational equations (saltation matrices at the friction events) beside finite
+    differences, and the two spectral radii agree."""
+    from pathlib import Path
+
+    from monkeystudy.study import load_study, run_study
+
+    from studyhelpers import write_study
+
+    urdf = Path(__file__).resolve().parents[3] / "data/acromonk/model/acromonk.urdf"
+    study = load_study(write_study(tmp_path, COULOMB.format(urdf=urdf), "coulomb.yaml"))
+    run_study(study, tmp_path / "out", workers=1)
+    f = open_dataset(tmp_path / "out", "floquet.nc")
+    assert str(f["failure"].values[0]) == ""
+    rho, rho_fd = (float(f[v].values[0]) for v in ("full_spectral_radius",
+                                                     "full_spectral_radius_fd"))
+    assert np.isfinite(rho) and abs(rho - rho_fd) <= 1e-6 * rho_fd     # 2.54456 both
+    assert float(f["agreement"].values[0]) < 1e-8                      # 1.3e-9
