@@ -472,9 +472,10 @@ def test_joint_coulomb_stick_and_break_away_match_fd():
     assert max(fd_agrees(SWING, z, robot, J)) < FD_RTOL                # 1.2e-10, 2.7e-11
 
 
-def test_joint_coulomb_break_away_at_a_segment_entry_matches_fd():
-    """Stuck through a segment's exit, the joint breaks away on entering the next segment
-    (its torque takes the holding torque past the limit) and sticks again later."""
+def test_joint_coulomb_slip_reversal_then_stick_in_one_segment_matches_fd():
+    """Under a constant torque the joint slips back at its first stop and sticks at its
+    second (a large Coulomb limit): the reversal's saltation, then the stick's, which zeroes
+    the dtheta2 row."""
     robot = coulomb(joint=0.5)
     gait = SequenceGait([Segment("time", value=0.3, torque=0.5)], section_theta1=0.0,
                         section_direction="either")
