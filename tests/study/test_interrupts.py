@@ -4,25 +4,31 @@ Every interruption lands at a point the test has seen the run reach (the live co
 the pause that ``$MONKEYSTUDY_PAUSE_AFTER_BLOCKS`` holds after so many computed blocks), never
 at a time hoped to fall inside the run, so the tests hold on a fast or a slow machine. A
 terminal's Ctrl-C is SIGINT to the foreground process group: the driver, its pool's workers
-and the compiling helper alike.
+and the compiling helper alike. A signal in a step's work in the driver (a design's refine,
+screen, checks) is sent by the run's own progress count, in the run's process.
 """
 from __future__ import annotations
 
+import json
 import os
 import pty
 import re
 import select
 import signal
 import sys
+import threading
 import time
 from pathlib import Path
 
 import pytest
 
+from monkeystudy.service.client import sigterm_as_interrupt
+from monkeystudy.study.errors import RunInterrupted
 from monkeystudy.study.loader import load_study
 from monkeystudy.study.runner import run_study
 
-from studyhelpers import assert_same_datasets, write_study
+from studyhelpers import RecordingReporter, assert_same_datasets, write_study
+from test_motor_frame import DESIGN_B
 
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="pseudo-terminals and signals")
 
@@ -183,3 +189,102 @@ def test_ctrl_c_in_a_block_and_in_a_resumed_run_then_the_rerun_is_bit_identical(
     clean = tmp_path / "clean"
     run_study(load_study(study), clean, workers=1)
     assert_same_datasets(clean, out, ["map.nc", "best.nc"])
+
+
+# --- an interruption while a step works in the driver ---------------------------------------------
+DESIGN = """\
+schema_version: 1
+name: design_interrupted
+robot: seed2009
+""" + f"gait: {json.dumps(DESIGN_B)}\n" + """\
+integrator: {method: dop853, rtol: 1.0e-12, atol: 1.0e-13, max_time: 3.0}
+steps:
+  - {name: refine, kind: refine, start: [4.844445533376672, -1.6124995598690839],
+     maxiter: 300}
+  - {name: floquet, kind: floquet, from: refine}
+  - name: design
+    kind: design
+    from: floquet
+    parameters:
+      segment2_torque: {start: 0.30, stop: 0.34, num: 2}
+      segment3_torque: {start: -0.42, stop: -0.38, num: 2}
+    refine: {starts: 1, max_evaluations: 12}
+    verify: {cycles: 20, decay_cycles: 8, basin_num: 3, basin_cycles: 5}
+    screen: {candidates: 3, runs: 6, max_cycles: 8, seed: 3,
+             noise: {timing: 1.0e-3, parameters: {mass: 0.01}}}
+"""
+DESIGN_FILES = ["refine.nc", "floquet.nc", "design.nc"]
+
+
+class SignalInPhase(RecordingReporter):
+    """Sends ``signum`` to the main thread at the first count of the design step's phase
+    ``label`` (its work in the driver, after its blocks), then counts the units that phase
+    still does."""
+
+    def __init__(self, label: str, signum: int):
+        super().__init__()
+        self.label, self.signum = label, signum
+        self.current = ""
+        self.total = 0
+        self.sent = False
+        self.after = 0
+
+    def phase(self, name, label, total, unit, then="", done=0):
+        super().phase(name, label, total, unit, then, done)
+        if name == "design":
+            self.current = label
+            if label == self.label:
+                self.total = total
+
+    def advance(self, name, n=1):
+        super().advance(name, n)
+        if name != "design" or self.current != self.label:
+            return
+        if self.sent:
+            self.after += n
+        else:
+            self.sent = True
+            signal.pthread_kill(threading.main_thread().ident, self.signum)
+
+
+@pytest.fixture(scope="module")
+def design_clean(tmp_path_factory) -> Path:
+    """The design study run once without an interruption."""
+    folder = tmp_path_factory.mktemp("design_clean")
+    run_study(load_study(write_study(folder, DESIGN, "design.yaml")), folder / "out",
+              workers=1)
+    return folder / "out"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("label, signum", [("refine", signal.SIGINT),
+                                           ("screen", signal.SIGTERM),
+                                           ("checks", signal.SIGINT)])
+def test_a_signal_in_a_design_steps_driver_phase_stops_it_at_the_next_count(
+        tmp_path, design_clean, label, signum):
+    """Ctrl-C (or SIGTERM, as the command line handles it: like Ctrl-C) during the design
+    step's refine, screen or checks, which run in the driver after its blocks: the run stops
+    at the phase's next count, not when the step ends, with the datasets of the steps before
+    written and the design's blocks saved; the rerun computes no block again, and its
+    datasets equal an uninterrupted run's bit for bit."""
+    study = write_study(tmp_path, DESIGN, "design.yaml")
+    out = tmp_path / "out"
+    rec = SignalInPhase(label, signum)
+    previous = sigterm_as_interrupt() if signum == signal.SIGTERM else None
+    try:
+        with pytest.raises(RunInterrupted, match="2 of 3 datasets written"):
+            run_study(load_study(study), out, workers=1, reporter=rec)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+    assert rec.sent and rec.total > 2
+    assert rec.after <= 1 < rec.total - 1, (label, rec.after, rec.total)
+    assert not (out / "design.nc").exists()
+    assert (out / "refine.nc").exists() and (out / "floquet.nc").exists()
+    saved = len(list(out.glob(".design.parts/*/b*.npz")))
+    assert saved > 0
+
+    summary = run_study(load_study(study), out, workers=1)
+    assert [p.name for p in summary.written] == ["design.nc"]
+    assert (summary.blocks_computed, summary.blocks_reused) == (0, saved)
+    assert_same_datasets(design_clean, out, DESIGN_FILES)

@@ -312,6 +312,32 @@ class TaskCounts:
             thread.join(timeout=5)
 
 
+class StoppingProgress(StepProgress):
+    """A step's progress in the driver (:class:`~monkeystudy.study.counts.StepProgress`)
+    whose every phase start and every unit counted is also a point where the run may stop:
+    ``stop_point`` is called there (the run's :meth:`~monkeystudy.study.pool.DeferredSignals.
+    check`, which raises the interruption a deferred Ctrl-C or SIGTERM asks for). The work of
+    a kind's :meth:`~monkeystudy.study.steps.base.StepKind.finish` is in memory until it writes
+    its dataset, after its last count, so stopping at a count loses no written file; a long
+    phase (a design's refine, screen, checks) then stops within a unit of its work instead of
+    when the step ends."""
+
+    def __init__(self, reporter, name: str, stop_point: Callable[[], None]):
+        super().__init__(reporter, name)
+        self.stop_point = stop_point
+
+    def phase(self, label: str, total: int, unit: str,
+              then: str = "") -> Callable[[int], None]:
+        self.stop_point()
+        advance = super().phase(label, total, unit, then)
+        stop_point = self.stop_point
+
+        def advance_or_stop(n: int = 1) -> None:
+            advance(n)
+            stop_point()
+        return advance_or_stop
+
+
 class StudyRun:
     """One run of a plan on a pool: starts steps when their dependencies are done, keeps the
     results of their tasks, and finishes each step when its last task is in; a step that
@@ -344,6 +370,9 @@ class StudyRun:
         # the steps that wrote no dataset, with the reason (their markers say it too)
         self.failed: dict[str, str] = {}
         self.not_run: dict[str, str] = {}
+        # Ctrl-C and SIGTERM while the run is on: acted on between waits and at each count of
+        # a step's work in the driver (StoppingProgress)
+        self.signals = DeferredSignals()
 
     # starting and finishing steps ---------------------------------------------------------
     def _start_ready(self) -> None:
@@ -359,7 +388,7 @@ class StudyRun:
         return StepContext(step=s.step, study=self.plan.loaded.study, spec=self.spec,
                            path=s.path, out=out, key=s.key, deps=deps, blocks=s.blocks,
                            read_block=lambda b, s=s: self._block_arrays(s, b),
-                           progress=StepProgress(self.rep, s.name))
+                           progress=StoppingProgress(self.rep, s.name, self.signals.check))
 
     def _start(self, s: StepPlan) -> None:
         try:
@@ -526,10 +555,11 @@ class StudyRun:
     def run(self) -> None:
         """Submit, wait and handle until every step is done. Signals (Ctrl-C, SIGTERM) take
         effect between waits (:class:`~monkeystudy.study.pool.DeferredSignals`), at most half
-        a second after they arrive."""
+        a second after they arrive, and, while a step works in the driver, at its next count
+        (:class:`StoppingProgress`)."""
         listener = self.counts.listen(self.pool.progress)
         try:
-            with DeferredSignals() as signals:
+            with self.signals as signals:
                 self._loop(signals)
         finally:
             self.counts.stop(listener)
@@ -550,12 +580,10 @@ class StudyRun:
                 break
             finished, _ = wait(list(self.inflight), timeout=0.5, return_when=FIRST_COMPLETED) \
                 if self.inflight else (set(), set())
-            for f in finished:
+            finished = list(finished)
+            for i, f in enumerate(finished):
                 p = self.inflight.pop(f)
-                try:
-                    exc = f.exception()
-                except CancelledError as e:  # e.g. a Dask cluster cancelled it
-                    exc = e
+                exc = task_error(f)
                 if exc is not None or p.step.name in self.failed:
                     self.counts.drop(p.key)
                 if exc is None:
@@ -567,6 +595,14 @@ class StudyRun:
                         self._handle(p, f.result())
                     except Exception as e:  # writing its shard or its dataset failed
                         self._fail(p.step, e)
+                    except KeyboardInterrupt:
+                        # stopped in a step's work in the driver (StoppingProgress): the
+                        # blocks the same wait brought are finished work too
+                        for g in finished[i + 1:]:
+                            q = self.inflight.pop(g)
+                            if isinstance(q.task.tag, Block) and task_error(g) is None:
+                                self._keep_block(q, g.result())
+                        raise
                 elif is_lost_worker(exc):
                     broken = broken or exc
                 else:
@@ -581,6 +617,15 @@ class StudyRun:
         if self.waiting:
             raise RunFailed("steps never became ready: "
                             + ", ".join(s.name for s in self.waiting))
+
+
+def task_error(f: Future) -> BaseException | None:
+    """The exception a finished task raised, its cancellation's (e.g. a Dask cluster
+    cancelled it), or None."""
+    try:
+        return f.exception()
+    except CancelledError as e:
+        return e
 
 
 def failure_reason(step: str, exc: BaseException, task: Task | None = None) -> str:
