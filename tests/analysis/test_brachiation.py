@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 
 from monkeystudy.analysis.brachiation import (
-    ACROMONK_TRAJECTORIES, GAP_THRESHOLD, IDENTIFIED, NOMINAL_TRAJECTORIES, capture_radius,
-    closed_chain, comparison, free_end_velocity, log_brachiations, measures,
-    nominal_trajectory, open_loop, positive_work, read_trajectory, torque_square_integral,
+    ACROMONK_TRAJECTORIES, GAP_THRESHOLD, IDENTIFIED, NOMINAL_TRAJECTORIES, at_elbow,
+    capture_radius, closed_chain, comparison, free_end_velocity, gait_brachiations,
+    log_brachiations, measures, nominal_trajectory, open_loop, positive_work,
+    positive_work_held, read_trajectory, torque_square_integral,
 )
 from monkeystudy.analysis.measured_replay import ModelSwing, acromonk_robot, free_end, replay
 from monkeystudy.measured import (CATCH, RELEASE, SHIPPED_LOGS, SWING, log_paths, read_log,
@@ -200,6 +201,84 @@ def test_the_capture_radius_needs_a_flagged_log(robot):
         capture_radius(robot, [read_log(SHIPPED_LOGS / "ZF_pd_1x.csv.gz")])
 
 
+# --- a held torque (a simulated gait) ---------------------------------------------------------
+@pytest.mark.parametrize("tau, rise", [(1.2, 3.0), (-1.2, 2.0)])
+def test_a_held_torque_does_the_work_of_the_angle_it_turns(tau, rise):
+    """theta2 = sin(w t) over 1.25 periods: it rises 0 -> 1, falls to -1, rises to 1 (a total
+    rise of 3, a fall of 2). A constant torque's positive work is |tau| times the rise (tau >
+    0) or the fall (tau < 0), the turning points inside the sampling intervals."""
+    w = 2.0 * math.pi / 0.8
+    t = np.sort(np.r_[0.0, 1.0, np.random.default_rng(7).uniform(0.0, 1.0, 400)])
+    work = positive_work_held(t, np.full(t.size, tau), np.sin(w * t), w * np.cos(w * t))
+    assert work == pytest.approx(abs(tau) * rise, rel=1e-9)
+
+
+def test_a_held_torque_changes_at_a_repeated_sample():
+    """tau 1 N m for 1 s, then -2 N m for 1 s (the change at a repeated sample, as a
+    simulation writes a segment's exit), theta2 = t: work 1 J, int tau2 1 + 4 = 5 N2 m2 s."""
+    t = np.r_[np.linspace(0.0, 1.0, 11), np.linspace(1.0, 2.0, 11)]
+    tau = np.r_[np.full(11, 1.0), np.full(11, -2.0)]
+    assert positive_work_held(t, tau, t, np.ones(t.size)) == pytest.approx(1.0, rel=1e-14)
+    assert torque_square_integral(t, tau) == pytest.approx(5.0, rel=1e-14)
+    with pytest.raises(ValueError, match="not held"):
+        positive_work_held(t[[0, 10, 12]], tau[[0, 10, 12]], t[[0, 10, 12]], np.ones(3))
+
+
+def test_the_logs_at_the_elbow_scale_the_torque_measures_only(robot):
+    m = measures(robot, series(IRREGULAR, 1.5, 2.0))
+    e = at_elbow(m, 0.8)
+    assert (e.positive_work, e.torque_square, e.peak_torque) == pytest.approx(
+        (0.8 * m.positive_work, 0.64 * m.torque_square, 0.8 * m.peak_torque), rel=1e-15)
+    assert (e.duration, e.catch_speed) == (m.duration, m.catch_speed)
+
+
+def _tool(name: str):
+    import importlib.util
+    spec = importlib.util.spec_from_file_location(name, Path(__file__).resolve().parents[2]
+                                                  / "tools" / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@pytest.fixture(scope="module")
+def designed():
+    return _tool("acromonk_brachiation").designed_gait()
+
+
+def test_the_designed_gaits_brachiations_run_from_catch_to_catch(designed):
+    """The two brachiations of studies/acromonk_gait.yaml: together one period; each ends at a
+    catch with the hook's speed the section analysis finds; int tau2 is sum tau_k^2 dt_k over
+    the segments' exit times; the positive work does not depend on the sampling."""
+    from monkeystudy.analysis.sections import cycle_catches
+    from monkeystudy.simulation import run_controller
+    from monkeystudy.analysis.sections import cycle_section_state
+    g = designed
+    halves = gait_brachiations(g)
+    ms = [measures(g.robot, b, held=True) for b in halves]
+    assert [b.name for b in halves] == ["acromonk_gait: B holds", "acromonk_gait: A holds"]
+    res = run_controller(g.gait.controller(), cycle_section_state(g.gait, g.section_state),
+                         robot=g.robot, integrator=g.integrator, cycles=1, sample_dt=0.0)
+    ends = res.segment_times               # the exits of segments 0..5 (5: the section)
+    period = ends[-1]
+    assert sum(m.duration for m in ms) == pytest.approx(period, rel=1e-12)
+    # B holds from the catch ending segment 3 to the one ending segment 0 of the next cycle
+    assert ms[0].duration == pytest.approx(ends[3] - ends[0], rel=1e-12)
+    cc = cycle_catches(g.section_state, g.gait, robot=g.robot, integrator=g.integrator)
+    np.testing.assert_allclose([m.catch_speed for m in ms], cc.speed[::-1], rtol=1e-9)
+    taus = [s.torque for s in g.gait.segments] + [g.gait.section_torque]
+    durations = np.diff(np.r_[0.0, ends])
+    B = [1, 2, 3]                           # the segments from B's catch to A's
+    assert ms[0].torque_square == pytest.approx(
+        sum(taus[k] ** 2 * durations[k] for k in B), rel=1e-10)
+    assert ms[1].torque_square == pytest.approx(
+        sum(taus[k] ** 2 * durations[k] for k in (0, 4, 5)), rel=1e-10)
+    fine = [measures(g.robot, b, held=True) for b in gait_brachiations(g, sample_dt=2.5e-4)]
+    for a, b in zip(ms, fine):
+        assert a.positive_work == pytest.approx(b.positive_work, rel=1e-9)
+        assert a.positive_work > 0.0
+
+
 # --- the documented numbers ---------------------------------------------------------------------
 DOC = Path(__file__).resolve().parents[2] / "docs" / "acromonk.md"
 
@@ -223,4 +302,4 @@ def test_the_docs_table_is_what_the_tool_prints():
     start = section.index("```text\n") + len("```text\n")
     quoted = section[start:section.index("```", start)].rstrip("\n")
     logs = [read_log(p) for p in log_paths(SHIPPED_LOGS)]
-    assert quoted == comparison(logs)
+    assert quoted == comparison(logs, gait=_tool("acromonk_brachiation").designed_gait())

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import gzip
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Sequence
 
@@ -37,11 +37,14 @@ import numpy as np
 
 from ..kernel import layout as L
 from ..measured import FLAG_COLUMN, RELEASE, HardwareLog, holding, swings
+from ..controllers import Integrator, SequenceGait
 from ..robot import Friction, Robot
+from ..simulation import Status, run_controller
 from ..urdf import reduce_urdf
 from .measured_replay import (ACROMONK_FAR_GRIP, ACROMONK_JOINTS, ACROMONK_LINKS, ACROMONK_URDF,
                               PUBLISHED_JOINT, PUBLISHED_PIVOT, ModelSwing, ModelValues, Replay,
                               acromonk_robot, free_end, replay)
+from .sections import cycle_section_state
 
 #: the lab's direct-collocation trajectories in a source checkout (data/acromonk/trajectories)
 ACROMONK_TRAJECTORIES = ACROMONK_URDF.parents[1] / "trajectories"
@@ -83,6 +86,57 @@ def positive_work(time: np.ndarray, torque: np.ndarray, rate: np.ndarray) -> flo
     span = np.where(mixed, np.abs(a) + np.abs(b), 1.0)
     part = np.where(mixed, 0.5 * hi * hi / span * h, 0.0)
     return float(np.sum(both) + np.sum(part))
+
+
+def positive_work_held(time: np.ndarray, torque: np.ndarray, angle: np.ndarray,
+                       rate: np.ndarray) -> float:
+    """``∫ max(τ dθ2/dt, 0) dt`` [J] of a torque held constant between samples (a simulated
+    sequence gait: constant per segment, its changes at repeated sample times).
+
+    On each interval ``τ`` is constant, so the integral is ``τ Δθ2`` over each stretch where
+    ``dθ2/dt`` keeps its sign: exact from the angle, whatever the sampling. Where the rate
+    changes sign inside an interval, the turning point of ``θ2`` is taken on the cubic Hermite
+    interpolant of ``(θ2, dθ2/dt)`` at its ends (error ``O(h⁴)`` in the angle there). An
+    interval of zero length (a torque change at an event) adds nothing; one of positive length
+    whose ends carry different torques is refused (``ValueError``): the torque is not held.
+    """
+    t = np.asarray(time, float)
+    u = np.asarray(torque, float)
+    th = np.asarray(angle, float)
+    w = np.asarray(rate, float)
+    h = np.diff(t)
+    if np.any((h > 0) & (u[1:] != u[:-1])):
+        k = int(np.flatnonzero((h > 0) & (u[1:] != u[:-1]))[0])
+        raise ValueError(f"the torque changes within the interval {t[k]:.6g}..{t[k + 1]:.6g} "
+                         "s: not held between samples")
+    total = 0.0
+    for k in np.flatnonzero(h > 0):
+        tau, dt = u[k], h[k]
+        ta, tb, ra, rb = th[k], th[k + 1], w[k], w[k + 1]
+        if ra * rb < 0.0:
+            tm = _hermite_turning_angle(ta, tb, ra * dt, rb * dt)
+            total += max(tau * (tm - ta), 0.0) + max(tau * (tb - tm), 0.0)
+        else:
+            total += max(tau * (tb - ta), 0.0)
+    return float(total)
+
+
+def _hermite_turning_angle(ta: float, tb: float, ma: float, mb: float) -> float:
+    """The value at the turning point inside ``(0, 1)`` of the cubic Hermite interpolant with
+    end values ``ta``, ``tb`` and end slopes (per unit of ``s``) ``ma``, ``mb`` of opposite
+    signs (its derivative, a quadratic, has exactly one root there)."""
+    d = tb - ta
+    a2, a1, a0 = -6.0 * d + 3.0 * (ma + mb), 6.0 * d - 4.0 * ma - 2.0 * mb, ma
+    if abs(a2) <= 1e-14 * (abs(a1) + abs(a0)):
+        s = -a0 / a1
+    else:
+        roots = np.roots([a2, a1, a0])
+        roots = roots[np.abs(roots.imag) <= 1e-12].real
+        s = float(roots[np.argmin(np.abs(roots - np.clip(roots, 0.0, 1.0)))])
+    s = min(max(s, 0.0), 1.0)
+    h00, h10 = 2 * s ** 3 - 3 * s ** 2 + 1, s ** 3 - 2 * s ** 2 + s
+    h01, h11 = -2 * s ** 3 + 3 * s ** 2, s ** 3 - s ** 2
+    return h00 * ta + h10 * ma + h01 * tb + h11 * mb
 
 
 def free_end_velocity(robot: Robot, theta1, theta2, theta1_rate, theta2_rate,
@@ -144,10 +198,14 @@ class Measures:
     gapped: bool
 
 
-def measures(robot: Robot, series: ModelSwing, *, gap_threshold: float = GAP_THRESHOLD
-             ) -> Measures:
+def measures(robot: Robot, series: ModelSwing, *, gap_threshold: float = GAP_THRESHOLD,
+             held: bool = False) -> Measures:
     """The per-brachiation measures of a series from its first sample to its last, which is
-    taken as the catch instant (see the module docstring for the integrals and the torque)."""
+    taken as the catch instant (see the module docstring for the integrals and the torque).
+
+    ``held``: the torque is held constant between samples (a simulation's,
+    :func:`gait_brachiations`): the positive work is :func:`positive_work_held`, exact from
+    the angle, and the trapezoid of ``τ²`` is exact too (``τ²`` constant on each interval)."""
     t = np.asarray(series.time, float)
     if t.size < 2:
         raise ValueError(f"{series.name}: a brachiation needs at least two samples")
@@ -157,7 +215,9 @@ def measures(robot: Robot, series: ModelSwing, *, gap_threshold: float = GAP_THR
     down = -float(vel[0, 1])
     gap = float(np.max(np.diff(t)))
     return Measures(name=series.name, duration=float(t[-1] - t[0]),
-                    positive_work=positive_work(t, series.torque, series.theta2_rate),
+                    positive_work=(positive_work_held(t, series.torque, series.theta2,
+                                                      series.theta2_rate) if held else
+                                   positive_work(t, series.torque, series.theta2_rate)),
                     torque_square=torque_square_integral(t, series.torque),
                     peak_torque=float(np.max(np.abs(series.torque))),
                     catch_speed=math.hypot(onward, down), catch_onward=onward,
@@ -360,6 +420,98 @@ def catch_distances(robot: Robot, series: Sequence[ModelSwing]) -> np.ndarray:
     return np.array(out)
 
 
+def open_loop_series(robot: Robot, plan: ModelSwing, *, torque_scale: float = 1.0,
+                     name: str | None = None) -> ModelSwing:
+    """A plan run open loop (:func:`open_loop`) as a series: the plan's first state, then
+    the simulated angles and rates at the plan's later samples, the plan's torque times
+    ``torque_scale`` (the input is its centred hold, within half a sample's change of it)."""
+    rep: Replay = replay(robot, plan, 0, plan.duration, torque_scale=torque_scale)
+    rows = np.r_[0, np.searchsorted(plan.time, rep.time - 1e-12)]
+    return ModelSwing(time=np.r_[0.0, rep.time],
+                      theta1=np.r_[plan.theta1[0], rep.simulated[:, 0]],
+                      theta2=np.r_[plan.theta2[0], rep.simulated[:, 1]],
+                      theta1_rate=np.r_[plan.theta1_rate[0], rep.simulated_rates[:, 0]],
+                      theta2_rate=np.r_[plan.theta2_rate[0], rep.simulated_rates[:, 1]],
+                      torque=torque_scale * plan.torque[rows], flipped=plan.flipped,
+                      name=name or plan.name)
+
+
+# --- a simulated gait's brachiations ----------------------------------------------------------
+#: the sampling step of a simulated gait's brachiations [s]: samples of the integrator's dense
+#: output, the events (segment exits, catches) among them; only the turning points of theta2
+#: depend on it (:func:`positive_work_held`)
+GAIT_SAMPLE_DT = 1e-3
+
+
+@dataclass(frozen=True)
+class DesignedGait:
+    """A sequence gait that catches bars, at its fixed point: what :func:`gait_brachiations`
+    runs.
+
+    Attributes
+    ----------
+    name : str
+        How the table names it (the study's name).
+    robot : Robot
+        The robot it runs on.
+    gait : SequenceGait
+        The gait, its torques in the kernel's frame.
+    section_state : tuple of float
+        Its fixed point on the section, ``(theta2 [rad], dtheta1, dtheta2 [rad s-1])``.
+    integrator : Integrator
+        The integrator it is run with.
+    """
+
+    name: str
+    robot: Robot
+    gait: SequenceGait
+    section_state: tuple[float, float, float]
+    integrator: Integrator
+
+
+def gait_brachiations(design: DesignedGait, *, sample_dt: float = GAIT_SAMPLE_DT
+                      ) -> list[ModelSwing]:
+    """Each brachiation of one cycle of a sequence gait that catches bars, as a series from
+    one catch to the next.
+
+    Two cycles are run from the fixed point (identical cycles); a catch is the exit of an
+    ``until: bar`` segment where the attached end changes (docs/model.md section 6). A
+    brachiation runs from the sample after one catch's impact to the sample before the next
+    catch's impact (the state the catch's speed is measured in), in the frame of the end that
+    holds (``flipped``), the torque the one the kernel applies on ``theta2`` of that frame;
+    one series per catch of a cycle, in the order of the run, from the cycle's first catch.
+    Names ``<gait>: A holds`` (end A, the motor arm) or ``B holds``. ``ValueError`` when the
+    run fails or the two cycles do not catch alike.
+    """
+    prog, _ = design.gait.program()
+    res = run_controller(design.gait.controller(),
+                         cycle_section_state(design.gait, design.section_state),
+                         robot=design.robot, integrator=design.integrator, cycles=2,
+                         sample_dt=sample_dt)
+    if res.status != Status.OK:
+        raise ValueError(f"{design.name}: the gait's run stopped: {res.status.name}")
+    t, seg, fl = res.sample_t, res.sample_segment.astype(int), res.sample_flipped.astype(int)
+    catches = [i for i in range(t.size - 1)
+               if t[i + 1] == t[i] and fl[i + 1] != fl[i]
+               and int(prog[seg[i], L.S_GUARD]) == L.G_BAR]
+    if len(catches) < 2 or len(catches) % 2:
+        raise ValueError(f"{design.name}: {len(catches)} catches in two cycles: a gait that "
+                         "catches bars catches as often in each cycle")
+    out = []
+    for a, b in zip(catches[:len(catches) // 2], catches[1:len(catches) // 2 + 1]):
+        rows = slice(a + 1, b + 1)
+        f = fl[a + 1]
+        if np.any(fl[rows] != f):
+            raise ValueError(f"{design.name}: the attached end changes between two catches")
+        s = res.sample_state[rows]
+        out.append(ModelSwing(time=t[rows] - t[a + 1], theta1=s[:, L.TH1].copy(),
+                              theta2=s[:, L.TH2].copy(), theta1_rate=s[:, L.DTH1].copy(),
+                              theta2_rate=s[:, L.DTH2].copy(),
+                              torque=res.sample_torque[rows].copy(), flipped=int(f),
+                              name=f"{design.name}: {'AB'[f]} holds"))
+    return out
+
+
 # --- the comparison table (tools/acromonk_brachiation.py) -------------------------------------
 #: the open-loop runs of the table: label -> (model, torque scale on the plan's torque)
 OPEN_LOOP_RUNS = {"identified": ("identified", 1.0),
@@ -405,9 +557,63 @@ MEASURE_HEADER = ("n", "duration_s", "work+_J", "int_tau2_N2m2s", "peak_tau_Nm",
                   "onward_m/s", "down_m/s")
 
 
+def at_elbow(m: Measures, scale: float = IDENTIFIED.torque_scale) -> Measures:
+    """A log's measures with its torque taken to the elbow: the servo's estimate times
+    ``scale`` (the peak and the positive work times ``scale``, ``∫ τ² dt`` times its square;
+    the rates are measured, the catch unchanged)."""
+    return replace(m, positive_work=scale * m.positive_work,
+                   torque_square=scale * scale * m.torque_square,
+                   peak_torque=scale * m.peak_torque)
+
+
+def _plain_mean_columns(ms: Sequence[Measures]) -> list[str]:
+    return [f"{np.mean([getattr(m, k) for m in ms]):{fmt}}" for k, fmt in
+            (("duration", ".3f"), ("positive_work", ".2f"), ("torque_square", ".2f"),
+             ("peak_torque", ".2f"), ("catch_speed", ".2f"), ("catch_onward", "+.2f"),
+             ("catch_down", "+.2f"))]
+
+
+def side_by_side(logs: Sequence[HardwareLog], plans: dict[str, ModelSwing], base: Robot,
+                 gait: DesignedGait | None, radius: float) -> list[str]:
+    """The table of every source's measures per brachiation with the torque at the elbow:
+    the logs (their estimate times :data:`IDENTIFIED`'s scale), the plans run open loop on the
+    identified model, and the designed gait's brachiations and their mean."""
+    out = ["", f"Side by side, per brachiation, the torque at the elbow (the logs' estimate "
+               f"x{IDENTIFIED.torque_scale:.4f}, int tau2 x{IDENTIFIED.torque_scale ** 2:.3f}; "
+               "the models' own torque):"]
+    rows = []
+    for log in logs:
+        spans = (("release->catch", True), ("swing->catch", False)) if has_flag(log) else \
+            (("swing->catch", False),)
+        for span, with_release in spans:
+            ms = [at_elbow(measures(base, b))
+                  for b in log_brachiations(log, with_release=with_release)]
+            rows.append([f"{log.name} (hardware)", span, str(len(ms))] + _measure_columns(ms)
+                        + [""])
+    identified = IDENTIFIED.robot(base)
+    for name, plan in plans.items():
+        m = measures(identified, open_loop_series(identified, plan))
+        ol = open_loop(identified, plan)
+        rows.append([f"{name} plan, open loop, identified model", "plan's span", "1"]
+                    + _measure_columns([m])[:4] + ["-", "-", "-"]
+                    + [f"no catch: closest {ol.closest:.4f} m" if not ol.caught(radius)
+                       else f"caught: closest {ol.closest:.4f} m"])
+    if gait is not None:
+        series = gait_brachiations(gait)
+        ms = [measures(gait.robot, b, held=True) for b in series]
+        for b, m in zip(series, ms):
+            rows.append([f"{b.name} (model)", "catch->catch", "1"] + _measure_columns([m])
+                        + [""])
+        rows.append([f"{gait.name}: mean (model)", "catch->catch", str(len(ms))]
+                    + _plain_mean_columns(ms) + [f"cycle {sum(m.duration for m in ms):.4f} s"])
+    out += _table(("source", "span") + MEASURE_HEADER + ("",), rows)
+    return out
+
+
 def comparison(logs: Sequence[HardwareLog], *, trajectories: Sequence[str] = NOMINAL_TRAJECTORIES,
-               base: Robot | None = None) -> str:
-    """The comparison table of docs/acromonk.md, "Brachiations measured", as text."""
+               base: Robot | None = None, gait: DesignedGait | None = None) -> str:
+    """The comparison table of docs/acromonk.md, "Brachiations measured", as text; with
+    ``gait``, the designed gait's brachiations in the side-by-side table."""
     base = base or acromonk_robot()
     out = ["Per log (mean±sd over its brachiations; torque as logged, the servo's estimate: at",
            f"the elbow the peak and the work are x{IDENTIFIED.torque_scale:.4f}, "
@@ -477,4 +683,5 @@ def comparison(logs: Sequence[HardwareLog], *, trajectories: Sequence[str] = NOM
             else:
                 out.append(f"  {label}: 0 (the first BF misses: closest {ol.closest:.4f} m, "
                            f"{ol.final_miss:.4f} m from the plan's free end at its end)")
+    out += side_by_side(logs, plans, base, gait, radius)
     return "\n".join(out)

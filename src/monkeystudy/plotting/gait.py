@@ -13,6 +13,7 @@ from the trajectory itself: while swinging, the attached end is the one that doe
 """
 from __future__ import annotations
 
+import json
 import shutil
 import subprocess
 from dataclasses import dataclass
@@ -20,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib.lines import Line2D
+from matplotlib.path import Path as MarkerPath
 from PIL import Image
 from matplotlib.patches import Patch
 from matplotlib.ticker import MaxNLocator
@@ -28,8 +30,8 @@ from .cycles import gait_text, own_controller, stop_note
 from .drawing import NothingToDraw
 from .labels import wrap_text
 from .common import (
-    BLUE, GREEN, ORANGE, PURPLE, VERMILLION, atomic_path, link_lengths, new_figure, run_label,
-    style,
+    BLUE, GREEN, ORANGE, PURPLE, VERMILLION, atomic_path, count, link_lengths, new_figure,
+    run_label, style,
 )
 
 PHASE_SWING, PHASE_FLIGHT, PHASE_FIXED = 0, 1, 2
@@ -50,6 +52,14 @@ FILMSTRIP_WIDTH = 10.0
 END_A = dict(marker="o", ms=7, mfc="black", mec="black", ls="none")
 END_B = dict(marker="s", ms=7, mfc="white", mec="black", mew=1.4, ls="none")
 MAGNET = dict(marker="o", ms=14, mfc="none", mec="#B8860B", mew=2.0, ls="none")
+#: a bar of a ladder, seen end on (its size is the marker's, not the bar's)
+BAR = dict(marker="o", ms=7, mfc="0.55", mec="0.15", mew=1.0, ls="none")
+#: the hook of the attached end over its bar: an arc over the bar's top, open below
+HOOK = dict(marker=MarkerPath.arc(-35.0, 215.0), ms=17, mfc="none", mec="#B8860B", mew=2.4,
+            ls="none")
+#: a caught bar is where the new attached end sits after a swap, to this distance [m]: the
+#: catch snaps it onto the bar, ``bar.dx``, ``bar.dy`` from the bar it leaves
+BAR_TOLERANCE = 1e-6
 
 
 @dataclass
@@ -156,6 +166,57 @@ def _stationary_end(t, A, B) -> np.ndarray:
     return out
 
 
+def bar_offsets(ds) -> list[tuple[float, float]]:
+    """The bars' offsets ``(dx, dy)`` [m] of the gait's ``until: bar`` segments (its ``gait``
+    attribute; none for a gait without bar catches)."""
+    try:
+        gait = json.loads(ds.attrs.get("gait", "") or "null")
+    except (TypeError, ValueError):
+        return []
+    if not isinstance(gait, dict):
+        return []
+    out = []
+    for seg in gait.get("segments", []):
+        bar = seg.get("bar") if isinstance(seg, dict) else None
+        if seg.get("until") == "bar" and isinstance(bar, dict):
+            out.append((float(bar.get("dx", 0.0)), float(bar.get("dy", 0.0))))
+    return out
+
+
+def ladder_bars(ds, traj: Trajectory) -> np.ndarray:
+    """The bars of a run on a ladder, (n, 2) [m] in the world frame: the bar the robot
+    starts from and each bar it caught, in the order reached (none, shape (0, 2), for a gait
+    without bar catches).
+
+    A swap is a catch when the new attached end sits one of the gait's bar offsets
+    (:func:`bar_offsets`) from the end that held before it: the catch snaps the hook onto the
+    bar (docs/model.md section 6), so the bar is where that end is after the swap.
+    """
+    offsets = np.array(bar_offsets(ds), float).reshape(-1, 2)
+    if offsets.size == 0 or traj.t.size == 0:
+        return np.zeros((0, 2))
+
+    def held(i):
+        return traj.B[i] if traj.attached[i] == "B" else traj.A[i]
+
+    bars = [held(0)]
+    for s in traj.swaps():
+        step = held(s) - held(s - 1)
+        if np.any(np.all(np.abs(offsets - step) <= BAR_TOLERANCE, axis=1)):
+            bars.append(held(s))
+    out = []
+    for b in bars:
+        if not any(np.all(np.abs(b - o) <= BAR_TOLERANCE) for o in out):
+            out.append(b)
+    return np.array(out, float).reshape(-1, 2)
+
+
+def on_bar(pos, bars: np.ndarray) -> bool:
+    """Whether ``pos`` [m] is on one of ``bars`` (:data:`BAR_TOLERANCE`)."""
+    return bars.size > 0 and bool(np.any(np.all(np.abs(bars - pos) <= BAR_TOLERANCE,
+                                                axis=1)))
+
+
 def _cycle_bounds(ds, traj: Trajectory, cycle: int) -> tuple[int, int]:
     """Sample index range ``[i0, i1)`` of gait cycle ``cycle`` (1-based)."""
     t = traj.t
@@ -176,7 +237,7 @@ def _world_limits(traj: Trajectory, sl: slice, pad: float = 0.12):
 
 
 def _draw_pose(ax, traj: Trajectory, i: int, colour, *, labels: bool = False,
-               gid: str = "pose", lw: float = 3.0, limits=None):
+               gid: str = "pose", lw: float = 3.0, limits=None, bars: np.ndarray | None = None):
     xs = [traj.A[i, 0], traj.joint[i, 0], traj.B[i, 0]]
     ys = [traj.A[i, 1], traj.joint[i, 1], traj.B[i, 1]]
     line, = ax.plot(xs, ys, "-", color=colour, lw=lw, solid_capstyle="round", gid=gid,
@@ -187,7 +248,10 @@ def _draw_pose(ax, traj: Trajectory, i: int, colour, *, labels: bool = False,
     att = traj.attached[i]
     for end, pos in (("A", traj.A[i]), ("B", traj.B[i])):
         if att in (end, "both"):
-            ax.plot(*pos, zorder=3, **MAGNET)
+            if bars is not None and on_bar(pos, bars):
+                ax.plot(*pos, zorder=7, gid="hook", **HOOK)
+            else:
+                ax.plot(*pos, zorder=3, **MAGNET)
     if labels:
         # each name on the side of its end toward the middle of the frame (``limits``: its
         # x and y ranges), so that it stays inside the frame
@@ -266,6 +330,7 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
     frames = _pick_frames(traj, i0, i1, n_frames)
     stage = traj.stage
     xlim, ylim = _world_limits(traj, slice(i0, i1))
+    bars = ladder_bars(stab, traj)
     n = len(frames)
     ncols = min(columns, n)
     nrows = int(np.ceil(n / ncols))
@@ -287,7 +352,10 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
             ax.plot(traj.A[i0:i1, 0], traj.A[i0:i1, 1], color="0.8", lw=0.8, zorder=1)
             ax.plot(traj.B[i0:i1, 0], traj.B[i0:i1, 1], color="0.8", lw=0.8, ls="--", zorder=1)
             ax.axhline(0.0, color="0.6", lw=0.6, ls=":", zorder=0)
-            _draw_pose(ax, traj, i, colour, labels=(k == 0), limits=(xlim, ylim))
+            if bars.size:
+                ax.plot(bars[:, 0], bars[:, 1], zorder=2, gid="bars", **BAR)
+            _draw_pose(ax, traj, i, colour, labels=(k == 0), limits=(xlim, ylim),
+                       bars=bars if bars.size else None)
             tag = _change_tag(stage, i, i in swaps)
             ax.set_title(f"{k + 1}: t = {traj.t[i]:.3f} s\n{tag.strip() or ' '}", fontsize=8.5,
                          fontweight="bold" if tag else "normal", color=colour, loc="center")
@@ -341,10 +409,14 @@ def plot_filmstrip(stab, *, cycle: int = 1, n_frames: int = 12, columns: int = 6
         tl.set_ylabel("motor torque\n(motor frame)\n[N m]" if
                       stab.attrs.get("torque_frame") == "motor" else "motor torque\n[N m]")
         handles = stage_handles([k for k in STAGES if k in seen], patch=True)
-        handles += [Line2D([], [], color=SWAP_COLOUR, ls="--", label="magnet swap"),
+        handles += [Line2D([], [], color=SWAP_COLOUR, ls="--",
+                           label="catch (the hooks swap)" if bars.size else "magnet swap"),
                     Line2D([], [], label="end A", **END_A),
                     Line2D([], [], label="end B", **END_B),
-                    Line2D([], [], label="attached end (magnet on)", **MAGNET),
+                    *([Line2D([], [], label="bar (started from or caught)", **BAR),
+                       Line2D([], [], label="hook on its bar (attached end)", **HOOK)]
+                      if bars.size else
+                      [Line2D([], [], label="attached end (magnet on)", **MAGNET)]),
                     Line2D([], [], color="0.8", lw=0.8, label="path of end A over the cycle"),
                     Line2D([], [], color="0.8", lw=0.8, ls="--",
                            label="path of end B over the cycle"),
@@ -471,9 +543,23 @@ class _FrameSink:
             self.proc.wait()
 
 
+def first_cycles(stab, traj: Trajectory, cycles: int) -> Trajectory:
+    """The trajectory up to the end of cycle ``cycles`` (its section crossing, ``t_cross``;
+    the whole trajectory when the run has fewer cycles or no crossing times)."""
+    if "t_cross" not in stab or stab.sizes.get("cycle", 0) < cycles or cycles < 1:
+        return traj
+    t_end = float(np.asarray(stab["t_cross"].values, float)[cycles - 1])
+    if not np.isfinite(t_end):
+        return traj
+    n = int(np.searchsorted(traj.t, t_end, side="right"))
+    return Trajectory(traj.t[:n], traj.A[:n], traj.joint[:n], traj.B[:n], traj.phase[:n],
+                      traj.torque[:n], traj.attached[:n])
+
+
 def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_frames: int = 300,
                     dpi: float = 150.0, window: float | None = None, gait=None,
-                    fmt: str | None = None, progress=None) -> list[Path]:
+                    fmt: str | None = None, progress=None, cycles: int | None = None
+                    ) -> list[Path]:
     """Animate the whole run of a stability dataset; write ``base.mp4`` (``base.gif`` when
     there is no ffmpeg, or with ``fmt="gif"``). The frames are 6.4 x 4 in at ``dpi``: 960 x
     600 pixels by default.
@@ -483,7 +569,9 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
     when the run stopped early). The view, ``window`` metres wide (default 2.6 times the
     robot's reach), holds still and jumps only when the robot would leave it
     (:class:`Camera`), falling runs included, so the whole robot is always in view; the start
-    height and the points where a magnet attached are drawn fixed in the world.
+    height and the points where a magnet attached are drawn fixed in the world; on a ladder
+    (a gait that catches bars, :func:`ladder_bars`) the bars instead, and the attached end's
+    hook over its bar. ``cycles``: the first that many cycles only (:func:`first_cycles`).
 
     The frames are drawn by blitting: the axes (ticks, grid, legend) are drawn once per view,
     and each frame only restores them and redraws the moving artists, whose pixels go straight
@@ -492,6 +580,9 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
     """
     require_samples(stab)
     traj = trajectory(stab)
+    bars = ladder_bars(stab, traj)
+    if cycles is not None:
+        traj = first_cycles(stab, traj, cycles)
     frames, speed = animation_frames(traj, fps, max_frames)
     stage = traj.stage
     lengths = link_lengths(stab) or (0.61, 0.61)
@@ -507,7 +598,7 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
         raise ValueError(f"animation format must be mp4 or gif, got {fmt!r}")
     base = Path(base)
     path = base.with_name(f"{base.name}.{fmt}")
-    stop = stop_note(stab)
+    stop = stop_note(stab) if cycles is None else None
     hold = max(1, int(round(fps)))
     total = len(frames) + hold
     with style():
@@ -522,7 +613,12 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
         jnt, = ax.plot([], [], "o", ms=4, color="0.25", zorder=5)
         a_m, = ax.plot([], [], zorder=6, **END_A)
         b_m, = ax.plot([], [], zorder=6, **END_B)
-        mag, = ax.plot([], [], zorder=3, **MAGNET)
+        if bars.size:
+            # fixed in the world: drawn with the axes, under the moving robot
+            ax.plot(bars[:, 0], bars[:, 1], zorder=2, gid="bars", **BAR)
+            mag, = ax.plot([], [], zorder=7, gid="hook", **HOOK)
+        else:
+            mag, = ax.plot([], [], zorder=3, **MAGNET)
         # what is happening, under the axes: inside, it would cover the robot now and then
         info = fig.text(0.01, 0.015, "", fontsize=8, ha="left", va="bottom")
         moving = [trail, foot, mag, line, jnt, a_m, b_m, info]
@@ -534,16 +630,23 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
                else "Open-loop run")
         fig.suptitle(f"{run}, {gait_text(stab, gait)}", fontsize=9, x=0.02,
                      ha="left", fontweight="bold")
-        ax.set_title(run_label(stab) + (f"; playback ×{speed:.1f}" if speed > 1 else ""),
+        shown = (f"; the first {count(cycles, 'cycle')}" if cycles is not None
+                 and traj.t.size < stab.sizes.get("sample", 0) else "")
+        ax.set_title(run_label(stab) + shown
+                     + (f"; playback ×{speed:.1f}" if speed > 1 else ""),
                      fontsize=6.5, fontweight="normal", loc="left")
+        held = ([Line2D([], [], label="bar", **BAR),
+                 Line2D([], [], label="hook on its bar", **dict(HOOK, ms=11))] if bars.size
+                else [Line2D([], [], label="magnet on", **dict(MAGNET, ms=9))])
+        where = ([] if bars.size else
+                 [Line2D([], [], marker="v", color="#B8860B", ms=5, ls="none",
+                         label="a magnet attached here")])
         fig.legend(handles=stage_handles(run_stages(traj), lw=3)
                    + [Line2D([], [], label="end A", **END_A),
-                      Line2D([], [], label="end B", **END_B),
-                      Line2D([], [], label="magnet on", **dict(MAGNET, ms=9)),
-                      Line2D([], [], color="0.5", lw=0.8, ls="--", label="start height"),
-                      Line2D([], [], color="0.75", lw=0.8, label="path of the joint"),
-                      Line2D([], [], marker="v", color="#B8860B", ms=5, ls="none",
-                             label="a magnet attached here")],
+                      Line2D([], [], label="end B", **END_B)] + held
+                   + [Line2D([], [], color="0.5", lw=0.8, ls="--", label="start height"),
+                      Line2D([], [], color="0.75", lw=0.8, label="path of the joint")]
+                   + where,
                    loc="lower center", bbox_to_anchor=(0.5, 0.055), ncols=4, fontsize=6,
                    frameon=False, columnspacing=1.2, handlelength=1.5, labelspacing=0.5)
         # the view, in metres, of the axes box's shape: it holds the robot's full swing
@@ -579,7 +682,7 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
             b_m.set_data([traj.B[i, 0]], [traj.B[i, 1]])
             on = [q for e, q in (("A", traj.A[i]), ("B", traj.B[i])) if att in (e, "both")]
             mag.set_data([q[0] for q in on], [q[1] for q in on])
-            k = np.searchsorted(foot_t, traj.t[i], side="right")
+            k = np.searchsorted(foot_t, traj.t[i], side="right") if not bars.size else 0
             foot.set_data(feet[:k, 0], feet[:k, 1])
             j0 = max(0, i - 400)
             trail.set_data(traj.joint[j0:i + 1, 0], traj.joint[j0:i + 1, 1])

@@ -32,6 +32,8 @@ file (``figures/``)                      what                                   
 ``<stability>_height``                   attached-end height per cycle           7
 ``<stability>_filmstrip``                one gait cycle, frame by frame          2 (from data)
 ``<stability>_animation``                the whole run (MP4, or GIF)             -
+``<stability>_ladder``                   a bar gait's first 3 cycles on its      -
+                                         ladder (MP4, or GIF)
 ``stability_error_comparison``           all multi-cycle runs' errors            5 + 8
 ``<shoot>_newton``                       residual norm per Newton iteration      -
 ``<floquet>_multipliers``                multipliers and the unit circle         -

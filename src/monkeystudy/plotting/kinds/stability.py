@@ -1,6 +1,7 @@
 """The stability step's figures: error, kinetic energy and the attached end's height per
 cycle, all runs' errors side by side (drawn in :mod:`monkeystudy.plotting.cycles`), and the
-filmstrip and animation of the replay (:mod:`monkeystudy.plotting.gait`)."""
+filmstrip and animation of the replay, and on a ladder its first cycles from bar to bar
+(:mod:`monkeystudy.plotting.gait`)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -10,7 +11,10 @@ from ..cycles import (
     plot_pivot_height, stability_inputs,
 )
 from ..drawing import Drawing, Folder
-from ..gait import has_trajectory, plot_filmstrip, write_animation
+from ..gait import bar_offsets, has_trajectory, plot_filmstrip, write_animation
+
+#: the cycles the ladder's animation shows, in real time
+LADDER_CYCLES = 3
 
 
 def run_gait(d) -> tuple[float, float] | None:
@@ -27,6 +31,19 @@ def comparison(groups):
 def replay_recorded(path: Path, folder: Folder) -> bool:
     """The run recorded its trajectory (a filmstrip and an animation need it)."""
     return has_trajectory(folder.loaded(path))
+
+
+def on_ladder(path: Path, folder: Folder) -> bool:
+    """The run recorded its trajectory and its gait catches bars."""
+    ds = folder.loaded(path)
+    return has_trajectory(ds) and bool(bar_offsets(ds))
+
+
+def ladder(d, base: Path, prov: dict, *, fps: float, max_frames: int,
+           progress=None) -> list[Path]:
+    """The first :data:`LADDER_CYCLES` cycles' animation along the ladder."""
+    return write_animation(d[0], base, prov, gait=gait_point(d[0], d[1:]), fps=fps,
+                           max_frames=max_frames, progress=progress, cycles=LADDER_CYCLES)
 
 
 def animation(d, base: Path, prov: dict, *, fps: float, max_frames: int,
@@ -73,4 +90,11 @@ DRAWINGS = {
                 "stopped early.",
         draw=animation, extra_inputs=stability_inputs, applies=replay_recorded,
         animation=True, cost=8.0),
+    ("stability", "ladder"): Drawing(
+        title="along the ladder",
+        caption=f"The first {LADDER_CYCLES} cycles in real time on the ladder: the bars (grey) "
+                "the robot starts from and catches, and the hook (gold arc) over the bar it "
+                "holds; each catch snaps the hook onto its bar.",
+        draw=ladder, extra_inputs=stability_inputs, applies=on_ladder,
+        animation=True, cost=3.0),
 }

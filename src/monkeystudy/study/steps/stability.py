@@ -252,6 +252,7 @@ class StabilityKind(StepKind):
         Figure("height"),
         Figure("filmstrip"),
         Figure("animation"),
+        Figure("ladder"),
         Figure("error_comparison", across=True),
     )
 
