@@ -86,8 +86,8 @@ DRAWINGS = {
     ("stability", "animation"): Drawing(
         title="animation",
         caption="The whole run as a video, the view moving with the robot: the links coloured by "
-                "what the controller does, the magnets that held, and why the run stopped if it "
-                "stopped early.",
+                "what the controller does, the ends that held (a magnet on a wall, a hook on its "
+                "bar), and why the run stopped if it stopped early.",
         draw=animation, extra_inputs=stability_inputs, applies=replay_recorded,
         animation=True, cost=8.0),
     ("stability", "ladder"): Drawing(
