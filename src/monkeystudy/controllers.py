@@ -170,18 +170,28 @@ CYCLE_VERTICAL = Observer("coord", "theta1", 0.0, "either", segment=2)
 
 @dataclass(frozen=True)
 class PhaseSequence:
-    """A controller given directly as its segments (and observers)."""
+    """A controller given directly as its segments (and observers).
+
+    ``rise`` [m per cycle]: the route's planned height rises by this at each completed cycle
+    (every row's cycle-ending exit counts): in a run's cycle ``k`` (from 0) a ``free_end_y``
+    guard targets ``value + k * rise``, and a fall (``max_drop``) is measured from the
+    start's height plus ``k * rise`` (docs/model.md section 6).
+    """
 
     segments: Sequence[Segment]
     observers: Sequence[Observer] = (VERTICAL,)
     tick: float = 0.0
     tick_phase: float = 0.0
+    rise: float = 0.0
 
     def program(self) -> tuple[np.ndarray, np.ndarray]:
         n = len(self.segments)
         if n == 0:
             raise ValueError("a phase sequence needs at least one segment")
+        if not math.isfinite(self.rise):
+            raise ValueError(f"rise must be finite, got {self.rise!r}")
         prog = np.stack([s.row(i, n) for i, s in enumerate(self.segments)])
+        prog[:, L.S_RISE] = self.rise
         obs = (np.stack([o.row() for o in self.observers]) if self.observers
                else np.zeros((0, L.N_OBS_COLS)))
         return prog, obs
@@ -342,6 +352,15 @@ class SequenceGait:
         The open-loop replay (:func:`~monkeystudy.analysis.replay.open_loop_gait`) senses
         the section on the tick (``section_ticked`` there): the 2009 study's controller
         restarted its clock on its 1 ms loop. The gait's own controller keeps its section.
+    rise : float
+        The route's planned height rises by this per cycle [m] (< 0: it descends): the world
+        heights the ``free_end_y`` guards name are those of the cycle from the start; in a
+        run's cycle ``k`` (from 0) each is ``k * rise`` higher, a staircase fixed in the
+        world, so a catch late in one step is corrected in the next. The full map
+        (:func:`~monkeystudy.analysis.cycle_full_map`) measures the height from this
+        staircase, and a run's fall and a survival run's height drift from its planned
+        height. The mirror image of an alternating cycle rises by the same. 0: the heights
+        are the same every cycle.
     records : {"section", "swap"}
         Where a multi-cycle run records each cycle (:func:`~monkeystudy.analysis.replay.
         sequence_cycles`): at its section crossing (the attached end there), or from its
@@ -364,6 +383,7 @@ class SequenceGait:
     section_ticked: bool = False
     open_loop_section_ticked: bool = False
     records: str = "section"
+    rise: float = 0.0
 
     def __post_init__(self):
         _check_tick(self.tick)
@@ -372,7 +392,7 @@ class SequenceGait:
         if self.clocked and not self.period > 0.0:
             raise ValueError(f"period must be > 0 (or NaN: no running clock), got "
                              f"{self.period!r}")
-        for name in ("section_theta1", "section_torque", "theta2", "tick_phase"):
+        for name in ("section_theta1", "section_torque", "theta2", "tick_phase", "rise"):
             if not math.isfinite(getattr(self, name)):
                 raise ValueError(f"{name} must be finite, got {getattr(self, name)!r}")
         if self.section_direction not in DIRECTIONS:
@@ -485,7 +505,7 @@ class SequenceGait:
         """The controller of a run of many cycles: :meth:`loop_segments` with ``observers``
         (e.g. :meth:`section_observers`)."""
         return PhaseSequence(self.loop_segments(), tuple(observers), self.tick,
-                             self.tick_phase)
+                             self.tick_phase, self.rise)
 
     def attached_ends(self) -> list[frozenset]:
         """Ends attached during each row of the cycle (``{'A'}``, ``{'B'}``, both, none),
@@ -519,7 +539,7 @@ class SequenceGait:
         return next(iter(ends))
 
     def controller(self) -> PhaseSequence:
-        return PhaseSequence(self.all_segments(), (), self.tick, self.tick_phase)
+        return PhaseSequence(self.all_segments(), (), self.tick, self.tick_phase, self.rise)
 
     def program(self):
         return self.controller().program()

@@ -32,7 +32,8 @@ def vertical_passes_before_swap(dtheta1: float, dtheta2: float, *,
     """
     gait = horizontal_gait(torque, tick) if gait is None else gait
     vertical = Observer("coord", "theta1", 0.0, "either", segment=0)
-    ctrl = PhaseSequence(gait.all_segments(), (vertical,), gait.tick, gait.tick_phase)
+    ctrl = PhaseSequence(gait.all_segments(), (vertical,), gait.tick, gait.tick_phase,
+                         gait.rise)
     res = run_controller(ctrl, cycle_section_state(gait, [gait.theta2, dtheta1, dtheta2]),
                          robot=robot, integrator=integrator, cycles=1, log_capacity=4096)
     log = res.log

@@ -200,8 +200,9 @@ def sequence_cycles(gait: SequenceGait, z0, *, cycles: int, robot: RobotLike = "
     tick, tick_phase : float, optional
         Controller tick and its phase [s] (default: the gait's).
     max_drop : float, optional
-        Stop with status ``fell`` when the attached end sinks this far [m] below the start
-        (default: link 1's length).
+        Stop with status ``fell`` when the attached end sinks this far [m] below its planned
+        height: the start's, plus the gait's ``rise`` per completed cycle (default: link 1's
+        length).
     sample_dt : float
         Record the trajectory every ``sample_dt`` [s] (0: none).
 
@@ -285,7 +286,7 @@ def _run_to_next_swap(gait: SequenceGait, observers, res: RunResult, *, robot, i
     stop = set(gait.loop_magnet_rows())
     ctrl = PhaseSequence([replace(seg, next=-1) if k in stop else seg
                           for k, seg in enumerate(rows)], tuple(observers), gait.tick,
-                         gait.tick_phase)
+                         gait.tick_phase, gait.rise)
     state = res.state.copy()
     # the run stopped on its cycle-ending row, before the next row's entry actions
     prog, _ = ctrl.program()

@@ -163,8 +163,16 @@ def cycle_full_map(w, gait: SequenceGait, *, robot: RobotLike = "seed2009",
     a bar it caught ends at that bar's height: the y-row of the Jacobian is zero (the
     height's multiplier 0), not a translation.
 
-    Returns the full state at the cycle's end (``y`` of the end attached there, ``theta2``
-    continued from ``w[1]`` across whole turns) and the run status. Needs a clock that
+    A gait with a ``rise`` [m per cycle] measures the height from the route's staircase
+    (:class:`~monkeystudy.controllers.SequenceGait`): ``y`` is the start's height above its
+    planned height (0), and the cycle ends ``y`` of the end attached there less ``rise``,
+    the next cycle's planned height. Its ``free_end_y`` catch is at its planned world
+    height whatever the start, so its height row has the catch's correction in it, as a
+    level gait's catch at the start's height has.
+
+    Returns the full state at the cycle's end (``y`` of the end attached there, less the
+    gait's ``rise``; ``theta2`` continued from ``w[1]`` across whole turns) and the run
+    status. Needs a clock that
     restarts at the section (``ValueError`` for a running clock) and, for a cycle ending on
     B, mirror-image links.
     """
@@ -178,8 +186,9 @@ def cycle_full_map(w, gait: SequenceGait, *, robot: RobotLike = "seed2009",
                          cycle_section_state(gait, w[1:], height=w[0]),
                          robot=robot, integrator=integrator, cycles=1, log_capacity=0)
     th2 = float(w[1]) + wrapped_difference(res.state[L.TH2], float(w[1]))
-    return (np.array([res.state[L.Y], th2, res.state[L.DTH1], res.state[L.DTH2]]),
-            res.status)
+    # the next cycle's planned height is one rise up the route's staircase
+    y = res.state[L.Y] - gait.rise if gait.rise != 0.0 else res.state[L.Y]
+    return np.array([y, th2, res.state[L.DTH1], res.state[L.DTH2]]), res.status
 
 
 def check_mirror_links(robot):

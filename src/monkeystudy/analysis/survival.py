@@ -276,8 +276,9 @@ class SurvivalRuns:
     :data:`STALLED`: the minimum advance);
     ``distance`` the attached end's horizontal travel to the last completed cycle [m];
     ``time`` of that cycle's end [s]; ``error`` there [rad2 + rad2 s-2]; ``nfev`` the
-    right-hand-side evaluations; ``height`` the attached end's height there less its height
-    at the start [m].
+    right-hand-side evaluations; ``height`` the attached end's height there less its planned
+    height there [m]: its height at the start, plus the program's rise per completed cycle
+    (:class:`~monkeystudy.controllers.PhaseSequence`).
     """
 
     cycles: np.ndarray
@@ -313,7 +314,8 @@ def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles:
         A cycle whose attached end advances horizontally less than this fails the run
         (stalled) [m].
     max_drop : float
-        A run fails when the attached end sinks this far below its start [m].
+        A run fails when the attached end sinks this far below its planned height (its
+        start's, plus the program's rise per completed cycle) [m].
     section : Observer or sequence of Observer, optional
         An exact observer of the section, watched in the cycle's last row, where each cycle
         is measured (one per cycle-ending row of a program that loops over several; default:

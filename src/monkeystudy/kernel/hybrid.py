@@ -62,7 +62,8 @@ from .layout import (
     C_ATOL, C_CONTROLLER, C_MAX_CYCLES, C_MAX_DROP, C_MAX_SEGMENT_TIME, C_MAX_STEP, C_MAX_STEPS,
     C_RTOL, C_SAMPLE_DT, C_T_END, C_TICK, C_TICK_PHASE, C_ZERO_BAND, CONTROLLER_PI, DTH1, DTH2,
     DX, DY, FLIES,
-    G_BAR, G_ENERGY_RESTORED, G_FREE_END_HEIGHT, G_NONE, G_SLIP_STOP, G_STICK_BREAK, G_TIME,
+    G_BAR, G_ENERGY_RESTORED, G_FREE_END_HEIGHT, G_FREE_END_Y, G_NONE, G_SLIP_STOP,
+    G_STICK_BREAK, G_TIME,
     H_CLOCK, H_CYCLES, H_EREF,
     H_FLIPPED, H_FMODE0, H_FMODE1, H_PHASE, H_SEG, H_T, H_TORQUE, H_Y_REF, K_CYCLES, K_EVENTS,
     K_LOG, K_NFEV, K_REJECTED, K_SAMPLES, K_STATUS, K_STEPS, L_CYCLE, L_E_AFTER, L_E_BEFORE,
@@ -70,7 +71,7 @@ from .layout import (
     M_FLIPPED, M_PHASE, M_SEGMENT, M_TORQUE, METHOD_DOP853, METHOD_RK45, METHOD_VERN9, O_GDIR,
     O_GINDEX, O_GUARD, O_GVALUE, O_SEGMENT, P_C_JOINT, P_C_PIVOT, PHASE_FIXED, PHASE_FLIGHT,
     PHASE_SWING, S_BAR_DX, S_BAR_WINDOW, S_CLOCK, S_CYCLE, S_DELAY, S_FAIL, S_GDIR, S_GINDEX,
-    S_GUARD, S_GVALUE,
+    S_GUARD, S_GVALUE, S_RISE,
     S_MAG_A, S_MAG_B, S_NEXT, S_SET_EREF, S_SWAP, S_TICKED, S_TORQUE, ST_BUFFER_FULL,
     ST_END_TIME, ST_FELL, ST_HORIZON, ST_NONFINITE, ST_OK, ST_STEP_FAILURE, N_STATE, X, Y,
 )
@@ -692,7 +693,11 @@ def _hybrid_loop(method, par, prog, obs, settings, hyb_rows, counts_rows, seg_ro
                     if n_samp < 0:
                         status = ST_BUFFER_FULL
                         break
-                if phase == PHASE_SWING and s8[Y] < y_ref - max_drop:
+                # the fall is measured from the route's planned height of this cycle
+                y_plan = y_ref
+                if prog[seg, S_RISE] != 0.0:
+                    y_plan = y_ref + cycles * prog[seg, S_RISE]
+                if phase == PHASE_SWING and s8[Y] < y_plan - max_drop:
                     status = ST_FELL
                     break
             # ------------------------------------------------------------------ one leg
@@ -700,6 +705,9 @@ def _hybrid_loop(method, par, prog, obs, settings, hyb_rows, counts_rows, seg_ro
             gindex = int(prog[seg, S_GINDEX])
             gvalue = prog[seg, S_GVALUE]
             gdir = prog[seg, S_GDIR]
+            if gkind == G_FREE_END_Y and prog[seg, S_RISE] != 0.0:
+                # a world height on the route's staircase: cycle k's is k rises higher
+                gvalue = gvalue + cycles * prog[seg, S_RISE]
             # a catch on a bar is the free end's height guard with a window and a snap; the
             # hook meets the bar when it does, never on a controller tick
             bar = gkind == G_BAR

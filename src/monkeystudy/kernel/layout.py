@@ -89,7 +89,11 @@ S_DELAY = 14       # the exit (and the next row's entry actions) comes this long
 #                    state guard's action waits for it (>= 0; an actuation latency)
 S_BAR_DX = 15      # G_BAR: the bar's horizontal offset from the attached end, world x [m]
 S_BAR_WINDOW = 16  # G_BAR: largest horizontal distance of the free end from the bar at a catch [m]
-N_SEG_COLS = 17
+S_RISE = 17        # the route's planned height rises by this per completed cycle [m] (the
+#                    gait's, on every row): in the run's cycle k (the hybrid state's count) a
+#                    G_FREE_END_Y guard targets value + k * rise, and ST_FELL is measured from
+#                    the start's height + k * rise
+N_SEG_COLS = 18
 
 # --- observer table: non-terminal guards whose crossings are logged -----------------------------
 O_GUARD, O_GINDEX, O_GVALUE, O_GDIR = 0, 1, 2, 3
@@ -108,7 +112,8 @@ C_TICK_PHASE = 7         # tick grid offset [s]: ticks at phase + k * tick
 C_SAMPLE_DT = 8          # trajectory sampling interval [s] (0: no trajectory)
 C_MAX_STEPS = 9          # step budget for the whole run
 C_MAX_STEP = 10          # largest step [s]
-C_MAX_DROP = 11          # stop with FELL when the attached end sinks this far below start [m]
+C_MAX_DROP = 11          # stop with FELL when the attached end sinks this far below its
+#                          planned height (the start's, plus S_RISE per completed cycle) [m]
 C_ZERO_BAND = 12         # relative band treated as "already zero" at a segment start
 C_CONTROLLER = 13        # step-size controller: CONTROLLER_*
 N_SETTINGS = 14
@@ -195,5 +200,6 @@ SV_DISTANCE = 2     # attached end's x at the last completed cycle's end - at th
 SV_TIME = 3         # time of the last completed cycle's end [s]
 SV_ERROR = 4        # error at the last completed cycle's end [rad2 + rad2 s-2]
 SV_NFEV = 5         # right-hand-side evaluations of the run
-SV_HEIGHT = 6       # attached end's height at the last completed cycle's end - at the start [m]
+SV_HEIGHT = 6       # attached end's height at the last completed cycle's end - the planned
+#                     height there (the start's plus S_RISE per completed cycle) [m]
 N_SV_COLS = 7

@@ -27,6 +27,8 @@ section, e.g. link 1 at the vertical), else at the exit of its cycle-ending row.
 at the first cycle whose call stops with a status other than ok (fell, no swap, ...), whose
 error against the reference exceeds the bound (``ST_ERROR_BOUND``), or whose horizontal
 advance of the attached end is less than the minimum (``ST_STALLED``: it stopped travelling).
+A run's height (``SV_HEIGHT``) is measured from its planned height: the start's, plus the
+program's rise (``S_RISE``) per completed cycle.
 """
 import math
 
@@ -38,7 +40,7 @@ from .layout import (
     C_MAX_CYCLES, DTH1, DTH2, H_CYCLES, H_SEG, H_T, JITTER_LATENCY, JITTER_NONE, K_LOG, K_NFEV,
     L_KIND, L_STATE, L_T, LOG_OBSERVER, N_COUNTS, N_HYB, N_LOG_COLS, N_MODE_COLS, NZ_DTHETA1,
     NZ_DTHETA2, NZ_LATENCY, NZ_THETA2, NZ_TIMING, NZ_TORQUE, NZ_UNIFORM, RL_JITTER, RL_PULSE,
-    RL_SENSOR, S_DELAY, S_GVALUE, S_NEXT, S_TORQUE, ST_ERROR_BOUND, ST_OK, ST_STALLED,
+    RL_SENSOR, S_DELAY, S_GVALUE, S_NEXT, S_RISE, S_TORQUE, ST_ERROR_BOUND, ST_OK, ST_STALLED,
     SV_CYCLES, SV_DISTANCE, SV_ERROR, SV_FAILURE, SV_HEIGHT, SV_NFEV, SV_TIME, TH2, X, Y,
 )
 from .noise import PER_RUN_CYCLE, standard_draw
@@ -152,7 +154,12 @@ def survival_run(method, par, prog, obs, settings, hyb0, roles, noise, seed, run
             break
         out[SV_CYCLES] = c + 1.0
         out[SV_DISTANCE] = s8[X] - x_start
-        out[SV_HEIGHT] = s8[Y] - y_start
+        drift = s8[Y] - y_start
+        rise = prog[int(hyb[H_SEG]), S_RISE]
+        if rise != 0.0:
+            # against the route's staircase: the planned height of the cycles completed
+            drift = drift - hyb[H_CYCLES] * rise
+        out[SV_HEIGHT] = drift
         out[SV_TIME] = log[row, L_T]
         out[SV_ERROR] = err
         # the call stopped on the cycle-ending row, before the next row's entry actions

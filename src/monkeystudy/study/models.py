@@ -540,8 +540,25 @@ class SequenceGaitSpec(StrictModel):
                                     "its sign fixed to the links for the whole cycle: a "
                                     "torque after a swap within the cycle is negated when the "
                                     "gait is built)")
+    rise: float = Field(0.0, ge=-10.0, le=10.0, description="the route's planned height "
+                        "rises by this per cycle [m] (< 0: it descends): in cycle k from "
+                        "the start (k = 0, 1, ...) every free_end_y guard's world height "
+                        "is its value + k * rise, a staircase fixed in the world (a catch "
+                        "late in one step is corrected in the next); the full map's height, "
+                        "a fall (max_drop) and a survival run's height drift are measured "
+                        "from it")
 
-    recorded_when_set: ClassVar[frozenset[str]] = frozenset({"torque_frame"})
+    recorded_when_set: ClassVar[frozenset[str]] = frozenset({"torque_frame", "rise"})
+
+    @field_validator("rise")
+    @classmethod
+    def _rise_moves_a_world_height(cls, v: float, info: ValidationInfo) -> float:
+        segments = info.data.get("segments") or []
+        if v != 0.0 and not any(s.until == "free_end_y" for s in segments):
+            raise ValueError("a rise moves the world heights of the free_end_y guards; this "
+                             "gait has none (a free_end_height catch repeats its height "
+                             "above the attached end by itself)")
+        return v
 
     @model_validator(mode="after")
     def _closes(self) -> "SequenceGaitSpec":
@@ -560,7 +577,7 @@ class SequenceGaitSpec(StrictModel):
         sec = self.section
         gait = SequenceGait([s.segment() for s in self.segments], section_theta1=sec.theta1,
                             section_direction=sec.direction, section_torque=sec.torque,
-                            theta2=sec.theta2, tick=self.tick)
+                            theta2=sec.theta2, tick=self.tick, rise=self.rise)
         return torques_from_motor_frame(gait) if self.torque_frame == "motor" else gait
 
 

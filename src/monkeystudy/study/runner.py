@@ -93,12 +93,15 @@ def failures_text(summary: RunSummary) -> str:
 
 def step_attrs(loaded: LoadedStudy, step, history: str) -> dict:
     """Global attributes of a step's dataset (docs/datasets.md), before the step's own; a
-    gait that states its torques' frame (``torque_frame``) is named with it, and a study
-    without a gait has no ``gait`` attribute."""
+    gait that states its torques' frame (``torque_frame``) or its route's rise per cycle
+    (``rise`` [m]) is named with it, and a study without a gait has no ``gait``
+    attribute."""
     study = loaded.study
     frame = ({"torque_frame": study.gait.torque_frame}
              if study.gait is not None and "torque_frame" in study.gait.model_fields_set
              else {})
+    if study.gait is not None and "rise" in study.gait.model_fields_set:
+        frame["rise"] = float(study.gait.rise)
     gait = {"gait": gait_json(study)} if study.gait is not None else {}
     return {
         "title": f"{study.name}: {step.name}",

@@ -504,7 +504,8 @@ def plot_mfpt_comparison(datasets: Sequence):
 
 def plot_height_drift(ds):
     """The attached end's height change of each run that completed ``max_cycles``
-    (``height_drift``), a histogram per noise level, with the tolerance (attribute
+    (``height_drift``: from its start height, or with the gait's ``rise`` attribute from its
+    planned height), a histogram per noise level, with the tolerance (attribute
     ``height_tolerance``) when the step set one.
 
     gids: ``height_drift_<level>`` (the histogram's bars), ``tolerance`` (the bounds).
@@ -547,9 +548,13 @@ def plot_height_drift(ds):
                 ax.axvline(v, color=VERMILLION, ls="--", lw=1.4,
                            label=f"tolerance ±{tol:g} mm" if k == 0 else None,
                            gid="tolerance")
-        ax.axvline(0.0, color="0.4", lw=0.8, ls=":", label="start height")
+        # a gait with a rise: the drift is from the route's staircase, not the start
+        rise = float(ds.attrs.get("rise", 0.0))
+        reference = (f"planned height (start {rise:+g} m per cycle)" if rise
+                     else "start height")
+        ax.axvline(0.0, color="0.4", lw=0.8, ls=":", label=reference)
         ax.set_xlabel(f"attached end's height after {count(ds.attrs['max_cycles'], 'cycle')} "
-                      "less its start height  [mm]")
+                      f"less its {reference}  [mm]")
         ax.set_ylabel("runs")
         # below the axes: the histogram's peak may be anywhere
         handles, labels = ax.get_legend_handles_labels()
@@ -581,9 +586,10 @@ DRAWINGS = {
     ("survival", "height_drift"): Drawing(
         title="height change of each run",
         caption="How far each run that completed all its cycles ended above or below its start "
-                "height, a histogram per noise level, with the tolerance when the step sets one: "
-                "a gait whose height is neutral wanders off, one that senses its height stays "
-                "within millimetres.",
+                "height (a gait with a rise: its planned height on the route's staircase), a "
+                "histogram per noise level, with the tolerance when the step sets one: a gait "
+                "whose height is neutral wanders off, one that senses its height stays within "
+                "millimetres.",
         draw=lambda d: plot_height_drift(d[0])),
     ("survival", "mfpt_comparison"): Drawing(
         title="MFPT of every gait against noise",

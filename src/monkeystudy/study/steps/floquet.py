@@ -68,7 +68,8 @@ class FloquetStep(StrictModel):
                                                             "step [1]")
     height_in_map: bool = Field(False, description="also analyse the full map (y, theta2, "
                                 "dtheta1, dtheta2), y the attached end's height relative to "
-                                "the start [m]: its Jacobian by variational equations and by "
+                                "the start (with the gait's rise, to the route's planned "
+                                "height) [m]: its Jacobian by variational equations and by "
                                 "finite differences, its multipliers and spectral radius "
                                 "(the height is neutral unless a guard senses a world "
                                 "height, e.g. a catch until: free_end_y; a catch until: bar "
@@ -257,7 +258,12 @@ def not_analysed(out: dict, z, gait: SequenceGait, cycle: dict, schedule,
 FULL_COMPONENTS = "y theta2 dtheta1 dtheta2"
 FULL_UNITS = "m, rad, rad s-1, rad s-1"
 FULL_NOTE = ("of the full map on the section, components (y [m]: the attached end's height "
-             "relative to the start, theta2 [rad], dtheta1 [rad s-1], dtheta2 [rad s-1])")
+             "relative to {planned}, theta2 [rad], dtheta1 [rad s-1], dtheta2 [rad s-1])")
+#: what the full map's height is measured from: the start, or with a gait's rise the route's
+#: staircase (:func:`~monkeystudy.analysis.cycle_full_map`)
+FULL_FROM_START = "the start"
+FULL_FROM_STAIRCASE = ("its planned height (the start's plus the gait's rise, attribute, per "
+                       "cycle)")
 
 
 #: the variables of a floquet dataset (docs/datasets.md): a sequence gait's cycle adds its
@@ -362,12 +368,13 @@ VARIABLES = {
 
 
 def write_floquet(path: Path, attrs: dict, results: list[dict], swap_motor: bool,
-                  height: bool = False) -> None:
+                  height: bool = False, rise: float = 0.0) -> None:
     """Write a floquet dataset from :func:`floquet_task` results, one per controller (in the
     step's order); the cycle's times as the 2009 study named them (``swap_motor``:
     ``t_switch``, ``t_motor``, ``motor_torque``) or per segment (``t_segment``, the advance,
     the error; the 2009 names NaN); with ``height`` the full map's variables
-    (:func:`write_full_map`)."""
+    (:func:`write_full_map`, its height from the staircase of the gait's ``rise`` [m per
+    cycle])."""
     with D.atomic_netcdf(path) as nc:
         D.write_coordinate(nc, VARIABLES, "controller", [r["controller"] for r in results])
         for dim in ("k", "row", "col"):
@@ -401,15 +408,17 @@ def write_floquet(path: Path, attrs: dict, results: list[dict], swap_motor: bool
                          np.array([r["newton_stop"] for r in results], object))
         D.write_declared(nc, VARIABLES, "map_error", stack("map_error"))
         if height:
-            write_full_map(nc, results)
+            write_full_map(nc, results, rise)
         if "catch_segment" in results[0]:
             write_catches(nc, results)
         D.set_global_attrs(nc, attrs)
 
 
-def write_full_map(nc, results: list[dict]) -> None:
+def write_full_map(nc, results: list[dict], rise: float = 0.0) -> None:
     """The full map's variables of a floquet dataset (dims ``full_k``, ``full_row``,
-    ``full_col``: 4), from :func:`full_map_analysis` results."""
+    ``full_col``: 4), from :func:`full_map_analysis` results; ``rise`` [m per cycle]: the
+    gait's (the height measured from its staircase)."""
+    planned = FULL_FROM_STAIRCASE if rise != 0.0 else FULL_FROM_START
     for dim in ("full_k", "full_row", "full_col"):
         D.write_coordinate(nc, VARIABLES, dim, np.arange(4))
 
@@ -420,7 +429,7 @@ def write_full_map(nc, results: list[dict]) -> None:
     D.write_complex(nc, VARIABLES, "full_multipliers_fd", stack("full_multipliers_fd", complex))
     for key in ("full_jacobian", "full_jacobian_fd", "full_spectral_radius",
                 "full_spectral_radius_fd", "full_agreement"):
-        D.write_declared(nc, VARIABLES, key, stack(key))
+        D.write_declared(nc, VARIABLES, key, stack(key), planned=planned)
     D.write_declared(nc, VARIABLES, "full_stable", stack("full_stable", np.int8))
 
 
@@ -516,7 +525,8 @@ class FloquetKind(StepKind):
         if st.height_in_map:
             attrs.update(height_in_map=1, full_components=FULL_COMPONENTS)
         write_floquet(ctx.path, attrs, results, swap_motor=ctx.spec.swap_motor_times,
-                      height=st.height_in_map)
+                      height=st.height_in_map,
+                      rise=g.gait.rise if g is not None else ctx.spec.sequence.rise)
         parts = []
         for r in results:
             unpolished = ("" if r["newton_converged"] else

@@ -82,8 +82,10 @@ class SurvivalStep(StrictModel):
     height_tolerance: Optional[float] = Field(None, gt=0, description="report, per noise "
                                               "level, the fraction of the runs that completed "
                                               "max_cycles whose attached end ended within this "
-                                              "of its start height [m] (default: not reported; "
-                                              "every run's height_drift is written)")
+                                              "of its planned height [m]: its start height, "
+                                              "plus the gait's rise per cycle completed "
+                                              "(default: not reported; every run's "
+                                              "height_drift is written)")
 
     recorded_when_set: ClassVar[frozenset[str]] = frozenset({"height_tolerance"})
 
@@ -143,8 +145,8 @@ def level_summary(cycles: np.ndarray, failure: np.ndarray, distance: np.ndarray,
 
 def height_within(height_drift: np.ndarray, failure: np.ndarray, tolerance: float) -> float:
     """The fraction of the runs that completed their cycles (``failure`` ok) whose attached
-    end ended within ``tolerance`` [m] of its start height (``height_drift`` [m]); NaN when no
-    run completed them."""
+    end ended within ``tolerance`` [m] of its planned height (``height_drift`` [m]: from the
+    start's height, plus the gait's rise per cycle); NaN when no run completed them."""
     done = failure == Status.OK
     if not done.any():
         return math.nan
@@ -183,7 +185,7 @@ VARIABLES = {
                                 "time of the last completed cycle's end"),
     "height_drift": D.Variable(("level", "run"), np.float64, "m",
                                "height of the attached end at the last completed cycle's end "
-                               "less its height at the start (after max_cycles for a run that "
+                               "less {planned} (after max_cycles for a run that "
                                "completed them; 0 when none completed)"),
     "height_within_tolerance": D.Variable(("level",), np.float64, "1",
                                           "fraction of the runs that completed max_cycles "
@@ -220,8 +222,17 @@ VARIABLES = {
 }
 
 
-def write_survival(path: Path, attrs: dict, step: SurvivalStep, arrays: dict) -> None:
-    """Write a survival dataset (dims ``level``, ``run``, ``cycle``, ``failure_mode``)."""
+#: what a run's height drift is measured from: the start's height, or with a gait's rise
+#: the route's staircase
+PLANNED_HEIGHT = "its height at the start"
+PLANNED_STAIRCASE = ("its planned height there (its height at the start plus the gait's "
+                     "rise, attribute, per completed cycle)")
+
+
+def write_survival(path: Path, attrs: dict, step: SurvivalStep, arrays: dict,
+                   rise: float = 0.0) -> None:
+    """Write a survival dataset (dims ``level``, ``run``, ``cycle``, ``failure_mode``);
+    ``rise`` [m per cycle]: the gait's (its runs' heights measured from its staircase)."""
     n_levels, runs = arrays["cycles"].shape
     grid = cycle_grid(step.max_cycles)
     summaries = [level_summary(arrays["cycles"][i], arrays["failure"][i],
@@ -232,8 +243,10 @@ def write_survival(path: Path, attrs: dict, step: SurvivalStep, arrays: dict) ->
               else " (half-width of a uniform)")
     with D.atomic_netcdf(path) as nc:
 
+        planned = PLANNED_STAIRCASE if rise != 0.0 else PLANNED_HEIGHT
+
         def write(name, data):
-            D.write_declared(nc, VARIABLES, name, data, spread=spread)
+            D.write_declared(nc, VARIABLES, name, data, spread=spread, planned=planned)
 
         D.write_coordinate(nc, VARIABLES, "level", np.arange(n_levels))
         D.write_coordinate(nc, VARIABLES, "run", np.arange(runs))
@@ -383,7 +396,7 @@ class SurvivalKind(StepKind):
         if gait.robot is not ctx.spec.robot:
             # the runs used their source's robot (a design's): the dataset names it
             attrs["robot"] = robot_attr(ctx.spec.robot, gait.robot, st.from_)
-        write_survival(ctx.path, attrs, st, arrays)
+        write_survival(ctx.path, attrs, st, arrays, rise=gait.gait.rise)
         parts = []
         for i in range(st.n_levels):
             s = level_summary(arrays["cycles"][i], arrays["failure"][i],
