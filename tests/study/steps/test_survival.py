@@ -215,7 +215,6 @@ steps:
   - name: survive
     kind: survival
     from: refine
-    controller: {{tick: 0.00532}}
     runs: 6
     max_cycles: 3
     seed: 4
