@@ -562,5 +562,5 @@ def cycle_grid(max_cycles: int, points: int = 160) -> np.ndarray:
 
 
 __all__ = ["DISTRIBUTIONS", "MFPT", "Noise", "NoiseSource", "SOURCES", "SurvivalRuns",
-           "catches_per_cycle", "cycle_grid", "hazard", "mfpt", "noise_roles", "run_robot", "survival_curve",
-           "survival_runs"]
+           "catches_per_cycle", "cycle_grid", "hazard", "mfpt", "noise_roles", "run_robot",
+           "survival_curve", "survival_runs"]

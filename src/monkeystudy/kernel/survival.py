@@ -39,11 +39,12 @@ import numpy as np
 from .hybrid import simulate_loop
 from .jit import njit
 from .layout import (
-    C_MAX_CYCLES, DTH1, DTH2, G_BAR, H_CYCLES, H_SEG, H_T, JITTER_LATENCY, JITTER_NONE, K_LOG, K_NFEV,
-    L_KIND, L_STATE, L_T, LOG_OBSERVER, N_COUNTS, N_HYB, N_LOG_COLS, N_MODE_COLS,
-    NZ_BAR_SPACING, NZ_DTHETA1, NZ_DTHETA2, NZ_LATENCY, NZ_THETA2, NZ_TIMING, NZ_TORQUE, NZ_UNIFORM, RL_JITTER, RL_PULSE,
-    RL_SENSOR, S_BAR_DX, S_DELAY, S_GUARD, S_GVALUE, S_NEXT, S_TORQUE, ST_ERROR_BOUND, ST_OK, ST_STALLED,
-    SV_CYCLES, SV_DISTANCE, SV_ERROR, SV_FAILURE, SV_HEIGHT, SV_NFEV, SV_TIME, TH2, X, Y,
+    C_MAX_CYCLES, DTH1, DTH2, G_BAR, H_CYCLES, H_SEG, H_T, JITTER_LATENCY, JITTER_NONE, K_LOG,
+    K_NFEV, L_KIND, L_STATE, L_T, LOG_OBSERVER, N_COUNTS, N_HYB, N_LOG_COLS, N_MODE_COLS,
+    NZ_BAR_SPACING, NZ_DTHETA1, NZ_DTHETA2, NZ_LATENCY, NZ_THETA2, NZ_TIMING, NZ_TORQUE,
+    NZ_UNIFORM, RL_JITTER, RL_PULSE, RL_SENSOR, S_BAR_DX, S_DELAY, S_GUARD, S_GVALUE, S_NEXT,
+    S_TORQUE, ST_ERROR_BOUND, ST_OK, ST_STALLED, SV_CYCLES, SV_DISTANCE, SV_ERROR, SV_FAILURE,
+    SV_HEIGHT, SV_NFEV, SV_TIME, TH2, X, Y,
 )
 from .noise import PER_RUN_CYCLE, standard_draw
 
@@ -102,10 +103,10 @@ def survival_run(method, par, prog, obs, settings, hyb0, roles, noise, seed, run
 
     ``error_bound`` [rad2 + rad2 s-2] and ``min_advance`` [m per cycle] are the failure
     bounds (inf, -inf: off); the advance is measured along ``travel`` (+1.0: world +x,
-    -1.0: world -x, the way the gait goes). ``par`` are the run's robot parameters (its own draw of the
-    uncertain ones),
-    ``settings`` the run settings (``C_MAX_CYCLES`` is set per cycle here), ``roles`` the
-    noise role of each program row (layout ``RL_*``), ``noise`` the scales (``NZ_*``).
+    -1.0: world -x, the way the gait goes). ``par`` are the run's robot parameters (its own
+    draw of the uncertain ones), ``settings`` the run settings (``C_MAX_CYCLES`` is set per
+    cycle here), ``roles`` the noise role of each program row (layout ``RL_*``), ``noise``
+    the scales (``NZ_*``).
     """
     uniform = noise[NZ_UNIFORM] > 0.0
     hyb = hyb0.copy()
