@@ -293,3 +293,18 @@ def test_a_catch_below_min_offset_margin_is_rejected():
             assert h.status == OUT_OF_BOUNDS and STATUS_NAMES[h.status] == "out_of_bounds"
             assert "below min_offset_margin 0.005 m" in h.message
     assert sum(h.ok for h in held) == 2
+
+
+def test_a_screen_measures_a_ladder_gaits_advance_the_way_it_travels():
+    """The bar gait travels towards -x (two bars of 0.34 m back per cycle): without noise
+    every screen run of it completes its cycles, none stalls on a minimum advance measured
+    towards +x."""
+    from monkeystudy.analysis.design import design_survival
+    from monkeystudy.analysis.survival import Noise
+
+    space = bar_space()
+    res = evaluate_design(space, {}, Z_BAR_BRACHIATION)
+    assert res.ok and res.advance == pytest.approx(-0.68, abs=1e-9)
+    calm = design_survival(space, res, runs=2, max_cycles=3, noise=Noise(), seed=1, tick=0.0)
+    assert list(calm.cycles) == [3, 3] and np.all(calm.failure == 0)
+    assert calm.distance[0] == pytest.approx(-3 * 0.68, abs=1e-9)

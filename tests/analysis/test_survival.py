@@ -255,16 +255,19 @@ def test_runs_counted_one_by_one_are_the_same_runs():
 def test_every_noise_source_is_a_field_of_noise_and_the_kernel_draws_its_slot():
     """SOURCES is Noise's fields (distribution aside), in order; the sources the kernel draws
     are exactly its noise vector's NZ_* slots, each set from its own field, and the others
-    are drawn per run (run_robot)."""
-    from dataclasses import fields
+    are drawn per run (run_robot; the robot has friction of every kind, so no draw is
+    clipped at zero)."""
+    from dataclasses import fields, replace
 
     from monkeystudy.analysis.survival import SOURCES
+    from monkeystudy.robot import Friction
 
     assert [s.name for s in SOURCES] == [f.name for f in fields(Noise)
                                          if f.name != "distribution"]
     slots = {n[3:].lower() for n in dir(L) if n.startswith("NZ_") and n != "NZ_UNIFORM"}
     assert {s.name for s in SOURCES if s.in_kernel} == slots
-    robot = Robot.preset("seed2009")
+    robot = replace(Robot.preset("seed2009"), pivot_friction=Friction(1.0, 1.0),
+                    joint_friction=Friction(1.0, 1.0))
     for s in SOURCES:
         v = Noise(**{s.name: 0.25}).vector()
         assert v.sum() == (0.25 if s.in_kernel else 0.0), s.name
@@ -272,3 +275,120 @@ def test_every_noise_source_is_a_field_of_noise_and_the_kernel_draws_its_slot():
             assert v[getattr(L, f"NZ_{s.name.upper()}")] == 0.25
         else:
             assert run_robot(robot, Noise(**{s.name: 0.25}), 1, 0) != robot, s.name
+
+
+# --- a built robot on a ladder: friction drawn per run, the ladder's spacing ---------------------
+def _bar_runs(noise, runs, max_cycles=4, robot=None, prog=None):
+    """Runs of the two-swap bar brachiation of the identified AcroMonk model (tests/
+    test_motor.py), from its fixed point, on its robot; ``prog`` replaces its program."""
+    from monkeystudy.analysis.sections import cycle_section_state
+    from test_bar_map import INTEG as BAR_INTEG, Z, bar_gait, bar_robot
+
+    gait = bar_gait()
+    controller = gait.loop_controller()
+    if prog is not None:
+        controller = _Program(prog, controller.program()[1], controller.tick)
+    return survival_runs(controller, cycle_section_state(gait, Z), Z, runs=runs,
+                         max_cycles=max_cycles, noise=noise, seed=11,
+                         robot=robot or bar_robot(), integrator=BAR_INTEG,
+                         section=gait.section_observers())
+
+
+def test_a_runs_robot_keeps_the_rotor_and_the_motor():
+    """Parameter noise redraws the links and nothing else: the motor's rotor and limits are
+    the robot's."""
+    from monkeystudy.robot import Motor, Rotor
+
+    robot = Robot.preset("seed2009").with_rotor(Rotor(2.453e-4, 6.0, 1)).with_motor(
+        Motor(3.0, 20.0))
+    drawn = run_robot(robot, Noise(mass=0.01, inertia=0.01), 3, 0)
+    assert drawn.link1.mass != robot.link1.mass
+    assert drawn.rotor == robot.rotor and drawn.motor == robot.motor
+    assert np.array_equal(drawn.params()[:, L.P_ROTOR:L.P_J22 + 1] != 0.0,
+                          robot.params()[:, L.P_ROTOR:L.P_J22 + 1] != 0.0)
+
+
+def test_a_runs_friction_is_drawn_about_the_robots_and_never_below_zero():
+    """Friction noise is absolute: each run's coefficient is the robot's plus scale times its
+    draw (Gaussian: the sample's spread is the scale), the same for the same run, clipped at
+    zero; the links and the other coefficients are the robot's."""
+    from dataclasses import replace
+
+    from monkeystudy.robot import Friction
+
+    robot = replace(Robot.preset("seed2009"), pivot_friction=Friction(0.0, 0.0786),
+                    joint_friction=Friction(0.0414, 0.0))
+    noise = Noise(pivot_coulomb=0.01, joint_viscous=0.0024)
+    drawn = [run_robot(robot, noise, 7, r) for r in range(2000)]
+    assert run_robot(robot, noise, 7, 5) == drawn[5] and drawn[5] != drawn[6]
+    coulomb = np.array([d.pivot_friction.coulomb for d in drawn])
+    viscous = np.array([d.joint_friction.viscous for d in drawn])
+    assert np.mean(coulomb) == pytest.approx(0.0786, abs=3 * 0.01 / math.sqrt(2000))
+    assert np.std(coulomb) == pytest.approx(0.01, rel=0.05)
+    assert np.std(viscous) == pytest.approx(0.0024, rel=0.05)
+    assert np.corrcoef(coulomb, viscous)[0, 1] == pytest.approx(0.0, abs=0.1)
+    assert all(d.link1 == robot.link1 and d.link2 == robot.link2 for d in drawn)
+    assert all(d.pivot_friction.viscous == 0.0 and d.joint_friction.coulomb == 0.0
+               for d in drawn)
+    wide = [run_robot(robot, Noise(pivot_coulomb=0.134), 7, r).pivot_friction.coulomb
+            for r in range(400)]
+    assert min(wide) == 0.0 and 0.0 < max(wide)       # about 28 % of the draws clip
+
+
+def test_a_runs_friction_noise_is_a_noiseless_run_of_its_robot():
+    """The kernel sees a friction draw only through the run's robot: a run under friction
+    noise is, bit for bit, the noiseless run of the robot drawn for it; a zero scale is no
+    noise at all, bit for bit."""
+    from test_bar_map import bar_robot
+
+    noise = Noise(pivot_coulomb=2e-4, joint_viscous=2e-5)
+    for run in (0, 3):
+        noisy = _bar_runs(noise, [run])
+        plain = _bar_runs(Noise(), [run], robot=run_robot(bar_robot(), noise, 11, run))
+        for field in ("cycles", "failure", "distance", "time", "error", "height", "nfev"):
+            assert getattr(noisy, field)[0] == getattr(plain, field)[0], (run, field)
+    a, b = (_bar_runs(noise, [r]).error[0] for r in (0, 3))
+    assert a != b
+    zero = _bar_runs(Noise(pivot_coulomb=0.0, joint_viscous=0.0, bar_spacing=0.0), [0, 1])
+    none = _bar_runs(Noise(), [0, 1])
+    for field in ("cycles", "failure", "distance", "time", "error", "height", "nfev"):
+        assert np.array_equal(getattr(zero, field), getattr(none, field)), field
+
+
+def test_the_ladders_spacing_moves_every_bar_of_a_run_by_its_one_draw():
+    """Bar-spacing noise is one draw per run, added to every bar's distance from the end the
+    robot hangs from: the run equals, bit for bit, a noiseless run of the program with its
+    bars that much farther; as every catch snaps onto its bar, the attached end has
+    travelled exactly two bars per cycle, 2 (0.34 m + e)."""
+    from monkeystudy.kernel.noise import PER_RUN_CYCLE, standard_draw
+    from monkeystudy.kernel.survival import BAR_SPACING_SLOT
+    from test_bar_map import bar_gait
+
+    scale, cycles = 1e-3, 4
+    prog = bar_gait().loop_controller().program()[0]
+    bars = prog[:, L.S_GUARD] == L.G_BAR
+    assert bars.sum() == 2 and np.all(prog[bars, L.S_BAR_DX] == -0.34)
+    for run in (0, 3):
+        e = scale * standard_draw(11, run, PER_RUN_CYCLE, BAR_SPACING_SLOT, False)
+        wider = prog.copy()
+        wider[bars, L.S_BAR_DX] -= e
+        noisy = _bar_runs(Noise(bar_spacing=scale), [run], max_cycles=cycles)
+        plain = _bar_runs(Noise(), [run], max_cycles=cycles, prog=wider)
+        assert noisy.cycles[0] == cycles
+        for field in ("cycles", "failure", "distance", "time", "error", "height"):
+            assert getattr(noisy, field)[0] == getattr(plain, field)[0], (run, field)
+        assert noisy.distance[0] == pytest.approx(-2 * cycles * (0.34 + e), abs=1e-12)
+    a, b = (_bar_runs(Noise(bar_spacing=scale), [r]).distance[0] for r in (0, 3))
+    assert a != b
+
+
+def test_catches_per_cycle_counts_a_cycles_bar_catches():
+    from monkeystudy.analysis.survival import catches_per_cycle
+    from test_bar_map import bar_gait
+
+    assert catches_per_cycle(bar_gait().loop_controller().program()[0]) == 2
+    assert catches_per_cycle(_open_loop().program()[0]) == 0
+    prog = _open_loop().program()[0].copy()
+    prog[:, L.S_CYCLE] = 0.0
+    with pytest.raises(ValueError, match="no cycle-ending row"):
+        catches_per_cycle(prog)

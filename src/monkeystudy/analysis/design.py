@@ -1026,7 +1026,8 @@ def design_survival(space: DesignSpace, result: DesignResult, *, runs: int, max_
     (:func:`~monkeystudy.analysis.survival.survival_runs`, drawn with ``seed``), on the
     controller ``tick`` [s], each until it fails or completes ``max_cycles``; a cycle whose
     attached end advances less than ``min_advance_fraction`` of the gait's advance stalls the
-    run. The design's own gait: a schedule runs on time, a sequence gait by its guards.
+    run, the advance measured the way the gait travels (a ladder gait may go towards -x).
+    The design's own gait: a schedule runs on time, a sequence gait by its guards.
     ``progress(1)`` as each run ends (:func:`~monkeystudy.analysis.survival.survival_runs`)."""
     gait = replace(space.cycle_gait(result.values, result.period),
                    theta2=float(result.z[0]), tick=float(tick))
@@ -1035,6 +1036,7 @@ def design_survival(space: DesignSpace, result: DesignResult, *, runs: int, max_
                          noise=noise, seed=int(seed), robot=space.robot_for(result.values),
                          integrator=space.integrator,
                          min_advance=min_advance_fraction * abs(result.advance),
+                         travel=-1.0 if result.advance < 0.0 else 1.0,
                          section=gait.section_observers(), progress=progress)
 
 

@@ -41,7 +41,7 @@ the constant-rate tail is plausible.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Callable, Sequence
 
 import numpy as np
@@ -50,7 +50,7 @@ from ..controllers import Integrator, Observer, kernel_method, settings_vector
 from ..kernel import layout as L
 from ..kernel.noise import PER_RUN_CYCLE, standard_draw
 from ..kernel.survival import survival_runs as run_block
-from ..robot import Link, Robot
+from ..robot import Friction, Link, Robot
 from ..simulation import RobotLike, as_robot
 
 #: noise distributions: name -> the kernel's NZ_UNIFORM flag
@@ -67,6 +67,10 @@ STALLED = L.ST_STALLED
 #: the robot's uncertain parameters take these
 PARAMETER_SLOTS = {("link1", "mass"): 16, ("link2", "mass"): 17, ("link1", "com"): 18,
                    ("link2", "com"): 19, ("link1", "inertia"): 20, ("link2", "inertia"): 21}
+#: per-run draws of the friction (slots 22 and 23 are the kernel's latency and bar spacing):
+#: (joint, kind) -> slot
+FRICTION_SLOTS = {("pivot", "viscous"): 24, ("pivot", "coulomb"): 25,
+                  ("joint", "viscous"): 26, ("joint", "coulomb"): 27}
 
 
 @dataclass(frozen=True)
@@ -80,7 +84,9 @@ class NoiseSource:
     sets with it (the schema's description, units in brackets); ``bound`` its largest value in a study file (None: no bound);
     ``uniform_per_run`` a value drawn once per run uniformly on ``[0, value)``, whatever the
     distribution; ``in_kernel`` whether the kernel draws it (its noise vector's slot
-    ``NZ_<NAME>``) rather than :func:`run_robot`.
+    ``NZ_<NAME>``) rather than :func:`run_robot`; ``when_set`` a source added after datasets
+    without it were written: its dataset variable and its entry in :meth:`Noise.to_dict`
+    appear only when it is non-zero, so the datasets of runs without it stay as they were.
     """
 
     name: str
@@ -91,6 +97,7 @@ class NoiseSource:
     bound: float | None = None
     uniform_per_run: bool = False
     in_kernel: bool = True
+    when_set: bool = False
 
 
 def _source(key: tuple[str, ...], units: str, what: str, described: str, **kw) -> float:
@@ -127,6 +134,14 @@ class Noise:
         Actuation latency [s]: each run draws one value uniformly on ``[0, latency)`` (always
         uniform: a build's actuator delay) that delays every magnet and motor action of the
         run, on top of the jitter.
+    pivot_viscous, pivot_coulomb, joint_viscous, joint_coulomb : float
+        Absolute uncertainty of the friction at the pivot (the holding hook or magnet) and at
+        the joint, viscous [N m s] and Coulomb [N m], drawn once per run about the robot's
+        own value (a draw below zero is zero: friction does not drive).
+    bar_spacing : float
+        The ladder's spacing error [m], drawn once per run: every bar of the run lies that
+        much farther from the bar before it than the gait's bars (a narrower ladder for a
+        negative draw). A gait without bar catches is not affected.
     """
 
     distribution: str = "gaussian"
@@ -176,6 +191,27 @@ class Noise:
         "whatever the distribution: a build's actuator delay), added to the delay of every "
         "magnet and motor action of the run, before the jitter",
         bound=1.0, uniform_per_run=True)
+    pivot_viscous: float = _source(
+        ("friction", "pivot_viscous"), "N m s", "uncertainty of the pivot's viscous friction",
+        "the pivot's viscous friction [N m s], absolute, about the robot's", bound=10.0,
+        in_kernel=False, when_set=True)
+    pivot_coulomb: float = _source(
+        ("friction", "pivot_coulomb"), "N m", "uncertainty of the pivot's Coulomb friction",
+        "the pivot's Coulomb friction [N m], absolute, about the robot's", bound=10.0,
+        in_kernel=False, when_set=True)
+    joint_viscous: float = _source(
+        ("friction", "joint_viscous"), "N m s", "uncertainty of the joint's viscous friction",
+        "the joint's viscous friction [N m s], absolute, about the robot's", bound=10.0,
+        in_kernel=False, when_set=True)
+    joint_coulomb: float = _source(
+        ("friction", "joint_coulomb"), "N m", "uncertainty of the joint's Coulomb friction",
+        "the joint's Coulomb friction [N m], absolute, about the robot's", bound=10.0,
+        in_kernel=False, when_set=True)
+    bar_spacing: float = _source(
+        ("bar_spacing",), "m", "spacing error of the run's ladder, drawn once per run",
+        "the ladder's spacing error [m]: one draw per run, added to the distance of every "
+        "bar from the bar before it (a bar is the world's: no sensor, no jitter)", bound=0.1,
+        when_set=True)
 
     def __post_init__(self):
         if self.distribution not in DISTRIBUTIONS:
@@ -196,7 +232,18 @@ class Noise:
         return v
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        """The noise as a mapping (``Noise(**d)`` gives it back); a source added later
+        (``when_set``) is left out while it is zero."""
+        out = asdict(self)
+        for s in SOURCES:
+            if s.when_set and out[s.name] == 0.0:
+                del out[s.name]
+        return out
+
+    @property
+    def per_run_robot(self) -> bool:
+        """Whether each run draws its own robot (:func:`run_robot`)."""
+        return any(getattr(self, s.name) > 0.0 for s in SOURCES if not s.in_kernel)
 
 
 #: every noise source, in the order of :class:`Noise`'s fields: the one declaration the study
@@ -245,13 +292,29 @@ def noise_roles(prog: np.ndarray) -> np.ndarray:
 
 def run_robot(robot: Robot, noise: Noise, seed: int, run: int) -> Robot:
     """The robot of run ``run``: each link's mass, CG and inertia times ``1 + s z`` (``s``
-    the noise's relative scale, ``z`` the run's draw), the CG clipped onto the link."""
-    if noise.mass == 0.0 and noise.com == 0.0 and noise.inertia == 0.0:
+    the noise's relative scale, ``z`` the run's draw), the CG clipped onto the link; each
+    friction coefficient plus ``s z`` (``s`` the noise's absolute scale), clipped at zero.
+    The rotor, the motor and what the noise leaves alone are the robot's."""
+    if not noise.per_run_robot:
         return robot
     uniform = noise.distribution == "uniform"
+    friction = {}
+    for joint in ("pivot", "joint"):
+        own = getattr(robot, f"{joint}_friction")
+        vals = {}
+        for kind in ("viscous", "coulomb"):
+            scale = getattr(noise, f"{joint}_{kind}")
+            z = standard_draw(int(seed), int(run), PER_RUN_CYCLE, FRICTION_SLOTS[(joint, kind)],
+                              uniform) if scale > 0.0 else 0.0
+            vals[kind] = max(getattr(own, kind) + scale * z, 0.0) if scale > 0.0 \
+                else getattr(own, kind)
+        friction[joint] = Friction(vals["viscous"], vals["coulomb"])
     links = {}
     for name in ("link1", "link2"):
         link = getattr(robot, name)
+        if noise.mass == 0.0 and noise.com == 0.0 and noise.inertia == 0.0:
+            links[name] = link
+            continue
         vals = {}
         for what in ("mass", "com", "inertia"):
             scale = getattr(noise, what)
@@ -262,9 +325,28 @@ def run_robot(robot: Robot, noise: Noise, seed: int, run: int) -> Robot:
         # the CG's offset across the link is kept: the noise scales its distance along it
         links[name] = Link(vals["mass"], link.length, vals["com"], vals["inertia"],
                            link.com_across)
-    return Robot(links["link1"], links["link2"], gravity=robot.gravity,
-                 pivot_friction=robot.pivot_friction, joint_friction=robot.joint_friction,
-                 name=robot.name)
+    return replace(robot, link1=links["link1"], link2=links["link2"],
+                   pivot_friction=friction["pivot"], joint_friction=friction["joint"])
+
+
+def catches_per_cycle(prog: np.ndarray) -> int:
+    """Bar catches (rows guarded by ``G_BAR``) per cycle of a looping controller program: a
+    bar gait's brachiations per cycle (0 for a gait that catches no bar).
+
+    Raises
+    ------
+    ValueError
+        The program has no cycle-ending row, or its catches do not divide among its cycles.
+    """
+    prog = np.asarray(prog, float)
+    cycles = int(np.sum(prog[:, L.S_CYCLE] > 0))
+    catches = int(np.sum(prog[:, L.S_GUARD] == L.G_BAR))
+    if cycles == 0:
+        raise ValueError("the controller's program has no cycle-ending row")
+    if catches % cycles:
+        raise ValueError(f"the program's {catches} bar catches do not divide among its "
+                         f"{cycles} cycles")
+    return catches // cycles
 
 
 @dataclass
@@ -293,7 +375,8 @@ class SurvivalRuns:
 def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles: int,
                   noise: Noise, seed: int, robot: RobotLike = "seed2009",
                   integrator: Integrator = Integrator(), error_bound: float = math.inf,
-                  min_advance: float = -math.inf, max_drop: float = math.inf,
+                  min_advance: float = -math.inf, travel: float = 1.0,
+                  max_drop: float = math.inf,
                   section: Observer | Sequence[Observer] | None = None,
                   progress: Callable[[int], None] | None = None) -> SurvivalRuns:
     """Run ``controller`` (a looping program: each cycle ends on a ``cycle_end`` row) from the
@@ -313,6 +396,9 @@ def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles:
     min_advance : float
         A cycle whose attached end advances horizontally less than this fails the run
         (stalled) [m].
+    travel : float
+        The direction the advance is measured in: +1 (default) world +x, -1 world -x (a gait
+        that travels that way).
     max_drop : float
         A run fails when the attached end sinks this far below its planned height (its
         start's, plus the program's rise per completed cycle) [m].
@@ -334,6 +420,8 @@ def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles:
         raise ValueError("the controller's program has no cycle-ending row")
     if int(max_cycles) < 1:
         raise ValueError(f"max_cycles must be >= 1, got {max_cycles}")
+    if travel not in (1.0, -1.0):
+        raise ValueError(f"travel must be +1 or -1, got {travel!r}")
     runs = np.asarray(runs, dtype=np.int64).ravel()
     settings = settings_vector(integrator, tick=controller.tick,
                                tick_phase=controller.tick_phase, max_drop=max_drop)
@@ -349,7 +437,7 @@ def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles:
     for part in pieces:
         run_block(method, par_runs[part], prog, obs, settings, start, roles, vector,
                   int(seed), runs[part], reference, int(max_cycles), float(error_bound),
-                  float(min_advance), out[part])
+                  float(min_advance), float(travel), out[part])
         if progress is not None:
             progress(part.stop - part.start)
     return SurvivalRuns(out[:, L.SV_CYCLES].astype(np.int64),
@@ -476,5 +564,5 @@ def cycle_grid(max_cycles: int, points: int = 160) -> np.ndarray:
 
 
 __all__ = ["DISTRIBUTIONS", "MFPT", "Noise", "NoiseSource", "SOURCES", "SurvivalRuns",
-           "cycle_grid", "hazard", "mfpt", "noise_roles", "run_robot", "survival_curve",
-           "survival_runs"]
+           "catches_per_cycle", "cycle_grid", "hazard", "mfpt", "noise_roles", "run_robot",
+           "survival_curve", "survival_runs"]

@@ -186,7 +186,9 @@ NZ_DTHETA1 = 8      # initial dtheta1 [rad s-1]
 NZ_DTHETA2 = 9      # initial dtheta2 [rad s-1]
 NZ_LATENCY = 10     # actuation latency [s]: one draw per run, uniform on [0, scale), added to
                     # the delay of every actuation (whatever the distribution of the others)
-N_NOISE = 11
+NZ_BAR_SPACING = 11  # the ladder's spacing error [m]: one draw per run, added to the distance of
+                     # every bar from the bar before it (S_BAR_DX, away from the attached end)
+N_NOISE = 12
 # noise role of each program row
 RL_JITTER = 0       # JITTER_*: how timing jitter moves the row's exit
 RL_SENSOR = 1       # the NZ_* source read by the row's guard (0: none)

@@ -47,6 +47,8 @@ GROUPS = {
     "parameters": ("ParameterNoise", "Robot parameters drawn once per run, relative to the "
                                      "study's robot."),
     "initial_state": ("InitialNoise", "Perturbation of the start on the section, once per run."),
+    "friction": ("FrictionNoise", "Friction drawn once per run, absolute, about the study's "
+                                  "robot's (a draw below zero is zero)."),
 }
 
 
@@ -77,7 +79,8 @@ class NoiseLevels(StrictModel):
         "gaussian", description="shape of every draw: gaussian (the value is the standard "
                                 "deviation) or uniform (the value is the half-width)")
 
-    recorded_when_set: ClassVar[frozenset[str]] = frozenset({"latency"})
+    recorded_when_set: ClassVar[frozenset[str]] = frozenset({"latency", "friction",
+                                                             "bar_spacing"})
 
     def value(self, path: tuple) -> Level:
         node = self

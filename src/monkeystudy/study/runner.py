@@ -43,6 +43,7 @@ from .blocks import Block, Task, clean_parts, make_blocks, read_shard, saved_blo
 from .errors import RunFailed, RunInterrupted
 from .failures import FAILED, NOT_RUN, StepFailure, clear_failures, write_failure
 from .loader import LoadedStudy
+from .models import UrdfRobotParams
 from .plan import Plan, StepPlan, plan_study
 from .pool import DeferredSignals, Pool, local_pool_kind, open_pool
 from .counts import StepProgress, TaskPhase, run_counted
@@ -91,11 +92,23 @@ def failures_text(summary: RunSummary) -> str:
     return "\n  ".join([head] + lines)
 
 
+def urdf_attrs(loaded: LoadedStudy) -> dict:
+    """A robot read from a URDF: ``robot_urdf``, the file as the study names it (relative to
+    the study file's folder), and ``robot_urdf_sha256``, the hash of its bytes; empty for
+    any other robot."""
+    robot = loaded.study.robot
+    if not isinstance(robot, UrdfRobotParams):
+        return {}
+    base = loaded.path.parent if loaded.path is not None else Path(".")
+    return {"robot_urdf": robot.urdf,
+            "robot_urdf_sha256": P.file_sha256(base / Path(robot.urdf).expanduser())}
+
+
 def step_attrs(loaded: LoadedStudy, step, history: str) -> dict:
     """Global attributes of a step's dataset (docs/datasets.md), before the step's own; a
     gait that states its torques' frame (``torque_frame``) or its route's rise per cycle
-    (``rise`` [m]) is named with it, and a study without a gait has no ``gait``
-    attribute."""
+    (``rise`` [m]) is named with it, a robot read from a URDF names the file and its hash
+    (:func:`urdf_attrs`), and a study without a gait has no ``gait`` attribute."""
     study = loaded.study
     frame = ({"torque_frame": study.gait.torque_frame}
              if study.gait is not None and "torque_frame" in study.gait.model_fields_set
@@ -114,7 +127,7 @@ def step_attrs(loaded: LoadedStudy, step, history: str) -> dict:
         "monkeystudy_version": __version__, "git_revision": P.git_revision(),
         "code_sha256": kind_of(step).code_sha256, "library_versions": P.library_versions(),
         "history": history, "Conventions": D.CONVENTIONS, "source": "monkeystudy",
-        **frame,
+        **frame, **urdf_attrs(loaded),
     }
 
 

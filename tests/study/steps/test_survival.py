@@ -193,3 +193,110 @@ def test_a_floquet_point_converged_to_its_maps_error_level_is_run(tmp_path):
         assert s.attrs["floquet_controller"] == "open_loop"
         assert s.attrs["map_defect"] == defect
         assert np.all(s["cycles_completed"].values == 3)
+
+
+#: the two-swap bar brachiation of tests/test_motor.py (AcroMonk from its URDF, the identified
+#: elbow friction and rotor, no hook friction), refined from its fixed point and run under
+#: the noise of a built robot on a ladder: friction drawn per run, the ladder's spacing
+BAR_STUDY = """\
+schema_version: 1
+name: bar_survival
+robot:
+  urdf: {urdf}
+  links: [hook_1, link_2]
+  joints: [virtul_joint_hook_1, joint_1]
+  far_grip: hook_2
+  friction: {{joint: {{viscous: 0.04144}}}}
+  rotor: {{inertia: 2.453e-4, gear_ratio: 6, housing: 1}}
+gait: {gait}
+integrator: {{method: dop853, rtol: 1.0e-12, atol: 1.0e-13, max_time: 6.0}}
+steps:
+  - {{name: refine, kind: refine, start: [{d1}, {d2}], xatol: 1.0e-10, fatol: 1.0e-18}}
+  - name: survive
+    kind: survival
+    from: refine
+    runs: 6
+    max_cycles: 3
+    seed: 4
+    noise:
+      bar_spacing: 1.0e-3
+      friction: {{joint_viscous: [0.0, 1.0e-5]}}
+"""
+
+
+@pytest.fixture(scope="module")
+def bar_survival(tmp_path_factory):
+    import json
+
+    from studyhelpers import write_study
+    from test_motor import BAR_BRACHIATION, Z_BAR_BRACHIATION
+
+    folder = tmp_path_factory.mktemp("bar_survival")
+    urdf = ROOT / "data" / "acromonk" / "model" / "acromonk.urdf"
+    study = write_study(folder, BAR_STUDY.format(urdf=urdf, gait=json.dumps(BAR_BRACHIATION),
+                                                 d1=Z_BAR_BRACHIATION[1],
+                                                 d2=Z_BAR_BRACHIATION[2]), "bar.yaml")
+    run_study(load_study(study), folder / "out", workers=1)
+    return folder / "out", urdf
+
+
+def test_a_bar_gaits_mfpt_is_stated_in_brachiations_too(bar_survival):
+    """A gait that catches two bars per cycle: the dataset says so (catches_per_cycle) and
+    gives the MFPT and its interval in brachiations, twice the cycles; the noise variables
+    of the sources the study sets are written in their units, those it leaves out are not."""
+    ds = _open(bar_survival[0], "survive.nc")
+    assert ds.attrs["catches_per_cycle"] == 2
+    for key in ("mfpt", "mfpt_low", "mfpt_high"):
+        cycles, brachiations = ds[key].values, ds[f"{key}_brachiations"].values
+        assert np.array_equal(np.isnan(cycles), np.isnan(brachiations)), key
+        assert np.all(brachiations[~np.isnan(cycles)] == 2 * cycles[~np.isnan(cycles)]), key
+        assert "brachiations" in ds[f"{key}_brachiations"].attrs["long_name"]
+    assert ds["restricted_mean"].values[0] == 3.0        # every noiseless-friction run lasts
+    assert list(ds["noise_bar_spacing"].values) == [1e-3, 1e-3]
+    assert ds["noise_bar_spacing"].attrs["units"] == "m"
+    assert list(ds["noise_joint_viscous"].values) == [0.0, 1e-5]
+    assert ds["noise_joint_viscous"].attrs["units"] == "N m s"
+    for absent in ("noise_pivot_viscous", "noise_pivot_coulomb", "noise_joint_coulomb"):
+        assert absent not in ds
+    # the ladder differs from run to run: so does the distance of the runs that lasted
+    done = ds["failure"].values[0] == L.ST_OK
+    assert len(set(ds["distance"].values[0][done])) == done.sum() > 1
+    assert_written_as_declared(bar_survival[0] / "survive.nc", "survival")
+
+
+def test_a_urdf_robots_datasets_name_the_file_and_its_hash(bar_survival):
+    from monkeystudy.study.provenance import file_sha256
+
+    out, urdf = bar_survival
+    for name in ("refine.nc", "survive.nc"):
+        ds = _open(out, name)
+        assert ds.attrs["robot_urdf"] == str(urdf)
+        assert ds.attrs["robot_urdf_sha256"] == file_sha256(urdf)
+
+
+def test_a_gait_without_bars_has_no_brachiations_and_no_later_noise_variables(smoke):
+    """The smoke study (the 2009 robot's magnet gait, a preset robot): no catches_per_cycle,
+    no MFPT in brachiations, no noise variable of a source it does not set, no URDF."""
+    for name in ("open_loop.nc", "state_based.nc"):
+        ds = _open(smoke[0], name)
+        assert "catches_per_cycle" not in ds.attrs and "robot_urdf" not in ds.attrs
+        assert not [v for v in ds.variables if v.endswith("_brachiations")]
+        for absent in ("noise_bar_spacing", "noise_pivot_coulomb", "noise_joint_viscous"):
+            assert absent not in ds
+
+
+def test_noise_keys_added_later_are_in_the_step_only_when_set():
+    """friction and bar_spacing appear in a step's dump (its datasets' step attribute, its
+    key) only when the study sets them: studies without them keep their step keys."""
+    base = {"name": "s", "kind": "survival", "from": "g", "runs": 3, "max_cycles": 10,
+            "noise": {"timing": 1e-3}}
+    dumped = SurvivalStep.model_validate(base).model_dump(mode="json", by_alias=True)
+    assert set(dumped["noise"]) == {"distribution", "timing", "sensor", "torque",
+                                    "parameters", "initial_state"}
+    both = SurvivalStep.model_validate(dict(base, noise={
+        "timing": 1e-3, "bar_spacing": 1e-3, "friction": {"pivot_coulomb": 0.1}}))
+    dumped = both.model_dump(mode="json", by_alias=True)
+    assert dumped["noise"]["bar_spacing"] == 1e-3
+    assert dumped["noise"]["friction"]["pivot_coulomb"] == 0.1
+    assert both.noise.level(0).to_dict()["pivot_coulomb"] == 0.1
+    assert "joint_coulomb" not in both.noise.level(0).to_dict()

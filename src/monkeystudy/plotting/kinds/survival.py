@@ -49,10 +49,16 @@ LABELS = {
     "theta2": "start θ2 perturbation",
     "dtheta1": "start θ̇1 perturbation",
     "dtheta2": "start θ̇2 perturbation",
+    "pivot_viscous": "pivot viscous friction uncertainty",
+    "pivot_coulomb": "pivot Coulomb friction uncertainty",
+    "joint_viscous": "joint viscous friction uncertainty",
+    "joint_coulomb": "joint Coulomb friction uncertainty",
+    "bar_spacing": "bar spacing error (per run)",
 }
 #: a noise source's SI units as a figure shows them: (unit text, scale from the SI value)
 SHOWN_UNITS = {"s": ("ms", 1e3), "m": ("mm", 1e3), "1": ("%", 100.0), "rad": ("rad", 1.0),
-               "rad s-1": ("rad/s", 1.0), "J": ("J", 1.0)}
+               "rad s-1": ("rad/s", 1.0), "J": ("J", 1.0), "N m": ("N m", 1.0),
+               "N m s": ("N m s", 1.0)}
 #: each noise source: (variable, label, unit text, scale to the label's unit), in the order
 #: of :data:`LABELS` (a source without a label is named as it is declared, last)
 SOURCES = {s.name: (f"noise_{s.name}", LABELS.get(s.name, s.name), *SHOWN_UNITS[s.units])

@@ -21,7 +21,8 @@ from pydantic import Field
 
 from ...analysis.sections import cycle_section_state
 from ...analysis.survival import (
-    ERROR_BOUND, MFPT, STALLED, Noise, cycle_grid, mfpt, survival_curve, survival_runs,
+    ERROR_BOUND, MFPT, STALLED, Noise, catches_per_cycle, cycle_grid, mfpt, survival_curve,
+    survival_runs,
 )
 from ...simulation import STATUS_NAMES, Status
 from .. import datasets as D
@@ -156,6 +157,10 @@ def height_within(height_drift: np.ndarray, failure: np.ndarray, tolerance: floa
 #: what the MFPT counts
 MFPT_CYCLES = "cycles (completed before failure)"
 
+#: what the MFPT counts in a gait that catches bars
+MFPT_BRACHIATIONS = ("brachiations (the bar catches of the cycles completed before failure: "
+                     "cycles times catches_per_cycle)")
+
 #: the MFPT and its interval: (variable, what it is)
 MFPT_ESTIMATES = (("mfpt", "mean first-passage time to failure"),
                   ("mfpt_low", "lower end of the MFPT's 95 % interval"),
@@ -171,7 +176,7 @@ VARIABLES = {
                                        "completed max_cycles)"),
     **{f"noise_{s.name}": D.Variable(("level",), np.float64, s.units,
                                      s.what + ("" if s.uniform_per_run else "{spread}"),
-                                     {"key": "noise." + ".".join(s.key)})
+                                     {"key": "noise." + ".".join(s.key)}, optional=s.when_set)
        for s in SOURCES},
     "cycles_completed": D.Variable(("level", "run"), np.int64, "1",
                                    "cycles the run completed within the bounds"),
@@ -206,6 +211,10 @@ VARIABLES = {
         (key.replace("mfpt", "mfpt_distance"),
          D.Variable(("level",), np.float64, "m", f"{what} as distance travelled (MFPT times "
                     "the mean advance per completed cycle)")))},
+    **{f"{key}_brachiations": D.Variable(
+        ("level",), np.float64, "1", f"{what} [{MFPT_BRACHIATIONS}]",
+        {"comment": "the MFPT in cycles times catches_per_cycle (attribute)"}, optional=True)
+       for key, what in MFPT_ESTIMATES},
     "mfpt_method": D.Variable(("level",), np.int8, "1", "how the MFPT was estimated",
                               {"flag_values": np.arange(len(MFPT_METHODS), dtype=np.int8),
                                "flag_meanings": " ".join(MFPT_METHODS)}),
@@ -230,9 +239,11 @@ PLANNED_STAIRCASE = ("its planned height there (its height at the start plus the
 
 
 def write_survival(path: Path, attrs: dict, step: SurvivalStep, arrays: dict,
-                   rise: float = 0.0) -> None:
+                   rise: float = 0.0, catches: int = 0) -> None:
     """Write a survival dataset (dims ``level``, ``run``, ``cycle``, ``failure_mode``);
-    ``rise`` [m per cycle]: the gait's (its runs' heights measured from its staircase)."""
+    ``rise`` [m per cycle]: the gait's (its runs' heights measured from its staircase);
+    ``catches`` the gait's bar catches per cycle (brachiations: the MFPT is written in them
+    too, and the attribute ``catches_per_cycle``; 0: a gait without bar catches)."""
     n_levels, runs = arrays["cycles"].shape
     grid = cycle_grid(step.max_cycles)
     summaries = [level_summary(arrays["cycles"][i], arrays["failure"][i],
@@ -253,8 +264,9 @@ def write_survival(path: Path, attrs: dict, step: SurvivalStep, arrays: dict,
         D.write_coordinate(nc, VARIABLES, "cycle", grid)
         D.write_coordinate(nc, VARIABLES, "failure_mode", list(FAILURE_NAMES))
         for s in SOURCES:
-            write(f"noise_{s.name}", [getattr(step.noise.level(k), s.name)
-                                      for k in range(n_levels)])
+            values = [getattr(step.noise.level(k), s.name) for k in range(n_levels)]
+            if not s.when_set or any(v > 0.0 for v in values):
+                write(f"noise_{s.name}", values)
         write("cycles_completed", arrays["cycles"])
         write("failure", arrays["failure"])
         write("distance", arrays["distance"])
@@ -272,14 +284,17 @@ def write_survival(path: Path, attrs: dict, step: SurvivalStep, arrays: dict,
             write(key, [getattr(m, attr) for m in ms])
             write(key.replace("mfpt", "mfpt_distance"),
                   [getattr(m, attr) * s["advance"] for m, s in zip(ms, summaries)])
+            if catches:
+                write(f"{key}_brachiations", [getattr(m, attr) * catches for m in ms])
         write("mfpt_method", [MFPT_METHODS.index(m.method) for m in ms])
         write("restricted_mean", [m.restricted_mean for m in ms])
         for key in ("hazard_early", "hazard_late"):
             write(key, [getattr(m, key) for m in ms])
         write("advance_per_cycle", [s["advance"] for s in summaries])
         write("failure_count", np.array([s["counts"] for s in summaries]))
+        extra = {"catches_per_cycle": catches} if catches else {}
         D.set_global_attrs(nc, dict(attrs, total_cycles=int(arrays["cycles"].sum()),
-                                    total_nfev=int(arrays["nfev"].sum())))
+                                    total_nfev=int(arrays["nfev"].sum()), **extra))
 
 
 # --- the kind ------------------------------------------------------------------------------------
@@ -396,12 +411,15 @@ class SurvivalKind(StepKind):
         if gait.robot is not ctx.spec.robot:
             # the runs used their source's robot (a design's): the dataset names it
             attrs["robot"] = robot_attr(ctx.spec.robot, gait.robot, st.from_)
-        write_survival(ctx.path, attrs, st, arrays, rise=gait.gait.rise)
+        controller, _, _ = survival_controller(gait, tick=kw["tick"],
+                                               integrator=ctx.spec.integrator)
+        catches = catches_per_cycle(controller.program()[0])
+        write_survival(ctx.path, attrs, st, arrays, rise=gait.gait.rise, catches=catches)
         parts = []
         for i in range(st.n_levels):
             s = level_summary(arrays["cycles"][i], arrays["failure"][i],
                               arrays["distance"][i], st.max_cycles)
-            parts.append(mfpt_text(s["mfpt"]))
+            parts.append(mfpt_text(s["mfpt"], catches))
         return f"{st.runs} runs x {st.n_levels} level(s); MFPT " + "; ".join(parts)
 
     def describe(self, ds) -> list[str]:
@@ -425,7 +443,9 @@ class SurvivalKind(StepKind):
             distance = float(ds["mfpt_distance"][i])
             walked = (f", {distance:.4g} m walked on average before a failure"
                       if math.isfinite(distance) else "")
-            lines.append(f"level {i} ({noise}): MFPT {mfpt_text(m)}{walked}; runs: {ended}")
+            catches = int(a.get("catches_per_cycle", 0))
+            lines.append(f"level {i} ({noise}): MFPT {mfpt_text(m, catches)}{walked}; "
+                         f"runs: {ended}")
             if "height_drift" in ds:
                 lines.append("  " + height_text(ds, i))
         return lines
@@ -448,10 +468,14 @@ def height_text(ds, level: int) -> str:
     return out
 
 
-def mfpt_text(m: MFPT) -> str:
-    """An MFPT with its interval, in cycles, as logs and ``inspect`` print it."""
-    if m.method == "lower_bound":
-        return f"> {m.low:.4g} cycles (no failure late in the window)"
+def mfpt_text(m: MFPT, catches: int = 0) -> str:
+    """An MFPT with its interval, in cycles (and in brachiations for a gait that catches
+    ``catches`` bars per cycle), as logs and ``inspect`` print it."""
     if m.method == "none":
         return "none (no run)"
-    return f"{m.value:.4g} cycles [{m.low:.4g}, {m.high:.4g}]"
+    if m.method == "lower_bound":
+        out = f"> {m.low:.4g} cycles (no failure late in the window)"
+        return out + (f", > {m.low * catches:.4g} brachiations" if catches else "")
+    out = f"{m.value:.4g} cycles [{m.low:.4g}, {m.high:.4g}]"
+    return out + (f", {m.value * catches:.4g} brachiations [{m.low * catches:.4g}, "
+                  f"{m.high * catches:.4g}]" if catches else "")
