@@ -51,7 +51,7 @@ from ..kernel import layout as L
 from ..kernel.noise import PER_RUN_CYCLE, standard_draw
 from ..kernel.survival import survival_runs as run_block
 from ..robot import Friction, Link, Robot
-from ..simulation import RobotLike, as_robot
+from ..simulation import RobotLike, as_robot, run_controller
 
 #: noise distributions: name -> the kernel's NZ_UNIFORM flag
 DISTRIBUTIONS = {"gaussian": 0.0, "uniform": 1.0}
@@ -370,6 +370,18 @@ class SurvivalRuns:
     error: np.ndarray
     nfev: np.ndarray
     height: np.ndarray
+
+
+def travel_direction(controller, start: np.ndarray, *, robot: RobotLike = "seed2009",
+                     integrator: Integrator = Integrator()) -> float:
+    """The way a gait travels along the wall: the sign (+1.0 or -1.0) of its attached end's
+    x change over one noiseless cycle of ``controller`` from the hybrid state ``start``
+    (+1.0 when it does not move or the cycle fails). A survival run's minimum advance is
+    measured this way (a ladder gait may go towards -x)."""
+    r = run_controller(controller, np.asarray(start, dtype=np.float64), robot=robot,
+                       integrator=integrator, cycles=1, log_capacity=64)
+    moved = float(r.state[L.X]) - float(start[L.X])
+    return -1.0 if int(r.status) == L.ST_OK and moved < 0.0 else 1.0
 
 
 def survival_runs(controller, start: np.ndarray, reference, *, runs, max_cycles: int,

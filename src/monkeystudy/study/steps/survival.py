@@ -22,7 +22,7 @@ from pydantic import Field
 from ...analysis.sections import cycle_section_state
 from ...analysis.survival import (
     ERROR_BOUND, MFPT, STALLED, Noise, catches_per_cycle, cycle_grid, mfpt, survival_curve,
-    survival_runs,
+    survival_runs, travel_direction,
 )
 from ...simulation import STATUS_NAMES, Status
 from .. import datasets as D
@@ -67,9 +67,9 @@ class SurvivalStep(StrictModel):
                                          "[rad2 + rad2 s-2] (default: only falls and "
                                          "missed events fail)")
     min_advance: Optional[float] = Field(None, description="a cycle whose attached end "
-                                         "advances horizontally less than this fails the "
-                                         "run ('stalled': it stopped travelling) [m] "
-                                         "(default: no minimum)")
+                                         "advances horizontally less than this, the way "
+                                         "the gait travels, fails the run ('stalled': it "
+                                         "stopped travelling) [m] (default: no minimum)")
     max_drop: Optional[float] = Field(None, gt=0, description="a run fails ('fell') when "
                                       "the attached end sinks this far [m] (default: link "
                                       "1's length)")
@@ -122,11 +122,14 @@ def survival_block(spec: GaitSpec, start: GaitStart, runs: np.ndarray, *, noise:
     ends (:func:`~monkeystudy.study.counts.task_units`)."""
     controller, hyb, section = survival_controller(start, tick=tick,
                                                    integrator=spec.integrator)
+    # a minimum advance is measured the way the gait travels (a ladder gait may go to -x)
+    travel = (travel_direction(controller, hyb, robot=start.robot, integrator=spec.integrator)
+              if math.isfinite(min_advance) else 1.0)
     r = survival_runs(controller, hyb, start.z[-3:], runs=runs, max_cycles=max_cycles,
                       noise=Noise(**noise), seed=seed, robot=start.robot,
                       integrator=spec.integrator, error_bound=error_bound,
-                      min_advance=min_advance, max_drop=max_drop, section=section,
-                      progress=task_units)
+                      min_advance=min_advance, travel=travel, max_drop=max_drop,
+                      section=section, progress=task_units)
     return {"cycles": r.cycles.astype(np.int64), "failure": r.failure.astype(np.int8),
             "distance": r.distance, "time": r.time, "error": r.error, "nfev": r.nfev,
             "height": r.height}
