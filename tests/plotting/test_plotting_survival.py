@@ -282,3 +282,28 @@ def test_a_step_name_of_100_characters_keeps_the_figure_whole(every_source):
     ds.attrs["step_name"] = LONG_NAME
     for plot in (plot_survival, plot_failure_modes, plot_height_drift):
         fits_in_the_figure(plot(ds))
+
+
+def test_levels_that_no_one_noise_orders_are_drawn_by_level_not_joined(every_source):
+    """Four levels, jitter 0.01 and 0.1 ms each without and with the other sources: along
+    the jitter axis the line joined a level with the other sources to one without, and read
+    as jitter's effect. They are drawn against the level, each named under its tick, and not
+    joined; levels that grow together keep the noise axis."""
+    from matplotlib.lines import Line2D
+
+    from monkeystudy.plotting.kinds.survival import LEVEL_AXIS, noise_axis, plot_mfpt
+
+    assert noise_axis(every_source)[0] == "timing"
+    crossed = every_source.isel(level=[0, 0, 1, 1]).copy(deep=True)
+    crossed["noise_timing"].values[:] = [1e-5, 1e-4, 1e-5, 1e-4]
+    source, x, label = noise_axis(crossed)
+    assert source == LEVEL_AXIS and list(x) == [0, 1, 2, 3] and label == "noise level"
+    for fig in (plot_mfpt(crossed), plot_mfpt_comparison([crossed])):
+        fig.canvas.draw()
+        ax = next(a for a in fig.axes if a.get_xlabel() == "noise level")
+        ticks = [t.get_text() for t in ax.get_xticklabels()]
+        assert len(ticks) == 4 and all(t.startswith("timing") for t in ticks), ticks
+        assert ticks[0] != ticks[2]                   # the other sources name the level
+        joined = [ln for ln in ax.findobj(Line2D)
+                  if ln.get_linestyle() not in ("None", "none", "") and len(ln.get_xdata()) > 2]
+        assert not joined

@@ -109,7 +109,35 @@ def noise_axis(ds) -> tuple[str, np.ndarray, str]:
             and np.array_equal(np.asarray(ds[SOURCES[s][0]].values, float) * scale, x)]
     if same:
         label = ", ".join([label] + [SOURCES[s][1] for s in same])
+    if not levels_on_one_axis(ds, x, swept):
+        return LEVEL_AXIS, np.arange(x.size, dtype=float), "noise level"
     return source, x, f"{label}  [{unit}]"
+
+
+#: the axis of levels that no one noise orders (:func:`levels_on_one_axis`)
+LEVEL_AXIS = "level"
+
+
+def levels_on_one_axis(ds, x: np.ndarray, swept: list[str]) -> bool:
+    """Whether the levels are ordered by the axis ``x``: no two levels at the same ``x``, and
+    every other swept source growing (or staying) as ``x`` grows. Levels that vary several
+    sources independently (jitter 1 and 2 ms, each with and without a friction error) are
+    not: a line through them along one source's axis would read as that source's effect."""
+    if np.unique(np.round(x, 12)).size != x.size:
+        return False
+    order = np.argsort(x)
+    for source in swept:
+        values = np.asarray(ds[SOURCES[source][0]].values, float)[order]
+        if np.any(np.diff(values) < 0):
+            return False
+    return True
+
+
+def level_ticks(ax, ds) -> None:
+    """Each level named under its tick, its non-zero noise on short lines."""
+    n = ds.sizes["level"]
+    ax.set_xticks(np.arange(n), [level_text(ds, i, width=24) for i in range(n)], fontsize=6)
+    ax.set_xlim(-0.5, n - 0.5)
 
 
 #: characters per line of a noise level's label in a legend or beside a bar
@@ -296,10 +324,11 @@ NO_MFPT = "every MFPT is 0 cycles (each run failed in its first cycle): nothing 
           "a log axis; the failure modes show how the runs ended"
 
 
-def _mfpt_points(ax, x, ds, colour, label, gid, metres: bool = False, dodge: float = 0.0):
+def _mfpt_points(ax, x, ds, colour, label, gid, metres: bool = False, dodge: float = 0.0,
+                 line: bool = True):
     """MFPT with its interval against ``x``; lower bounds as upward arrows; the artists
     moved ``dodge`` points sideways (to set several steps at the same noise side by
-    side)."""
+    side); ``line``: the estimates joined (not for levels no one noise orders)."""
     pre = "mfpt_distance" if metres else "mfpt"
     y, lo, hi = (np.asarray(ds[f"{pre}{s}"].values, float) for s in ("", "_low", "_high"))
     method = np.asarray(ds["mfpt_method"].values, int)
@@ -309,7 +338,8 @@ def _mfpt_points(ax, x, ds, colour, label, gid, metres: bool = False, dodge: flo
     if est.any():
         top = np.where(np.isfinite(hi[est]), hi[est] - y[est], 0.0)
         bars = ax.errorbar(x[est], y[est], yerr=[y[est] - lo[est], top], color=colour,
-                           marker="o", capsize=3, lw=1.8, label=label, gid=gid)
+                           marker="o", capsize=3, lw=1.8, label=label, gid=gid,
+                           ls="-" if line else "none")
         drawn += [a for a in bars.get_children() if a is not None]
         open_top = est & ~np.isfinite(hi)
         if open_top.any():
@@ -335,7 +365,8 @@ def plot_mfpt(ds):
     """
     if not has_mfpt(ds):
         raise NothingToDraw(NO_MFPT)
-    _, x, xlabel = noise_axis(ds)
+    source, x, xlabel = noise_axis(ds)
+    by_level = source == LEVEL_AXIS
     with style():
         fig = new_figure(figsize=(7.4, 5.4))
         body = two_titles(fig, f"Mean first-passage time to failure: "
@@ -346,7 +377,8 @@ def plot_mfpt(ds):
                                 & np.isfinite(np.asarray(ds["mfpt"].values, float))))
         # with no estimate at all, the bounds carry the lower bound's own legend entry
         est_open, bound = _mfpt_points(ax, x, ds, BLUE, "MFPT, 95 % interval" if estimated
-                                       else "MFPT: " + LOWER_BOUND_LABEL, "mfpt")
+                                       else "MFPT: " + LOWER_BOUND_LABEL, "mfpt",
+                                       line=not by_level)
         bound_values = np.asarray(ds["mfpt_low"].values, float)
         for xi, lo, m in zip(x, bound_values, method):
             if m == METHOD_LOWER_BOUND and np.isfinite(lo):
@@ -369,7 +401,9 @@ def plot_mfpt(ds):
         handles, _ = ax.get_legend_handles_labels()
         ax.legend(handles=handles + marker_handles(est_open, bound, BLUE), loc="best",
                   fontsize=8.5)
-        if x.size > 1 and np.all(x > 0):
+        if by_level:
+            level_ticks(ax, ds)
+        elif x.size > 1 and np.all(x > 0):
             ax.set_xlim(x.min() / 2, x.max() * 2)
     return fig
 
@@ -459,7 +493,11 @@ def plot_mfpt_comparison(datasets: Sequence):
     datasets = [ds for ds in datasets if has_mfpt(ds)]
     groups: dict[str, list] = {}
     for ds in datasets:
-        groups.setdefault(noise_axis(ds)[2], []).append(ds)
+        source, _, xlabel = noise_axis(ds)
+        # levels no one noise orders share a panel only with steps of the same levels
+        key = (xlabel if source != LEVEL_AXIS else
+               (xlabel,) + tuple(level_text(ds, i) for i in range(ds.sizes["level"])))
+        groups.setdefault(key, []).append(ds)
     shared = any(len(members) > 1 and _share_noise(members) for members in groups.values())
     with style():
         fig = new_figure(figsize=(7.6, 2.2 + 3.6 * len(groups)))
@@ -473,7 +511,9 @@ def plot_mfpt_comparison(datasets: Sequence):
         axes = np.atleast_1d(body.subplots(len(groups), 1, squeeze=False)[:, 0])
         any_open = any_bound = False
         k = 0
-        for ax, (xlabel, members) in zip(axes, groups.items()):
+        for ax, (key, members) in zip(axes, groups.items()):
+            xlabel = key if isinstance(key, str) else key[0]
+            by_level = not isinstance(key, str)
             every_x = []
             dodge = DODGE if _share_noise(members) else 0.0
             for m, ds in enumerate(members):
@@ -487,7 +527,8 @@ def plot_mfpt_comparison(datasets: Sequence):
                                                  + (f"; also {fixed}" if fixed else "")), 60)
                 est_open, bound = _mfpt_points(ax, x, ds, colours[k % len(colours)], label,
                                                f"mfpt_{name}",
-                                               dodge=dodge * (m - (len(members) - 1) / 2))
+                                               dodge=dodge * (m - (len(members) - 1) / 2),
+                                               line=not by_level)
                 any_open, any_bound = any_open or est_open, any_bound or bound
                 k += 1
             # a step without noise sits at 0, which a log axis cannot show
@@ -499,6 +540,8 @@ def plot_mfpt_comparison(datasets: Sequence):
                 mid = math.sqrt(lo * hi)
                 ax.set_ylim(mid / 10, mid * 10)
             ax.set_xlabel(xlabel)
+            if by_level:
+                level_ticks(ax, members[0])
             ax.set_ylabel("mean cycles before failure")
             ax.legend(handles=ax.get_legend_handles_labels()[0], loc="best", fontsize=7.5)
         handles = marker_handles(any_open, any_bound)
