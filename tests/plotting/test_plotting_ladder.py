@@ -26,7 +26,7 @@ def ladder_run(tmp_path_factory) -> Path:
     from monkeystudy.study.loader import load_study
     from monkeystudy.study.runner import run_study
     text = (ROOT / "studies" / "acromonk_gait.yaml").read_text()
-    head = text[:text.index("steps:")].replace(
+    head = text[:text.index("\nsteps:") + 1].replace(
         "../data/acromonk/model/acromonk.urdf", str(ROOT / "data/acromonk/model/acromonk.urdf"))
     study = head + (
         "steps:\n"
