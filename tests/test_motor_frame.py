@@ -2,6 +2,8 @@
 ``torque_frame: motor``): the kernel applies a torque on theta2 of the frame of the end attached
 at the time, and theta2 changes sign at a swap; a torque written in the motor frame is the
 physical motor torque, converted to the kernel's frame when the gait is built."""
+import json
+
 import numpy as np
 import pytest
 
@@ -164,3 +166,30 @@ def test_one_motor_frame_torque_held_across_the_swap_keeps_its_sign_on_the_links
     assert motor[1] == pytest.approx(0.3, rel=1e-8)
     assert kernel[0] == pytest.approx(0.3, rel=1e-8)
     assert kernel[1] == pytest.approx(-0.3, rel=1e-8)
+
+
+def design_b_study(name: str) -> str:
+    """A small study of design B: refine, floquet and a 2 x 2 segment design with a short
+    refine, verification and screen (study file text, named ``name``)."""
+    return (f"schema_version: 1\nname: {name}\nrobot: seed2009\n"
+            f"gait: {json.dumps(DESIGN_B)}\n" + DESIGN_B_STEPS)
+
+
+#: the integrator and steps of :func:`design_b_study`
+DESIGN_B_STEPS = """\
+integrator: {method: dop853, rtol: 1.0e-12, atol: 1.0e-13, max_time: 3.0}
+steps:
+  - {name: refine, kind: refine, start: [4.844445533376672, -1.6124995598690839],
+     maxiter: 300}
+  - {name: floquet, kind: floquet, from: refine}
+  - name: design
+    kind: design
+    from: floquet
+    parameters:
+      segment2_torque: {start: 0.30, stop: 0.34, num: 2}
+      segment3_torque: {start: -0.42, stop: -0.38, num: 2}
+    refine: {starts: 1, max_evaluations: 12}
+    verify: {cycles: 20, decay_cycles: 8, basin_num: 3, basin_cycles: 5}
+    screen: {candidates: 3, runs: 6, max_cycles: 8, seed: 3,
+             noise: {timing: 1.0e-3, parameters: {mass: 0.01}}}
+"""

@@ -9,7 +9,6 @@ screen, checks) is sent by the run's own progress count, in the run's process.
 """
 from __future__ import annotations
 
-import json
 import os
 import pty
 import re
@@ -28,7 +27,7 @@ from monkeystudy.study.loader import load_study
 from monkeystudy.study.runner import run_study
 
 from studyhelpers import RecordingReporter, assert_same_datasets, write_study
-from test_motor_frame import DESIGN_B
+from test_motor_frame import design_b_study
 
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="pseudo-terminals and signals")
 
@@ -192,27 +191,7 @@ def test_ctrl_c_in_a_block_and_in_a_resumed_run_then_the_rerun_is_bit_identical(
 
 
 # --- an interruption while a step works in the driver ---------------------------------------------
-DESIGN = """\
-schema_version: 1
-name: design_interrupted
-robot: seed2009
-""" + f"gait: {json.dumps(DESIGN_B)}\n" + """\
-integrator: {method: dop853, rtol: 1.0e-12, atol: 1.0e-13, max_time: 3.0}
-steps:
-  - {name: refine, kind: refine, start: [4.844445533376672, -1.6124995598690839],
-     maxiter: 300}
-  - {name: floquet, kind: floquet, from: refine}
-  - name: design
-    kind: design
-    from: floquet
-    parameters:
-      segment2_torque: {start: 0.30, stop: 0.34, num: 2}
-      segment3_torque: {start: -0.42, stop: -0.38, num: 2}
-    refine: {starts: 1, max_evaluations: 12}
-    verify: {cycles: 20, decay_cycles: 8, basin_num: 3, basin_cycles: 5}
-    screen: {candidates: 3, runs: 6, max_cycles: 8, seed: 3,
-             noise: {timing: 1.0e-3, parameters: {mass: 0.01}}}
-"""
+DESIGN = design_b_study("design_interrupted")
 DESIGN_FILES = ["refine.nc", "floquet.nc", "design.nc"]
 
 

@@ -18,7 +18,7 @@ from monkeystudy.robot import Robot
 from monkeystudy.study import load_study, run_study
 
 from studyhelpers import assert_same_datasets, assert_written_as_declared
-from test_motor_frame import DESIGN_B
+from test_motor_frame import design_b_study
 
 ROOT = Path(__file__).resolve().parents[3]
 SMOKE = ROOT / "studies" / "open_loop_design_smoke.yaml"
@@ -242,26 +242,7 @@ def test_the_verdict_tells_a_tick_replay_that_walks_on_from_one_that_falls():
 
 
 # --- a sequence gait's segments --------------------------------------------------------------------
-SEGMENTS = """\
-schema_version: 1
-name: segment_design
-robot: seed2009
-""" + f"gait: {json.dumps(DESIGN_B)}\n" + """\
-integrator: {method: dop853, rtol: 1.0e-12, atol: 1.0e-13, max_time: 3.0}
-steps:
-  - {name: refine, kind: refine, start: [4.844445533376672, -1.6124995598690839],
-     maxiter: 300}
-  - {name: floquet, kind: floquet, from: refine}
-  - name: design
-    kind: design
-    from: floquet
-    parameters:
-      segment2_torque: {start: 0.30, stop: 0.34, num: 2}
-      segment3_torque: {start: -0.42, stop: -0.38, num: 2}
-    refine: {starts: 1, max_evaluations: 12}
-    verify: {cycles: 20, decay_cycles: 8, basin_num: 3, basin_cycles: 5}
-    screen: {candidates: 3, runs: 6, max_cycles: 8, seed: 3,
-             noise: {timing: 1.0e-3, parameters: {mass: 0.01}}}
+SEGMENTS = design_b_study("segment_design") + """\
   - {name: design_survival, kind: survival, from: design, controller: {tick: 0.001},
      runs: 4, max_cycles: 10, seed: 30, min_advance: 0.5761}
 """
