@@ -137,3 +137,16 @@ def test_with_start_moves_the_robot_and_checks_it():
     assert moved.start == Start((4.25, 2.5), "B") and moved.regions == w.regions
     with pytest.raises(ValueError, match="not on steel"):
         w.with_start((2.5, 1.5), "A")
+
+
+def test_a_wall_goes_to_plain_data_and_back_unchanged():
+    import json
+    wall = Wall((Region(((0, 0), (6, 0), (6, 3), (0, 3)),
+                        (((2.5, 0.6), (3.5, 0.6), (3.5, 2.4), (2.5, 2.4)),)),
+                 Region(((7, 0), (9, 0), (9, 1), (7, 1)))),
+                Start((0.5, 1.5), "B"), Goal((5.5, 1.5), 0.2), 0.05)
+    again = Wall.from_dict(json.loads(json.dumps(wall.to_dict())))
+    assert again == wall
+    points = np.array([[3.0, 1.0], [2.0, 1.0], [8.0, 0.5], [6.5, 0.5]])
+    assert again.can_catch(points).tolist() == wall.can_catch(points).tolist() == \
+        [False, True, True, False]

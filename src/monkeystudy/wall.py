@@ -309,6 +309,27 @@ class Wall:
         to be on steel)."""
         return replace(self, start=Start(position, attached))
 
+    def to_dict(self) -> dict:
+        """The wall as plain lists and numbers (JSON), in the shape of a study's ``wall:``
+        block; :meth:`from_dict` reads it back to an equal wall."""
+        return {"regions": [{"outline": [list(v) for v in r.outline],
+                             "holes": [[list(v) for v in h] for h in r.holes]}
+                            for r in self.regions],
+                "start": {"position": list(self.start.position),
+                          "attached": self.start.attached},
+                "goal": {"position": list(self.goal.position), "radius": self.goal.radius},
+                "margin": self.margin}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "Wall":
+        """The wall of :meth:`to_dict`'s (or a ``wall:`` block's) plain data."""
+        return cls(tuple(Region(tuple(map(tuple, r["outline"])),
+                                tuple(tuple(map(tuple, h)) for h in r.get("holes", ())))
+                         for r in data["regions"]),
+                   Start(tuple(data["start"]["position"]), data["start"].get("attached", "A")),
+                   Goal(tuple(data["goal"]["position"]), data["goal"]["radius"]),
+                   data.get("margin", 0.0))
+
 
 __all__ = ["BOUNDARY_TOL", "END_NAMES", "Goal", "Region", "Start", "Wall", "end_name",
            "simple_polygon"]
