@@ -258,3 +258,25 @@ def test_the_planner_refuses_an_inconsistent_atlas():
         plan_route(plate_wall(), [WALK], start_gait="run")
     with pytest.raises(ValueError, match="passed 10 nodes"):
         plan_route(plate_wall(), ATLAS, SWITCHES, max_nodes=10)
+
+
+def test_a_switch_step_runs_once_between_the_gaits_its_transitions_name():
+    from dataclasses import replace
+    from monkeystudy.analysis.route import AtlasGait, Transition, plan_route
+    from monkeystudy.wall import Goal, Region, Start, Wall
+    wall = Wall((Region(((-1.0, -1.0), (10.0, -1.0), (10.0, 1.0), (-1.0, 1.0))),),
+                Start((0.0, 0.0)), Goal((4.0, -0.1), 0.01))
+    level = AtlasGait("level", 1.0, 0.0, 1.0, 1.0, 0.0, 0.001)
+    down = AtlasGait("down", 1.0, -0.1, 1.0, 1.0, 0.0, 0.001)
+    switch = AtlasGait("level to down", 1.0, -0.1, 1.0, 1.0, 0.0, 0.001, repeats=False)
+    moves = [Transition("level", "level to down", 0.0, 0.001),
+             Transition("level to down", "down", 0.0, 0.001)]
+    route = plan_route(wall, [level, down, switch], moves, mirror=False)
+    assert [s.gait for s in route.steps] == ["level"] * 3 + ["level to down"]
+    # the switch step alone would get there from rest in one repeated gait: it may not
+    with pytest.raises(NoRoute):
+        plan_route(replace(wall, goal=Goal((4.0, -0.4), 0.01)), [switch], mirror=False)
+    # and it never follows itself: down 0.2 m takes the switch and then the gait down
+    route = plan_route(replace(wall, goal=Goal((4.0, -0.2), 0.01)), [level, down, switch],
+                       moves, mirror=False)
+    assert [s.gait for s in route.steps] == ["level"] * 2 + ["level to down", "down"]

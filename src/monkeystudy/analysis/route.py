@@ -7,7 +7,8 @@ start to the goal (docs/route.md).
   :meth:`AtlasGait.mirrored` is the same gait walked the other way.
 * :class:`Transition` - a switch from one gait to another between two steps, with its own
   failure probability and extra time and energy; a switch the atlas lists no transition for
-  is not allowed (a gait followed by itself always is: its cycle closes on its own section).
+  is not allowed (a gait followed by itself always is: its cycle closes on its own section;
+  a switch step, ``repeats=False``, never follows itself nor starts from rest).
 * :func:`plan_route` - the least-cost route (A* over a lattice graph, networkx), as a
   :class:`Route`: the steps and their catch points, the expected time and energy, the
   probability of arriving and its lower bound; :func:`replan` - the same from any sensed
@@ -107,6 +108,10 @@ class AtlasGait:
         same gait from either magnet).
     swaps : bool
         The magnets swap: after the step the other end is attached (a brachiation step).
+    repeats : bool
+        The step may follow itself (a gait's cycle, from its own fixed point). False: a
+        switch step, designed to take the robot from one gait to another, which runs once,
+        after a gait a :class:`Transition` names and never first from rest.
     """
 
     name: str
@@ -118,6 +123,7 @@ class AtlasGait:
     p_fail_upper: float
     attached: str | None = None
     swaps: bool = True
+    repeats: bool = True
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
@@ -458,6 +464,8 @@ def route_graph(wall: Wall, atlas: Sequence[AtlasGait], transitions: Sequence[Tr
             for h, gait in enumerate(gaits):
                 if not gait.starts_from(end):
                     continue
+                if not gait.repeats and (g == AT_REST or g == h):
+                    continue     # a switch step runs once, from the gait it leaves
                 switch = g != AT_REST and g != h
                 if switch and (g, h) not in moves:
                     continue

@@ -41,7 +41,9 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..controllers import Integrator, SequenceGait, kernel_method, settings_vector
+from ..controllers import (
+    Integrator, Segment, SequenceGait, kernel_method, settings_vector, torques_from_motor_frame,
+)
 from ..kernel import layout as L
 from ..kernel.noise import PER_RUN_CYCLE, standard_draw
 from ..kernel.survival import LATENCY_SLOT, CYCLE_LOG_ROWS
@@ -50,7 +52,7 @@ from ..robot import Robot
 from ..simulation import as_robot, energies, status_name
 from ..wall import Wall
 from .route import AtlasGait, NoRoute, Route, Transition, mirrored_name, replan
-from .sections import cycle_section_state
+from .sections import cycle_return_map, cycle_section_state
 from .survival import Noise, noise_roles, run_robot
 
 #: how a run that arrived is named in ``failure``
@@ -189,6 +191,124 @@ def _energy_change(log: np.ndarray) -> tuple[float, float]:
     return float(log[-1, L.L_E_AFTER]), lost
 
 
+@dataclass(frozen=True)
+class StepResult:
+    """One step a :class:`Walker` took.
+
+    Attributes
+    ----------
+    status : int
+        The cycle's status (``ST_OK``: it caught and returned to its section).
+    position : ndarray (2,)
+        The attached magnet where the step ended [m] (the new one after a catch).
+    attached : str
+        The end attached there (``A`` or ``B``).
+    catch_angles : tuple of float
+        ``(theta1, theta2)`` [rad] at the catch, in the frame of the magnet the robot hung
+        from (NaN without a catch).
+    duration : float
+        The step's time [s].
+    energy : float
+        The motor's net work over the step [J] (NaN when it failed).
+    """
+
+    status: int
+    position: np.ndarray
+    attached: str
+    catch_angles: tuple
+    duration: float
+    energy: float
+
+
+class Walker:
+    """One run's robot on the wall: its build, its actuation latency and its hybrid state,
+    stepping gait after gait.
+
+    Step ``k`` of run ``run`` has the noise of cycle ``k`` of survival run ``run``
+    (:mod:`monkeystudy.kernel.walk`); the build and the latency are the run's.
+
+    Parameters
+    ----------
+    gait : WalkGait
+        The gait the robot starts in: it starts on its section at its fixed point, plus the
+        run's initial-state noise.
+    position : sequence of float
+        The attached magnet at the start [m].
+    attached : {"A", "B"}
+        The end attached there.
+    """
+
+    def __init__(self, gait: WalkGait, position, attached: str = "A", *,
+                 robot: Robot | str = "seed2009", integrator: Integrator = Integrator(),
+                 tick: float = 0.0, noise: Noise = Noise(), seed: int = 0, run: int = 0):
+        self.robot = as_robot(robot)
+        self.noise_vector = noise.vector()
+        self.seed, self.run, self.tick = int(seed), int(run), float(tick)
+        self.params = run_robot(self.robot, noise, self.seed, self.run).params()
+        v = self.noise_vector
+        self.latency = 0.0
+        if v[L.NZ_LATENCY] > 0.0:    # as a survival run draws it
+            self.latency = v[L.NZ_LATENCY] * 0.5 * (
+                standard_draw(self.seed, self.run, PER_RUN_CYCLE, LATENCY_SLOT, True) + 1.0)
+        self.settings = settings_vector(integrator, tick=self.tick)
+        self.programs: dict[str, tuple] = {}
+        x, y = (float(c) for c in position)
+        hyb = cycle_section_state(gait.gait, gait.z, height=y)
+        hyb[L.X] = x
+        hyb[L.H_FLIPPED] = 0.0 if attached == "A" else 1.0
+        uniform = v[L.NZ_UNIFORM] > 0.0
+        for i, source in ((L.TH2, L.NZ_THETA2), (L.DTH1, L.NZ_DTHETA1),
+                          (L.DTH2, L.NZ_DTHETA2)):
+            if v[source] > 0.0:
+                hyb[i] += v[source] * standard_draw(self.seed, self.run, PER_RUN_CYCLE,
+                                                    i - L.TH2, uniform)
+        self.hyb = hyb
+        kinetic, potential = energies(self.params, hyb[None, :8],
+                                      np.array([int(hyb[L.H_FLIPPED] > 0.5)]))
+        self.energy_now = float(kinetic[0] + potential[0])
+        self.steps = 0
+
+    @property
+    def position(self) -> np.ndarray:
+        """The attached magnet [m]."""
+        return np.array([self.hyb[L.X], self.hyb[L.Y]], float)
+
+    @property
+    def attached(self) -> str:
+        return "B" if self.hyb[L.H_FLIPPED] > 0.5 else "A"
+
+    @property
+    def time(self) -> float:
+        """Since the start [s]."""
+        return float(self.hyb[L.H_T])
+
+    def step(self, gait: WalkGait, height: float) -> StepResult:
+        """One cycle of ``gait`` from where the robot is, its catch at the world ``height``
+        [m] (the guard's, as the robot judges it)."""
+        if gait.name not in self.programs:
+            self.programs[gait.name] = gait.program(self.tick)
+        prog, obs = self.programs[gait.name]
+        cycle = with_catch_height(prog, height)
+        hyb = self.hyb
+        hyb[L.H_SEG] = 0.0
+        t0 = float(hyb[L.H_T])
+        counts = np.zeros(L.N_COUNTS, dtype=np.int64)
+        log = np.empty((CYCLE_LOG_ROWS, L.N_LOG_COLS))
+        method = kernel_method(self.settings, cycle, hyb[L.H_PHASE])
+        status = int(walk_step(method, self.params, cycle, obs, self.settings, hyb,
+                               noise_roles(cycle), self.noise_vector, self.seed, self.run,
+                               self.steps, float(self.latency), counts, log))
+        self.steps += 1
+        rows = log[:int(counts[L.K_LOG])]
+        energy = math.nan
+        if status == L.ST_OK:
+            e_end, lost = _energy_change(rows)
+            energy = e_end - self.energy_now + lost
+            self.energy_now = e_end
+        return StepResult(status, self.position, self.attached, _catch_state(rows, cycle),
+                          float(hyb[L.H_T]) - t0, energy)
+
+
 def walk_route(wall: Wall, gaits: Sequence[WalkGait], atlas: Sequence[AtlasGait],
                transitions: Sequence[Transition] = (), *, robot: Robot | str = "seed2009",
                integrator: Integrator = Integrator(), tick: float = 0.0,
@@ -234,33 +354,22 @@ def walk_route(wall: Wall, gaits: Sequence[WalkGait], atlas: Sequence[AtlasGait]
         raise ValueError(f"no gait to walk for atlas gait(s) {missing}")
     plan = dict(plan or {})
     plan["mirror"] = False
-    vector = noise.vector()
-    uniform = vector[L.NZ_UNIFORM] > 0.0
-    par = run_robot(robot, noise, seed, run).params()
     lengths = (robot.link1.length, robot.link2.length)
-    latency = 0.0
-    if vector[L.NZ_LATENCY] > 0.0:    # as a survival run draws it
-        latency = vector[L.NZ_LATENCY] * 0.5 * (
-            standard_draw(seed, run, PER_RUN_CYCLE, LATENCY_SLOT, True) + 1.0)
-    programs = {g.name: g.program(tick) for g in gaits}
-    settings = settings_vector(integrator, tick=tick)
-
     true_pos = np.array(wall.start.position, float)
     estimate = true_pos.copy() if sensor is None else \
         np.asarray(sensor.initial(true_pos, sensor.draws(seed, run, -1)), float)
     attached = wall.start.attached
     catches, sensed, names = [], [], []
-    hyb = None
+    walker: Walker | None = None
     current = None
     energy = 0.0
-    e_now = math.nan
 
     def ended(arrived, failure, where=(math.nan, math.nan)):
+        t = walker.time if walker is not None and catches else 0.0
         return Walk(bool(arrived), failure, tuple(names),
                     np.array(catches, float).reshape(-1, 2),
-                    np.array(sensed, float).reshape(-1, 2), t_last, energy, tuple(where))
+                    np.array(sensed, float).reshape(-1, 2), t, energy, tuple(where))
 
-    t_last = 0.0
     for step in range(int(max_steps)):
         # the planned heights are the world's staircase: the estimate's row of it
         row = wall.start.position[1] + height_step * round(
@@ -271,55 +380,194 @@ def walk_route(wall: Wall, gaits: Sequence[WalkGait], atlas: Sequence[AtlasGait]
         except (NoRoute, ValueError):     # no route, or the row's point is off steel
             return ended(False, NO_ROUTE, tuple(true_pos))
         first = route.steps[0]
-        walker = by_name[first.gait]
-        prog, obs = programs[walker.name]
-        if hyb is None:     # the walk starts on this gait's section, at its fixed point
-            hyb = cycle_section_state(walker.gait, walker.z, height=float(true_pos[1]))
-            hyb[L.X] = true_pos[0]
-            hyb[L.H_FLIPPED] = 0.0 if attached == "A" else 1.0
-            for i, source in ((L.TH2, L.NZ_THETA2), (L.DTH1, L.NZ_DTHETA1),
-                              (L.DTH2, L.NZ_DTHETA2)):
-                if vector[source] > 0.0:
-                    hyb[i] += vector[source] * standard_draw(seed, run, PER_RUN_CYCLE,
-                                                             i - L.TH2, uniform)
-            e_now = _kernel_energy(robot, par, hyb)
-        hyb[L.H_SEG] = 0.0
+        gait = by_name[first.gait]
+        if walker is None:     # the walk starts on this gait's section, at its fixed point
+            walker = Walker(gait, true_pos, attached, robot=robot, integrator=integrator,
+                            tick=tick, noise=noise, seed=seed, run=run)
         # the planned catch is in the robot's belief; its height guard reads the belief
-        height = float(first.catch[1]) - float(estimate[1] - true_pos[1])
-        cycle = with_catch_height(prog, height)
-        counts = np.zeros(L.N_COUNTS, dtype=np.int64)
-        log = np.empty((CYCLE_LOG_ROWS, L.N_LOG_COLS))
-        method = kernel_method(settings, cycle, hyb[L.H_PHASE])
-        status = walk_step(method, par, cycle, obs, settings, hyb, noise_roles(cycle),
-                           vector, int(seed), int(run), int(step), float(latency), counts,
-                           log)
-        names.append(walker.name)
-        n_log = int(counts[L.K_LOG])
-        if status != L.ST_OK:
-            return ended(False, status_name(int(status)),
-                         (float(hyb[L.X]), float(hyb[L.Y])))
-        rows = log[:n_log]
-        e_end, lost = _energy_change(rows)
-        energy += e_end - e_now + lost
-        e_now = e_end
-        catch_state = _catch_state(rows, cycle)
-        before = true_pos
-        true_pos = np.array([hyb[L.X], hyb[L.Y]], float)
-        attached = "B" if hyb[L.H_FLIPPED] > 0.5 else "A"
+        result = walker.step(gait, float(first.catch[1]) - float(estimate[1] - true_pos[1]))
+        names.append(gait.name)
+        if result.status != L.ST_OK:
+            return ended(False, status_name(result.status), tuple(result.position))
+        energy += result.energy
+        before, true_pos, attached = true_pos, result.position, result.attached
         if not wall.can_catch(true_pos)[0]:
             return ended(False, OFF_STEEL, tuple(true_pos))
         estimate = true_pos.copy() if sensor is None else np.asarray(
-            sensor.update(estimate, before, true_pos, catch_state, lengths,
+            sensor.update(estimate, before, true_pos, result.catch_angles, lengths,
                           sensor.draws(seed, run, step)), float)
         catches.append(true_pos.copy())
         sensed.append(estimate.copy())
-        current = walker.name
-        t_last = float(hyb[L.H_T])
+        current = gait.name
         if wall.goal.distance(estimate)[0] == 0.0:
             arrived = wall.goal.distance(true_pos)[0] == 0.0
             return ended(arrived, ARRIVED if arrived else MISSED_GOAL,
                          (math.nan, math.nan) if arrived else tuple(true_pos))
     return ended(False, MAX_STEPS, tuple(true_pos))
+
+
+@dataclass(frozen=True)
+class SwitchRuns:
+    """Runs of a switch from one gait to another (:func:`switch_runs`).
+
+    Attributes
+    ----------
+    failed : ndarray of bool
+        Per run: a step failed.
+    failed_step : ndarray of int
+        The step that failed (from 0: the first of the gait before; -1 when none did).
+    """
+
+    failed: np.ndarray
+    failed_step: np.ndarray
+
+
+def switch_runs(before: WalkGait, after: WalkGait, runs, *, rise_before: float,
+                rise_after: float, advance_before: float, advance_after: float,
+                steps_before: int = 2, steps_after: int = 3, min_advance: float = 0.5,
+                height_tolerance: float = math.inf, robot: Robot | str = "seed2009",
+                integrator: Integrator = Integrator(), tick: float = 0.0,
+                noise: Noise = Noise(), seed: int = 0) -> SwitchRuns:
+    """Whether a switch from ``before`` to ``after`` holds, run by run: ``steps_before``
+    steps of ``before`` from its fixed point (under the run's noise, so the switch comes from
+    where that gait's noisy steps leave the robot), then ``steps_after`` steps of ``after``,
+    each catch aimed at the staircase (``rise_before`` [m] per step, then ``rise_after``). It
+    is measured, not assumed: the state the first gait leaves need not lie in the second's
+    basin.
+
+    A step fails when its cycle stops with a status other than ok, when it advances less
+    than ``min_advance`` times its gait's step (``advance_before``, ``advance_after`` [m],
+    signed: the way each gait travels), or when its catch lands more than
+    ``height_tolerance`` [m] from its planned height.
+    """
+    runs = np.asarray(runs, dtype=np.int64).ravel()
+    failed = np.zeros(len(runs), bool)
+    failed_step = np.full(len(runs), -1, np.int64)
+    plan = [(before, rise_before, advance_before)] * int(steps_before) + \
+        [(after, rise_after, advance_after)] * int(steps_after)
+    for i, run in enumerate(runs):
+        walker = Walker(before, (0.0, 0.0), "A", robot=robot, integrator=integrator,
+                        tick=tick, noise=noise, seed=seed, run=int(run))
+        height = 0.0
+        for k, (gait, rise, advance) in enumerate(plan):
+            height += rise
+            x0 = walker.position[0]
+            r = walker.step(gait, height)
+            moved = math.copysign(1.0, advance) * (r.position[0] - x0)
+            if (r.status != L.ST_OK or not moved >= min_advance * abs(advance)
+                    or not abs(r.position[1] - height) <= height_tolerance):
+                failed[i], failed_step[i] = True, k
+                break
+    return SwitchRuns(failed, failed_step)
+
+
+@dataclass(frozen=True)
+class SwitchDesign:
+    """A switch step (:func:`design_switch`).
+
+    Attributes
+    ----------
+    gait : SequenceGait
+        The step, torques in the kernel's frame.
+    spec : dict
+        The same as a study's ``gait:`` block (torques in the motor frame).
+    catch_torque, after_torque : float
+        The motor torque [N m] from the section to the catch, and after the catch.
+    after_time : float
+        How long the second torque acts after the catch [s].
+    rise : float
+        The catch's height above the attached magnet's planned height [m].
+    end : ndarray (3,)
+        The section state the step reaches from the first gait's fixed point.
+    residual : float
+        Its distance from the second gait's fixed point (2-norm, ``theta2`` wrapped)
+        [rad, rad s-1].
+    """
+
+    gait: SequenceGait
+    spec: dict
+    catch_torque: float
+    after_torque: float
+    after_time: float
+    rise: float
+    end: np.ndarray
+    residual: float
+
+
+def switch_spec(catch_torque: float, after_torque: float, after_time: float,
+                rise: float) -> dict:
+    """The ``gait:`` block of a switch step: from the section (link 1 vertical, either way)
+    the motor torque ``catch_torque`` [N m] until the free magnet rises through ``rise`` [m]
+    above the attached one's planned height, where it catches (the clock restarting there);
+    the magnets swap and ``after_torque`` acts for ``after_time`` [s]; then the motor is off
+    to the next section. Torques in the motor frame."""
+    return {"kind": "sequence", "torque_frame": "motor",
+            "section": {"theta1": 0.0, "direction": "either"},
+            "segments": [
+                {"until": "free_end_y", "value": float(rise), "direction": "rising",
+                 "torque": float(catch_torque), "clock": "reset"},
+                {"until": "time", "value": float(after_time), "magnets": "swap",
+                 "torque": float(after_torque)}]}
+
+
+def design_switch(before: WalkGait, after: WalkGait, *, rise: float, torque_limit: float,
+                  robot: Robot | str = "seed2009", integrator: Integrator = Integrator(),
+                  max_time: float = 1.5, tol: float = 1e-9) -> SwitchDesign:
+    """A one-step switch from ``before``'s cycle into ``after``'s: the step of
+    :func:`switch_spec` whose three numbers (two motor torques within ``torque_limit``
+    [N m], the second's duration up to ``max_time`` [s]) take ``before``'s fixed point to
+    ``after``'s on the section, by bounded least squares (scipy) from a grid of starts.
+
+    It stops at the first start that meets ``after``'s fixed point to ``tol`` (2-norm);
+    otherwise it returns the least residual found: a step that lands near ``after``'s
+    fixed point, inside its basin or not (:func:`switch_runs` measures that).
+    """
+    import itertools
+
+    from scipy.optimize import least_squares
+
+    robot = as_robot(robot)
+    limit = float(torque_limit)
+    target = np.asarray(after.z, float)
+
+    def residual(p):
+        z, status = cycle_return_map(before.z, switch_gait(*p, rise), robot=robot,
+                                     integrator=integrator)
+        if status != L.ST_OK:
+            return np.full(3, 10.0)     # no cycle: far from any fixed point
+        d = np.asarray(z, float) - target
+        d[0] = (d[0] + math.pi) % (2.0 * math.pi) - math.pi
+        return d
+
+    best = None
+    # the residual has many local minima: a grid of starts, the first that meets tol wins
+    grid = tuple(f * limit for f in (-0.8, -0.5, -0.2, 0.2, 0.5, 0.8))
+    for x0 in itertools.product(grid, grid, (0.15, 0.35, 0.6)):
+        fit = least_squares(residual, x0, bounds=([-limit, -limit, 0.02],
+                                                  [limit, limit, float(max_time)]),
+                            xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=200)
+        if best is None or fit.cost < best.cost:
+            best = fit
+        if math.sqrt(2.0 * best.cost) <= tol:
+            break
+    catch_torque, after_torque, after_time = (float(v) for v in best.x)
+    d = residual(best.x)
+    return SwitchDesign(switch_gait(catch_torque, after_torque, after_time, rise),
+                        switch_spec(catch_torque, after_torque, after_time, rise),
+                        catch_torque, after_torque, after_time, float(rise), target + d,
+                        float(np.linalg.norm(d)))
+
+
+def switch_gait(catch_torque: float, after_torque: float, after_time: float,
+                rise: float) -> SequenceGait:
+    """The switch step of :func:`switch_spec` as the kernel runs it (the torque after the
+    swap in the new attached end's frame: the motor's torque negated,
+    :func:`~monkeystudy.controllers.torques_from_motor_frame`)."""
+    return torques_from_motor_frame(SequenceGait(
+        [Segment("free_end_y", value=float(rise), direction="rising",
+                 torque=float(catch_torque), clock="reset"),
+         Segment("time", value=float(after_time), magnets="swap", torque=float(after_torque))],
+        section_theta1=0.0, section_direction="either"))
 
 
 def _catch_state(rows: np.ndarray, prog: np.ndarray) -> tuple[float, float]:
@@ -333,10 +581,6 @@ def _catch_state(rows: np.ndarray, prog: np.ndarray) -> tuple[float, float]:
     return math.nan, math.nan
 
 
-def _kernel_energy(robot: Robot, par: np.ndarray, hyb: np.ndarray) -> float:
-    kinetic, potential = energies(par, hyb[None, :8], np.array([int(hyb[L.H_FLIPPED] > 0.5)]))
-    return float(kinetic[0] + potential[0])
-
-
-__all__ = ["ARRIVED", "MAX_STEPS", "MISSED_GOAL", "NO_ROUTE", "OFF_STEEL", "Walk", "WalkGait",
-           "catch_rows", "mirrored_gait", "walk_route", "with_catch_height"]
+__all__ = ["ARRIVED", "MAX_STEPS", "MISSED_GOAL", "NO_ROUTE", "OFF_STEEL", "StepResult",
+           "SwitchDesign", "SwitchRuns", "Walk", "WalkGait", "Walker", "catch_rows",
+           "design_switch", "mirrored_gait", "switch_gait", "switch_runs", "switch_spec", "walk_route", "with_catch_height"]
