@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import json
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -299,6 +301,16 @@ def test_draws_depend_only_on_seed_run_and_catch():
     c = first[(SEED, 1, 0)]
     assert a.encoder_bias != c.encoder_bias and a.encoder != c.encoder
     assert sensor_draws(SEED + 1, 0, 0) != a
+
+
+def test_another_process_draws_the_same_numbers():
+    """A worker process gets the same draws for the same keys as this one."""
+    code = ("from monkeystudy.analysis.sensing import sensor_draws\n"
+            "print(repr([sensor_draws(5, r, c) for r, c in ((0, 0), (3, 17), (2**40, 9))]))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, timeout=120).stdout.strip()
+    here = [sensor_draws(5, r, c) for r, c in ((0, 0), (3, 17), (2**40, 9))]
+    assert out == repr(here)
 
 
 def test_draws_are_standard_normals():

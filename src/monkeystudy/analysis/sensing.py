@@ -67,7 +67,8 @@ _UINT64 = 2 ** 64
 
 @dataclass(frozen=True)
 class SensorDraws:
-    """Standard normal draws of one catch of one run, and the run's own.
+    """Standard normal draws of one catch of one run, and the run's own (:func:`sensor_draws`;
+    each 0 by default: no error).
 
     Parameters
     ----------
