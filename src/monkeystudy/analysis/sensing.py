@@ -286,8 +286,8 @@ class Odometry:
     angle_bias : float
         The joint encoder's zero offset [rad]: standard deviation of the offset each run draws
         once (``angle_bias * SensorDraws.encoder_bias``), the same for every catch of the run.
-        It adds to the physical joint angle, so to the frame's ``theta2`` with A attached and
-        from it with B attached.
+        It adds to the physical joint angle: to the frame's ``theta2`` with A attached, and
+        is subtracted from it with B attached (``theta2' = -theta2``).
     encoder_resolution : float
         The encoder's step [rad]: its reading (offset and noise included) is rounded to the
         nearest multiple; 0 for none.
