@@ -59,13 +59,11 @@ class _BiasedSensor:
     def __init__(self, offset):
         self.offset = np.asarray(offset, float)
 
-    def draws(self, seed, run, catch):
-        return None
-
     def initial(self, true_start, draws):
         return np.asarray(true_start, float) + self.offset
 
-    def update(self, estimate, true_before, true_after, theta_at_catch, lengths, draws):
+    def update(self, estimate, true_before, true_after, theta_at_catch, draws, *, lengths,
+               attached):
         return np.asarray(true_after, float) + self.offset
 
 
@@ -200,3 +198,21 @@ def test_a_walk_gait_needs_a_world_height_catch_and_a_swap():
         walk_route(plate(), [level_gait()], [atlas_entry()], height_step=0.0)
     with pytest.raises(ValueError, match="no gait to walk"):
         walk_route(plate(), [level_gait()], [atlas_entry("other")])
+
+
+def test_dead_reckoning_from_the_catch_angles_follows_the_walk_it_senses():
+    # odometry without error adds the step vectors of the angles at each catch: the walker
+    # passes the kernel's angles and the end it hung from, so its estimate is the truth
+    from monkeystudy.analysis.sensing import Odometry
+    w = walk_route(plate(), [level_gait()], [atlas_entry()], integrator=INTEGRATOR,
+                   max_steps=4, sensor=Odometry(), plan={"resolution": 0.001})
+    assert len(w.catches) == 4
+    np.testing.assert_allclose(w.sensed, w.catches, rtol=0, atol=1e-9)
+    # with encoder noise the estimate wanders from the truth, and the catches follow it
+    noisy = walk_route(plate(), [level_gait()], [atlas_entry()], integrator=INTEGRATOR,
+                       max_steps=4, sensor=Odometry(angle_noise=2e-3), seed=3,
+                       plan={"resolution": 0.001})
+    err = noisy.sensed - noisy.catches
+    assert 1e-5 < np.abs(err).max() < 0.01
+    # a catch fires where the estimate says the planned height is
+    np.testing.assert_allclose(noisy.catches[1:, 1] + err[:-1, 1], 0.0, atol=1e-9)

@@ -53,6 +53,7 @@ from ..simulation import as_robot, energies, status_name
 from ..wall import Wall
 from .route import AtlasGait, NoRoute, Route, Transition, mirrored_name, replan
 from .sections import cycle_return_map, cycle_section_state
+from .sensing import Exact, sensor_draws
 from .survival import Noise, noise_roles, run_robot
 
 #: how a run that arrived is named in ``failure``
@@ -290,6 +291,7 @@ class Walker:
         prog, obs = self.programs[gait.name]
         cycle = with_catch_height(prog, height)
         hyb = self.hyb
+        flipped = float(hyb[L.H_FLIPPED])
         hyb[L.H_SEG] = 0.0
         t0 = float(hyb[L.H_T])
         counts = np.zeros(L.N_COUNTS, dtype=np.int64)
@@ -305,7 +307,7 @@ class Walker:
             e_end, lost = _energy_change(rows)
             energy = e_end - self.energy_now + lost
             self.energy_now = e_end
-        return StepResult(status, self.position, self.attached, _catch_state(rows, cycle),
+        return StepResult(status, self.position, self.attached, _catch_state(rows, cycle, flipped),
                           float(hyb[L.H_T]) - t0, energy)
 
 
@@ -329,8 +331,9 @@ def walk_route(wall: Wall, gaits: Sequence[WalkGait], atlas: Sequence[AtlasGait]
     noise : Noise
         The noise of every step; its draws keyed by ``(seed, run, step)``.
     sensor
-        How the robot estimates the attached magnet (:mod:`monkeystudy.analysis.sensing`;
-        None: it knows it exactly).
+        How the robot estimates the attached magnet (a model of
+        :mod:`monkeystudy.analysis.sensing`, its draws keyed by ``(seed, run, catch)``;
+        None: :class:`~monkeystudy.analysis.sensing.Exact`, it knows it exactly).
     max_steps : int
         Steps after which a run stops (:data:`MAX_STEPS`).
     height_step : float
@@ -356,8 +359,9 @@ def walk_route(wall: Wall, gaits: Sequence[WalkGait], atlas: Sequence[AtlasGait]
     plan["mirror"] = False
     lengths = (robot.link1.length, robot.link2.length)
     true_pos = np.array(wall.start.position, float)
-    estimate = true_pos.copy() if sensor is None else \
-        np.asarray(sensor.initial(true_pos, sensor.draws(seed, run, -1)), float)
+    if sensor is None:
+        sensor = Exact()
+    estimate = np.asarray(sensor.initial(true_pos, sensor_draws(seed, run, 0)), float)
     attached = wall.start.attached
     catches, sensed, names = [], [], []
     walker: Walker | None = None
@@ -385,6 +389,7 @@ def walk_route(wall: Wall, gaits: Sequence[WalkGait], atlas: Sequence[AtlasGait]
             walker = Walker(gait, true_pos, attached, robot=robot, integrator=integrator,
                             tick=tick, noise=noise, seed=seed, run=run)
         # the planned catch is in the robot's belief; its height guard reads the belief
+        hung_from = walker.attached
         result = walker.step(gait, float(first.catch[1]) - float(estimate[1] - true_pos[1]))
         names.append(gait.name)
         if result.status != L.ST_OK:
@@ -393,9 +398,9 @@ def walk_route(wall: Wall, gaits: Sequence[WalkGait], atlas: Sequence[AtlasGait]
         before, true_pos, attached = true_pos, result.position, result.attached
         if not wall.can_catch(true_pos)[0]:
             return ended(False, OFF_STEEL, tuple(true_pos))
-        estimate = true_pos.copy() if sensor is None else np.asarray(
-            sensor.update(estimate, before, true_pos, result.catch_angles, lengths,
-                          sensor.draws(seed, run, step)), float)
+        estimate = np.asarray(sensor.update(
+            estimate, before, true_pos, result.catch_angles, sensor_draws(seed, run, step),
+            lengths=lengths, attached=hung_from), float)
         catches.append(true_pos.copy())
         sensed.append(estimate.copy())
         current = gait.name
@@ -570,14 +575,19 @@ def switch_gait(catch_torque: float, after_torque: float, after_time: float,
         section_theta1=0.0, section_direction="either"))
 
 
-def _catch_state(rows: np.ndarray, prog: np.ndarray) -> tuple[float, float]:
-    """``(theta1, theta2)`` [rad] at the catch, in the frame of the magnet the robot hung from:
-    the state logged where the catch row exits."""
+def _catch_state(rows: np.ndarray, prog: np.ndarray, flipped: float) -> tuple[float, float]:
+    """``(theta1, theta2)`` [rad] at the catch, in the frame of the magnet the robot hung from
+    (``flipped``: that frame's flag): the state logged where the catch row exits, taken back
+    through the flip when the log states it after the swap (docs/model.md section 3:
+    ``theta1' = pi + theta1 + theta2``, ``theta2' = -theta2``)."""
     catch = set(catch_rows(prog).tolist())
     for r in rows:
         if r[L.L_KIND] == L.LOG_SEGMENT and int(r[L.L_ID]) in catch:
-            s = r[L.L_STATE:L.L_STATE + 8]
-            return float(s[L.TH1]), float(s[L.TH2])
+            th1, th2 = float(r[L.L_STATE + L.TH1]), float(r[L.L_STATE + L.TH2])
+            if r[L.L_FLIPPED] != flipped:
+                th2 = -th2
+                th1 = (th1 - th2 - 2.0 * math.pi) % (2.0 * math.pi) - math.pi
+            return th1, th2
     return math.nan, math.nan
 
 
