@@ -257,3 +257,19 @@ def test_a_backdrop_leaves_the_stability_animation_as_it_was(ds, tmp_path, monke
 def test_the_wall_attribute_reads_back(ds):
     wall = route_wall(ds)
     assert wall.to_dict() == json.loads(ds.attrs["wall"])
+
+
+@pytest.mark.parametrize("plot", [plot_route_wall, plot_route_walks, plot_gait_atlas,
+                                  plot_route_outcomes])
+def test_every_figure_fits_in_its_frame(ds, plot):
+    """No layout warning, and every artist (titles, legends, labels) inside the figure."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        fig = plot(ds)
+        fig.canvas.draw()
+    drawn = fig.get_tightbbox(fig.canvas.get_renderer())
+    width, height = fig.get_size_inches()
+    assert drawn.x0 >= -0.02 and drawn.x1 <= width + 0.02, (drawn, width)
+    assert drawn.y0 >= -0.02 and drawn.y1 <= height + 0.02, (drawn, height)
