@@ -27,6 +27,9 @@ from .kinds.hardware_replay import (  # noqa: F401
     plot_held_out, plot_parameters, plot_residuals, plot_swings,
 )
 from .kinds.floquet import plot_floquet_multipliers  # noqa: F401
+from .kinds.route import (  # noqa: F401
+    plot_gait_atlas, plot_route_outcomes, plot_route_walks, plot_route_wall,
+)
 from .kinds.shoot import plot_shoot_convergence  # noqa: F401
 from .kinds.stress import plot_stress  # noqa: F401
 from .kinds.survival import (  # noqa: F401

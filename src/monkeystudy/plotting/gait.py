@@ -558,8 +558,8 @@ def first_cycles(stab, traj: Trajectory, cycles: int) -> Trajectory:
 
 def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_frames: int = 300,
                     dpi: float = 150.0, window: float | None = None, gait=None,
-                    fmt: str | None = None, progress=None, cycles: int | None = None
-                    ) -> list[Path]:
+                    fmt: str | None = None, progress=None, cycles: int | None = None,
+                    backdrop=None, view=None, title: str | None = None) -> list[Path]:
     """Animate the whole run of a stability dataset; write ``base.mp4`` (``base.gif`` when
     there is no ffmpeg, or with ``fmt="gif"``). The frames are 6.4 x 4 in at ``dpi``: 960 x
     600 pixels by default.
@@ -572,6 +572,13 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
     height and the points where a magnet attached are drawn fixed in the world; on a ladder
     (a gait that catches bars, :func:`ladder_bars`) the bars instead, and the attached end's
     hook over its bar. ``cycles``: the first that many cycles only (:func:`first_cycles`).
+
+    ``backdrop(ax)``, when given, draws what stands still behind the robot (a wall: its steel,
+    holes, start and goal) on the axes once, before the frames, and returns the legend
+    entries it wants (a list of artists, or None); the start-height line is then left out
+    (the backdrop says where the robot starts). ``view``: fixed limits ``((x0, x1), (y0,
+    y1))`` [m] instead of the moving camera (a whole wall in view). ``title``: the figure's
+    title instead of the run and gait.
 
     The frames are drawn by blitting: the axes (ticks, grid, legend) are drawn once per view,
     and each frame only restores them and redraws the moving artists, whose pixels go straight
@@ -606,7 +613,9 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
         fig.subplots_adjust(left=0.1, right=0.98, bottom=0.27, top=0.87)
         ax = fig.add_subplot()
         ax.set_aspect("equal", adjustable="box")
-        ax.axhline(0.0, color="0.5", lw=0.8, ls="--")
+        behind = (backdrop(ax) or []) if backdrop is not None else None
+        if backdrop is None:
+            ax.axhline(0.0, color="0.5", lw=0.8, ls="--")
         trail, = ax.plot([], [], color="0.75", lw=0.8)
         foot, = ax.plot([], [], "v", color="#B8860B", ms=5, ls="none")
         line, = ax.plot([], [], "-", lw=4, solid_capstyle="round", zorder=4)
@@ -628,8 +637,8 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
         ax.set_ylabel("y  [m]")
         run = ("Run under the gait's own controller" if own_controller(stab)
                else "Open-loop run")
-        fig.suptitle(f"{run}, {gait_text(stab, gait)}", fontsize=9, x=0.02,
-                     ha="left", fontweight="bold")
+        fig.suptitle(title if title is not None else f"{run}, {gait_text(stab, gait)}",
+                     fontsize=9, x=0.02, ha="left", fontweight="bold")
         shown = (f"; the first {count(cycles, 'cycle')}" if cycles is not None
                  and traj.t.size < stab.sizes.get("sample", 0) else "")
         ax.set_title(run_label(stab) + shown
@@ -644,9 +653,10 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
         fig.legend(handles=stage_handles(run_stages(traj), lw=3)
                    + [Line2D([], [], label="end A", **END_A),
                       Line2D([], [], label="end B", **END_B)] + held
-                   + [Line2D([], [], color="0.5", lw=0.8, ls="--", label="start height"),
-                      Line2D([], [], color="0.75", lw=0.8, label="path of the joint")]
-                   + where,
+                   + ([Line2D([], [], color="0.5", lw=0.8, ls="--", label="start height")]
+                      if behind is None else [])
+                   + [Line2D([], [], color="0.75", lw=0.8, label="path of the joint")]
+                   + where + (behind or []),
                    loc="lower center", bbox_to_anchor=(0.5, 0.055), ncols=4, fontsize=6,
                    frameon=False, columnspacing=1.2, handlelength=1.5, labelspacing=0.5)
         # the view, in metres, of the axes box's shape: it holds the robot's full swing
@@ -669,7 +679,13 @@ def write_animation(stab, base: Path, prov: dict, *, fps: float = 20.0, max_fram
             if att in ("A", "B"):           # all it can swing to, so the view need not chase it
                 pivot = traj.B[i] if att == "B" else traj.A[i]
                 lo[0], hi[0] = min(lo[0], pivot[0] - reach), max(hi[0], pivot[0] + reach)
-            if camera.follow(lo, hi) or background is None:
+            if view is not None:
+                if background is None:
+                    ax.set_xlim(*view[0])
+                    ax.set_ylim(*view[1])
+                    canvas.draw()
+                    background = canvas.copy_from_bbox(fig.bbox)
+            elif camera.follow(lo, hi) or background is None:
                 ax.set_xlim(camera.lo[0], camera.lo[0] + width)
                 ax.set_ylim(camera.lo[1], camera.lo[1] + height)
                 canvas.draw()                       # everything but the moving artists

@@ -58,6 +58,16 @@ file (``figures/``)                      what                                   
 ``<survival>_failure_modes``             how the runs ended, per level           -
 ``<survival>_height_drift``              height change of each completed run     -
 ``survival_mfpt_comparison``             every survival step's MFPT              -
+``<route>_wall``                         the wall and the planned route, steps   -
+                                         coloured by gait
+``<route>_walks``                        every walk of the route under noise,    -
+                                         arrived and failed, failure points
+``<route>_atlas``                        each gait's rho and MFPT against its    -
+                                         rise per step
+``<route>_outcomes``                     walks by how they ended; the arrived    -
+                                         walks' time and energy
+``<route>_animation``                    the plan walked without noise over the  -
+                                         wall (MP4, or GIF)
 =======================================  ======================================  ==============
 
 The table lists every figure the step kinds declare (``tests/plotting/test_plotting_report.py``
