@@ -33,3 +33,18 @@ def analysis_smoke(tmp_path_factory):
                                       "--workers", "2"])
     assert result.exit_code == 0, result.output
     return out, result
+
+
+@pytest.fixture(scope="session")
+def route_study(tmp_path_factory):
+    """The small atlas and route study (tests/study/steps/routestudy.py) run once on 2 local
+    workers: (study path, output folder)."""
+    from monkeystudy.study import load_study, run_study
+    from steps.routestudy import ROUTE_STUDY
+
+    root = tmp_path_factory.mktemp("route_study")
+    study = write_study(root, ROUTE_STUDY, "route_small.yaml")
+    out = root / "out"
+    summary = run_study(load_study(study), out, workers=2)
+    assert sorted(p.name for p in summary.written) == ["atlas.nc", "route.nc"]
+    return study, out

@@ -413,49 +413,43 @@ def walk_route(wall: Wall, gaits: Sequence[WalkGait], atlas: Sequence[AtlasGait]
 
 @dataclass(frozen=True)
 class SwitchRuns:
-    """Runs of a switch from one gait to another (:func:`switch_runs`).
+    """Runs of a fixed sequence of steps (:func:`switch_runs`).
 
     Attributes
     ----------
     failed : ndarray of bool
         Per run: a step failed.
     failed_step : ndarray of int
-        The step that failed (from 0: the first of the gait before; -1 when none did).
+        The step of the plan that failed (from 0; -1 when none did).
     """
 
     failed: np.ndarray
     failed_step: np.ndarray
 
 
-def switch_runs(before: WalkGait, after: WalkGait, runs, *, rise_before: float,
-                rise_after: float, advance_before: float, advance_after: float,
-                steps_before: int = 2, steps_after: int = 3, min_advance: float = 0.5,
+def switch_runs(plan: Sequence[tuple], runs, *, min_advance: float = 0.5,
                 height_tolerance: float = math.inf, robot: Robot | str = "seed2009",
                 integrator: Integrator = Integrator(), tick: float = 0.0,
                 noise: Noise = Noise(), seed: int = 0) -> SwitchRuns:
-    """Whether a switch from ``before`` to ``after`` holds, run by run: ``steps_before``
-    steps of ``before`` from its fixed point (under the run's noise, so the switch comes from
-    where that gait's noisy steps leave the robot), then ``steps_after`` steps of ``after``,
-    each catch aimed at the staircase (``rise_before`` [m] per step, then ``rise_after``). It
-    is measured, not assumed: the state the first gait leaves need not lie in the second's
-    basin.
+    """Runs of a fixed sequence of steps, e.g. a switch between gaits: ``plan`` lists each
+    step's ``(gait, rise [m], advance [m])``, from the first gait's fixed point (under each
+    run's noise, so a switch comes from where that gait's noisy steps leave the robot), each
+    catch aimed at the staircase (the sum of the rises so far). A switch is measured this
+    way, not assumed: the state one gait leaves need not lie in the next one's basin.
 
     A step fails when its cycle stops with a status other than ok, when it advances less
-    than ``min_advance`` times its gait's step (``advance_before``, ``advance_after`` [m],
-    signed: the way each gait travels), or when its catch lands more than
-    ``height_tolerance`` [m] from its planned height.
+    than ``min_advance`` times its ``advance`` (signed: the way its gait travels), or when
+    its catch lands more than ``height_tolerance`` [m] from its planned height.
     """
     runs = np.asarray(runs, dtype=np.int64).ravel()
     failed = np.zeros(len(runs), bool)
     failed_step = np.full(len(runs), -1, np.int64)
-    plan = [(before, rise_before, advance_before)] * int(steps_before) + \
-        [(after, rise_after, advance_after)] * int(steps_after)
     for i, run in enumerate(runs):
-        walker = Walker(before, (0.0, 0.0), "A", robot=robot, integrator=integrator,
+        walker = Walker(plan[0][0], (0.0, 0.0), "A", robot=robot, integrator=integrator,
                         tick=tick, noise=noise, seed=seed, run=int(run))
         height = 0.0
         for k, (gait, rise, advance) in enumerate(plan):
-            height += rise
+            height += float(rise)
             x0 = walker.position[0]
             r = walker.step(gait, height)
             moved = math.copysign(1.0, advance) * (r.position[0] - x0)
@@ -527,8 +521,8 @@ def design_switch(before: WalkGait, after: WalkGait, *, rise: float, torque_limi
     otherwise it returns the least residual found: a step that lands near ``after``'s
     fixed point, inside its basin or not (:func:`switch_runs` measures that).
     """
+    # scipy's optimiser only when designing: the walks themselves need none of it
     import itertools
-
     from scipy.optimize import least_squares
 
     robot = as_robot(robot)

@@ -8,6 +8,7 @@ What adding a kind takes is listed in docs/architecture.md ("Step kinds"), and
 """
 from __future__ import annotations
 
+from .atlas import AtlasKind
 from .base import Dependency, Figure, StepContext, StepKind
 from .basin import BasinKind
 from .continuation import ContinuationKind
@@ -16,6 +17,7 @@ from .floquet import FloquetKind
 from .grid import GridKind
 from .hardware_replay import HardwareReplayKind
 from .refine import RefineKind
+from .route import RouteKind
 from .shoot import ShootKind
 from .stability import StabilityKind
 from .stress import StressKind
@@ -27,7 +29,7 @@ from .work_precision import WorkPrecisionKind
 REGISTRY: dict[str, StepKind] = {k.name: k for k in (
     GridKind(), RefineKind(), StabilityKind(), ShootKind(), FloquetKind(), TickSweepKind(),
     BasinKind(), ContinuationKind(), WorkPrecisionKind(), StressKind(), SurvivalKind(),
-    DesignKind(), HardwareReplayKind(),
+    DesignKind(), HardwareReplayKind(), AtlasKind(), RouteKind(),
 )}
 
 
