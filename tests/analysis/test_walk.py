@@ -216,3 +216,25 @@ def test_dead_reckoning_from_the_catch_angles_follows_the_walk_it_senses():
     assert 1e-5 < np.abs(err).max() < 0.01
     # a catch fires where the estimate says the planned height is
     np.testing.assert_allclose(noisy.catches[1:, 1] + err[:-1, 1], 0.0, atol=1e-9)
+
+
+def test_a_sampled_walk_records_the_trajectory_it_walked():
+    from monkeystudy.simulation import physical_points
+    gait = level_gait()
+    w = walk_route(plate(), [gait], [atlas_entry()], integrator=INTEGRATOR, max_steps=3,
+                   plan={"resolution": 0.001}, sample_dt=0.01)
+    t, y, mode = w.samples
+    assert len(t) == len(y) == len(mode) > 3 * PERIOD_LEVEL / 0.01 - 3
+    # time runs on (an event is sampled on both sides of it, at one time)
+    assert np.all(np.diff(t) >= 0) and t[-1] <= w.time + 1e-12
+    # sampling never changes the steps: the walk is the unsampled one
+    bare = walk_route(plate(), [gait], [atlas_entry()], integrator=INTEGRATOR, max_steps=3,
+                      plan={"resolution": 0.001})
+    np.testing.assert_array_equal(w.catches, bare.catches)
+    pts = physical_points(w.params, y, mode[:, L.M_FLIPPED])
+    # the attached end holds still between catches: at each sample it is at the start or a
+    # catch
+    held = np.where(mode[:, L.M_FLIPPED] > 0.5, 1, 0)
+    ends = np.where(held[:, None] == 0, pts["A"], pts["B"])
+    stops = np.vstack([[0.0, 0.0], w.catches])
+    assert np.min(np.linalg.norm(ends[:, None, :] - stops[None], axis=2), axis=1).max() < 1e-9

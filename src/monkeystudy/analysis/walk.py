@@ -49,7 +49,7 @@ from ..kernel.noise import PER_RUN_CYCLE, standard_draw
 from ..kernel.survival import LATENCY_SLOT, CYCLE_LOG_ROWS
 from ..kernel.walk import walk_step
 from ..robot import Robot
-from ..simulation import as_robot, energies, status_name
+from ..simulation import as_robot, energies, physical_points, status_name
 from ..wall import Wall
 from .route import AtlasGait, NoRoute, Route, Transition, mirrored_name, replan
 from .sections import cycle_return_map, cycle_section_state
@@ -174,6 +174,10 @@ class Walk:
     failed_at : tuple of float
         Where a failed run failed [m]: the catch off steel, or the attached magnet when the
         step failed or no route was left (NaN when it arrived).
+    samples : tuple
+        With ``sample_dt``: the trajectory, ``(t [s], state (n, 8), mode (n, 4))`` in the
+        kernel's frames, and ``params`` the run's robot parameters (for
+        :func:`~monkeystudy.simulation.physical_points`).
     """
 
     arrived: bool
@@ -184,6 +188,8 @@ class Walk:
     time: float
     energy: float
     failed_at: tuple
+    samples: tuple = ()
+    params: np.ndarray | None = None
 
 
 def _energy_change(log: np.ndarray) -> tuple[float, float]:
@@ -241,7 +247,8 @@ class Walker:
 
     def __init__(self, gait: WalkGait, position, attached: str = "A", *,
                  robot: Robot | str = "seed2009", integrator: Integrator = Integrator(),
-                 tick: float = 0.0, noise: Noise = Noise(), seed: int = 0, run: int = 0):
+                 tick: float = 0.0, noise: Noise = Noise(), seed: int = 0, run: int = 0,
+                 sample_dt: float = 0.0):
         self.robot = as_robot(robot)
         self.noise_vector = noise.vector()
         self.seed, self.run, self.tick = int(seed), int(run), float(tick)
@@ -251,7 +258,12 @@ class Walker:
         if v[L.NZ_LATENCY] > 0.0:    # as a survival run draws it
             self.latency = v[L.NZ_LATENCY] * 0.5 * (
                 standard_draw(self.seed, self.run, PER_RUN_CYCLE, LATENCY_SLOT, True) + 1.0)
-        self.settings = settings_vector(integrator, tick=self.tick)
+        self.settings = settings_vector(integrator, tick=self.tick, sample_dt=sample_dt)
+        self.sample_dt = float(sample_dt)
+        self.max_time = float(integrator.max_time)
+        #: with ``sample_dt`` > 0: the trajectory of every step, as :class:`StepResult`'s
+        #: ``samples`` are
+        self.samples: list[tuple] = []
         self.programs: dict[str, tuple] = {}
         x, y = (float(c) for c in position)
         hyb = cycle_section_state(gait.gait, gait.z, height=y)
@@ -297,9 +309,22 @@ class Walker:
         counts = np.zeros(L.N_COUNTS, dtype=np.int64)
         log = np.empty((CYCLE_LOG_ROWS, L.N_LOG_COLS))
         method = kernel_method(self.settings, cycle, hyb[L.H_PHASE])
-        status = int(walk_step(method, self.params, cycle, obs, self.settings, hyb,
-                               noise_roles(cycle), self.noise_vector, self.seed, self.run,
-                               self.steps, float(self.latency), counts, log))
+        n = 0 if self.sample_dt <= 0.0 else \
+            int(len(cycle) * self.max_time / self.sample_dt) + 64
+        start = hyb.copy()
+        while True:
+            st, sy, sm = np.empty(n), np.empty((n, 8)), np.empty((n, L.N_MODE_COLS))
+            status = int(walk_step(method, self.params, cycle, obs, self.settings, hyb,
+                                   noise_roles(cycle), self.noise_vector, self.seed,
+                                   self.run, self.steps, float(self.latency), counts, log,
+                                   st, sy, sm))
+            if status != L.ST_BUFFER_FULL or n == 0:
+                break
+            hyb[:] = start        # the samples outgrew the buffer: the step again, larger
+            n *= 2
+        if n:
+            k = int(counts[L.K_SAMPLES])
+            self.samples.append((st[:k].copy(), sy[:k].copy(), sm[:k].copy()))
         self.steps += 1
         rows = log[:int(counts[L.K_LOG])]
         energy = math.nan
@@ -316,7 +341,7 @@ def walk_route(wall: Wall, gaits: Sequence[WalkGait], atlas: Sequence[AtlasGait]
                integrator: Integrator = Integrator(), tick: float = 0.0,
                noise: Noise = Noise(), seed: int = 0, run: int = 0, sensor=None,
                max_steps: int = 100, height_step: float = 0.1,
-               plan: dict | None = None) -> Walk:
+               plan: dict | None = None, sample_dt: float = 0.0) -> Walk:
     """Walk from ``wall``'s start to its goal, replanning before every step.
 
     Parameters
@@ -346,6 +371,8 @@ def walk_route(wall: Wall, gaits: Sequence[WalkGait], atlas: Sequence[AtlasGait]
         :func:`~monkeystudy.analysis.route.plan_route`'s options (cost, risk_weight,
         resolution, ...); the walk plans without adding mirror images (``gaits`` and
         ``atlas`` list every gait it may walk).
+    sample_dt : float
+        > 0: record the trajectory every ``sample_dt`` [s] (:attr:`Walk.samples`).
     """
     robot = as_robot(robot)
     height_step = float(height_step)
@@ -370,9 +397,13 @@ def walk_route(wall: Wall, gaits: Sequence[WalkGait], atlas: Sequence[AtlasGait]
 
     def ended(arrived, failure, where=(math.nan, math.nan)):
         t = walker.time if walker is not None and catches else 0.0
+        samples = ()
+        if walker is not None and walker.samples:
+            samples = tuple(np.concatenate(part) for part in zip(*walker.samples))
         return Walk(bool(arrived), failure, tuple(names),
                     np.array(catches, float).reshape(-1, 2),
-                    np.array(sensed, float).reshape(-1, 2), t, energy, tuple(where))
+                    np.array(sensed, float).reshape(-1, 2), t, energy, tuple(where),
+                    samples, None if walker is None else walker.params)
 
     for step in range(int(max_steps)):
         # the planned heights are the world's staircase: the estimate's row of it
@@ -387,7 +418,7 @@ def walk_route(wall: Wall, gaits: Sequence[WalkGait], atlas: Sequence[AtlasGait]
         gait = by_name[first.gait]
         if walker is None:     # the walk starts on this gait's section, at its fixed point
             walker = Walker(gait, true_pos, attached, robot=robot, integrator=integrator,
-                            tick=tick, noise=noise, seed=seed, run=run)
+                            tick=tick, noise=noise, seed=seed, run=run, sample_dt=sample_dt)
         # the planned catch is in the robot's belief; its height guard reads the belief
         hung_from = walker.attached
         result = walker.step(gait, float(first.catch[1]) - float(estimate[1] - true_pos[1]))
@@ -540,8 +571,8 @@ def design_switch(before: WalkGait, after: WalkGait, *, rise: float, torque_limi
 
     best = None
     # the residual has many local minima: a grid of starts, the first that meets tol wins
-    grid = tuple(f * limit for f in (-0.8, -0.5, -0.2, 0.2, 0.5, 0.8))
-    for x0 in itertools.product(grid, grid, (0.15, 0.35, 0.6)):
+    grid = tuple(f * limit for f in (-0.95, -0.75, -0.5, -0.3, -0.1, 0.1, 0.3, 0.5, 0.75, 0.95))
+    for x0 in itertools.product(grid, grid, (0.2, 0.35, 0.5)):
         fit = least_squares(residual, x0, bounds=([-limit, -limit, 0.02],
                                                   [limit, limit, float(max_time)]),
                             xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=200)
@@ -569,6 +600,20 @@ def switch_gait(catch_torque: float, after_torque: float, after_time: float,
         section_theta1=0.0, section_direction="either"))
 
 
+def walk_trajectory(walk: Walk) -> dict | None:
+    """A sampled walk's trajectory in the world (None without samples): ``time`` [s], the
+    positions ``A``, ``joint``, ``B`` (n, 2) [m], ``attached_end`` (0: A, 1: B), ``phase``
+    and ``motor_torque`` [N m] (on theta2 of the frame of the end attached)."""
+    if not walk.samples:
+        return None
+    t, y, mode = walk.samples
+    flipped = mode[:, L.M_FLIPPED]
+    pts = physical_points(walk.params, y, flipped)
+    return {"time": t, "A": pts["A"], "joint": pts["joint"], "B": pts["B"],
+            "attached_end": flipped.astype(np.int8),
+            "phase": mode[:, L.M_PHASE].astype(np.int8), "motor_torque": mode[:, L.M_TORQUE]}
+
+
 def _catch_state(rows: np.ndarray, prog: np.ndarray, flipped: float) -> tuple[float, float]:
     """``(theta1, theta2)`` [rad] at the catch, in the frame of the magnet the robot hung from
     (``flipped``: that frame's flag): the state logged where the catch row exits, taken back
@@ -587,4 +632,5 @@ def _catch_state(rows: np.ndarray, prog: np.ndarray, flipped: float) -> tuple[fl
 
 __all__ = ["ARRIVED", "MAX_STEPS", "MISSED_GOAL", "NO_ROUTE", "OFF_STEEL", "StepResult",
            "SwitchDesign", "SwitchRuns", "Walk", "WalkGait", "Walker", "catch_rows",
-           "design_switch", "mirrored_gait", "switch_gait", "switch_runs", "switch_spec", "walk_route", "with_catch_height"]
+           "design_switch", "mirrored_gait", "switch_gait", "switch_runs", "switch_spec",
+           "walk_route", "walk_trajectory", "with_catch_height"]

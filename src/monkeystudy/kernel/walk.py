@@ -11,13 +11,13 @@ import numpy as np
 
 from .hybrid import simulate_loop
 from .jit import njit
-from .layout import C_MAX_CYCLES, H_CYCLES, N_COUNTS, N_HYB, N_MODE_COLS
+from .layout import C_MAX_CYCLES, H_CYCLES, N_COUNTS, N_HYB
 from .survival import noisy_program
 
 
 @njit(cache=True, error_model="numpy")
 def walk_step(method, par, prog, obs, settings, hyb, roles, noise, seed, run, step, latency,
-              counts, log):
+              counts, log, samp_t, samp_y, samp_mode):
     """Run one cycle of ``prog`` (rows in the kernel's frame, ending on a cycle-ending row)
     from the hybrid state ``hyb`` (updated in place: on return it stands on the cycle-ending
     row, before the next row's entry actions) with run ``run``'s noise of step ``step``.
@@ -35,4 +35,4 @@ def walk_step(method, par, prog, obs, settings, hyb, roles, noise, seed, run, st
     seg_times = np.empty(prog.shape[0])
     return simulate_loop(method, par, cycle_prog, obs, run_settings, hyb.reshape((1, N_HYB)),
                          counts.reshape((1, N_COUNTS)), seg_times.reshape((1, prog.shape[0])),
-                         log, np.empty(0), np.empty((0, 8)), np.empty((0, N_MODE_COLS)))
+                         log, samp_t, samp_y, samp_mode)

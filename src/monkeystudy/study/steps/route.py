@@ -22,7 +22,7 @@ from typing_extensions import Annotated
 
 from ...analysis.route import NoRoute, plan_route
 from ...analysis.sensing import sensor_from_dict
-from ...analysis.walk import walk_route
+from ...analysis.walk import walk_route, walk_trajectory
 from ...wall import Wall
 from .. import datasets as D
 from ..blocks import Block, Task
@@ -115,6 +115,17 @@ def route_block(spec: GaitSpec, atlas, wall: dict, runs: np.ndarray, *, seed: in
     return out
 
 
+def noiseless_walk(spec: GaitSpec, atlas, wall: Wall, step: RouteStep) -> dict | None:
+    """The route walked once without noise on the atlas's tick, sampled every
+    :data:`SAMPLE_DT`: world positions of the ends and the joint, the attached end, the phase
+    and the motor torque (None when it records nothing)."""
+    w = walk_route(wall, atlas.walk_gaits, atlas.gaits, atlas.transitions, robot=spec.robot,
+                   integrator=spec.integrator, tick=atlas.tick, max_steps=step.max_steps,
+                   height_step=step.height_step, plan=RouteKind.plan_options(step),
+                   sample_dt=SAMPLE_DT)
+    return walk_trajectory(w)
+
+
 # --- the dataset ---------------------------------------------------------------------------------
 RUN, RUN_STEP, GAIT, PLAN = ("run",), ("run", "step"), ("gait",), ("plan_step",)
 
@@ -167,7 +178,22 @@ VARIABLES = {
     "failure_x": D.Variable(RUN, np.float64, "m", "where a failed walk failed: x (NaN when "
                             "it arrived)"),
     "failure_y": D.Variable(RUN, np.float64, "m", "where a failed walk failed: y"),
+    # the planned route walked once without noise, sampled (for the animation)
+    "xy": D.label_coordinate("xy", "world axis", optional=True),
+    "time": D.Variable(("sample",), np.float64, "s", "time of the noiseless walk",
+                       optional=True),
+    **{key: D.Variable(("sample", "xy"), np.float64, "m", f"world position of {what}",
+                       optional=True)
+       for key, what in (("A", "end A"), ("joint", "the joint"), ("B", "end B"))},
+    "attached_end": D.Variable(("sample",), np.int8, "1", "end the frame hangs from (0: A, "
+                               "1: B)", optional=True),
+    "phase": D.Variable.of(("sample",), np.int8, D.PHASE_ATTRS, optional=True),
+    "motor_torque": D.Variable(("sample",), np.float64, "N m", "motor torque on theta2 of the "
+                               "frame of the end attached", optional=True),
 }
+
+#: the noiseless walk's sample interval [s]
+SAMPLE_DT = 0.01
 
 #: the atlas variables a route dataset copies for the gaits it planned with
 COPIED = ("gait_spectral_radius", "gait_mfpt", "gait_mfpt_low", "gait_mfpt_high",
@@ -175,8 +201,8 @@ COPIED = ("gait_spectral_radius", "gait_mfpt", "gait_mfpt_low", "gait_mfpt_high"
 
 
 def write_route(path: Path, attrs: dict, atlas, atlas_rows: dict, route, arrays: dict,
-                max_steps: int) -> None:
-    """Write a route dataset."""
+                max_steps: int, trajectory: dict | None = None) -> None:
+    """Write a route dataset (``trajectory``: the noiseless walk's samples, or None)."""
     names = [g.name for g in atlas.gaits]
     with D.atomic_netcdf(path) as nc:
 
@@ -208,6 +234,15 @@ def write_route(path: Path, attrs: dict, atlas, atlas_rows: dict, route, arrays:
         write("step_gait", arrays["gait"])
         write("failure_x", arrays["failed_at"][:, 0])
         write("failure_y", arrays["failed_at"][:, 1])
+        if trajectory is not None:
+            nc.createDimension("xy", 2)
+            write("xy", np.array(["x", "y"], object))
+            nc.createDimension("sample", len(trajectory["time"]))
+            D.write_declared(nc, VARIABLES, "time", trajectory["time"])
+            for key in ("A", "joint", "B"):
+                D.write_declared(nc, VARIABLES, key, trajectory[key], coordinates="time")
+            for key in ("attached_end", "phase", "motor_torque"):
+                D.write_declared(nc, VARIABLES, key, trajectory[key], coordinates="time")
         D.set_global_attrs(nc, attrs)
 
 
@@ -241,7 +276,8 @@ class RouteKind(StepKind):
     def n_tasks(self, step: RouteStep, gait) -> int:
         return len(self.blocks(step))
 
-    def plan_options(self, step: RouteStep) -> dict:
+    @staticmethod
+    def plan_options(step: RouteStep) -> dict:
         return {"cost": step.cost, "risk_weight": step.risk_weight,
                 "risk_from": step.risk_from, "resolution": step.resolution}
 
@@ -301,7 +337,8 @@ class RouteKind(StepKind):
                      planned_time=route.expected_time if route else math.nan,
                      planned_energy=route.expected_energy if route else math.nan,
                      n_blocks=len(ctx.blocks))
-        write_route(ctx.path, attrs, atlas, rows, route, arrays, st.max_steps)
+        write_route(ctx.path, attrs, atlas, rows, route, arrays, st.max_steps,
+                    noiseless_walk(ctx.spec, atlas, wall_, st) if route else None)
         plan = (f"planned {len(route.steps)} steps, p_arrive {route.p_arrive:.4g}"
                 if route else "no route from the start")
         return f"{plan}; {arrived} of {n} walks arrived"
