@@ -248,7 +248,7 @@ VARIABLES = {
     "gait_mfpt_low": D.Variable(GAIT_DIM, np.float64, "1", "its 95 % interval's low end "
                                 "[steps]"),
     "gait_mfpt_high": D.Variable(GAIT_DIM, np.float64, "1", "its 95 % interval's high end "
-                                 "[steps] (inf: unbounded)"),
+                                 "[steps] (NaN when gait_mfpt_censored: unbounded)"),
     "gait_mfpt_censored": D.Variable(GAIT_DIM, np.int8, "1", "1: no failure late in the "
                                      "window, gait_mfpt is a lower bound"),
     "gait_survival_runs": D.Variable(GAIT_DIM, np.int32, "1", "runs measured (a switch "
@@ -392,7 +392,8 @@ class AtlasKind(StepKind):
                            gait_spectral_radius_agreement=float(abs(rho[0] - rho[1])),
                            gait_p_fail=p, gait_p_fail_upper=upper, gait_mfpt=m.value
                            if m.method != "lower_bound" else m.low,
-                           gait_mfpt_low=m.low, gait_mfpt_high=m.high,
+                           gait_mfpt_low=m.low,
+                           gait_mfpt_high=m.high if m.method != "lower_bound" else math.nan,
                            gait_mfpt_censored=int(m.method == "lower_bound"),
                            gait_survival_runs=st.runs, gait_survival_failed=int(failed.sum()))
             else:
