@@ -167,8 +167,10 @@ def test_the_atlas_draws_censored_mfpts_as_lower_bounds_and_rho_where_measured(d
     assert list(gid(fig, "rho_one")[0].get_ydata()) == [1.0, 1.0]
     unmeasured = [str(g) for g, m in zip(ds["gait"].values, measured) if not m]
     assert gid(fig, "rho_unmeasured")[0].get_text() == "ρ not measured: " + ", ".join(unmeasured)
+    # a gait and its mirror image share a point and one label
     labels = {t.get_text() for t in gid(fig, "label_rho")}
-    assert "level, level (mirrored)" in labels
+    assert "level (both ways)" in labels
+    assert not any("(mirrored)" in t for t in labels)
 
 
 def test_the_outcomes_figure_counts_each_cause_and_the_arrived_runs(ds):

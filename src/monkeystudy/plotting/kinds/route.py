@@ -287,7 +287,14 @@ def _groups(x: np.ndarray, y: np.ndarray, c: np.ndarray, names: list[str]):
     for k in np.flatnonzero(np.isfinite(y)):
         key = (round(float(x[k]), 9), round(float(y[k]), 12), round(float(c[k]), 9))
         out.setdefault(key, []).append(int(k))
-    return [(idx, ", ".join(names[k] for k in idx)) for idx in out.values()]
+    def joined(idx):
+        # a gait and its mirror image: one name, walked both ways
+        base = [names[k].removesuffix(" (mirrored)") for k in idx]
+        if len(idx) == 2 and base[0] == base[1]:
+            return f"{base[0]} (both ways)"
+        return ", ".join(names[k] for k in idx)
+
+    return [(idx, joined(idx)) for idx in out.values()]
 
 
 def plot_gait_atlas(ds):
@@ -328,8 +335,8 @@ def plot_gait_atlas(ds):
             k = idx[0]
             ax_rho.scatter([dy[k]], [rho[k]], s=70, color=cmap(norm(length[k])),
                            edgecolor=BLACK, lw=0.6, zorder=4, gid="rho")
-            ax_rho.annotate(label, (dy[k], rho[k]), xytext=(8, 4), textcoords="offset points",
-                            fontsize=8, gid="label_rho")
+            ax_rho.annotate(label, (dy[k], rho[k]), xytext=(0, 9), textcoords="offset points",
+                            ha="center", va="bottom", fontsize=8, gid="label_rho")
         ax_rho.axhline(1.0, color=VERMILLION, lw=1.2, ls="--", gid="rho_one",
                        label="ρ = 1: a map with ρ above it is unstable")
         top = np.nanmax(np.append(rho, 1.0))
@@ -345,25 +352,25 @@ def plot_gait_atlas(ds):
                                   names):
             k = idx[0]
             colour = cmap(norm(length[k]))
-            note = f"{label}: {failed[k]} of {count(runs[k], 'run')} failed"
+            note = f"{label}\n{mfpt[k]:.3g} ({failed[k]} of {count(runs[k], 'run')} failed)"
             if censored[k]:
                 ax_mfpt.plot([dy[k]], [mfpt[k]], ls="none", marker=r"$\Uparrow$", ms=16,
                              color=colour, mec=BLACK, mew=0.3, zorder=4, gid="mfpt_bound")
-                note = f"{label}: ≥ {mfpt[k]:.3g} (no run of {runs[k]} failed)"
+                note = f"{label}\n≥ {mfpt[k]:.3g} (none of {runs[k]} failed)"
             else:
                 lo = mfpt[k] - low[k] if np.isfinite(low[k]) else 0.0
                 hi = high[k] - mfpt[k] if np.isfinite(high[k]) else 0.0
                 ax_mfpt.errorbar([dy[k]], [mfpt[k]], yerr=[[lo], [hi]], marker="o", ms=8,
                                  color=colour, mec=BLACK, mew=0.6, capsize=3, lw=1.4,
                                  ls="none", zorder=4, gid="mfpt")
-            ax_mfpt.annotate(note, (dy[k], mfpt[k]), xytext=(10, 0),
-                             textcoords="offset points", va="center", fontsize=7.5,
-                             gid="label_mfpt")
+            ax_mfpt.annotate(note, (dy[k], mfpt[k]), xytext=(0, 14),
+                             textcoords="offset points", ha="center", va="bottom",
+                             fontsize=7.5, gid="label_mfpt")
         ax_mfpt.set_yscale("log")
         plain_log_labels(ax_mfpt.yaxis)
         lo_y = np.nanmin(np.concatenate([low, mfpt])) if np.isfinite(mfpt).any() else 1.0
         hi_y = np.nanmax(np.concatenate([high, mfpt])) if np.isfinite(mfpt).any() else 10.0
-        ax_mfpt.set_ylim(max(lo_y, 1e-3) / 3.0, hi_y * 4.0)
+        ax_mfpt.set_ylim(max(lo_y, 1e-3) / 3.0, hi_y * 30.0)    # room for the labels above
         ax_mfpt.set_ylabel("mean steps before failure")
         ax_mfpt.set_xlabel("rise per step dy  [m]")
         handles = [Line2D([], [], ls="none", marker="o", color="0.5", mec=BLACK,
@@ -373,7 +380,7 @@ def plot_gait_atlas(ds):
                                   color="0.5", label="lower bound (no run failed)"))
         ax_mfpt.legend(handles=handles, loc="lower left", fontsize=8)
         span = max(float(np.ptp(dy)), 0.1)
-        ax_mfpt.set_xlim(float(dy.min()) - 0.15 * span, float(dy.max()) + 0.45 * span)
+        ax_mfpt.set_xlim(float(dy.min()) - 0.3 * span, float(dy.max()) + 0.3 * span)
         bar = body.colorbar(matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap),
                             ax=[ax_rho, ax_mfpt], shrink=0.6)
         bar.set_label("step length |dx|  [m]")
