@@ -166,7 +166,7 @@ def test_a_study_of_hardware_replay_steps_alone_needs_no_gait():
 def test_a_study_without_a_gait_is_refused_when_a_step_runs_one():
     lines = refused(text("  - {name: g, kind: refine, start: [0.9, 10.9]}\n", gait=""))
     assert lines == ["s.yaml:1: gait: required key missing: step 'g' (refine) runs the "
-                     "study's gait (only hardware_replay steps run none)"], lines
+                     "study's gait (only hardware_replay, atlas or route steps run none)"], lines
 
 
 def test_shipped_studies():
