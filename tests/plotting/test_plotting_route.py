@@ -275,3 +275,12 @@ def test_every_figure_fits_in_its_frame(ds, plot):
     width, height = fig.get_size_inches()
     assert drawn.x0 >= -0.02 and drawn.x1 <= width + 0.02, (drawn, width)
     assert drawn.y0 >= -0.02 and drawn.y1 <= height + 0.02, (drawn, height)
+
+
+def test_a_wall_without_a_route_says_so_in_its_title(ds):
+    empty = ds.isel(plan_step=slice(0, 0)).assign_attrs(
+        planned_steps=0, planned_p_arrive=float("nan"), planned_p_arrive_low=float("nan"),
+        planned_time=float("nan"), planned_energy=float("nan"))
+    fig = plot_route_wall(empty)
+    titles = " ".join(t.get_text() for t in fig.texts)
+    assert "No route" in titles and "nan" not in titles

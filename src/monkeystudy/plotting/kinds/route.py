@@ -148,6 +148,8 @@ def _subtitle(ds) -> str:
 
 def _plan_title(ds) -> str:
     a = ds.attrs
+    if int(a["planned_steps"]) == 0:
+        return "No route: no catches on steel lead from the start to the goal"
     return (f"Planned route, {count(int(a['planned_steps']), 'step')}: "
             f"P(arrive) {float(a['planned_p_arrive']):.3f} (≥ "
             f"{float(a['planned_p_arrive_low']):.3f} at the bounds), "
