@@ -54,11 +54,11 @@ def page(datasets: dict) -> str:
 @pytest.mark.parametrize("gait", [GAIT, None], ids=["stated", "none"])
 def test_a_study_whose_steps_run_no_gait_says_what_they_ran_instead(gait):
     # a dataset of a study that still named a gait its step never ran, and one of a study
-    # without: neither page states a gait or the study's integrator
+    # without: neither page states a gait or an integrator the step did not run
     html = page({"replay": dataset("hardware_replay", "replay", REPLAY_ONLY, gait=gait,
                                    replay_integrator=REPLAY_INTEGRATOR)})
     assert "Gait:" not in html and "Integrator:" not in html
-    assert "No step of this study runs a gait or the study&#x27;s integrator" in html
+    assert "No step of this study runs the study&#x27;s gait" in html
     assert ("measured elbow torque through the robot with each model&#x27;s friction "
             "(identified, published damping, none), integrated with DOP853, rtol 1e-08, "
             "atol 1e-10.") in html
@@ -70,13 +70,13 @@ def test_a_study_with_a_gait_step_states_its_gait_and_which_steps_do_not_run_it(
                                    replay_integrator=REPLAY_INTEGRATOR)})
     assert ("Gait: horizontal, motor torque 0.6354 N m, controller tick 1 ms. Integrator: "
             "DOP853, rtol 1e-10, atol 1e-12") in html
-    assert ('These steps run neither the gait nor the integrator above: '
+    assert ('These steps do not run the gait above: '
             '<a href="#step-replay">replay</a> [hardware_replay] replays') in html
     # a study whose every step runs the gait: the gait sentence alone
     grid_only = MIXED.split("  - {name: replay")[0]
     html = page({"map": dataset("grid", "map", grid_only)})
     assert "Gait: horizontal" in html
-    assert "run neither" not in html and "No step of this study" not in html
+    assert "do not run" not in html and "No step of this study" not in html
 
 
 @pytest.mark.parametrize("housing, link", [(1, "link 1 (end A)"), (2, "link 2 (end B)")])

@@ -129,6 +129,6 @@ def test_the_page_of_a_study_that_runs_no_gait_states_none(ds, tmp_path):
 
     html = render_page(tmp_path, {"replay": ds}, {}, drawings=DRAWINGS)
     assert "Gait:" not in html and "Integrator:" not in html
-    assert "No step of this study runs a gait" in html
+    assert "No step of this study runs the study&#x27;s gait" in html
     assert (f"integrated with {REPLAY_INTEGRATOR.method.upper()}, rtol "
             f"{REPLAY_INTEGRATOR.rtol:g}, atol {REPLAY_INTEGRATOR.atol:g}.") in html

@@ -296,13 +296,13 @@ def integrator_text(integ: Mapping) -> str:
 
 def _own_setup(datasets: Mapping[str, object], kinds: Mapping[str, str], names: Sequence[str],
                runs_gait: bool) -> list[str]:
-    """The set-up's sentences on the steps ``names`` that run neither the study's gait nor its
-    integrator: what each ran instead (its kind's :meth:`~monkeystudy.study.steps.base.
-    StepKind.own_setup` of its dataset)."""
+    """The set-up's sentences on the steps ``names`` that do not run the study's gait: what
+    each ran instead and with which integrator (its kind's :meth:`~monkeystudy.study.steps.
+    base.StepKind.own_setup` of its dataset)."""
     if not names:
         return []
-    head = ("These steps run neither the gait nor the integrator above: " if runs_gait else
-            "No step of this study runs a gait or the study's integrator: ")
+    head = ("These steps do not run the gait above: " if runs_gait else
+            "No step of this study runs the study's gait: ")
     parts = []
     for n in names:
         text = REGISTRY[kinds[n]].own_setup(datasets[n])

@@ -119,6 +119,16 @@ class AtlasStep(StrictModel):
         return self
 
 
+def integrator_words(ds) -> str:
+    """A dataset's integrator (attr ``integrator``, JSON) in words: ``DOP853, rtol 1e-12,
+    atol 1e-13``."""
+    integ = json.loads(ds.attrs.get("integrator", "{}") or "{}")
+    if not integ:
+        return "as its dataset records"
+    return (f"{str(integ.get('method', '')).upper()}, rtol {float(integ['rtol']):g}, "
+            f"atol {float(integ['atol']):g}")
+
+
 def catch_height(spec: SequenceGaitSpec) -> float:
     """The planned height of a gait's catch above its start [m]: its free_end_y guard's."""
     return float(next(s.value for s in spec.segments if s.until == "free_end_y"))
@@ -480,6 +490,12 @@ class AtlasKind(StepKind):
                       if t.from_gait in mirrored and t.to_gait in mirrored]
         return Atlas(tuple(walk), tuple(gaits), tuple(moves), float(ds.attrs["tick"]),
                      Noise(**json.loads(ds.attrs["noise"])), tuple(excluded))
+
+    def own_setup(self, ds) -> str:
+        """The gaits it ran and how, from its dataset."""
+        return (f"runs the gaits written in it ({', '.join(str(g) for g in ds['gait'].values)}) "
+                f"on a {1e3 * float(ds.attrs['tick']):g} ms tick under its noise, with the "
+                f"study's robot and integrator ({integrator_words(ds)})")
 
     def describe(self, ds) -> list[str]:
         lines = []

@@ -343,6 +343,12 @@ class RouteKind(StepKind):
                 if route else "no route from the start")
         return f"{plan}; {arrived} of {n} walks arrived"
 
+    def own_setup(self, ds) -> str:
+        """What it walked and how, from its dataset."""
+        return (f"walks its atlas's gaits across the study's wall, {ds.attrs.get('walks')} "
+                f"times under the atlas's noise and tick, with the study's robot and "
+                f"integrator, as the atlas step")
+
     def describe(self, ds) -> list[str]:
         a = ds.attrs
         fails = np.asarray(ds["failure"].values).astype(str)
