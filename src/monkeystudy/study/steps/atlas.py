@@ -28,11 +28,10 @@ from pydantic import Field, model_validator
 from ...analysis.multipliers import jacobian_fd, solve_fixed_point
 from ...analysis.route import AtlasGait, Transition, step_failure
 from ...analysis.sections import cycle_full_map, cycle_return_map, cycle_section_state
-from ...analysis.survival import MFPT, Noise, mfpt, survival_runs
+from ...analysis.survival import Noise, mfpt, survival_runs
 from ...analysis.walk import WalkGait, Walker, switch_runs
 from .. import datasets as D
 from ..blocks import Block, Task
-from ..counts import task_units
 from ..models import Name, SequenceGaitSpec, StrictModel
 from ..noise import NoiseSpec
 from ..spec import GaitSpec
