@@ -83,6 +83,16 @@ class RouteStep(StrictModel):
 
 
 # --- tasks (run on the workers) ------------------------------------------------------------------
+def walk_arrays(n: int, max_steps: int) -> dict[str, np.ndarray]:
+    """Empty per-walk arrays of ``n`` walks of up to ``max_steps`` steps (NaN, -1 or empty
+    where a walk did not get)."""
+    return {"arrived": np.zeros(n, np.int8), "failure": np.empty(n, object),
+            "steps": np.zeros(n, np.int32), "time": np.zeros(n), "energy": np.zeros(n),
+            "catch": np.full((n, max_steps, 2), np.nan),
+            "sensed": np.full((n, max_steps, 2), np.nan),
+            "gait": np.full((n, max_steps), -1, np.int32), "failed_at": np.full((n, 2), np.nan)}
+
+
 def route_block(spec: GaitSpec, atlas, wall: dict, runs: np.ndarray, *, seed: int,
                 max_steps: int, height_step: float, plan: dict,
                 sensor: dict | None) -> dict[str, np.ndarray]:
@@ -91,12 +101,7 @@ def route_block(spec: GaitSpec, atlas, wall: dict, runs: np.ndarray, *, seed: in
     wall_ = Wall.from_dict(wall)
     model = sensor_from_dict(sensor) if sensor is not None else None
     names = [g.name for g in atlas.gaits]
-    n = len(runs)
-    out = {"arrived": np.zeros(n, np.int8), "failure": np.empty(n, object),
-           "steps": np.zeros(n, np.int32), "time": np.zeros(n), "energy": np.zeros(n),
-           "catch": np.full((n, max_steps, 2), np.nan),
-           "sensed": np.full((n, max_steps, 2), np.nan),
-           "gait": np.full((n, max_steps), -1, np.int32), "failed_at": np.full((n, 2), np.nan)}
+    out = walk_arrays(len(runs), max_steps)
     for i, run in enumerate(runs):
         w = walk_route(wall_, atlas.walk_gaits, atlas.gaits, atlas.transitions,
                        robot=spec.robot, integrator=spec.integrator, tick=atlas.tick,
@@ -297,12 +302,7 @@ class RouteKind(StepKind):
         st = ctx.step
         atlas, wall = ctx.state["atlas"], ctx.state["wall"]
         n = st.walks
-        arrays = {"arrived": np.zeros(n, np.int8), "failure": np.empty(n, object),
-                  "steps": np.zeros(n, np.int32), "time": np.zeros(n),
-                  "energy": np.zeros(n), "catch": np.full((n, st.max_steps, 2), np.nan),
-                  "sensed": np.full((n, st.max_steps, 2), np.nan),
-                  "gait": np.full((n, st.max_steps), -1, np.int32),
-                  "failed_at": np.full((n, 2), np.nan)}
+        arrays = walk_arrays(n, st.max_steps)
         for b in ctx.blocks:
             got = ctx.block_arrays(b)
             for k in arrays:
