@@ -164,7 +164,10 @@ VARIABLES = {
                                "step: y"),
     "run": D.index_coordinate("run", "walk number (keys its noise)"),
     "step": D.index_coordinate("step", "step of a walk, from 1"),
-    "arrived": D.Variable(RUN, np.int8, "1", "1: the walk's last catch lies in the goal"),
+    "arrived": D.Variable(RUN, np.int8, "1", "whether the walk arrived: its last catch lies "
+                          "in the goal (a boolean)",
+                          {"flag_values": np.array([0, 1], np.int8),
+                           "flag_meanings": "failed arrived"}),
     "failure": D.Variable(RUN, str, "1", "how the walk ended: empty when it arrived, else "
                           "off_steel, no_route, missed_goal, max_steps or the failing "
                           "cycle's status (fell, no_switch, ...)"),
