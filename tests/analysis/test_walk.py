@@ -124,6 +124,13 @@ def test_a_catch_where_the_steel_has_a_hole_fails_the_walk_there():
     assert len(w.catches) == 2
     assert w.failed_at[0] == pytest.approx(3 * DX_LEVEL, abs=1e-6)
     assert abs(w.failed_at[1]) < 1e-9
+    # its time and energy are those of the two steps that held, not of the one that fell
+    held = walk_route(wall, [level_gait()], [atlas_entry()], integrator=INTEGRATOR,
+                      max_steps=2, sensor=_BiasedSensor((-0.3, 0.0)),
+                      plan={"resolution": 0.001})
+    assert held.failure == MAX_STEPS and len(held.catches) == 2
+    assert w.time == held.time == pytest.approx(2 * PERIOD_LEVEL, rel=1e-9)
+    assert w.energy == held.energy
 
 
 def test_a_walk_arrives_when_its_catch_lies_in_the_goal():

@@ -261,8 +261,7 @@ class Walker:
         self.settings = settings_vector(integrator, tick=self.tick, sample_dt=sample_dt)
         self.sample_dt = float(sample_dt)
         self.max_time = float(integrator.max_time)
-        #: with ``sample_dt`` > 0: the trajectory of every step, as :class:`StepResult`'s
-        #: ``samples`` are
+        #: with ``sample_dt`` > 0: each step's samples ``(t, state, mode)``
         self.samples: list[tuple] = []
         self.programs: dict[str, tuple] = {}
         x, y = (float(c) for c in position)
@@ -299,8 +298,10 @@ class Walker:
         """One cycle of ``gait`` from where the robot is, its catch at the world ``height``
         [m] (the guard's, as the robot judges it)."""
         if gait.name not in self.programs:
-            self.programs[gait.name] = gait.program(self.tick)
-        prog, obs = self.programs[gait.name]
+            prog, obs = gait.program(self.tick)
+            # the noise roles read the rows' kinds only, not the catch height set per step
+            self.programs[gait.name] = (prog, obs, noise_roles(prog))
+        prog, obs, roles = self.programs[gait.name]
         cycle = with_catch_height(prog, height)
         hyb = self.hyb
         flipped = float(hyb[L.H_FLIPPED])
@@ -315,9 +316,8 @@ class Walker:
         while True:
             st, sy, sm = np.empty(n), np.empty((n, 8)), np.empty((n, L.N_MODE_COLS))
             status = int(walk_step(method, self.params, cycle, obs, self.settings, hyb,
-                                   noise_roles(cycle), self.noise_vector, self.seed,
-                                   self.run, self.steps, float(self.latency), counts, log,
-                                   st, sy, sm))
+                                   roles, self.noise_vector, self.seed, self.run,
+                                   self.steps, float(self.latency), counts, log, st, sy, sm))
             if status != L.ST_BUFFER_FULL or n == 0:
                 break
             hyb[:] = start        # the samples outgrew the buffer: the step again, larger
@@ -332,8 +332,8 @@ class Walker:
             e_end, lost = _energy_change(rows)
             energy = e_end - self.energy_now + lost
             self.energy_now = e_end
-        return StepResult(status, self.position, self.attached, _catch_state(rows, cycle, flipped),
-                          float(hyb[L.H_T]) - t0, energy)
+        return StepResult(status, self.position, self.attached,
+                          _catch_state(rows, cycle, flipped), float(hyb[L.H_T]) - t0, energy)
 
 
 def walk_route(wall: Wall, gaits: Sequence[WalkGait], atlas: Sequence[AtlasGait],
@@ -393,26 +393,28 @@ def walk_route(wall: Wall, gaits: Sequence[WalkGait], atlas: Sequence[AtlasGait]
     catches, sensed, names = [], [], []
     walker: Walker | None = None
     current = None
-    energy = 0.0
+    energy, time_done = 0.0, 0.0     # over the completed steps
 
     def ended(arrived, failure, where=(math.nan, math.nan)):
-        t = walker.time if walker is not None and catches else 0.0
         samples = ()
         if walker is not None and walker.samples:
             samples = tuple(np.concatenate(part) for part in zip(*walker.samples))
         return Walk(bool(arrived), failure, tuple(names),
                     np.array(catches, float).reshape(-1, 2),
-                    np.array(sensed, float).reshape(-1, 2), t, energy, tuple(where),
+                    np.array(sensed, float).reshape(-1, 2), time_done, energy, tuple(where),
                     samples, None if walker is None else walker.params)
 
     for step in range(int(max_steps)):
         # the planned heights are the world's staircase: the estimate's row of it
         row = wall.start.position[1] + height_step * round(
             (estimate[1] - wall.start.position[1]) / height_step)
+        believed = (float(estimate[0]), float(row))
+        if not wall.on_steel(believed)[0]:       # it believes itself off the wall
+            return ended(False, NO_ROUTE, tuple(true_pos))
         try:
-            route: Route = replan(wall, atlas, transitions, position=(estimate[0], row),
+            route: Route = replan(wall, atlas, transitions, position=believed,
                                   attached=attached, gait=current, **plan)
-        except (NoRoute, ValueError):     # no route, or the row's point is off steel
+        except NoRoute:
             return ended(False, NO_ROUTE, tuple(true_pos))
         first = route.steps[0]
         gait = by_name[first.gait]
@@ -425,10 +427,11 @@ def walk_route(wall: Wall, gaits: Sequence[WalkGait], atlas: Sequence[AtlasGait]
         names.append(gait.name)
         if result.status != L.ST_OK:
             return ended(False, status_name(result.status), tuple(result.position))
-        energy += result.energy
         before, true_pos, attached = true_pos, result.position, result.attached
         if not wall.can_catch(true_pos)[0]:
             return ended(False, OFF_STEEL, tuple(true_pos))
+        energy += result.energy
+        time_done = walker.time
         estimate = np.asarray(sensor.update(
             estimate, before, true_pos, result.catch_angles, sensor_draws(seed, run, step),
             lengths=lengths, attached=hung_from), float)
