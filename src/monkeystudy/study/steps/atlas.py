@@ -150,9 +150,7 @@ def measure_gait(spec: GaitSpec, entry: dict, *, tick: float, noise: dict, runs:
     gspec = SequenceGaitSpec(**entry["gait"])
     gait = gspec.gait()
     robot, integ = spec.robot, spec.integrator
-    fixed = solve_fixed_point(
-        lambda z: cycle_return_map(z, gait, robot=robot, integrator=integ),
-        np.asarray(entry["start"], float))
+    fixed = fixed_point(spec, entry)
     z = np.asarray(fixed.z, float)
 
     def full(v):
@@ -177,12 +175,13 @@ def measure_gait(spec: GaitSpec, entry: dict, *, tick: float, noise: dict, runs:
             "cycles": r.cycles.astype(np.int64), "failure": r.failure.astype(np.int8)}
 
 
-def fixed_point(spec: GaitSpec, entry: dict) -> np.ndarray:
-    """A repeating gait's fixed point on its section, by Newton from its ``start``."""
+def fixed_point(spec: GaitSpec, entry: dict):
+    """A repeating gait's fixed point on its section, by Newton from its ``start``
+    (:func:`~monkeystudy.analysis.multipliers.solve_fixed_point`'s result)."""
     gait = SequenceGaitSpec(**entry["gait"]).gait()
-    return np.asarray(solve_fixed_point(
+    return solve_fixed_point(
         lambda z: cycle_return_map(z, gait, robot=spec.robot, integrator=spec.integrator),
-        np.asarray(entry["start"], float)).z, float)
+        np.asarray(entry["start"], float))
 
 
 def measure_switch(spec: GaitSpec, before: dict, after: dict, via: dict | None, *,
@@ -192,28 +191,29 @@ def measure_switch(spec: GaitSpec, before: dict, after: dict, via: dict | None, 
     """Runs of ``steps_before`` steps of gait ``before``, the switch step ``via`` (None: a
     direct switch) and ``steps_after`` steps of ``after`` (atlas entries as plain data)
     under ``noise``: which step of each run failed (-1: none)."""
-    z0 = fixed_point(spec, before)
-    z1 = fixed_point(spec, after)
-    first, last = walk_gait(before, z0), walk_gait(after, z1)
-    middle = walk_gait(via, z0) if via is not None else None
+    z0 = np.asarray(fixed_point(spec, before).z, float)
+    first = walk_gait(before, z0)
+    last = walk_gait(after, np.asarray(fixed_point(spec, after).z, float))
 
-    def advance(gait: WalkGait, height: float) -> float:
-        # one noiseless step from the first gait's fixed point (the switch's) or the gait's
-        start = first if gait is not last else last
-        w = Walker(start, (0.0, 0.0), "A", robot=spec.robot, integrator=spec.integrator)
-        return float(w.step(gait, height).position[0])
+    def planned(gait: WalkGait, entry: dict, start: WalkGait):
+        """``(gait, rise [m], advance [m], its noiseless step)`` of one step from ``start``'s
+        fixed point (the way it travels: the sign of the advance)."""
+        rise = catch_height(SequenceGaitSpec(**entry["gait"]))
+        one = Walker(start, (0.0, 0.0), "A", robot=spec.robot,
+                     integrator=spec.integrator).step(gait, rise)
+        return gait, rise, float(one.position[0]), one
 
-    rise = {id(g): catch_height(SequenceGaitSpec(**e["gait"]))
-            for g, e in ((first, before), (last, after), (middle, via)) if e is not None}
-    plan = [(first, rise[id(first)], advance(first, rise[id(first)]))] * steps_before
-    if middle is not None:
-        plan.append((middle, rise[id(middle)], advance(middle, rise[id(middle)])))
-    plan += [(last, rise[id(last)], advance(last, rise[id(last)]))] * steps_after
-    r = switch_runs(plan, np.arange(runs), min_advance=min_advance,
+    switch = planned(walk_gait(via, z0), via, first) if via is not None else None
+    plan = [planned(first, before, first)] * steps_before + ([switch] if switch else []) + \
+        [planned(last, after, last)] * steps_after
+    r = switch_runs([p[:3] for p in plan], np.arange(runs), min_advance=min_advance,
                     height_tolerance=height_tolerance, robot=spec.robot,
                     integrator=spec.integrator, tick=tick, noise=Noise(**noise), seed=seed)
-    return {"failed_step": r.failed_step, "z": z0 if middle is not None else z1,
-            "step": np.array([plan[steps_before][2], plan[steps_before][1]])}
+    out = {"failed_step": r.failed_step}
+    if switch is not None:      # the switch step's own noiseless step from the gait it leaves
+        _, rise, dx, one = switch
+        out.update(z=z0, step=np.array([dx, rise, one.duration, one.energy]))
+    return out
 
 
 # --- the dataset ---------------------------------------------------------------------------------
@@ -407,8 +407,9 @@ class AtlasKind(StepKind):
                            gait_survival_runs=st.runs, gait_survival_failed=int(failed.sum()))
             else:
                 n, kf, p, upper = switch_failure(got["failed_step"], before)
-                row.update(gait_dx=float(got["step"][0]), gait_duration=math.nan,
-                           gait_energy=math.nan, gait_map_defect=math.nan,
+                dx, _, duration, energy = (float(v) for v in got["step"])
+                row.update(gait_dx=dx, gait_duration=duration, gait_energy=energy,
+                           gait_map_defect=math.nan,
                            gait_spectral_radius=math.nan,
                            gait_spectral_radius_agreement=math.nan, gait_p_fail=p,
                            gait_p_fail_upper=upper, gait_mfpt=math.nan,
@@ -416,18 +417,6 @@ class AtlasKind(StepKind):
                            gait_mfpt_censored=0, gait_survival_runs=n,
                            gait_survival_failed=kf)
             rows.append(row)
-        # a switch step's duration and energy: its own noiseless step from the gait it leaves
-        for k, g in enumerate(st.gaits):
-            if g.switch is not None:
-                src = rows[[h.name for h in st.gaits].index(g.switch.from_)]
-                z = (src["gait_theta2"], src["gait_dtheta1"], src["gait_dtheta2"])
-                walk = WalkGait(g.name, g.gait.gait(), z)
-                start = WalkGait(g.switch.from_, next(h for h in st.gaits if h.name ==
-                                                      g.switch.from_).gait.gait(), z)
-                one = Walker(start, (0.0, 0.0), "A", robot=ctx.spec.robot,
-                             integrator=ctx.spec.integrator).step(walk, rows[k]["gait_dy"])
-                rows[k].update(gait_duration=one.duration, gait_energy=one.energy,
-                               gait_theta2=z[0], gait_dtheta1=z[1], gait_dtheta2=z[2])
         switches = []
         for j, (a, c) in enumerate(self.pairs(st)):
             got = ctx.block_arrays(ctx.blocks[len(st.gaits) + j])
