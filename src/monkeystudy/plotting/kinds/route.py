@@ -25,6 +25,7 @@ import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch, Polygon
 
+from ...analysis.route import mirrored_name
 from ...wall import Wall
 from ..common import (
     BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION, YELLOW, count, new_figure,
@@ -289,11 +290,12 @@ def _groups(x: np.ndarray, y: np.ndarray, c: np.ndarray, names: list[str]):
     for k in np.flatnonzero(np.isfinite(y)):
         key = (round(float(x[k]), 9), round(float(y[k]), 12), round(float(c[k]), 9))
         out.setdefault(key, []).append(int(k))
+
     def joined(idx):
         # a gait and its mirror image: one name, walked both ways
-        base = [names[k].removesuffix(" (mirrored)") for k in idx]
-        if len(idx) == 2 and base[0] == base[1]:
-            return f"{base[0]} (both ways)"
+        a, b = (names[k] for k in idx) if len(idx) == 2 else (None, None)
+        if a is not None and mirrored_name(a) == b:
+            return f"{min(a, b, key=len)} (both ways)"
         return ", ".join(names[k] for k in idx)
 
     return [(idx, joined(idx)) for idx in out.values()]

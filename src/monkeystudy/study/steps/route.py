@@ -20,7 +20,7 @@ import numpy as np
 from pydantic import AfterValidator, Field
 from typing_extensions import Annotated
 
-from ...analysis.route import NoRoute, plan_route
+from ...analysis.route import NoRoute, mirrored_name, plan_route
 from ...analysis.sensing import sensor_from_dict
 from ...analysis.walk import walk_route, walk_trajectory
 from ...wall import Wall
@@ -325,7 +325,7 @@ class RouteKind(StepKind):
         for key in COPIED:   # a mirror image has its gait's numbers
             for g in atlas.gaits:
                 if g.name not in rows[key]:
-                    rows[key][g.name] = rows[key][g.name.replace(" (mirrored)", "")]
+                    rows[key][g.name] = rows[key][mirrored_name(g.name)]
         arrived = int(arrays["arrived"].sum())
         attrs.update(wall=json.dumps(wall), sensor=json.dumps(st.sensor or {"kind": "exact"}),
                      cost=st.cost, risk_weight=st.risk_weight, risk_from=st.risk_from,
