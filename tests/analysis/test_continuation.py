@@ -279,3 +279,92 @@ def test_a_latched_energy_loses_what_friction_takes_after_the_motor(two_step_poi
     b = continue_cycle(two_step(), start, "joint_viscous", integrator=INTEG, ds=0.01, steps=1)
     rate = float(re.search(r"energy by (\S+) J per N m s", b.stop_detail).group(1))
     assert rate == pytest.approx(-losses[0] / 1e-5, rel=2e-2)
+
+
+# --- a link's own parameters: the cycle of two steps ---------------------------------------------
+#: studies/descending_design.yaml's gait (a step 0.1 m down, one swap) and its fixed point
+DESCENDING = {
+    "kind": "sequence", "torque_frame": "motor", "rise": -0.1,
+    "section": {"theta1": 0.0, "direction": "either", "theta2": -1.241},
+    "segments": [
+        {"until": "time", "value": 7.519090701371105e-08},
+        {"until": "free_end_y", "value": -0.1, "direction": "rising", "torque": -0.2118,
+         "clock": "reset"},
+        {"until": "time", "value": 0.2, "magnets": "swap", "torque": 0.2118}]}
+Z_DESC = np.array([-1.2410195771999732, 3.141805394182587, 7.739977215255691])
+
+
+def descending() -> SequenceGait:
+    from monkeystudy.study.models import SequenceGaitSpec
+    return SequenceGaitSpec.model_validate(DESCENDING).gait()
+
+
+def uneven_robot() -> Robot:
+    """seed2009 with links that differ: link 1's CG 2 % farther from A, link 2 3 % lighter."""
+    r = Robot.preset("seed2009")
+    return dataclasses.replace(r, link1=dataclasses.replace(r.link1, com=r.link1.com * 1.02),
+                               link2=dataclasses.replace(r.link2, mass=r.link2.mass * 0.97))
+
+
+def test_the_two_step_cycle_is_two_cycles_of_the_gait():
+    """On links that differ, one cycle of the two-step cycle ends where two looped cycles of
+    the gait end (the kernel's own loop: mirror image, section row, staircase), hanging from
+    A two rises down; a gait whose cycle ends on A is its own."""
+    from monkeystudy.analysis import cycle_section_state
+    from monkeystudy.analysis.continuation import two_step_cycle
+    from monkeystudy.simulation import run_controller
+
+    g = descending()
+    g2 = two_step_cycle(g)
+    assert g.end_attached() == "B" and g2.end_attached() == "A"
+    assert g2.rise == 2 * g.rise and len(g2.segments) == 2 * len(g.segments) + 1
+    assert [s.value for s in g2.segments if s.until == "free_end_y"] == [-0.1, -0.2]
+    robot = uneven_robot()
+    start = cycle_section_state(g, Z_DESC)
+    looped = run_controller(g.controller(), start, robot=robot, integrator=INTEG, cycles=2)
+    doubled = run_controller(g2.controller(), start, robot=robot, integrator=INTEG, cycles=1)
+    assert looped.status == 0 and doubled.status == 0
+    assert np.abs(doubled.state[:8] - looped.state[:8]).max() < 1e-9
+    assert abs(doubled.state[1] - (-0.2)) < 1e-9      # hanging from A two steps down
+    assert two_step_cycle(g2) is g2
+
+
+def test_the_two_step_cycles_multipliers_are_the_squares_of_one_steps():
+    """On mirror-image links the two-step cycle has the gait's fixed point, and its
+    multipliers (variational equations) are the squares of one step's."""
+    from monkeystudy.analysis.continuation import two_step_cycle
+
+    g = descending()
+    g2 = two_step_cycle(g)
+    assert residual(g2, Z_DESC, "seed2009") < 1e-10
+    lam1 = np.linalg.eigvals(sequence_variational_jacobian(g, Z_DESC, robot="seed2009",
+                                                           integrator=INTEG))
+    lam2 = np.linalg.eigvals(sequence_variational_jacobian(g2, Z_DESC, robot="seed2009",
+                                                           integrator=INTEG))
+    assert np.sort_complex(lam2) == pytest.approx(np.sort_complex(lam1 ** 2), abs=1e-7)
+
+
+def test_a_links_own_parameter_continues_the_two_step_cycle():
+    """Continuation in link 1's CG: each branch point is a fixed point of the two-step cycle
+    on a robot built with that CG (link 2 as it was), and the start's multipliers are one
+    step's squared."""
+    from monkeystudy.analysis.continuation import two_step_cycle
+
+    g = descending()
+    base = Robot.preset("seed2009")
+    assert parameter_of(base, g, "link1_com") == base.link1.com
+    b = continue_cycle(g, Z_DESC, "link1_com", robot=base, integrator=INTEG, ds=0.05,
+                       steps=3)
+    assert len(b.value) == 4 and np.all(np.diff(b.value) > 0) and b.value[-1] > base.link1.com
+    g2 = two_step_cycle(g)
+    for i in range(len(b.value)):
+        built = dataclasses.replace(base, link1=dataclasses.replace(base.link1,
+                                                                    com=b.value[i]))
+        z = np.array([b.theta2[i], b.dtheta1[i], b.dtheta2[i]])
+        assert residual(g2, z, built) < 1e-9
+        rb, _ = with_parameter(base, g, "link1_com", b.value[i])
+        assert rb.link1.com == b.value[i] and rb.link2 == base.link2
+    lam1 = np.linalg.eigvals(sequence_variational_jacobian(g, Z_DESC, robot=base,
+                                                           integrator=INTEG))
+    assert np.sort_complex(b.multipliers[0]) == pytest.approx(np.sort_complex(lam1 ** 2),
+                                                              abs=1e-7)

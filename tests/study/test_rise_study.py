@@ -42,6 +42,8 @@ steps:
     seed: 30
     height_tolerance: 0.02
     noise: {timing: 1.0e-3, latency: 1.0e-3}
+  - {name: link1_com, kind: continuation, from: floquet, parameter: link1_com, ds: 0.05,
+     steps: 2, bounds: [0.52744, 0.56007]}
 """
 
 
@@ -53,7 +55,7 @@ def small(tmp_path_factory):
     out = folder / "out"
     run_study(load_study(path), out=out, workers=1)
     data = {}
-    for name in ("refine", "floquet", "survival"):
+    for name in ("refine", "floquet", "survival", "link1_com"):
         with xr.open_dataset(out / f"{name}.nc") as ds:
             data[name] = ds.load()
     return data
@@ -98,3 +100,17 @@ def test_the_shipped_studies_catch_on_their_staircase():
         assert gait.rise == rise
         catches = [s for s in gait.segments if s.until == "free_end_y"]
         assert [s.value for s in catches] == [rise]
+
+
+def test_a_links_own_cg_is_continued_on_the_cycle_of_two_steps(small):
+    """Link 1's CG alone makes the links differ: the branch is of the cycle of two steps,
+    two rises down, and at the start its multipliers are the floquet step's squared."""
+    ds = small["link1_com"]
+    assert ds.attrs["steps_per_cycle"] == 2 and ds.attrs["parameter_units"] == "m"
+    assert ds["parameter_value"].values[0] == pytest.approx(0.543754, abs=1e-12)
+    assert np.all(np.diff(ds["parameter_value"].values) > 0)
+    assert ds["y_advance"].values[0] == pytest.approx(-0.2, abs=1e-9)
+    fq = small["floquet"]
+    one = fq["multipliers_real"].values[0] + 1j * fq["multipliers_imag"].values[0]
+    two = ds["multipliers_real"].values[0] + 1j * ds["multipliers_imag"].values[0]
+    assert np.sort_complex(two) == pytest.approx(np.sort_complex(one ** 2), abs=1e-7)

@@ -33,7 +33,7 @@ _EXPORTS = {
                  "shoot_grazing", "shoot_horizontal"),
     "search": ("refine_gait",),
     "continuation": ("Branch", "CycleBranch", "continue_cycle", "continue_grazing",
-                     "mirror_robot", "with_parameter"),
+                     "mirror_robot", "two_step_cycle", "with_parameter"),
     "replay": ("SequenceCycles", "motorless", "open_loop_gait", "sequence_basin",
                "sequence_cycles"),
     "precision": ("work_precision",),

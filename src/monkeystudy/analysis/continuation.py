@@ -154,8 +154,17 @@ CYCLE_PARAMETERS = {
     "joint_viscous": "N m s", "pivot_viscous": "N m s",
 }
 
+#: one link's own mass [kg], CG distance from its proximal end [m] and inertia about its CG
+#: [kg m2] (``link1`` is the link of end A): a robot whose links differ is not its own mirror
+#: image, so the family is continued on the gait's cycle of two steps (:func:`two_step_cycle`)
+#: and its multipliers are those of two steps, the square of one step's at mirror-image links
+LINK_PARAMETERS = {f"{link}_{what}": units for link in ("link1", "link2")
+                   for what, units in (("mass", "kg"), ("com", "m"), ("inertia", "kg m2"))}
+CYCLE_PARAMETERS.update(LINK_PARAMETERS)
+
 #: least admissible values (a finite-difference stencil must not step below them)
-PARAMETER_FLOOR = {"joint_viscous": 0.0, "pivot_viscous": 0.0, "mass_ratio": 1e-6}
+PARAMETER_FLOOR = {"joint_viscous": 0.0, "pivot_viscous": 0.0, "mass_ratio": 1e-6,
+                   **{name: 0.0 for name in LINK_PARAMETERS}}
 
 #: multipliers within this of 1 are the neutral energy level, not a stability verdict
 NEUTRAL_TOL = 1e-6
@@ -200,7 +209,31 @@ def parameter_of(robot: RobotLike, gait: SequenceGait, parameter: str) -> float:
         return r.joint_friction.viscous
     if parameter == "pivot_viscous":
         return r.pivot_friction.viscous
+    if parameter in LINK_PARAMETERS:
+        link, what = parameter.split("_")
+        return float(getattr(getattr(r, link), what))
     raise ValueError(f"parameter must be one of {sorted(CYCLE_PARAMETERS)}, got {parameter!r}")
+
+
+def two_step_cycle(gait: SequenceGait) -> SequenceGait:
+    """The cycle of two steps of a gait whose cycle ends hanging from B: its segments, the
+    section crossing (the clock restarts there, as at the end of a cycle), then its mirror
+    image (every ``A`` and ``B`` magnet action exchanged, :meth:`SequenceGait.loop_segments`),
+    each ``free_end_y`` catch of the second step one ``rise`` higher; the rise per cycle
+    doubles. Its cycle ends hanging from A, so its return map compares like with like for
+    any robot, links that differ included. A gait whose cycle ends on A is returned as it
+    is. ``ValueError`` for a running clock (its cycle is one period)."""
+    if gait.end_attached() == "A":
+        return gait
+    if gait.clocked:
+        raise ValueError("a running clock's cycle is one period: no two-step cycle")
+    rows = gait.loop_segments() if gait.alternates else gait.all_segments() * 2
+    n = len(gait.all_segments())
+    first, section, second = rows[:n - 1], rows[n - 1], rows[n:2 * n - 1]
+    middle = replace(section, cycle_end=False, next=None)
+    second = [replace(seg, value=seg.value + gait.rise) if seg.until == "free_end_y" else seg
+              for seg in second]
+    return replace(gait, segments=(*first, middle, *second), rise=2.0 * gait.rise)
 
 
 def with_parameter(robot: RobotLike, gait: SequenceGait, parameter: str, value: float):
@@ -209,7 +242,9 @@ def with_parameter(robot: RobotLike, gait: SequenceGait, parameter: str, value: 
     ``torque``: every motor torque scaled by ``value / motor_torque(gait)`` (signs and ratios
     kept). ``mass_ratio``: link masses ``M / (1 + q)`` and ``M q / (1 + q)`` at the same total
     mass ``M``, each inertia scaled with its link's mass (same shape, different density).
-    ``com``, ``inertia``, ``gravity``: :func:`~monkeystudy.analysis.mirror_robot`.
+    ``com``, ``inertia``, ``gravity``: :func:`~monkeystudy.analysis.mirror_robot`. A link's
+    own parameter (:data:`LINK_PARAMETERS`): that link's value, the gait's cycle of two steps
+    (:func:`two_step_cycle`).
     """
     r = as_robot(robot)
     value = float(value)
@@ -231,6 +266,11 @@ def with_parameter(robot: RobotLike, gait: SequenceGait, parameter: str, value: 
         return r.with_friction(joint=replace(r.joint_friction, viscous=value)), gait
     if parameter == "pivot_viscous":
         return r.with_friction(pivot=replace(r.pivot_friction, viscous=value)), gait
+    if parameter in LINK_PARAMETERS:
+        link, what = parameter.split("_")
+        changed = replace(getattr(r, link), **{what: value})
+        return (replace(r, **{link: changed}, name=f"{r.name}:{parameter}={value:.6g}"),
+                two_step_cycle(gait))
     raise ValueError(f"parameter must be one of {sorted(CYCLE_PARAMETERS)}, got {parameter!r}")
 
 
@@ -384,7 +424,10 @@ class CycleEquations:
         for it in range(1, max_iter + 1):
             if v[MU] < self.floor:
                 return None, first      # left the admissible parameters (e.g. friction < 0)
-            r, st = self.equations(v)
+            try:
+                r, st = self.equations(v)
+            except ValueError:
+                return None, first      # no such robot (e.g. a CG off its link)
             if st != Status.OK or not np.all(np.isfinite(r)):
                 return None, first
             norm = float(np.linalg.norm(r))
@@ -628,6 +671,6 @@ def continue_cycle(gait: SequenceGait, z0, parameter: str, *, robot: RobotLike =
                        ns, reason, detail)
 
 
-__all__ = ["CYCLE_PARAMETERS", "CycleBranch", "FAMILY_BREAK_TOL", "PARAMETER_FLOOR",
+__all__ = ["CYCLE_PARAMETERS", "CycleBranch", "FAMILY_BREAK_TOL", "LINK_PARAMETERS", "PARAMETER_FLOOR",
            "continue_cycle", "family_break", "fold_indices", "motor_torque", "parameter_of",
-           "section_energy", "with_parameter"]
+           "section_energy", "two_step_cycle", "with_parameter"]

@@ -17,7 +17,8 @@ import numpy as np
 from pydantic import Field, field_validator
 
 from ...analysis.continuation import (
-    PARAMETER_FLOOR, continue_cycle, continue_grazing, parameter_of, with_parameter,
+    CYCLE_PARAMETERS, LINK_PARAMETERS, PARAMETER_FLOOR, continue_cycle, continue_grazing,
+    parameter_of, with_parameter,
 )
 from ...analysis.shooting import GrazingResult
 from ...controllers import SequenceGait
@@ -49,12 +50,16 @@ class ContinuationStep(StrictModel):
     kind: Literal["continuation"]
     from_: Name = Field(alias="from")  # described by the kind (accepts)
     parameter: Literal["com", "inertia", "gravity", "torque", "mass_ratio", "joint_viscous",
-                       "pivot_viscous"] = Field(
+                       "pivot_viscous", "link1_mass", "link1_com", "link1_inertia",
+                       "link2_mass", "link2_com", "link2_inertia"] = Field(
         description="com: link 1's CG from A [m] (link 2's mirrored); inertia: both links' "
                     "[kg m2]; gravity [m s-2]; sequence gaits also: torque (the first motor "
                     "segment's [N m], the others scaled with it), mass_ratio (link 2's mass "
                     "over link 1's at the same total mass, inertias scaled with the masses "
-                    "[1]), joint_viscous, pivot_viscous (viscous friction [N m s])")
+                    "[1]), joint_viscous, pivot_viscous (viscous friction [N m s]), and one "
+                    "link's own mass [kg], CG distance from its proximal end [m] or inertia "
+                    "about its CG [kg m2] (link1_*: the link of end A; a cycle that ends on B "
+                    "is continued as its cycle of two steps)")
     ds: float = Field(description="first arclength step in (dtheta1, dtheta2, [t_switch,] "
                                   "parameter) [mixed units]; its sign picks the direction")
     ds_max: Optional[float] = Field(None, gt=0, description="sequence gaits: largest |ds| "
@@ -81,6 +86,11 @@ class ContinuationStep(StrictModel):
 
 
 # --- tasks (run on the workers) ------------------------------------------------------------------
+def parameter_units(parameter: str) -> str:
+    """A continuation parameter's units (a grazing family's or a sequence gait's)."""
+    return D.PARAMETER_UNITS.get(parameter) or CYCLE_PARAMETERS[parameter]
+
+
 def parameter_value(robot: Robot, parameter: str) -> float:
     """The robot's current value of a continuation parameter (link 1's com [m], link 1's
     inertia [kg m2], gravity [m s-2])."""
@@ -123,7 +133,9 @@ def continuation_task(spec: GaitSpec, gait: SequenceGait, z, *, method: str,
     b = continue_cycle(gait, z0, parameter, robot=robot, ds=float(ds), steps=int(steps),
                        ds_max=ds_max, bounds=tuple(bounds), integrator=integ)
     n = len(b.value)
-    t_seg = np.full((n, len(gait.all_segments())), np.nan)
+    # a link's own parameter continues the cycle of two steps (its rows are the segments')
+    cycle_gait = with_parameter(robot, gait, parameter, b.value[0])[1]
+    t_seg = np.full((n, len(cycle_gait.all_segments())), np.nan)
     adv = np.full((n, 2), np.nan)
     for i in range(n):
         rb, g = with_parameter(robot, gait, parameter, b.value[i])
@@ -141,7 +153,8 @@ def continuation_task(spec: GaitSpec, gait: SequenceGait, z, *, method: str,
             "folds": list(b.folds), "period_doublings": list(b.period_doublings),
             "through_plus_one": list(b.through_plus_one),
             "neimark_sacker": list(b.neimark_sacker),
-            "stop_reason": b.stop_reason, "stop_detail": b.stop_detail}
+            "stop_reason": b.stop_reason, "stop_detail": b.stop_detail,
+            "steps_per_cycle": 2 if cycle_gait is not gait else 1}
 
 
 # --- the dataset ---------------------------------------------------------------------------------
@@ -199,7 +212,7 @@ def write_continuation(path: Path, attrs: dict, result: dict) -> None:
               {"gait": "collisionless gait", "origin": "shoot's gait",
                "residual": "|G| (B's height and velocity at t_switch)",
                "multiplier_map": "motorless open-loop map"})
-    fields.update(parameter=par, parameter_units=D.PARAMETER_UNITS[par])
+    fields.update(parameter=par, parameter_units=parameter_units(par))
     with D.atomic_netcdf(path) as nc:
 
         def write(name, data):
@@ -221,6 +234,7 @@ def write_continuation(path: Path, attrs: dict, result: dict) -> None:
                 write(name, result[name])
             D.write_complex(nc, VARIABLES, "multipliers", result["multipliers"], **fields)
             extra = {"theta2_pinned": int(result["theta2_pinned"]),
+                     "steps_per_cycle": int(result["steps_per_cycle"]),
                      "stop_reason": result["stop_reason"],
                      "through_plus_one": list(result["through_plus_one"]),
                      "neimark_sacker": list(result["neimark_sacker"])}
@@ -231,9 +245,22 @@ def write_continuation(path: Path, attrs: dict, result: dict) -> None:
             write("residual", result["residual"])
             D.write_complex(nc, VARIABLES, "multipliers", result["multipliers"], **fields)
             extra = {}
-        D.set_global_attrs(nc, dict(attrs, parameter=par, parameter_units=D.PARAMETER_UNITS[par],
+        D.set_global_attrs(nc, dict(attrs, parameter=par, parameter_units=parameter_units(par),
                                value0=float(result["value0"]), folds=list(result["folds"]),
                                period_doublings=list(result["period_doublings"]), **extra))
+
+
+def stable_reach(value: np.ndarray, stable: np.ndarray) -> str:
+    """How far from the start the branch stays stable: ``""`` unless the start is stable;
+    the last value before the first unstable point, or the branch's last, with its change
+    relative to the start."""
+    if value.size == 0 or not stable[0]:
+        return ""
+    unstable = np.flatnonzero(stable == 0)
+    last = (unstable[0] - 1) if unstable.size else value.size - 1
+    what = "stable up to" if unstable.size else "stable to the branch's end,"
+    rel = value[last] / value[0] - 1.0 if value[0] != 0.0 else math.nan
+    return f"; {what} {value[last]:.8g} ({rel:+.3%} of the start)"
 
 
 def unit_suffix(units) -> str:
@@ -262,6 +289,10 @@ def cycle_problems(study, i: int, s: ContinuationStep) -> list:
     if floor is not None and s.ds < 0 and parameter_of(rb, gait, s.parameter) <= floor:
         out.append((("steps", i, "ds"), f"{s.parameter} starts at {floor:g}, its least "
                     f"value: ds < 0 would make it smaller"))
+    if s.parameter in LINK_PARAMETERS and gait.clocked:
+        out.append((("steps", i, "parameter"), f"{s.parameter} is continued on the cycle of "
+                    f"two steps, which needs a clock that restarts at the section (the gait's "
+                    f"runs on with its period)"))
     if gait.end_attached() == "B":
         if s.parameter == "mass_ratio":
             out.append((("steps", i, "parameter"), "mass_ratio != 1 breaks the mirror "
@@ -339,7 +370,7 @@ class ContinuationKind(StepKind):
         write_continuation(ctx.path, attrs, r)
         v = r["value"]
         msg = (f"{len(v)} points, {st.parameter} {v[0]:.6g} -> {v[-1]:.6g}"
-               f"{unit_suffix(D.PARAMETER_UNITS[st.parameter])}, folds {r['folds']}, period doublings "
+               f"{unit_suffix(parameter_units(st.parameter))}, folds {r['folds']}, period doublings "
                f"{r['period_doublings']}, max residual {float(np.max(r['residual'])):.2g}")
         if cycle:
             msg += (f", through +1 {r['through_plus_one']}, Neimark-Sacker "
@@ -359,12 +390,14 @@ class ContinuationKind(StepKind):
             head = (f"sequence gait, theta2 {th2[0]:.6g} -> {th2[-1]:.6g} rad (pinned: "
                     f"{a.get('theta2_pinned')}), from floquet step {a.get('floquet_step')}; "
                     f"stopped: {a.get('stop_reason')}")
+            if int(a.get("steps_per_cycle", 1)) == 2:
+                head += "; a cycle of two steps (its multipliers are two steps')"
             if a.get("stop_detail"):
                 head += f" ({a['stop_detail']})"
             marks = (f"folds {a.get('folds')}, period doublings {a.get('period_doublings')}, "
                      f"through +1 {a.get('through_plus_one')}, Neimark-Sacker "
                      f"{a.get('neimark_sacker')}; stable at {int(ds['stable'].sum())} of "
-                     f"{v.size} points")
+                     f"{v.size} points" + stable_reach(v, ds["stable"].values))
         else:
             lead = np.abs(lam[:, 0])
             head = gait_line(a)
