@@ -4,6 +4,7 @@ product of the steps' survivals, the objectives trade time against energy, switc
 transition, and a wall without a route says how near the robot gets."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import networkx as nx
@@ -126,6 +127,8 @@ def test_p_arrive_is_the_product_of_the_steps_survivals():
     assert route.p_arrive == pytest.approx(want, rel=1e-12)
     assert route.p_arrive_low == pytest.approx(low, rel=1e-12)
     assert 0 < route.p_arrive_low < route.p_arrive < 1
+    # no survival curve: each gait's runs fall back on its constant rate, the same number
+    assert route.p_arrive_survival == pytest.approx(route.p_arrive, rel=1e-12)
     switches = sum(s.transition for s in route.steps)
     assert switches >= 2
     assert route.expected_time == pytest.approx(
@@ -280,3 +283,34 @@ def test_a_switch_step_runs_once_between_the_gaits_its_transitions_name():
     route = plan_route(replace(wall, goal=Goal((4.0, -0.2), 0.01)), [level, down, switch],
                        moves, mirror=False)
     assert [s.gait for s in route.steps] == ["level"] * 2 + ["level to down", "down"]
+
+
+def test_p_arrive_from_survival_curves_counts_each_run_of_a_gait_once():
+    """With survival curves, each run of n consecutive steps of one gait survives with S(n)
+    (the curve's last value times 1 - p_fail per step beyond it), each switch with its own
+    1 - p_fail: counted here from the route's steps, independently of the planner."""
+    curves = {"walk": (1.0, 0.9, 0.88, 0.87), "climb": (1.0, 0.95, 0.9, 0.89, 0.885),
+              "descend": (1.0, 0.99)}
+    atlas = [dataclasses.replace(g, survival=curves[g.name]) for g in ATLAS]
+    route = plan_route(plate_wall(), atlas, SWITCHES, resolution=0.01)
+    gaits = {g.name: g for g in atlas}
+    runs = []
+    for s in route.steps:
+        if runs and runs[-1][0] == s.gait:
+            runs[-1][1] += 1
+        else:
+            runs.append([s.gait, 1])
+    assert len(runs) >= 3 and max(n for _, n in runs) > 4      # past a curve's end
+    want = (1 - 1e-3) ** (len(runs) - 1)
+    for name, n in runs:
+        g = gaits[name.replace(" (mirrored)", "")]
+        last = len(g.survival) - 1
+        want *= g.survival[n] if n <= last else g.survival[last] * (1 - g.p_fail) ** (n - last)
+    assert route.p_arrive_survival == pytest.approx(want, rel=1e-12)
+    assert route.p_arrive_survival < route.p_arrive      # the early failures, counted
+
+
+@pytest.mark.parametrize("curve", [(0.9, 0.8), (1.0, 0.8, 0.85), (1.0, 1.2), (1.0, -0.1)])
+def test_a_survival_curve_starts_at_one_and_never_rises(curve):
+    with pytest.raises(ValueError, match="survival must start at 1"):
+        dataclasses.replace(WALK, survival=curve)

@@ -264,6 +264,7 @@ def route_dataset(*, walks: int = 200, max_steps: int = 30, seed: int = 7,
         "sensor": json.dumps({"position": 0.01}),
         "arrived_runs": n_arrived, "arrived_fraction": n_arrived / walks,
         "planned_p_arrive": route.p_arrive, "planned_p_arrive_low": route.p_arrive_low,
+        "planned_p_arrive_survival": route.p_arrive_survival,
         "planned_time": route.expected_time, "planned_energy": route.expected_energy,
         "planned_steps": len(route.steps),
     }

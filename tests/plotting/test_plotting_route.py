@@ -89,6 +89,8 @@ def test_the_wall_figure_draws_the_wall_and_each_planned_step_in_its_gait(ds):
     assert len(set(gaits)) >= 2
     title = fig._suptitle.get_text()
     assert f"{float(ds.attrs['planned_p_arrive']):.3f}" in title
+    assert f"{float(ds.attrs['planned_p_arrive_survival']):.3f} from the gaits' survival" in \
+        title.replace("\n", " ")
     assert f"{float(ds.attrs['planned_time']):.3g} s" in title
     assert f"{float(ds.attrs['planned_energy']):.3g} J" in title.replace("\n", " ")
 
@@ -280,6 +282,7 @@ def test_every_figure_fits_in_its_frame(ds, plot):
 def test_a_wall_without_a_route_says_so_in_its_title(ds):
     empty = ds.isel(plan_step=slice(0, 0)).assign_attrs(
         planned_steps=0, planned_p_arrive=float("nan"), planned_p_arrive_low=float("nan"),
+        planned_p_arrive_survival=float("nan"),
         planned_time=float("nan"), planned_energy=float("nan"))
     fig = plot_route_wall(empty)
     titles = " ".join(t.get_text() for t in fig.texts)

@@ -44,6 +44,7 @@ steps:
     noise: {timing: 1.0e-3, latency: 1.0e-3}
   - {name: link1_com, kind: continuation, from: floquet, parameter: link1_com, ds: 0.05,
      steps: 2, bounds: [0.52744, 0.56007]}
+  - {name: torque, kind: continuation, from: floquet, parameter: torque, ds: 0.05, steps: 1}
 """
 
 
@@ -55,7 +56,7 @@ def small(tmp_path_factory):
     out = folder / "out"
     run_study(load_study(path), out=out, workers=1)
     data = {}
-    for name in ("refine", "floquet", "survival", "link1_com"):
+    for name in ("refine", "floquet", "survival", "link1_com", "torque"):
         with xr.open_dataset(out / f"{name}.nc") as ds:
             data[name] = ds.load()
     return data
@@ -114,3 +115,8 @@ def test_a_links_own_cg_is_continued_on_the_cycle_of_two_steps(small):
     one = fq["multipliers_real"].values[0] + 1j * fq["multipliers_imag"].values[0]
     two = ds["multipliers_real"].values[0] + 1j * ds["multipliers_imag"].values[0]
     assert np.sort_complex(two) == pytest.approx(np.sort_complex(one ** 2), abs=1e-7)
+    # the motor's torque leaves the links mirror images: one step per cycle, as the floquet's
+    tq = small["torque"]
+    assert tq.attrs["steps_per_cycle"] == 1
+    lam = tq["multipliers_real"].values[0] + 1j * tq["multipliers_imag"].values[0]
+    assert np.sort_complex(lam) == pytest.approx(np.sort_complex(one), abs=1e-7)

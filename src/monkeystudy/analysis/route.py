@@ -112,6 +112,10 @@ class AtlasGait:
         The step may follow itself (a gait's cycle, from its own fixed point). False: a
         switch step, designed to take the robot from one gait to another, which runs once,
         after a gait a :class:`Transition` names and never first from rest.
+    survival : sequence of float
+        The gait's survival curve ``S(n)``, ``n = 0, 1, ...``: the fraction of its survival
+        runs (from its fixed point) that completed at least ``n`` steps (``S(0) = 1``,
+        non-increasing); empty when not measured (:meth:`run_survival`).
     """
 
     name: str
@@ -124,6 +128,7 @@ class AtlasGait:
     attached: str | None = None
     swaps: bool = True
     repeats: bool = True
+    survival: tuple = ()
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
@@ -151,6 +156,25 @@ class AtlasGait:
         object.__setattr__(self, "p_fail_upper", up)
         if self.attached is not None:
             end_name(self.attached)
+        curve = tuple(float(v) for v in self.survival)
+        if curve and not (curve[0] == 1.0 and all(0.0 <= v <= 1.0 for v in curve)
+                          and all(b <= a for a, b in zip(curve, curve[1:]))):
+            raise ValueError(f"gait {self.name!r}: survival must start at 1 and never rise, "
+                             f"each in [0, 1]")
+        object.__setattr__(self, "survival", curve)
+
+    def run_survival(self, steps: int) -> float:
+        """Probability that ``steps`` consecutive steps of the gait all succeed: ``S(steps)``
+        of its survival curve, beyond the curve its last value times ``1 - p_fail`` per
+        further step; without a curve ``(1 - p_fail) ** steps`` (a constant hazard)."""
+        if steps < 0:
+            raise ValueError(f"steps must be >= 0, got {steps!r}")
+        if not self.survival:
+            return (1.0 - self.p_fail) ** steps
+        last = len(self.survival) - 1
+        if steps <= last:
+            return self.survival[steps]
+        return self.survival[last] * (1.0 - self.p_fail) ** (steps - last)
 
     def starts_from(self, end: str) -> bool:
         """Whether a step may start with ``end`` attached."""
@@ -267,6 +291,14 @@ class Route:
 
     ``cost`` names the objective (``time`` or ``energy``) and ``total_cost`` its least value
     with the risk term (module docstring); ``resolution`` [m] is the lattice's spacing.
+
+    ``p_arrive_survival`` is the probability of arriving from the gaits' survival curves
+    (:meth:`AtlasGait.run_survival`, set by :func:`route_of`): each run of consecutive steps
+    of one gait survives as that many steps of the gait's survival runs did, each switch
+    with its transition's ``1 - p_fail``. A build that cannot walk a gait fails early in
+    it, and the curve counts that failure where it happens; the constant hazard of
+    :attr:`p_arrive` spreads it over every step and overrates a short route. Runs of
+    different gaits are taken as independent (builds that fail one gait may fail another).
     """
 
     start: Start
@@ -276,6 +308,7 @@ class Route:
     risk_weight: float
     total_cost: float
     resolution: float
+    p_arrive_survival: float = math.nan
 
     @property
     def catches(self) -> np.ndarray:
@@ -556,17 +589,25 @@ def route_of(rg: RouteGraph, start: Start, algorithm: str = "astar") -> Route:
         raise NoRoute(rg.goal, (float(pts[k, 0]), float(pts[k, 1])), len(cells)) from None
     steps = []
     total = 0.0
-    for u, v in zip(path[:-2], path[1:-1]):
+    p_survival, run = 1.0, 0
+    for k, (u, v) in enumerate(zip(path[:-2], path[1:-1])):
         gait = rg.gaits[v[2]]
         switch = u[2] != AT_REST and u[2] != v[2]
         t = rg.transitions[(u[2], v[2])] if switch else None
+        run += 1
+        if k + 2 == len(path) - 1 or path[k + 2][2] != v[2]:
+            p_survival *= gait.run_survival(run)      # the end of a run of this gait
+            run = 0
+        if t is not None:
+            p_survival *= 1.0 - t.p_fail
         p = 1.0 - (1.0 - gait.p_fail) * (1.0 - (t.p_fail if t else 0.0))
         p_up = 1.0 - (1.0 - gait.p_fail_upper) * (1.0 - (t.p_fail_upper if t else 0.0))
         steps.append(RouteStep(gait.name, u[3], rg.position(v), v[3],
                                gait.duration + (t.extra_time if t else 0.0),
                                gait.energy + (t.extra_energy if t else 0.0), p, p_up, switch))
         total += rg.graph.edges[u, v]["weight"]
-    return Route(start, rg.goal, tuple(steps), rg.cost, rg.risk_weight, total, rg.resolution)
+    return Route(start, rg.goal, tuple(steps), rg.cost, rg.risk_weight, total, rg.resolution,
+                 p_survival)
 
 
 def replan(wall: Wall, atlas: Sequence[AtlasGait], transitions: Sequence[Transition] = (), *,

@@ -152,8 +152,8 @@ def _plan_title(ds) -> str:
     if int(a["planned_steps"]) == 0:
         return "No route: no catches on steel lead from the start to the goal"
     return (f"Planned route, {count(int(a['planned_steps']), 'step')}: "
-            f"P(arrive) {float(a['planned_p_arrive']):.3f} (≥ "
-            f"{float(a['planned_p_arrive_low']):.3f} at the bounds), "
+            f"P(arrive) {float(a['planned_p_arrive_survival']):.3f} from the gaits' "
+            f"survival curves ({float(a['planned_p_arrive']):.3f} at a constant hazard), "
             f"{float(a['planned_time']):.3g} s, {float(a['planned_energy']):.3g} J")
 
 

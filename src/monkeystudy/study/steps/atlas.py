@@ -28,7 +28,7 @@ from pydantic import Field, model_validator
 from ...analysis.multipliers import jacobian_fd, solve_fixed_point
 from ...analysis.route import AtlasGait, Transition, step_failure
 from ...analysis.sections import cycle_full_map, cycle_return_map, cycle_section_state
-from ...analysis.survival import Noise, mfpt, survival_runs
+from ...analysis.survival import Noise, mfpt, survival_curve, survival_runs
 from ...analysis.walk import WalkGait, Walker, switch_runs
 from .. import datasets as D
 from ..blocks import Block, Task
@@ -263,6 +263,12 @@ VARIABLES = {
     "gait_survival_runs": D.Variable(GAIT_DIM, np.int32, "1", "runs measured (a switch "
                                      "step: runs that reached it)"),
     "gait_survival_failed": D.Variable(GAIT_DIM, np.int32, "1", "runs that failed"),
+    "steps_completed": D.index_coordinate("steps_completed", "steps completed in a run, 0 to "
+                                          "max_cycles"),
+    "gait_survival": D.Variable(("gait", "steps_completed"), np.float64, "1",
+                                "fraction of the gait's survival runs (from its fixed point) "
+                                "that completed at least this many steps (NaN for a switch "
+                                "step)"),
     "switch": D.index_coordinate("switch", "a direct switch between two gaits"),
     "switch_from": D.Variable(SWITCH_DIM, str, "1", "the gait left"),
     "switch_to": D.Variable(SWITCH_DIM, str, "1", "the gait entered, with no step between"),
@@ -305,6 +311,8 @@ def write_atlas(path: Path, attrs: dict, rows: list[dict], switches: list[dict])
     """Write an atlas dataset: one row per gait, one per direct switch."""
     with D.atomic_netcdf(path) as nc:
         D.write_coordinate(nc, VARIABLES, "gait", [r["gait"] for r in rows])
+        D.write_coordinate(nc, VARIABLES, "steps_completed",
+                           np.arange(len(rows[0]["gait_survival"])))
         for name in VARIABLES:
             if name.startswith("gait_"):
                 D.write_declared(nc, VARIABLES, name, [r[name] for r in rows])
@@ -404,7 +412,9 @@ class AtlasKind(StepKind):
                            gait_mfpt_low=m.low,
                            gait_mfpt_high=m.high if m.method != "lower_bound" else math.nan,
                            gait_mfpt_censored=int(m.method == "lower_bound"),
-                           gait_survival_runs=st.runs, gait_survival_failed=int(failed.sum()))
+                           gait_survival_runs=st.runs, gait_survival_failed=int(failed.sum()),
+                           gait_survival=survival_curve(got["cycles"], st.max_cycles,
+                                                        np.arange(st.max_cycles + 1)))
             else:
                 n, kf, p, upper = switch_failure(got["failed_step"], before)
                 dx, _, duration, energy = (float(v) for v in got["step"])
@@ -415,7 +425,8 @@ class AtlasKind(StepKind):
                            gait_p_fail_upper=upper, gait_mfpt=math.nan,
                            gait_mfpt_low=math.nan, gait_mfpt_high=math.nan,
                            gait_mfpt_censored=0, gait_survival_runs=n,
-                           gait_survival_failed=kf)
+                           gait_survival_failed=kf,
+                           gait_survival=np.full(st.max_cycles + 1, np.nan))
             rows.append(row)
         switches = []
         for j, (a, c) in enumerate(self.pairs(st)):
@@ -459,7 +470,9 @@ class AtlasKind(StepKind):
             gaits.append(AtlasGait(e["name"], float(ds["gait_dx"][k]), float(ds["gait_dy"][k]),
                                    float(ds["gait_duration"][k]), max(
                                        0.0, float(ds["gait_energy"][k])), p, up,
-                                   repeats=e.get("switch") is None))
+                                   repeats=e.get("switch") is None,
+                                   survival=() if e.get("switch") is not None else
+                                   tuple(ds["gait_survival"].values[k])))
             if e.get("switch") is not None:
                 moves += [Transition(e["switch"]["from"], e["name"], 0.0, 0.0),
                           Transition(e["name"], e["switch"]["to"], 0.0, 0.0)]

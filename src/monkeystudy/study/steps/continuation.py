@@ -154,7 +154,7 @@ def continuation_task(spec: GaitSpec, gait: SequenceGait, z, *, method: str,
             "through_plus_one": list(b.through_plus_one),
             "neimark_sacker": list(b.neimark_sacker),
             "stop_reason": b.stop_reason, "stop_detail": b.stop_detail,
-            "steps_per_cycle": 2 if cycle_gait is not gait else 1}
+            "steps_per_cycle": 2 if len(cycle_gait.segments) != len(gait.segments) else 1}
 
 
 # --- the dataset ---------------------------------------------------------------------------------

@@ -337,12 +337,14 @@ class RouteKind(StepKind):
                      planned_steps=len(route.steps) if route else 0,
                      planned_p_arrive=route.p_arrive if route else math.nan,
                      planned_p_arrive_low=route.p_arrive_low if route else math.nan,
+                     planned_p_arrive_survival=route.p_arrive_survival if route else math.nan,
                      planned_time=route.expected_time if route else math.nan,
                      planned_energy=route.expected_energy if route else math.nan,
                      n_blocks=len(ctx.blocks))
         write_route(ctx.path, attrs, atlas, rows, route, arrays, st.max_steps,
                     noiseless_walk(ctx.spec, atlas, wall_, st) if route else None)
-        plan = (f"planned {len(route.steps)} steps, p_arrive {route.p_arrive:.4g}"
+        plan = (f"planned {len(route.steps)} steps, p_arrive {route.p_arrive:.4g} "
+                f"(survival curves: {route.p_arrive_survival:.4g})"
                 if route else "no route from the start")
         return f"{plan}; {arrived} of {n} walks arrived"
 
@@ -362,7 +364,8 @@ class RouteKind(StepKind):
                  f"time {float(a['planned_time']):.4g} s, energy "
                  f"{float(a['planned_energy']):.4g} J, p_arrive "
                  f"{float(a['planned_p_arrive']):.4g} (>= "
-                 f"{float(a['planned_p_arrive_low']):.4g})",
+                 f"{float(a['planned_p_arrive_low']):.4g}); from the gaits' survival curves "
+                 f"{float(a.get('planned_p_arrive_survival', math.nan)):.4g}",
                  f"walked: {a.get('arrived_runs')} of {a.get('walks')} arrived "
                  f"({100 * float(a['arrived_fraction']):.4g} %); failed: {causes or 'none'}"]
         ok = np.asarray(ds["arrived"].values, bool)
