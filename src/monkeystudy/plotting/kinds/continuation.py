@@ -98,7 +98,9 @@ def plot_continuation(ds):
             pin = (f"θ2 held at {th2[0]:.4g} rad (a family: one neutral multiplier)"
                    if int(attr_float(ds, "theta2_pinned") or 0) else
                    f"θ2 {th2[0]:.4g} → {th2[-1]:.4g} rad")
-            sub += (f"{pin}, from floquet step {ds.attrs.get('floquet_step', '?')}\n"
+            two = attr_float(ds, "steps_per_cycle", 1.0) == 2
+            sub += (f"{pin}, from floquet step {ds.attrs.get('floquet_step', '?')}"
+                    + ("; a cycle of two steps (the links differ)" if two else "") + "\n"
                     f"stopped: {why}\n" + run_line(ds, tick=False))
             title = f"Sequence-gait family continued in {what}"
         else:
@@ -163,8 +165,10 @@ def plot_continuation(ds):
                     axl.fill_between([], [], color=color, alpha=0.25,
                                      label=f"{label} between points {i - 1} and {i} "
                                            f"({sym} from {mu[i - 1]:.6g} to {mu[i]:.6g})")
-        body.legend(*axl.get_legend_handles_labels(), loc="outside lower center", ncols=2,
-                   frameon=False)
+        handles, labels = axl.get_legend_handles_labels()
+        # two columns of long labels (a crossing's span) run off the figure's sides
+        body.legend(handles, labels, loc="outside lower center",
+                    ncols=2 if max(map(len, labels), default=0) <= 48 else 1, frameon=False)
         if sequence:
             axes[0].set_title("the fixed point along the branch (○: the floquet step's)",
                               loc="left", **SUB)
