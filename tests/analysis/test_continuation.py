@@ -306,22 +306,29 @@ def uneven_robot() -> Robot:
                                link2=dataclasses.replace(r.link2, mass=r.link2.mass * 0.97))
 
 
-def test_the_two_step_cycle_is_two_cycles_of_the_gait():
+@pytest.mark.parametrize("catch", ["swap", "B"])
+def test_the_two_step_cycle_is_two_cycles_of_the_gait(catch):
     """On links that differ, one cycle of the two-step cycle ends where two looped cycles of
     the gait end (the kernel's own loop: mirror image, section row, staircase), hanging from
-    A two rises down; a gait whose cycle ends on A is its own."""
+    A two rises down; a gait whose cycle ends on A is its own. A catch written as "B on"
+    (not "swap") is "A on" in the second step, as in the looped run."""
     from monkeystudy.analysis import cycle_section_state
     from monkeystudy.analysis.continuation import two_step_cycle
     from monkeystudy.simulation import run_controller
 
     g = descending()
+    segs = list(g.segments)
+    segs[2] = dataclasses.replace(segs[2], magnets=catch)
+    g = dataclasses.replace(g, segments=tuple(segs))
     g2 = two_step_cycle(g)
+    assert g2.segments[-1].magnets == {"swap": "swap", "B": "A"}[catch]
     assert g.end_attached() == "B" and g2.end_attached() == "A"
     assert g2.rise == 2 * g.rise and len(g2.segments) == 2 * len(g.segments) + 1
     assert [s.value for s in g2.segments if s.until == "free_end_y"] == [-0.1, -0.2]
     robot = uneven_robot()
     start = cycle_section_state(g, Z_DESC)
-    looped = run_controller(g.controller(), start, robot=robot, integrator=INTEG, cycles=2)
+    looped = run_controller(g.loop_controller(), start, robot=robot, integrator=INTEG,
+                            cycles=2)
     doubled = run_controller(g2.controller(), start, robot=robot, integrator=INTEG, cycles=1)
     assert looped.status == 0 and doubled.status == 0
     assert np.abs(doubled.state[:8] - looped.state[:8]).max() < 1e-9

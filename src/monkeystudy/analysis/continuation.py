@@ -24,7 +24,9 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..controllers import Integrator, SequenceGait, horizontal_gait, open_loop_gait
+from ..controllers import (
+    MIRRORED_MAGNETS, Integrator, SequenceGait, horizontal_gait, open_loop_gait,
+)
 from ..robot import Robot
 from ..simulation import RobotLike, Status, as_robot, energies
 from .sections import TIGHT, cycle_return_map, cycle_section_state
@@ -218,8 +220,9 @@ def parameter_of(robot: RobotLike, gait: SequenceGait, parameter: str) -> float:
 def two_step_cycle(gait: SequenceGait) -> SequenceGait:
     """The cycle of two steps of a gait whose cycle ends hanging from B: its segments, the
     section crossing (the clock restarts there, as at the end of a cycle), then its mirror
-    image (every ``A`` and ``B`` magnet action exchanged, :meth:`SequenceGait.loop_segments`),
-    each ``free_end_y`` catch of the second step one ``rise`` higher; the rise per cycle
+    image (every ``A`` and ``B`` magnet action exchanged, as a looped run's second cycle has
+    them: :meth:`SequenceGait.loop_segments`), each ``free_end_y`` catch of the second step
+    one ``rise`` higher; the rise per cycle
     doubles. Its cycle ends hanging from A, so its return map compares like with like for
     any robot, links that differ included. A gait whose cycle ends on A is returned as it
     is. ``ValueError`` for a running clock (its cycle is one period)."""
@@ -227,12 +230,18 @@ def two_step_cycle(gait: SequenceGait) -> SequenceGait:
         return gait
     if gait.clocked:
         raise ValueError("a running clock's cycle is one period: no two-step cycle")
-    rows = gait.loop_segments() if gait.alternates else gait.all_segments() * 2
-    n = len(gait.all_segments())
-    first, section, second = rows[:n - 1], rows[n - 1], rows[n:2 * n - 1]
-    middle = replace(section, cycle_end=False, next=None)
-    second = [replace(seg, value=seg.value + gait.rise) if seg.until == "free_end_y" else seg
-              for seg in second]
+    rows = gait.all_segments()
+    n = len(rows)
+    middle = replace(rows[-1], cycle_end=False, next=None)
+
+    def mirrored(seg):
+        # the second step hangs from B: A and B exchanged, a jump kept within its copy
+        nxt = seg.next + n if seg.next is not None and seg.next >= 0 else seg.next
+        value = seg.value + gait.rise if seg.until == "free_end_y" else seg.value
+        return replace(seg, magnets=MIRRORED_MAGNETS.get(seg.magnets, seg.magnets), next=nxt,
+                       value=value)
+
+    first, second = rows[:-1], [mirrored(seg) for seg in rows[:-1]]
     return replace(gait, segments=(*first, middle, *second), rise=2.0 * gait.rise)
 
 
