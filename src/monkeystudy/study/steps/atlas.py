@@ -35,7 +35,7 @@ from ..blocks import Block, Task
 from ..models import Name, SequenceGaitSpec, StrictModel
 from ..noise import NoiseSpec
 from ..spec import GaitSpec
-from .base import StepContext, StepKind
+from .base import Figure, StepContext, StepKind
 
 
 class SwitchOf(StrictModel):
@@ -324,8 +324,8 @@ class AtlasKind(StepKind):
     runs_gait = False
     provides = "the atlas of gaits and switches a route plans with"
     unit = "blocks"
-    no_figures = ("a route step that plans with the atlas draws it (the route's atlas figure: "
-                  "rho and MFPT against each gait's rise)")
+    # drawn when no route step plans with the atlas (a route step draws it as its own)
+    figures = (Figure("gaits"),)
 
     def pairs(self, step: AtlasStep) -> list[tuple[int, int]]:
         """The direct switches measured: every ordered pair of repeating gaits."""
