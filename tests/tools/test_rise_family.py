@@ -47,33 +47,54 @@ def study_gait(path: Path):
 
 
 @pytest.fixture(scope="module")
+def level():
+    """The search at rise 0 on a 2 x 2 x 2 grid with robust_design's torques and pulse as one
+    of its cells, its 2 least-rho stable gaits screened by 20 runs of 50 steps."""
+    t1, t2, d = rf.LEVEL_GAIT
+    grid = rf.Grid((0.2118, t1), (t2, -0.2118), (d, 0.4))
+    return grid, rf.search([0.0], grid, rf.Screen(candidates=2, runs=20, steps=50))
+
+
+@pytest.fixture(scope="module")
 def descent():
-    """The search on a 2 x 2 x 2 grid around descending_design's gait, continued from the
-    level gait down to a rise of -0.1 m, its 2 least-rho gaits screened by 20 runs of 50
-    steps."""
-    grid = rf.Grid((-0.4236, -0.2118), (0.2118, 0.4236), (0.2, 0.3))
-    screen = rf.Screen(candidates=2, runs=20, steps=50)
-    return grid, rf.search([-0.1], grid, screen, rise_step=0.01)
+    """The search on a 4 x 4 x 2 grid, continued from the level gait down to a rise of
+    -0.1 m in steps of 0.01 m, its 2 least-rho stable gaits screened by 20 runs of 50 steps."""
+    grid = rf.Grid((-0.2118, 0.0, 0.2118, 0.4236), (-0.4236, -0.2118, 0.0, 0.2118), (0.2, 0.3))
+    return grid, rf.search([-0.1], grid, rf.Screen(candidates=2, runs=20, steps=50),
+                           rise_step=0.01)
 
 
-def test_the_search_continued_to_minus_0_1_finds_descending_design(descent):
-    """The cell of descending_design's torques and pulse, reached by continuation from the
-    level gait in rise steps of 0.01 m, holds the study's gait: its fixed point and full-map
-    rho, solved here from the study file, to 1e-6."""
-    grid, found = descent
-    study, z, rho = study_gait(ROOT / "studies" / "descending_design.yaml")
+def test_the_search_at_rise_0_finds_robust_designs_gait(level):
+    """The grid's cell of robust_design's torques and pulse holds the study's gait: its
+    fixed point and full-map rho, solved here from the study file by the return map, to
+    1e-6; it is stable, and the rise's line counts it."""
+    grid, found = level
+    study, z, rho = study_gait(ROOT / "studies" / "robust_design.yaml")
     segs = study.gait.segments
     cell = (segs[1].torque, segs[2].torque, segs[2].value)
-    assert cell == (-0.2118, 0.2118, 0.2)
-    g = found.grids[-0.1][grid.index(cell)]
     assert grid.cell(grid.index(cell)) == cell
-    assert g.stable
+    g = found.grids[0.0][grid.index(cell)][0]
+    assert g.stable and g.cell == cell
     np.testing.assert_allclose(g.z, z, rtol=0, atol=1e-6)
     assert g.rho == pytest.approx(rho, abs=1e-6)
-    # the rise's line: one stable gait or more, and the chosen one among the screened
     (res,) = found.rises
-    assert res.rise == -0.1 and res.stable >= 1 and res.chosen is not None
+    assert res.rise == 0.0 and res.stable >= 1 and res.chosen is not None
     assert res.chosen.gait.stable and 0 <= res.chosen.lasted <= res.chosen.runs == 20
+
+
+def test_the_continued_search_keeps_one_swing_steps_of_the_rise(descent):
+    """At -0.1 m every stable gait is a one-swing step, each cell's gaits are distinct
+    (theta2 within a turn), and the chosen gait is one of the screened candidates."""
+    grid, found = descent
+    solved = found.grids[-0.1]
+    assert solved
+    for gs in solved.values():
+        assert all(abs(g.z[0]) <= np.pi for g in gs)
+        assert all(rf.distinct(g.z, [h for h in gs if h is not g], rf.SAME_GAIT) for g in gs)
+        assert [rf.order_key(g) for g in gs] == sorted(rf.order_key(g) for g in gs)
+    (res,) = found.rises
+    assert res.chosen.gait in rf.candidates(solved, 2)
+    assert res.stable == sum(gs[0].stable for gs in solved.values())
 
 
 def test_the_level_gait_is_robust_designs():

@@ -335,12 +335,14 @@ def plot_gait_atlas(ds):
                           "survival noise, against the rise of one step; "
                           + run_line(ds, tick=False))
         ax_rho, ax_mfpt = body.subplots(2, 1, sharex=True)
+        rho_labels, mfpt_labels = [], []
         for idx, label in _groups(dy, rho, length, names):
             k = idx[0]
             ax_rho.scatter([dy[k]], [rho[k]], s=70, color=cmap(norm(length[k])),
                            edgecolor=BLACK, lw=0.6, zorder=4, gid="rho")
-            ax_rho.annotate(label, (dy[k], rho[k]), xytext=(0, 9), textcoords="offset points",
-                            ha="center", va="bottom", fontsize=8, gid="label_rho")
+            rho_labels.append(ax_rho.annotate(
+                label, (dy[k], rho[k]), xytext=(0, 9), textcoords="offset points",
+                ha="center", va="bottom", fontsize=8, gid="label_rho", arrowprops=LEADER))
         ax_rho.axhline(1.0, color=VERMILLION, lw=1.2, ls="--", gid="rho_one",
                        label="ρ = 1: a map with ρ above it is unstable")
         top = np.nanmax(np.append(rho, 1.0))
@@ -367,9 +369,9 @@ def plot_gait_atlas(ds):
                 ax_mfpt.errorbar([dy[k]], [mfpt[k]], yerr=[[lo], [hi]], marker="o", ms=8,
                                  color=colour, mec=BLACK, mew=0.6, capsize=3, lw=1.4,
                                  ls="none", zorder=4, gid="mfpt")
-            ax_mfpt.annotate(note, (dy[k], mfpt[k]), xytext=(0, 14),
-                             textcoords="offset points", ha="center", va="bottom",
-                             fontsize=7.5, gid="label_mfpt")
+            mfpt_labels.append(ax_mfpt.annotate(
+                note, (dy[k], mfpt[k]), xytext=(0, 14), textcoords="offset points",
+                ha="center", va="bottom", fontsize=7.5, gid="label_mfpt", arrowprops=LEADER))
         ax_mfpt.set_yscale("log")
         plain_log_labels(ax_mfpt.yaxis)
         lo_y = np.nanmin(np.concatenate([low, mfpt])) if np.isfinite(mfpt).any() else 1.0
@@ -388,7 +390,55 @@ def plot_gait_atlas(ds):
         bar = body.colorbar(matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap),
                             ax=[ax_rho, ax_mfpt], shrink=0.6)
         bar.set_label("step length |dx|  [m]")
+        unstack_labels(fig, ax_rho, rho_labels)
+        unstack_labels(fig, ax_mfpt, mfpt_labels)
     return fig
+
+
+#: the line from a label raised above its neighbours' to its point
+LEADER = {"arrowstyle": "-", "lw": 0.5, "color": "0.5", "shrinkA": 0.0, "shrinkB": 4.0}
+
+
+def unstack_labels(fig, ax, labels: list, gap: float = 2.0, rounds: int = 3) -> None:
+    """Raise the labels of ``ax`` (annotations in offset points above their points, drawn
+    with :data:`LEADER`) that overlap one placed before them (from the left) until none
+    overlaps, ``gap`` points apart, and raise the axis' top to hold them (then again from
+    their first places, the points having moved: ``rounds`` times at most); a label left at
+    its place shows no leader line. The figure is drawn to measure them."""
+    if not labels:
+        return
+    renderer = fig.canvas.get_renderer()
+    points = fig.dpi / 72.0                      # display pixels per point
+    first = {id(a): a.xyann for a in labels}
+    for _ in range(rounds):
+        for ann in labels:
+            ann.xyann = first[id(ann)]
+        fig.canvas.draw()
+        placed = []
+        for ann in sorted(labels, key=lambda a: a.xy[0]):
+            box = ann.get_window_extent(renderer)
+            rise = 0.0
+            for other in sorted(placed, key=lambda b: b.y0):
+                moved = box.translated(0.0, rise)
+                if moved.x1 > other.x0 and moved.x0 < other.x1 and \
+                        moved.y1 > other.y0 - gap * points and \
+                        moved.y0 < other.y1 + gap * points:
+                    rise = other.y1 + gap * points - box.y0
+            x, y = ann.xyann
+            ann.xyann = (x, y + rise / points)
+            ann.arrow_patch.set_visible(rise > 0.0)
+            placed.append(box.translated(0.0, rise))
+        fig.canvas.draw()
+        top = max(a.get_window_extent(renderer).y1 for a in labels)
+        box = ax.get_window_extent(renderer)
+        if top <= box.y1:
+            return
+        lo, hi = ax.get_ylim()
+        log = ax.get_yscale() == "log"
+        a, b = (np.log10(lo), np.log10(hi)) if log else (lo, hi)
+        # the axis grows by the labels' overshoot, and a little more
+        grown = a + (b - a) * (top - box.y0 + 4 * gap * points) / max(box.height, 1.0)
+        ax.set_ylim(lo, 10.0 ** grown if log else grown)
 
 
 def plot_route_outcomes(ds):
