@@ -24,6 +24,7 @@ import matplotlib
 import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch, Polygon
+from matplotlib.text import Text
 
 from ...analysis.route import mirrored_name
 from ...wall import Wall
@@ -399,6 +400,11 @@ def plot_gait_atlas(ds):
 LEADER = {"arrowstyle": "-", "lw": 0.5, "color": "0.5", "shrinkA": 0.0, "shrinkB": 4.0}
 
 
+def text_extent(ann, renderer):
+    """An annotation's text's box in display units (its leader line left out)."""
+    return Text.get_window_extent(ann, renderer)
+
+
 def unstack_labels(fig, ax, labels: list, gap: float = 2.0, rounds: int = 3) -> None:
     """Raise the labels of ``ax`` (annotations in offset points above their points, drawn
     with :data:`LEADER`) that overlap one placed before them (from the left) until none
@@ -416,7 +422,7 @@ def unstack_labels(fig, ax, labels: list, gap: float = 2.0, rounds: int = 3) -> 
         fig.canvas.draw()
         placed = []
         for ann in sorted(labels, key=lambda a: a.xy[0]):
-            box = ann.get_window_extent(renderer)
+            box = text_extent(ann, renderer)
             rise = 0.0
             for other in sorted(placed, key=lambda b: b.y0):
                 moved = box.translated(0.0, rise)
@@ -429,7 +435,7 @@ def unstack_labels(fig, ax, labels: list, gap: float = 2.0, rounds: int = 3) -> 
             ann.arrow_patch.set_visible(rise > 0.0)
             placed.append(box.translated(0.0, rise))
         fig.canvas.draw()
-        top = max(a.get_window_extent(renderer).y1 for a in labels)
+        top = max(text_extent(a, renderer).y1 for a in labels)
         box = ax.get_window_extent(renderer)
         if top <= box.y1:
             return
