@@ -80,3 +80,15 @@ def test_no_two_labels_of_a_dense_atlas_overlap(gid):
             assert not a.overlaps(b), (a, b)
     for label, box in zip(labels, boxes):
         assert box.y1 <= label.axes.get_window_extent(renderer).y1 + 0.5
+
+
+def test_an_mfpt_interval_unbounded_above_sets_no_axis_limit():
+    """A gait whose MFPT interval has no upper end (gait_mfpt_high inf: runs that fail early,
+    none late) is drawn with the others, the axis' limits finite."""
+    ds = dense_atlas()
+    high = ds["gait_mfpt_high"].values.copy()
+    high[8] = np.inf
+    fig = plot_gait_atlas(ds.assign(gait_mfpt_high=("gait", high)))
+    ax = next(a for a in fig.findobj() if a.get_gid() == "label_mfpt").axes
+    lo, hi = ax.get_ylim()
+    assert np.isfinite(lo) and np.isfinite(hi) and hi > float(ds["gait_mfpt"].max())

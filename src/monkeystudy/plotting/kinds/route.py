@@ -375,8 +375,12 @@ def plot_gait_atlas(ds):
                 ha="center", va="bottom", fontsize=7.5, gid="label_mfpt", arrowprops=LEADER))
         ax_mfpt.set_yscale("log")
         plain_log_labels(ax_mfpt.yaxis)
-        lo_y = np.nanmin(np.concatenate([low, mfpt])) if np.isfinite(mfpt).any() else 1.0
-        hi_y = np.nanmax(np.concatenate([high, mfpt])) if np.isfinite(mfpt).any() else 10.0
+        # an interval unbounded above (high inf: its bar is drawn without an upper part)
+        # sets no limit
+        ends = np.concatenate([low, high, mfpt])
+        ends = ends[np.isfinite(ends)]
+        lo_y = ends.min() if np.isfinite(mfpt).any() else 1.0
+        hi_y = ends.max() if np.isfinite(mfpt).any() else 10.0
         ax_mfpt.set_ylim(max(lo_y, 1e-3) / 3.0, hi_y * 30.0)    # room for the labels above
         ax_mfpt.set_ylabel("mean steps before failure")
         ax_mfpt.set_xlabel("rise per step dy  [m]")
