@@ -92,3 +92,16 @@ def test_an_mfpt_interval_unbounded_above_sets_no_axis_limit():
     ax = next(a for a in fig.findobj() if a.get_gid() == "label_mfpt").axes
     lo, hi = ax.get_ylim()
     assert np.isfinite(lo) and np.isfinite(hi) and hi > float(ds["gait_mfpt"].max())
+
+
+def test_a_lower_bound_with_early_failures_says_how_many_failed():
+    """An MFPT that is a lower bound (no failure late in the runs) of a gait some of whose runs
+    failed early names those failures, not 'none failed'."""
+    ds = dense_atlas()
+    failed = ds["gait_survival_failed"].values.copy()
+    failed[0] = 5                                      # rise_-0.30: censored
+    fig = plot_gait_atlas(ds.assign(gait_survival_failed=("gait", failed)))
+    notes = {t.get_text().split("\n")[0]: t.get_text() for t in fig.findobj()
+             if t.get_gid() == "label_mfpt"}
+    assert notes["rise_-0.30"] == "rise_-0.30\n≥ 200 (5 of 200 runs failed, none late)"
+    assert notes["rise_-0.25"] == "rise_-0.25\n≥ 200 (none of 200 failed)"

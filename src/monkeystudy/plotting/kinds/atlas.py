@@ -29,7 +29,7 @@ DRAWINGS = {
         caption="Each gait of the atlas against how far one step rises: its spectral radius "
                 "(below 1 the gait's own map returns to its cycle) and how many steps it "
                 "lasts on average under the survival noise, with the 95 % interval; an arrow "
-                "is a lower bound (no run failed). The colour is the step's length.",
+                "is a lower bound (no run failed late). The colour is the step's length.",
         draw=lambda d: plot_gait_atlas(d[0]),
         applies=no_route_plans_with),
 }

@@ -363,7 +363,10 @@ def plot_gait_atlas(ds):
             if censored[k]:
                 ax_mfpt.plot([dy[k]], [mfpt[k]], ls="none", marker=r"$\Uparrow$", ms=16,
                              color=colour, mec=BLACK, mew=0.3, zorder=4, gid="mfpt_bound")
-                note = f"{label}\n≥ {mfpt[k]:.3g} (none of {runs[k]} failed)"
+                # censored: no failure late in the runs (early ones, of weak builds, may be)
+                note = (f"{label}\n≥ {mfpt[k]:.3g} ({failed[k]} of {count(runs[k], 'run')} "
+                        "failed, none late)" if failed[k] else
+                        f"{label}\n≥ {mfpt[k]:.3g} (none of {runs[k]} failed)")
             else:
                 lo = mfpt[k] - low[k] if np.isfinite(low[k]) else 0.0
                 hi = high[k] - mfpt[k] if np.isfinite(high[k]) else 0.0
@@ -388,7 +391,7 @@ def plot_gait_atlas(ds):
                           label="MFPT, 95 % interval")]
         if np.isfinite(shown).any():
             handles.append(Line2D([], [], ls="none", marker=r"$\Uparrow$", ms=12,
-                                  color="0.5", label="lower bound (no run failed)"))
+                                  color="0.5", label="lower bound (no failure late in the runs)"))
         ax_mfpt.legend(handles=handles, loc="lower left", fontsize=8)
         span = max(float(np.ptp(dy)), 0.1)
         ax_mfpt.set_xlim(float(dy.min()) - 0.3 * span, float(dy.max()) + 0.3 * span)
@@ -578,7 +581,7 @@ DRAWINGS = {
         caption="Each gait the planner could use, against how far one step rises: its "
                 "spectral radius (below 1 the gait's own map returns to its cycle) and how "
                 "many steps it lasts on average under the survival noise, with the 95 % "
-                "interval; an arrow is a lower bound (no run failed). The colour is the "
+                "interval; an arrow is a lower bound (no run failed late). The colour is the "
                 "step's length.",
         draw=lambda d: plot_gait_atlas(d[0])),
     ("route", "outcomes"): Drawing(
