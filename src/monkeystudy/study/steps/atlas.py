@@ -133,6 +133,15 @@ def catch_height(spec: SequenceGaitSpec) -> float:
     return float(next(s.value for s in spec.segments if s.until == "free_end_y"))
 
 
+def mfpt_words(g: dict) -> str:
+    """A gait's MFPT in words from its dataset row (``gait_*`` values): the estimate and its
+    95 % interval [steps], or the lower bound when censored."""
+    if g["gait_mfpt_censored"]:
+        return f"; MFPT >= {float(g['gait_mfpt']):.4g} steps (no failure late in the runs)"
+    return (f"; MFPT {float(g['gait_mfpt']):.4g} steps ({float(g['gait_mfpt_low']):.4g} to "
+            f"{float(g['gait_mfpt_high']):.4g})")
+
+
 # --- tasks (run on the workers) ------------------------------------------------------------------
 def walk_gait(entry: dict, z) -> WalkGait:
     """The :class:`~monkeystudy.analysis.walk.WalkGait` of an atlas entry (its ``gait``
@@ -498,7 +507,7 @@ class AtlasKind(StepKind):
                          f"{float(g['gait_p_fail']):.3g} (<= "
                          f"{float(g['gait_p_fail_upper']):.3g}), "
                          f"{int(g['gait_survival_failed'])} of {int(g['gait_survival_runs'])} "
-                         f"runs failed")
+                         f"runs failed" + (mfpt_words(g) if g["gait_repeats"] else ""))
         for j in range(ds.sizes["switch"]):
             lines.append(f"switch {ds['switch_from'].values[j]} -> {ds['switch_to'].values[j]}"
                          f": {int(ds['switch_failed'][j])} of {int(ds['switch_runs'][j])} "
