@@ -16,8 +16,10 @@ For each rise ``r`` [m per step] of ``--rises`` the script solves the family's f
 reached by continuation: at rise 0 from robust_design's gait (its section theta2 0.43 rad,
 refined from [4.8, -1.6] rad s-1), carried in parameter steps to the grid and across it from
 cell to neighbouring cell; then in rise steps of at most ``--rise-step`` m up and down, each
-cell from its own gait at the neighbouring rise (else from a neighbouring cell's at this
-rise). A cell keeps the gait of least spectral radius its starts reach. A gait is stable
+gait of each cell from itself at the neighbouring rise (an unsolved cell from a neighbouring
+cell's gaits at this rise). A cell may have several gaits (branches): it keeps up to 4, and
+at each listed rise every cell is also solved from its neighbours' gaits unlike its own, for
+the branches the continuation has not brought it. A gait is stable
 when its full map's spectral radius (the height included, finite differences) is below 1,
 its step swaps the magnets once and passes the vertical once, and ``|theta2| < pi``. The
 ``--candidates`` least-rho stable gaits of a rise (no two neighbours on the grid) are
@@ -32,7 +34,8 @@ any stable gait (bisection on the rise to ``--bisect-to`` m above the steepest l
 that has one, by continuation from it), and the steepest listed rise whose chosen gait
 lasts in at least ``--keep`` of the runs.
 
-Usage (from the project's folder; minutes on two cores, most of it the survival screens)::
+Usage (from the project's folder; about 20 minutes on two cores shared with other work, most
+of it the listed rises' branch solves, 1 to 2 minutes each, and the screens)::
 
     NUMBA_NUM_THREADS=1 python3 tools/rise_family.py -o /tmp/risefam/gaits.yaml
 
@@ -103,8 +106,9 @@ def family_space(rise: float, *, full_map: bool = True,
     :data:`TORQUE_LIMIT`; stability of the full map (``full_map``) or of the section map
     (cheaper: enough to carry a gait on to the next rise)."""
     gait = SequenceGaitSpec(**gait_block(rise, *LEVEL_GAIT, LEVEL_START[0])).gait()
-    return SegmentDesignSpace(gait, Robot.preset("seed2009"), motor_frame=True, height_in_map=full_map,
-                              integrator=integrator, torque_limit=TORQUE_LIMIT)
+    return SegmentDesignSpace(gait, Robot.preset("seed2009"), motor_frame=True,
+                              height_in_map=full_map, integrator=integrator,
+                              torque_limit=TORQUE_LIMIT)
 
 
 def design_values(cell) -> dict[str, float]:
