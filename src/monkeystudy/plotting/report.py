@@ -58,6 +58,9 @@ file (``figures/``)                      what                                   
 ``<survival>_failure_modes``             how the runs ended, per level           -
 ``<survival>_height_drift``              height change of each completed run     -
 ``survival_mfpt_comparison``             every survival step's MFPT              -
+``<atlas>_gaits``                        each gait's rho and MFPT against its    -
+                                         rise per step (an atlas no route step
+                                         plans with)
 ``<route>_wall``                         the wall and the planned route, steps   -
                                          coloured by gait
 ``<route>_walks``                        every walk of the route under noise,    -

@@ -67,3 +67,12 @@ def test_an_atlas_gait_catches_at_a_planned_world_height():
     with pytest.raises(StudyError, match="its catch must be a free_end_y guard"):
         parse_study(bad)
     assert GAITS in ROUTE_STUDY
+
+
+def test_inspect_gives_each_gaits_mfpt_or_its_lower_bound():
+    from monkeystudy.study.steps.atlas import mfpt_words
+    row = {"gait_mfpt": 24.2536, "gait_mfpt_low": 16.609, "gait_mfpt_high": 33.9256,
+           "gait_mfpt_censored": 0}
+    assert mfpt_words(row) == "; MFPT 24.25 steps (16.61 to 33.93)"
+    row.update(gait_mfpt=5620.7, gait_mfpt_censored=1)
+    assert mfpt_words(row) == "; MFPT >= 5621 steps (no failure late in the runs)"

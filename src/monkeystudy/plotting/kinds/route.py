@@ -24,6 +24,7 @@ import matplotlib
 import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch, Polygon
+from matplotlib.text import Text
 
 from ...analysis.route import mirrored_name
 from ...wall import Wall
@@ -335,12 +336,14 @@ def plot_gait_atlas(ds):
                           "survival noise, against the rise of one step; "
                           + run_line(ds, tick=False))
         ax_rho, ax_mfpt = body.subplots(2, 1, sharex=True)
+        rho_labels, mfpt_labels = [], []
         for idx, label in _groups(dy, rho, length, names):
             k = idx[0]
             ax_rho.scatter([dy[k]], [rho[k]], s=70, color=cmap(norm(length[k])),
                            edgecolor=BLACK, lw=0.6, zorder=4, gid="rho")
-            ax_rho.annotate(label, (dy[k], rho[k]), xytext=(0, 9), textcoords="offset points",
-                            ha="center", va="bottom", fontsize=8, gid="label_rho")
+            rho_labels.append(ax_rho.annotate(
+                label, (dy[k], rho[k]), xytext=(0, 9), textcoords="offset points",
+                ha="center", va="bottom", fontsize=8, gid="label_rho", arrowprops=LEADER))
         ax_rho.axhline(1.0, color=VERMILLION, lw=1.2, ls="--", gid="rho_one",
                        label="ρ = 1: a map with ρ above it is unstable")
         top = np.nanmax(np.append(rho, 1.0))
@@ -360,20 +363,27 @@ def plot_gait_atlas(ds):
             if censored[k]:
                 ax_mfpt.plot([dy[k]], [mfpt[k]], ls="none", marker=r"$\Uparrow$", ms=16,
                              color=colour, mec=BLACK, mew=0.3, zorder=4, gid="mfpt_bound")
-                note = f"{label}\n≥ {mfpt[k]:.3g} (none of {runs[k]} failed)"
+                # censored: no failure late in the runs (early ones, of weak builds, may be)
+                note = (f"{label}\n≥ {mfpt[k]:.3g} ({failed[k]} of {count(runs[k], 'run')} "
+                        "failed, none late)" if failed[k] else
+                        f"{label}\n≥ {mfpt[k]:.3g} (none of {runs[k]} failed)")
             else:
                 lo = mfpt[k] - low[k] if np.isfinite(low[k]) else 0.0
                 hi = high[k] - mfpt[k] if np.isfinite(high[k]) else 0.0
                 ax_mfpt.errorbar([dy[k]], [mfpt[k]], yerr=[[lo], [hi]], marker="o", ms=8,
                                  color=colour, mec=BLACK, mew=0.6, capsize=3, lw=1.4,
                                  ls="none", zorder=4, gid="mfpt")
-            ax_mfpt.annotate(note, (dy[k], mfpt[k]), xytext=(0, 14),
-                             textcoords="offset points", ha="center", va="bottom",
-                             fontsize=7.5, gid="label_mfpt")
+            mfpt_labels.append(ax_mfpt.annotate(
+                note, (dy[k], mfpt[k]), xytext=(0, 14), textcoords="offset points",
+                ha="center", va="bottom", fontsize=7.5, gid="label_mfpt", arrowprops=LEADER))
         ax_mfpt.set_yscale("log")
         plain_log_labels(ax_mfpt.yaxis)
-        lo_y = np.nanmin(np.concatenate([low, mfpt])) if np.isfinite(mfpt).any() else 1.0
-        hi_y = np.nanmax(np.concatenate([high, mfpt])) if np.isfinite(mfpt).any() else 10.0
+        # an interval unbounded above (high inf: its bar is drawn without an upper part)
+        # sets no limit
+        ends = np.concatenate([low, high, mfpt])
+        ends = ends[np.isfinite(ends)]
+        lo_y = ends.min() if np.isfinite(mfpt).any() else 1.0
+        hi_y = ends.max() if np.isfinite(mfpt).any() else 10.0
         ax_mfpt.set_ylim(max(lo_y, 1e-3) / 3.0, hi_y * 30.0)    # room for the labels above
         ax_mfpt.set_ylabel("mean steps before failure")
         ax_mfpt.set_xlabel("rise per step dy  [m]")
@@ -381,14 +391,67 @@ def plot_gait_atlas(ds):
                           label="MFPT, 95 % interval")]
         if np.isfinite(shown).any():
             handles.append(Line2D([], [], ls="none", marker=r"$\Uparrow$", ms=12,
-                                  color="0.5", label="lower bound (no run failed)"))
+                                  color="0.5", label="lower bound (no failure late in the runs)"))
         ax_mfpt.legend(handles=handles, loc="lower left", fontsize=8)
         span = max(float(np.ptp(dy)), 0.1)
         ax_mfpt.set_xlim(float(dy.min()) - 0.3 * span, float(dy.max()) + 0.3 * span)
         bar = body.colorbar(matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap),
                             ax=[ax_rho, ax_mfpt], shrink=0.6)
         bar.set_label("step length |dx|  [m]")
+        unstack_labels(fig, ax_rho, rho_labels)
+        unstack_labels(fig, ax_mfpt, mfpt_labels)
     return fig
+
+
+#: the line from a label raised above its neighbours' to its point
+LEADER = {"arrowstyle": "-", "lw": 0.5, "color": "0.5", "shrinkA": 0.0, "shrinkB": 4.0}
+
+
+def text_extent(ann, renderer):
+    """An annotation's text's box in display units (its leader line left out)."""
+    return Text.get_window_extent(ann, renderer)
+
+
+def unstack_labels(fig, ax, labels: list, gap: float = 2.0, rounds: int = 3) -> None:
+    """Raise the labels of ``ax`` (annotations in offset points above their points, drawn
+    with :data:`LEADER`) that overlap one placed before them (from the left) until none
+    overlaps, ``gap`` points apart, and raise the axis' top to hold them (then again from
+    their first places, the points having moved: ``rounds`` times at most); a label left at
+    its place shows no leader line. The figure is drawn to measure them."""
+    if not labels:
+        return
+    renderer = fig.canvas.get_renderer()
+    points = fig.dpi / 72.0                      # display pixels per point
+    first = {id(a): a.xyann for a in labels}
+    for _ in range(rounds):
+        for ann in labels:
+            ann.xyann = first[id(ann)]
+        fig.canvas.draw()
+        placed = []
+        for ann in sorted(labels, key=lambda a: a.xy[0]):
+            box = text_extent(ann, renderer)
+            rise = 0.0
+            for other in sorted(placed, key=lambda b: b.y0):
+                moved = box.translated(0.0, rise)
+                if moved.x1 > other.x0 and moved.x0 < other.x1 and \
+                        moved.y1 > other.y0 - gap * points and \
+                        moved.y0 < other.y1 + gap * points:
+                    rise = other.y1 + gap * points - box.y0
+            x, y = ann.xyann
+            ann.xyann = (x, y + rise / points)
+            ann.arrow_patch.set_visible(rise > 0.0)
+            placed.append(box.translated(0.0, rise))
+        fig.canvas.draw()
+        top = max(text_extent(a, renderer).y1 for a in labels)
+        box = ax.get_window_extent(renderer)
+        if top <= box.y1:
+            return
+        lo, hi = ax.get_ylim()
+        log = ax.get_yscale() == "log"
+        a, b = (np.log10(lo), np.log10(hi)) if log else (lo, hi)
+        # the axis grows by the labels' overshoot, and a little more
+        grown = a + (b - a) * (top - box.y0 + 4 * gap * points) / max(box.height, 1.0)
+        ax.set_ylim(lo, 10.0 ** grown if log else grown)
 
 
 def plot_route_outcomes(ds):
@@ -518,7 +581,7 @@ DRAWINGS = {
         caption="Each gait the planner could use, against how far one step rises: its "
                 "spectral radius (below 1 the gait's own map returns to its cycle) and how "
                 "many steps it lasts on average under the survival noise, with the 95 % "
-                "interval; an arrow is a lower bound (no run failed). The colour is the "
+                "interval; an arrow is a lower bound (no run failed late). The colour is the "
                 "step's length.",
         draw=lambda d: plot_gait_atlas(d[0])),
     ("route", "outcomes"): Drawing(

@@ -35,7 +35,7 @@ from ..blocks import Block, Task
 from ..models import Name, SequenceGaitSpec, StrictModel
 from ..noise import NoiseSpec
 from ..spec import GaitSpec
-from .base import StepContext, StepKind
+from .base import Figure, StepContext, StepKind
 
 
 class SwitchOf(StrictModel):
@@ -131,6 +131,15 @@ def integrator_words(ds) -> str:
 def catch_height(spec: SequenceGaitSpec) -> float:
     """The planned height of a gait's catch above its start [m]: its free_end_y guard's."""
     return float(next(s.value for s in spec.segments if s.until == "free_end_y"))
+
+
+def mfpt_words(g: dict) -> str:
+    """A gait's MFPT in words from its dataset row (``gait_*`` values): the estimate and its
+    95 % interval [steps], or the lower bound when censored."""
+    if g["gait_mfpt_censored"]:
+        return f"; MFPT >= {float(g['gait_mfpt']):.4g} steps (no failure late in the runs)"
+    return (f"; MFPT {float(g['gait_mfpt']):.4g} steps ({float(g['gait_mfpt_low']):.4g} to "
+            f"{float(g['gait_mfpt_high']):.4g})")
 
 
 # --- tasks (run on the workers) ------------------------------------------------------------------
@@ -332,8 +341,8 @@ class AtlasKind(StepKind):
     runs_gait = False
     provides = "the atlas of gaits and switches a route plans with"
     unit = "blocks"
-    no_figures = ("a route step that plans with the atlas draws it (the route's atlas figure: "
-                  "rho and MFPT against each gait's rise)")
+    # drawn when no route step plans with the atlas (a route step draws it as its own)
+    figures = (Figure("gaits"),)
 
     def pairs(self, step: AtlasStep) -> list[tuple[int, int]]:
         """The direct switches measured: every ordered pair of repeating gaits."""
@@ -511,7 +520,7 @@ class AtlasKind(StepKind):
                          f"{float(g['gait_p_fail']):.3g} (<= "
                          f"{float(g['gait_p_fail_upper']):.3g}), "
                          f"{int(g['gait_survival_failed'])} of {int(g['gait_survival_runs'])} "
-                         f"runs failed")
+                         f"runs failed" + (mfpt_words(g) if g["gait_repeats"] else ""))
         for j in range(ds.sizes["switch"]):
             lines.append(f"switch {ds['switch_from'].values[j]} -> {ds['switch_to'].values[j]}"
                          f": {int(ds['switch_failed'][j])} of {int(ds['switch_runs'][j])} "
