@@ -103,5 +103,5 @@ def test_a_lower_bound_with_early_failures_says_how_many_failed():
     fig = plot_gait_atlas(ds.assign(gait_survival_failed=("gait", failed)))
     notes = {t.get_text().split("\n")[0]: t.get_text() for t in fig.findobj()
              if t.get_gid() == "label_mfpt"}
-    assert notes["rise_-0.30"] == "rise_-0.30\n≥ 200 (5 of 200 runs failed, none late)"
-    assert notes["rise_-0.25"] == "rise_-0.25\n≥ 200 (none of 200 failed)"
+    assert notes["rise_-0.30"] == "rise_-0.30\n≥ 200, 5 of 200 runs failed early"
+    assert notes["rise_-0.25"] == "rise_-0.25\n≥ 200"

@@ -359,14 +359,14 @@ def plot_gait_atlas(ds):
                                   names):
             k = idx[0]
             colour = cmap(norm(length[k]))
-            note = f"{label}\n{mfpt[k]:.3g} ({failed[k]} of {count(runs[k], 'run')} failed)"
+            note = f"{label}\n{mfpt[k]:.3g}, {failed[k]} of {count(runs[k], 'run')} failed"
             if censored[k]:
                 ax_mfpt.plot([dy[k]], [mfpt[k]], ls="none", marker=r"$\Uparrow$", ms=16,
                              color=colour, mec=BLACK, mew=0.3, zorder=4, gid="mfpt_bound")
-                # censored: no failure late in the runs (early ones, of weak builds, may be)
-                note = (f"{label}\n≥ {mfpt[k]:.3g} ({failed[k]} of {count(runs[k], 'run')} "
-                        "failed, none late)" if failed[k] else
-                        f"{label}\n≥ {mfpt[k]:.3g} (none of {runs[k]} failed)")
+                # censored: no failure late in the runs (early ones, of weak builds, may be);
+                # a bound with no failure at all is the legend's, said once
+                note = (f"{label}\n≥ {mfpt[k]:.3g}, {failed[k]} of {count(runs[k], 'run')} "
+                        "failed early" if failed[k] else f"{label}\n≥ {mfpt[k]:.3g}")
             else:
                 lo = mfpt[k] - low[k] if np.isfinite(low[k]) else 0.0
                 hi = high[k] - mfpt[k] if np.isfinite(high[k]) else 0.0
@@ -391,7 +391,8 @@ def plot_gait_atlas(ds):
                           label="MFPT, 95 % interval")]
         if np.isfinite(shown).any():
             handles.append(Line2D([], [], ls="none", marker=r"$\Uparrow$", ms=12,
-                                  color="0.5", label="lower bound (no failure late in the runs)"))
+                                  color="0.5", label="lower bound: no run failed late (of "
+                                  f"{count(int(runs.max()), 'run')} per gait)"))
         ax_mfpt.legend(handles=handles, loc="lower left", fontsize=8)
         span = max(float(np.ptp(dy)), 0.1)
         ax_mfpt.set_xlim(float(dy.min()) - 0.3 * span, float(dy.max()) + 0.3 * span)
