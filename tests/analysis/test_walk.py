@@ -184,6 +184,36 @@ def test_a_robot_that_believes_it_arrived_where_it_did_not_missed_the_goal():
     assert w.failed_at[0] == pytest.approx(2 * DX_LEVEL, abs=1e-6)
 
 
+class _LowAfterCatch(_BiasedSensor):
+    """Knows the start exactly; after each catch its estimate is ``offset`` off the truth."""
+
+    def initial(self, true_start, draws):
+        return np.asarray(true_start, float)
+
+
+def test_a_walk_ends_where_it_plans_from_the_staircases_row_in_the_goal():
+    """The robot plans from its estimate on the staircase's nearest row; when that point lies
+    in the goal's disc it believes it has arrived, even where the estimate itself (0.04 m
+    below the row) lies outside: it neither plans an empty route nor steps past the goal."""
+    wall = Wall((Region(((-1.0, -1.0), (6.0, -1.0), (6.0, 1.0), (-1.0, 1.0))),),
+                Start((0.0, 0.0)), Goal((DX_LEVEL, 0.0), 0.03))
+    w = walk_route(wall, [level_gait()], [atlas_entry()], integrator=INTEGRATOR,
+                   max_steps=10, sensor=_LowAfterCatch((0.0, -0.04)), height_step=0.1,
+                   plan={"resolution": 0.001})
+    assert w.gaits == ("level",) and len(w.catches) == 1
+    assert w.sensed[0, 1] == pytest.approx(w.catches[0, 1] - 0.04, abs=1e-12)
+    assert wall.goal.distance(w.sensed[0])[0] > 0.0       # the estimate: outside the disc
+    assert w.arrived and w.failure == ""
+
+
+def test_a_walk_that_starts_in_the_goal_takes_no_step():
+    wall = Wall((Region(((-1.0, -1.0), (6.0, -1.0), (6.0, 1.0), (-1.0, 1.0))),),
+                Start((0.0, 0.0)), Goal((0.1, 0.0), 0.2))
+    w = walk_route(wall, [level_gait()], [atlas_entry()], integrator=INTEGRATOR,
+                   max_steps=10, plan={"resolution": 0.001})
+    assert w.arrived and w.gaits == () and len(w.catches) == 0
+
+
 def test_catch_heights_are_set_only_on_world_height_guards():
     prog, _ = level_gait().program(0.001)
     out = with_catch_height(prog, 0.25)

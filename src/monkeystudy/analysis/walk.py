@@ -17,8 +17,10 @@ fires ``e`` too low: the guard's world height is the planned one less the estima
 
 A run ends when
 
-* the robot senses it has arrived: its estimate within the goal's disc. It *arrived* when
-  the true catch lies there too (``missed_goal`` otherwise: the sensing misled it);
+* the robot senses it has arrived: its believed position (the estimate along the wall, on
+  the staircase's row nearest the estimate's height: what it plans from) within the goal's
+  disc. It *arrived* when the true catch lies there too (``missed_goal`` otherwise: the
+  sensing misled it);
 * a step's cycle stops with a status other than ok (its name: ``fell``, ``no_switch``, ...);
 * a catch lands where the magnet cannot hold (``off_steel``: its footprint not on one
   region, :meth:`monkeystudy.wall.Wall.can_catch`); the robot falls;
@@ -404,11 +406,18 @@ def walk_route(wall: Wall, gaits: Sequence[WalkGait], atlas: Sequence[AtlasGait]
                     np.array(sensed, float).reshape(-1, 2), time_done, energy, tuple(where),
                     samples, None if walker is None else walker.params)
 
-    for step in range(int(max_steps)):
+    for step in range(int(max_steps) + 1):
         # the planned heights are the world's staircase: the estimate's row of it
         row = wall.start.position[1] + height_step * round(
             (estimate[1] - wall.start.position[1]) / height_step)
         believed = (float(estimate[0]), float(row))
+        if wall.goal.distance(np.array(believed))[0] == 0.0:
+            # it believes it has arrived: where it plans from is in the goal's disc
+            arrived = wall.goal.distance(true_pos)[0] == 0.0
+            return ended(arrived, ARRIVED if arrived else MISSED_GOAL,
+                         (math.nan, math.nan) if arrived else tuple(true_pos))
+        if step == int(max_steps):
+            break
         if not wall.on_steel(believed)[0]:       # it believes itself off the wall
             return ended(False, NO_ROUTE, tuple(true_pos))
         try:
@@ -438,10 +447,6 @@ def walk_route(wall: Wall, gaits: Sequence[WalkGait], atlas: Sequence[AtlasGait]
         catches.append(true_pos.copy())
         sensed.append(estimate.copy())
         current = gait.name
-        if wall.goal.distance(estimate)[0] == 0.0:
-            arrived = wall.goal.distance(true_pos)[0] == 0.0
-            return ended(arrived, ARRIVED if arrived else MISSED_GOAL,
-                         (math.nan, math.nan) if arrived else tuple(true_pos))
     return ended(False, MAX_STEPS, tuple(true_pos))
 
 
