@@ -113,7 +113,9 @@ def step_keys(study: Study) -> dict[str, str]:
     kind runs. Editing one step (or adding one), or the code of another kind, leaves the
     others' keys, datasets and shards valid; editing the robot, gait or integrator changes
     every key. A step that reads files outside the study (:meth:`~monkeystudy.study.steps.
-    base.StepKind.input_files`: a hardware log) is keyed on their contents too."""
+    base.StepKind.input_files`: a hardware log) is keyed on their contents too, and one whose
+    kind reads other blocks of the study file (its ``study_blocks``, e.g. a route step's
+    ``wall``) on those blocks."""
     common = {"schema_version": study.schema_version, "robot": study.to_robot().to_dict(),
               "gait": gait_json(study),
               "integrator": integrator_fields(study.integrator.to_integrator())}
@@ -122,6 +124,9 @@ def step_keys(study: Study) -> dict[str, str]:
         kind = kind_of(s)
         payload = dict(common, step=s.model_dump(mode="json", by_alias=True),
                        code=kind.code_sha256, deps=[keys[d] for d in kind.deps(s)])
+        for block in getattr(kind, "study_blocks", ()):
+            value = getattr(study, block)
+            payload[block] = None if value is None else value.model_dump(mode="json")
         files = kind.input_files(s)
         if files:       # absent otherwise: the keys of steps that read no file are unchanged
             payload["input_files"] = [P.file_sha256(f) for f in files]

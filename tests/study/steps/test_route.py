@@ -79,3 +79,20 @@ def test_an_unknown_sensor_is_refused_at_its_key(tmp_path):
                                "    risk_weight: 10.0\n    sensor: {kind: sonar}\n")
     with pytest.raises(StudyError, match="sensor"):
         load_study(write_study(tmp_path, text, "s.yaml"))
+
+
+def test_a_new_wall_walks_again_and_the_atlas_stays(route_study, tmp_path):
+    """The route's datasets depend on the study's wall: against the first run's folder, the
+    study with its goal moved plans the route again and keeps the atlas (which reads no
+    wall)."""
+    study, ref = route_study
+    out = tmp_path / "out"
+    shutil.copytree(ref, out)
+    text = study.read_text()
+    assert text.count("radius: 0.05}") == 1
+    moved = study.with_name("route_moved.yaml")
+    moved.write_text(text.replace("radius: 0.05}", "radius: 0.2}"))
+    assert {s.name: s.up_to_date for s in plan_study(load_study(study), out).steps} == \
+        {"atlas": True, "route": True}
+    assert {s.name: s.up_to_date for s in plan_study(load_study(moved), out).steps} == \
+        {"atlas": True, "route": False}
