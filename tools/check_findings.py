@@ -135,7 +135,8 @@ class Entry:
             out.add(self.data.split("/")[0])
         if self.run:
             out |= set(re.findall(r"\{outputs\}/(\w+)", self.run))
-        out |= set(re.findall(r"""open\(["'](\w+)/""", self.let + " ".join(self.numbers)))
+        # a dataset named to open() or to a helper of the entry's let: ("<study>/<step>")
+        out |= set(re.findall(r"""\w\(["'](\w+)/""", self.let + " ".join(self.numbers)))
         return out
 
     @property

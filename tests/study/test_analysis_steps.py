@@ -189,7 +189,8 @@ BAD = [
      f"{EXTRA_LINE}: steps[8].max_cycles: must be >= 1, got 0"),
     ("{name: x, kind: continuation, from: sh, parameter: mass, ds: 0.01}", None,
      f"{EXTRA_LINE}: steps[8].parameter: must be 'com', 'inertia', 'gravity', 'torque', "
-     "'mass_ratio', 'joint_viscous' or 'pivot_viscous', got 'mass'"),
+     "'mass_ratio', 'joint_viscous', 'pivot_viscous', 'link1_mass', 'link1_com', "
+     "'link1_inertia', 'link2_mass', 'link2_com' or 'link2_inertia', got 'mass'"),
     ("{name: x, kind: continuation, from: sh, parameter: mass_ratio, ds: 0.01}", None,
      f"{EXTRA_LINE}: steps[8].parameter: the horizontal gait's collisionless family is "
      "continued in com, inertia, gravity"),
