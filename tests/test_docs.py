@@ -26,7 +26,6 @@ Inline code spans that start with ``monkeystudy `` are command lines too and par
 from __future__ import annotations
 
 import ast
-import importlib.util
 import io
 import re
 import shlex
@@ -41,22 +40,15 @@ import pytest
 
 from monkeystudy.cli import app
 
+from toolmodules import load_tool
+
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")),
         ROOT / "pipeline" / "README.md", ROOT / "outputs" / "README.md"]
 LANGUAGES = {"yaml", "python", "bash", "text"}
 
 
-def _load_tool(name: str):
-    """A script of ``tools/`` as a module."""
-    spec = importlib.util.spec_from_file_location(name, ROOT / "tools" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-check_findings = _load_tool("check_findings")
+check_findings = load_tool("check_findings")
 
 
 @dataclass(frozen=True)

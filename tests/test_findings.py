@@ -8,25 +8,16 @@ against a run of those studies; the rest (``open_loop_design``, ``robust_design`
 """
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import pytest
 
+from toolmodules import load_tool
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _load():
-    spec = importlib.util.spec_from_file_location("check_findings",
-                                                  ROOT / "tools" / "check_findings.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["check_findings"] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-cf = _load()
+cf = load_tool("check_findings")
 
 #: the cited studies that run in seconds once compiled (the rest take minutes)
 CHEAP = ("horizontal", "smoke", "exact_gait", "two_swing", "flight_gait", "climbing_gait",

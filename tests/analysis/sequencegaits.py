@@ -1,4 +1,6 @@
-"""Sequence gaits and their fixed point shared by the analysis tests (continuation, replay)."""
+"""Sequence gaits and their fixed point shared by the analysis tests (continuation, replay,
+rise, walk)."""
+import dataclasses
 from functools import partial
 
 import numpy as np
@@ -9,6 +11,25 @@ from monkeystudy.analysis.variational import sequence_variational_jacobian
 
 TORQUE = 0.6354
 INTEG = Integrator(method="dop853", rtol=1e-12, atol=1e-13)
+
+#: studies/descending_design.yaml's gait (motor frame): a step 0.1 m down, its catch at the
+#: route's planned height, one swap
+DESCENDING = {
+    "kind": "sequence", "torque_frame": "motor", "rise": -0.1,
+    "section": {"theta1": 0.0, "direction": "either", "theta2": -1.241},
+    "segments": [
+        {"until": "time", "value": 7.519090701371105e-08},
+        {"until": "free_end_y", "value": -0.1, "direction": "rising", "torque": -0.2118,
+         "clock": "reset"},
+        {"until": "time", "value": 0.2, "magnets": "swap", "torque": 0.2118}]}
+#: its fixed point (theta2 [rad], dtheta1, dtheta2 [rad s-1]), by Newton at rtol 1e-12
+Z_DESCENDING = np.array([-1.2410195771999732, 3.141805394182587, 7.739977215255691])
+
+
+def descending(**changes) -> SequenceGait:
+    """:data:`DESCENDING` as the kernel runs it (torques in its frame), with ``changes``."""
+    from monkeystudy.study.models import SequenceGaitSpec
+    return dataclasses.replace(SequenceGaitSpec.model_validate(DESCENDING).gait(), **changes)
 
 
 def two_step(torque: float = TORQUE) -> SequenceGait:

@@ -20,6 +20,8 @@ from monkeystudy.analysis.measured_replay import ModelSwing, acromonk_robot, fre
 from monkeystudy.measured import (CATCH, RELEASE, SHIPPED_LOGS, SWING, log_paths, read_log,
                                   swings)
 
+from toolmodules import load_tool
+
 
 @pytest.fixture(scope="module")
 def robot():
@@ -232,18 +234,9 @@ def test_the_logs_at_the_elbow_scale_the_torque_measures_only(robot):
     assert (e.duration, e.catch_speed) == (m.duration, m.catch_speed)
 
 
-def _tool(name: str):
-    import importlib.util
-    spec = importlib.util.spec_from_file_location(name, Path(__file__).resolve().parents[2]
-                                                  / "tools" / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
 @pytest.fixture(scope="module")
 def designed():
-    return _tool("acromonk_brachiation").designed_gait()
+    return load_tool("acromonk_brachiation").designed_gait()
 
 
 def test_the_designed_gaits_brachiations_run_from_catch_to_catch(designed):
@@ -302,4 +295,4 @@ def test_the_docs_table_is_what_the_tool_prints():
     start = section.index("```text\n") + len("```text\n")
     quoted = section[start:section.index("```", start)].rstrip("\n")
     logs = [read_log(p) for p in log_paths(SHIPPED_LOGS)]
-    assert quoted == comparison(logs, gait=_tool("acromonk_brachiation").designed_gait())
+    assert quoted == comparison(logs, gait=load_tool("acromonk_brachiation").designed_gait())

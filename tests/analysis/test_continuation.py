@@ -17,7 +17,7 @@ from monkeystudy.robot import Robot
 from monkeystudy.analysis.variational import sequence_variational_jacobian
 from monkeystudy.simulation import evaluate_cycle_gaits
 
-from sequencegaits import INTEG, TORQUE, two_step, two_swing
+from sequencegaits import INTEG, TORQUE, Z_DESCENDING, descending, two_step, two_swing
 
 
 def residual(gait, z, robot) -> float:
@@ -282,23 +282,6 @@ def test_a_latched_energy_loses_what_friction_takes_after_the_motor(two_step_poi
 
 
 # --- a link's own parameters: the cycle of two steps ---------------------------------------------
-#: studies/descending_design.yaml's gait (a step 0.1 m down, one swap) and its fixed point
-DESCENDING = {
-    "kind": "sequence", "torque_frame": "motor", "rise": -0.1,
-    "section": {"theta1": 0.0, "direction": "either", "theta2": -1.241},
-    "segments": [
-        {"until": "time", "value": 7.519090701371105e-08},
-        {"until": "free_end_y", "value": -0.1, "direction": "rising", "torque": -0.2118,
-         "clock": "reset"},
-        {"until": "time", "value": 0.2, "magnets": "swap", "torque": 0.2118}]}
-Z_DESC = np.array([-1.2410195771999732, 3.141805394182587, 7.739977215255691])
-
-
-def descending() -> SequenceGait:
-    from monkeystudy.study.models import SequenceGaitSpec
-    return SequenceGaitSpec.model_validate(DESCENDING).gait()
-
-
 def uneven_robot() -> Robot:
     """seed2009 with links that differ: link 1's CG 2 % farther from A, link 2 3 % lighter."""
     r = Robot.preset("seed2009")
@@ -326,7 +309,7 @@ def test_the_two_step_cycle_is_two_cycles_of_the_gait(catch):
     assert g2.rise == 2 * g.rise and len(g2.segments) == 2 * len(g.segments) + 1
     assert [s.value for s in g2.segments if s.until == "free_end_y"] == [-0.1, -0.2]
     robot = uneven_robot()
-    start = cycle_section_state(g, Z_DESC)
+    start = cycle_section_state(g, Z_DESCENDING)
     looped = run_controller(g.loop_controller(), start, robot=robot, integrator=INTEG,
                             cycles=2)
     doubled = run_controller(g2.controller(), start, robot=robot, integrator=INTEG, cycles=1)
@@ -343,10 +326,10 @@ def test_the_two_step_cycles_multipliers_are_the_squares_of_one_steps():
 
     g = descending()
     g2 = two_step_cycle(g)
-    assert residual(g2, Z_DESC, "seed2009") < 1e-10
-    lam1 = np.linalg.eigvals(sequence_variational_jacobian(g, Z_DESC, robot="seed2009",
+    assert residual(g2, Z_DESCENDING, "seed2009") < 1e-10
+    lam1 = np.linalg.eigvals(sequence_variational_jacobian(g, Z_DESCENDING, robot="seed2009",
                                                            integrator=INTEG))
-    lam2 = np.linalg.eigvals(sequence_variational_jacobian(g2, Z_DESC, robot="seed2009",
+    lam2 = np.linalg.eigvals(sequence_variational_jacobian(g2, Z_DESCENDING, robot="seed2009",
                                                            integrator=INTEG))
     assert np.sort_complex(lam2) == pytest.approx(np.sort_complex(lam1 ** 2), abs=1e-7)
 
@@ -360,7 +343,7 @@ def test_a_links_own_parameter_continues_the_two_step_cycle():
     g = descending()
     base = Robot.preset("seed2009")
     assert parameter_of(base, g, "link1_com") == base.link1.com
-    b = continue_cycle(g, Z_DESC, "link1_com", robot=base, integrator=INTEG, ds=0.05,
+    b = continue_cycle(g, Z_DESCENDING, "link1_com", robot=base, integrator=INTEG, ds=0.05,
                        steps=3)
     assert len(b.value) == 4 and np.all(np.diff(b.value) > 0) and b.value[-1] > base.link1.com
     g2 = two_step_cycle(g)
@@ -371,7 +354,7 @@ def test_a_links_own_parameter_continues_the_two_step_cycle():
         assert residual(g2, z, built) < 1e-9
         rb, _ = with_parameter(base, g, "link1_com", b.value[i])
         assert rb.link1.com == b.value[i] and rb.link2 == base.link2
-    lam1 = np.linalg.eigvals(sequence_variational_jacobian(g, Z_DESC, robot=base,
+    lam1 = np.linalg.eigvals(sequence_variational_jacobian(g, Z_DESCENDING, robot=base,
                                                            integrator=INTEG))
     assert np.sort_complex(b.multipliers[0]) == pytest.approx(np.sort_complex(lam1 ** 2),
                                                               abs=1e-7)

@@ -20,23 +20,10 @@ from monkeystudy.controllers import Integrator, Segment, SequenceGait
 from monkeystudy.kernel import layout as L
 from monkeystudy.study.models import SequenceGaitSpec
 
+from sequencegaits import DESCENDING, Z_DESCENDING, descending
+
 RISE = -0.1                                     # m per cycle: a step down
-#: studies/descending_design.yaml's gait with its catch at the route's planned height
-DESCENDING = {
-    "kind": "sequence", "torque_frame": "motor", "rise": RISE,
-    "section": {"theta1": 0.0, "direction": "either", "theta2": -1.241},
-    "segments": [
-        {"until": "time", "value": 7.519090701371105e-08},
-        {"until": "free_end_y", "value": RISE, "direction": "rising", "torque": -0.2118,
-         "clock": "reset"},
-        {"until": "time", "value": 0.2, "magnets": "swap", "torque": 0.2118}]}
-#: its fixed point (theta2 [rad], dtheta1, dtheta2 [rad s-1]), by Newton at rtol 1e-12
-Z_DESC = np.array([-1.2410195771999732, 3.141805394182587, 7.739977215255691])
 INTEG = Integrator(rtol=1e-12, atol=1e-13)
-
-
-def descending(**changes) -> SequenceGait:
-    return dataclasses.replace(SequenceGaitSpec.model_validate(DESCENDING).gait(), **changes)
 
 
 def test_the_descending_gait_catches_on_the_staircase_for_50_cycles():
@@ -44,7 +31,7 @@ def test_the_descending_gait_catches_on_the_staircase_for_50_cycles():
     section) is at -0.1 (k + 1) m to the integrator's accuracy, and every cycle returns to
     the fixed point. The runs go 5 m down with max_drop 1 m: a fall is measured from the
     planned height."""
-    c = sequence_cycles(descending(), Z_DESC, cycles=50, integrator=INTEG, max_drop=1.0)
+    c = sequence_cycles(descending(), Z_DESCENDING, cycles=50, integrator=INTEG, max_drop=1.0)
     assert int(c.status) == 0 and len(c.pivot_height) == 50
     k = np.arange(1, 51)
     np.testing.assert_allclose(c.pivot_height, RISE * k, rtol=0, atol=1e-10)
@@ -54,7 +41,7 @@ def test_the_descending_gait_catches_on_the_staircase_for_50_cycles():
 def test_without_the_rise_the_same_guard_is_one_fixed_world_height():
     """The same program without a rise catches at -0.1 m in every cycle: a different gait
     (its later catches are level with the end the robot hangs from)."""
-    c = sequence_cycles(descending(rise=0.0), Z_DESC, cycles=3, integrator=INTEG,
+    c = sequence_cycles(descending(rise=0.0), Z_DESCENDING, cycles=3, integrator=INTEG,
                         max_drop=1.0)
     np.testing.assert_allclose(c.pivot_height[:2], [RISE, RISE], rtol=0, atol=1e-10)
     assert np.max(c.error) > 1e-6
@@ -66,7 +53,7 @@ def test_the_full_map_measures_the_height_from_the_staircase():
     start), so the height's multiplier is 0, the full map's spectral radius is the section
     map's (< 1), and variational equations agree with finite differences to 1e-6."""
     gait = descending()
-    w = np.r_[0.0, Z_DESC]
+    w = np.r_[0.0, Z_DESCENDING]
     wn, status = cycle_full_map(w, gait, integrator=INTEG)
     assert status == 0
     np.testing.assert_allclose(wn, w, rtol=0, atol=1e-11)
@@ -76,7 +63,7 @@ def test_the_full_map_measures_the_height_from_the_staircase():
     assert np.max(np.abs(J[0])) < 1e-12
     lam = np.sort(np.abs(np.linalg.eigvals(J)))
     assert lam[0] < 1e-12                                           # the height's
-    Jred = sequence_variational_jacobian(gait, Z_DESC, integrator=INTEG)
+    Jred = sequence_variational_jacobian(gait, Z_DESCENDING, integrator=INTEG)
     rho = np.abs(np.linalg.eigvals(Jred)).max()
     assert lam[-1] == pytest.approx(rho, rel=1e-9)
     assert lam[-1] < 1.0
@@ -96,11 +83,11 @@ def test_a_rise_of_zero_is_no_rise():
     assert plain.rise == 0.0 and zero == plain
     prog, _ = plain.loop_controller().program()
     assert not prog[:, L.S_RISE].any()
-    a = sequence_cycles(plain, Z_DESC, cycles=3, integrator=INTEG, max_drop=1.0)
-    b = sequence_cycles(dataclasses.replace(descending(), rise=0.0), Z_DESC, cycles=3,
+    a = sequence_cycles(plain, Z_DESCENDING, cycles=3, integrator=INTEG, max_drop=1.0)
+    b = sequence_cycles(dataclasses.replace(descending(), rise=0.0), Z_DESCENDING, cycles=3,
                         integrator=INTEG, max_drop=1.0)
     assert a.run.log.tobytes() == b.run.log.tobytes()
-    w = np.r_[0.0, Z_DESC]
+    w = np.r_[0.0, Z_DESCENDING]
     wn, _ = cycle_full_map(w, plain, integrator=INTEG)
     assert wn[0] == a.run.log[a.run.log[:, L.L_ID] == 3][0, L.L_STATE + L.Y]
 
@@ -129,9 +116,9 @@ def test_survival_measures_the_height_from_the_staircase():
     accuracy, within any height tolerance; the default fall (link 1's length below the
     planned height) does not end it."""
     gait = descending()
-    prog_gait = dataclasses.replace(gait, theta2=float(Z_DESC[0]))
-    r = survival_runs(prog_gait.loop_controller(), cycle_section_state(prog_gait, Z_DESC),
-                      Z_DESC, runs=np.arange(2), max_cycles=40, noise=Noise(), seed=1,
+    prog_gait = dataclasses.replace(gait, theta2=float(Z_DESCENDING[0]))
+    r = survival_runs(prog_gait.loop_controller(), cycle_section_state(prog_gait, Z_DESCENDING),
+                      Z_DESCENDING, runs=np.arange(2), max_cycles=40, noise=Noise(), seed=1,
                       integrator=INTEG, max_drop=0.61,
                       section=prog_gait.section_observers())
     np.testing.assert_array_equal(r.cycles, [40, 40])

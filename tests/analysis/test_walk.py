@@ -19,6 +19,8 @@ from monkeystudy.simulation import run_controller
 from monkeystudy.study.models import SequenceGaitSpec
 from monkeystudy.wall import Goal, Region, Start, Wall
 
+from sequencegaits import Z_DESCENDING, descending
+
 #: robust_design's designed gait (its design step's best), torques in the motor frame [N m]
 LEVEL = {
     "kind": "sequence", "torque_frame": "motor",
@@ -277,30 +279,18 @@ def test_a_sampled_walk_records_the_trajectory_it_walked():
     assert np.min(np.linalg.norm(ends[:, None, :] - stops[None], axis=2), axis=1).max() < 1e-9
 
 
-#: descending_design's gait (motor frame) and its fixed point
-DESCEND = {
-    "kind": "sequence", "torque_frame": "motor", "rise": -0.1,
-    "section": {"theta1": 0.0, "direction": "either", "theta2": -1.241},
-    "segments": [
-        {"until": "time", "value": 7.519090701371105e-08},
-        {"until": "free_end_y", "value": -0.1, "direction": "rising", "torque": -0.2118,
-         "clock": "reset"},
-        {"until": "time", "value": 0.2, "magnets": "swap", "torque": 0.2118}]}
-Z_DESCEND = (-1.2410195771999735, 3.141805394182585, 7.739977215255689)
-
-
 def test_a_designed_switch_step_takes_one_gaits_cycle_into_the_others():
     from monkeystudy.analysis.sections import cycle_return_map
     from monkeystudy.analysis.walk import design_switch, switch_runs
     level = level_gait()
-    down = WalkGait("descend", SequenceGaitSpec(**DESCEND).gait(), Z_DESCEND)
+    down = WalkGait("descend", descending(), Z_DESCENDING)
     d = design_switch(level, down, rise=-0.1, torque_limit=0.6354, integrator=INTEGRATOR)
     assert d.residual < 1e-9
     assert max(abs(d.catch_torque), abs(d.after_torque)) <= 0.6354
     # independently: the step's own return map from the level gait's fixed point
     z, status = cycle_return_map(Z_LEVEL, d.gait, integrator=INTEGRATOR)
     assert status == 0
-    np.testing.assert_allclose(z, Z_DESCEND, atol=1e-9)
+    np.testing.assert_allclose(z, Z_DESCENDING, atol=1e-9)
     assert SequenceGaitSpec(**d.spec).gait().program()[0].tobytes() == \
         d.gait.program()[0].tobytes()
     # a direct switch fails at once; through the switch step the descent goes on

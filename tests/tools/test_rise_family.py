@@ -2,8 +2,6 @@
 gait blocks, and the bisection of the steepest climb."""
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -16,19 +14,12 @@ from monkeystudy.analysis.sections import cycle_return_map
 from monkeystudy.study import parse_study
 from monkeystudy.study.models import SequenceGaitSpec
 
+from toolmodules import load_tool
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _tool(name: str):
-    """A script of ``tools/`` as a module."""
-    spec = importlib.util.spec_from_file_location(name, ROOT / "tools" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-rf = _tool("rise_family")
+rf = load_tool("rise_family")
 
 
 def study_gait(path: Path):
