@@ -271,10 +271,6 @@ def set_global_attrs(nc, attrs: dict) -> None:
         nc.setncattr(k, attr_value(val))
 
 
-#: units of the continuation parameters
-PARAMETER_UNITS = {"com": "m", "inertia": "kg m2", "gravity": "m s-2", "torque": "N m",
-                   "mass_ratio": "1", "joint_viscous": "N m s", "pivot_viscous": "N m s"}
-
 #: long_name tail of a section state's components
 SECTION_NOTE = ("on the gait's section (theta1 = 0 unless the gait says), components (theta2 [rad], dtheta1 [rad s-1], "
                  "dtheta2 [rad s-1])")

@@ -87,8 +87,9 @@ class ContinuationStep(StrictModel):
 
 # --- tasks (run on the workers) ------------------------------------------------------------------
 def parameter_units(parameter: str) -> str:
-    """A continuation parameter's units (a grazing family's or a sequence gait's)."""
-    return D.PARAMETER_UNITS.get(parameter) or CYCLE_PARAMETERS[parameter]
+    """A continuation parameter's units (:data:`~monkeystudy.analysis.continuation.
+    CYCLE_PARAMETERS` holds every one, the grazing family's included)."""
+    return CYCLE_PARAMETERS[parameter]
 
 
 def parameter_value(robot: Robot, parameter: str) -> float:
