@@ -124,7 +124,7 @@ def step_keys(study: Study) -> dict[str, str]:
         kind = kind_of(s)
         payload = dict(common, step=s.model_dump(mode="json", by_alias=True),
                        code=kind.code_sha256, deps=[keys[d] for d in kind.deps(s)])
-        for block in getattr(kind, "study_blocks", ()):
+        for block in kind.study_blocks:
             value = getattr(study, block)
             payload[block] = None if value is None else value.model_dump(mode="json")
         files = kind.input_files(s)

@@ -152,6 +152,10 @@ class StepKind:
     #: the integrator its tasks run with when they do not run the study's (:attr:`runs_gait`
     #: False): the runner loads its kernels before fanning out
     own_integrator: ClassVar[Integrator | None] = None
+    #: the blocks of the study file besides the robot, gait and integrator its datasets
+    #: depend on (e.g. ``wall``): its step key covers them (:func:`~monkeystudy.study.plan.
+    #: step_keys`), so a changed block is run again
+    study_blocks: ClassVar[tuple[str, ...]] = ()
     #: what its progress counts (tasks, or ``blocks`` for a resumable kind)
     unit: ClassVar[str] = "tasks"
     #: its progress counts the points of its blocks (runs, designs: :attr:`unit`), which

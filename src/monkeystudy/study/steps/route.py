@@ -263,9 +263,7 @@ class RouteKind(StepKind):
     accepts = ("atlas",)
     takes = "the atlas of gaits and switches it plans with"
     runs_gait = False
-    #: blocks of the study file besides the robot, gait and integrator its datasets depend
-    #: on (keyed on them: a new wall walks again)
-    study_blocks = ("wall",)
+    study_blocks = ("wall",)       # a new wall is walked again
     unit = "walks"
     block_units = True
     figures = (Figure("wall"), Figure("walks"), Figure("atlas"), Figure("outcomes"),
